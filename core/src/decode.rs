@@ -1,0 +1,500 @@
+//! Phase decoding: DC term, wrapped phases, modulation and validity, then hierarchical unwrapping
+//! (paper §5.2, eqs 8-15).
+//!
+//! # Model
+//! Every image of level k, shift δ_n (plus the set's offset) is modelled as (eqs 8, 14)
+//!
+//! ```text
+//! I_n = A + B·sin(Φ + δ_n) = A + S·cos δ_n + C·sin δ_n,   S = B·sin Φ,  C = B·cos Φ
+//! ```
+//!
+//! which is linear in (A, S, C). A level with ≥ 3 shifts estimates all three by least squares —
+//! for the paper's 4-step level that is exactly eq 9 (`Φ = atan2(I₁ − I₃, I₂ − I₄)`) and eq 10
+//! (`A = ΣI/4`), and for uniform N-step levels eqs 14-15. A level with 2 shifts uses the DC term A
+//! of the DC level and solves the 2×2 system for (S, C): for shifts 0 and π/2 that is eq 11,
+//! `Φ = atan2(I₁ − A, I₂ − A)`. Every estimator is a fixed linear combination of the images,
+//! computed once per set ([`level_estimator`]), so decoding is a weighted sum per image followed by
+//! one `atan2` per level — no per-pixel branching on the set's structure.
+//!
+//! # One kernel, two drivers
+//! Decoding is split into [`accumulate`] (fold one image's samples into a per-pixel state) and
+//! [`finish`] (state → phase, B, A, validity). The row API ([`Decoder::decode_row`]) runs both on a
+//! small stack state; the frame-sequential API ([`crate::sequential`]) runs `accumulate` over whole
+//! frames as they arrive into a caller buffer and `finish` at the end. The operations per pixel
+//! are the same, in the same order, so both give the same bits.
+
+use crate::math::{CANONICAL_NAN, atan2};
+use crate::pattern::{MAX_IMAGES, MAX_LEVELS, MAX_SHIFTS, PatternSet};
+use crate::unwrap::{consistent, unwrap_step};
+use crate::validity::Validity;
+
+/// Pixels per block of the row driver; the state of one block lives on the stack.
+pub const BLOCK: usize = 64;
+
+/// A camera sample type the decoder reads: `u8` or `u16` (12- or 16-bit sensors).
+pub trait Sample: Copy {
+    /// Largest code of the type.
+    const MAX: f32;
+    /// The value as f32 (exact: every u16 is representable).
+    fn to_f32(self) -> f32;
+}
+
+impl Sample for u8 {
+    const MAX: f32 = 255.0;
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+}
+
+impl Sample for u16 {
+    const MAX: f32 = 65535.0;
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+}
+
+/// The linear estimator of one level: `S = Σ a_n·I_n + a_dc·A`, `C = Σ b_n·I_n + b_dc·A`, and for a
+/// DC level `A = Σ w_n·I_n`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LevelEstimator {
+    /// Number of shifts.
+    pub n: usize,
+    /// Coefficients of S = B·sin Φ.
+    pub a: [f32; MAX_SHIFTS],
+    /// Coefficients of C = B·cos Φ.
+    pub b: [f32; MAX_SHIFTS],
+    /// Coefficients of A (all zero for a 2-shift level).
+    pub w: [f32; MAX_SHIFTS],
+    /// Coefficient of the external DC term A in S (zero for a level with ≥ 3 shifts).
+    pub a_dc: f32,
+    /// Coefficient of the external DC term A in C (zero for a level with ≥ 3 shifts).
+    pub b_dc: f32,
+}
+
+/// Round an f64 coefficient to f32, snapping values that are zero up to f64 rounding of sin/cos
+/// (e.g. cos(π/2) ≈ 6e-17) to exactly 0 and near-integers/halves to their exact value, so that the
+/// paper's 4-step level gets exactly `(½, 0, −½, 0)`.
+fn snap(x: f64) -> f32 {
+    let q = libm::round(x * 4096.0) / 4096.0;
+    if libm::fabs(x - q) < 1e-12 { q as f32 } else { x as f32 }
+}
+
+/// Compute the estimator of a level with effective shifts `shifts[n] + offset` (radians).
+///
+/// Returns `None` if the shifts cannot separate the unknowns (fewer than 2 shifts, more than
+/// [`MAX_SHIFTS`], or a singular system).
+pub fn level_estimator(shifts: &[f64], offset: f64) -> Option<LevelEstimator> {
+    let n = shifts.len();
+    if !(2..=MAX_SHIFTS).contains(&n) {
+        return None;
+    }
+    let mut est = LevelEstimator {
+        n,
+        a: [0.0; MAX_SHIFTS],
+        b: [0.0; MAX_SHIFTS],
+        w: [0.0; MAX_SHIFTS],
+        a_dc: 0.0,
+        b_dc: 0.0,
+    };
+    let mut cs = [(0.0f64, 0.0f64); MAX_SHIFTS];
+    for (i, s) in shifts.iter().enumerate() {
+        let d = s + offset;
+        cs[i] = (libm::cos(d), libm::sin(d));
+    }
+    if n == 2 {
+        // [c0 s0; c1 s1]·[S; C] = [I0 − A; I1 − A]
+        let (c0, s0) = cs[0];
+        let (c1, s1) = cs[1];
+        let det = c0 * s1 - s0 * c1;
+        if libm::fabs(det) < 1e-6 {
+            return None;
+        }
+        let (ia0, ia1) = (s1 / det, -s0 / det);
+        let (ib0, ib1) = (-c1 / det, c0 / det);
+        est.a[0] = snap(ia0);
+        est.a[1] = snap(ia1);
+        est.b[0] = snap(ib0);
+        est.b[1] = snap(ib1);
+        est.a_dc = snap(-(ia0 + ia1));
+        est.b_dc = snap(-(ib0 + ib1));
+        return Some(est);
+    }
+    // Least squares over rows (1, cos δ, sin δ): x = (DᵀD)⁻¹ Dᵀ I.
+    let mut m = [[0.0f64; 3]; 3];
+    for &(c, s) in &cs[..n] {
+        let r = [1.0, c, s];
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] += r[i] * r[j];
+            }
+        }
+    }
+    let inv = invert3(&m)?;
+    for (k, &(c, s)) in cs[..n].iter().enumerate() {
+        let r = [1.0, c, s];
+        let mut x = [0.0f64; 3];
+        for (i, xi) in x.iter_mut().enumerate() {
+            *xi = inv[i][0] * r[0] + inv[i][1] * r[1] + inv[i][2] * r[2];
+        }
+        est.w[k] = snap(x[0]);
+        est.a[k] = snap(x[1]);
+        est.b[k] = snap(x[2]);
+    }
+    Some(est)
+}
+
+fn invert3(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
+    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    // DᵀD of n unit-norm-ish rows: a determinant this small means the shifts coincide mod 2π.
+    if !(libm::fabs(det) > 1e-6) {
+        return None;
+    }
+    let mut r = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            let (a0, a1) = ((j + 1) % 3, (j + 2) % 3);
+            let (b0, b1) = ((i + 1) % 3, (i + 2) % 3);
+            r[i][j] = (m[a0][b0] * m[a1][b1] - m[a0][b1] * m[a1][b0]) / det;
+        }
+    }
+    Some(r)
+}
+
+/// Thresholds of the validity tests. All intensities are in camera codes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DecodeConfig {
+    /// A pixel whose DC term A is below this is [`Validity::Dark`].
+    pub dark_level: f32,
+    /// A pixel with any sample `≥` this is [`Validity::Saturated`].
+    pub saturation_level: f32,
+    /// A pixel whose modulation B is below this in any level is [`Validity::LowModulation`].
+    pub min_modulation: f32,
+    /// Largest accepted unwrapping residual, radians ([`crate::unwrap::consistent`]).
+    pub unwrap_tolerance: f32,
+    /// How far (radians) the coarsest phase may lie outside the range the set produces before the
+    /// pixel is [`Validity::PhaseOutOfRange`].
+    pub range_tolerance: f32,
+}
+
+impl DecodeConfig {
+    /// Defaults for a sensor of `bits` bits per sample (8 to 16): dark below 2 % of full scale,
+    /// saturated at full scale, modulation at least 2 % of full scale, unwrapping residual ≤ 2π/3,
+    /// coarse phase within 0.3 rad of the projected range.
+    pub fn for_bit_depth(bits: u32) -> Self {
+        let bits = bits.clamp(1, 16);
+        let full = ((1u32 << bits) - 1) as f32;
+        DecodeConfig {
+            dark_level: 0.02 * full,
+            saturation_level: full,
+            min_modulation: 0.02 * full,
+            unwrap_tolerance: 2.0 * core::f32::consts::PI / 3.0,
+            range_tolerance: 0.3,
+        }
+    }
+
+    fn is_sane(&self) -> bool {
+        let all = [self.dark_level, self.saturation_level, self.min_modulation, self.unwrap_tolerance, self.range_tolerance];
+        all.iter().all(|v| v.is_finite() && *v >= 0.0)
+            && self.unwrap_tolerance <= core::f32::consts::PI
+            && self.saturation_level > 0.0
+    }
+}
+
+/// Why a decoder could not be built or run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DecodeError {
+    /// The pattern set's shifts cannot be decoded at this level.
+    Degenerate(u8),
+    /// A threshold is NaN, negative, or the unwrap tolerance exceeds π.
+    Config,
+    /// The number of image rows differs from the set's image count.
+    ImageCount,
+    /// Input or output rows differ in length.
+    Length,
+    /// The state buffer given to the frame-sequential decoder is too small.
+    StateTooSmall,
+    /// A frame or row was pushed out of order, or the set was already complete.
+    Sequence,
+}
+
+impl DecodeError {
+    /// The error itself (all variants are argument errors; the enum is its own kind).
+    pub fn kind(&self) -> DecodeError {
+        *self
+    }
+}
+
+impl core::fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Degenerate(l) => write!(f, "level {l}: shifts cannot be decoded"),
+            Self::Config => f.write_str("decode thresholds must be finite and non-negative, unwrap tolerance <= pi"),
+            Self::ImageCount => f.write_str("number of image rows differs from the pattern set"),
+            Self::Length => f.write_str("input and output rows differ in length"),
+            Self::StateTooSmall => f.write_str("state buffer too small for this frame size"),
+            Self::Sequence => f.write_str("frame or row pushed out of order"),
+        }
+    }
+}
+
+/// Per-image coefficients, in image order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct ImageCoef {
+    level: u8,
+    a: f32,
+    b: f32,
+    w: f32,
+}
+
+/// A decoder for one pattern set: estimators, level ratios and thresholds, computed once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Decoder {
+    n_levels: usize,
+    n_images: usize,
+    images: [ImageCoef; MAX_IMAGES],
+    a_dc: [f32; MAX_LEVELS],
+    b_dc: [f32; MAX_LEVELS],
+    /// `c_k / c_{k−1}` for k ≥ 1 (entry 0 unused).
+    ratio: [f32; MAX_LEVELS],
+    coarse_lo: f32,
+    coarse_hi: f32,
+    config: DecodeConfig,
+}
+
+/// Output rows of the decoder, all the same length.
+pub struct RowOut<'a> {
+    /// Absolute phase of the finest level, radians (`c_K·Φ^(P)`); canonical NaN where invalid.
+    pub phase: &'a mut [f32],
+    /// Modulation B of the finest level, camera codes.
+    pub modulation: &'a mut [f32],
+    /// DC term A (eq 10/15), camera codes.
+    pub dc: &'a mut [f32],
+    /// [`Validity`] code per pixel.
+    pub validity: &'a mut [u8],
+}
+
+impl RowOut<'_> {
+    fn len_ok(&self, n: usize) -> bool {
+        self.phase.len() == n && self.modulation.len() == n && self.dc.len() == n && self.validity.len() == n
+    }
+}
+
+/// Borrowed per-pixel decoding state: one plane for the DC accumulator, two per level (S and C
+/// accumulators) and a flag byte. All planes have the same length.
+pub struct State<'a> {
+    /// DC accumulator `Σ w_n·I_n` of the DC level.
+    pub dc: &'a mut [f32],
+    /// S accumulators, one plane per level.
+    pub s: [&'a mut [f32]; MAX_LEVELS],
+    /// C accumulators, one plane per level.
+    pub c: [&'a mut [f32]; MAX_LEVELS],
+    /// Bit 0: some sample was saturated.
+    pub flags: &'a mut [u8],
+}
+
+impl Decoder {
+    /// Build the decoder of `set` with thresholds `config`.
+    pub fn new(set: &PatternSet, config: DecodeConfig) -> Result<Self, DecodeError> {
+        if !config.is_sane() {
+            return Err(DecodeError::Config);
+        }
+        let levels = set.levels();
+        let offset = set.effective_offset();
+        let mut est = [None; MAX_LEVELS];
+        for (i, l) in levels.iter().enumerate() {
+            est[i] = Some(level_estimator(l.shifts(), offset).ok_or(DecodeError::Degenerate(i as u8))?);
+        }
+        // The DC level: most shifts, finest on ties.
+        let mut dc_level = None;
+        for (i, l) in levels.iter().enumerate() {
+            if l.has_dc() && dc_level.is_none_or(|d: usize| l.len() >= levels[d].len()) {
+                dc_level = Some(i);
+            }
+        }
+        let mut d = Decoder {
+            n_levels: levels.len(),
+            n_images: set.image_count(),
+            images: [ImageCoef { level: 0, a: 0.0, b: 0.0, w: 0.0 }; MAX_IMAGES],
+            a_dc: [0.0; MAX_LEVELS],
+            b_dc: [0.0; MAX_LEVELS],
+            ratio: [1.0; MAX_LEVELS],
+            coarse_lo: set.coarse_range().0 as f32,
+            coarse_hi: set.coarse_range().1 as f32,
+            config,
+        };
+        for (i, l) in levels.iter().enumerate() {
+            let e = est[i].ok_or(DecodeError::Degenerate(i as u8))?;
+            d.a_dc[i] = e.a_dc;
+            d.b_dc[i] = e.b_dc;
+            if i > 0 {
+                d.ratio[i] = (l.scale() / levels[i - 1].scale()) as f32;
+            }
+        }
+        for (k, id) in set.order().iter().enumerate() {
+            let l = id.level as usize;
+            let s = id.shift as usize;
+            let e = est[l].ok_or(DecodeError::Degenerate(id.level))?;
+            d.images[k] = ImageCoef {
+                level: id.level,
+                a: e.a[s],
+                b: e.b[s],
+                w: if dc_level == Some(l) { e.w[s] } else { 0.0 },
+            };
+        }
+        Ok(d)
+    }
+
+    /// The thresholds in use.
+    pub fn config(&self) -> &DecodeConfig {
+        &self.config
+    }
+
+    /// Number of levels.
+    pub fn level_count(&self) -> usize {
+        self.n_levels
+    }
+
+    /// Number of images per set.
+    pub fn image_count(&self) -> usize {
+        self.n_images
+    }
+
+    /// Decode one row: `rows[i]` is the row of image `i` (in the set's order), all of the same
+    /// length as the outputs. Writes the finest absolute phase, its modulation B, the DC term A and
+    /// a validity code for every pixel.
+    pub fn decode_row<P: Sample>(&self, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
+        if rows.len() != self.n_images {
+            return Err(DecodeError::ImageCount);
+        }
+        let w = out.phase.len();
+        if !out.len_ok(w) || rows.iter().any(|r| r.len() != w) {
+            return Err(DecodeError::Length);
+        }
+        let RowOut { phase, modulation, dc, validity } = out;
+        let mut start = 0;
+        while start < w {
+            let end = if w - start > BLOCK { start + BLOCK } else { w };
+            let n = end - start;
+            let mut st_dc = [0.0f32; BLOCK];
+            let mut st_s = [[0.0f32; BLOCK]; MAX_LEVELS];
+            let mut st_c = [[0.0f32; BLOCK]; MAX_LEVELS];
+            let mut flags = [0u8; BLOCK];
+            let [s0, s1, s2, s3, s4, s5] = &mut st_s;
+            let [c0, c1, c2, c3, c4, c5] = &mut st_c;
+            let mut st = State {
+                dc: &mut st_dc[..n],
+                s: [&mut s0[..n], &mut s1[..n], &mut s2[..n], &mut s3[..n], &mut s4[..n], &mut s5[..n]],
+                c: [&mut c0[..n], &mut c1[..n], &mut c2[..n], &mut c3[..n], &mut c4[..n], &mut c5[..n]],
+                flags: &mut flags[..n],
+            };
+            for (i, r) in rows.iter().enumerate() {
+                self.accumulate(i, &r[start..end], &mut st)?;
+            }
+            self.finish(
+                &st,
+                RowOut {
+                    phase: &mut phase[start..end],
+                    modulation: &mut modulation[start..end],
+                    dc: &mut dc[start..end],
+                    validity: &mut validity[start..end],
+                },
+            )?;
+            start = end;
+        }
+        Ok(())
+    }
+
+    /// Fold the samples of image `image` (set order) into the state (the first half of the
+    /// kernel). The state must have been zeroed before the first image.
+    #[inline]
+    pub fn accumulate<P: Sample>(&self, image: usize, row: &[P], st: &mut State<'_>) -> Result<(), DecodeError> {
+        let coef = *self.images.get(image).filter(|_| image < self.n_images).ok_or(DecodeError::Sequence)?;
+        let n = row.len();
+        let l = coef.level as usize;
+        let sat = self.config.saturation_level;
+        let (dc, flags) = (&mut st.dc[..], &mut st.flags[..]);
+        let (s, c) = match (st.s.get_mut(l), st.c.get_mut(l)) {
+            (Some(s), Some(c)) => (&mut s[..], &mut c[..]),
+            _ => return Err(DecodeError::Sequence),
+        };
+        if dc.len() != n || s.len() != n || c.len() != n || flags.len() != n {
+            return Err(DecodeError::Length);
+        }
+        for i in 0..n {
+            let v = row[i].to_f32();
+            s[i] += coef.a * v;
+            c[i] += coef.b * v;
+            dc[i] += coef.w * v;
+            flags[i] |= (v >= sat) as u8;
+        }
+        Ok(())
+    }
+
+    /// Turn a complete state into outputs (the second half of the kernel): S and C per level,
+    /// wrapped phase by [`atan2`], modulation, hierarchical unwrapping, validity.
+    pub fn finish(&self, st: &State<'_>, out: RowOut<'_>) -> Result<(), DecodeError> {
+        let n = st.dc.len();
+        if !out.len_ok(n) || st.flags.len() != n || (0..self.n_levels).any(|l| st.s[l].len() != n || st.c[l].len() != n) {
+            return Err(DecodeError::Length);
+        }
+        let cfg = &self.config;
+        let min_b2 = cfg.min_modulation * cfg.min_modulation;
+        let lo = self.coarse_lo - cfg.range_tolerance;
+        let hi = self.coarse_hi + cfg.range_tolerance;
+        let mut start = 0;
+        while start < n {
+            let end = if n - start > BLOCK { start + BLOCK } else { n };
+            let m = end - start;
+            let a = &st.dc[start..end];
+            let mut phi = [0.0f32; BLOCK];
+            let mut b2min = [f32::INFINITY; BLOCK];
+            let mut b2last = [0.0f32; BLOCK];
+            let mut bad_unwrap = [false; BLOCK];
+            let mut out_of_range = [false; BLOCK];
+            for l in 0..self.n_levels {
+                let (sl, cl) = (&st.s[l][start..end], &st.c[l][start..end]);
+                let (ad, bd, ratio) = (self.a_dc[l], self.b_dc[l], self.ratio[l]);
+                for i in 0..m {
+                    let s = sl[i] + ad * a[i];
+                    let c = cl[i] + bd * a[i];
+                    let b2 = s * s + c * c;
+                    b2min[i] = if b2 < b2min[i] { b2 } else { b2min[i] };
+                    b2last[i] = b2;
+                    let wrapped = atan2(s, c);
+                    if l == 0 {
+                        out_of_range[i] = !(wrapped >= lo && wrapped <= hi);
+                        phi[i] = wrapped;
+                    } else {
+                        let (abs, res) = unwrap_step(phi[i], ratio, wrapped);
+                        bad_unwrap[i] |= !consistent(res, cfg.unwrap_tolerance);
+                        phi[i] = abs;
+                    }
+                }
+            }
+            for i in 0..m {
+                let v = if st.flags[start + i] & 1 != 0 {
+                    Validity::Saturated
+                } else if !(a[i] >= cfg.dark_level) {
+                    Validity::Dark
+                } else if !(b2min[i] >= min_b2) {
+                    Validity::LowModulation
+                } else if out_of_range[i] {
+                    Validity::PhaseOutOfRange
+                } else if bad_unwrap[i] {
+                    Validity::UnwrapInconsistent
+                } else {
+                    Validity::Valid
+                };
+                out.validity[start + i] = v as u8;
+                out.phase[start + i] = if v.is_valid() { phi[i] } else { CANONICAL_NAN };
+                out.modulation[start + i] = libm::sqrtf(b2last[i]);
+                out.dc[start + i] = a[i];
+            }
+            start = end;
+        }
+        Ok(())
+    }
+}

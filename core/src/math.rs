@@ -1,0 +1,95 @@
+//! Deterministic arithmetic kernels.
+//!
+//! Everything here is written in plain IEEE-754 `+ - * /` and comparisons, with fixed operation
+//! order and no fused multiply-add, so that it gives the same bits on every target (x86-64 with or
+//! without AVX, Cortex-M4F) and vectorizes when the caller loops over a row. Where a function from
+//! `libm` is used instead, it is named so.
+
+/// π as f32.
+pub const PI: f32 = core::f32::consts::PI;
+/// π/2 as f32.
+pub const FRAC_PI_2: f32 = core::f32::consts::FRAC_PI_2;
+/// 2π as f32.
+pub const TAU: f32 = core::f32::consts::TAU;
+/// 1/(2π) as f32.
+pub const INV_TAU: f32 = 1.0 / core::f32::consts::TAU;
+
+/// Coefficients of the odd minimax polynomial `atan(t) ≈ t·P(t²)` on `t ∈ [0, 1]`, degree 13.
+///
+/// Fitted by a Remez exchange (`tools/fit_atan.py`). Maximum error of the polynomial itself
+/// 2.5e-7 rad; evaluated in f32 by Horner's rule 3.3e-7 rad.
+pub const ATAN_COEFFS: [f32; 7] = [
+    9.999_961_115e-1,
+    -3.331_736_805e-1,
+    1.980_781_555e-1,
+    -1.323_334_204e-1,
+    7.962_367_139e-2,
+    -3.360_421_972e-2,
+    6.811_793_011e-3,
+];
+
+/// Branch-free four-quadrant arctangent, `atan2(y, x)` in `[-π, π]`.
+///
+/// Reduces to `t = min(|x|,|y|) / max(|x|,|y|) ∈ [0, 1]`, evaluates [`ATAN_COEFFS`], and folds
+/// back by octant with selects (no data-dependent branches, so a loop over a row vectorizes).
+/// Maximum error against the exact atan2: about 5e-7 rad. `atan2(0, 0)` returns 0; a NaN input
+/// gives NaN.
+#[inline(always)]
+pub fn atan2(y: f32, x: f32) -> f32 {
+    let ax = fabs(x);
+    let ay = fabs(y);
+    let hi = if ax > ay { ax } else { ay };
+    let lo = if ax > ay { ay } else { ax };
+    // hi == 0 only when both are zero; divide by 1 then, giving t = 0 and a result of 0.
+    let den = if hi > 0.0 { hi } else { 1.0 };
+    let t = lo / den;
+    let s = t * t;
+    let c = &ATAN_COEFFS;
+    let p = ((((((c[6] * s + c[5]) * s + c[4]) * s + c[3]) * s + c[2]) * s + c[1]) * s) + c[0];
+    let mut r = p * t;
+    r = if ay > ax { FRAC_PI_2 - r } else { r };
+    r = if x < 0.0 { PI - r } else { r };
+    // NaN inputs fail every comparison above; make sure they come out as NaN.
+    let r = if x.is_nan() || y.is_nan() { f32::NAN } else { r };
+    copysign(r, y)
+}
+
+/// `|x|`, by clearing the sign bit.
+#[inline(always)]
+pub fn fabs(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() & 0x7fff_ffff)
+}
+
+/// The magnitude of `x` with the sign bit of `s`.
+#[inline(always)]
+pub fn copysign(x: f32, s: f32) -> f32 {
+    f32::from_bits((x.to_bits() & 0x7fff_ffff) | (s.to_bits() & 0x8000_0000))
+}
+
+/// 1.5·2²³: adding and subtracting it rounds an f32 of magnitude below 2²² to an integer.
+const ROUND_MAGIC: f32 = 12_582_912.0;
+
+/// Round to the nearest integer, ties to even, for `|x| < 2²²` (returned as f32).
+///
+/// Uses the add-and-subtract trick, which is exact IEEE arithmetic in round-to-nearest-even mode
+/// and vectorizes. For larger magnitudes the result is still a nearby integer-valued float but
+/// callers must not rely on it; phase fringe orders are far below 2²².
+#[inline(always)]
+pub fn round_half_even(x: f32) -> f32 {
+    (x + ROUND_MAGIC) - ROUND_MAGIC
+}
+
+/// Wrap an angle into `[-π, π]` by subtracting the nearest multiple of 2π.
+#[inline(always)]
+pub fn wrap_pi(x: f32) -> f32 {
+    x - TAU * round_half_even(x * INV_TAU)
+}
+
+/// The canonical quiet NaN every output uses, so that bit comparisons of results are meaningful.
+pub const CANONICAL_NAN: f32 = f32::from_bits(0x7fc0_0000);
+
+/// Replace any NaN by [`CANONICAL_NAN`]; other values pass unchanged.
+#[inline(always)]
+pub fn canonical(x: f32) -> f32 {
+    if x.is_nan() { CANONICAL_NAN } else { x }
+}

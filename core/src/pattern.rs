@@ -1,0 +1,544 @@
+//! Pattern sets and row-by-row pattern generation (paper §5.1-5.2, eqs 5, 7 and 14).
+//!
+//! A [`PatternSet`] is a phase function Φ^(P) plus a list of *levels*. Level k projects
+//! `c_k·Φ^(P)` (its scale coefficient `c_k`, eq 7) at each of its phase shifts `δ_n`:
+//!
+//! ```text
+//! I_n^k(ξ, η) = I_min + (I_max − I_min)/2 · [1 + sin(c_k·Φ^(P)(ξ, η) + δ_n + φ_off)]
+//! ```
+//!
+//! which is eq 7 (`I_min = 0`, `δ_n = (n−1)π/2`) and eq 14 (`δ_n = 2π(n−1)/N`). The *cosine*
+//! convention of other systems is the same with `φ_off = π/2`; any other constant offset goes in
+//! [`PatternSet::with_phase_offset`].
+//!
+//! The images of a set have an order: the order in which they are projected and captured, and in
+//! which decoders expect them. [`PatternSet::image`] maps an image index to its level and shift.
+//! The built-in sets put the level that carries the DC term A (the one with ≥ 3 shifts) first,
+//! so that a frame-sequential decoder can use A for the 2-image levels as soon as they arrive.
+
+use crate::phase_function::{Axis, PhaseFunction, PhaseFunctionError};
+
+/// The most levels a set holds.
+pub const MAX_LEVELS: usize = 6;
+/// The most phase shifts one level holds.
+pub const MAX_SHIFTS: usize = 16;
+/// The most images a set holds.
+pub const MAX_IMAGES: usize = 32;
+
+/// Margin (radians) kept between the coarsest level's phase range and ±π by
+/// [`PatternSet::validate`].
+pub const COARSE_MARGIN: f64 = 0.05;
+
+/// Whether the fringe profile is written with sin (the paper, eq 5) or cos.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Convention {
+    /// `I = A + B·sin(Φ + δ)`, as in the paper.
+    Sine,
+    /// `I = A + B·cos(Φ + δ)`, common in other systems; equals the sine form with δ + π/2.
+    Cosine,
+}
+
+/// Why a pattern set was refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PatternError {
+    /// The phase function is malformed or fails its check over the projector.
+    Function(PhaseFunctionError),
+    /// No levels, or more than [`MAX_LEVELS`].
+    LevelCount(usize),
+    /// Level `0` has a shift count outside 2..=[`MAX_SHIFTS`].
+    ShiftCount(usize, usize),
+    /// Level has a scale coefficient that is not finite and positive.
+    Scale(usize),
+    /// Scale coefficients must strictly increase from level to level (coarse to fine).
+    ScalesNotIncreasing(usize),
+    /// A shift of a level is not finite.
+    Shift(usize),
+    /// The shifts of a level cannot separate sin and cos (they are equal modulo π), or, for a
+    /// level of 3 or more, cannot separate A, sin and cos.
+    DegenerateShifts(usize),
+    /// A level has exactly 2 shifts but no level of the set has 3 or more to provide the DC term
+    /// A (eqs 10, 11, 15).
+    NoDcLevel,
+    /// The image order names level/shift pairs that are out of range, repeated or missing.
+    ImageOrder,
+    /// More than [`MAX_IMAGES`] images in all.
+    TooManyImages(usize),
+    /// Projector size is zero, or the intensity range is not `0 ≤ I_min < I_max ≤ 65535`.
+    Output,
+}
+
+/// Coarse classes of [`PatternError`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PatternErrorKind {
+    /// The phase function is at fault.
+    Function,
+    /// The level structure is at fault.
+    Levels,
+    /// The image order is at fault.
+    Order,
+    /// Projector or intensity parameters are at fault.
+    Output,
+}
+
+impl PatternError {
+    /// A coarse classification.
+    pub fn kind(&self) -> PatternErrorKind {
+        match self {
+            Self::Function(_) => PatternErrorKind::Function,
+            Self::ImageOrder | Self::TooManyImages(_) => PatternErrorKind::Order,
+            Self::Output => PatternErrorKind::Output,
+            _ => PatternErrorKind::Levels,
+        }
+    }
+}
+
+impl From<PhaseFunctionError> for PatternError {
+    fn from(e: PhaseFunctionError) -> Self {
+        PatternError::Function(e)
+    }
+}
+
+impl core::fmt::Display for PatternError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Function(e) => write!(f, "phase function: {e}"),
+            Self::LevelCount(n) => write!(f, "{n} levels given; need 1 to {MAX_LEVELS}"),
+            Self::ShiftCount(l, n) => {
+                write!(f, "level {l} has {n} phase shifts; need 2 to {MAX_SHIFTS}")
+            }
+            Self::Scale(l) => write!(f, "level {l}: scale coefficient must be finite and positive"),
+            Self::ScalesNotIncreasing(l) => write!(
+                f,
+                "level {l}: scale coefficients must strictly increase from the coarsest level to the finest"
+            ),
+            Self::Shift(l) => write!(f, "level {l}: a phase shift is NaN or infinite"),
+            Self::DegenerateShifts(l) => write!(
+                f,
+                "level {l}: the phase shifts cannot separate the unknowns (shifts equal modulo pi?)"
+            ),
+            Self::NoDcLevel => write!(
+                f,
+                "a level has 2 images but no level has 3 or more to provide the DC term A"
+            ),
+            Self::ImageOrder => write!(
+                f,
+                "the image order must name every (level, shift) pair of the set exactly once"
+            ),
+            Self::TooManyImages(n) => write!(f, "{n} images in all; at most {MAX_IMAGES}"),
+            Self::Output => write!(
+                f,
+                "projector size must be non-zero and 0 <= I_min < I_max <= 65535"
+            ),
+        }
+    }
+}
+
+/// One level of a pattern set: a scale coefficient `c_k` and its phase shifts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Level {
+    scale: f64,
+    n: usize,
+    shifts: [f64; MAX_SHIFTS],
+}
+
+impl Level {
+    /// A level with explicit phase shifts (radians), e.g. measured shifts of another system.
+    pub fn with_shifts(scale: f64, shifts: &[f64]) -> Self {
+        let mut s = [0.0; MAX_SHIFTS];
+        let n = shifts.len().min(MAX_SHIFTS);
+        s[..n].copy_from_slice(&shifts[..n]);
+        // An over-long list is kept as an invalid count so that validation reports it.
+        Level { scale, n: shifts.len(), shifts: s }
+    }
+
+    /// The generic N-step level of eq 14: shifts `2π(n−1)/N`, n = 1..N.
+    pub fn n_step(scale: f64, n_steps: usize) -> Self {
+        let mut s = [0.0; MAX_SHIFTS];
+        for (i, v) in s.iter_mut().enumerate().take(n_steps.min(MAX_SHIFTS)) {
+            *v = core::f64::consts::TAU * i as f64 / n_steps as f64;
+        }
+        Level { scale, n: n_steps, shifts: s }
+    }
+
+    /// The paper's 2-image level (eq 7 with n = 1, 2): shifts 0 and π/2; it needs the DC term A of
+    /// another level (eq 11).
+    pub fn two_step(scale: f64) -> Self {
+        Self::with_shifts(scale, &[0.0, core::f64::consts::FRAC_PI_2])
+    }
+
+    /// The scale coefficient `c_k` of eq 7.
+    pub fn scale(&self) -> f64 {
+        self.scale
+    }
+
+    /// The phase shifts, radians.
+    pub fn shifts(&self) -> &[f64] {
+        &self.shifts[..self.n.min(MAX_SHIFTS)]
+    }
+
+    /// Number of shifts (images) of the level.
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// `true` if the level has no images.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// `true` if the level estimates its own DC term (3 or more shifts, eqs 10 and 15).
+    pub fn has_dc(&self) -> bool {
+        self.n >= 3
+    }
+}
+
+/// Which level and shift one image of a set shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageId {
+    /// Level index (0 = coarsest).
+    pub level: u8,
+    /// Shift index within the level (0-based: the paper's n − 1).
+    pub shift: u8,
+}
+
+/// The intensity range and size of generated patterns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Output {
+    /// Projector width (ξ extent), pixels.
+    pub width: u32,
+    /// Projector height (η extent), pixels.
+    pub height: u32,
+    /// Gray level of the fringe minimum (0 in eq 5).
+    pub i_min: f64,
+    /// Gray level of the fringe maximum, `I_max^(P)` of eq 5 (255 for 8-bit patterns).
+    pub i_max: f64,
+}
+
+/// A complete, validated description of a fringe pattern set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PatternSet {
+    function: PhaseFunction,
+    levels: [Level; MAX_LEVELS],
+    n_levels: usize,
+    order: [ImageId; MAX_IMAGES],
+    n_images: usize,
+    convention: Convention,
+    phase_offset: f64,
+    output: Output,
+    coarse_range: (f64, f64),
+}
+
+impl PatternSet {
+    /// A set from a phase function, levels ordered coarse to fine, and the projector output.
+    ///
+    /// Images are ordered with the DC-bearing levels first (finest first among them), then the
+    /// remaining levels from coarse to fine, each level's shifts in order. Use
+    /// [`PatternSet::with_order`] for captured data in another order.
+    pub fn new(function: PhaseFunction, levels: &[Level], output: Output) -> Result<Self, PatternError> {
+        if levels.is_empty() || levels.len() > MAX_LEVELS {
+            return Err(PatternError::LevelCount(levels.len()));
+        }
+        let mut lv = [Level::with_shifts(0.0, &[]); MAX_LEVELS];
+        lv[..levels.len()].copy_from_slice(levels);
+        let total: usize = levels.iter().map(|l| l.n).sum();
+        if total > MAX_IMAGES {
+            return Err(PatternError::TooManyImages(total));
+        }
+        let mut order = [ImageId { level: 0, shift: 0 }; MAX_IMAGES];
+        let mut k = 0;
+        for pass in 0..2 {
+            let dc_pass = pass == 0;
+            let mut idx = [0usize; MAX_LEVELS];
+            let mut m = 0;
+            for (i, l) in levels.iter().enumerate() {
+                if l.has_dc() == dc_pass {
+                    idx[m] = i;
+                    m += 1;
+                }
+            }
+            if dc_pass {
+                idx[..m].reverse();
+            }
+            for &li in &idx[..m] {
+                for s in 0..levels[li].n.min(MAX_SHIFTS) {
+                    if k < MAX_IMAGES {
+                        order[k] = ImageId { level: li as u8, shift: s as u8 };
+                        k += 1;
+                    }
+                }
+            }
+        }
+        let mut set = PatternSet {
+            function,
+            levels: lv,
+            n_levels: levels.len(),
+            order,
+            n_images: total,
+            convention: Convention::Sine,
+            phase_offset: 0.0,
+            output,
+            coarse_range: (0.0, 0.0),
+        };
+        set.validate()?;
+        Ok(set)
+    }
+
+    /// The paper's 8-pattern, 3-level set (eq 7): level 0 and 1 with 2 images (shifts 0, π/2),
+    /// level 2 with 4 (shifts 0, π/2, π, 3π/2), scale coefficients `1 : ratio : ratio²`.
+    pub fn paper_eight(function: PhaseFunction, ratio: f64, output: Output) -> Result<Self, PatternError> {
+        Self::new(
+            function,
+            &[Level::two_step(1.0), Level::two_step(ratio), Level::n_step(ratio * ratio, 4)],
+            output,
+        )
+    }
+
+    /// The conventional 12-pattern set: three 4-step levels, scales `1 : ratio : ratio²`.
+    pub fn twelve_pattern(function: PhaseFunction, ratio: f64, output: Output) -> Result<Self, PatternError> {
+        Self::new(
+            function,
+            &[Level::n_step(1.0, 4), Level::n_step(ratio, 4), Level::n_step(ratio * ratio, 4)],
+            output,
+        )
+    }
+
+    /// The default set of fringe3d: [`PatternSet::paper_eight`] with vertical fringes, the coarse
+    /// level spanning 90 % of (−π, π) across the projector width, and a level ratio of 8
+    /// (so the finest level has 0.9·64 = 57.6 periods across the width).
+    pub fn default_for(axis: Axis, output: Output) -> Result<Self, PatternError> {
+        let size = match axis {
+            Axis::Xi => output.width,
+            Axis::Eta => output.height,
+        };
+        let f = PhaseFunction::centered(axis, size, 0.9 * core::f64::consts::TAU)?;
+        Self::paper_eight(f, 8.0, output)
+    }
+
+    /// Use the sine (paper) or cosine convention.
+    pub fn with_convention(mut self, c: Convention) -> Self {
+        self.convention = c;
+        self
+    }
+
+    /// Add a constant phase offset (radians) to every pattern.
+    pub fn with_phase_offset(mut self, offset: f64) -> Result<Self, PatternError> {
+        if !offset.is_finite() {
+            return Err(PatternError::Function(PhaseFunctionError::NotFinite));
+        }
+        self.phase_offset = offset;
+        Ok(self)
+    }
+
+    /// Use an explicit image order (for captured data of other systems).
+    pub fn with_order(mut self, order: &[ImageId]) -> Result<Self, PatternError> {
+        if order.len() != self.n_images {
+            return Err(PatternError::ImageOrder);
+        }
+        let mut seen = [[false; MAX_SHIFTS]; MAX_LEVELS];
+        for id in order {
+            let (l, s) = (id.level as usize, id.shift as usize);
+            if l >= self.n_levels || s >= self.levels[l].n || seen[l][s] {
+                return Err(PatternError::ImageOrder);
+            }
+            seen[l][s] = true;
+        }
+        self.order[..order.len()].copy_from_slice(order);
+        Ok(self)
+    }
+
+    /// Re-check everything: level structure, shifts, order, the phase function over the projector.
+    pub fn validate(&mut self) -> Result<(), PatternError> {
+        let o = self.output;
+        if o.width == 0
+            || o.height == 0
+            || !(o.i_min.is_finite() && o.i_max.is_finite())
+            || o.i_min < 0.0
+            || o.i_max > 65535.0
+            || o.i_min >= o.i_max
+        {
+            return Err(PatternError::Output);
+        }
+        let mut any_two = false;
+        let mut any_dc = false;
+        for (i, l) in self.levels[..self.n_levels].iter().enumerate() {
+            if l.n < 2 || l.n > MAX_SHIFTS {
+                return Err(PatternError::ShiftCount(i, l.n));
+            }
+            if !(l.scale.is_finite() && l.scale > 0.0) {
+                return Err(PatternError::Scale(i));
+            }
+            if i > 0 && l.scale <= self.levels[i - 1].scale {
+                return Err(PatternError::ScalesNotIncreasing(i));
+            }
+            if l.shifts().iter().any(|s| !s.is_finite()) {
+                return Err(PatternError::Shift(i));
+            }
+            if crate::decode::level_estimator(l.shifts(), 0.0).is_none() {
+                return Err(PatternError::DegenerateShifts(i));
+            }
+            any_two |= l.n == 2;
+            any_dc |= l.has_dc();
+        }
+        if any_two && !any_dc {
+            return Err(PatternError::NoDcLevel);
+        }
+        let c_min = self.levels[0].scale;
+        let c_max = self.levels[self.n_levels - 1].scale;
+        self.coarse_range = self.function.check(o.width, o.height, c_min, c_max, COARSE_MARGIN)?;
+        Ok(())
+    }
+
+    /// The phase function Φ^(P).
+    pub fn function(&self) -> &PhaseFunction {
+        &self.function
+    }
+
+    /// The axis in which the phase is monotonic.
+    pub fn axis(&self) -> Axis {
+        self.function.axis()
+    }
+
+    /// The levels, coarse to fine.
+    pub fn levels(&self) -> &[Level] {
+        &self.levels[..self.n_levels]
+    }
+
+    /// Number of images in the set.
+    pub fn image_count(&self) -> usize {
+        self.n_images
+    }
+
+    /// Level and shift of image `i` (in projection/capture order), or `None` past the end.
+    pub fn image(&self, i: usize) -> Option<ImageId> {
+        if i < self.n_images { Some(self.order[i]) } else { None }
+    }
+
+    /// The image order.
+    pub fn order(&self) -> &[ImageId] {
+        &self.order[..self.n_images]
+    }
+
+    /// The sine/cosine convention.
+    pub fn convention(&self) -> Convention {
+        self.convention
+    }
+
+    /// The constant phase offset, radians.
+    pub fn phase_offset(&self) -> f64 {
+        self.phase_offset
+    }
+
+    /// The total phase added to every shift: the offset, plus π/2 for the cosine convention.
+    pub fn effective_offset(&self) -> f64 {
+        match self.convention {
+            Convention::Sine => self.phase_offset,
+            Convention::Cosine => self.phase_offset + core::f64::consts::FRAC_PI_2,
+        }
+    }
+
+    /// Projector size and intensity range.
+    pub fn output(&self) -> &Output {
+        &self.output
+    }
+
+    /// The coarsest level's phase range over the projector (radians), found by the check.
+    pub fn coarse_range(&self) -> (f64, f64) {
+        self.coarse_range
+    }
+
+    /// The absolute phase of the finest level at projector pixel (ξ, η): `c_K·Φ^(P)(ξ, η)`, the
+    /// quantity decoders return.
+    pub fn finest_phase(&self, xi: f64, eta: f64) -> f64 {
+        self.levels[self.n_levels - 1].scale * self.function.eval(xi, eta)
+    }
+
+    /// Intensity (real-valued gray level, before quantization) of image `image` at (ξ, η).
+    pub fn intensity(&self, image: usize, xi: f64, eta: f64) -> Option<f64> {
+        let id = self.image(image)?;
+        let level = &self.levels[id.level as usize];
+        let delta = level.shifts[id.shift as usize] + self.effective_offset();
+        let arg = level.scale * self.function.eval(xi, eta) + delta;
+        let o = &self.output;
+        Some(o.i_min + 0.5 * (o.i_max - o.i_min) * (1.0 + libm::sin(arg)))
+    }
+
+    /// Write row `eta` of image `image` into `out` (one value per projector column, `out.len()`
+    /// must equal the projector width), quantized to the nearest gray level (ties away from zero).
+    ///
+    /// Generic over the output sample type: `u8` for 8-bit projectors, `u16` for 16-bit ones.
+    /// Returns an error if the image or row index is out of range or `out` has the wrong length.
+    pub fn generate_row<T: PatternSample>(&self, image: usize, eta: u32, out: &mut [T]) -> Result<(), RowError> {
+        if image >= self.n_images {
+            return Err(RowError::Image);
+        }
+        if eta >= self.output.height {
+            return Err(RowError::Row);
+        }
+        if out.len() != self.output.width as usize {
+            return Err(RowError::Length);
+        }
+        if self.output.i_max > T::MAX {
+            return Err(RowError::Depth);
+        }
+        for (xi, o) in out.iter_mut().enumerate() {
+            let v = self.intensity(image, xi as f64, eta as f64).unwrap_or(0.0);
+            *o = T::quantize(v);
+        }
+        Ok(())
+    }
+}
+
+/// Why a pattern row could not be generated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RowError {
+    /// Image index past the end of the set.
+    Image,
+    /// Row index past the projector height.
+    Row,
+    /// Output buffer length differs from the projector width.
+    Length,
+    /// `I_max` exceeds what the sample type holds.
+    Depth,
+}
+
+impl RowError {
+    /// The error itself (all variants are argument errors).
+    pub fn kind(&self) -> RowError {
+        *self
+    }
+}
+
+impl core::fmt::Display for RowError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            RowError::Image => "image index out of range",
+            RowError::Row => "row index out of range",
+            RowError::Length => "row buffer length differs from the projector width",
+            RowError::Depth => "I_max does not fit the sample type",
+        })
+    }
+}
+
+/// A pattern pixel type: `u8` or `u16`.
+pub trait PatternSample: Copy {
+    /// Largest value.
+    const MAX: f64;
+    /// Round a gray level to the nearest code (ties away from zero), clamped to the type's range.
+    fn quantize(v: f64) -> Self;
+}
+
+impl PatternSample for u8 {
+    const MAX: f64 = 255.0;
+    fn quantize(v: f64) -> Self {
+        let r = libm::round(v);
+        if r >= 255.0 { 255 } else if r > 0.0 { r as u8 } else { 0 }
+    }
+}
+
+impl PatternSample for u16 {
+    const MAX: f64 = 65535.0;
+    fn quantize(v: f64) -> Self {
+        let r = libm::round(v);
+        if r >= 65535.0 { 65535 } else if r > 0.0 { r as u16 } else { 0 }
+    }
+}
