@@ -150,7 +150,7 @@ impl KnotProfile {
     /// Each segment must satisfy the Fritsch–Carlson condition so that the cubic is monotonic.
     pub fn new(s: &[f64], phi: &[f64], slope: &[f64]) -> Result<Self, PhaseFunctionError> {
         let n = s.len();
-        if n < 2 || n > MAX_KNOTS || phi.len() != n || slope.len() != n {
+        if !(2..=MAX_KNOTS).contains(&n) || phi.len() != n || slope.len() != n {
             return Err(PhaseFunctionError::KnotCount(n.max(phi.len()).max(slope.len())));
         }
         let mut k = KnotProfile { n, s: [0.0; MAX_KNOTS], phi: [0.0; MAX_KNOTS], slope: [0.0; MAX_KNOTS] };
@@ -186,7 +186,7 @@ impl KnotProfile {
     /// faces the projector, wide ones where it turns away, paper Fig. 2).
     pub fn from_slopes(s: &[f64], slope: &[f64], phi0: f64) -> Result<Self, PhaseFunctionError> {
         let n = s.len();
-        if n < 2 || n > MAX_KNOTS || slope.len() != n {
+        if !(2..=MAX_KNOTS).contains(&n) || slope.len() != n {
             return Err(PhaseFunctionError::KnotCount(n.max(slope.len())));
         }
         let mut phi = [0.0f64; MAX_KNOTS];
@@ -251,6 +251,8 @@ impl KnotProfile {
 }
 
 /// The 1-D profile `g(s)` of a phase function along its monotonic axis.
+// Knots are stored inline (no allocation); the size difference is the point.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Profile {
     /// `g(s) = slope·(s − origin)`: straight fringes of fixed width (eq 6, with the origin moved to

@@ -9,7 +9,9 @@ use crate::math::{INV_TAU, fabs, round_half_even};
 
 /// 2π split for exact fringe-order products: `TAU_HI` has 16 significant bits, so `n·TAU_HI` is
 /// exact for every `|n| < 2⁸` (finest levels up to 256 periods), and `TAU_LO = 2π − TAU_HI` (rounded) carries the rest.
+#[allow(clippy::excessive_precision)]
 const TAU_HI: f32 = 6.283_081_054_687_5; // bits 0x40c9_0f00: low 8 mantissa bits clear
+#[allow(clippy::excessive_precision)]
 const TAU_LO: f32 = 1.042_524_891_090_579_3e-4;
 
 /// One unwrapping step (eqs 12-13): from the coarser level's absolute phase `coarse`, the level
