@@ -417,12 +417,24 @@ impl Decoder {
         if dc.len() != n || s.len() != n || c.len() != n || flags.len() != n {
             return Err(DecodeError::Length);
         }
-        for i in 0..n {
-            let v = row[i].to_f32();
-            s[i] += coef.a * v;
-            c[i] += coef.b * v;
-            dc[i] += coef.w * v;
-            flags[i] |= (v >= sat) as u8;
+        // Zipped iterators: no bounds checks, so the loop vectorizes. The DC plane is only touched
+        // by images of the DC level (the choice depends on the plan, not on the data).
+        let (ca, cb, cw) = (coef.a, coef.b, coef.w);
+        if cw != 0.0 {
+            for ((((v, s), c), d), f) in row.iter().zip(s.iter_mut()).zip(c.iter_mut()).zip(dc.iter_mut()).zip(flags.iter_mut()) {
+                let v = v.to_f32();
+                *s += ca * v;
+                *c += cb * v;
+                *d += cw * v;
+                *f |= (v >= sat) as u8;
+            }
+        } else {
+            for (((v, s), c), f) in row.iter().zip(s.iter_mut()).zip(c.iter_mut()).zip(flags.iter_mut()) {
+                let v = v.to_f32();
+                *s += ca * v;
+                *c += cb * v;
+                *f |= (v >= sat) as u8;
+            }
         }
         Ok(())
     }
@@ -438,6 +450,7 @@ impl Decoder {
         let min_b2 = cfg.min_modulation * cfg.min_modulation;
         let lo = self.coarse_lo - cfg.range_tolerance;
         let hi = self.coarse_hi + cfg.range_tolerance;
+        let (tol, dark) = (cfg.unwrap_tolerance, cfg.dark_level);
         let mut start = 0;
         while start < n {
             let end = if n - start > BLOCK { start + BLOCK } else { n };
@@ -446,45 +459,60 @@ impl Decoder {
             let mut phi = [0.0f32; BLOCK];
             let mut b2min = [f32::INFINITY; BLOCK];
             let mut b2last = [0.0f32; BLOCK];
-            let mut bad_unwrap = [false; BLOCK];
-            let mut out_of_range = [false; BLOCK];
+            // Per-pixel failure bits, combined by priority at the end.
+            let mut fail = [0u8; BLOCK];
+            let (phi, b2min, b2last, fail) = (&mut phi[..m], &mut b2min[..m], &mut b2last[..m], &mut fail[..m]);
             for l in 0..self.n_levels {
                 let (sl, cl) = (&st.s[l][start..end], &st.c[l][start..end]);
                 let (ad, bd, ratio) = (self.a_dc[l], self.b_dc[l], self.ratio[l]);
-                for i in 0..m {
-                    let (s, c) = level_sc(sl[i], cl[i], ad, bd, a[i]);
-                    let b2 = s * s + c * c;
-                    b2min[i] = if b2 < b2min[i] { b2 } else { b2min[i] };
-                    b2last[i] = b2;
-                    let wrapped = atan2(s, c);
-                    if l == 0 {
-                        out_of_range[i] = !(wrapped >= lo && wrapped <= hi);
-                        phi[i] = wrapped;
-                    } else {
-                        let (abs, res) = unwrap_step(phi[i], ratio, wrapped);
-                        bad_unwrap[i] |= !consistent(res, cfg.unwrap_tolerance);
-                        phi[i] = abs;
+                let it = sl.iter().zip(cl).zip(a).zip(phi.iter_mut()).zip(b2min.iter_mut()).zip(b2last.iter_mut()).zip(fail.iter_mut());
+                if l == 0 {
+                    for ((((((s, c), a), p), bmin), blast), f) in it {
+                        let (s, c) = level_sc(*s, *c, ad, bd, *a);
+                        let b2 = s * s + c * c;
+                        *bmin = if b2 < *bmin { b2 } else { *bmin };
+                        *blast = b2;
+                        let wrapped = atan2(s, c);
+                        *f |= (!(wrapped >= lo && wrapped <= hi) as u8) << 1;
+                        *p = wrapped;
+                    }
+                } else {
+                    for ((((((s, c), a), p), bmin), blast), f) in it {
+                        let (s, c) = level_sc(*s, *c, ad, bd, *a);
+                        let b2 = s * s + c * c;
+                        *bmin = if b2 < *bmin { b2 } else { *bmin };
+                        *blast = b2;
+                        let wrapped = atan2(s, c);
+                        let (abs, res) = unwrap_step(*p, ratio, wrapped);
+                        *f |= (!consistent(res, tol) as u8) << 2;
+                        *p = abs;
                     }
                 }
             }
-            for i in 0..m {
-                let v = if st.flags[start + i] & 1 != 0 {
-                    Validity::Saturated
-                } else if !(a[i] >= cfg.dark_level) {
-                    Validity::Dark
-                } else if !(b2min[i] >= min_b2) {
-                    Validity::LowModulation
-                } else if out_of_range[i] {
-                    Validity::PhaseOutOfRange
-                } else if bad_unwrap[i] {
-                    Validity::UnwrapInconsistent
-                } else {
-                    Validity::Valid
-                };
-                out.validity[start + i] = v as u8;
-                out.phase[start + i] = if v.is_valid() { phi[i] } else { CANONICAL_NAN };
-                out.modulation[start + i] = libm::sqrtf(b2last[i]);
-                out.dc[start + i] = a[i];
+            let (vo, po, mo, ao) = (
+                &mut out.validity[start..end],
+                &mut out.phase[start..end],
+                &mut out.modulation[start..end],
+                &mut out.dc[start..end],
+            );
+            let flags = &st.flags[start..end];
+            let it = vo.iter_mut().zip(po.iter_mut()).zip(ao.iter_mut()).zip(a).zip(flags).zip(fail.iter()).zip(phi.iter()).zip(b2min.iter());
+            for (((((((vo, po), ao), a), fl), f), p), bmin) in it {
+                // Priority (highest last): unwrap inconsistent, out of range, low modulation, dark,
+                // saturated. Selects, not branches, so the loop vectorizes.
+                let mut v = Validity::Valid as u8;
+                v = if f & 4 != 0 { Validity::UnwrapInconsistent as u8 } else { v };
+                v = if f & 2 != 0 { Validity::PhaseOutOfRange as u8 } else { v };
+                v = if !(*bmin >= min_b2) { Validity::LowModulation as u8 } else { v };
+                v = if !(*a >= dark) { Validity::Dark as u8 } else { v };
+                v = if fl & 1 != 0 { Validity::Saturated as u8 } else { v };
+                *vo = v;
+                *po = if v == 0 { *p } else { CANONICAL_NAN };
+                *ao = *a;
+            }
+            // One correctly rounded square root per pixel (libm: `sqrtss` on x86, IEEE on every target).
+            for (mo, b2) in mo.iter_mut().zip(b2last.iter()) {
+                *mo = libm::sqrtf(*b2);
             }
             start = end;
         }
