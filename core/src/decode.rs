@@ -366,6 +366,7 @@ impl Decoder {
     /// Decode one row: `rows[i]` is the row of image `i` (in the set's order), all of the same
     /// length as the outputs. Writes the finest absolute phase, its modulation B, the DC term A and
     /// a validity code for every pixel.
+    #[inline(always)]
     pub fn decode_row<P: Sample>(&self, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
         if rows.len() != self.n_images {
             return Err(DecodeError::ImageCount);
@@ -403,7 +404,7 @@ impl Decoder {
 
     /// Fold the samples of image `image` (set order) into the state (the first half of the
     /// kernel). The state must have been zeroed before the first image.
-    #[inline]
+    #[inline(always)]
     pub fn accumulate<P: Sample>(&self, image: usize, row: &[P], st: &mut State<'_>) -> Result<(), DecodeError> {
         let coef = *self.images.get(image).filter(|_| image < self.n_images).ok_or(DecodeError::Sequence)?;
         let n = row.len();
@@ -441,6 +442,11 @@ impl Decoder {
 
     /// Turn a complete state into outputs (the second half of the kernel): S and C per level,
     /// wrapped phase by [`atan2`], modulation, hierarchical unwrapping, validity.
+    ///
+    /// Always inlined (as are [`Self::decode_row`] and [`Self::accumulate`]) so that a caller
+    /// compiled for a wider instruction set (the host's AVX2 batch path) vectorizes the same
+    /// operations wider; IEEE arithmetic without contraction gives the same bits.
+    #[inline(always)]
     pub fn finish(&self, st: &State<'_>, out: RowOut<'_>) -> Result<(), DecodeError> {
         let n = st.dc.len();
         if !out.len_ok(n) || st.flags.len() != n || (0..self.n_levels).any(|l| st.s[l].len() != n || st.c[l].len() != n) {

@@ -1,0 +1,190 @@
+//! Whole-frame paths for the desktop: rows in parallel (rayon) and the core's row kernel compiled
+//! for the widest instruction set the CPU has (runtime dispatch).
+//!
+//! Both axes of speed-up leave the bits alone: rows are independent, and the core's kernel is
+//! plain IEEE arithmetic with no fused operations, so an AVX2 build of it computes exactly what the
+//! baseline (SSE2) build computes, lane by lane. `tests` check it.
+
+use fringe3d_core::decode::{DecodeError, Decoder, RowOut, Sample};
+use rayon::prelude::*;
+
+/// Which compiled variant of the kernel runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    /// The target's baseline (x86-64: SSE2).
+    Baseline,
+    /// x86-64 with AVX2, detected at run time.
+    Avx2,
+}
+
+impl Isa {
+    /// The best variant this CPU runs.
+    pub fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Baseline
+    }
+}
+
+/// Whole-frame outputs of a decode, each `width × height`, row-major.
+pub struct FrameOut<'a> {
+    /// Finest absolute phase (canonical NaN where invalid).
+    pub phase: &'a mut [f32],
+    /// Modulation B.
+    pub modulation: &'a mut [f32],
+    /// DC term A.
+    pub dc: &'a mut [f32],
+    /// Validity codes.
+    pub validity: &'a mut [u8],
+}
+
+/// Decode rows `[y0, y0 + n)` with the baseline kernel.
+fn rows_baseline<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
+    rows_generic(d, frames, width, y0, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn rows_avx2<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
+    // The core's decode_row, accumulate and finish are #[inline(always)]: they are compiled here,
+    // with AVX2 enabled.
+    rows_generic(d, frames, width, y0, out)
+}
+
+struct RowsOut<'a> {
+    phase: &'a mut [f32],
+    modulation: &'a mut [f32],
+    dc: &'a mut [f32],
+    validity: &'a mut [u8],
+}
+
+#[inline(always)]
+fn rows_generic<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
+    let n_rows = out.phase.len() / width;
+    let mut rows: [&[P]; fringe3d_core::pattern::MAX_IMAGES] = [&[]; fringe3d_core::pattern::MAX_IMAGES];
+    let k = frames.len().min(rows.len());
+    for r in 0..n_rows {
+        let y = y0 + r;
+        for (slot, f) in rows.iter_mut().zip(frames) {
+            *slot = f.get(y * width..(y + 1) * width).ok_or(DecodeError::Length)?;
+        }
+        let s = r * width..(r + 1) * width;
+        d.decode_row(
+            &rows[..k],
+            RowOut {
+                phase: &mut out.phase[s.clone()],
+                modulation: &mut out.modulation[s.clone()],
+                dc: &mut out.dc[s.clone()],
+                validity: &mut out.validity[s],
+            },
+        )?;
+    }
+    Ok(())
+}
+
+fn rows_dispatch<P: Sample>(isa: Isa, d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
+            // SAFETY: the CPU supports AVX2 (checked just above), the only requirement of a
+            // `#[target_feature(enable = "avx2")]` function.
+            unsafe { rows_avx2(d, frames, width, y0, out) }
+        }
+        _ => rows_baseline(d, frames, width, y0, out),
+    }
+}
+
+/// Rows per parallel task: enough to amortise scheduling, small enough to balance two cores.
+const ROWS_PER_TASK: usize = 16;
+
+/// Decode whole frames (`frames[i]` is image `i` of the set, `width × height`, row-major) with
+/// the chosen kernel variant, in parallel over rows when `parallel` is set (on rayon's current
+/// pool). The results are bit-identical whatever `isa` and `parallel` are.
+pub fn decode_frames<P: Sample + Sync>(
+    d: &Decoder,
+    frames: &[&[P]],
+    width: usize,
+    height: usize,
+    out: FrameOut<'_>,
+    isa: Isa,
+    parallel: bool,
+) -> Result<(), DecodeError> {
+    let n = width.checked_mul(height).ok_or(DecodeError::Length)?;
+    if frames.len() != d.image_count() {
+        return Err(DecodeError::ImageCount);
+    }
+    if width == 0
+        || frames.iter().any(|f| f.len() != n)
+        || out.phase.len() != n
+        || out.modulation.len() != n
+        || out.dc.len() != n
+        || out.validity.len() != n
+    {
+        return Err(DecodeError::Length);
+    }
+    let chunk = ROWS_PER_TASK * width;
+    let tasks = out
+        .phase
+        .chunks_mut(chunk)
+        .zip(out.modulation.chunks_mut(chunk))
+        .zip(out.dc.chunks_mut(chunk))
+        .zip(out.validity.chunks_mut(chunk))
+        .enumerate();
+    let run = |(i, (((phase, modulation), dc), validity)): (usize, (((&mut [f32], &mut [f32]), &mut [f32]), &mut [u8]))| {
+        rows_dispatch(isa, d, frames, width, i * ROWS_PER_TASK, RowsOut { phase, modulation, dc, validity })
+    };
+    if parallel {
+        tasks.par_bridge().try_for_each(run)
+    } else {
+        tasks.map(run).collect::<Result<(), _>>()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fringe3d_core::decode::DecodeConfig;
+    use fringe3d_core::pattern::{Output, PatternSet};
+    use fringe3d_core::phase_function::Axis;
+
+    #[test]
+    fn every_variant_gives_the_same_bits() {
+        let (w, h) = (333, 50);
+        let set = PatternSet::default_for(Axis::Xi, Output { width: 640, height: 480, i_min: 0.0, i_max: 255.0 }).unwrap();
+        let d = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).unwrap();
+        let mut seed = 99u64;
+        let imgs: Vec<Vec<u8>> = (0..8)
+            .map(|i| {
+                let mut row = vec![0u8; 640];
+                (0..w * h)
+                    .map(|p| {
+                        if p % w == 0 {
+                            set.generate_row(i, ((p / w) % 480) as u32, &mut row).unwrap();
+                        }
+                        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                        (row[(p % w) * 640 / w] as u32 * 3 / 4 + 10 + (seed >> 60) as u32).min(255) as u8
+                    })
+                    .collect()
+            })
+            .collect();
+        let frames: Vec<&[u8]> = imgs.iter().map(|v| v.as_slice()).collect();
+        let mut results = Vec::new();
+        for (isa, par) in [(Isa::Baseline, false), (Isa::Avx2, false), (Isa::Avx2, true), (Isa::Baseline, true)] {
+            let (mut p, mut m, mut a, mut v) = (vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0u8; w * h]);
+            decode_frames(&d, &frames, w, h, FrameOut { phase: &mut p, modulation: &mut m, dc: &mut a, validity: &mut v }, isa, par).unwrap();
+            let bits: Vec<u32> = p.iter().chain(&m).chain(&a).map(|x| fringe3d_core::math::canonical(*x).to_bits()).collect();
+            results.push((bits, v));
+        }
+        if Isa::detect() != Isa::Avx2 {
+            eprintln!("note: this CPU has no AVX2; the AVX2 variant fell back to the baseline");
+        }
+        for r in &results[1..] {
+            assert!(r.0 == results[0].0 && r.1 == results[0].1);
+        }
+        assert!(results[0].1.contains(&0));
+    }
+}
