@@ -34,12 +34,13 @@ impl Flags {
     /// The request changes the head's state (DLPC350's R/W bit). Must equal
     /// [`Command::is_write`](super::Command::is_write) of the frame's command; 0 on replies.
     pub const WRITE: Flags = Flags(1 << 0);
-    /// The sender wants an answer (an [`Ack`](super::Message::Ack) for commands that have no
-    /// other reply). Without it the head executes silently unless the command fails.
+    /// On a write request: the sender wants its reply (Ack, UploadAck...). Without it the head
+    /// answers only failures. Read requests are always answered.
     pub const REPLY_WANTED: Flags = Flags(1 << 1);
     /// The frame reports a failure: set exactly on [`Nak`](super::Message::Nak) frames.
     pub const ERROR: Flags = Flags(1 << 2);
-    /// More frames of the same logical transfer follow (row segments, chunk bursts).
+    /// More frames of the same answer follow (a Scan's Ack and result rows; all but its final
+    /// ScanDone). Advisory: the parser does not enforce it.
     pub const MORE_FOLLOWS: Flags = Flags(1 << 3);
     /// All defined bits.
     pub const ALL: Flags = Flags(0x0F);
@@ -145,9 +146,7 @@ impl Header {
         if self.payload_len as usize > MAX_PAYLOAD {
             return Err(WireError::Length);
         }
-        let h = out
-            .get_mut(..HEADER_LEN)
-            .ok_or(WireError::BufferTooSmall)?;
+        let h = out.get_mut(..HEADER_LEN).ok_or(WireError::BufferTooSmall)?;
         let len = self.payload_len.to_le_bytes();
         h.copy_from_slice(&[
             PROTOCOL_VERSION,

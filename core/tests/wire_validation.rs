@@ -1,0 +1,773 @@
+//! Every error path of the wire layer: validation rules, header/message agreement, frame checks,
+//! buffer limits, error classes.
+
+use fringe3d_core::Validity;
+use fringe3d_core::wire::crc::crc32c;
+use fringe3d_core::wire::*;
+
+/// A decoded frame with a correct CRC around arbitrary header bytes and payload.
+fn raw_frame(version: u8, flags: u8, seq: u8, command: u8, payload: &[u8]) -> Vec<u8> {
+    let mut f = vec![version, flags, seq, command];
+    f.extend((payload.len() as u16).to_le_bytes());
+    f.extend(payload);
+    let c = crc32c(&f);
+    f.extend(c.to_le_bytes());
+    f
+}
+
+fn invalid(why: Invalid) -> Result<(), WireError> {
+    Err(WireError::Invalid(why))
+}
+
+fn paper_set() -> PatternSetDesc {
+    let mut levels = [Level::UNUSED; MAX_LEVELS];
+    levels[0] = Level {
+        scale: 0.0625,
+        shifts: Shifts::Uniform { n: 4, count: 2 },
+    };
+    levels[1] = Level {
+        scale: 1.0,
+        shifts: Shifts::Uniform { n: 4, count: 4 },
+    };
+    PatternSetDesc {
+        width: 912,
+        height: 1140,
+        bit_depth: 8,
+        i_max: 255.0,
+        axis: PatternAxis::Xi,
+        waveform: Waveform::Sine,
+        phase_offset: 0.0,
+        phase: LinearPhase {
+            a: 0.01,
+            b: 0.0,
+            c: 0.0,
+        },
+        level_count: 2,
+        levels,
+    }
+}
+
+#[test]
+fn pattern_set_rules() {
+    let ok = paper_set();
+    assert_eq!(ok.validate(), Ok(()));
+    assert_eq!(ok.pattern_count(), 6);
+    assert_eq!(ok.used_levels().len(), 2);
+
+    let cases: Vec<(PatternSetDesc, Invalid)> = vec![
+        (PatternSetDesc { width: 0, ..ok }, Invalid::Dimension),
+        (PatternSetDesc { height: 0, ..ok }, Invalid::Dimension),
+        (PatternSetDesc { bit_depth: 0, ..ok }, Invalid::BitDepth),
+        (PatternSetDesc { bit_depth: 9, ..ok }, Invalid::BitDepth),
+        (PatternSetDesc { i_max: 0.0, ..ok }, Invalid::Intensity),
+        (PatternSetDesc { i_max: 256.0, ..ok }, Invalid::Intensity),
+        (
+            PatternSetDesc {
+                bit_depth: 1,
+                i_max: 1.5,
+                ..ok
+            },
+            Invalid::Intensity,
+        ),
+        (
+            PatternSetDesc {
+                i_max: f32::NAN,
+                ..ok
+            },
+            Invalid::NotFinite,
+        ),
+        (
+            PatternSetDesc {
+                phase_offset: f32::INFINITY,
+                ..ok
+            },
+            Invalid::NotFinite,
+        ),
+        (
+            PatternSetDesc {
+                axis: PatternAxis::Eta,
+                ..ok
+            },
+            Invalid::PhaseFunction,
+        ),
+        (
+            PatternSetDesc {
+                level_count: 0,
+                ..ok
+            },
+            Invalid::LevelCount,
+        ),
+        (
+            PatternSetDesc {
+                level_count: 9,
+                ..ok
+            },
+            Invalid::LevelCount,
+        ),
+        // A third level slot is UNUSED, so using it breaks the scale rule.
+        (
+            PatternSetDesc {
+                level_count: 3,
+                ..ok
+            },
+            Invalid::Scale,
+        ),
+        // Dropping a level leaves a used slot past the count.
+        (
+            PatternSetDesc {
+                level_count: 1,
+                ..ok
+            },
+            Invalid::UnusedSlot,
+        ),
+    ];
+    for (desc, why) in cases {
+        assert_eq!(desc.validate(), invalid(why), "{desc:?}");
+        let msg = Message::DefinePatternSet(DefinePatternSet { set_id: 0, desc });
+        assert_eq!(msg.encode(&mut [0u8; 1024]), Err(WireError::Invalid(why)));
+    }
+
+    let with_level = |l: Level| {
+        let mut d = ok;
+        d.levels[1] = l;
+        d
+    };
+    let mut radians = [0.0f32; MAX_SHIFTS];
+    radians[1] = 1.0;
+    let level_cases = [
+        (
+            Level {
+                scale: -1.0,
+                shifts: Shifts::Uniform { n: 3, count: 3 },
+            },
+            Invalid::Scale,
+        ),
+        (
+            Level {
+                scale: f32::NAN,
+                shifts: Shifts::Uniform { n: 3, count: 3 },
+            },
+            Invalid::NotFinite,
+        ),
+        (
+            Level {
+                scale: 1.0,
+                shifts: Shifts::Uniform { n: 3, count: 4 },
+            },
+            Invalid::Shifts,
+        ),
+        (
+            Level {
+                scale: 1.0,
+                shifts: Shifts::Uniform { n: 0, count: 0 },
+            },
+            Invalid::Shifts,
+        ),
+        (
+            Level {
+                scale: 1.0,
+                shifts: Shifts::Uniform { n: 17, count: 3 },
+            },
+            Invalid::Shifts,
+        ),
+        (
+            Level {
+                scale: 1.0,
+                shifts: Shifts::Explicit { count: 0, radians },
+            },
+            Invalid::Shifts,
+        ),
+        (
+            Level {
+                scale: 1.0,
+                shifts: Shifts::Explicit { count: 17, radians },
+            },
+            Invalid::Shifts,
+        ),
+        (
+            Level {
+                scale: 1.0,
+                shifts: Shifts::Explicit { count: 1, radians },
+            },
+            Invalid::UnusedSlot,
+        ),
+    ];
+    for (l, why) in level_cases {
+        assert_eq!(with_level(l).validate(), invalid(why), "{l:?}");
+    }
+    let mut nan = radians;
+    nan[0] = f32::NAN;
+    assert_eq!(
+        with_level(Level {
+            scale: 1.0,
+            shifts: Shifts::Explicit {
+                count: 2,
+                radians: nan
+            }
+        })
+        .validate(),
+        invalid(Invalid::NotFinite)
+    );
+    assert_eq!(
+        with_level(Level {
+            scale: 1.0,
+            shifts: Shifts::Explicit { count: 2, radians }
+        })
+        .validate(),
+        Ok(())
+    );
+    // -0.0 in an unused slot is not the canonical filler.
+    let mut d = ok;
+    d.levels[5].scale = -0.0;
+    assert_eq!(d.validate(), invalid(Invalid::UnusedSlot));
+}
+
+#[test]
+fn upload_rules() {
+    let b = BeginUpload {
+        set_id: 0,
+        image_count: 2,
+        width: 3,
+        height: 4,
+        bit_depth: 8,
+        total_bytes: 24,
+        digest: 0,
+    };
+    assert_eq!(b.validate(), Ok(()));
+    assert_eq!(
+        BeginUpload {
+            total_bytes: 23,
+            ..b
+        }
+        .validate(),
+        invalid(Invalid::TotalBytes)
+    );
+    assert_eq!(
+        BeginUpload {
+            image_count: 0,
+            total_bytes: 0,
+            ..b
+        }
+        .validate(),
+        invalid(Invalid::Dimension)
+    );
+    assert_eq!(
+        BeginUpload { bit_depth: 9, ..b }.validate(),
+        invalid(Invalid::BitDepth)
+    );
+    // 65535³ overflows u32: never equal.
+    assert_eq!(
+        BeginUpload {
+            image_count: 65535,
+            width: 65535,
+            height: 65535,
+            total_bytes: u32::MAX,
+            ..b
+        }
+        .validate(),
+        invalid(Invalid::TotalBytes)
+    );
+
+    let p = BeginPhaseMap {
+        width: 10,
+        height: 2,
+        total_bytes: 100,
+        digest: 0,
+    };
+    assert_eq!(p.validate(), Ok(()));
+    assert_eq!(
+        BeginPhaseMap {
+            total_bytes: 80,
+            ..p
+        }
+        .validate(),
+        invalid(Invalid::TotalBytes)
+    );
+    assert_eq!(
+        BeginPhaseMap { width: 0, ..p }.validate(),
+        invalid(Invalid::Dimension)
+    );
+
+    let data = [1u8, 2, 3];
+    let c = UploadChunk::new(UploadTarget::PhaseMap, 0, &data);
+    assert_eq!(c.validate(), Ok(()));
+    assert_eq!(
+        UploadChunk {
+            crc: c.crc ^ 1,
+            ..c
+        }
+        .validate(),
+        invalid(Invalid::ChunkCrc)
+    );
+    assert_eq!(
+        UploadChunk::new(UploadTarget::PhaseMap, 0, &[]).validate(),
+        invalid(Invalid::ChunkSize)
+    );
+    let big = vec![7u8; MAX_CHUNK + 1];
+    assert_eq!(
+        UploadChunk::new(UploadTarget::PhaseMap, 0, &big).validate(),
+        invalid(Invalid::ChunkSize)
+    );
+    assert_eq!(
+        UploadChunk::new(UploadTarget::PhaseMap, 0, &big[..MAX_CHUNK]).validate(),
+        Ok(())
+    );
+    assert_eq!(
+        UploadChunk::new(UploadTarget::PhaseMap, u32::MAX - 1, &data).validate(),
+        invalid(Invalid::Offset)
+    );
+    assert_eq!(
+        UploadChunk::new(UploadTarget::PhaseMap, u32::MAX - 3, &data).validate(),
+        Ok(())
+    );
+}
+
+fn calibration() -> Calibration {
+    Calibration {
+        camera: CameraModel {
+            width: 640,
+            height: 480,
+            fx: 800.0,
+            fy: 810.0,
+            cx: 320.0,
+            cy: 240.0,
+            skew: 0.0,
+            distortion: [0.0; 5],
+        },
+        projector_centre: [100.0, 0.0, 0.0],
+        plane_point: [0.0, 0.0, 500.0],
+        plane_normal: [0.0, 0.0, 1.0],
+        depth_min: 300.0,
+        depth_max: 700.0,
+    }
+}
+
+#[test]
+fn calibration_rules() {
+    let ok = calibration();
+    assert_eq!(ok.validate(), Ok(()));
+    let mut c = ok;
+    c.camera.fx = 0.0;
+    assert_eq!(c.validate(), invalid(Invalid::Intrinsics));
+    let mut c = ok;
+    c.camera.fy = -1.0;
+    assert_eq!(c.validate(), invalid(Invalid::Intrinsics));
+    let mut c = ok;
+    c.camera.width = 0;
+    assert_eq!(c.validate(), invalid(Invalid::Dimension));
+    let mut c = ok;
+    c.camera.distortion[4] = f32::NAN;
+    assert_eq!(c.validate(), invalid(Invalid::NotFinite));
+    let mut c = ok;
+    c.plane_point[1] = f32::NEG_INFINITY;
+    assert_eq!(c.validate(), invalid(Invalid::NotFinite));
+    let mut c = ok;
+    c.plane_normal = [0.0, -0.0, 0.0];
+    assert_eq!(c.validate(), invalid(Invalid::PlaneNormal));
+    let mut c = ok;
+    c.depth_max = c.depth_min;
+    assert_eq!(c.validate(), invalid(Invalid::DepthRange));
+}
+
+#[test]
+fn lut_rules() {
+    let e = LutEntry {
+        pattern: 3,
+        exposure_us: 1000,
+        dark_us: 0,
+        bit_depth: 8,
+        wait_for_trigger: true,
+        trigger_out: false,
+    };
+    assert_eq!(LutEntry::from_bytes(&e.to_bytes()), Ok(e));
+    let mut b = e.to_bytes();
+    b[11] |= 0x04;
+    assert_eq!(
+        LutEntry::from_bytes(&b),
+        Err(WireError::Invalid(Invalid::ReservedBits))
+    );
+    assert_eq!(
+        LutEntry {
+            exposure_us: 0,
+            ..e
+        }
+        .validate(),
+        invalid(Invalid::LutEntry)
+    );
+    assert_eq!(
+        LutEntry { bit_depth: 0, ..e }.validate(),
+        invalid(Invalid::LutEntry)
+    );
+    let mut buf = vec![0u8; 12 * (MAX_LUT_ENTRIES + 1)];
+    assert_eq!(
+        LutTable::encode(&[], &mut buf).err(),
+        Some(WireError::Invalid(Invalid::LutLength))
+    );
+    let many = vec![e; MAX_LUT_ENTRIES + 1];
+    assert_eq!(
+        LutTable::encode(&many, &mut buf).err(),
+        Some(WireError::Invalid(Invalid::LutLength))
+    );
+    let t = LutTable::encode(&many[..MAX_LUT_ENTRIES], &mut buf).unwrap();
+    assert_eq!(t.len(), MAX_LUT_ENTRIES);
+    assert!(!t.is_empty());
+    assert_eq!(t.get(MAX_LUT_ENTRIES), None);
+    assert_eq!(
+        LutTable::encode(&[e], &mut [0u8; 11]).err(),
+        Some(WireError::BufferTooSmall)
+    );
+    assert_eq!(
+        LutTable::new(&[0u8; 13]).err(),
+        Some(WireError::Invalid(Invalid::LutLength))
+    );
+    // A payload whose byte string is not a whole number of entries fails to decode.
+    let bad = [0x00, 0x00, 0x05, 1, 2, 3, 4, 5];
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x01, 0, 0x20, &bad)),
+        Err(WireError::Payload)
+    );
+    // A whole entry with bit depth 0 decodes but fails validation.
+    let mut bad = vec![0x00, 0x00, 0x0C];
+    bad.extend(LutEntry { bit_depth: 0, ..e }.to_bytes());
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x01, 0, 0x20, &bad)),
+        Err(WireError::Invalid(Invalid::LutEntry))
+    );
+}
+
+#[test]
+fn row_and_bitfield_rules() {
+    let mut buf = [0u8; 64];
+    let d = ResultRow::write_data(
+        RowKind::Points,
+        &[1.0, 2.0, 3.0],
+        &[Validity::OutOfDepth],
+        &mut buf,
+    )
+    .unwrap()
+    .to_vec();
+    let row = ResultRow {
+        row: 0,
+        first_col: 0,
+        kind: RowKind::Points,
+        data: &d,
+    };
+    assert_eq!(row.validate(), Ok(()));
+    assert_eq!(row.value(0, 2), Some(3.0));
+    assert_eq!(row.validity(0), Some(Validity::OutOfDepth));
+    assert_eq!(
+        ResultRow {
+            kind: RowKind::Phase,
+            ..row
+        }
+        .validate(),
+        invalid(Invalid::RowData)
+    );
+    // The last column is 65535: one column may start there, two may not.
+    assert_eq!(
+        ResultRow {
+            first_col: u16::MAX,
+            ..row
+        }
+        .validate(),
+        Ok(())
+    );
+    let mut two = [0u8; 32];
+    let two = ResultRow::write_data(
+        RowKind::Points,
+        &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+        &[Validity::Valid, Validity::Dark],
+        &mut two,
+    )
+    .unwrap();
+    assert_eq!(
+        ResultRow {
+            first_col: u16::MAX,
+            data: two,
+            ..row
+        }
+        .validate(),
+        invalid(Invalid::RowData)
+    );
+    assert_eq!(
+        ResultRow { data: &[], ..row }.validate(),
+        invalid(Invalid::RowData)
+    );
+    let mut bad = d.clone();
+    bad[12] = 200;
+    assert_eq!(
+        ResultRow { data: &bad, ..row }.validate(),
+        invalid(Invalid::ValidityCode)
+    );
+    assert_eq!(
+        ResultRow::write_data(RowKind::Points, &[1.0], &[Validity::Valid], &mut buf).err(),
+        Some(WireError::Invalid(Invalid::RowData))
+    );
+    assert_eq!(
+        ResultRow::write_data(RowKind::Phase, &[1.0], &[Validity::Valid], &mut [0u8; 4]).err(),
+        Some(WireError::BufferTooSmall)
+    );
+
+    assert_eq!(
+        ValidationStatus(1 << 11).validate(),
+        invalid(Invalid::ReservedBits)
+    );
+    assert!(ValidationStatus::OK.is_ok());
+    assert!(ValidationStatus(ValidationStatus::BUSY | 1).has(ValidationStatus::BUSY));
+    assert_eq!(HeadErrors(0x100).validate(), invalid(Invalid::ReservedBits));
+    let caps = Capabilities {
+        protocol_version: 1,
+        firmware: FirmwareVersion::default(),
+        sensor_width: 1,
+        sensor_height: 1,
+        projector_width: 1,
+        projector_height: 1,
+        free_memory: 0,
+        max_chunk: 0,
+        max_sets: 1,
+        max_lut_entries: 1,
+    };
+    assert_eq!(caps.validate(), invalid(Invalid::ChunkSize));
+    assert_eq!(
+        Capabilities {
+            max_chunk: 1,
+            max_lut_entries: 257,
+            ..caps
+        }
+        .validate(),
+        invalid(Invalid::LutLength)
+    );
+}
+
+#[test]
+fn header_must_agree_with_message() {
+    let mut scratch = [0u8; MAX_FRAME];
+    let mut out = [0u8; MAX_ENCODED_FRAME];
+    let msg = Message::Start;
+    let good = Header::for_message(&msg, 1);
+    assert_eq!(good.flags, Flags::WRITE);
+    assert!(emit_packet(&good, &msg, &mut scratch, &mut out).is_ok());
+    let cases = [
+        (
+            Header {
+                command: 0x23,
+                ..good
+            },
+            WireError::CommandMismatch,
+        ),
+        (
+            Header {
+                flags: Flags::NONE,
+                ..good
+            },
+            WireError::FlagMismatch,
+        ),
+        (
+            Header {
+                flags: Flags::WRITE | Flags::ERROR,
+                ..good
+            },
+            WireError::FlagMismatch,
+        ),
+    ];
+    for (h, e) in cases {
+        assert_eq!(emit_packet(&h, &msg, &mut scratch, &mut out), Err(e));
+        assert_eq!(check_header(&h, &msg), Err(e));
+    }
+    // A Nak needs ERROR.
+    let nak = Message::Nak(Nak::for_error(0x22, WireError::Crc));
+    let h = Header::for_message(&nak, 3);
+    assert_eq!(h.flags, Flags::ERROR);
+    assert_eq!(
+        check_header(
+            &Header {
+                flags: Flags::NONE,
+                ..h
+            },
+            &nak
+        ),
+        Err(WireError::FlagMismatch)
+    );
+    // Received frames are checked the same way: Start without WRITE.
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x00, 0, 0x22, &[])),
+        Err(WireError::FlagMismatch)
+    );
+    // Ack with ERROR.
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x04, 0, 0x81, &[0x22])),
+        Err(WireError::FlagMismatch)
+    );
+    // Reply to a request keeps its seq.
+    let req = Packet::request(77, Message::Start);
+    assert_eq!(req.header.flags, Flags::WRITE | Flags::REPLY_WANTED);
+    let rep = Packet::reply(&req.header, nak);
+    assert_eq!(rep.header.seq, 77);
+    assert_eq!(rep.header.flags, Flags::ERROR);
+}
+
+#[test]
+fn frame_level_errors() {
+    let good = raw_frame(1, 0x02, 5, 0x32, &[]);
+    assert_eq!(
+        parse_packet(&good).map(|(h, m)| (h.seq, m)),
+        Ok((5, Message::GetStatus))
+    );
+    assert_eq!(parse_packet(&good[..9]), Err(WireError::Truncated));
+    assert_eq!(parse_packet(&[]), Err(WireError::Truncated));
+    let mut bad = good.clone();
+    bad[2] ^= 0x40;
+    assert_eq!(parse_packet(&bad), Err(WireError::Crc));
+    assert_eq!(
+        parse_packet(&raw_frame(2, 0x02, 5, 0x32, &[])),
+        Err(WireError::Version(2))
+    );
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x42, 5, 0x32, &[])),
+        Err(WireError::ReservedFlags)
+    );
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x02, 5, 0x7F, &[])),
+        Err(WireError::UnknownCommand(0x7F))
+    );
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x02, 5, 0x32, &[0])),
+        Err(WireError::TrailingBytes)
+    );
+    // Ack body is one byte: two is trailing, zero is a decode failure.
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x00, 5, 0x81, &[1, 2])),
+        Err(WireError::TrailingBytes)
+    );
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x00, 5, 0x81, &[])),
+        Err(WireError::Payload)
+    );
+    // bool must be 0 or 1 (ConfigureSequence.repeat).
+    let mut seq = vec![0x00, 0x02, 0x0C];
+    seq.extend([0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 8, 0]);
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x01, 0, 0x20, &seq)),
+        Err(WireError::Payload)
+    );
+    seq[1] = 1;
+    assert!(parse_packet(&raw_frame(1, 0x01, 0, 0x20, &seq)).is_ok());
+    // Enum index out of range (ScanOutput [3]).
+    assert_eq!(
+        parse_packet(&raw_frame(1, 0x01, 0, 0x30, &[3, 0, 0])),
+        Err(WireError::Payload)
+    );
+    // Header length disagreeing with the frame, with a valid CRC.
+    let mut f = vec![1, 0x02, 5, 0x32, 1, 0];
+    let c = crc32c(&f);
+    f.extend(c.to_le_bytes());
+    assert_eq!(parse_packet(&f), Err(WireError::Length));
+    // Message::decode bounds the payload.
+    assert_eq!(
+        Message::decode(0x32, &[0u8; MAX_PAYLOAD + 1]),
+        Err(WireError::PayloadTooLarge)
+    );
+    // frame::emit bounds the payload and the buffer.
+    let h = Header::for_message(&Message::GetStatus, 0);
+    assert_eq!(
+        frame::emit(&h, &[0u8; MAX_PAYLOAD + 1], &mut [0u8; 5000]),
+        Err(WireError::PayloadTooLarge)
+    );
+    assert_eq!(
+        frame::emit(&h, &[1, 2], &mut [0u8; 11]),
+        Err(WireError::BufferTooSmall)
+    );
+    let mut out = [0u8; 12];
+    assert_eq!(frame::emit(&h, &[1, 2], &mut out), Ok(12));
+    assert_eq!(
+        frame::parse(&out).map(|(h, p)| (h.payload_len, p)),
+        Ok((2, &[1u8, 2][..]))
+    );
+}
+
+#[test]
+fn emit_buffer_limits() {
+    let data = vec![9u8; 1000];
+    let msg = Message::UploadChunk(UploadChunk::new(UploadTarget::PatternSet(0), 0, &data));
+    let h = Packet::request(0, msg).header;
+    let mut out = [0u8; MAX_ENCODED_FRAME];
+    let payload_len = msg.encode(&mut [0u8; MAX_PAYLOAD]).unwrap();
+    let need = HEADER_LEN + payload_len + 4;
+    // Scratch too small for the header, the payload, the CRC.
+    for len in [0, 5, 500, need - 4, need - 1] {
+        let mut scratch = vec![0u8; len];
+        assert_eq!(
+            emit_packet(&h, &msg, &mut scratch, &mut out),
+            Err(WireError::BufferTooSmall),
+            "scratch {len}"
+        );
+    }
+    let mut scratch = vec![0u8; need];
+    let n = emit_packet(&h, &msg, &mut scratch, &mut out).unwrap();
+    // Output too small by one.
+    let mut small = vec![0u8; n - 1];
+    assert_eq!(
+        emit_packet(&h, &msg, &mut scratch, &mut small),
+        Err(WireError::BufferTooSmall)
+    );
+    let mut exact = vec![0u8; n];
+    assert_eq!(emit_packet(&h, &msg, &mut scratch, &mut exact), Ok(n));
+    // Header flags cannot carry reserved bits.
+    assert_eq!(
+        Flags::from_bits(0x0B),
+        Some(Flags::WRITE | Flags::REPLY_WANTED | Flags::MORE_FOLLOWS)
+    );
+    assert_eq!(Flags::from_bits(0x1B), None);
+}
+
+#[test]
+fn error_classes_and_naks() {
+    use WireErrorKind as K;
+    let table = [
+        (WireError::BufferTooSmall, K::Buffer, NakCode::Internal),
+        (WireError::Truncated, K::Framing, NakCode::Framing),
+        (WireError::Cobs, K::Framing, NakCode::Framing),
+        (WireError::Overflow, K::Framing, NakCode::Framing),
+        (WireError::Crc, K::Integrity, NakCode::Crc),
+        (WireError::Version(3), K::Unsupported, NakCode::Version),
+        (
+            WireError::UnknownCommand(9),
+            K::Unsupported,
+            NakCode::UnknownCommand,
+        ),
+        (WireError::ReservedFlags, K::Malformed, NakCode::Malformed),
+        (WireError::Length, K::Malformed, NakCode::Framing),
+        (WireError::PayloadTooLarge, K::Malformed, NakCode::Internal),
+        (WireError::FlagMismatch, K::Malformed, NakCode::Malformed),
+        (WireError::CommandMismatch, K::Malformed, NakCode::Malformed),
+        (WireError::Payload, K::Malformed, NakCode::Malformed),
+        (WireError::TrailingBytes, K::Malformed, NakCode::Malformed),
+        (
+            WireError::Invalid(Invalid::ChunkCrc),
+            K::Invalid,
+            NakCode::Invalid,
+        ),
+    ];
+    for (e, kind, code) in table {
+        assert_eq!(e.kind(), kind, "{e:?}");
+        assert_eq!(
+            e.kind().is_transient(),
+            matches!(kind, K::Framing | K::Integrity)
+        );
+        let nak = Nak::for_error(0x12, e);
+        assert_eq!(nak.code, code, "{e:?}");
+        assert_eq!(nak.command, 0x12);
+        assert!(!format!("{e}").is_empty());
+    }
+    let nak = Nak::for_error(0x12, WireError::Invalid(Invalid::ChunkCrc));
+    assert_eq!(nak.detail, 12);
+    assert_eq!(Invalid::from_u8(nak.detail as u8), Some(Invalid::ChunkCrc));
+    assert_eq!(
+        WireError::from(Invalid::Scale),
+        WireError::Invalid(Invalid::Scale)
+    );
+    assert_eq!(
+        format!("{}", WireError::Invalid(Invalid::Scale)),
+        "invalid field: scale"
+    );
+}
