@@ -1,0 +1,152 @@
+//! Pieces shared by several commands: finding a set's images, decoding a whole set, progress.
+
+use crate::batch::{FrameOut, Isa, decode_frames};
+use crate::io::image_set::{self, Frames, ImageSet};
+use crate::io::pattern_file::PatternSetFile;
+use anyhow::{Context, Result, bail};
+use fringe3d_core::decode::{DecodeConfig, Decoder};
+use fringe3d_core::pattern::PatternSet;
+use fringe3d_core::validity::Validity;
+use std::path::{Path, PathBuf};
+
+/// A loaded pattern-set file and its validated set.
+pub struct LoadedSet {
+    /// The file.
+    pub path: PathBuf,
+    /// Its content.
+    pub file: PatternSetFile,
+    /// The validated set.
+    pub set: PatternSet,
+}
+
+/// Load and validate a pattern-set file.
+pub fn load_set(path: &Path) -> Result<LoadedSet> {
+    let file = PatternSetFile::load(path)?;
+    let set = file.to_pattern_set()?;
+    Ok(LoadedSet { path: path.to_path_buf(), file, set })
+}
+
+/// The image files of a scan: an explicit ordered list, or one folder (the pattern file's
+/// `images` names inside it if it lists them, else every image of the folder sorted by name),
+/// or with no arguments the pattern file's own `images` list.
+pub fn resolve_images(set: &LoadedSet, args: &[PathBuf]) -> Result<(Vec<PathBuf>, String)> {
+    let n = set.set.image_count();
+    match args {
+        [] => match set.file.image_paths(&set.path) {
+            Some(v) => Ok((v, format!("{} (its `images` list)", set.path.display()))),
+            None => bail!(
+                "{}: no images given, and the pattern-set file lists none (`images = [...]`); pass the {n} image files in order, or a folder",
+                set.path.display()
+            ),
+        },
+        [dir] if dir.is_dir() => match &set.file.images {
+            Some(names) => Ok((names.iter().map(|n| dir.join(n)).collect(), format!("{} (names from {})", dir.display(), set.path.display()))),
+            None => Ok((image_set::list_folder(dir)?, format!("folder {}", dir.display()))),
+        },
+        list => Ok((list.to_vec(), format!("{} (images from the command line)", set.path.display()))),
+    }
+}
+
+/// Load the images of a scan and check them against the set.
+pub fn load_images(set: &LoadedSet, args: &[PathBuf], quiet: bool) -> Result<ImageSet> {
+    let (paths, what) = resolve_images(set, args)?;
+    let imgs = image_set::load(&paths, set.set.image_count(), &what)?;
+    if !quiet {
+        for w in &imgs.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    Ok(imgs)
+}
+
+/// Whole-frame decode outputs.
+pub struct Decoded {
+    /// Width.
+    pub width: usize,
+    /// Height.
+    pub height: usize,
+    /// Finest absolute phase, radians (NaN where invalid).
+    pub phase: Vec<f32>,
+    /// Modulation B.
+    pub modulation: Vec<f32>,
+    /// DC term A.
+    pub dc: Vec<f32>,
+    /// Validity codes.
+    pub validity: Vec<u8>,
+}
+
+impl Decoded {
+    /// Pixel count per validity code.
+    pub fn histogram(&self) -> [usize; 10] {
+        let mut h = [0usize; 10];
+        for v in &self.validity {
+            h[(*v as usize).min(9)] += 1;
+        }
+        h
+    }
+}
+
+/// Decoder thresholds for an image set: the defaults of its bit depth.
+pub fn decode_config(imgs: &ImageSet) -> DecodeConfig {
+    DecodeConfig::for_bit_depth(imgs.bits as u32)
+}
+
+/// Decode a loaded set on all threads of rayon's pool with the best kernel variant.
+pub fn decode(set: &PatternSet, imgs: &ImageSet, cfg: DecodeConfig) -> Result<Decoded> {
+    let d = Decoder::new(set, cfg).map_err(|e| anyhow::anyhow!("decoder: {e}"))?;
+    let (w, h) = (imgs.width as usize, imgs.height as usize);
+    let n = w * h;
+    let mut o = Decoded { width: w, height: h, phase: vec![0.0; n], modulation: vec![0.0; n], dc: vec![0.0; n], validity: vec![0; n] };
+    let out = FrameOut { phase: &mut o.phase, modulation: &mut o.modulation, dc: &mut o.dc, validity: &mut o.validity };
+    match &imgs.frames {
+        Frames::U8(f) => {
+            let fr: Vec<&[u8]> = f.iter().map(|v| v.as_slice()).collect();
+            decode_frames(&d, &fr, w, h, out, Isa::detect(), true)
+        }
+        Frames::U16(f) => {
+            let fr: Vec<&[u16]> = f.iter().map(|v| v.as_slice()).collect();
+            decode_frames(&d, &fr, w, h, out, Isa::detect(), true)
+        }
+    }
+    .map_err(|e| anyhow::anyhow!("decode: {e}"))
+    .context("decoding the image set")?;
+    Ok(o)
+}
+
+/// A one-line text summary of validity counts.
+pub fn validity_summary(h: &[usize; 10]) -> String {
+    let total: usize = h.iter().sum();
+    let mut s = format!("{} of {} pixels valid ({:.1} %)", h[0], total, 100.0 * h[0] as f64 / total.max(1) as f64);
+    for (i, c) in h.iter().enumerate().skip(1) {
+        if *c > 0 {
+            s.push_str(&format!(", {} {}", c, Validity::ALL[i].name()));
+        }
+    }
+    s
+}
+
+/// Validity counts as a JSON object.
+pub fn validity_json(h: &[usize; 10]) -> serde_json::Value {
+    let mut m = serde_json::Map::new();
+    for (i, c) in h.iter().enumerate() {
+        m.insert(Validity::ALL[i].name().to_string(), serde_json::json!(c));
+    }
+    serde_json::Value::Object(m)
+}
+
+/// A progress bar that shows only when not quiet and the work takes a while.
+pub fn progress(len: u64, msg: &str, quiet: bool) -> indicatif::ProgressBar {
+    if quiet {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new(len);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} ({elapsed})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    pb.set_message(msg.to_string());
+    // Draw only after a second: quick runs print no bar at all.
+    pb.enable_steady_tick(std::time::Duration::from_millis(1000));
+    pb
+}

@@ -1,0 +1,159 @@
+//! `fringe3d demo`: render a built-in scene, scan it as a user would (files in, files out), and
+//! report the accuracy against ground truth.
+
+use super::cloud_out::{CloudArgs, write_cloud};
+use super::scan::histogram;
+use super::{Global, common};
+use crate::accuracy::{self, Accuracy};
+use crate::io::atomic::AtomicDir;
+use crate::io::preview;
+use crate::render::dataset::{DatasetOptions, write_dataset};
+use crate::render::scene::{BUILTIN_SCENES, Overrides};
+use crate::render::Scene;
+use crate::scan::ScanCalibration;
+use anyhow::{Context, Result, bail};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `fringe3d demo`.
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Example:\n  fringe3d demo                          # ball bar, default rig, into ./fringe3d-demo\n  \
+fringe3d demo --scene sphere --noise 1 --bits 8 --out /tmp/demo\n\n\
+Writes DIR/dataset (the rendered scan with its calibration and ground truth), DIR/cloud.ply,\n\
+DIR/phase.png, DIR/depth.png, DIR/error.png (false colour) and DIR/report.json, replacing DIR.")]
+pub struct DemoArgs {
+    /// Output folder (replaced if it exists).
+    #[arg(long, short = 'o', default_value = "fringe3d-demo")]
+    pub out: PathBuf,
+    /// Built-in scene to scan.
+    #[arg(long, default_value = "ballbar")]
+    pub scene: String,
+    /// Camera noise σ, gray levels (default: the scene's, noise-free).
+    #[arg(long)]
+    pub noise: Option<f64>,
+    /// Camera bit depth (8, 12 or 16; default: the scene's, 16).
+    #[arg(long)]
+    pub bits: Option<u8>,
+    /// Camera image size, e.g. 640x512 (same field of view; default 1280x1024).
+    #[arg(long)]
+    pub size: Option<String>,
+    /// Noise seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+}
+
+/// Run `fringe3d demo`.
+pub fn run(a: DemoArgs, g: Global) -> Result<()> {
+    if !BUILTIN_SCENES.contains(&a.scene.as_str()) || matches!(a.scene.as_str(), "reference" | "checkerboard" | "plates") {
+        bail!("--scene {:?}: the demo scans one of sphere, ballbar, steps, freeform, plane", a.scene);
+    }
+    let size = match a.size.as_deref() {
+        Some(s) => {
+            let (w, h) = s.split_once('x').with_context(|| format!("--size {s:?}: expected WxH, e.g. 640x512"))?;
+            Some((w.parse().with_context(|| format!("--size {s:?}: bad width"))?, h.parse().with_context(|| format!("--size {s:?}: bad height"))?))
+        }
+        None => None,
+    };
+    let o = Overrides { seed: a.seed, noise: a.noise, bits: a.bits, size, ..Overrides::default() };
+    let say = |s: String| {
+        if !g.quiet && !g.json {
+            println!("{s}");
+        }
+    };
+    let t0 = Instant::now();
+    let dir = AtomicDir::create(&a.out, true)?;
+    let scene = Scene::builtin(&a.scene, &o)?;
+    let ds = dir.join("dataset");
+    say(format!("1/4 rendering scene {:?} with ground truth ...", a.scene));
+    let pb = common::progress(crate::render::dataset::planned_rows(&scene), "rendering", g.quiet || g.json);
+    let inc = |n: u64| pb.inc(n);
+    write_dataset(&scene, &ds, DatasetOptions { overwrite: true, progress: Some(&inc) })?;
+    pb.finish_and_clear();
+    let t_render = t0.elapsed();
+
+    say("2/4 scanning: decode (paper §5.2) and reconstruct (§6) ...".into());
+    let ls = common::load_set(&ds.join("patterns.toml"))?;
+    let cal = ScanCalibration::load(&ds.join("calibration.toml"), ls.set.axis())?;
+    let t1 = Instant::now();
+    let imgs = common::load_images(&ls, &[], g.quiet)?;
+    let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs))?;
+    let cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
+    let t_scan = t1.elapsed();
+    let cloud_args = CloudArgs { out: dir.join("cloud.ply"), ascii: false, organized: false };
+    let n = write_cloud(&cloud_args, &cloud, &d.dc, &d.modulation, vec![format!("fringe3d demo, scene {}", a.scene)])?;
+
+    say("3/4 comparing with ground truth ...".into());
+    let truth = accuracy::load_truth(&ds)?;
+    let acc = accuracy::evaluate(&cloud, &truth)?;
+
+    say("4/4 writing previews ...".into());
+    let (w, h) = (cloud.width as u32, cloud.height as u32);
+    preview::write_rgb_png(&dir.join("phase.png"), w, h, &preview::colourize(&d.phase, &d.validity)).map_err(anyhow::Error::msg)?;
+    let z: Vec<f32> = cloud.xyz.chunks_exact(3).map(|p| p[2]).collect();
+    preview::write_rgb_png(&dir.join("depth.png"), w, h, &preview::colourize(&z, &cloud.validity)).map_err(anyhow::Error::msg)?;
+    let err: Vec<f32> = (0..cloud.width * cloud.height)
+        .map(|i| {
+            let t = &truth.points[3 * i..3 * i + 3];
+            let p = &cloud.xyz[3 * i..3 * i + 3];
+            (((p[0] as f64 - t[0]).powi(2) + (p[1] as f64 - t[1]).powi(2) + (p[2] as f64 - t[2]).powi(2)).sqrt()) as f32
+        })
+        .collect();
+    preview::write_rgb_png(&dir.join("error.png"), w, h, &preview::colourize(&err, &cloud.validity)).map_err(anyhow::Error::msg)?;
+    let hist = histogram(&cloud.validity);
+    let report = serde_json::json!({
+        "command": "demo", "scene": a.scene, "points": n,
+        "width": w, "height": h, "bits": imgs.bits,
+        "validity": common::validity_json(&hist),
+        "accuracy": &acc,
+        "seconds": {"render": t_render.as_secs_f64(), "scan": t_scan.as_secs_f64(), "total": t0.elapsed().as_secs_f64()},
+    });
+    let text = serde_json::to_string_pretty(&report)?;
+    crate::io::atomic::write_atomic(&dir.join("report.json"), |wr| wr.write_all(text.as_bytes()))?;
+    let out = dir.commit()?;
+    if g.json {
+        println!("{text}");
+    } else if !g.quiet {
+        print_report(&acc, &hist, n, t_scan.as_secs_f64(), &out);
+    }
+    Ok(())
+}
+
+fn print_report(acc: &Accuracy, hist: &[usize; 10], n: u64, scan_s: f64, out: &std::path::Path) {
+    println!();
+    println!("scan: {} points in {:.0} ms (decode + reconstruct, all cores); {}", n, scan_s * 1e3, common::validity_summary(hist));
+    println!(
+        "coverage: {} of {} lit pixels reconstructed ({:.1} %), {} spurious points",
+        acc.valid_pixels,
+        acc.truth_pixels,
+        100.0 * acc.valid_pixels as f64 / acc.truth_pixels.max(1) as f64,
+        acc.spurious_points
+    );
+    let um = |x: f64| x * 1e3;
+    println!(
+        "error against ground truth, away from depth edges: RMS {:.1} µm, 95 % {:.1} µm, max {:.1} µm ({} points)",
+        um(acc.interior.rms),
+        um(acc.interior.p95),
+        um(acc.interior.max),
+        acc.interior.count
+    );
+    println!(
+        "error against ground truth, all points:            RMS {:.1} µm, 95 % {:.1} µm, max {:.1} µm",
+        um(acc.all.rms),
+        um(acc.all.p95),
+        um(acc.all.max)
+    );
+    for s in &acc.spheres {
+        println!(
+            "sphere {}: diameter {:.4} mm (true {:.4}), error {:+.1} µm, form RMS {:.1} µm",
+            s.name,
+            s.fitted_diameter,
+            s.true_diameter,
+            um(s.diameter_error),
+            um(s.form_rms)
+        );
+    }
+    for b in &acc.ball_bars {
+        println!("ball bar: length {:.4} mm (true {:.4}), error {:+.1} µm", b.measured_length, b.true_length, um(b.length_error));
+    }
+    println!("wrote {}/{{cloud.ply, phase.png, depth.png, error.png, report.json, dataset/}}", out.display());
+}

@@ -1,0 +1,144 @@
+//! `fringe3d info`: describe a dataset folder, calibration file, pattern-set file or image.
+
+use super::{Global, common};
+use crate::io::calibration::Calibration;
+use crate::io::image::{Pixels, read_gray};
+use anyhow::{Context, Result, bail};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `fringe3d info`.
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:\n  fringe3d info demo-out/dataset          # a dataset folder (manifest.json)\n  \
+fringe3d info calibration.toml          # a calibration\n  fringe3d info examples/patterns/paper8.toml\n  \
+fringe3d info phase.tif                 # an image or float map")]
+pub struct InfoArgs {
+    /// What to describe.
+    pub path: PathBuf,
+}
+
+/// Run `fringe3d info`.
+pub fn run(a: InfoArgs, g: Global) -> Result<()> {
+    let p = &a.path;
+    let v = if p.is_dir() {
+        let m = p.join("manifest.json");
+        if !m.is_file() {
+            bail!("{}: a folder without manifest.json is no fringe3d dataset", p.display());
+        }
+        let text = std::fs::read_to_string(&m).with_context(|| format!("{}: cannot read", m.display()))?;
+        let mut v: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{}: not valid JSON", m.display()))?;
+        if let Some(o) = v.as_object_mut() {
+            o.insert("kind".into(), json!("dataset"));
+        }
+        v
+    } else {
+        let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        match ext.as_str() {
+            "toml" => toml_info(p)?,
+            "png" | "tif" | "tiff" | "bmp" => image_info(p)?,
+            _ => bail!("{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif or .bmp)", p.display()),
+        }
+    };
+    if g.json {
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else if !g.quiet {
+        print_tree(&v, 0);
+    }
+    Ok(())
+}
+
+fn toml_info(p: &Path) -> Result<serde_json::Value> {
+    let text = std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
+    let raw: toml::Table = text.parse().with_context(|| format!("{}: not valid TOML", p.display()))?;
+    if raw.contains_key("camera") {
+        let c = Calibration::load(p)?;
+        let mut v = serde_json::to_value(&c)?;
+        if let Some(o) = v.as_object_mut() {
+            o.insert("kind".into(), json!("calibration"));
+            let reference = c.reference_map_path(p);
+            o.insert("reference_map_exists".into(), json!(reference.as_ref().map(|r| r.is_file())));
+        }
+        Ok(v)
+    } else if raw.contains_key("projector") {
+        let ls = common::load_set(p)?;
+        let s = &ls.set;
+        let levels: Vec<_> = s
+            .levels()
+            .iter()
+            .map(|l| json!({"scale": l.scale(), "shifts_rad": l.shifts(), "images": l.len(), "dc_level": l.has_dc()}))
+            .collect();
+        let o = s.output();
+        let (lo, hi) = s.coarse_range();
+        let finest = s.levels().last().map(|l| l.scale()).unwrap_or(1.0);
+        Ok(json!({
+            "kind": "pattern set",
+            "images": s.image_count(),
+            "axis": format!("{:?}", s.axis()),
+            "projector": {"width": o.width, "height": o.height, "i_min": o.i_min, "i_max": o.i_max},
+            "levels": levels,
+            "order": s.order().iter().map(|i| [i.level, i.shift]).collect::<Vec<_>>(),
+            "coarse_phase_range_rad": [lo, hi],
+            "finest_periods_across": (hi - lo) * finest / s.levels()[0].scale() / std::f64::consts::TAU,
+            "convention": format!("{:?}", s.convention()),
+            "phase_offset_rad": s.phase_offset(),
+            "image_files": ls.file.image_paths(p),
+        }))
+    } else {
+        bail!("{}: neither a calibration ([camera]) nor a pattern set ([projector])", p.display())
+    }
+}
+
+fn image_info(p: &Path) -> Result<serde_json::Value> {
+    let (img, info) = read_gray(p)?;
+    let (kind, stats) = match &img.pixels {
+        Pixels::F32(v) => {
+            let finite: Vec<f32> = v.iter().copied().filter(|x| x.is_finite()).collect();
+            let (lo, hi) = finite.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), x| (a.min(*x), b.max(*x)));
+            ("float", json!({"finite": finite.len(), "nan_or_inf": v.len() - finite.len(), "min": lo, "max": hi}))
+        }
+        px => {
+            let n = px.len();
+            let (mut lo, mut hi, mut sum) = (f64::INFINITY, f64::NEG_INFINITY, 0.0);
+            for i in 0..n {
+                let x = px.get_f64(i).unwrap_or(0.0);
+                lo = lo.min(x);
+                hi = hi.max(x);
+                sum += x;
+            }
+            ("integer", json!({"min": lo, "max": hi, "mean": sum / n.max(1) as f64}))
+        }
+    };
+    Ok(json!({
+        "kind": "image",
+        "format": format!("{:?}", info.format),
+        "width": img.width, "height": img.height,
+        "samples": kind, "significant_bits": img.significant_bits,
+        "converted_from_color": info.converted_from_color,
+        "stats": stats,
+    }))
+}
+
+fn print_tree(v: &serde_json::Value, indent: usize) {
+    let pad = "  ".repeat(indent);
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, x) in m {
+                match x {
+                    serde_json::Value::Object(_) => {
+                        println!("{pad}{k}:");
+                        print_tree(x, indent + 1);
+                    }
+                    serde_json::Value::Array(a) if a.iter().any(|e| e.is_object()) => {
+                        println!("{pad}{k}:");
+                        for (i, e) in a.iter().enumerate() {
+                            println!("{pad}  [{i}]");
+                            print_tree(e, indent + 2);
+                        }
+                    }
+                    _ => println!("{pad}{k}: {x}"),
+                }
+            }
+        }
+        other => println!("{pad}{other}"),
+    }
+}

@@ -1,0 +1,76 @@
+//! `fringe3d scan`: images + calibration → point cloud, in one go (nothing written in between).
+
+use super::cloud_out::{CloudArgs, write_cloud};
+use super::{Global, common};
+use crate::scan::ScanCalibration;
+use anyhow::Result;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `fringe3d scan`.
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Example:\n  fringe3d scan --patterns scan/patterns.toml --calibration scan/calibration.toml scan/ -o cloud.ply\n\n\
+IMAGES: the images in set order, or one folder (the pattern file's `images` names inside it, else\n\
+every PNG/TIFF/BMP sorted by name); none: the pattern file's own `images` list.\n\
+The calibration names the reference phase map (float TIFF) beside it; see docs/formats.md.")]
+pub struct ScanArgs {
+    /// The pattern-set file the images were captured with.
+    #[arg(long, short = 'p')]
+    pub patterns: PathBuf,
+    /// The calibration file (TOML).
+    #[arg(long, short = 'c')]
+    pub calibration: PathBuf,
+    /// Images in set order, or one folder.
+    pub images: Vec<PathBuf>,
+    /// Output.
+    #[command(flatten)]
+    pub cloud: CloudArgs,
+}
+
+/// Run `fringe3d scan`.
+pub fn run(a: ScanArgs, g: Global) -> Result<()> {
+    let t0 = Instant::now();
+    let ls = common::load_set(&a.patterns)?;
+    let cal = ScanCalibration::load(&a.calibration, ls.set.axis())?;
+    let imgs = common::load_images(&ls, &a.images, g.quiet)?;
+    if (imgs.width as usize, imgs.height as usize) != (cal.width(), cal.height()) {
+        anyhow::bail!(
+            "{}: images are {}x{} but the calibrated camera ({}) is {}x{}",
+            imgs.paths[0].display(),
+            imgs.width,
+            imgs.height,
+            a.calibration.display(),
+            cal.width(),
+            cal.height()
+        );
+    }
+    let t_load = t0.elapsed();
+    let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs))?;
+    let t_decode = t0.elapsed();
+    let cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
+    let t_recon = t0.elapsed();
+    let n = write_cloud(&a.cloud, &cloud, &d.dc, &d.modulation, vec![format!("fringe3d scan of {}", a.patterns.display())])?;
+    let hist = histogram(&cloud.validity);
+    if g.json {
+        println!(
+            "{}",
+            serde_json::json!({"command": "scan", "out": a.cloud.out, "points": n, "width": cloud.width, "height": cloud.height,
+                "validity": common::validity_json(&hist),
+                "seconds": {"load": t_load.as_secs_f64(), "decode": (t_decode - t_load).as_secs_f64(),
+                            "reconstruct": (t_recon - t_decode).as_secs_f64(), "total": t0.elapsed().as_secs_f64()}})
+        );
+    } else if !g.quiet {
+        println!("{}", common::validity_summary(&hist));
+        println!("wrote {n} points to {} in {:.0} ms", a.cloud.out.display(), t0.elapsed().as_secs_f64() * 1e3);
+    }
+    Ok(())
+}
+
+/// Pixel count per validity code.
+pub fn histogram(v: &[u8]) -> [usize; 10] {
+    let mut h = [0usize; 10];
+    for x in v {
+        h[(*x as usize).min(9)] += 1;
+    }
+    h
+}

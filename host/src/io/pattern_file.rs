@@ -1,0 +1,686 @@
+//! Pattern-set files: a documented TOML description of a fringe pattern set, mapped onto
+//! [`fringe3d_core::pattern::PatternSet`].
+//!
+//! ```toml
+//! version = 1
+//! convention = "sine"        # or "cosine"
+//! phase_offset = 0.0         # radians, added to every pattern
+//! preset = "paper8"          # or "twelve"; or explicit [[levels]]
+//! ratio = 8.0                # scale ratio between levels of a preset
+//!
+//! [projector]
+//! width = 1024
+//! height = 768
+//! bit_depth = 8              # i_min = 0 and i_max = 255 by default
+//!
+//! [phase]
+//! axis = "xi"                # vertical fringes; "eta" for horizontal ones
+//! kind = "centered"          # or "linear", "knots"
+//! span = 5.654866776461628   # radians across the axis (default 0.9·2π)
+//! ```
+//!
+//! Every field is specified in `docs/formats.md`; `examples/patterns/` has one file per feature.
+//! The struct mirrors the file: optional keys stay `None` so that a file read and saved again keeps
+//! its shape; defaults are applied by [`PatternSetFile::to_pattern_set`].
+
+use std::f64::consts::{PI, TAU};
+use std::path::{Path, PathBuf};
+
+use fringe3d_core::pattern::{Convention, ImageId, Level, Output, PatternSet};
+use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
+
+use super::atomic::write_atomic;
+use super::calibration::{FormatError, check_toml_version, read_text, toml_message};
+
+/// The pattern-set file format version this build reads and writes.
+pub const PATTERN_FILE_VERSION: u32 = 1;
+
+/// The default span of `kind = "centered"` (and of a file without `[phase]`): 0.9·2π radians.
+pub const DEFAULT_SPAN: f64 = 0.9 * TAU;
+
+/// The largest projector width or height accepted (the phase function is checked at every
+/// projector pixel, so absurd sizes would take forever).
+pub const MAX_PROJECTOR_SIZE: u32 = 16384;
+
+/// The default ratio between the scales of consecutive levels of a preset.
+pub const DEFAULT_RATIO: f64 = 8.0;
+
+/// A pattern-set file, as read from / written to TOML.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PatternSetFile {
+    /// Format version, [`PATTERN_FILE_VERSION`] (= 1).
+    pub version: u32,
+    /// Sine (the paper's eq 5) or cosine convention; default sine.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub convention: Option<ConventionName>,
+    /// Constant phase offset added to every pattern, radians; default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase_offset: Option<f64>,
+    /// A built-in level structure; exclusive with `levels`. Without either, `paper8`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<Preset>,
+    /// Ratio between consecutive levels' scales for a preset (scales `1 : r : r²`); default 8.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ratio: Option<f64>,
+    /// The image order as `[level, shift]` pairs (0-based), for captured data of other systems;
+    /// default: the order of [`PatternSet::new`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub order: Option<Vec<[u32; 2]>>,
+    /// The file of each image, in image order, relative to the pattern file's folder.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub images: Option<Vec<PathBuf>>,
+    /// Projector size and gray levels.
+    pub projector: ProjectorSection,
+    /// The phase function Φ^(P); default: `kind = "centered"` along ξ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase: Option<PhaseSection>,
+    /// Explicit levels, coarse to fine; exclusive with `preset`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub levels: Option<Vec<LevelSection>>,
+    /// The file this was read from, for error messages and relative paths.
+    #[serde(skip)]
+    source: Option<PathBuf>,
+}
+
+impl PartialEq for PatternSetFile {
+    /// Equal content; where the files came from does not matter.
+    fn eq(&self, o: &Self) -> bool {
+        self.version == o.version
+            && self.convention == o.convention
+            && self.phase_offset == o.phase_offset
+            && self.preset == o.preset
+            && self.ratio == o.ratio
+            && self.order == o.order
+            && self.images == o.images
+            && self.projector == o.projector
+            && self.phase == o.phase
+            && self.levels == o.levels
+    }
+}
+
+/// `convention = "sine" | "cosine"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ConventionName {
+    /// `I = A + B·sin(Φ + δ)` (the paper).
+    Sine,
+    /// `I = A + B·cos(Φ + δ)`.
+    Cosine,
+}
+
+/// `preset = "paper8" | "twelve"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Preset {
+    /// The paper's 8 images (eq 7): levels of 2, 2 and 4 images, scales `1 : r : r²`.
+    #[serde(rename = "paper8")]
+    Paper8,
+    /// The conventional 12 images: three 4-step levels, scales `1 : r : r²`.
+    #[serde(rename = "twelve")]
+    Twelve,
+}
+
+/// `[projector]`: pattern size and gray levels.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProjectorSection {
+    /// Projector width (ξ extent), pixels.
+    pub width: u32,
+    /// Projector height (η extent), pixels.
+    pub height: u32,
+    /// Gray level of the fringe minimum; default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub i_min: Option<f64>,
+    /// Gray level of the fringe maximum `I_max^(P)` (eq 5); default `2^bit_depth − 1`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub i_max: Option<f64>,
+    /// Bits per pattern pixel, 8 or 16; default 8.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bit_depth: Option<u8>,
+}
+
+/// `axis = "xi" | "eta"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AxisName {
+    /// Φ increases along ξ (projector columns): vertical fringes.
+    Xi,
+    /// Φ increases along η (projector rows): horizontal fringes.
+    Eta,
+}
+
+/// `kind = "linear" | "centered" | "knots"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PhaseKind {
+    /// `g(s) = slope·(s − origin)` (eq 6).
+    Linear,
+    /// Linear, spanning `span` radians across the axis, zero at its middle.
+    Centered,
+    /// A monotonic cubic through knots: variable fringe width.
+    Knots,
+}
+
+/// `[phase]`: the phase function `Φ(ξ, η) = g(t + curvature·(w − bend_center)²)`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhaseSection {
+    /// The axis along which Φ increases; default `xi`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<AxisName>,
+    /// The profile `g`; default `centered`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kind: Option<PhaseKind>,
+    /// `linear`: position (pixels along the axis) where Φ = 0; default the axis middle `(n−1)/2`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub origin: Option<f64>,
+    /// `linear`: radians per pixel, positive (required).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slope: Option<f64>,
+    /// `centered`: radians across the axis; default 0.9·2π.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub span: Option<f64>,
+    /// `knots`: knot positions, pixels along the axis, increasing (required).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub positions: Option<Vec<f64>>,
+    /// `knots`: Φ's slope at each knot, radians per pixel, positive (required).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slopes: Option<Vec<f64>>,
+    /// `knots`: Φ at each knot, radians, increasing. Without it, phases follow from the slopes by
+    /// the trapezoid rule, starting at `phase0`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phases: Option<Vec<f64>>,
+    /// `knots` without `phases`: Φ at the first knot; default: the value that centres Φ across
+    /// the axis (`g(0) = −g(n−1)`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase0: Option<f64>,
+    /// Bend `a` of curved fringes, 1/pixel; default 0 (straight).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub curvature: Option<f64>,
+    /// Line `w₀` (pixels along the other axis) about which fringes bend; default its middle when
+    /// `curvature ≠ 0`, else 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bend_center: Option<f64>,
+}
+
+/// One `[[levels]]` entry: a scale coefficient and its phase shifts (exactly one of `steps`,
+/// `shifts`, `shifts_deg`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LevelSection {
+    /// Scale coefficient `c_k` (eq 7), positive, increasing from level to level.
+    pub scale: f64,
+    /// N-step level of eq 14: shifts `2π(n−1)/N`, N ≥ 3.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steps: Option<u32>,
+    /// Explicit shifts, radians.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shifts: Option<Vec<f64>>,
+    /// Explicit shifts, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shifts_deg: Option<Vec<f64>>,
+}
+
+impl PatternSetFile {
+    /// Read a pattern-set file and check it completely (it is converted once with
+    /// [`PatternSetFile::to_pattern_set`]).
+    pub fn load(path: &Path) -> Result<PatternSetFile, FormatError> {
+        let text = read_text(path)?;
+        check_toml_version(path, &text, PATTERN_FILE_VERSION)?;
+        let mut f: PatternSetFile =
+            toml::from_str(&text).map_err(|e| FormatError::parse(path, toml_message(&e)))?;
+        f.source = Some(path.to_path_buf());
+        f.to_pattern_set()?;
+        Ok(f)
+    }
+
+    /// The file this was read from (`None` if built in memory).
+    pub fn source(&self) -> Option<&Path> {
+        self.source.as_deref()
+    }
+
+    /// Bits per pattern pixel: `projector.bit_depth`, default 8.
+    pub fn bit_depth(&self) -> u8 {
+        self.projector.bit_depth.unwrap_or(8)
+    }
+
+    fn err(&self, message: impl Into<String>) -> FormatError {
+        let path = self
+            .source
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("<pattern set>"));
+        FormatError::Invalid {
+            path,
+            message: message.into(),
+        }
+    }
+
+    /// Build the pattern set the file describes, applying defaults. Problems found here or by the
+    /// core (e.g. a non-monotonic phase function) become [`FormatError::Invalid`] naming the file
+    /// and the problem.
+    pub fn to_pattern_set(&self) -> Result<PatternSet, FormatError> {
+        if self.version != PATTERN_FILE_VERSION {
+            return Err(self.err(format!(
+                "version must be {PATTERN_FILE_VERSION}, got {}",
+                self.version
+            )));
+        }
+        let output = self.output()?;
+        let function = self.function(&output)?;
+        let levels = self.levels()?;
+        let core = |what: &str, e: &dyn std::fmt::Display| self.err(format!("{what}: {e}"));
+        let mut set =
+            PatternSet::new(function, &levels, output).map_err(|e| core("pattern set", &e))?;
+        set = set.with_convention(match self.convention.unwrap_or(ConventionName::Sine) {
+            ConventionName::Sine => Convention::Sine,
+            ConventionName::Cosine => Convention::Cosine,
+        });
+        let offset = self.phase_offset.unwrap_or(0.0);
+        set = set
+            .with_phase_offset(offset)
+            .map_err(|_| self.err(format!("phase_offset must be finite, got {offset}")))?;
+        if let Some(order) = &self.order {
+            let mut ids = Vec::with_capacity(order.len());
+            for (i, &[l, s]) in order.iter().enumerate() {
+                let (Ok(level), Ok(shift)) = (u8::try_from(l), u8::try_from(s)) else {
+                    return Err(self.err(format!("order[{i}] = [{l}, {s}] is out of range")));
+                };
+                ids.push(ImageId { level, shift });
+            }
+            let n = set.image_count();
+            set = set.with_order(&ids).map_err(|e| {
+                self.err(format!(
+                    "order: {e} ({} entries given, the set has {n} images)",
+                    ids.len()
+                ))
+            })?;
+        }
+        if let Some(images) = &self.images {
+            if images.len() != set.image_count() {
+                return Err(self.err(format!(
+                    "images lists {} files but the set has {} images",
+                    images.len(),
+                    set.image_count()
+                )));
+            }
+            if let Some(i) = images.iter().position(|p| p.as_os_str().is_empty()) {
+                return Err(self.err(format!("images[{i}] is empty")));
+            }
+        }
+        Ok(set)
+    }
+
+    fn output(&self) -> Result<Output, FormatError> {
+        let p = &self.projector;
+        let bits = self.bit_depth();
+        if bits != 8 && bits != 16 {
+            return Err(self.err(format!("projector.bit_depth must be 8 or 16, got {bits}")));
+        }
+        let top = if bits == 8 { 255.0 } else { 65535.0 };
+        let i_min = p.i_min.unwrap_or(0.0);
+        let i_max = p.i_max.unwrap_or(top);
+        if p.width == 0
+            || p.height == 0
+            || p.width > MAX_PROJECTOR_SIZE
+            || p.height > MAX_PROJECTOR_SIZE
+        {
+            return Err(self.err(format!(
+                "projector size must be 1 to {MAX_PROJECTOR_SIZE} pixels each way, got {} x {}",
+                p.width, p.height
+            )));
+        }
+        if !(i_min.is_finite()
+            && i_max.is_finite()
+            && 0.0 <= i_min
+            && i_min < i_max
+            && i_max <= top)
+        {
+            return Err(self.err(format!(
+                "projector gray levels must satisfy 0 <= i_min < i_max <= {top} ({bits}-bit), got i_min = {i_min}, i_max = {i_max}"
+            )));
+        }
+        Ok(Output {
+            width: p.width,
+            height: p.height,
+            i_min,
+            i_max,
+        })
+    }
+
+    fn function(&self, o: &Output) -> Result<PhaseFunction, FormatError> {
+        let default = PhaseSection {
+            axis: None,
+            kind: None,
+            origin: None,
+            slope: None,
+            span: None,
+            positions: None,
+            slopes: None,
+            phases: None,
+            phase0: None,
+            curvature: None,
+            bend_center: None,
+        };
+        let ph = self.phase.as_ref().unwrap_or(&default);
+        let axis = match ph.axis.unwrap_or(AxisName::Xi) {
+            AxisName::Xi => Axis::Xi,
+            AxisName::Eta => Axis::Eta,
+        };
+        let (size, other) = match axis {
+            Axis::Xi => (o.width, o.height),
+            Axis::Eta => (o.height, o.width),
+        };
+        let kind = ph.kind.unwrap_or(PhaseKind::Centered);
+        let kind_name = match kind {
+            PhaseKind::Linear => "linear",
+            PhaseKind::Centered => "centered",
+            PhaseKind::Knots => "knots",
+        };
+        let allowed: &[&str] = match kind {
+            PhaseKind::Linear => &["origin", "slope"],
+            PhaseKind::Centered => &["span"],
+            PhaseKind::Knots => &["positions", "slopes", "phases", "phase0"],
+        };
+        let present = [
+            ("origin", ph.origin.is_some()),
+            ("slope", ph.slope.is_some()),
+            ("span", ph.span.is_some()),
+            ("positions", ph.positions.is_some()),
+            ("slopes", ph.slopes.is_some()),
+            ("phases", ph.phases.is_some()),
+            ("phase0", ph.phase0.is_some()),
+        ];
+        for (k, set) in present {
+            if set && !allowed.contains(&k) {
+                let dflt = if ph.kind.is_none() {
+                    " (the default)"
+                } else {
+                    ""
+                };
+                return Err(self.err(format!(
+                    "phase.{k} is not used by kind = \"{kind_name}\"{dflt}"
+                )));
+            }
+        }
+        let fe = |e: fringe3d_core::phase_function::PhaseFunctionError| {
+            self.err(format!("phase function: {e}"))
+        };
+        let f = match kind {
+            PhaseKind::Linear => {
+                let slope = ph.slope.ok_or_else(|| {
+                    self.err("phase.slope (radians per pixel) is required for kind = \"linear\"")
+                })?;
+                let origin = ph.origin.unwrap_or(0.5 * (f64::from(size) - 1.0));
+                PhaseFunction::linear(axis, origin, slope).map_err(fe)?
+            }
+            PhaseKind::Centered => {
+                PhaseFunction::centered(axis, size, ph.span.unwrap_or(DEFAULT_SPAN)).map_err(fe)?
+            }
+            PhaseKind::Knots => {
+                let pos = ph
+                    .positions
+                    .as_ref()
+                    .ok_or_else(|| self.err("phase.positions is required for kind = \"knots\""))?;
+                let slopes = ph
+                    .slopes
+                    .as_ref()
+                    .ok_or_else(|| self.err("phase.slopes is required for kind = \"knots\""))?;
+                if slopes.len() != pos.len() {
+                    return Err(self.err(format!(
+                        "phase.slopes has {} values but phase.positions has {}",
+                        slopes.len(),
+                        pos.len()
+                    )));
+                }
+                let profile = match &ph.phases {
+                    Some(phi) => {
+                        if ph.phase0.is_some() {
+                            return Err(
+                                self.err("phase.phase0 and phase.phases exclude each other")
+                            );
+                        }
+                        if phi.len() != pos.len() {
+                            return Err(self.err(format!(
+                                "phase.phases has {} values but phase.positions has {}",
+                                phi.len(),
+                                pos.len()
+                            )));
+                        }
+                        KnotProfile::new(pos, phi, slopes).map_err(fe)?
+                    }
+                    None => {
+                        let phi0 = match ph.phase0 {
+                            Some(p) => p,
+                            None => {
+                                // Centre Φ across the axis: g(0) + g(n − 1) = 0. The profile is
+                                // shifted by a constant when phi0 changes, so one probe suffices.
+                                let probe =
+                                    KnotProfile::from_slopes(pos, slopes, 0.0).map_err(fe)?;
+                                -0.5 * (probe.eval(0.0) + probe.eval(f64::from(size) - 1.0))
+                            }
+                        };
+                        KnotProfile::from_slopes(pos, slopes, phi0).map_err(fe)?
+                    }
+                };
+                PhaseFunction::with_profile(axis, Profile::Knots(profile)).map_err(fe)?
+            }
+        };
+        let curvature = ph.curvature.unwrap_or(0.0);
+        let center = ph.bend_center.unwrap_or(if curvature != 0.0 {
+            0.5 * (f64::from(other) - 1.0)
+        } else {
+            0.0
+        });
+        f.curved(curvature, center).map_err(fe)
+    }
+
+    fn levels(&self) -> Result<Vec<Level>, FormatError> {
+        match (&self.preset, &self.levels) {
+            (Some(_), Some(_)) => Err(self.err("give either preset or [[levels]], not both")),
+            (None, Some(levels)) => {
+                if self.ratio.is_some() {
+                    return Err(
+                        self.err("ratio applies to a preset only; [[levels]] give each scale")
+                    );
+                }
+                let mut out = Vec::with_capacity(levels.len());
+                for (i, l) in levels.iter().enumerate() {
+                    let given = [
+                        l.steps.is_some(),
+                        l.shifts.is_some(),
+                        l.shifts_deg.is_some(),
+                    ];
+                    if given.iter().filter(|&&g| g).count() != 1 {
+                        return Err(self.err(format!(
+                            "levels[{i}]: give exactly one of steps, shifts or shifts_deg"
+                        )));
+                    }
+                    let level = if let Some(n) = l.steps {
+                        if !(3..=fringe3d_core::pattern::MAX_SHIFTS as u32).contains(&n) {
+                            return Err(self.err(format!(
+                                "levels[{i}]: steps = {n}; an N-step level (eq 14) needs 3 to {} steps \
+                                 (for the paper's 2-image level use shifts_deg = [0, 90])",
+                                fringe3d_core::pattern::MAX_SHIFTS
+                            )));
+                        }
+                        Level::n_step(l.scale, n as usize)
+                    } else if let Some(s) = &l.shifts {
+                        Level::with_shifts(l.scale, s)
+                    } else {
+                        let deg = l.shifts_deg.as_deref().unwrap_or(&[]);
+                        let rad: Vec<f64> = deg.iter().map(|d| d * PI / 180.0).collect();
+                        Level::with_shifts(l.scale, &rad)
+                    };
+                    out.push(level);
+                }
+                Ok(out)
+            }
+            (preset, None) => {
+                let r = self.ratio.unwrap_or(DEFAULT_RATIO);
+                if !(r.is_finite() && r > 1.0) {
+                    return Err(self.err(format!("ratio must be greater than 1, got {r}")));
+                }
+                Ok(match preset.unwrap_or(Preset::Paper8) {
+                    Preset::Paper8 => vec![
+                        Level::two_step(1.0),
+                        Level::two_step(r),
+                        Level::n_step(r * r, 4),
+                    ],
+                    Preset::Twelve => vec![
+                        Level::n_step(1.0, 4),
+                        Level::n_step(r, 4),
+                        Level::n_step(r * r, 4),
+                    ],
+                })
+            }
+        }
+    }
+
+    /// The file describing `set`, with every value explicit (projector gray levels and bit depth,
+    /// phase function parameters, convention, offset). Levels are written as a preset when they are
+    /// exactly one; a level's shifts as `steps` when they are exactly those of eq 14, else in
+    /// radians; the order only when it differs from the default. The conversion is exact:
+    /// `from_pattern_set(s, b).to_pattern_set() == s`.
+    pub fn from_pattern_set(set: &PatternSet, bit_depth: u8) -> PatternSetFile {
+        let o = set.output();
+        let f = set.function();
+        let axis = match f.axis() {
+            Axis::Xi => AxisName::Xi,
+            Axis::Eta => AxisName::Eta,
+        };
+        let mut phase = PhaseSection {
+            axis: Some(axis),
+            kind: None,
+            origin: None,
+            slope: None,
+            span: None,
+            positions: None,
+            slopes: None,
+            phases: None,
+            phase0: None,
+            curvature: Some(f.curvature()),
+            bend_center: Some(f.bend_center()),
+        };
+        match f.profile() {
+            Profile::Linear { origin, slope } => {
+                phase.kind = Some(PhaseKind::Linear);
+                phase.origin = Some(*origin);
+                phase.slope = Some(*slope);
+            }
+            Profile::Knots(k) => {
+                phase.kind = Some(PhaseKind::Knots);
+                phase.positions = Some(k.positions().to_vec());
+                phase.slopes = Some(k.slopes().to_vec());
+                phase.phases = Some(k.phases().to_vec());
+            }
+        }
+        let levels = set.levels();
+        let mut preset = None;
+        let mut ratio = None;
+        if levels.len() == 3 {
+            let r = levels[1].scale();
+            if levels
+                == [
+                    Level::two_step(1.0),
+                    Level::two_step(r),
+                    Level::n_step(r * r, 4),
+                ]
+            {
+                preset = Some(Preset::Paper8);
+                ratio = Some(r);
+            } else if levels
+                == [
+                    Level::n_step(1.0, 4),
+                    Level::n_step(r, 4),
+                    Level::n_step(r * r, 4),
+                ]
+            {
+                preset = Some(Preset::Twelve);
+                ratio = Some(r);
+            }
+        }
+        let level_sections = if preset.is_some() {
+            None
+        } else {
+            Some(
+                levels
+                    .iter()
+                    .map(|l| {
+                        let n = l.len();
+                        let is_nstep = n >= 3 && *l == Level::n_step(l.scale(), n);
+                        LevelSection {
+                            scale: l.scale(),
+                            steps: is_nstep.then_some(n as u32),
+                            shifts: (!is_nstep).then(|| l.shifts().to_vec()),
+                            shifts_deg: None,
+                        }
+                    })
+                    .collect(),
+            )
+        };
+        let default_order = PatternSet::new(*f, levels, *o)
+            .map(|d| d.order() == set.order())
+            .unwrap_or(false);
+        let order = (!default_order).then(|| {
+            set.order()
+                .iter()
+                .map(|id| [u32::from(id.level), u32::from(id.shift)])
+                .collect()
+        });
+        PatternSetFile {
+            version: PATTERN_FILE_VERSION,
+            convention: Some(match set.convention() {
+                Convention::Sine => ConventionName::Sine,
+                Convention::Cosine => ConventionName::Cosine,
+            }),
+            phase_offset: Some(set.phase_offset()),
+            preset,
+            ratio,
+            order,
+            images: None,
+            projector: ProjectorSection {
+                width: o.width,
+                height: o.height,
+                i_min: Some(o.i_min),
+                i_max: Some(o.i_max),
+                bit_depth: Some(bit_depth),
+            },
+            phase: Some(phase),
+            levels: level_sections,
+            source: None,
+        }
+    }
+
+    /// Check the file ([`PatternSetFile::to_pattern_set`]), then write it atomically as TOML with
+    /// a header comment. Floats are written exactly, so `load(save(f)) == f`.
+    pub fn save(&self, path: &Path) -> Result<(), FormatError> {
+        let mut named = self.clone();
+        named.source = Some(path.to_path_buf());
+        named.to_pattern_set()?;
+        let body = toml::to_string(&named)
+            .map_err(|e| FormatError::invalid(path, format!("cannot write as TOML: {e}")))?;
+        let text = format!(
+            "# fringe3d pattern set, format version {PATTERN_FILE_VERSION} (docs/formats.md).\n\
+             # Angles in radians, positions in projector pixels (pixel centres at integers).\n{body}"
+        );
+        write_atomic(path, |w| w.write_all(text.as_bytes()))?;
+        Ok(())
+    }
+
+    /// The image files (`images`), resolved against the folder of `file` (absolute paths are kept).
+    /// `None` if the file lists no images.
+    pub fn image_paths(&self, file: &Path) -> Option<Vec<PathBuf>> {
+        let dir = file.parent().unwrap_or(Path::new(""));
+        self.images.as_ref().map(|v| {
+            v.iter()
+                .map(|p| {
+                    if p.is_absolute() {
+                        p.clone()
+                    } else {
+                        dir.join(p)
+                    }
+                })
+                .collect()
+        })
+    }
+}

@@ -1,0 +1,172 @@
+//! The scan pipeline on the desktop: a calibration file and its reference phase map become a
+//! core [`Reconstructor`]; whole phase maps become point clouds, rows in parallel.
+//!
+//! Rows are reconstructed by the core's row kernel with the whole reference map as the band
+//! ([`ReferenceMap`]), exactly as [`Reconstructor::reconstruct_frame`] and the streaming head do,
+//! so the points are bit-identical whatever the thread count.
+
+use crate::io::calibration::{Calibration, CameraModel as CameraFile};
+use crate::io::image::{Pixels, read_gray};
+use fringe3d_core::camera::{CameraModel, Distortion, Intrinsics};
+use fringe3d_core::geometry::Vec3;
+use fringe3d_core::phase_function::Axis;
+use fringe3d_core::reconstruct::{ReferenceMap, Reconstructor, Setup};
+use fringe3d_core::validity::Validity;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// Why a scan could not be set up or run. Messages name the file.
+#[derive(Debug, thiserror::Error)]
+pub enum ScanError {
+    /// The calibration file is unreadable or invalid.
+    #[error(transparent)]
+    Format(#[from] crate::io::calibration::FormatError),
+    /// An image (the reference map) is unreadable.
+    #[error(transparent)]
+    Image(#[from] crate::io::image::ImageError),
+    /// The calibration is unusable for reconstruction.
+    #[error("{path}: {message}")]
+    Invalid {
+        /// The calibration (or map) file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// Input maps have the wrong size.
+    #[error("{what}: {got_w}x{got_h} pixels, but the calibrated camera is {w}x{h}")]
+    Size {
+        /// Which input.
+        what: String,
+        /// Its width.
+        got_w: usize,
+        /// Its height.
+        got_h: usize,
+        /// The camera's width.
+        w: usize,
+        /// The camera's height.
+        h: usize,
+    },
+}
+
+/// The core camera model of a calibration file's camera section.
+pub fn core_camera(c: &CameraFile) -> Result<CameraModel, String> {
+    CameraModel::new(
+        Intrinsics { fx: c.fx, fy: c.fy, skew: c.skew, u0: c.cx, v0: c.cy, width: c.width, height: c.height },
+        Distortion::from_array(c.distortion),
+    )
+    .map_err(|e| format!("camera model: {e}"))
+}
+
+/// Everything a reconstruction needs, loaded and checked.
+pub struct ScanCalibration {
+    /// The calibration.
+    pub calibration: Calibration,
+    /// The reconstructor (band and tables computed).
+    pub recon: Reconstructor,
+    /// The reference phase map, prepared (invalid samples as canonical NaN).
+    pub reference_phase: Vec<f32>,
+    /// Validity of the reference map (valid where its phase is finite).
+    pub reference_validity: Vec<u8>,
+    /// Where the calibration came from (for messages).
+    pub source: PathBuf,
+}
+
+impl ScanCalibration {
+    /// Build from a calibration and its reference phase map (NaN = invalid), for phases monotonic
+    /// along `axis`.
+    pub fn from_parts(calibration: Calibration, mut reference_phase: Vec<f32>, axis: Axis, source: &Path) -> Result<Self, ScanError> {
+        let invalid = |m: String| ScanError::Invalid { path: source.to_path_buf(), message: m };
+        calibration.validate().map_err(invalid)?;
+        let cam = core_camera(&calibration.camera).map_err(invalid)?;
+        let r = calibration.reference.as_ref().ok_or_else(|| invalid("no [reference] section: a scan needs the reference plane and its phase map".into()))?;
+        let setup = Setup {
+            projector_centre: Vec3::new(calibration.projector_center[0], calibration.projector_center[1], calibration.projector_center[2]),
+            reference_point: Vec3::new(r.point[0], r.point[1], r.point[2]),
+            reference_normal: Vec3::new(r.normal[0], r.normal[1], r.normal[2]),
+            axis,
+            z_min: calibration.depth_range[0],
+            z_max: calibration.depth_range[1],
+        };
+        let recon = Reconstructor::new(&cam, &setup).map_err(|e| invalid(format!("reconstruction set-up: {e}")))?;
+        let (w, h) = (recon.width(), recon.height());
+        if reference_phase.len() != w * h {
+            return Err(ScanError::Size { what: "reference phase map".into(), got_w: reference_phase.len() / h.max(1), got_h: h, w, h });
+        }
+        let reference_validity: Vec<u8> =
+            reference_phase.iter().map(|p| if p.is_finite() { Validity::Valid as u8 } else { Validity::ReferenceInvalid as u8 }).collect();
+        // Prepare once here so that a bad map is reported at set-up, not at the first scan.
+        ReferenceMap::prepare(&mut reference_phase, &reference_validity, w, h).map_err(|e| invalid(format!("reference map: {e}")))?;
+        Ok(ScanCalibration { calibration, recon, reference_phase, reference_validity, source: source.to_path_buf() })
+    }
+
+    /// Load a calibration file and the reference map it names.
+    pub fn load(path: &Path, axis: Axis) -> Result<Self, ScanError> {
+        let cal = Calibration::load(path)?;
+        let map_path = cal
+            .reference_map_path(path)
+            .ok_or_else(|| ScanError::Invalid { path: path.to_path_buf(), message: "no [reference] section with a phase_map".into() })?;
+        let (img, _) = read_gray(&map_path)?;
+        let Pixels::F32(phase) = img.pixels else {
+            return Err(ScanError::Invalid { path: map_path, message: "the reference phase map must be a 32-bit float TIFF".into() });
+        };
+        let (w, h) = (cal.camera.width as usize, cal.camera.height as usize);
+        if (img.width as usize, img.height as usize) != (w, h) {
+            return Err(ScanError::Size { what: map_path.display().to_string(), got_w: img.width as usize, got_h: img.height as usize, w, h });
+        }
+        Self::from_parts(cal, phase, axis, path)
+    }
+
+    /// Camera width.
+    pub fn width(&self) -> usize {
+        self.recon.width()
+    }
+
+    /// Camera height.
+    pub fn height(&self) -> usize {
+        self.recon.height()
+    }
+
+    /// Reconstruct a whole phase map (`width × height`, with its validity codes), rows in
+    /// parallel when `parallel`. Bit-identical either way.
+    pub fn reconstruct(&self, phase: &[f32], validity: &[u8], parallel: bool) -> Result<PointCloud, ScanError> {
+        let (w, h) = (self.width(), self.height());
+        if phase.len() != w * h || validity.len() != w * h {
+            return Err(ScanError::Size { what: "phase map".into(), got_w: phase.len() / h.max(1), got_h: h, w, h });
+        }
+        // The core's map view takes its samples mutably (it prepares them in place); a copy keeps
+        // this calibration reusable and shareable between threads.
+        let mut prepared = self.reference_phase.clone();
+        let map = ReferenceMap::prepare(&mut prepared, &self.reference_validity, w, h)
+            .map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reference map: {e}") })?;
+        let mut xyz = vec![0.0f32; 3 * w * h];
+        let mut out_v = vec![0u8; w * h];
+        let job = |(v, (o, ov)): (usize, (&mut [f32], &mut [u8]))| {
+            let r = v * w..(v + 1) * w;
+            self.recon.reconstruct_row(&map, v as u32, &phase[r.clone()], &validity[r], o, ov)
+        };
+        let rows = xyz.chunks_mut(3 * w).zip(out_v.chunks_mut(w)).enumerate();
+        let res: Result<(), _> = if parallel { rows.par_bridge().try_for_each(job) } else { rows.map(job).collect() };
+        res.map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reconstruction: {e}") })?;
+        Ok(PointCloud { width: w, height: h, xyz, validity: out_v })
+    }
+}
+
+/// An organized point cloud: one point per camera pixel.
+#[derive(Clone, Debug)]
+pub struct PointCloud {
+    /// Width.
+    pub width: usize,
+    /// Height.
+    pub height: usize,
+    /// x, y, z per pixel (mm, camera frame), canonical NaN where invalid.
+    pub xyz: Vec<f32>,
+    /// Validity codes.
+    pub validity: Vec<u8>,
+}
+
+impl PointCloud {
+    /// Number of valid points.
+    pub fn valid_count(&self) -> usize {
+        self.validity.iter().filter(|v| **v == 0).count()
+    }
+}
