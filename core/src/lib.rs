@@ -6,6 +6,7 @@
 
 pub mod camera;
 pub mod decode;
+pub mod filter;
 pub mod geometry;
 pub mod math;
 pub mod pattern;

@@ -36,11 +36,15 @@ pub enum Validity {
     /// Reconstruction: the geometry is degenerate for this pixel (ray parallel to the reference
     /// plane, or the triangle of eq 18 collapses).
     Degenerate = 9,
+    /// Edge filter: the point's depth jumps to a neighbour's by more than a surface of the
+    /// configured steepest slope explains — a pixel straddling a depth discontinuity ("flying
+    /// pixel"), whose phase mixes two surfaces ([`crate::filter`]).
+    DepthEdge = 10,
 }
 
 impl Validity {
     /// All codes, in numeric order.
-    pub const ALL: [Validity; 10] = [
+    pub const ALL: [Validity; 11] = [
         Validity::Valid,
         Validity::Dark,
         Validity::Saturated,
@@ -51,6 +55,7 @@ impl Validity {
         Validity::OutOfDepth,
         Validity::ReferenceInvalid,
         Validity::Degenerate,
+        Validity::DepthEdge,
     ];
 
     /// The code of a stored byte, or `None` for a byte that is no code.
@@ -80,6 +85,7 @@ impl Validity {
             Validity::OutOfDepth => "out-of-depth",
             Validity::ReferenceInvalid => "reference-invalid",
             Validity::Degenerate => "degenerate",
+            Validity::DepthEdge => "depth-edge",
         }
     }
 }

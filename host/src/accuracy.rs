@@ -140,7 +140,10 @@ pub struct Accuracy {
     pub valid_pixels: usize,
     /// Valid points where truth has none (should be 0).
     pub spurious_points: usize,
-    /// All compared pixels.
+    /// All compared pixels; each point's error is its distance to the nearest true point of its
+    /// 3×3 pixel neighbourhood, i.e. to the surfaces the pixel's footprint sees (a pixel on a
+    /// silhouette legitimately reports the background that fills most of it, while its centre ray
+    /// grazes the object). A flying point between two surfaces is far from both and still counts.
     pub all: ErrorStats,
     /// Pixels away from depth edges (their 3×3 neighbourhood sees one primitive), where a scanner's
     /// accuracy is specified; edge pixels mix two surfaces in one camera pixel.
@@ -180,8 +183,19 @@ pub fn evaluate(cloud: &PointCloud, truth: &Truth) -> Result<Accuracy> {
         }
         valid += 1;
         let p = &cloud.xyz[3 * i..3 * i + 3];
-        let d = ((p[0] as f64 - t[0]).powi(2) + (p[1] as f64 - t[1]).powi(2) + (p[2] as f64 - t[2]).powi(2)).sqrt();
-        all.push(d);
+        let dist = |t: &[f64]| ((p[0] as f64 - t[0]).powi(2) + (p[1] as f64 - t[1]).powi(2) + (p[2] as f64 - t[2]).powi(2)).sqrt();
+        let d = dist(t);
+        let (x, y) = (i % w, i / w);
+        let mut near = d;
+        for yy in y.saturating_sub(1)..(y + 2).min(h) {
+            for xx in x.saturating_sub(1)..(x + 2).min(w) {
+                let q = &truth.points[3 * (yy * w + xx)..3 * (yy * w + xx) + 3];
+                if q[0].is_finite() {
+                    near = near.min(dist(q));
+                }
+            }
+        }
+        all.push(near);
         if interior(i) {
             inner.push(d);
         }

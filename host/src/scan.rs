@@ -8,6 +8,7 @@
 use crate::io::calibration::{Calibration, CameraModel as CameraFile};
 use crate::io::image::{Pixels, read_gray};
 use fringe3d_core::camera::{CameraModel, Distortion, Intrinsics};
+use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::geometry::Vec3;
 use fringe3d_core::phase_function::Axis;
 use fringe3d_core::reconstruct::{ReferenceMap, Reconstructor, Setup};
@@ -149,6 +150,37 @@ impl ScanCalibration {
         res.map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reconstruction: {e}") })?;
         Ok(PointCloud { width: w, height: h, xyz, validity: out_v })
     }
+
+    /// The depth-edge filter for this camera, accepting surfaces up to `max_angle_deg` from facing
+    /// the camera ([`fringe3d_core::filter`]).
+    pub fn edge_filter(&self, max_angle_deg: f64) -> Result<EdgeFilter, ScanError> {
+        let fx = self.calibration.camera.fx.min(self.calibration.camera.fy);
+        EdgeFilter::new(fx, max_angle_deg).ok_or_else(|| ScanError::Invalid {
+            path: self.source.clone(),
+            message: format!("edge filter: the angle must be in (0, 90) degrees, got {max_angle_deg}"),
+        })
+    }
+}
+
+/// Apply the depth-edge filter to a whole cloud (rows in parallel; each output row reads its
+/// neighbours' *input* codes, exactly as the streaming head does with a 3-row window). Flagged
+/// points become canonical NaN like every invalid point.
+pub fn filter_edges(cloud: &mut PointCloud, f: &EdgeFilter) {
+    let (w, h) = (cloud.width, cloud.height);
+    let mut out = vec![0u8; w * h];
+    let (xyz, val) = (&cloud.xyz, &cloud.validity);
+    let row = |v: usize| (&xyz[3 * v * w..3 * (v + 1) * w], &val[v * w..(v + 1) * w]);
+    out.par_chunks_mut(w).enumerate().for_each(|(v, o)| {
+        let above = (v > 0).then(|| row(v - 1));
+        let below = (v + 1 < h).then(|| row(v + 1));
+        f.filter_row(above, row(v), below, o);
+    });
+    for (i, (o, p)) in out.iter().zip(cloud.xyz.chunks_exact_mut(3)).enumerate() {
+        if *o == Validity::DepthEdge as u8 && cloud.validity[i] == Validity::Valid as u8 {
+            p.fill(fringe3d_core::math::CANONICAL_NAN);
+        }
+    }
+    cloud.validity = out;
 }
 
 /// An organized point cloud: one point per camera pixel.

@@ -18,6 +18,21 @@ pub struct CloudArgs {
     /// Organized cloud: one vertex per camera pixel, invalid ones flagged (NaN position).
     #[arg(long)]
     pub organized: bool,
+    /// Keep points at depth discontinuities ("flying pixels" that mix two surfaces).
+    #[arg(long)]
+    pub no_edge_filter: bool,
+    /// Steepest accepted surface for the edge filter, degrees from facing the camera.
+    #[arg(long, default_value_t = 80.0)]
+    pub max_angle: f64,
+}
+
+/// Apply the depth-edge filter unless `--no-edge-filter`.
+pub fn apply_edge_filter(args: &CloudArgs, cal: &crate::scan::ScanCalibration, cloud: &mut PointCloud) -> Result<()> {
+    if !args.no_edge_filter {
+        let f = cal.edge_filter(args.max_angle)?;
+        crate::scan::filter_edges(cloud, &f);
+    }
+    Ok(())
 }
 
 /// Write `cloud` with per-pixel intensity (A) and modulation (B) as `args` say. Returns the

@@ -77,13 +77,24 @@ pub struct Decoded {
 
 impl Decoded {
     /// Pixel count per validity code.
-    pub fn histogram(&self) -> [usize; 10] {
-        let mut h = [0usize; 10];
-        for v in &self.validity {
-            h[(*v as usize).min(9)] += 1;
-        }
-        h
+    pub fn histogram(&self) -> Histogram {
+        histogram(&self.validity)
     }
+}
+
+/// Number of validity codes.
+pub const CODES: usize = Validity::ALL.len();
+
+/// Pixel count per validity code.
+pub type Histogram = [usize; CODES];
+
+/// Count pixels per validity code (unknown bytes count as the last code).
+pub fn histogram(v: &[u8]) -> Histogram {
+    let mut h = [0usize; CODES];
+    for x in v {
+        h[(*x as usize).min(CODES - 1)] += 1;
+    }
+    h
 }
 
 /// Decoder thresholds for an image set: the defaults of its bit depth.
@@ -114,7 +125,7 @@ pub fn decode(set: &PatternSet, imgs: &ImageSet, cfg: DecodeConfig) -> Result<De
 }
 
 /// A one-line text summary of validity counts.
-pub fn validity_summary(h: &[usize; 10]) -> String {
+pub fn validity_summary(h: &Histogram) -> String {
     let total: usize = h.iter().sum();
     let mut s = format!("{} of {} pixels valid ({:.1} %)", h[0], total, 100.0 * h[0] as f64 / total.max(1) as f64);
     for (i, c) in h.iter().enumerate().skip(1) {
@@ -126,7 +137,7 @@ pub fn validity_summary(h: &[usize; 10]) -> String {
 }
 
 /// Validity counts as a JSON object.
-pub fn validity_json(h: &[usize; 10]) -> serde_json::Value {
+pub fn validity_json(h: &Histogram) -> serde_json::Value {
     let mut m = serde_json::Map::new();
     for (i, c) in h.iter().enumerate() {
         m.insert(Validity::ALL[i].name().to_string(), serde_json::json!(c));

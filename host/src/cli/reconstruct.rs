@@ -1,7 +1,6 @@
 //! `fringe3d reconstruct`: a decoded phase map + calibration → point cloud.
 
-use super::cloud_out::{CloudArgs, write_cloud};
-use super::scan::histogram;
+use super::cloud_out::{CloudArgs, apply_edge_filter, write_cloud};
 use super::{Global, common};
 use crate::io::image::{Pixels, read_gray};
 use crate::scan::ScanCalibration;
@@ -76,9 +75,10 @@ pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
         if p.is_file() { read_f32(&p, w, h) } else { Ok(vec![f32::NAN; w * h]) }
     };
     let (dc, modulation) = (opt("dc.tif")?, opt("modulation.tif")?);
-    let cloud = cal.reconstruct(&phase, &validity, true)?;
+    let mut cloud = cal.reconstruct(&phase, &validity, true)?;
+    apply_edge_filter(&a.cloud, &cal, &mut cloud)?;
     let n = write_cloud(&a.cloud, &cloud, &dc, &modulation, vec![format!("fringe3d reconstruct of {}", a.decoded.display())])?;
-    let hist = histogram(&cloud.validity);
+    let hist = common::histogram(&cloud.validity);
     if g.json {
         println!("{}", serde_json::json!({"command": "reconstruct", "out": a.cloud.out, "points": n, "validity": common::validity_json(&hist)}));
     } else if !g.quiet {

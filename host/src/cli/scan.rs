@@ -1,6 +1,6 @@
 //! `fringe3d scan`: images + calibration → point cloud, in one go (nothing written in between).
 
-use super::cloud_out::{CloudArgs, write_cloud};
+use super::cloud_out::{CloudArgs, apply_edge_filter, write_cloud};
 use super::{Global, common};
 use crate::scan::ScanCalibration;
 use anyhow::Result;
@@ -47,10 +47,11 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     let t_load = t0.elapsed();
     let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs))?;
     let t_decode = t0.elapsed();
-    let cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
+    let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
+    apply_edge_filter(&a.cloud, &cal, &mut cloud)?;
     let t_recon = t0.elapsed();
     let n = write_cloud(&a.cloud, &cloud, &d.dc, &d.modulation, vec![format!("fringe3d scan of {}", a.patterns.display())])?;
-    let hist = histogram(&cloud.validity);
+    let hist = common::histogram(&cloud.validity);
     if g.json {
         println!(
             "{}",
@@ -64,13 +65,4 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
         println!("wrote {n} points to {} in {:.0} ms", a.cloud.out.display(), t0.elapsed().as_secs_f64() * 1e3);
     }
     Ok(())
-}
-
-/// Pixel count per validity code.
-pub fn histogram(v: &[u8]) -> [usize; 10] {
-    let mut h = [0usize; 10];
-    for x in v {
-        h[(*x as usize).min(9)] += 1;
-    }
-    h
 }

@@ -5,7 +5,7 @@ use std::path::Path;
 
 /// Colour of each validity code in previews (index = code): valid pixels are coloured by value,
 /// the others get these fixed colours.
-pub const VALIDITY_COLOURS: [[u8; 3]; 10] = [
+pub const VALIDITY_COLOURS: [[u8; 3]; fringe3d_core::Validity::ALL.len()] = [
     [255, 255, 255], // valid
     [0, 0, 0],       // dark
     [255, 0, 255],   // saturated
@@ -16,6 +16,7 @@ pub const VALIDITY_COLOURS: [[u8; 3]; 10] = [
     [0, 160, 160],   // out of depth
     [120, 0, 120],   // reference invalid
     [160, 160, 0],   // degenerate
+    [255, 255, 0],   // depth edge
 ];
 
 /// A perceptually ordered blue-cyan-green-yellow-red ramp (piecewise linear), `t ∈ [0, 1]`.
@@ -62,7 +63,7 @@ pub fn colourize(values: &[f32], validity: &[u8]) -> Vec<u8> {
     let span = if hi > lo { hi - lo } else { 1.0 };
     let mut out = Vec::with_capacity(values.len() * 3);
     for (x, c) in values.iter().zip(validity) {
-        let rgb = if *c == 0 && x.is_finite() { ramp((x - lo) / span) } else { VALIDITY_COLOURS[(*c as usize).min(9)] };
+        let rgb = if *c == 0 && x.is_finite() { ramp((x - lo) / span) } else { VALIDITY_COLOURS[(*c as usize).min(VALIDITY_COLOURS.len() - 1)] };
         out.extend_from_slice(&rgb);
     }
     out
