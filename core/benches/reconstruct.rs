@@ -5,12 +5,13 @@
 //! `exact`: exact phases. `noisy`: Gaussian phase noise (σ = 0.01 rad, seeded) on both the
 //! reference and the object map. Reported per frame; throughput in pixels (all pixels of the frame).
 
+#![allow(clippy::disallowed_methods)] // std maths for the synthetic scene
+
 #[path = "../tests/reconstruct_support.rs"]
-#[allow(dead_code)]
 mod support;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use fringe3d_core::reconstruct::{ReferenceMap, ReferenceRing, Reconstructor};
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap, ReferenceRing};
 use std::hint::black_box;
 use support::*;
 
@@ -18,10 +19,19 @@ fn scene(noise: f64) -> (Rig, PhaseMap, PhaseMap) {
     let rig = Rig::default_rig();
     let mut reference = render_reference(&rig);
     let surfaces = vec![
-        Surface::Sphere { c: [-35.0, 25.0, 640.0], r: 55.0 },
-        Surface::Plane { p: [0.0, 0.0, 700.0], n: unit([0.25, 0.15, -1.0]) },
+        Surface::Sphere {
+            c: [-35.0, 25.0, 640.0],
+            r: 55.0,
+        },
+        Surface::Plane {
+            p: [0.0, 0.0, 700.0],
+            n: unit([0.25, 0.15, -1.0]),
+        },
     ];
-    let bounds = Bounds { min: [-1e9, -1e9, rig.z_range[0]], max: [1e9, 1e9, rig.z_range[1]] };
+    let bounds = Bounds {
+        min: [-1e9, -1e9, rig.z_range[0]],
+        max: [1e9, 1e9, rig.z_range[1]],
+    };
     let mut object = render(&rig, &surfaces, bounds, 0..rig.cam.height as usize);
     if noise > 0.0 {
         let mut rng = Rng(0x5eed_0004);
@@ -40,6 +50,28 @@ fn scene(noise: f64) -> (Rig, PhaseMap, PhaseMap) {
     (rig, reference, object)
 }
 
+/// The batch path compiled for AVX2 (the kernel is `#[inline(always)]`, so it is vectorized 8-wide
+/// inside this function), as a host would dispatch at run time. Same bits as the baseline build.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn frame_avx2(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    phase: &[f32],
+    validity: &[u8],
+    xyz: &mut [f32],
+    val: &mut [u8],
+) {
+    let w = recon.width();
+    let rows = phase
+        .chunks_exact(w)
+        .zip(validity.chunks_exact(w))
+        .zip(xyz.chunks_exact_mut(3 * w).zip(val.chunks_exact_mut(w)));
+    for (v, ((p, q), (o, ov))) in rows.enumerate() {
+        recon.reconstruct_row(map, v as u32, p, q, o, ov).unwrap();
+    }
+}
+
 fn bench(c: &mut Criterion) {
     for (name, noise) in [("exact", 0.0), ("noisy", 0.01)] {
         let (rig, reference, object) = scene(noise);
@@ -50,7 +82,9 @@ fn bench(c: &mut Criterion) {
         let map = ReferenceMap::prepare(&mut prep, &reference.validity, w, h).unwrap();
         let mut xyz = vec![0f32; 3 * w * h];
         let mut val = vec![0u8; w * h];
-        recon.reconstruct_frame(&map, &object.phase, &object.validity, &mut xyz, &mut val).unwrap();
+        recon
+            .reconstruct_frame(&map, &object.phase, &object.validity, &mut xyz, &mut val)
+            .unwrap();
         let valid = val.iter().filter(|&&v| v == 0).count();
         let input_valid = object.validity.iter().filter(|&&v| v == 0).count();
         eprintln!(
@@ -66,10 +100,51 @@ fn bench(c: &mut Criterion) {
         g.bench_function("frame_1280x1024_batch", |b| {
             b.iter(|| {
                 recon
-                    .reconstruct_frame(&map, black_box(&object.phase), &object.validity, &mut xyz, &mut val)
+                    .reconstruct_frame(
+                        &map,
+                        black_box(&object.phase),
+                        &object.validity,
+                        &mut xyz,
+                        &mut val,
+                    )
                     .unwrap()
             })
         });
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            let mut xyz2 = vec![0f32; 3 * w * h];
+            let mut val2 = vec![0u8; w * h];
+            // SAFETY: AVX2 was detected at run time.
+            unsafe {
+                frame_avx2(
+                    &recon,
+                    &map,
+                    &object.phase,
+                    &object.validity,
+                    &mut xyz2,
+                    &mut val2,
+                )
+            };
+            let same = val == val2
+                && xyz
+                    .iter()
+                    .zip(&xyz2)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "AVX2 build differs from the baseline build");
+            g.bench_function("frame_1280x1024_batch_avx2", |b| {
+                // SAFETY: as above.
+                b.iter(|| unsafe {
+                    frame_avx2(
+                        &recon,
+                        &map,
+                        black_box(&object.phase),
+                        &object.validity,
+                        &mut xyz2,
+                        &mut val2,
+                    )
+                })
+            });
+        }
         let rows = recon.band().rows() as usize;
         let mut ring_phase = vec![0f32; rows * w];
         let mut ring_val = vec![0u8; rows * w];
@@ -82,12 +157,22 @@ fn bench(c: &mut Criterion) {
                     let (_, last) = recon.rows_needed(v);
                     while ring.rows_pushed() <= last {
                         let r = ring.rows_pushed() as usize;
-                        ring.push_row(&reference.phase[r * w..(r + 1) * w], &reference.validity[r * w..(r + 1) * w])
-                            .unwrap();
+                        ring.push_row(
+                            &reference.phase[r * w..(r + 1) * w],
+                            &reference.validity[r * w..(r + 1) * w],
+                        )
+                        .unwrap();
                     }
                     let s = v as usize * w;
                     recon
-                        .reconstruct_row(&ring, v, &object.phase[s..s + w], &object.validity[s..s + w], &mut orow, &mut vrow)
+                        .reconstruct_row(
+                            &ring,
+                            v,
+                            &object.phase[s..s + w],
+                            &object.validity[s..s + w],
+                            &mut orow,
+                            &mut vrow,
+                        )
                         .unwrap();
                 }
                 black_box(&orow);

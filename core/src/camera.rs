@@ -78,11 +78,23 @@ pub struct Distortion {
 
 impl Distortion {
     /// No distortion.
-    pub const NONE: Distortion = Distortion { k1: 0.0, k2: 0.0, p1: 0.0, p2: 0.0, k3: 0.0 };
+    pub const NONE: Distortion = Distortion {
+        k1: 0.0,
+        k2: 0.0,
+        p1: 0.0,
+        p2: 0.0,
+        k3: 0.0,
+    };
 
     /// From `[k1, k2, p1, p2, k3]`.
     pub const fn from_array(a: [f64; 5]) -> Self {
-        Distortion { k1: a[0], k2: a[1], p1: a[2], p2: a[3], k3: a[4] }
+        Distortion {
+            k1: a[0],
+            k2: a[1],
+            p1: a[2],
+            p2: a[3],
+            k3: a[4],
+        }
     }
 
     /// `[k1, k2, p1, p2, k3]`.
@@ -136,7 +148,9 @@ impl CameraError {
             Self::NotFinite | Self::NonPositiveFocal | Self::Skew | Self::Size => {
                 CameraErrorKind::InvalidParameter
             }
-            Self::NotMonotonic { .. } | Self::NotConvergent { .. } => CameraErrorKind::NotInvertible,
+            Self::NotMonotonic { .. } | Self::NotConvergent { .. } => {
+                CameraErrorKind::NotInvertible
+            }
         }
     }
 }
@@ -229,8 +243,8 @@ macro_rules! distort_fns {
                 let rx = dx - xd;
                 let ry = dy - yd;
                 let det = j00 * j11 - j01 * j01;
-                x = x - (j11 * rx - j01 * ry) / det;
-                y = y - (j00 * ry - j01 * rx) / det;
+                x -= (j11 * rx - j01 * ry) / det;
+                y -= (j00 * ry - j01 * rx) / det;
             }
             (x, y)
         }
@@ -325,7 +339,11 @@ impl CameraModel {
         let mut worst32: f64 = 0.0;
         let mut check = |cam: &Self, u: u32, v: u32| -> Result<(), CameraError> {
             let p = [u as f64, v as f64];
-            let fail = |e: f64| CameraError::NotConvergent { u, v, error_px: e as f32 };
+            let fail = |e: f64| CameraError::NotConvergent {
+                u,
+                v,
+                error_px: e as f32,
+            };
             let n = cam.pixel_to_normalized(p);
             let e64 = cam.round_trip_error(n, p);
             if !(e64 <= UNDISTORT_TOLERANCE_PX) {
@@ -378,7 +396,11 @@ impl CameraModel {
                     let p = [(c0 + k) as f64, v as f64];
                     let e = self.round_trip_error([xs[k] as f64, ys[k] as f64], p);
                     if !(e <= UNDISTORT_TOLERANCE_F32_PX) {
-                        return Err(CameraError::NotConvergent { u: (c0 + k) as u32, v, error_px: e as f32 });
+                        return Err(CameraError::NotConvergent {
+                            u: (c0 + k) as u32,
+                            v,
+                            error_px: e as f32,
+                        });
                     }
                     worst32 = worst32.max(e);
                 }
@@ -464,7 +486,10 @@ impl CameraModel {
     /// Eq 4: distorted normalized coordinates → pixel coordinates.
     pub fn distorted_to_pixel(&self, d: [f64; 2]) -> [f64; 2] {
         let i = &self.intr;
-        [i.fx * d[0] + i.skew * i.fx * d[1] + i.u0, i.fy * d[1] + i.v0]
+        [
+            i.fx * d[0] + i.skew * i.fx * d[1] + i.u0,
+            i.fy * d[1] + i.v0,
+        ]
     }
 
     /// Inverse of eq 4: pixel coordinates → distorted normalized coordinates.
@@ -564,9 +589,13 @@ impl CameraModel {
     /// coordinates of columns `0, S, 2S, …` (`S` = [`ROW_KNOT_STEP`]) and of the last column, by
     /// [`UNDISTORT_ITERATIONS`] Newton steps each (iterations outermost, so the loop over knots
     /// vectorizes). Returns the number of knots written (≤ [`MAX_ROW_KNOTS`] and ≤ the buffers).
+    #[inline(always)]
     pub fn row_knots_f32(&self, v: u32, xs: &mut [f32], ys: &mut [f32]) -> usize {
         let w = self.intr.width as usize;
-        let nk = (w.div_ceil(ROW_KNOT_STEP) + 1).min(xs.len()).min(ys.len()).min(MAX_ROW_KNOTS);
+        let nk = (w.div_ceil(ROW_KNOT_STEP) + 1)
+            .min(xs.len())
+            .min(ys.len())
+            .min(MAX_ROW_KNOTS);
         let f = self.f;
         let vf = v as f32;
         let yd = (vf - f.v0) / f.fy;
@@ -598,6 +627,7 @@ impl CameraModel {
     /// [`CameraModel::row_knots_f32`]: linear interpolation between them as the start, then one
     /// Newton step per pixel (a fixed-width loop that vectorizes). Checked at construction on the
     /// first, last and every 16th row; columns past the image are extrapolated, without guarantee.
+    #[inline(always)]
     pub fn undistort_span_from_knots_f32(
         &self,
         v: u32,
@@ -610,7 +640,11 @@ impl CameraModel {
         let w = self.intr.width as usize;
         let c_a = c0 - c0 % ROW_KNOT_STEP;
         let c_b = (c_a + ROW_KNOT_STEP).min(w.saturating_sub(1)).max(c_a);
-        let span = if c_b > c_a { 1.0 / (c_b - c_a) as f32 } else { 0.0 };
+        let span = if c_b > c_a {
+            1.0 / (c_b - c_a) as f32
+        } else {
+            0.0
+        };
         let k = self.k32();
         let f = self.f;
         let yd = (v as f32 - f.v0) / f.fy;
@@ -656,12 +690,24 @@ mod tests {
     use super::*;
 
     fn intr() -> Intrinsics {
-        Intrinsics { fx: 1500.0, fy: 1502.0, skew: 0.001, u0: 641.5, v0: 509.25, width: 1280, height: 1024 }
+        Intrinsics {
+            fx: 1500.0,
+            fy: 1502.0,
+            skew: 0.001,
+            u0: 641.5,
+            v0: 509.25,
+            width: 1280,
+            height: 1024,
+        }
     }
 
     #[test]
     fn strong_barrel_is_accepted_and_round_trips() {
-        let cam = CameraModel::new(intr(), Distortion::from_array([-0.3, 0.1, 1e-3, -5e-4, 0.0])).unwrap();
+        let cam = CameraModel::new(
+            intr(),
+            Distortion::from_array([-0.3, 0.1, 1e-3, -5e-4, 0.0]),
+        )
+        .unwrap();
         assert!(cam.max_undistort_error_px() <= 1e-4);
         let p = cam.normalized_to_pixel(cam.pixel_to_normalized([0.0, 0.0]));
         assert!((p[0]).abs() < 1e-4 && (p[1]).abs() < 1e-4);
@@ -669,7 +715,8 @@ mod tests {
 
     #[test]
     fn fold_over_is_rejected() {
-        let e = CameraModel::new(intr(), Distortion::from_array([-1.2, 0.0, 0.0, 0.0, 0.0])).unwrap_err();
+        let e = CameraModel::new(intr(), Distortion::from_array([-1.2, 0.0, 0.0, 0.0, 0.0]))
+            .unwrap_err();
         assert_eq!(e.kind(), CameraErrorKind::NotInvertible);
     }
 }

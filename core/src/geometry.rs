@@ -35,7 +35,11 @@ macro_rules! vec3_impl {
     ($V:ident, $T:ty, $sqrt:path) => {
         impl $V {
             /// The zero vector.
-            pub const ZERO: $V = $V { x: 0.0, y: 0.0, z: 0.0 };
+            pub const ZERO: $V = $V {
+                x: 0.0,
+                y: 0.0,
+                z: 0.0,
+            };
 
             /// A vector from its components.
             #[inline(always)]
@@ -46,7 +50,11 @@ macro_rules! vec3_impl {
             /// A vector from `[x, y, z]`.
             #[inline(always)]
             pub const fn from_array(a: [$T; 3]) -> Self {
-                $V { x: a[0], y: a[1], z: a[2] }
+                $V {
+                    x: a[0],
+                    y: a[1],
+                    z: a[2],
+                }
             }
 
             /// `[x, y, z]`.
@@ -106,7 +114,11 @@ macro_rules! vec3_impl {
             /// The unit vector along `self`, or `None` for a zero, infinite or NaN vector.
             pub fn normalized(self) -> Option<Self> {
                 let n = self.norm();
-                if n > 0.0 && n.is_finite() { Some(self.scale(1.0 / n)) } else { None }
+                if n > 0.0 && n.is_finite() {
+                    Some(self.scale(1.0 / n))
+                } else {
+                    None
+                }
             }
 
             /// `true` when every component is finite.
@@ -178,12 +190,17 @@ impl Plane {
             return None;
         }
         let lambda = self.normal.dot(self.point.sub(origin)) / den;
-        if lambda.is_finite() { Some(lambda) } else { None }
+        if lambda.is_finite() {
+            Some(lambda)
+        } else {
+            None
+        }
     }
 
     /// The point where the line `origin + λ·dir` meets the plane ([`Plane::intersect_param`]).
     pub fn intersect_line(&self, origin: Vec3, dir: Vec3) -> Option<Vec3> {
-        self.intersect_param(origin, dir).map(|l| origin.add(dir.scale(l)))
+        self.intersect_param(origin, dir)
+            .map(|l| origin.add(dir.scale(l)))
     }
 }
 
@@ -199,7 +216,10 @@ pub struct Line {
 impl Line {
     /// The line through `a` and `b`.
     pub fn through(a: Vec3, b: Vec3) -> Self {
-        Line { origin: a, dir: b.sub(a) }
+        Line {
+            origin: a,
+            dir: b.sub(a),
+        }
     }
 
     /// The point at parameter `λ`.
@@ -228,7 +248,11 @@ pub fn closest_params(l1: &Line, l2: &Line) -> Option<(f64, f64)> {
     }
     let l1p = (b * e - c * d) / det;
     let l2p = (a * e - b * d) / det;
-    if l1p.is_finite() && l2p.is_finite() { Some((l1p, l2p)) } else { None }
+    if l1p.is_finite() && l2p.is_finite() {
+        Some((l1p, l2p))
+    } else {
+        None
+    }
 }
 
 /// The closest points of two lines, `(on l1, on l2)` ([`closest_params`]).
@@ -249,9 +273,14 @@ mod tests {
     #[test]
     fn plane_and_lines() {
         let p = Plane::new(Vec3::new(0.0, 0.0, 700.0), Vec3::new(0.0, 0.0, -2.0)).unwrap();
-        let x = p.intersect_line(Vec3::ZERO, Vec3::new(0.1, -0.2, 1.0)).unwrap();
+        let x = p
+            .intersect_line(Vec3::ZERO, Vec3::new(0.1, -0.2, 1.0))
+            .unwrap();
         assert!((x.z - 700.0).abs() < 1e-9 && (x.x - 70.0).abs() < 1e-9);
-        assert!(p.intersect_line(Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0)).is_none());
+        assert!(
+            p.intersect_line(Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0))
+                .is_none()
+        );
         let l1 = Line::through(Vec3::ZERO, Vec3::new(0.0, 0.0, 1.0));
         let l2 = Line::through(Vec3::new(1.0, 0.0, 5.0), Vec3::new(1.0, 1.0, 5.0));
         let (a, b) = closest_points(&l1, &l2).unwrap();

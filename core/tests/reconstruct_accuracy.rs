@@ -1,12 +1,14 @@
 //! Accuracy of the hybrid reconstruction (paper §6, eqs 16-18) on exact synthetic phase maps,
 //! against independent f64 truth: ray-cast geometry, a literal f64 evaluation of eqs 16-18, the
 //! closest point of two lines, and an f64 re-implementation of the whole search.
+// Integration tests are std: std f64 maths is the independent truth here.
+#![allow(clippy::disallowed_methods)]
 
 #[path = "reconstruct_support.rs"]
 mod support;
 
 use fringe3d_core::Validity;
-use fringe3d_core::reconstruct::{ReferenceMap, Reconstructor};
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use support::*;
 
 /// Reconstructed rows: per pixel (u, v, point, crossing N_I) for valid pixels, and all codes.
@@ -24,16 +26,26 @@ fn run(rig: &Rig, reference: &PhaseMap, object: &PhaseMap, rows: &[usize]) -> Ru
     let mut xyz = vec![0f32; 3 * w];
     let mut val = vec![0u8; w];
     let mut cr = vec![0f32; 2 * w];
-    let mut out = Run { pts: vec![], codes: vec![] };
+    let mut out = Run {
+        pts: vec![],
+        codes: vec![],
+    };
     for &v in rows {
         let p = &object.phase[v * w..(v + 1) * w];
         let q = &object.validity[v * w..(v + 1) * w];
-        recon.reconstruct_row_with_crossings(&map, v as u32, p, q, &mut xyz, &mut val, &mut cr).unwrap();
+        recon
+            .reconstruct_row_with_crossings(&map, v as u32, p, q, &mut xyz, &mut val, &mut cr)
+            .unwrap();
         for u in 0..w {
             out.codes.push(val[u]);
             if val[u] == Validity::Valid as u8 {
-                let m = [xyz[3 * u] as f64, xyz[3 * u + 1] as f64, xyz[3 * u + 2] as f64];
-                out.pts.push((u, v, m, [cr[2 * u] as f64, cr[2 * u + 1] as f64]));
+                let m = [
+                    xyz[3 * u] as f64,
+                    xyz[3 * u + 1] as f64,
+                    xyz[3 * u + 2] as f64,
+                ];
+                out.pts
+                    .push((u, v, m, [cr[2 * u] as f64, cr[2 * u + 1] as f64]));
             }
         }
     }
@@ -78,11 +90,24 @@ fn exact_phase_maps_reconstruct_to_truth() {
     let rows: Vec<usize> = (0..1024).step_by(4).collect();
     let object = render(&rig, &object(&rig), volume(&rig), rows.iter().copied());
     let r = run(&rig, &reference, &object, &rows);
-    let truth_n = rows.iter().map(|&v| (0..1280).filter(|&u| object.truth[v * 1280 + u].is_some()).count()).sum::<usize>();
-    let errs: Vec<f64> = r.pts.iter().map(|&(u, v, m, _)| err_um(m, object.truth[v * 1280 + u].unwrap())).collect();
+    let truth_n = rows
+        .iter()
+        .map(|&v| {
+            (0..1280)
+                .filter(|&u| object.truth[v * 1280 + u].is_some())
+                .count()
+        })
+        .sum::<usize>();
+    let errs: Vec<f64> = r
+        .pts
+        .iter()
+        .map(|&(u, v, m, _)| err_um(m, object.truth[v * 1280 + u].unwrap()))
+        .collect();
     let s = stats(&errs);
     let zs: Vec<f64> = r.pts.iter().map(|p| p.2[2]).collect();
-    let (zmin, zmax) = zs.iter().fold((f64::MAX, f64::MIN), |(a, b), &z| (a.min(z), b.max(z)));
+    let (zmin, zmax) = zs
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &z| (a.min(z), b.max(z)));
     eprintln!(
         "end-to-end: {} of {} object pixels valid, z {:.1}..{:.1} mm, error RMS {:.3} µm, max {:.3} µm; codes: no-crossing {}, out-of-depth {}, reference-invalid {}, degenerate {}",
         s.n,
@@ -96,7 +121,12 @@ fn exact_phase_maps_reconstruct_to_truth() {
         count(&r.codes, Validity::ReferenceInvalid),
         count(&r.codes, Validity::Degenerate)
     );
-    assert!(s.n as f64 > 0.995 * truth_n as f64, "too many object pixels lost: {} of {}", s.n, truth_n);
+    assert!(
+        s.n as f64 > 0.995 * truth_n as f64,
+        "too many object pixels lost: {} of {}",
+        s.n,
+        truth_n
+    );
     assert!(zmax - zmin > 200.0, "the object must span the depth range");
     assert!(s.rms < 1.0, "RMS error {} µm", s.rms);
     assert!(s.max < 1.0, "max error {} µm", s.max);
@@ -116,14 +146,24 @@ fn point_matches_literal_eqs_16_18_and_closest_point() {
         let (x, y) = rig.cam.unproject(u as f64, v as f64);
         let lit = eq16_18(&rig, [x, y], n_i);
         e_lit.push(err_um(m, lit));
+        // The core's literal f64 version agrees with the test's.
+        let core_lit =
+            fringe3d_core::reconstruct::triangulate_eq16_18(&rig.setup(), [x, y], n_i).unwrap();
+        assert!(err_um(core_lit.to_array(), lit) < 1e-6);
         // M is where the camera ray meets the projector ray P–N_R (eq 16 for N_R).
         let cn = [n_i[0], n_i[1], 1.0];
-        let n_r = mul(cn, dot(rig.ref_point, rig.ref_normal) / dot(cn, rig.ref_normal));
+        let n_r = mul(
+            cn,
+            dot(rig.ref_point, rig.ref_normal) / dot(cn, rig.ref_normal),
+        );
         let cp = closest_on_first([0.0; 3], [x, y, 1.0], rig.p, sub(n_r, rig.p));
         e_cp.push(err_um(m, cp));
     }
     let (a, b) = (stats(&e_lit), stats(&e_cp));
-    eprintln!("vs literal eqs 16-18: RMS {:.4} µm max {:.4} µm; vs closest point: RMS {:.4} max {:.4} µm", a.rms, a.max, b.rms, b.max);
+    eprintln!(
+        "vs literal eqs 16-18: RMS {:.4} µm max {:.4} µm; vs closest point: RMS {:.4} max {:.4} µm",
+        a.rms, a.max, b.rms, b.max
+    );
     assert!(a.max < 1.0 && b.max < 1.0);
 }
 
@@ -148,14 +188,18 @@ fn reference_f64(rig: &Rig, prep: &[f32], u: usize, v: usize, phi: f64) -> Optio
     let (ta, tb) = (t_of_z(rig.z_range[0]), t_of_z(rig.z_range[1]));
     let f = |t: f64| -> Option<f64> {
         let (xd, yd) = rig.cam.distort(x + t * e[0], y + t * e[1]);
-        let (pu, pv) = rig.cam.to_pixel(xd, yd);
+        let (pu, pv) = rig.cam.pixel_of_distorted(xd, yd);
         if !(pu >= 0.0 && pv >= 0.0 && pu <= (w - 1) as f64 && pv <= (h - 1) as f64) {
             return None;
         }
-        let (iu, iv) = ((pu.floor() as usize).min(w - 2), (pv.floor() as usize).min(h - 2));
+        let (iu, iv) = (
+            (pu.floor() as usize).min(w - 2),
+            (pv.floor() as usize).min(h - 2),
+        );
         let (fu, fv) = (pu - iu as f64, pv - iv as f64);
         let s = |r: usize, c: usize| prep[r * w + c] as f64;
-        let val = (1.0 - fv) * ((1.0 - fu) * s(iv, iu) + fu * s(iv, iu + 1)) + fv * ((1.0 - fu) * s(iv + 1, iu) + fu * s(iv + 1, iu + 1));
+        let val = (1.0 - fv) * ((1.0 - fu) * s(iv, iu) + fu * s(iv, iu + 1))
+            + fv * ((1.0 - fu) * s(iv + 1, iu) + fu * s(iv + 1, iu + 1));
         val.is_finite().then_some(val - phi)
     };
     let (mut a, mut b) = (ta, tb);
@@ -194,7 +238,10 @@ fn added_error_against_f64_reference_is_below_one_micrometre() {
         }
     }
     let s = stats(&errs);
-    eprintln!("added error of the f32 kernel vs the f64 reference: n {} RMS {:.4} µm max {:.4} µm", s.n, s.rms, s.max);
+    eprintln!(
+        "added error of the f32 kernel vs the f64 reference: n {} RMS {:.4} µm max {:.4} µm",
+        s.n, s.rms, s.max
+    );
     assert!(s.n as f64 > 0.99 * r.pts.len() as f64);
     assert!(s.max <= 1.0, "max added error {} µm", s.max);
 }
@@ -210,12 +257,24 @@ fn distorted_projector_is_absorbed_by_the_reference() {
         let rows: Vec<usize> = (2..1024).step_by(8).collect();
         let object = render(&rig, &object(&rig), volume(&rig), rows.iter().copied());
         let r = run(&rig, &reference, &object, &rows);
-        let errs: Vec<f64> = r.pts.iter().map(|&(u, v, m, _)| err_um(m, object.truth[v * 1280 + u].unwrap())).collect();
+        let errs: Vec<f64> = r
+            .pts
+            .iter()
+            .map(|&(u, v, m, _)| err_um(m, object.truth[v * 1280 + u].unwrap()))
+            .collect();
         let s = stats(&errs);
         let truth_n = object.truth.iter().filter(|t| t.is_some()).count();
-        eprintln!("projector k1 = {k1:+}, k2 = {k2:+}: {} of {} pixels, RMS {:.3} µm, max {:.3} µm", s.n, truth_n, s.rms, s.max);
+        eprintln!(
+            "projector k1 = {k1:+}, k2 = {k2:+}: {} of {} pixels, RMS {:.3} µm, max {:.3} µm",
+            s.n, truth_n, s.rms, s.max
+        );
         assert!(s.n as f64 > 0.995 * truth_n as f64);
-        assert!(s.rms < 1.0 && s.max < 5.0, "k1 {k1}: RMS {} max {}", s.rms, s.max);
+        assert!(
+            s.rms < 1.0 && s.max < 5.0,
+            "k1 {k1}: RMS {} max {}",
+            s.rms,
+            s.max
+        );
     }
 }
 
@@ -231,12 +290,19 @@ fn horizontal_fringes_with_vertical_baseline() {
     let rows: Vec<usize> = (5..1024).step_by(16).collect();
     let object = render(&rig, &object(&rig), volume(&rig), rows.iter().copied());
     let r = run(&rig, &reference, &object, &rows);
-    let errs: Vec<f64> = r.pts.iter().map(|&(u, v, m, _)| err_um(m, object.truth[v * 1280 + u].unwrap())).collect();
+    let errs: Vec<f64> = r
+        .pts
+        .iter()
+        .map(|&(u, v, m, _)| err_um(m, object.truth[v * 1280 + u].unwrap()))
+        .collect();
     let s = stats(&errs);
     let cam = rig.cam.model();
     let band = Reconstructor::new(&cam, &rig.setup()).unwrap().band();
     let truth_n = object.truth.iter().filter(|t| t.is_some()).count();
-    eprintln!("Eta rig: band {:?}, {} of {} pixels, RMS {:.3} µm max {:.3} µm", band, s.n, truth_n, s.rms, s.max);
+    eprintln!(
+        "Eta rig: band {:?}, {} of {} pixels, RMS {:.3} µm max {:.3} µm",
+        band, s.n, truth_n, s.rms, s.max
+    );
     assert!(s.n as f64 > 0.995 * truth_n as f64);
     assert!(s.rms < 1.0 && s.max < 5.0);
 }

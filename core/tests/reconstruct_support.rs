@@ -4,6 +4,8 @@
 //! (fixed-point iteration, then Newton with a numerical Jacobian), a posed pinhole projector with a
 //! linear phase Φ = c·(ξ − ξ_c), analytic surfaces, and ray casting.
 #![allow(dead_code)]
+// std f64 maths is the independent truth in tests.
+#![allow(clippy::disallowed_methods)]
 
 use fringe3d_core::Validity;
 
@@ -22,7 +24,11 @@ pub fn dot(a: V3, b: V3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 pub fn cross(a: V3, b: V3) -> V3 {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 pub fn norm(a: V3) -> f64 {
     dot(a, a).sqrt()
@@ -71,8 +77,11 @@ impl Pinhole {
     }
 
     /// Eq 4.
-    pub fn to_pixel(&self, xd: f64, yd: f64) -> (f64, f64) {
-        (self.fx * xd + self.skew * self.fx * yd + self.u0, self.fy * yd + self.v0)
+    pub fn pixel_of_distorted(&self, xd: f64, yd: f64) -> (f64, f64) {
+        (
+            self.fx * xd + self.skew * self.fx * yd + self.u0,
+            self.fy * yd + self.v0,
+        )
     }
 
     /// Eqs 2-4 for a point in this device's frame (z forward).
@@ -81,7 +90,7 @@ impl Pinhole {
             return None;
         }
         let (xd, yd) = self.distort(p[0] / p[2], p[1] / p[2]);
-        Some(self.to_pixel(xd, yd))
+        Some(self.pixel_of_distorted(xd, yd))
     }
 
     /// Inverse of eqs 3-4: fixed-point iteration `x = (x_d − tangential(x)) / radial(x)` (60
@@ -136,7 +145,8 @@ impl Pinhole {
     }
 
     pub fn model(&self) -> fringe3d_core::camera::CameraModel {
-        fringe3d_core::camera::CameraModel::new(self.intrinsics(), self.distortion()).expect("camera model")
+        fringe3d_core::camera::CameraModel::new(self.intrinsics(), self.distortion())
+            .expect("camera model")
     }
 }
 
@@ -210,7 +220,7 @@ impl Rig {
         }
     }
 
-    pub fn to_projector(&self, x: V3) -> V3 {
+    pub fn projector_frame(&self, x: V3) -> V3 {
         let d = sub(x, self.p);
         let r = &self.rot;
         [
@@ -222,12 +232,16 @@ impl Rig {
 
     /// The phase the projector casts on camera-frame point `x`, if it lights it.
     pub fn phase_at(&self, x: V3) -> Option<f64> {
-        let (xi, eta) = self.proj.project(self.to_projector(x))?;
+        let (xi, eta) = self.proj.project(self.projector_frame(x))?;
         let (w, h) = ((self.proj.width - 1) as f64, (self.proj.height - 1) as f64);
         if !(xi >= 0.0 && xi <= w && eta >= 0.0 && eta <= h) {
             return None;
         }
-        Some(if self.eta { self.c * (eta - self.s_c) } else { self.c * (xi - self.s_c) })
+        Some(if self.eta {
+            self.c * (eta - self.s_c)
+        } else {
+            self.c * (xi - self.s_c)
+        })
     }
 
     /// Camera ray of pixel `(u, v)`: `(x_n, y_n, 1)`.
@@ -296,7 +310,10 @@ pub struct Bounds {
 }
 
 impl Bounds {
-    pub const EVERYWHERE: Bounds = Bounds { min: [-1e9; 3], max: [1e9; 3] };
+    pub const EVERYWHERE: Bounds = Bounds {
+        min: [-1e9; 3],
+        max: [1e9; 3],
+    };
     pub fn contains(&self, x: V3) -> bool {
         (0..3).all(|i| x[i] >= self.min[i] && x[i] <= self.max[i])
     }
@@ -314,7 +331,12 @@ pub struct PhaseMap {
 
 /// Ray-cast `rows` of the camera image against `surfaces` (nearest hit inside `bounds`); other rows
 /// are left invalid (Dark).
-pub fn render(rig: &Rig, surfaces: &[Surface], bounds: Bounds, rows: impl Iterator<Item = usize>) -> PhaseMap {
+pub fn render(
+    rig: &Rig,
+    surfaces: &[Surface],
+    bounds: Bounds,
+    rows: impl Iterator<Item = usize>,
+) -> PhaseMap {
     let w = rig.cam.width as usize;
     let h = rig.cam.height as usize;
     let mut m = PhaseMap {
@@ -351,22 +373,34 @@ pub fn render(rig: &Rig, surfaces: &[Surface], bounds: Bounds, rows: impl Iterat
 
 /// The reference phase map of `rig` (all rows).
 pub fn render_reference(rig: &Rig) -> PhaseMap {
-    let s = Surface::Plane { p: rig.ref_point, n: rig.ref_normal };
+    let s = Surface::Plane {
+        p: rig.ref_point,
+        n: rig.ref_normal,
+    };
     render(rig, &[s], Bounds::EVERYWHERE, 0..rig.cam.height as usize)
 }
 
 /// The measurement volume of the default rig.
 pub fn volume(rig: &Rig) -> Bounds {
-    Bounds { min: [-140.0, -110.0, rig.z_range[0]], max: [140.0, 110.0, rig.z_range[1]] }
+    Bounds {
+        min: [-140.0, -110.0, rig.z_range[0]],
+        max: [140.0, 110.0, rig.z_range[1]],
+    }
 }
 
 /// The test object: a plane tilted through the whole depth range and a sphere in front of it.
 pub fn object(rig: &Rig) -> Vec<Surface> {
     let _ = rig;
     vec![
-        Surface::Sphere { c: [-35.0, 25.0, 640.0], r: 55.0 },
+        Surface::Sphere {
+            c: [-35.0, 25.0, 640.0],
+            r: 55.0,
+        },
         // z = 700 + 0.55·x + 0.3·y: spans ≈ 590 … 810 mm over the volume.
-        Surface::Plane { p: [0.0, 0.0, 700.0], n: unit([0.55, 0.3, -1.0]) },
+        Surface::Plane {
+            p: [0.0, 0.0, 700.0],
+            n: unit([0.55, 0.3, -1.0]),
+        },
     ]
 }
 
@@ -390,8 +424,8 @@ pub fn stats(errs: &[f64]) -> Stats {
 
 impl Pinhole {
     /// Pixel of ideal normalized coordinates.
-    pub fn to_pixel_n(&self, x: f64, y: f64) -> (f64, f64) {
+    pub fn pixel_of_normalized(&self, x: f64, y: f64) -> (f64, f64) {
         let (xd, yd) = self.distort(x, y);
-        self.to_pixel(xd, yd)
+        self.pixel_of_distorted(xd, yd)
     }
 }

@@ -42,17 +42,28 @@ pub struct FrameOut<'a> {
     pub validity: &'a mut [u8],
 }
 
-/// Decode rows `[y0, y0 + n)` with the baseline kernel.
-fn rows_baseline<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
-    rows_generic(d, frames, width, y0, out)
-}
-
+/// Run `f` compiled for the AVX2 instruction set.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn rows_avx2<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
-    // The core's decode_row, accumulate and finish are #[inline(always)]: they are compiled here,
-    // with AVX2 enabled.
-    rows_generic(d, frames, width, y0, out)
+fn in_avx2<R>(f: impl FnOnce() -> R) -> R {
+    // The core's row kernels are #[inline(always)]: inlined into `f`, which is inlined here, they
+    // are compiled with AVX2 enabled.
+    f()
+}
+
+/// Run `f` with the kernel variant `isa` (the baseline when the CPU lacks it). The closure must be
+/// the whole row loop, so that the core's inlined kernels are compiled inside it.
+#[inline(always)]
+pub fn dispatch<R>(isa: Isa, f: impl FnOnce() -> R) -> R {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
+            // SAFETY: the CPU supports AVX2 (checked just above), the only requirement of a
+            // `#[target_feature(enable = "avx2")]` function.
+            unsafe { in_avx2(f) }
+        }
+        _ => f(),
+    }
 }
 
 struct RowsOut<'a> {
@@ -87,15 +98,7 @@ fn rows_generic<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize
 }
 
 fn rows_dispatch<P: Sample>(isa: Isa, d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
-    match isa {
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
-            // SAFETY: the CPU supports AVX2 (checked just above), the only requirement of a
-            // `#[target_feature(enable = "avx2")]` function.
-            unsafe { rows_avx2(d, frames, width, y0, out) }
-        }
-        _ => rows_baseline(d, frames, width, y0, out),
-    }
+    dispatch(isa, move || rows_generic(d, frames, width, y0, out))
 }
 
 /// Rows per parallel task: enough to amortise scheduling, small enough to balance two cores.

@@ -5,6 +5,7 @@
 //! ([`ReferenceMap`]), exactly as [`Reconstructor::reconstruct_frame`] and the streaming head do,
 //! so the points are bit-identical whatever the thread count.
 
+use crate::batch::{Isa, dispatch};
 use crate::io::calibration::{Calibration, CameraModel as CameraFile};
 use crate::io::image::{Pixels, read_gray};
 use fringe3d_core::camera::{CameraModel, Distortion, Intrinsics};
@@ -128,8 +129,14 @@ impl ScanCalibration {
     }
 
     /// Reconstruct a whole phase map (`width × height`, with its validity codes), rows in
-    /// parallel when `parallel`. Bit-identical either way.
+    /// parallel when `parallel`, with the best kernel variant of this CPU. Bit-identical either way.
     pub fn reconstruct(&self, phase: &[f32], validity: &[u8], parallel: bool) -> Result<PointCloud, ScanError> {
+        self.reconstruct_with(phase, validity, parallel, Isa::detect())
+    }
+
+    /// [`ScanCalibration::reconstruct`] with a chosen kernel variant (for benchmarks and parity
+    /// tests).
+    pub fn reconstruct_with(&self, phase: &[f32], validity: &[u8], parallel: bool, isa: Isa) -> Result<PointCloud, ScanError> {
         let (w, h) = (self.width(), self.height());
         if phase.len() != w * h || validity.len() != w * h {
             return Err(ScanError::Size { what: "phase map".into(), got_w: phase.len() / h.max(1), got_h: h, w, h });
@@ -141,11 +148,19 @@ impl ScanCalibration {
             .map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reference map: {e}") })?;
         let mut xyz = vec![0.0f32; 3 * w * h];
         let mut out_v = vec![0u8; w * h];
-        let job = |(v, (o, ov)): (usize, (&mut [f32], &mut [u8]))| {
-            let r = v * w..(v + 1) * w;
-            self.recon.reconstruct_row(&map, v as u32, &phase[r.clone()], &validity[r], o, ov)
+        // Tasks of 16 rows, each run through the kernel variant `isa`.
+        const ROWS: usize = 16;
+        let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| {
+            dispatch(isa, || -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
+                for (j, (o, ov)) in o.chunks_mut(3 * w).zip(ov.chunks_mut(w)).enumerate() {
+                    let v = k * ROWS + j;
+                    let r = v * w..(v + 1) * w;
+                    self.recon.reconstruct_row(&map, v as u32, &phase[r.clone()], &validity[r], o, ov)?;
+                }
+                Ok(())
+            })
         };
-        let rows = xyz.chunks_mut(3 * w).zip(out_v.chunks_mut(w)).enumerate();
+        let rows = xyz.chunks_mut(3 * w * ROWS).zip(out_v.chunks_mut(w * ROWS)).enumerate();
         let res: Result<(), _> = if parallel { rows.par_bridge().try_for_each(job) } else { rows.map(job).collect() };
         res.map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reconstruction: {e}") })?;
         Ok(PointCloud { width: w, height: h, xyz, validity: out_v })

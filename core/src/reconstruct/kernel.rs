@@ -24,7 +24,13 @@ pub(crate) struct RefRows<'a> {
 
 impl<'a> RefRows<'a> {
     pub(crate) fn new(data: &'a [f32], first: i64, last_image_row: i64) -> Self {
-        RefRows { data, offs: [u32::MAX; MAX_BAND_ROWS], first, last_image_row, len: 0 }
+        RefRows {
+            data,
+            offs: [u32::MAX; MAX_BAND_ROWS],
+            first,
+            last_image_row,
+            len: 0,
+        }
     }
 
     pub(crate) fn set(&mut self, k: usize, offset: usize) {
@@ -65,9 +71,8 @@ fn floor_small(x: f32) -> f32 {
 /// Branch-free f32 arithmetic, so a loop over lanes vectorizes.
 #[inline(always)]
 fn cell(du: f32, dv: f32, u: f32, v: f32, gr: &Grid) -> (f32, f32, f32, f32, bool) {
-    let fin = fabs(du) < 1.0e6 && fabs(dv) < 1.0e6;
-    let du = if fin { du } else { 0.0 };
-    let dv = if fin { dv } else { 0.0 };
+    // NaN, infinite or huge offsets fail the range tests below (floor_small is only exact below
+    // 2²², but such offsets land far outside the image or band anyway).
     let iu = floor_small(du);
     let iv = floor_small(dv);
     let fu0 = du - iu;
@@ -81,7 +86,12 @@ fn cell(du: f32, dv: f32, u: f32, v: f32, gr: &Grid) -> (f32, f32, f32, f32, boo
     let row = if ev { row0 - 1.0 } else { row0 };
     let fv = if ev { fv0 + 1.0 } else { fv0 };
     let k = row - gr.first;
-    let ok = fin & (col >= 0.0) & (col + 1.0 < gr.w) & (fu <= 1.0) & (fv <= 1.0) & (k >= 0.0) & (k + 1.0 < gr.band_len);
+    let ok = (col >= 0.0)
+        & (col + 1.0 < gr.w)
+        & (fu <= 1.0)
+        & (fv <= 1.0)
+        & (k >= 0.0)
+        & (k + 1.0 < gr.band_len);
     (k, col, fu, fv, ok)
 }
 
@@ -105,9 +115,10 @@ fn load(rr: &RefRows<'_>, k: u32, col: u32, ok: bool) -> [f32; 4] {
     let (Some(&o0), Some(&o1)) = (rr.offs.get(k), rr.offs.get(k + 1)) else {
         return NAN4;
     };
-    let i0 = o0 as usize + col;
-    let i1 = o1 as usize + col;
-    match (rr.data.get(i0..i0 + 2), rr.data.get(i1..i1 + 2)) {
+    let i0 = (o0 as usize).saturating_add(col);
+    let i1 = (o1 as usize).saturating_add(col);
+    let pair = |i: usize| rr.data.get(i..).and_then(|r| r.get(..2));
+    match (pair(i0), pair(i1)) {
         (Some(a), Some(b)) if o0 != u32::MAX && o1 != u32::MAX => [a[0], a[1], b[0], b[1]],
         _ => NAN4,
     }
@@ -133,7 +144,17 @@ struct Grid {
 
 /// One full sample (scalar): offset → cell → loads → interpolation.
 #[inline(always)]
-fn sample(c: &Consts, rr: &RefRows<'_>, gr: &Grid, l: Lane, u: f32, v: f32, t: f32, phi: f32) -> f32 {
+#[allow(clippy::too_many_arguments)]
+fn sample(
+    c: &Consts,
+    rr: &RefRows<'_>,
+    gr: &Grid,
+    l: Lane,
+    u: f32,
+    v: f32,
+    t: f32,
+    phi: f32,
+) -> f32 {
     let (du, dv) = offset(c, l, t);
     let (k, col, fu, fv, ok) = cell(du, dv, u, v, gr);
     interp(load(rr, small_int(k), small_int(col), ok), fu, fv, phi)
@@ -190,14 +211,11 @@ fn clamp(t: f32, lo: f32, hi: f32) -> f32 {
 fn slope(s: f32, t0: f32, g0: f32, t1: f32, g1: f32, dp2: f32) -> f32 {
     let dt = t1 - t0;
     let sec = (g1 - g0) / dt;
-    let ok = (dt * dt * dp2 >= MIN_SECANT_PX * MIN_SECANT_PX) & (fabs(sec) < f32::INFINITY) & (sec != 0.0);
+    let ok = (dt * dt * dp2 >= MIN_SECANT_PX * MIN_SECANT_PX)
+        & (fabs(sec) < f32::INFINITY)
+        & (sec != 0.0);
     if ok { sec } else { s }
 }
-
-#[doc(hidden)]
-pub static REASONS: [core::sync::atomic::AtomicUsize; 5] = [const { core::sync::atomic::AtomicUsize::new(0) }; 5];
-#[doc(hidden)]
-pub static FALLBACKS: core::sync::atomic::AtomicUsize = core::sync::atomic::AtomicUsize::new(0);
 
 /// Smallest separation (pixels) of two samples whose secant slope is trusted.
 const MIN_SECANT_PX: f32 = 1e-4;
@@ -209,7 +227,11 @@ fn depth(c: &Consts, a: f32, t: f32) -> f32 {
 }
 
 /// Reconstruct one row (see [`Reconstructor::reconstruct_row`]); lengths are checked by the caller.
+/// Always inlined, like everything it calls on the fast path, so that a caller compiled with more
+/// SIMD features (a host `#[target_feature(enable = "avx2")]` wrapper) vectorizes it wider; the
+/// operations, and so the bits, are the same.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub(crate) fn row(
     r: &Reconstructor,
     rr: &RefRows<'_>,
@@ -228,7 +250,9 @@ pub(crate) fn row(
     let mut c0 = 0;
     while c0 < w {
         let n = (w - c0).min(LANES);
-        let cr = crossings.as_deref_mut().and_then(|c| c.get_mut(2 * c0..2 * (c0 + n)));
+        let cr = crossings
+            .as_deref_mut()
+            .and_then(|c| c.get_mut(2 * c0..2 * (c0 + n)));
         chunk(
             r,
             rr,
@@ -245,17 +269,139 @@ pub(crate) fn row(
     }
 }
 
+/// Structure-of-arrays per-pixel quantities of a chunk.
+struct Lanes {
+    x: [f32; LANES],
+    y: [f32; LANES],
+    r2: [f32; LANES],
+    rad: [f32; LANES],
+    ex: [f32; LANES],
+    ey: [f32; LANES],
+}
+
+impl Lanes {
+    #[inline(always)]
+    fn get(&self, i: usize) -> Lane {
+        Lane {
+            x: self.x[i],
+            y: self.y[i],
+            r2: self.r2[i],
+            rad: self.rad[i],
+            ex: self.ex[i],
+            ey: self.ey[i],
+        }
+    }
+}
+
+/// Vector pass: sample offsets and cells for parameters `t`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn pass_cells(
+    c: &Consts,
+    l: &Lanes,
+    t: &[f32; LANES],
+    u0: f32,
+    v: f32,
+    gr: &Grid,
+    kk: &mut [u32; LANES],
+    cc: &mut [u32; LANES],
+    fu: &mut [f32; LANES],
+    fv: &mut [f32; LANES],
+    ok: &mut [bool; LANES],
+) {
+    for i in 0..LANES {
+        let (du, dv) = offset(c, l.get(i), t[i]);
+        let (kr, col, f_u, f_v, o) = cell(du, dv, u0 + i as f32, v, gr);
+        kk[i] = small_int(kr);
+        cc[i] = small_int(col);
+        fu[i] = f_u;
+        fv[i] = f_v;
+        ok[i] = o;
+    }
+}
+
+/// Gather pass: the four samples of every lane's cell (NaN where `ok` is false). Branch-free:
+/// indices are clamped into the storage so the loads need no early exit (the clamps never bind for
+/// a lane with `ok`, whose band row and column were checked), which lets a wide target use
+/// hardware gathers.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn pass_load(
+    rr: &RefRows<'_>,
+    kk: &[u32; LANES],
+    cc: &[u32; LANES],
+    ok: &[bool; LANES],
+    qa: &mut [f32; LANES],
+    qb: &mut [f32; LANES],
+    qc: &mut [f32; LANES],
+    qd: &mut [f32; LANES],
+) {
+    let data = rr.data;
+    if data.len() < 2 {
+        *qa = [CANONICAL_NAN; LANES];
+        *qb = [CANONICAL_NAN; LANES];
+        *qc = [CANONICAL_NAN; LANES];
+        *qd = [CANONICAL_NAN; LANES];
+        return;
+    }
+    let last = data.len() - 2;
+    for i in 0..LANES {
+        let k = if ok[i] { kk[i] as usize } else { 0 }.min(MAX_BAND_ROWS - 2);
+        let col = cc[i] as usize;
+        let i0 = (rr.offs[k] as usize).saturating_add(col).min(last);
+        let i1 = (rr.offs[k + 1] as usize).saturating_add(col).min(last);
+        let (a, b, c1, d) = (data[i0], data[i0 + 1], data[i1], data[i1 + 1]);
+        qa[i] = if ok[i] { a } else { CANONICAL_NAN };
+        qb[i] = if ok[i] { b } else { CANONICAL_NAN };
+        qc[i] = if ok[i] { c1 } else { CANONICAL_NAN };
+        qd[i] = if ok[i] { d } else { CANONICAL_NAN };
+    }
+}
+
+/// Vector pass: interpolate the loaded cells, then the secant update `t_next`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn pass_update(
+    q: [&[f32; LANES]; 4],
+    fu: &[f32; LANES],
+    fv: &[f32; LANES],
+    phi: &[f32; LANES],
+    t_prev: &[f32; LANES],
+    g_prev: &[f32; LANES],
+    t_cur: &[f32; LANES],
+    dp2: &[f32; LANES],
+    bounds: (&[f32; LANES], &[f32; LANES], bool),
+    sl: &mut [f32; LANES],
+    g_cur: &mut [f32; LANES],
+    t_next: &mut [f32; LANES],
+) {
+    let (tlo, thi, clamped) = bounds;
+    for i in 0..LANES {
+        let gk = interp([q[0][i], q[1][i], q[2][i], q[3][i]], fu[i], fv[i], phi[i]);
+        g_cur[i] = gk;
+        let si = slope(sl[i], t_prev[i], g_prev[i], t_cur[i], gk, dp2[i]);
+        sl[i] = si;
+        let tn = t_cur[i] - gk / si;
+        t_next[i] = if clamped {
+            clamp(tn, tlo[i], thi[i])
+        } else {
+            tn
+        };
+    }
+}
+
 /// A window of `LANES + 2` samples of row `row` around columns `c0 − 1 ..= c0 + LANES`, linearly
 /// extrapolated one column past each image edge (so a central difference there is one-sided); NaN
 /// further out or where the row is missing.
 #[inline(always)]
 fn window(row: &[f32], c0: usize, w: usize) -> [f32; LANES + 2] {
     let mut out = [CANONICAL_NAN; LANES + 2];
-    if c0 >= 1 && c0 + LANES + 1 <= w {
-        if let Some(src) = row.get(c0 - 1..c0 + LANES + 1) {
-            out.copy_from_slice(src);
-            return out;
-        }
+    if c0 >= 1
+        && c0 + LANES < w
+        && let Some(src) = row.get(c0 - 1..c0 + LANES + 1)
+    {
+        out.copy_from_slice(src);
+        return out;
     }
     let at = |k: usize| row.get(k).copied().unwrap_or(CANONICAL_NAN);
     for (j, o) in out.iter_mut().enumerate() {
@@ -274,7 +420,7 @@ fn window(row: &[f32], c0: usize, w: usize) -> [f32; LANES + 2] {
 }
 
 #[allow(clippy::too_many_arguments)]
-#[inline(never)]
+#[inline(always)]
 fn chunk(
     r: &Reconstructor,
     rr: &RefRows<'_>,
@@ -287,7 +433,6 @@ fn chunk(
     out_validity: &mut [u8],
     crossings: Option<&mut [f32]>,
 ) {
-    const E: usize = SECANT_EVALS;
     let c = *r.consts();
     let n = phase.len().min(LANES);
     let wu = r.width();
@@ -309,40 +454,65 @@ fn chunk(
         _ => None,
     };
     let ka = knot(kn);
-    let (ka, kb) = (ka.unwrap_or([CANONICAL_NAN; 2]), knot(kn + 1).or(ka).unwrap_or([CANONICAL_NAN; 2]));
-    r.camera().undistort_span_from_knots_f32(v, c0, ka, kb, &mut x, &mut y);
+    let (ka, kb) = (
+        ka.unwrap_or([CANONICAL_NAN; 2]),
+        knot(kn + 1).or(ka).unwrap_or([CANONICAL_NAN; 2]),
+    );
+    r.camera()
+        .undistort_span_from_knots_f32(v, c0, ka, kb, &mut x, &mut y);
 
-    // Input validity (scalar: codes).
+    // Input validity: a pixel is active when marked Valid with a finite phase; other known codes
+    // are kept, anything else becomes PhaseOutOfRange.
     let mut phi = [0f32; LANES];
     let mut active = [false; LANES];
     let mut code = [Validity::PhaseOutOfRange as u8; LANES];
-    for i in 0..n {
-        let q = validity[i];
-        let p = phase[i];
-        if q == Validity::Valid as u8 && p.is_finite() {
-            active[i] = true;
-            phi[i] = p;
-            code[i] = Validity::Valid as u8;
-        } else if let Some(vq) = Validity::from_u8(q) {
-            if !vq.is_valid() {
-                code[i] = q;
-            }
-        }
+    for ((((p_, a_), c_), &q), &p) in phi
+        .iter_mut()
+        .zip(&mut active)
+        .zip(&mut code)
+        .zip(validity)
+        .zip(phase)
+    {
+        let act = (q == Validity::Valid as u8) & (fabs(p) < f32::INFINITY);
+        let keep = act | (((q as usize) < Validity::ALL.len()) & (q != Validity::Valid as u8));
+        *a_ = act;
+        *p_ = if act { p } else { 0.0 };
+        *c_ = if keep {
+            q
+        } else {
+            Validity::PhaseOutOfRange as u8
+        };
     }
 
     // Pass 1 (vector): per-pixel geometry, the sample at the pixel itself, the slope there, and
     // the first step.
     let rv = window(rr.get(vi as i64), c0, wu);
-    let up = if vi == 0 { [CANONICAL_NAN; LANES + 2] } else { window(rr.get(vi as i64 - 1), c0, wu) };
-    let dn = if vi as i64 == rr.last_image_row { [CANONICAL_NAN; LANES + 2] } else { window(rr.get(vi as i64 + 1), c0, wu) };
+    let up = if vi == 0 {
+        [CANONICAL_NAN; LANES + 2]
+    } else {
+        window(rr.get(vi as i64 - 1), c0, wu)
+    };
+    let dn = if vi as i64 == rr.last_image_row {
+        [CANONICAL_NAN; LANES + 2]
+    } else {
+        window(rr.get(vi as i64 + 1), c0, wu)
+    };
     let mut a = [0f32; LANES];
-    let mut lane = [Lane { x: 0.0, y: 0.0, r2: 0.0, rad: 0.0, ex: 0.0, ey: 0.0 }; LANES];
+    let mut lane = Lanes {
+        x: [0.0; LANES],
+        y: [0.0; LANES],
+        r2: [0.0; LANES],
+        rad: [0.0; LANES],
+        ex: [0.0; LANES],
+        ey: [0.0; LANES],
+    };
     let mut tlo = [0f32; LANES];
     let mut thi = [0f32; LANES];
     let mut dp2 = [0f32; LANES];
     let mut sl = [0f32; LANES];
-    let mut t = [[0f32; LANES]; E + 2];
-    let mut g = [[0f32; LANES]; E + 1];
+    let t0 = [0f32; LANES];
+    let mut t1 = [0f32; LANES];
+    let mut g0 = [0f32; LANES];
     {
         let [k1, k2, p1, p2, k3] = c.k;
         for i in 0..LANES {
@@ -361,7 +531,12 @@ fn chunk(
             thi[i] = hi;
             let rr2 = xi * xi + yi * yi;
             let radial = 1.0 + rr2 * (k1 + rr2 * (k2 + rr2 * k3));
-            lane[i] = Lane { x: xi, y: yi, r2: rr2, rad: radial, ex: exi, ey: eyi };
+            lane.x[i] = xi;
+            lane.y[i] = yi;
+            lane.r2[i] = rr2;
+            lane.rad[i] = radial;
+            lane.ex[i] = exi;
+            lane.ey[i] = eyi;
             // Jacobian of eq 3 at m applied to e, then eq 4: pixels per unit t.
             let dr = k1 + rr2 * (2.0 * k2 + rr2 * (3.0 * k3));
             let xy = xi * yi;
@@ -374,19 +549,25 @@ fn chunk(
             let dpv = c.fy * jy;
             dp2[i] = dpu * dpu + dpv * dpv;
             // Reference at the pixel (t = 0) and its gradient (central differences).
-            let g0 = rv[i + 1] - phi[i];
+            let g0_ = rv[i + 1] - phi[i];
             let gu = (rv[i + 2] - rv[i]) * 0.5;
             let gv = (dn[i + 1] - up[i + 1]) * 0.5;
             let gv = if vi == 0 { dn[i + 1] - rv[i + 1] } else { gv };
-            let gv = if vi as i64 == rr.last_image_row { rv[i + 1] - up[i + 1] } else { gv };
+            let gv = if vi as i64 == rr.last_image_row {
+                rv[i + 1] - up[i + 1]
+            } else {
+                gv
+            };
             let s0 = gu * dpu + gv * dpv;
-            g[0][i] = g0;
+            g0[i] = g0_;
             sl[i] = s0;
-            t[1][i] = clamp(-g0 / s0, lo, hi);
+            t1[i] = clamp(-g0_ / s0, lo, hi);
         }
     }
 
-    // Fast path: E interpolated evaluations, secant steps in between.
+    // Fast path: two interpolated evaluations, secant steps in between (SECANT_EVALS = 2;
+    // distinct arrays per step so that the passes vectorize).
+    const _: () = assert!(SECANT_EVALS == 2);
     let mut kk = [0u32; LANES];
     let mut cc = [0u32; LANES];
     let mut fu = [0f32; LANES];
@@ -396,32 +577,52 @@ fn chunk(
     let mut qb = [0f32; LANES];
     let mut qc = [0f32; LANES];
     let mut qd = [0f32; LANES];
-    for k in 1..=E {
-        for i in 0..LANES {
-            let (du, dv) = offset(&c, lane[i], t[k][i]);
-            let (kr, col, f_u, f_v, ok) = cell(du, dv, u0 + i as f32, vf, &gr);
-            kk[i] = small_int(kr);
-            cc[i] = small_int(col);
-            fu[i] = f_u;
-            fv[i] = f_v;
-            okc[i] = ok & active[i];
-        }
-        for i in 0..LANES {
-            let [a_, b_, c_, d_] = load(rr, kk[i], cc[i], okc[i]);
-            qa[i] = a_;
-            qb[i] = b_;
-            qc[i] = c_;
-            qd[i] = d_;
-        }
-        for i in 0..LANES {
-            let gk = interp([qa[i], qb[i], qc[i], qd[i]], fu[i], fv[i], phi[i]);
-            g[k][i] = gk;
-            let si = slope(sl[i], t[k - 1][i], g[k - 1][i], t[k][i], gk, dp2[i]);
-            sl[i] = si;
-            let tn = t[k][i] - gk / si;
-            t[k + 1][i] = if k < E { clamp(tn, tlo[i], thi[i]) } else { tn };
-        }
+    let mut g1 = [0f32; LANES];
+    let mut g2 = [0f32; LANES];
+    let mut t2 = [0f32; LANES];
+    let mut t3 = [0f32; LANES];
+    pass_cells(
+        &c, &lane, &t1, u0, vf, &gr, &mut kk, &mut cc, &mut fu, &mut fv, &mut okc,
+    );
+    for i in 0..LANES {
+        okc[i] &= active[i];
     }
+    pass_load(rr, &kk, &cc, &okc, &mut qa, &mut qb, &mut qc, &mut qd);
+    pass_update(
+        [&qa, &qb, &qc, &qd],
+        &fu,
+        &fv,
+        &phi,
+        &t0,
+        &g0,
+        &t1,
+        &dp2,
+        (&tlo, &thi, true),
+        &mut sl,
+        &mut g1,
+        &mut t2,
+    );
+    pass_cells(
+        &c, &lane, &t2, u0, vf, &gr, &mut kk, &mut cc, &mut fu, &mut fv, &mut okc,
+    );
+    for i in 0..LANES {
+        okc[i] &= active[i];
+    }
+    pass_load(rr, &kk, &cc, &okc, &mut qa, &mut qb, &mut qc, &mut qd);
+    pass_update(
+        [&qa, &qb, &qc, &qd],
+        &fu,
+        &fv,
+        &phi,
+        &t1,
+        &g1,
+        &t2,
+        &dp2,
+        (&tlo, &thi, false),
+        &mut sl,
+        &mut g2,
+        &mut t3,
+    );
 
     // Acceptance (vector).
     let mut tfin = [0f32; LANES];
@@ -430,10 +631,13 @@ fn chunk(
         let la = ACCEPT_LAST_STEP_PX * ACCEPT_LAST_STEP_PX;
         let lb = ACCEPT_STEP_PRODUCT_PX2;
         for i in 0..LANES {
-            let s1 = t[E + 1][i] - t[E][i];
-            let s2 = t[E][i] - t[E - 1][i];
-            let tf = t[E + 1][i];
-            ok[i] = (s1 * s1 * dp2[i] <= la) & (fabs(s1 * s2) * dp2[i] <= lb) & (tf >= tlo[i]) & (tf <= thi[i]);
+            let s1 = t3[i] - t2[i];
+            let s2 = t2[i] - t1[i];
+            let tf = t3[i];
+            ok[i] = (s1 * s1 * dp2[i] <= la)
+                & (fabs(s1 * s2) * dp2[i] <= lb)
+                & (tf >= tlo[i])
+                & (tf <= thi[i]);
             tfin[i] = tf;
         }
     }
@@ -444,11 +648,11 @@ fn chunk(
         if !active[i] || ok[i] {
             continue;
         }
-        let l = lane[i];
+        let l = lane.get(i);
         let ui = u0 + i as f32;
         let eval = |tt: f32| sample(&c, rr, &gr, l, ui, vf, tt, phi[i]);
         // Stage 2: one more secant step from the last two points (slow convergence, far crossing).
-        let (tp, gp, tc) = (t[E][i], g[E][i], t[E + 1][i]);
+        let (tp, gp, tc) = (t2[i], g2[i], t3[i]);
         if tc >= tlo[i] && tc <= thi[i] && gp.is_finite() {
             let gc = eval(tc);
             let sc = slope(sl[i], tp, gp, tc, gc, dp2[i]);
@@ -464,12 +668,17 @@ fn chunk(
                 continue;
             }
         }
-        FALLBACKS.fetch_add(1, core::sync::atomic::Ordering::Relaxed);
-        let mut known = [(0f32, CANONICAL_NAN); E + 1];
-        known[0] = if 0.0 >= tlo[i] && 0.0 <= thi[i] { (0.0, g[0][i]) } else { (0.0, CANONICAL_NAN) };
-        for k in 1..=E {
-            known[k] = (t[k][i], g[k][i]);
-        }
+        let at_pixel = if (tlo[i]..=thi[i]).contains(&0.0) {
+            g0[i]
+        } else {
+            CANONICAL_NAN
+        };
+        let known = [
+            (0.0, at_pixel),
+            (t1[i], g1[i]),
+            (t2[i], g2[i]),
+            (t3[i], CANONICAL_NAN),
+        ];
         match fallback(eval, tlo[i], thi[i], &known, bis) {
             Ok(tt) => {
                 tfin[i] = tt;
@@ -500,7 +709,11 @@ fn chunk(
         } else {
             Validity::Valid as u8
         };
-        xyz[i] = if gd { [si * x[i], si * y[i], si] } else { [CANONICAL_NAN; 3] };
+        xyz[i] = if gd {
+            [si * x[i], si * y[i], si]
+        } else {
+            [CANONICAL_NAN; 3]
+        };
     }
     for (o, p) in out_xyz.chunks_exact_mut(3).zip(&xyz[..n]) {
         o.copy_from_slice(p);
@@ -509,8 +722,8 @@ fn chunk(
     if let Some(cx) = crossings {
         for (i, o) in cx.chunks_exact_mut(2).enumerate().take(n) {
             if good[i] {
-                o[0] = x[i] + tfin[i] * lane[i].ex;
-                o[1] = y[i] + tfin[i] * lane[i].ey;
+                o[0] = x[i] + tfin[i] * lane.ex[i];
+                o[1] = y[i] + tfin[i] * lane.ey[i];
             } else {
                 o[0] = CANONICAL_NAN;
                 o[1] = CANONICAL_NAN;
@@ -539,39 +752,48 @@ fn fallback<F: Fn(f32) -> f32>(
         }
         (ta, ga, tb, gb) = (tlo, glo, thi, ghi);
     } else {
-        // The closest pair of valid samples of opposite sign brackets the crossing.
+        // With a monotonic phase, the valid samples below the phase lie on one side of those at or
+        // above it: the innermost pair brackets the crossing.
         let mut cands = [(0f32, CANONICAL_NAN); 8];
         cands[0] = (tlo, glo);
         cands[1] = (thi, ghi);
         for (dst, src) in cands[2..].iter_mut().zip(known) {
             *dst = *src;
         }
-        let mut best: Option<(f32, f32, f32, f32)> = None;
+        let (mut neg_lo, mut neg_hi) = ((f32::INFINITY, 0f32), (f32::NEG_INFINITY, 0f32));
+        let (mut pos_lo, mut pos_hi) = ((f32::INFINITY, 0f32), (f32::NEG_INFINITY, 0f32));
         let mut any = false;
-        for &(t0, g0) in &cands {
-            if !g0.is_finite() || !(t0 >= tlo && t0 <= thi) {
+        for &(tc, gc) in &cands {
+            if !gc.is_finite() || !(tlo..=thi).contains(&tc) {
                 continue;
             }
             any = true;
-            if g0 >= 0.0 {
-                continue;
+            let (lo, hi) = if gc < 0.0 {
+                (&mut neg_lo, &mut neg_hi)
+            } else {
+                (&mut pos_lo, &mut pos_hi)
+            };
+            if tc < lo.0 {
+                *lo = (tc, gc);
             }
-            for &(t1, g1) in &cands {
-                if !(g1 >= 0.0) || !(t1 >= tlo && t1 <= thi) {
-                    continue;
-                }
-                let better = match best {
-                    None => true,
-                    Some((bt0, _, bt1, _)) => fabs(t1 - t0) < fabs(bt1 - bt0),
-                };
-                if better {
-                    best = Some((t0, g0, t1, g1));
-                }
+            if tc > hi.0 {
+                *hi = (tc, gc);
             }
         }
-        match best {
-            Some(b) => (ta, ga, tb, gb) = b,
-            None => return Err(if any { Validity::NoCrossing } else { Validity::ReferenceInvalid }),
+        let have = neg_lo.0.is_finite() && pos_lo.0.is_finite();
+        if !have {
+            return Err(if any {
+                Validity::NoCrossing
+            } else {
+                Validity::ReferenceInvalid
+            });
+        }
+        if neg_hi.0 < pos_lo.0 {
+            (ta, ga, tb, gb) = (neg_hi.0, neg_hi.1, pos_lo.0, pos_lo.1);
+        } else if pos_hi.0 < neg_lo.0 {
+            (ta, ga, tb, gb) = (neg_lo.0, neg_lo.1, pos_hi.0, pos_hi.1);
+        } else {
+            return Err(Validity::NoCrossing); // not monotonic along the segment
         }
     }
     // Orient so that ga < 0 ≤ gb.
@@ -607,5 +829,9 @@ fn fallback<F: Fn(f32) -> f32>(
             (tb, gb) = (tm, gm);
         }
     }
-    if tm.is_finite() { Ok(tm) } else { Err(Validity::NoCrossing) }
+    if tm.is_finite() {
+        Ok(tm)
+    } else {
+        Err(Validity::NoCrossing)
+    }
 }

@@ -30,18 +30,23 @@
 //!
 //! # Search, with fixed iteration counts
 //! *Fast path*, for every pixel independently (so a row vectorizes and rows are independent):
-//! start at `t₀ = 0` (the pixel itself: the reference sample there needs no interpolation), take
-//! a first step with the slope of Φ_R at the pixel (central differences projected on the epipolar
-//! direction), then [`SECANT_EVALS`] secant steps, each clamped to the depth interval. A final
-//! secant step gives the answer; it is accepted if the last two steps were below
-//! [`ACCEPT_LAST_STEP_PX`] and [`ACCEPT_PREV_STEP_PX`] (the secant error is then ≤ ~1e-5 px for any
-//! phase whose slope changes by less than 0.1 % per pixel) and every sample was valid.
-//! *Fallback*, for the rare pixels the fast path does not settle (depth discontinuity so large
-//! that the crossing is far, invalid reference on the way, crossing out of the depth range): the
-//! ends of the depth interval are sampled; a phase outside them is [`Validity::OutOfDepth`];
-//! otherwise a bracket is bisected a fixed number of times (set up from the longest search
-//! segment) and polished by two regula-falsi steps and a secant step. The two paths are bounded,
-//! so the worst case per pixel is bounded.
+//! start at `t₀ = 0` (the pixel itself: the reference sample there needs no interpolation), take a
+//! first step with the slope of Φ_R at the pixel (central differences projected on the epipolar
+//! direction through the distortion Jacobian), then [`SECANT_EVALS`] (= 2) interpolated
+//! evaluations with secant steps between them, clamped to the depth interval. The secant slope is
+//! only trusted when its two points are ≥ 1e-4 px apart (closer points differ by f32 noise). The
+//! final, unevaluated secant step gives the answer; it is accepted if that step is below
+//! [`ACCEPT_LAST_STEP_PX`], the product of the last two steps is below [`ACCEPT_STEP_PRODUCT_PX2`]
+//! (the secant error is about `C·|last|·|previous|`, `C = Φ''/2Φ'` per pixel), it lies in the
+//! depth interval, and every sample was valid.
+//! *Stage 2*, for lanes the fast path did not settle (a far crossing on a curved phase): one more
+//! evaluation and secant step, same acceptance.
+//! *Fallback*, for the remaining few (invalid reference on the way, crossing outside the depth
+//! range or the image): the ends of the depth interval are sampled; a phase outside them is
+//! [`Validity::OutOfDepth`]; otherwise the closest valid bracket is bisected a fixed number of times
+//! ([`Reconstructor::fallback_bisections`], from the longest segment) and polished by two
+//! regula-falsi steps. Every stage has a fixed count, so the work per pixel is bounded
+//! (≤ 1 + 2 + 1 + 2 + bisections + 2 samples).
 //!
 //! Samples are taken in coordinates relative to the pixel: the distorted offset
 //! `D(m + t·e) − D(m)` is computed in a difference form that stays exact to f32 rounding of the
@@ -58,18 +63,31 @@
 //! bits.
 //!
 //! # Memory on the head
-//! For the default geometry (camera 1280 × 1024, f ≈ 1500 px, moderate barrel distortion,
-//! projector centre ≈ 200 mm to the side, reference plane ≈ 700 mm, volume 280 × 220 × 250 mm) the
-//! band is 8 rows above and 8 below (17 rows; measured by `reconstruct_default_geometry_band` in
-//! the tests): the ring needs 17 × 1280 × (4 + 1) B = 108 800 B (87 040 B of phase and 21 760 B of
-//! validity). Per row: the object phase row 5 120 B + validity 1 280 B, the output row
-//! 3 × 4 × 1280 = 15 360 B + 1 280 B. The [`Reconstructor`] itself is ≈ 200 B and holds no
-//! per-pixel table; the row kernel uses ≈ 5 KiB of stack (chunk of [`LANES`] pixels and the band's
-//! row table). Total ≈ 132 KiB of the 256 KiB SRAM.
+//! For the default geometry (camera 1280 × 1024, f ≈ 1500 px, moderate barrel distortion
+//! k1 = −0.12; projector centre (200, −10, 5) mm; reference plane ≈ 700 mm; volume
+//! 280 × 220 × 250 mm, z ∈ [575, 825] mm) the band is 7 rows above and 9 below (17 rows, measured by
+//! the `band_and_ring` test): the ring needs 17 × 1280 × (4 + 1) B = 108 800 B (87 040 B of phase,
+//! 21 760 B of validity). Per row in flight: object phase 5 120 B + validity 1 280 B, output
+//! 3 × 4 × 1280 = 15 360 B + 1 280 B (23 040 B). The [`Reconstructor`] is 336 B and holds no
+//! per-pixel table. The row kernel's stack is ≈ 12 KiB (the row's undistortion knots 4 KiB, the
+//! band's row table 2 KiB, one chunk of [`LANES`] pixels ≈ 5 KiB). Total ≈ 144 KiB of the
+//! 256 KiB SRAM. The band grows with the epipolar lines' bow (lens distortion) and tilt; a
+//! vertical baseline with horizontal fringes needs ≈ 170 rows (host only).
+//!
+//! [`Reconstructor::new`] samples the image on a 16-pixel grid in f64 (camera check and band
+//! analysis, ≈ 10⁴ inverses and 10⁵ projections): fast on a desktop, seconds in soft-float f64 on
+//! a Cortex-M4; run it where the calibration is made, or once at boot.
+//!
+//! # Speed
+//! The fast path is a fixed sequence of vectorizable passes over [`LANES`] pixels (geometry, two
+//! sample positions, bilinear gathers, secant updates, triangulation). Everything on it is
+//! `#[inline(always)]`, so a host may wrap [`Reconstructor::reconstruct_row`] in a
+//! `#[target_feature(enable = "avx2")]` function and get 8-wide code with the same bits (tested
+//! in the benchmark).
 
 mod kernel;
 
-pub use kernel::{FALLBACKS, LANES, MAX_BAND_ROWS, REASONS};
+pub use kernel::{LANES, MAX_BAND_ROWS};
 
 use crate::camera::CameraModel;
 use crate::geometry::{Plane, Vec3};
@@ -281,8 +299,12 @@ impl Reconstructor {
         if !(s.z_min > 0.0 && s.z_min < s.z_max) {
             return Err(ReconstructError::DepthRange);
         }
-        let plane = Plane::new(s.reference_point, s.reference_normal).ok_or(ReconstructError::ReferencePlane)?;
-        let mut n = plane.normal.normalized().ok_or(ReconstructError::ReferencePlane)?;
+        let plane = Plane::new(s.reference_point, s.reference_normal)
+            .ok_or(ReconstructError::ReferencePlane)?;
+        let mut n = plane
+            .normal
+            .normalized()
+            .ok_or(ReconstructError::ReferencePlane)?;
         let mut h_r = n.dot(plane.point);
         if h_r < 0.0 {
             n = n.scale(-1.0);
@@ -313,7 +335,13 @@ impl Reconstructor {
             sfx: (i.skew * i.fx) as f32,
             k: {
                 let d = camera.distortion();
-                [d.k1 as f32, d.k2 as f32, d.p1 as f32, d.p2 as f32, d.k3 as f32]
+                [
+                    d.k1 as f32,
+                    d.k2 as f32,
+                    d.p1 as f32,
+                    d.p2 as f32,
+                    d.k3 as f32,
+                ]
             },
         };
         let (band, max_segment_px) = analyse(camera, s, n, h_r, h)?;
@@ -322,12 +350,19 @@ impl Reconstructor {
         }
         // Bisection steps bringing the longest segment below a quarter pixel.
         let mut bisections = 0u32;
-        let mut len = max_segment_px as f64;
+        let mut len = max_segment_px;
         while len > 0.25 && bisections < 30 {
             len *= 0.5;
             bisections += 1;
         }
-        Ok(Reconstructor { cam: *camera, setup: *s, band, c, bisections, max_segment_px: max_segment_px as f32 })
+        Ok(Reconstructor {
+            cam: *camera,
+            setup: *s,
+            band,
+            c,
+            bisections,
+            max_segment_px: max_segment_px as f32,
+        })
     }
 
     /// The camera model.
@@ -367,13 +402,18 @@ impl Reconstructor {
 
     /// Bytes of a ring of `rows` rows for this image width: `rows × width × (4 + 1)`.
     pub fn ring_bytes(&self, rows: u32) -> usize {
-        rows as usize * self.width() * 5
+        (rows as usize)
+            .saturating_mul(self.width())
+            .saturating_mul(5)
     }
 
     /// Reference rows `first..=last` that row `v` reads (clipped to the image).
     pub fn rows_needed(&self, v: u32) -> (u32, u32) {
         let h = self.cam.height();
-        (v.saturating_sub(self.band.above), (v.saturating_add(self.band.below)).min(h - 1))
+        (
+            v.saturating_sub(self.band.above),
+            (v.saturating_add(self.band.below)).min(h - 1),
+        )
     }
 
     /// Reconstruct row `v` (paper §6): for each pixel `u`, the point M (x, y, z in mm, camera
@@ -385,6 +425,11 @@ impl Reconstructor {
     /// whose phase is not found gets [`Validity::NoCrossing`], [`Validity::OutOfDepth`],
     /// [`Validity::ReferenceInvalid`] or [`Validity::Degenerate`]. Every invalid pixel's point is
     /// the canonical NaN. `reference` must hold the rows [`Reconstructor::rows_needed`] returns.
+    ///
+    /// Always inlined with its kernel: a host may call it from a `#[target_feature(enable =
+    /// "avx2")]` function to get 8-wide vectors; the results are the same bits (no FMA is enabled
+    /// or contracted).
+    #[inline(always)]
     pub fn reconstruct_row<R: ReferenceRows + ?Sized>(
         &self,
         reference: &R,
@@ -394,7 +439,15 @@ impl Reconstructor {
         out_xyz: &mut [f32],
         out_validity: &mut [u8],
     ) -> Result<(), ReconstructError> {
-        self.row_impl(reference, v, phase_row, validity_row, out_xyz, out_validity, None)
+        self.row_impl(
+            reference,
+            v,
+            phase_row,
+            validity_row,
+            out_xyz,
+            out_validity,
+            None,
+        )
     }
 
     /// [`Reconstructor::reconstruct_row`], also writing each pixel's crossing N_I as ideal
@@ -414,7 +467,15 @@ impl Reconstructor {
         if crossings.len() != 2 * self.width() {
             return Err(ReconstructError::Length);
         }
-        self.row_impl(reference, v, phase_row, validity_row, out_xyz, out_validity, Some(crossings))
+        self.row_impl(
+            reference,
+            v,
+            phase_row,
+            validity_row,
+            out_xyz,
+            out_validity,
+            Some(crossings),
+        )
     }
 
     /// Whole-frame batch: [`Reconstructor::reconstruct_row`] for every row, with the whole
@@ -430,13 +491,18 @@ impl Reconstructor {
     ) -> Result<(), ReconstructError> {
         let w = self.width();
         let n = w * self.height();
-        if phase.len() != n || validity.len() != n || out_xyz.len() != 3 * n || out_validity.len() != n {
+        if phase.len() != n
+            || validity.len() != n
+            || out_xyz.len() != 3 * n
+            || out_validity.len() != n
+        {
             return Err(ReconstructError::Length);
         }
-        let rows = phase
-            .chunks_exact(w)
-            .zip(validity.chunks_exact(w))
-            .zip(out_xyz.chunks_exact_mut(3 * w).zip(out_validity.chunks_exact_mut(w)));
+        let rows = phase.chunks_exact(w).zip(validity.chunks_exact(w)).zip(
+            out_xyz
+                .chunks_exact_mut(3 * w)
+                .zip(out_validity.chunks_exact_mut(w)),
+        );
         for (v, ((p, q), (o, ov))) in rows.enumerate() {
             self.reconstruct_row(reference, v as u32, p, q, o, ov)?;
         }
@@ -444,6 +510,7 @@ impl Reconstructor {
     }
 
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn row_impl<R: ReferenceRows + ?Sized>(
         &self,
         reference: &R,
@@ -458,7 +525,11 @@ impl Reconstructor {
         if v >= self.cam.height() {
             return Err(ReconstructError::Row);
         }
-        if phase_row.len() != w || validity_row.len() != w || out_xyz.len() != 3 * w || out_validity.len() != w {
+        if phase_row.len() != w
+            || validity_row.len() != w
+            || out_xyz.len() != 3 * w
+            || out_validity.len() != w
+        {
             return Err(ReconstructError::Length);
         }
         if reference.width() != w || reference.height() != self.height() {
@@ -474,13 +545,24 @@ impl Reconstructor {
         let data = reference.storage();
         let mut table = kernel::RefRows::new(data, first as i64, self.cam.height() as i64 - 1);
         for r in first..=last {
-            let off = reference.row_offset(r).ok_or(ReconstructError::NotResident { row: r })?;
+            let off = reference
+                .row_offset(r)
+                .ok_or(ReconstructError::NotResident { row: r })?;
             if data.get(off..off + w).is_none() {
                 return Err(ReconstructError::BufferTooSmall);
             }
             table.set((r - first) as usize, off);
         }
-        kernel::row(self, &table, v, phase_row, validity_row, out_xyz, out_validity, crossings);
+        kernel::row(
+            self,
+            &table,
+            v,
+            phase_row,
+            validity_row,
+            out_xyz,
+            out_validity,
+            crossings,
+        );
         Ok(())
     }
 
@@ -494,7 +576,13 @@ impl Reconstructor {
 }
 
 /// Walk the image on a grid: check the geometry and measure the band and the longest segment.
-fn analyse(cam: &CameraModel, s: &Setup, n: Vec3, h_r: f64, h: f64) -> Result<(Band, f64), ReconstructError> {
+fn analyse(
+    cam: &CameraModel,
+    s: &Setup,
+    n: Vec3,
+    h_r: f64,
+    h: f64,
+) -> Result<(Band, f64), ReconstructError> {
     let w = cam.width();
     let hgt = cam.height();
     let p = s.projector_centre;
@@ -502,7 +590,8 @@ fn analyse(cam: &CameraModel, s: &Setup, n: Vec3, h_r: f64, h: f64) -> Result<(B
     let mut above: i64 = 1;
     let mut below: i64 = 1;
     let mut max_len: f64 = 0.0;
-    let grid = |len: u32| (0..=len.div_ceil(SETUP_GRID)).map(move |k| (k * SETUP_GRID).min(len - 1));
+    let grid =
+        |len: u32| (0..=len.div_ceil(SETUP_GRID)).map(move |k| (k * SETUP_GRID).min(len - 1));
     for v in grid(hgt) {
         for u in grid(w) {
             let [x, y] = cam.pixel_to_normalized([u as f64, v as f64]);
@@ -526,7 +615,10 @@ fn analyse(cam: &CameraModel, s: &Setup, n: Vec3, h_r: f64, h: f64) -> Result<(B
                 let t = num / den;
                 // N_R must be in front of the camera: n·(N_I, 1) has the sign of h_R.
                 let nn = n.x * (x + t * ex) + n.y * (y + t * ey) + n.z;
-                if !(libm::fabs(den) > 1e-9 * (libm::fabs(num * p.z) + libm::fabs(h * z))) || !t.is_finite() || !(nn > 0.0) {
+                if !(libm::fabs(den) > 1e-9 * (libm::fabs(num * p.z) + libm::fabs(h * z)))
+                    || !t.is_finite()
+                    || !(nn > 0.0)
+                {
                     return Err(ReconstructError::ProjectorCentre);
                 }
                 ts[k] = t;
@@ -585,10 +677,19 @@ pub trait ReferenceRows {
 
 /// Copy a reference row into storage, replacing invalid or non-finite samples by the canonical NaN.
 fn encode_row(dst: &mut [f32], dst_validity: &mut [u8], phase: &[f32], validity: &[u8]) {
-    for (((d, dv), &p), &q) in dst.iter_mut().zip(dst_validity.iter_mut()).zip(phase).zip(validity) {
+    for (((d, dv), &p), &q) in dst
+        .iter_mut()
+        .zip(dst_validity.iter_mut())
+        .zip(phase)
+        .zip(validity)
+    {
         let ok = q == Validity::Valid as u8 && p.is_finite();
         *d = if ok { p } else { CANONICAL_NAN };
-        *dv = if ok || q != Validity::Valid as u8 { q } else { Validity::PhaseOutOfRange as u8 };
+        *dv = if ok || q != Validity::Valid as u8 {
+            q
+        } else {
+            Validity::PhaseOutOfRange as u8
+        };
     }
 }
 
@@ -611,22 +712,40 @@ impl<'a> ReferenceRing<'a> {
     /// Its capacity is `phase.len() / width` rows; fewer than the band needs is
     /// [`ReconstructError::BandTooSmall`]; a `validity` buffer shorter than the rows used is
     /// [`ReconstructError::BufferTooSmall`].
-    pub fn new(recon: &Reconstructor, phase: &'a mut [f32], validity: &'a mut [u8]) -> Result<Self, ReconstructError> {
+    pub fn new(
+        recon: &Reconstructor,
+        phase: &'a mut [f32],
+        validity: &'a mut [u8],
+    ) -> Result<Self, ReconstructError> {
         let width = recon.width();
         let height = recon.height();
         let capacity = (phase.len() / width).min(height) as u32;
         let needed = recon.band().rows().min(height as u32);
         if capacity < needed {
-            return Err(ReconstructError::BandTooSmall { needed, given: capacity });
+            return Err(ReconstructError::BandTooSmall {
+                needed,
+                given: capacity,
+            });
         }
         if validity.len() < capacity as usize * width {
             return Err(ReconstructError::BufferTooSmall);
         }
-        Ok(ReferenceRing { phase, validity, width, height, capacity, pushed: 0 })
+        Ok(ReferenceRing {
+            phase,
+            validity,
+            width,
+            height,
+            capacity,
+            pushed: 0,
+        })
     }
 
     /// Push the next reference row (row index [`ReferenceRing::rows_pushed`]).
-    pub fn push_row(&mut self, phase_row: &[f32], validity_row: &[u8]) -> Result<(), ReconstructError> {
+    pub fn push_row(
+        &mut self,
+        phase_row: &[f32],
+        validity_row: &[u8],
+    ) -> Result<(), ReconstructError> {
         if phase_row.len() != self.width || validity_row.len() != self.width {
             return Err(ReconstructError::Length);
         }
@@ -700,7 +819,12 @@ impl<'a> ReferenceMap<'a> {
     /// Prepare a `width × height` map in place: every sample whose validity is not `Valid` or whose
     /// phase is not finite becomes the canonical NaN (the encoding [`ReferenceRing::push_row`]
     /// applies), so the kernel sees the same values as when streaming.
-    pub fn prepare(phase: &'a mut [f32], validity: &[u8], width: usize, height: usize) -> Result<Self, ReconstructError> {
+    pub fn prepare(
+        phase: &'a mut [f32],
+        validity: &[u8],
+        width: usize,
+        height: usize,
+    ) -> Result<Self, ReconstructError> {
         let n = width.checked_mul(height).ok_or(ReconstructError::Length)?;
         if width == 0 || phase.len() != n || validity.len() != n {
             return Err(ReconstructError::Length);
@@ -710,7 +834,11 @@ impl<'a> ReferenceMap<'a> {
                 *p = CANONICAL_NAN;
             }
         }
-        Ok(ReferenceMap { phase, width, height })
+        Ok(ReferenceMap {
+            phase,
+            width,
+            height,
+        })
     }
 
     /// The prepared phase samples.
@@ -733,7 +861,11 @@ impl ReferenceRows for ReferenceMap<'_> {
         self.phase
     }
     fn row_offset(&self, r: u32) -> Option<usize> {
-        if (r as usize) < self.height { Some(r as usize * self.width) } else { None }
+        if (r as usize) < self.height {
+            Some(r as usize * self.width)
+        } else {
+            None
+        }
     }
 }
 

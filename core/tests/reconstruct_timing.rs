@@ -1,0 +1,140 @@
+//! Per-frame CPU time of the reconstruction (ignored by default; run with
+//! `cargo test --release -p fringe3d-core --test reconstruct_timing -- --ignored --nocapture`).
+//!
+//! Reports the thread's on-CPU time (Linux `/proc/thread-self/schedstat`) next to wall time, so
+//! that a busy machine does not inflate the numbers as much as criterion's wall clock. Same scene as
+//! `benches/reconstruct.rs`. Also checks that the AVX2 build of the kernel gives the same bits.
+// Integration tests are std: std f64 maths builds the scene.
+#![allow(clippy::disallowed_methods)]
+
+#[path = "reconstruct_support.rs"]
+mod support;
+
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
+use std::time::Instant;
+use support::*;
+
+fn cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
+}
+
+fn frame(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    phase: &[f32],
+    val: &[u8],
+    xyz: &mut [f32],
+    out: &mut [u8],
+) {
+    recon.reconstruct_frame(map, phase, val, xyz, out).unwrap();
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn frame_avx2(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    phase: &[f32],
+    val: &[u8],
+    xyz: &mut [f32],
+    out: &mut [u8],
+) {
+    let w = recon.width();
+    let rows = phase
+        .chunks_exact(w)
+        .zip(val.chunks_exact(w))
+        .zip(xyz.chunks_exact_mut(3 * w).zip(out.chunks_exact_mut(w)));
+    for (v, ((p, q), (o, ov))) in rows.enumerate() {
+        recon.reconstruct_row(map, v as u32, p, q, o, ov).unwrap();
+    }
+}
+
+#[test]
+#[ignore]
+fn frame_cpu_time() {
+    let rig = Rig::default_rig();
+    let reference = render_reference(&rig);
+    let surfaces = vec![
+        Surface::Sphere {
+            c: [-35.0, 25.0, 640.0],
+            r: 55.0,
+        },
+        Surface::Plane {
+            p: [0.0, 0.0, 700.0],
+            n: unit([0.25, 0.15, -1.0]),
+        },
+    ];
+    let bounds = Bounds {
+        min: [-1e9, -1e9, rig.z_range[0]],
+        max: [1e9, 1e9, rig.z_range[1]],
+    };
+    let object = render(&rig, &surfaces, bounds, 0..1024);
+    let recon = Reconstructor::new(&rig.cam.model(), &rig.setup()).unwrap();
+    let (w, h) = (1280, 1024);
+    let mut prep = reference.phase.clone();
+    let map = ReferenceMap::prepare(&mut prep, &reference.validity, w, h).unwrap();
+    let mut xyz = vec![0f32; 3 * w * h];
+    let mut val = vec![0u8; w * h];
+    let mut xyz2 = vec![0f32; 3 * w * h];
+    let mut val2 = vec![0u8; w * h];
+    let n = 10;
+    let mut best = [f64::MAX; 4];
+    for _ in 0..n {
+        let (t, c) = (Instant::now(), cpu_ns());
+        frame(
+            &recon,
+            &map,
+            &object.phase,
+            &object.validity,
+            &mut xyz,
+            &mut val,
+        );
+        let (wall, cpu) = (
+            t.elapsed().as_secs_f64() * 1e3,
+            cpu_ns().zip(c).map(|(a, b)| (a - b) as f64 * 1e-6),
+        );
+        best[0] = best[0].min(wall);
+        best[1] = best[1].min(cpu.unwrap_or(f64::NAN));
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            let (t, c) = (Instant::now(), cpu_ns());
+            // SAFETY: AVX2 was detected at run time.
+            unsafe {
+                frame_avx2(
+                    &recon,
+                    &map,
+                    &object.phase,
+                    &object.validity,
+                    &mut xyz2,
+                    &mut val2,
+                )
+            };
+            let (wall, cpu) = (
+                t.elapsed().as_secs_f64() * 1e3,
+                cpu_ns().zip(c).map(|(a, b)| (a - b) as f64 * 1e-6),
+            );
+            best[2] = best[2].min(wall);
+            best[3] = best[3].min(cpu.unwrap_or(f64::NAN));
+        }
+    }
+    let mpx = |ms: f64| (w * h) as f64 / ms / 1e3;
+    eprintln!(
+        "1280x1024, best of {n}: baseline {:.1} ms wall / {:.1} ms CPU ({:.1} Mpx/s CPU); avx2 {:.1} ms wall / {:.1} ms CPU ({:.1} Mpx/s CPU)",
+        best[0],
+        best[1],
+        mpx(best[1]),
+        best[2],
+        best[3],
+        mpx(best[3])
+    );
+    if best[2] < f64::MAX {
+        assert!(
+            val == val2
+                && xyz
+                    .iter()
+                    .zip(&xyz2)
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
+    }
+}
