@@ -22,10 +22,16 @@
 //! small stack state; the frame-sequential API ([`crate::sequential`]) runs `accumulate` over whole
 //! frames as they arrive into a caller buffer and `finish` at the end. The operations per pixel
 //! are the same, in the same order, so both give the same bits.
+//!
+//! # Arithmetic
+//! The kernel is generic over an [`Arith`] backend ([`crate::arith`]): f32 with the accurate
+//! polynomial `atan2` ([`F32Accurate`], the default, and what [`Decoder::new`] builds), fast f32,
+//! or fixed point for heads without an FPU. `Decoder::<A>::with_arith` builds any of them; all run
+//! this one kernel.
 
-use crate::math::{CANONICAL_NAN, atan2};
+use crate::arith::{Arith, F32Accurate, Limits, Plan};
+use crate::math::CANONICAL_NAN;
 use crate::pattern::{MAX_IMAGES, MAX_LEVELS, MAX_SHIFTS, PatternSet};
-use crate::unwrap::{consistent, unwrap_step};
 use crate::validity::Validity;
 
 /// Pixels per block of the row driver; the state of one block lives on the stack.
@@ -37,6 +43,11 @@ pub trait Sample: Copy {
     const MAX: f32;
     /// The value as f32 (exact: every u16 is representable).
     fn to_f32(self) -> f32;
+    /// The value as i32 (the fixed-point backend's input).
+    #[inline(always)]
+    fn to_i32(self) -> i32 {
+        self.to_f32() as i32
+    }
 }
 
 impl Sample for u8 {
@@ -45,6 +56,10 @@ impl Sample for u8 {
     fn to_f32(self) -> f32 {
         self as f32
     }
+    #[inline(always)]
+    fn to_i32(self) -> i32 {
+        self as i32
+    }
 }
 
 impl Sample for u16 {
@@ -52,6 +67,10 @@ impl Sample for u16 {
     #[inline(always)]
     fn to_f32(self) -> f32 {
         self as f32
+    }
+    #[inline(always)]
+    fn to_i32(self) -> i32 {
+        self as i32
     }
 }
 
@@ -243,25 +262,28 @@ impl core::fmt::Display for DecodeError {
 
 /// Per-image coefficients, in image order.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct ImageCoef {
+struct ImageCoef<K> {
     level: u8,
-    a: f32,
-    b: f32,
-    w: f32,
+    a: K,
+    b: K,
+    w: K,
+    /// `w` is non-zero: the image contributes to the DC accumulator.
+    use_w: bool,
 }
 
-/// A decoder for one pattern set: estimators, level ratios and thresholds, computed once.
+/// A decoder for one pattern set: estimators, level ratios and thresholds, computed once, in the
+/// number formats of the arithmetic `A` ([`crate::arith`]; the default is [`F32Accurate`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Decoder {
+pub struct Decoder<A: Arith = F32Accurate> {
     n_levels: usize,
     n_images: usize,
-    images: [ImageCoef; MAX_IMAGES],
-    a_dc: [f32; MAX_LEVELS],
-    b_dc: [f32; MAX_LEVELS],
+    images: [ImageCoef<A::Coef>; MAX_IMAGES],
+    a_dc: [A::Coef; MAX_LEVELS],
+    b_dc: [A::Coef; MAX_LEVELS],
     /// `c_k / c_{k−1}` for k ≥ 1 (entry 0 unused).
-    ratio: [f32; MAX_LEVELS],
-    coarse_lo: f32,
-    coarse_hi: f32,
+    ratio: [A::Ratio; MAX_LEVELS],
+    limits: Limits<A>,
+    format: A::Format,
     config: DecodeConfig,
 }
 
@@ -284,29 +306,47 @@ impl RowOut<'_> {
 }
 
 /// Borrowed per-pixel decoding state: one plane for the DC accumulator, two per level (S and C
-/// accumulators) and a flag byte. All planes have the same length.
-pub struct State<'a> {
+/// accumulators) and a flag byte. All planes have the same length. The element type is the
+/// backend's accumulator ([`Arith::Acc`]): f32 by default, i32 for [`crate::arith::Fixed`].
+pub struct State<'a, T = f32> {
     /// DC accumulator `Σ w_n·I_n` of the DC level.
-    pub dc: &'a mut [f32],
+    pub dc: &'a mut [T],
     /// S accumulators, one plane per level.
-    pub s: [&'a mut [f32]; MAX_LEVELS],
+    pub s: [&'a mut [T]; MAX_LEVELS],
     /// C accumulators, one plane per level.
-    pub c: [&'a mut [f32]; MAX_LEVELS],
+    pub c: [&'a mut [T]; MAX_LEVELS],
     /// Bit 0: some sample was saturated.
     pub flags: &'a mut [u8],
 }
 
-impl Decoder {
-    /// Build the decoder of `set` with thresholds `config`.
+impl Decoder<F32Accurate> {
+    /// Build the decoder of `set` with thresholds `config`, in the default arithmetic
+    /// ([`F32Accurate`]). See [`Decoder::with_arith`] for the others.
     pub fn new(set: &PatternSet, config: DecodeConfig) -> Result<Self, DecodeError> {
+        Self::with_arith(set, config)
+    }
+}
+
+/// An all-zero estimator (a placeholder for unused levels).
+const NO_ESTIMATOR: LevelEstimator = LevelEstimator { n: 0, a: [0.0; MAX_SHIFTS], b: [0.0; MAX_SHIFTS], w: [0.0; MAX_SHIFTS], a_dc: 0.0, b_dc: 0.0 };
+
+impl<A: Arith> Decoder<A> {
+    /// Build the decoder of `set` with thresholds `config` in the arithmetic `A`, e.g.
+    /// `Decoder::<Fixed>::with_arith(&set, config)`.
+    ///
+    /// Besides the errors of [`Decoder::new`], a backend may refuse a set its number formats cannot
+    /// hold ([`crate::arith::Fixed`]: a level whose absolute phase could exceed the fixed-point
+    /// range, or coefficients too large for the accumulators), as [`DecodeError::Degenerate`] of
+    /// that level.
+    pub fn with_arith(set: &PatternSet, config: DecodeConfig) -> Result<Self, DecodeError> {
         if !config.is_sane() {
             return Err(DecodeError::Config);
         }
         let levels = set.levels();
         let offset = set.effective_offset();
-        let mut est = [None; MAX_LEVELS];
+        let mut est = [NO_ESTIMATOR; MAX_LEVELS];
         for (i, l) in levels.iter().enumerate() {
-            est[i] = Some(level_estimator(l.shifts(), offset).ok_or(DecodeError::Degenerate(i as u8))?);
+            est[i] = level_estimator(l.shifts(), offset).ok_or(DecodeError::Degenerate(i as u8))?;
         }
         // The DC level: most shifts, finest on ties.
         let mut dc_level = None;
@@ -315,37 +355,49 @@ impl Decoder {
                 dc_level = Some(i);
             }
         }
+        let mut ratios = [1.0f64; MAX_LEVELS];
+        for i in 1..levels.len() {
+            ratios[i] = levels[i].scale() / levels[i - 1].scale();
+        }
+        let n_levels = levels.len();
+        let plan = Plan { levels: &est[..n_levels], dc_level, ratios: &ratios[..n_levels], coarse_range: set.coarse_range(), config: &config };
+        let format = A::format(&plan)?;
+        let zero = ImageCoef { level: 0, a: A::COEF_ZERO, b: A::COEF_ZERO, w: A::COEF_ZERO, use_w: false };
         let mut d = Decoder {
-            n_levels: levels.len(),
+            n_levels,
             n_images: set.image_count(),
-            images: [ImageCoef { level: 0, a: 0.0, b: 0.0, w: 0.0 }; MAX_IMAGES],
-            a_dc: [0.0; MAX_LEVELS],
-            b_dc: [0.0; MAX_LEVELS],
-            ratio: [1.0; MAX_LEVELS],
-            coarse_lo: set.coarse_range().0 as f32,
-            coarse_hi: set.coarse_range().1 as f32,
+            images: [zero; MAX_IMAGES],
+            a_dc: [A::COEF_ZERO; MAX_LEVELS],
+            b_dc: [A::COEF_ZERO; MAX_LEVELS],
+            ratio: [A::ratio(1.0, &format); MAX_LEVELS],
+            limits: A::limits(&plan, &format),
+            format,
             config,
         };
-        for (i, l) in levels.iter().enumerate() {
-            let e = est[i].ok_or(DecodeError::Degenerate(i as u8))?;
-            d.a_dc[i] = e.a_dc;
-            d.b_dc[i] = e.b_dc;
+        let mut coefs = [None; MAX_LEVELS];
+        for i in 0..n_levels {
+            let c = A::level_coefs(&plan, i, &format);
+            d.a_dc[i] = c.a_dc;
+            d.b_dc[i] = c.b_dc;
             if i > 0 {
-                d.ratio[i] = (l.scale() / levels[i - 1].scale()) as f32;
+                d.ratio[i] = A::ratio(ratios[i], &format);
             }
+            coefs[i] = Some(c);
         }
         for (k, id) in set.order().iter().enumerate() {
             let l = id.level as usize;
             let s = id.shift as usize;
-            let e = est[l].ok_or(DecodeError::Degenerate(id.level))?;
-            d.images[k] = ImageCoef {
-                level: id.level,
-                a: e.a[s],
-                b: e.b[s],
-                w: if dc_level == Some(l) { e.w[s] } else { 0.0 },
-            };
+            let c = coefs[l].ok_or(DecodeError::Degenerate(id.level))?;
+            let w = if dc_level == Some(l) { c.w[s] } else { A::COEF_ZERO };
+            d.images[k] = ImageCoef { level: id.level, a: c.a[s], b: c.b[s], w, use_w: !A::is_zero(w) };
         }
         Ok(d)
+    }
+
+    /// The run-time number format of the backend (e.g. the accumulator fraction bits of
+    /// [`crate::arith::Fixed`]; `()` for f32).
+    pub fn format(&self) -> &A::Format {
+        &self.format
     }
 
     /// The thresholds in use.
@@ -380,9 +432,9 @@ impl Decoder {
         while start < w {
             let end = if w - start > BLOCK { start + BLOCK } else { w };
             let n = end - start;
-            let mut st_dc = [0.0f32; BLOCK];
-            let mut st_s = [[0.0f32; BLOCK]; MAX_LEVELS];
-            let mut st_c = [[0.0f32; BLOCK]; MAX_LEVELS];
+            let mut st_dc = [A::ZERO; BLOCK];
+            let mut st_s = [[A::ZERO; BLOCK]; MAX_LEVELS];
+            let mut st_c = [[A::ZERO; BLOCK]; MAX_LEVELS];
             let mut flags = [0u8; BLOCK];
             let mut st = block_state(&mut st_dc, &mut st_s, &mut st_c, &mut flags, n);
             for (i, r) in rows.iter().enumerate() {
@@ -405,11 +457,11 @@ impl Decoder {
     /// Fold the samples of image `image` (set order) into the state (the first half of the
     /// kernel). The state must have been zeroed before the first image.
     #[inline(always)]
-    pub fn accumulate<P: Sample>(&self, image: usize, row: &[P], st: &mut State<'_>) -> Result<(), DecodeError> {
+    pub fn accumulate<P: Sample>(&self, image: usize, row: &[P], st: &mut State<'_, A::Acc>) -> Result<(), DecodeError> {
         let coef = *self.images.get(image).filter(|_| image < self.n_images).ok_or(DecodeError::Sequence)?;
         let n = row.len();
         let l = coef.level as usize;
-        let sat = self.config.saturation_level;
+        let sat = self.limits.saturation;
         let (dc, flags) = (&mut st.dc[..], &mut st.flags[..]);
         let (s, c) = match (st.s.get_mut(l), st.c.get_mut(l)) {
             (Some(s), Some(c)) => (&mut s[..], &mut c[..]),
@@ -421,50 +473,50 @@ impl Decoder {
         // Zipped iterators: no bounds checks, so the loop vectorizes. The DC plane is only touched
         // by images of the DC level (the choice depends on the plan, not on the data).
         let (ca, cb, cw) = (coef.a, coef.b, coef.w);
-        if cw != 0.0 {
+        if coef.use_w {
             for ((((v, s), c), d), f) in row.iter().zip(s.iter_mut()).zip(c.iter_mut()).zip(dc.iter_mut()).zip(flags.iter_mut()) {
-                let v = v.to_f32();
-                *s += ca * v;
-                *c += cb * v;
-                *d += cw * v;
-                *f |= (v >= sat) as u8;
+                let v = A::input(*v);
+                *s = A::mac(*s, ca, v);
+                *c = A::mac(*c, cb, v);
+                *d = A::mac(*d, cw, v);
+                *f |= A::saturated(v, sat) as u8;
             }
         } else {
             for (((v, s), c), f) in row.iter().zip(s.iter_mut()).zip(c.iter_mut()).zip(flags.iter_mut()) {
-                let v = v.to_f32();
-                *s += ca * v;
-                *c += cb * v;
-                *f |= (v >= sat) as u8;
+                let v = A::input(*v);
+                *s = A::mac(*s, ca, v);
+                *c = A::mac(*c, cb, v);
+                *f |= A::saturated(v, sat) as u8;
             }
         }
         Ok(())
     }
 
     /// Turn a complete state into outputs (the second half of the kernel): S and C per level,
-    /// wrapped phase by [`atan2`], modulation, hierarchical unwrapping, validity.
+    /// wrapped phase by the backend's `atan2` ([`crate::math::atan2`] by default), modulation,
+    /// hierarchical unwrapping, validity.
     ///
     /// Always inlined (as are [`Self::decode_row`] and [`Self::accumulate`]) so that a caller
     /// compiled for a wider instruction set (the host's AVX2 batch path) vectorizes the same
     /// operations wider; IEEE arithmetic without contraction gives the same bits.
     #[inline(always)]
-    pub fn finish(&self, st: &State<'_>, out: RowOut<'_>) -> Result<(), DecodeError> {
+    pub fn finish(&self, st: &State<'_, A::Acc>, out: RowOut<'_>) -> Result<(), DecodeError> {
         let n = st.dc.len();
         if !out.len_ok(n) || st.flags.len() != n || (0..self.n_levels).any(|l| st.s[l].len() != n || st.c[l].len() != n) {
             return Err(DecodeError::Length);
         }
-        let cfg = &self.config;
-        let min_b2 = cfg.min_modulation * cfg.min_modulation;
-        let lo = self.coarse_lo - cfg.range_tolerance;
-        let hi = self.coarse_hi + cfg.range_tolerance;
-        let (tol, dark) = (cfg.unwrap_tolerance, cfg.dark_level);
+        let lim = &self.limits;
+        let fmt = &self.format;
+        let (min_b2, lo, hi) = (lim.min_modulation, lim.coarse_lo, lim.coarse_hi);
+        let (tol, dark) = (lim.unwrap_tolerance, lim.dark);
         let mut start = 0;
         while start < n {
             let end = if n - start > BLOCK { start + BLOCK } else { n };
             let m = end - start;
             let a = &st.dc[start..end];
-            let mut phi = [0.0f32; BLOCK];
-            let mut b2min = [f32::INFINITY; BLOCK];
-            let mut b2last = [0.0f32; BLOCK];
+            let mut phi = [A::Phase::default(); BLOCK];
+            let mut b2min = [A::MAG_MAX; BLOCK];
+            let mut b2last = [A::Mag::default(); BLOCK];
             // Per-pixel failure bits, combined by priority at the end.
             let mut fail = [0u8; BLOCK];
             let (phi, b2min, b2last, fail) = (&mut phi[..m], &mut b2min[..m], &mut b2last[..m], &mut fail[..m]);
@@ -474,23 +526,21 @@ impl Decoder {
                 let it = sl.iter().zip(cl).zip(a).zip(phi.iter_mut()).zip(b2min.iter_mut()).zip(b2last.iter_mut()).zip(fail.iter_mut());
                 if l == 0 {
                     for ((((((s, c), a), p), bmin), blast), f) in it {
-                        let (s, c) = level_sc(*s, *c, ad, bd, *a);
-                        let b2 = s * s + c * c;
-                        *bmin = if b2 < *bmin { b2 } else { *bmin };
+                        let (s, c) = A::level_sc(*s, *c, ad, bd, *a, fmt);
+                        let (wrapped, b2) = A::polar(s, c);
+                        *bmin = A::min_mag(b2, *bmin);
                         *blast = b2;
-                        let wrapped = atan2(s, c);
-                        *f |= (!(wrapped >= lo && wrapped <= hi) as u8) << 1;
+                        *f |= (!A::in_range(wrapped, lo, hi) as u8) << 1;
                         *p = wrapped;
                     }
                 } else {
                     for ((((((s, c), a), p), bmin), blast), f) in it {
-                        let (s, c) = level_sc(*s, *c, ad, bd, *a);
-                        let b2 = s * s + c * c;
-                        *bmin = if b2 < *bmin { b2 } else { *bmin };
+                        let (s, c) = A::level_sc(*s, *c, ad, bd, *a, fmt);
+                        let (wrapped, b2) = A::polar(s, c);
+                        *bmin = A::min_mag(b2, *bmin);
                         *blast = b2;
-                        let wrapped = atan2(s, c);
-                        let (abs, res) = unwrap_step(*p, ratio, wrapped);
-                        *f |= (!consistent(res, tol) as u8) << 2;
+                        let (abs, res) = A::unwrap(*p, ratio, wrapped);
+                        *f |= (!A::consistent(res, tol) as u8) << 2;
                         *p = abs;
                     }
                 }
@@ -509,16 +559,17 @@ impl Decoder {
                 let mut v = Validity::Valid as u8;
                 v = if f & 4 != 0 { Validity::UnwrapInconsistent as u8 } else { v };
                 v = if f & 2 != 0 { Validity::PhaseOutOfRange as u8 } else { v };
-                v = if !(*bmin >= min_b2) { Validity::LowModulation as u8 } else { v };
-                v = if !(*a >= dark) { Validity::Dark as u8 } else { v };
+                v = if !A::mag_at_least(*bmin, min_b2) { Validity::LowModulation as u8 } else { v };
+                v = if !A::dc_at_least(*a, dark) { Validity::Dark as u8 } else { v };
                 v = if fl & 1 != 0 { Validity::Saturated as u8 } else { v };
                 *vo = v;
-                *po = if v == 0 { *p } else { CANONICAL_NAN };
-                *ao = *a;
+                *po = if v == 0 { A::phase_out(*p) } else { CANONICAL_NAN };
+                *ao = A::dc_out(*a, fmt);
             }
-            // One correctly rounded square root per pixel (libm: `sqrtss` on x86, IEEE on every target).
+            // One square root per pixel (default: libm's correctly rounded one, `sqrtss` on x86,
+            // IEEE on every target).
             for (mo, b2) in mo.iter_mut().zip(b2last.iter()) {
-                *mo = libm::sqrtf(*b2);
+                *mo = A::mag_out(*b2, fmt);
             }
             start = end;
         }
@@ -527,7 +578,7 @@ impl Decoder {
 
     /// Wrapped phase φ^(k) ∈ [−π, π] (eqs 9, 11) and modulation B of one level from a complete
     /// state, for diagnostics, golden vectors and noise studies. Same operations as [`Self::finish`].
-    pub fn finish_level(&self, st: &State<'_>, level: usize, wrapped: &mut [f32], modulation: &mut [f32]) -> Result<(), DecodeError> {
+    pub fn finish_level(&self, st: &State<'_, A::Acc>, level: usize, wrapped: &mut [f32], modulation: &mut [f32]) -> Result<(), DecodeError> {
         let n = st.dc.len();
         if level >= self.n_levels {
             return Err(DecodeError::Sequence);
@@ -535,11 +586,12 @@ impl Decoder {
         if wrapped.len() != n || modulation.len() != n || st.s[level].len() != n || st.c[level].len() != n {
             return Err(DecodeError::Length);
         }
-        let (ad, bd) = (self.a_dc[level], self.b_dc[level]);
+        let (ad, bd, fmt) = (self.a_dc[level], self.b_dc[level], &self.format);
         for i in 0..n {
-            let (s, c) = level_sc(st.s[level][i], st.c[level][i], ad, bd, st.dc[i]);
-            wrapped[i] = atan2(s, c);
-            modulation[i] = libm::sqrtf(s * s + c * c);
+            let (s, c) = A::level_sc(st.s[level][i], st.c[level][i], ad, bd, st.dc[i], fmt);
+            let (w, m) = A::polar(s, c);
+            wrapped[i] = A::phase_out(w);
+            modulation[i] = A::mag_out(m, fmt);
         }
         Ok(())
     }
@@ -558,9 +610,9 @@ impl Decoder {
         while start < w {
             let end = if w - start > BLOCK { start + BLOCK } else { w };
             let n = end - start;
-            let mut st_dc = [0.0f32; BLOCK];
-            let mut st_s = [[0.0f32; BLOCK]; MAX_LEVELS];
-            let mut st_c = [[0.0f32; BLOCK]; MAX_LEVELS];
+            let mut st_dc = [A::ZERO; BLOCK];
+            let mut st_s = [[A::ZERO; BLOCK]; MAX_LEVELS];
+            let mut st_c = [[A::ZERO; BLOCK]; MAX_LEVELS];
             let mut flags = [0u8; BLOCK];
             let mut st = block_state(&mut st_dc, &mut st_s, &mut st_c, &mut flags, n);
             for (i, r) in rows.iter().enumerate() {
@@ -573,20 +625,14 @@ impl Decoder {
     }
 }
 
-/// S and C of a level from its accumulators and the DC term: `S = s + a_dc·A`, `C = c + b_dc·A`.
-#[inline(always)]
-fn level_sc(s: f32, c: f32, a_dc: f32, b_dc: f32, a: f32) -> (f32, f32) {
-    (s + a_dc * a, c + b_dc * a)
-}
-
 /// A zeroed stack state for one block of `n ≤ BLOCK` pixels.
-fn block_state<'a>(
-    dc: &'a mut [f32; BLOCK],
-    s: &'a mut [[f32; BLOCK]; MAX_LEVELS],
-    c: &'a mut [[f32; BLOCK]; MAX_LEVELS],
+fn block_state<'a, T>(
+    dc: &'a mut [T; BLOCK],
+    s: &'a mut [[T; BLOCK]; MAX_LEVELS],
+    c: &'a mut [[T; BLOCK]; MAX_LEVELS],
     flags: &'a mut [u8; BLOCK],
     n: usize,
-) -> State<'a> {
+) -> State<'a, T> {
     let [s0, s1, s2, s3, s4, s5] = s;
     let [c0, c1, c2, c3, c4, c5] = c;
     State {

@@ -4,6 +4,7 @@
 // `!(x >= t)` is deliberate throughout: a NaN must fail every acceptance test.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod arith;
 pub mod camera;
 pub mod decode;
 pub mod filter;

@@ -13,45 +13,53 @@
 //! Frames arrive in the set's order ([`crate::pattern::PatternSet::order`]). Because the 2-image
 //! levels subtract the DC term A only in the final step (their S and C are linear in the samples
 //! and in A), the DC level need not come first: nothing is buffered besides the state.
+//!
+//! The decoder's arithmetic ([`crate::arith`]) sets the element type of the state: f32 for the
+//! default and the other f32 backends, i32 for [`crate::arith::Fixed`]; both are 4 bytes, so the
+//! memory figures hold for every backend.
 
+use crate::arith::{Arith, F32Accurate};
 use crate::decode::{DecodeError, Decoder, RowOut, Sample, State};
 use crate::pattern::MAX_LEVELS;
 
-/// Decodes a set whose frames arrive one after another.
-pub struct FrameDecoder<'d, 's> {
-    decoder: &'d Decoder,
+/// Decodes a set whose frames arrive one after another, in the arithmetic `A` of its decoder.
+pub struct FrameDecoder<'d, 's, A: Arith = F32Accurate> {
+    decoder: &'d Decoder<A>,
     width: usize,
     height: usize,
-    st: State<'s>,
+    st: State<'s, A::Acc>,
     image: usize,
     row: usize,
 }
 
-fn sub(s: &mut [f32], from: usize, len: usize) -> &mut [f32] {
+fn sub<T>(s: &mut [T], from: usize, len: usize) -> &mut [T] {
     match s.get_mut(from..from + len) {
         Some(x) => x,
         None => &mut [],
     }
 }
 
-impl<'d, 's> FrameDecoder<'d, 's> {
-    /// Bytes of state per pixel for a set of `levels` levels.
+impl FrameDecoder<'_, '_> {
+    /// Bytes of state per pixel for a set of `levels` levels (every backend: 4-byte accumulators).
     pub const fn bytes_per_pixel(levels: usize) -> usize {
         4 * (1 + 2 * levels) + 1
     }
+}
 
-    /// Number of f32 values the state buffer needs for a `width × height` frame.
-    pub fn state_len(decoder: &Decoder, width: usize, height: usize) -> usize {
+impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
+    /// Number of accumulator values (f32 by default, [`Arith::Acc`]) the state buffer needs for a
+    /// `width × height` frame.
+    pub fn state_len(decoder: &Decoder<A>, width: usize, height: usize) -> usize {
         (1 + 2 * decoder.level_count()) * width * height
     }
 
-    /// Start a set. `state` must hold at least [`FrameDecoder::state_len`] f32 values and `flags`
-    /// at least `width·height` bytes; both are zeroed here.
+    /// Start a set. `state` must hold at least [`FrameDecoder::state_len`] accumulator values
+    /// (f32 by default) and `flags` at least `width·height` bytes; both are zeroed here.
     pub fn new(
-        decoder: &'d Decoder,
+        decoder: &'d Decoder<A>,
         width: usize,
         height: usize,
-        state: &'s mut [f32],
+        state: &'s mut [A::Acc],
         flags: &'s mut [u8],
     ) -> Result<Self, DecodeError> {
         let plane = width.checked_mul(height).ok_or(DecodeError::StateTooSmall)?;
@@ -59,12 +67,12 @@ impl<'d, 's> FrameDecoder<'d, 's> {
         if state.len() < (1 + 2 * levels) * plane || flags.len() < plane || levels > MAX_LEVELS {
             return Err(DecodeError::StateTooSmall);
         }
-        state.fill(0.0);
+        state.fill(A::ZERO);
         let flags = &mut flags[..plane];
         flags.fill(0);
         let (dc, mut rest) = state.split_at_mut(plane);
-        let mut s: [&'s mut [f32]; MAX_LEVELS] = Default::default();
-        let mut c: [&'s mut [f32]; MAX_LEVELS] = Default::default();
+        let mut s: [&'s mut [A::Acc]; MAX_LEVELS] = Default::default();
+        let mut c: [&'s mut [A::Acc]; MAX_LEVELS] = Default::default();
         for l in 0..levels {
             let (a, r) = rest.split_at_mut(plane);
             let (b, r) = r.split_at_mut(plane);
@@ -75,7 +83,7 @@ impl<'d, 's> FrameDecoder<'d, 's> {
         Ok(FrameDecoder { decoder, width, height, st: State { dc, s, c, flags }, image: 0, row: 0 })
     }
 
-    fn view(&mut self, y: usize) -> State<'_> {
+    fn view(&mut self, y: usize) -> State<'_, A::Acc> {
         let (o, w) = (y * self.width, self.width);
         let [s0, s1, s2, s3, s4, s5] = &mut self.st.s;
         let [c0, c1, c2, c3, c4, c5] = &mut self.st.c;

@@ -7,10 +7,18 @@ use std::time::Duration;
 
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("render_1280x1024_8img_3x3");
-    g.sample_size(10).measurement_time(Duration::from_secs(40)).warm_up_time(Duration::from_secs(3));
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(40))
+        .warm_up_time(Duration::from_secs(3));
     for name in ["plane", "sphere", "steps"] {
         let scene = Scene::builtin(name, &Overrides::default()).expect("built-in scene");
-        g.bench_function(name, |b| b.iter(|| scene.render_fringes(RenderOptions::default()).expect("render")));
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                scene
+                    .render_fringes(RenderOptions::default())
+                    .expect("render")
+            })
+        });
     }
     g.finish();
 }

@@ -4,7 +4,10 @@
 
 pub mod accuracy;
 pub mod batch;
+pub mod calib;
 pub mod cli;
+pub mod device;
 pub mod io;
 pub mod render;
 pub mod scan;
+pub mod vectors;

@@ -21,9 +21,21 @@ mod render_common;
 use fringe3d::render::{MASK_VALID, Overrides, ProjectorMode, RenderOptions, Scene, SceneSpec};
 use render_common::{decode_float, decode_frames, rms_max};
 
-fn plane_scene(mode: ProjectorMode, defocus: f64, pattern_bits: u8, ss: u32, size: (u32, u32)) -> Scene {
+fn plane_scene(
+    mode: ProjectorMode,
+    defocus: f64,
+    pattern_bits: u8,
+    ss: u32,
+    size: (u32, u32),
+) -> Scene {
     let mut s = SceneSpec::builtin("plane").unwrap();
-    s.apply(&Overrides { size: Some(size), supersample: Some(ss), pattern_bits: Some(pattern_bits), defocus: Some(defocus), ..Default::default() });
+    s.apply(&Overrides {
+        size: Some(size),
+        supersample: Some(ss),
+        pattern_bits: Some(pattern_bits),
+        defocus: Some(defocus),
+        ..Default::default()
+    });
     s.projector.mode = mode;
     s.camera.edge_supersample = ss;
     Scene::new(s, None).unwrap()
@@ -40,7 +52,12 @@ struct Stats {
 
 /// Decode and compare on valid pixels; `model` is the model-error allowance added to 0.7071/B.
 fn check(scene: &Scene, model: f64) -> Stats {
-    let (f, t) = scene.render_fringes(RenderOptions { keep_float: true, ..Default::default() }).unwrap();
+    let (f, t) = scene
+        .render_fringes(RenderOptions {
+            keep_float: true,
+            ..Default::default()
+        })
+        .unwrap();
     let truth = scene.true_phase(&t);
     let dec = decode_frames(&scene.patterns, &f);
     let fdec = decode_float(&scene.patterns, &f);
@@ -53,14 +70,21 @@ fn check(scene: &Scene, model: f64) -> Stats {
         }
         let (phi, b, _) = dec[p];
         let e = phi - truth[p];
-        let bound = 0.70711 / b + model;
+        let bound = std::f64::consts::FRAC_1_SQRT_2 / b + model;
         worst = worst.max(e.abs() / bound);
         errs.push(e);
         ferrs.push(fdec[p].0 - truth[p]);
     }
     let (rms, max) = rms_max(&errs);
     let (float_rms, float_max) = rms_max(&ferrs);
-    Stats { n: errs.len(), rms, max, worst_ratio: worst, float_rms, float_max }
+    Stats {
+        n: errs.len(),
+        rms,
+        max,
+        worst_ratio: worst,
+        float_rms,
+        float_max,
+    }
 }
 
 #[test]
@@ -72,8 +96,16 @@ fn continuous_plane_recovers_phase_within_quantization() {
         st.n, st.rms, st.max, st.worst_ratio, st.float_rms, st.float_max
     );
     assert!(st.n > 200_000, "too few valid pixels: {}", st.n);
-    assert!(st.worst_ratio <= 1.0, "a pixel exceeds the quantization bound ({})", st.worst_ratio);
-    assert!(st.float_max < 1e-9, "unquantized render differs from the truth: {}", st.float_max);
+    assert!(
+        st.worst_ratio <= 1.0,
+        "a pixel exceeds the quantization bound ({})",
+        st.worst_ratio
+    );
+    assert!(
+        st.float_max < 1e-9,
+        "unquantized render differs from the truth: {}",
+        st.float_max
+    );
     assert!(st.rms < 1e-4);
 }
 
@@ -87,8 +119,16 @@ fn defocused_dmd_plane_recovers_phase_within_quantization() {
         "pixelated σ=1, 16-bit patterns, 1 spp: n = {}, rms = {:.2e}, max = {:.2e}, worst/bound = {:.3}; unquantized: rms {:.2e} max {:.2e}",
         st.n, st.rms, st.max, st.worst_ratio, st.float_rms, st.float_max
     );
-    assert!(st.worst_ratio <= 1.0, "a pixel exceeds the bound ({})", st.worst_ratio);
-    assert!(st.float_max <= q + 1e-6, "model error {} above the pattern-code bound {q}", st.float_max);
+    assert!(
+        st.worst_ratio <= 1.0,
+        "a pixel exceeds the bound ({})",
+        st.worst_ratio
+    );
+    assert!(
+        st.float_max <= q + 1e-6,
+        "model error {} above the pattern-code bound {q}",
+        st.float_max
+    );
     assert!(st.rms < 1e-4);
 }
 
@@ -105,7 +145,11 @@ fn supersampled_plane_meets_1e4_rad_rms() {
     );
     assert!(st.n > 800_000);
     assert!(st.rms < 1e-4, "rms {}", st.rms);
-    assert!(st.float_rms < 5e-5, "supersampling bias rms {}", st.float_rms);
+    assert!(
+        st.float_rms < 5e-5,
+        "supersampling bias rms {}",
+        st.float_rms
+    );
 }
 
 #[test]
@@ -118,7 +162,45 @@ fn sharp_dmd_pixelation_error_is_visible_and_bounded() {
     let st = check(&s, 1.0);
     let step = s.patterns.finest_phase(1.0, 0.0) - s.patterns.finest_phase(0.0, 0.0);
     let expect = step / 12f64.sqrt();
-    eprintln!("pixelated σ=0, 1 spp: rms = {:.4e} (staircase predicts {expect:.4e}), max = {:.3e} (half step {:.3e})", st.float_rms, st.float_max, step / 2.0);
-    assert!((st.float_rms / expect - 1.0).abs() < 0.02, "{} vs {expect}", st.float_rms);
-    assert!(st.float_max <= step / 2.0 + 1e-6);
+    eprintln!(
+        "pixelated σ=0, 1 spp: rms = {:.4e} (staircase predicts {expect:.4e}), max = {:.3e} (half step {:.3e})",
+        st.float_rms,
+        st.float_max,
+        step / 2.0
+    );
+    assert!(
+        (st.float_rms / expect - 1.0).abs() < 0.02,
+        "{} vs {expect}",
+        st.float_rms
+    );
+    // Plus the 16-bit pattern-code bound 2√2·½/65535.
+    assert!(
+        st.float_max <= step / 2.0 + 2.2e-5,
+        "{} vs {}",
+        st.float_max,
+        step / 2.0
+    );
+}
+
+#[test]
+fn reference_map_decoded_by_the_core_matches_the_truth() {
+    // What the dataset writes as reference_phase.tif: the default rig's reference plane, rendered
+    // at full size and decoded by the core's (f32) decoder.
+    let s = Scene::builtin("sphere", &Overrides::default()).unwrap();
+    let (f, t) = s.render_reference(RenderOptions::default()).unwrap();
+    let dec = fringe3d::render::decode_phase(&s.patterns, &f).unwrap();
+    let truth = s.true_phase(&t);
+    let mut errs = Vec::new();
+    for p in 0..truth.len() {
+        if t.mask[p] == MASK_VALID && dec[p].is_finite() {
+            errs.push(dec[p] as f64 - truth[p]);
+        }
+    }
+    let (rms, max) = rms_max(&errs);
+    eprintln!(
+        "reference map (core decoder): n = {}, rms {rms:.2e}, max {max:.2e} rad",
+        errs.len()
+    );
+    assert!(errs.len() > 1_000_000);
+    assert!(rms < 1e-4, "{rms}");
 }

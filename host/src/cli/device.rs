@@ -1,10 +1,494 @@
-//! `fringe3d device` (placeholder: being written).
+//! `fringe3d device`: talk to a scan head over a serial port — `info`, `upload`, `scan`.
+
+use super::{Global, common};
+use crate::device::desc::{
+    calibration_is_f32, capture_sequence, fidelity, pattern_bytes, pattern_desc, phase_map_bytes,
+    render_pattern, wire_calibration,
+};
+use crate::device::{Client, ClientOptions, DeviceError, SerialTransport, nak_reason, open_serial};
+use crate::io::calibration::Calibration;
+use crate::io::image::{Pixels, read_gray, write_tiff_f32};
+use crate::io::ply::{PlyOptions, PlyWriter, PointRow};
+use anyhow::{Context, Result, bail};
+use fringe3d_core::wire::{HeadErrors, NakCode, PROTOCOL_VERSION, ScanOutput, ValidationStatus};
+use std::path::PathBuf;
+use std::time::Duration;
 
 /// Arguments of `fringe3d device`.
 #[derive(clap::Args, Debug)]
-pub struct DeviceArgs {}
+#[command(
+    after_help = "Examples:\n  fringe3d device info --port /dev/ttyUSB0\n  \
+fringe3d device upload --port /dev/ttyUSB0 --patterns scan/patterns.toml --calibration scan/calibration.toml\n  \
+fringe3d device scan --port /dev/ttyUSB0 --out cloud.ply\n\n\
+The simulated head `fringe3d-head DATASET` prints the PTY path to use as --port. See docs/device.md."
+)]
+pub struct DeviceArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: DeviceCommand,
+}
+
+/// The `device` subcommands.
+#[derive(clap::Subcommand, Debug)]
+pub enum DeviceCommand {
+    /// Show what the head is and its state.
+    Info(PortArgs),
+    /// Define a pattern set on the head, upload its images (or let the head render them), the
+    /// calibration and reference phase map, and the trigger sequence that captures the set.
+    Upload(UploadArgs),
+    /// Scan: the head projects, captures, decodes, reconstructs and streams the rows back.
+    Scan(ScanArgs),
+}
+
+/// The serial port and link options.
+#[derive(clap::Args, Debug, Clone)]
+pub struct PortArgs {
+    /// Serial port (e.g. /dev/ttyUSB0, or the PTY `fringe3d-head` prints).
+    #[arg(long)]
+    pub port: String,
+    /// Baud rate.
+    #[arg(long, default_value_t = 921_600)]
+    pub baud: u32,
+    /// Time allowed for an answer beyond its transmission time, milliseconds.
+    #[arg(long, default_value_t = 500)]
+    pub timeout_ms: u64,
+    /// Times a request is repeated on silence or line damage before giving up.
+    #[arg(long, default_value_t = 8)]
+    pub retries: u32,
+}
+
+/// Arguments of `fringe3d device upload`.
+#[derive(clap::Args, Debug)]
+pub struct UploadArgs {
+    /// Port options.
+    #[command(flatten)]
+    pub port: PortArgs,
+    /// The pattern-set file.
+    #[arg(long, short = 'p')]
+    pub patterns: PathBuf,
+    /// Pattern-set slot on the head.
+    #[arg(long, default_value_t = 0)]
+    pub set_id: u8,
+    /// Upload these pattern images (a folder written by `fringe3d patterns`) instead of
+    /// rendering them from the pattern-set file.
+    #[arg(long, conflicts_with = "parametric")]
+    pub images: Option<PathBuf>,
+    /// Upload no images: the head renders the patterns itself (refused unless its rendering is
+    /// bit-identical to `fringe3d patterns`).
+    #[arg(long)]
+    pub parametric: bool,
+    /// Calibration file: its camera, projector centre, reference plane and depth range, and the
+    /// reference phase map it names, go to the head (needed for point scans).
+    #[arg(long, short = 'c')]
+    pub calibration: Option<PathBuf>,
+    /// Exposure per pattern, µs.
+    #[arg(long, default_value_t = 10_000)]
+    pub exposure_us: u32,
+    /// Dark time after each pattern (covers the camera readout), µs.
+    #[arg(long, default_value_t = 2_000)]
+    pub dark_us: u32,
+}
+
+/// What a scan streams.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputKind {
+    /// Points (x, y, z in mm, camera frame).
+    Points,
+    /// Absolute phase.
+    Phase,
+    /// Both.
+    Both,
+}
+
+/// Arguments of `fringe3d device scan`.
+#[derive(clap::Args, Debug)]
+pub struct ScanArgs {
+    /// Port options.
+    #[command(flatten)]
+    pub port: PortArgs,
+    /// What to stream.
+    #[arg(long, value_enum, default_value_t = OutputKind::Points)]
+    pub output: OutputKind,
+    /// Point cloud file (PLY, organized rows; invalid points kept as NaN with their code).
+    #[arg(long, short = 'o')]
+    pub out: Option<PathBuf>,
+    /// Phase map file (32-bit float TIFF, NaN where invalid).
+    #[arg(long)]
+    pub phase_out: Option<PathBuf>,
+    /// First camera row.
+    #[arg(long, default_value_t = 0)]
+    pub first_row: u16,
+    /// Rows (0: to the last row).
+    #[arg(long, default_value_t = 0)]
+    pub rows: u16,
+    /// Silence tolerated while the head captures, seconds.
+    #[arg(long, default_value_t = 30.0)]
+    pub scan_timeout_s: f64,
+}
+
+fn connect(p: &PortArgs, scan_timeout: Option<f64>) -> Result<Client<SerialTransport>> {
+    let io = open_serial(&p.port, p.baud)?;
+    let mut opts = ClientOptions {
+        timeout: Duration::from_millis(p.timeout_ms),
+        retries: p.retries,
+        ..Default::default()
+    };
+    if let Some(s) = scan_timeout.filter(|s| s.is_finite() && *s > 0.0) {
+        opts.scan_timeout = Duration::from_secs_f64(s);
+    }
+    Client::connect(io, opts).with_context(|| format!("connecting to the scan head on {}", p.port))
+}
 
 /// Run `fringe3d device`.
-pub fn run(_a: DeviceArgs, _g: super::Global) -> anyhow::Result<()> {
-    anyhow::bail!("device: not built yet")
+pub fn run(a: DeviceArgs, g: Global) -> Result<()> {
+    match a.command {
+        DeviceCommand::Info(p) => info(p, g),
+        DeviceCommand::Upload(u) => upload(u, g),
+        DeviceCommand::Scan(s) => scan(s, g),
+    }
+}
+
+fn state_name(s: fringe3d_core::wire::HeadState) -> &'static str {
+    use fringe3d_core::wire::HeadState::*;
+    match s {
+        Idle => "idle",
+        Uploading => "uploading",
+        Ready => "ready",
+        Running => "running",
+        Scanning => "scanning",
+        Fault => "fault",
+    }
+}
+
+fn error_names(e: HeadErrors) -> Vec<&'static str> {
+    let names = [
+        (HeadErrors::LINK, "link"),
+        (HeadErrors::UPLOAD, "upload"),
+        (HeadErrors::TRIGGER_TIMEOUT, "trigger-timeout"),
+        (HeadErrors::CAMERA, "camera"),
+        (HeadErrors::PROJECTOR, "projector"),
+        (HeadErrors::OVERRUN, "overrun"),
+        (HeadErrors::MEMORY, "memory"),
+        (HeadErrors::INTERNAL, "internal"),
+    ];
+    names
+        .iter()
+        .filter(|(b, _)| e.0 & b != 0)
+        .map(|(_, n)| *n)
+        .collect()
+}
+
+fn info(p: PortArgs, g: Global) -> Result<()> {
+    let mut c = connect(&p, None)?;
+    let caps = *c.capabilities();
+    let st = c.status()?;
+    let v = c.validate()?;
+    if g.json {
+        println!(
+            "{}",
+            serde_json::json!({"command": "device info", "port": p.port, "protocol_version": caps.protocol_version,
+                "firmware": format!("{}.{}.{}", caps.firmware.major, caps.firmware.minor, caps.firmware.patch),
+                "sensor": [caps.sensor_width, caps.sensor_height], "projector": [caps.projector_width, caps.projector_height],
+                "free_memory": caps.free_memory, "max_chunk": caps.max_chunk, "max_sets": caps.max_sets, "max_lut_entries": caps.max_lut_entries,
+                "state": state_name(st.state), "errors": error_names(st.errors), "rx_frames": st.rx_frames, "rx_errors": st.rx_errors,
+                "tx_frames": st.tx_frames, "rows_sent": st.rows_sent, "validation": v.0})
+        );
+    } else if !g.quiet {
+        println!(
+            "scan head on {}: protocol {}, firmware {}.{}.{}",
+            p.port,
+            caps.protocol_version,
+            caps.firmware.major,
+            caps.firmware.minor,
+            caps.firmware.patch
+        );
+        println!(
+            "  camera {}x{}, projector {}x{}, {} bytes for uploads, chunks up to {} bytes, {} pattern-set slots, {} trigger entries",
+            caps.sensor_width,
+            caps.sensor_height,
+            caps.projector_width,
+            caps.projector_height,
+            caps.free_memory,
+            caps.max_chunk,
+            caps.max_sets,
+            caps.max_lut_entries
+        );
+        println!(
+            "  state {}, errors [{}], frames in {} (damaged {}), out {}, rows sent {}",
+            state_name(st.state),
+            error_names(st.errors).join(", "),
+            st.rx_frames,
+            st.rx_errors,
+            st.tx_frames,
+            st.rows_sent
+        );
+        if v.is_ok() {
+            println!("  sequence valid: ready to scan points");
+        } else {
+            println!(
+                "  sequence: {}",
+                nak_reason(NakCode::SequenceInvalid, v.0 as u16)
+            );
+        }
+    }
+    Ok(())
+}
+
+fn bar(len: u64, msg: &str, quiet: bool) -> (indicatif::ProgressBar, impl FnMut(u64, u64)) {
+    let pb = common::progress(len, msg, quiet);
+    let pb2 = pb.clone();
+    (pb, move |done: u64, total: u64| {
+        pb2.set_length(total);
+        pb2.set_position(done);
+    })
+}
+
+fn upload(a: UploadArgs, g: Global) -> Result<()> {
+    let ls = common::load_set(&a.patterns)?;
+    let set = &ls.set;
+    let desc = pattern_desc(set, ls.file.bit_depth())
+        .map_err(|m| anyhow::anyhow!("{}: {m}", a.patterns.display()))?;
+    let fid = fidelity(set, &desc, 8);
+    // Everything that can fail locally is read before the line is touched.
+    let images = if a.parametric {
+        if !fid.patterns {
+            bail!(
+                "{}: the head's own rendering of this set would differ from `fringe3d patterns` (its parameters are not all f32); upload the images instead (omit --parametric)",
+                a.patterns.display()
+            );
+        }
+        None
+    } else {
+        let data = match &a.images {
+            Some(dir) => {
+                let files = crate::io::image_set::list_folder(dir)?;
+                if files.len() != set.image_count() {
+                    bail!(
+                        "{}: {} images, the pattern set has {}",
+                        dir.display(),
+                        files.len(),
+                        set.image_count()
+                    );
+                }
+                pattern_bytes(set, &desc, |i| {
+                    let (img, _) = read_gray(&files[i]).map_err(|e| e.to_string())?;
+                    match img.pixels {
+                        Pixels::U8(v)
+                            if (img.width, img.height)
+                                == (desc.width as u32, desc.height as u32) =>
+                        {
+                            Ok(v)
+                        }
+                        _ => Err(format!(
+                            "{}: must be an 8-bit {}x{} image",
+                            files[i].display(),
+                            desc.width,
+                            desc.height
+                        )),
+                    }
+                })
+            }
+            None => pattern_bytes(set, &desc, |i| render_pattern(set, i)),
+        }
+        .map_err(|m| anyhow::anyhow!("pattern images: {m}"))?;
+        Some(data)
+    };
+    let calib = match &a.calibration {
+        Some(path) => {
+            let cal = Calibration::load(path)?;
+            let axis = set.axis();
+            let sc = crate::scan::ScanCalibration::load(path, axis)
+                .with_context(|| format!("{}: preparing the reconstruction", path.display()))?;
+            let w =
+                wire_calibration(&cal).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+            let map = phase_map_bytes(&sc.reference_phase, sc.width());
+            Some((path.clone(), cal, w, map, sc.width(), sc.height()))
+        }
+        None => None,
+    };
+
+    let mut c = connect(&a.port, None)?;
+    let caps = *c.capabilities();
+    if (caps.projector_width, caps.projector_height) != (desc.width, desc.height) {
+        bail!(
+            "the head's projector is {}x{}, the pattern set {}x{}",
+            caps.projector_width,
+            caps.projector_height,
+            desc.width,
+            desc.height
+        );
+    }
+    c.define_pattern_set(a.set_id, &desc)?;
+    let mut summary = serde_json::json!({"command": "device upload", "port": a.port.port, "set_id": a.set_id,
+        "patterns_exact": fid.patterns, "decoder_exact": fid.decoder});
+    if let Some(data) = &images {
+        let (pb, mut cb) = bar(data.len() as u64, "patterns", g.quiet);
+        let r = c.upload_patterns(a.set_id, &desc, data, &mut cb);
+        pb.finish_and_clear();
+        let r = r?;
+        summary["patterns_upload"] = serde_json::json!({"bytes": r.total, "resumed_from": r.resumed_from, "wire_bytes": r.wire_bytes, "recoveries": r.recoveries, "seconds": r.seconds});
+        if !g.quiet && !g.json {
+            let resumed = if r.resumed_from > 0 {
+                format!(" (resumed at byte {})", r.resumed_from)
+            } else {
+                String::new()
+            };
+            println!(
+                "uploaded {} pattern images, {} bytes{} in {:.2} s; digest confirmed",
+                desc.pattern_count(),
+                r.total,
+                resumed,
+                r.seconds
+            );
+        }
+    } else if !g.quiet && !g.json {
+        println!(
+            "pattern set {} defined; the head renders its {} patterns itself",
+            a.set_id,
+            desc.pattern_count()
+        );
+    }
+    if let Some((path, cal, w, map, mw, mh)) = &calib {
+        if !calibration_is_f32(cal) && !g.quiet {
+            eprintln!(
+                "warning: {}: some calibration values are not f32; the head gets them rounded, so its points may differ from the desktop's in the last bits",
+                path.display()
+            );
+        }
+        if (caps.sensor_width as usize, caps.sensor_height as usize) != (*mw, *mh) {
+            bail!(
+                "the head's camera is {}x{}, the calibration's {}x{}",
+                caps.sensor_width,
+                caps.sensor_height,
+                mw,
+                mh
+            );
+        }
+        c.upload_calibration(w)?;
+        let (pb, mut cb) = bar(map.len() as u64, "phase map", g.quiet);
+        let r = c.upload_phase_map(*mw as u16, *mh as u16, map, &mut cb);
+        pb.finish_and_clear();
+        let r = r?;
+        summary["phase_map_upload"] = serde_json::json!({"bytes": r.total, "resumed_from": r.resumed_from, "wire_bytes": r.wire_bytes, "seconds": r.seconds});
+        if !g.quiet && !g.json {
+            println!(
+                "uploaded the calibration and the reference phase map ({} bytes) in {:.2} s; digest confirmed",
+                r.total, r.seconds
+            );
+        }
+    }
+    if !fid.decoder && !g.quiet {
+        eprintln!(
+            "warning: the head's decoder for this set differs from the desktop's (parameters not all f32): phases may differ in the last bits"
+        );
+    }
+    let lut = capture_sequence(set, &desc, a.exposure_us, a.dark_us)
+        .map_err(|m| anyhow::anyhow!("{m}"))?;
+    c.configure_sequence(a.set_id, false, &lut)?;
+    let v = c.validate()?;
+    summary["validation"] = serde_json::json!(v.0);
+    let blocking = v.0 & !(ValidationStatus::NO_CALIBRATION | ValidationStatus::NO_REFERENCE);
+    if g.json {
+        println!("{summary}");
+    } else if !g.quiet {
+        if v.is_ok() {
+            println!(
+                "trigger sequence of {} entries configured and valid: ready to scan",
+                lut.len()
+            );
+        } else {
+            println!(
+                "trigger sequence of {} entries configured: {}",
+                lut.len(),
+                nak_reason(NakCode::SequenceInvalid, v.0 as u16)
+            );
+        }
+    }
+    if blocking != 0 {
+        bail!(
+            "the head refused the sequence: {}",
+            nak_reason(NakCode::SequenceInvalid, v.0 as u16)
+        );
+    }
+    Ok(())
+}
+
+fn scan(a: ScanArgs, g: Global) -> Result<()> {
+    if a.out.is_none() && a.phase_out.is_none() {
+        bail!("nothing to write: give --out FILE.ply (points) and/or --phase-out FILE.tif (phase)");
+    }
+    let output = match (a.output, a.out.is_some(), a.phase_out.is_some()) {
+        (OutputKind::Points, _, true) | (OutputKind::Both, _, _) => ScanOutput::Both,
+        (OutputKind::Phase, true, _) => ScanOutput::Both,
+        (OutputKind::Phase, _, _) => ScanOutput::Phase,
+        (OutputKind::Points, _, _) => ScanOutput::Points,
+    };
+    let mut c = connect(&a.port, Some(a.scan_timeout_s))?;
+    let (pb, mut cb) = bar(0, "rows", g.quiet);
+    let r = c.scan(output, a.first_row, a.rows, &mut cb);
+    pb.finish_and_clear();
+    let r = match r {
+        Err(DeviceError::Refused {
+            code: NakCode::Busy,
+            ..
+        }) => bail!(
+            "the head is busy (a sequence or another scan runs): `fringe3d device` cannot scan until it is stopped"
+        ),
+        r => r?,
+    };
+    let (w, rows) = (r.width, r.rows);
+    let mut valid = None;
+    if let (Some(path), Some(xyz), Some(codes)) = (&a.out, &r.xyz, &r.point_validity) {
+        let mut wr = PlyWriter::create(
+            path,
+            PlyOptions {
+                intensity: false,
+                modulation: false,
+                ..Default::default()
+            },
+        )?;
+        let pts: Vec<[f32; 3]> = xyz.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+        for i in 0..rows {
+            wr.write_row(&PointRow {
+                v: (r.first_row + i) as u32,
+                xyz: &pts[i * w..(i + 1) * w],
+                intensity: &[],
+                modulation: &[],
+                validity: &codes[i * w..(i + 1) * w],
+            })?;
+        }
+        valid = Some(wr.finish()?);
+    }
+    if let (Some(path), Some(phase)) = (&a.phase_out, &r.phase) {
+        write_tiff_f32(path, w as u32, rows as u32, phase)?;
+    }
+    if g.json {
+        println!(
+            "{}",
+            serde_json::json!({"command": "device scan", "port": a.port.port, "protocol_version": PROTOCOL_VERSION, "width": w, "first_row": r.first_row,
+                "rows": rows, "points": valid, "rescans": r.rescans, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
+        );
+    } else if !g.quiet {
+        println!(
+            "scanned rows {}..{} ({} x {}) in {:.2} s, {} bytes received{}",
+            r.first_row,
+            r.first_row + rows,
+            w,
+            rows,
+            r.seconds,
+            r.wire_bytes,
+            if r.rescans > 0 {
+                format!(", {} re-requests of lost rows", r.rescans)
+            } else {
+                String::new()
+            }
+        );
+        if let (Some(n), Some(p)) = (valid, &a.out) {
+            println!("wrote {n} points to {}", p.display());
+        }
+        if let Some(p) = &a.phase_out {
+            println!("wrote the phase map to {}", p.display());
+        }
+    }
+    Ok(())
 }

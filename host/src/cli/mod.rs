@@ -13,6 +13,7 @@ pub mod patterns;
 pub mod reconstruct;
 pub mod render;
 pub mod scan;
+pub mod vectors;
 
 /// fringe3d: structured-light 3-D scanning (Peng & Gupta 2007).
 #[derive(Parser, Debug)]
@@ -53,6 +54,8 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Talk to a scan head over a serial port: info, upload, scan.
     Device(device::DeviceArgs),
+    /// Write (or verify) golden test vectors: a small scan's inputs and every stage's outputs.
+    Vectors(vectors::VectorsArgs),
 }
 
 /// Options every command sees.
@@ -99,5 +102,6 @@ where
         Command::Demo(a) => demo::run(a, g),
         Command::Info(a) => info::run(a, g),
         Command::Device(a) => device::run(a, g),
+        Command::Vectors(a) => vectors::run(a, g),
     }
 }

@@ -67,9 +67,17 @@ pub struct RenderArgs {
 }
 
 fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
-    let (w, h) = s.split_once(['x', 'X']).with_context(|| format!("--size {s:?}: expected WxH, e.g. 640x512"))?;
-    let w: u32 = w.trim().parse().with_context(|| format!("--size {s:?}: width is not a number"))?;
-    let h: u32 = h.trim().parse().with_context(|| format!("--size {s:?}: height is not a number"))?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .with_context(|| format!("--size {s:?}: expected WxH, e.g. 640x512"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .with_context(|| format!("--size {s:?}: width is not a number"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .with_context(|| format!("--size {s:?}: height is not a number"))?;
     if !(8..=16384).contains(&w) || !(8..=16384).contains(&h) {
         bail!("--size {s:?}: width and height must be 8 to 16384");
     }
@@ -80,7 +88,10 @@ fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
 pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
     if a.list {
         if g.json {
-            println!("{}", serde_json::json!({"scenes": BUILTIN_SCENES, "default_rig": default_rig()}));
+            println!(
+                "{}",
+                serde_json::json!({"scenes": BUILTIN_SCENES, "default_rig": default_rig()})
+            );
         } else {
             for s in BUILTIN_SCENES {
                 println!("{s}");
@@ -89,7 +100,10 @@ pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
         return Ok(());
     }
     let Some(scene_arg) = a.scene.as_deref() else {
-        bail!("--scene is required (a built-in name: {}, or a .toml file)", BUILTIN_SCENES.join(", "));
+        bail!(
+            "--scene is required (a built-in name: {}, or a .toml file)",
+            BUILTIN_SCENES.join(", ")
+        );
     };
     let o = Overrides {
         seed: a.seed,
@@ -105,7 +119,10 @@ pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
         Scene::load(Path::new(scene_arg), &o)?
     } else {
         if !BUILTIN_SCENES.contains(&scene_arg) {
-            bail!("--scene {scene_arg:?}: no such built-in scene ({}) and not a .toml file", BUILTIN_SCENES.join(", "));
+            bail!(
+                "--scene {scene_arg:?}: no such built-in scene ({}) and not a .toml file",
+                BUILTIN_SCENES.join(", ")
+            );
         }
         Scene::builtin(scene_arg, &o)?
     };
@@ -120,19 +137,38 @@ pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
     let show = !g.quiet && !g.json;
     let bar = indicatif::ProgressBar::hidden();
     bar.set_length(total);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} rendering {bar:40} {percent:>3}%  eta {eta}") {
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{spinner} rendering {bar:40} {percent:>3}%  eta {eta}",
+    ) {
         bar.set_style(style);
     }
     let start = Instant::now();
     let shown = AtomicBool::new(false);
     let progress = |n: u64| {
         bar.inc(n);
-        if show && !shown.load(Ordering::Relaxed) && start.elapsed() > Duration::from_secs(1) && !shown.swap(true, Ordering::Relaxed) {
+        if show
+            && !shown.load(Ordering::Relaxed)
+            && start.elapsed() > Duration::from_secs(1)
+            && !shown.swap(true, Ordering::Relaxed)
+        {
             bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
         }
     };
-    let summary = write_dataset(&scene, &out, DatasetOptions { overwrite: a.overwrite, progress: Some(&progress) })
-        .with_context(|| format!("rendering scene {:?} into {}", scene.spec.name, out.display()))?;
+    let summary = write_dataset(
+        &scene,
+        &out,
+        DatasetOptions {
+            overwrite: a.overwrite,
+            progress: Some(&progress),
+        },
+    )
+    .with_context(|| {
+        format!(
+            "rendering scene {:?} into {}",
+            scene.spec.name,
+            out.display()
+        )
+    })?;
     bar.finish_and_clear();
     let secs = start.elapsed().as_secs_f64();
     if g.json {

@@ -142,7 +142,11 @@ pub struct ReadInfo {
 }
 
 fn decode_err(path: &Path, format: &'static str, message: impl std::fmt::Display) -> ImageError {
-    ImageError::Decode { path: path.to_path_buf(), format, message: message.to_string() }
+    ImageError::Decode {
+        path: path.to_path_buf(),
+        format,
+        message: message.to_string(),
+    }
 }
 
 /// Read a gray image from `path` (format by signature, not by extension).
@@ -150,7 +154,10 @@ pub fn read_gray(path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
     let mut bytes = Vec::new();
     std::fs::File::open(path)
         .and_then(|f| BufReader::new(f).read_to_end(&mut bytes))
-        .map_err(|source| ImageError::Io { path: path.to_path_buf(), source })?;
+        .map_err(|source| ImageError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     decode_gray(&bytes, path)
 }
 
@@ -158,12 +165,18 @@ pub fn read_gray(path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
 pub fn decode_gray(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
         decode_png(bytes, path)
-    } else if bytes.starts_with(b"II*\0") || bytes.starts_with(b"MM\0*") || bytes.starts_with(b"II+\0") || bytes.starts_with(b"MM\0+") {
+    } else if bytes.starts_with(b"II*\0")
+        || bytes.starts_with(b"MM\0*")
+        || bytes.starts_with(b"II+\0")
+        || bytes.starts_with(b"MM\0+")
+    {
         decode_tiff(bytes, path)
     } else if bytes.starts_with(b"BM") {
         decode_bmp(bytes, path)
     } else {
-        Err(ImageError::UnknownFormat { path: path.to_path_buf() })
+        Err(ImageError::UnknownFormat {
+            path: path.to_path_buf(),
+        })
     }
 }
 
@@ -181,7 +194,9 @@ fn decode_png(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageE
         .output_buffer_size()
         .ok_or_else(|| decode_err(path, "PNG", "image too large for this machine"))?;
     let mut buf = vec![0u8; size];
-    let info = reader.next_frame(&mut buf).map_err(|e| decode_err(path, "PNG", e))?;
+    let info = reader
+        .next_frame(&mut buf)
+        .map_err(|e| decode_err(path, "PNG", e))?;
     buf.truncate(info.buffer_size());
     let (w, h) = (info.width, info.height);
     let n = w as usize * h as usize;
@@ -197,7 +212,11 @@ fn decode_png(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageE
     let bps = if sixteen { 2 } else { 1 };
     let sample = |y: usize, x: usize, c: usize| -> f64 {
         let off = y * line + (x * channels + c) * bps;
-        if sixteen { u16::from_be_bytes([buf[off], buf[off + 1]]) as f64 } else { buf[off] as f64 }
+        if sixteen {
+            u16::from_be_bytes([buf[off], buf[off + 1]]) as f64
+        } else {
+            buf[off] as f64
+        }
     };
     if buf.len() < line * h as usize {
         return Err(decode_err(path, "PNG", "truncated image data"));
@@ -206,7 +225,11 @@ fn decode_png(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageE
     let mut out8 = Vec::new();
     for y in 0..h as usize {
         for x in 0..w as usize {
-            let v = if color { luma(sample(y, x, 0), sample(y, x, 1), sample(y, x, 2)) } else { sample(y, x, 0) };
+            let v = if color {
+                luma(sample(y, x, 0), sample(y, x, 1), sample(y, x, 2))
+            } else {
+                sample(y, x, 0)
+            };
             if sixteen {
                 out16.push(v as u16);
             } else {
@@ -220,11 +243,24 @@ fn decode_png(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageE
         Some([b, ..]) if !color && *b >= 1 && *b <= full_bits => *b,
         _ => full_bits,
     };
-    let pixels = if sixteen { Pixels::U16(out16) } else { Pixels::U8(out8) };
+    let pixels = if sixteen {
+        Pixels::U16(out16)
+    } else {
+        Pixels::U8(out8)
+    };
     debug_assert_eq!(pixels.len(), n);
     Ok((
-        GrayImage { width: w, height: h, pixels, significant_bits },
-        ReadInfo { format: ImageFormat::Png, converted_from_color: color, dropped_alpha: alpha },
+        GrayImage {
+            width: w,
+            height: h,
+            pixels,
+            significant_bits,
+        },
+        ReadInfo {
+            format: ImageFormat::Png,
+            converted_from_color: color,
+            dropped_alpha: alpha,
+        },
     ))
 }
 
@@ -240,12 +276,22 @@ fn decode_tiff(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), Image
         C::GrayA(_) => (2, false, true),
         C::RGB(_) => (3, true, false),
         C::RGBA(_) => (4, true, true),
-        other => return Err(decode_err(path, "TIFF", format!("unsupported colour type {other:?}"))),
+        other => {
+            return Err(decode_err(
+                path,
+                "TIFF",
+                format!("unsupported colour type {other:?}"),
+            ));
+        }
     };
     let data = dec.read_image().map_err(err)?;
     let n = w as usize * h as usize;
     let short = || decode_err(path, "TIFF", "fewer samples than the image size needs");
-    let info = ReadInfo { format: ImageFormat::Tiff, converted_from_color: color, dropped_alpha: alpha };
+    let info = ReadInfo {
+        format: ImageFormat::Tiff,
+        converted_from_color: color,
+        dropped_alpha: alpha,
+    };
     macro_rules! reduce {
         ($v:expr, $conv:expr) => {{
             let v = $v;
@@ -255,7 +301,11 @@ fn decode_tiff(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), Image
             (0..n)
                 .map(|i| {
                     let s = &v[i * channels..];
-                    if color { $conv(luma(s[0] as f64, s[1] as f64, s[2] as f64)) } else { s[0] }
+                    if color {
+                        $conv(luma(s[0] as f64, s[1] as f64, s[2] as f64))
+                    } else {
+                        s[0]
+                    }
                 })
                 .collect::<Vec<_>>()
         }};
@@ -263,14 +313,7 @@ fn decode_tiff(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), Image
     let (pixels, bits) = match data {
         D::U8(v) => (Pixels::U8(reduce!(v, |x: f64| x as u8)), 8),
         D::U16(v) => (Pixels::U16(reduce!(v, |x: f64| x as u16)), 16),
-        D::F32(v) => {
-            if color {
-                let v = reduce!(v, |x: f64| x as f32);
-                (Pixels::F32(v), 32)
-            } else {
-                (Pixels::F32(reduce!(v, |x: f64| x as f32)), 32)
-            }
-        }
+        D::F32(v) => (Pixels::F32(reduce!(v, |x: f64| x as f32)), 32),
         D::F64(v) => {
             if v.len() < n * channels {
                 return Err(short());
@@ -278,23 +321,45 @@ fn decode_tiff(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), Image
             let v: Vec<f32> = (0..n)
                 .map(|i| {
                     let s = &v[i * channels..];
-                    if color { (0.299 * s[0] + 0.587 * s[1] + 0.114 * s[2]) as f32 } else { s[0] as f32 }
+                    if color {
+                        (0.299 * s[0] + 0.587 * s[1] + 0.114 * s[2]) as f32
+                    } else {
+                        s[0] as f32
+                    }
                 })
                 .collect();
             (Pixels::F32(v), 32)
         }
-        _ => return Err(decode_err(path, "TIFF", format!("unsupported sample format for colour type {ct:?}"))),
+        _ => {
+            return Err(decode_err(
+                path,
+                "TIFF",
+                format!("unsupported sample format for colour type {ct:?}"),
+            ));
+        }
     };
-    Ok((GrayImage { width: w, height: h, pixels, significant_bits: bits }, info))
+    Ok((
+        GrayImage {
+            width: w,
+            height: h,
+            pixels,
+            significant_bits: bits,
+        },
+        info,
+    ))
 }
 
 fn decode_bmp(b: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
     let bad = |m: &str| decode_err(path, "BMP", m);
     let u16_at = |o: usize| -> Result<u16, ImageError> {
-        b.get(o..o + 2).map(|s| u16::from_le_bytes([s[0], s[1]])).ok_or_else(|| bad("truncated header"))
+        b.get(o..o + 2)
+            .map(|s| u16::from_le_bytes([s[0], s[1]]))
+            .ok_or_else(|| bad("truncated header"))
     };
     let u32_at = |o: usize| -> Result<u32, ImageError> {
-        b.get(o..o + 4).map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]])).ok_or_else(|| bad("truncated header"))
+        b.get(o..o + 4)
+            .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
+            .ok_or_else(|| bad("truncated header"))
     };
     let data_off = u32_at(10)? as usize;
     let hdr = u32_at(14)? as usize;
@@ -313,7 +378,11 @@ fn decode_bmp(b: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError
         return Err(bad("compressed (RLE) bitmaps are not supported"));
     }
     let stride = (w * bpp as usize).div_ceil(32) * 4;
-    let need = data_off.checked_add(stride.checked_mul(h).ok_or_else(|| bad("image too large"))?);
+    let need = data_off.checked_add(
+        stride
+            .checked_mul(h)
+            .ok_or_else(|| bad("image too large"))?,
+    );
     if need.is_none_or(|n| n > b.len()) {
         return Err(bad("truncated pixel data"));
     }
@@ -329,7 +398,9 @@ fn decode_bmp(b: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError
             let mut pal = [[0u8; 3]; 256];
             let mut gray = true;
             for (i, p) in pal.iter_mut().enumerate().take(n_colors.min(256)) {
-                let e = b.get(pal_off + 4 * i..pal_off + 4 * i + 3).ok_or_else(|| bad("truncated palette"))?;
+                let e = b
+                    .get(pal_off + 4 * i..pal_off + 4 * i + 3)
+                    .ok_or_else(|| bad("truncated palette"))?;
                 *p = [e[2], e[1], e[0]];
                 gray &= e[0] == e[1] && e[1] == e[2];
             }
@@ -339,7 +410,11 @@ fn decode_bmp(b: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError
                 let row = &b[data_off + src_y * stride..];
                 for x in 0..w {
                     let [r, g, bl] = pal[row[x] as usize];
-                    out[y * w + x] = if gray { r } else { luma(r as f64, g as f64, bl as f64) as u8 };
+                    out[y * w + x] = if gray {
+                        r
+                    } else {
+                        luma(r as f64, g as f64, bl as f64) as u8
+                    };
                 }
             }
         }
@@ -355,24 +430,55 @@ fn decode_bmp(b: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError
                 }
             }
         }
-        other => return Err(decode_err(path, "BMP", format!("{other}-bit bitmaps are not supported"))),
+        other => {
+            return Err(decode_err(
+                path,
+                "BMP",
+                format!("{other}-bit bitmaps are not supported"),
+            ));
+        }
     }
     Ok((
-        GrayImage { width: w as u32, height: h as u32, pixels: Pixels::U8(out), significant_bits: 8 },
-        ReadInfo { format: ImageFormat::Bmp, converted_from_color: color, dropped_alpha: false },
+        GrayImage {
+            width: w as u32,
+            height: h as u32,
+            pixels: Pixels::U8(out),
+            significant_bits: 8,
+        },
+        ReadInfo {
+            format: ImageFormat::Bmp,
+            converted_from_color: color,
+            dropped_alpha: false,
+        },
     ))
 }
 
 fn check_size(path: &Path, got: usize, width: u32, height: u32) -> Result<(), ImageError> {
     let need = width as usize * height as usize;
     if got != need || width == 0 || height == 0 {
-        return Err(ImageError::Size { path: path.to_path_buf(), got, width, height, need });
+        return Err(ImageError::Size {
+            path: path.to_path_buf(),
+            got,
+            width,
+            height,
+            need,
+        });
     }
     Ok(())
 }
 
-fn png_bytes(path: &Path, width: u32, height: u32, depth: png::BitDepth, sbit: Option<u8>, data: &[u8]) -> Result<Vec<u8>, ImageError> {
-    let werr = |e: png::EncodingError| ImageError::Write { path: path.to_path_buf(), message: e.to_string() };
+fn png_bytes(
+    path: &Path,
+    width: u32,
+    height: u32,
+    depth: png::BitDepth,
+    sbit: Option<u8>,
+    data: &[u8],
+) -> Result<Vec<u8>, ImageError> {
+    let werr = |e: png::EncodingError| ImageError::Write {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
     let mut out = Vec::with_capacity(data.len() / 2 + 1024);
     {
         let mut enc = png::Encoder::new(&mut out, width, height);
@@ -390,39 +496,63 @@ fn png_bytes(path: &Path, width: u32, height: u32, depth: png::BitDepth, sbit: O
 }
 
 /// The bytes of an 8-bit gray PNG.
-pub fn encode_png_u8(path: &Path, width: u32, height: u32, data: &[u8]) -> Result<Vec<u8>, ImageError> {
+pub fn encode_png_u8(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data: &[u8],
+) -> Result<Vec<u8>, ImageError> {
     check_size(path, data.len(), width, height)?;
     png_bytes(path, width, height, png::BitDepth::Eight, None, data)
 }
 
 /// The bytes of a 16-bit gray PNG. `significant_bits` (1..=16) below 16 writes an `sBIT` chunk:
 /// the values are stored unscaled (a 12-bit camera's codes stay in 0..=4095).
-pub fn encode_png_u16(path: &Path, width: u32, height: u32, data: &[u16], significant_bits: u8) -> Result<Vec<u8>, ImageError> {
+pub fn encode_png_u16(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data: &[u16],
+    significant_bits: u8,
+) -> Result<Vec<u8>, ImageError> {
     check_size(path, data.len(), width, height)?;
     let mut bytes = Vec::with_capacity(data.len() * 2);
     for v in data {
         bytes.extend_from_slice(&v.to_be_bytes());
     }
-    let sbit = (significant_bits >= 1 && significant_bits < 16).then_some(significant_bits);
+    let sbit = (1..16)
+        .contains(&significant_bits)
+        .then_some(significant_bits);
     png_bytes(path, width, height, png::BitDepth::Sixteen, sbit, &bytes)
 }
 
 /// The bytes of a 32-bit float gray TIFF (uncompressed, little-endian).
-pub fn encode_tiff_f32(path: &Path, width: u32, height: u32, data: &[f32]) -> Result<Vec<u8>, ImageError> {
+pub fn encode_tiff_f32(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data: &[f32],
+) -> Result<Vec<u8>, ImageError> {
     check_size(path, data.len(), width, height)?;
-    let werr = |e: tiff::TiffError| ImageError::Write { path: path.to_path_buf(), message: e.to_string() };
+    let werr = |e: tiff::TiffError| ImageError::Write {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
     let mut cur = Cursor::new(Vec::with_capacity(data.len() * 4 + 1024));
     {
         let mut enc = tiff::encoder::TiffEncoder::new(&mut cur).map_err(werr)?;
-        enc.write_image::<tiff::encoder::colortype::Gray32Float>(width, height, data).map_err(werr)?;
+        enc.write_image::<tiff::encoder::colortype::Gray32Float>(width, height, data)
+            .map_err(werr)?;
     }
     Ok(cur.into_inner())
 }
 
 /// Write `bytes` to `path` atomically.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
-    crate::io::atomic::write_atomic(path, |w| w.write_all(bytes))
-        .map_err(|e| ImageError::Write { path: path.to_path_buf(), message: e.to_string() })
+    crate::io::atomic::write_atomic(path, |w| w.write_all(bytes)).map_err(|e| ImageError::Write {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
 }
 
 /// Write an 8-bit gray PNG.
@@ -431,12 +561,26 @@ pub fn write_png_u8(path: &Path, width: u32, height: u32, data: &[u8]) -> Result
 }
 
 /// Write a 16-bit gray PNG (see [`encode_png_u16`] for `significant_bits`).
-pub fn write_png_u16(path: &Path, width: u32, height: u32, data: &[u16], significant_bits: u8) -> Result<(), ImageError> {
-    write_bytes(path, &encode_png_u16(path, width, height, data, significant_bits)?)
+pub fn write_png_u16(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data: &[u16],
+    significant_bits: u8,
+) -> Result<(), ImageError> {
+    write_bytes(
+        path,
+        &encode_png_u16(path, width, height, data, significant_bits)?,
+    )
 }
 
 /// Write a 32-bit float gray TIFF.
-pub fn write_tiff_f32(path: &Path, width: u32, height: u32, data: &[f32]) -> Result<(), ImageError> {
+pub fn write_tiff_f32(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data: &[f32],
+) -> Result<(), ImageError> {
     write_bytes(path, &encode_tiff_f32(path, width, height, data)?)
 }
 
@@ -461,7 +605,9 @@ mod tests {
         let data = vec![1.5f32, f32::NAN, -3.25, 1e-7, 0.0, 7.0];
         let b = encode_tiff_f32(p, 3, 2, &data).unwrap();
         let (img, _) = decode_gray(&b, p).unwrap();
-        let Pixels::F32(v) = img.pixels else { panic!("not f32") };
+        let Pixels::F32(v) = img.pixels else {
+            panic!("not f32")
+        };
         assert_eq!(v.len(), 6);
         for (a, b) in v.iter().zip(&data) {
             assert!(a == b || (a.is_nan() && b.is_nan()));
@@ -510,5 +656,58 @@ mod tests {
         let (img, info) = decode_gray(&out, p).unwrap();
         assert_eq!(img.pixels, Pixels::U8(vec![76]));
         assert!(info.converted_from_color);
+    }
+
+    fn tiff_bytes<C: tiff::encoder::colortype::ColorType>(
+        w: u32,
+        h: u32,
+        data: &[C::Inner],
+    ) -> Vec<u8>
+    where
+        [C::Inner]: tiff::encoder::TiffValue,
+    {
+        let mut cur = Cursor::new(Vec::new());
+        tiff::encoder::TiffEncoder::new(&mut cur)
+            .unwrap()
+            .write_image::<C>(w, h, data)
+            .unwrap();
+        cur.into_inner()
+    }
+
+    #[test]
+    fn tiff_integer_gray_and_rgb_are_read() {
+        use tiff::encoder::colortype::{Gray8, Gray16, RGB8};
+        let p = Path::new("t.tif");
+        let (img, info) = decode_gray(&tiff_bytes::<Gray8>(2, 1, &[3, 250]), p).unwrap();
+        assert_eq!(
+            (img.pixels, img.significant_bits, info.format),
+            (Pixels::U8(vec![3, 250]), 8, ImageFormat::Tiff)
+        );
+        let (img, _) = decode_gray(&tiff_bytes::<Gray16>(1, 2, &[1000, 65535]), p).unwrap();
+        assert_eq!(img.pixels, Pixels::U16(vec![1000, 65535]));
+        let (img, info) = decode_gray(&tiff_bytes::<RGB8>(1, 1, &[0, 255, 0]), p).unwrap();
+        assert_eq!(img.pixels, Pixels::U8(vec![150]));
+        assert!(info.converted_from_color);
+        let e = decode_gray(&tiff_bytes::<Gray8>(2, 1, &[3, 250])[..20], p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("t.tif"), "{e}");
+    }
+
+    #[test]
+    fn writers_check_sizes_and_name_the_file() {
+        let e = encode_png_u8(Path::new("x.png"), 3, 3, &[0; 8])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("x.png") && e.contains("need 9"), "{e}");
+        let dir = std::env::temp_dir().join(format!("fringe3d-image-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("a.png");
+        write_png_u8(&f, 2, 2, &[1, 2, 3, 4]).unwrap();
+        let (img, _) = read_gray(&f).unwrap();
+        assert_eq!(img.pixels, Pixels::U8(vec![1, 2, 3, 4]));
+        let missing = read_gray(&dir.join("missing.png")).unwrap_err().to_string();
+        assert!(missing.contains("missing.png"));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

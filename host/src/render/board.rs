@@ -9,11 +9,24 @@ use serde::Serialize;
 
 /// The board as a plane object (with its border) at `pose`; `size` overrides the plate size
 /// (plates carry a board on a larger plate).
-pub fn board_object(b: &BoardSpec, pose: &Pose, size: Option<[f64; 2]>, textured: bool, albedo: f64) -> ObjectSpec {
+pub fn board_object(
+    b: &BoardSpec,
+    pose: &Pose,
+    size: Option<[f64; 2]>,
+    textured: bool,
+    albedo: f64,
+) -> ObjectSpec {
     let r = pose.rotation();
-    let size = size.unwrap_or([b.cols as f64 * b.square + 2.0 * b.margin, b.rows as f64 * b.square + 2.0 * b.margin]);
+    let size = size.unwrap_or([
+        b.cols as f64 * b.square + 2.0 * b.margin,
+        b.rows as f64 * b.square + 2.0 * b.margin,
+    ]);
     ObjectSpec {
-        name: if textured { "board".into() } else { "plate".into() },
+        name: if textured {
+            "board".into()
+        } else {
+            "plate".into()
+        },
         albedo,
         shape: Shape::Plane {
             point: pose.center,
@@ -21,7 +34,13 @@ pub fn board_object(b: &BoardSpec, pose: &Pose, size: Option<[f64; 2]>, textured
             size: Some(size),
             u_axis: Some(r.column(0).to_array()),
         },
-        texture: textured.then(|| Texture::Checker { square: b.square, cols: b.cols, rows: b.rows, dark: b.dark, light: b.light }),
+        texture: textured.then_some(Texture::Checker {
+            square: b.square,
+            cols: b.cols,
+            rows: b.rows,
+            dark: b.dark,
+            light: b.light,
+        }),
     }
 }
 
@@ -39,7 +58,10 @@ pub fn local_corners(b: &BoardSpec) -> Vec<[f64; 2]> {
 
 /// The inner corners of a board at `pose`, camera frame.
 pub fn corners(b: &BoardSpec, pose: &Pose) -> Vec<Vec3> {
-    local_corners(b).iter().map(|c| pose.apply(Vec3::new(c[0], c[1], 0.0))).collect()
+    local_corners(b)
+        .iter()
+        .map(|c| pose.apply(Vec3::new(c[0], c[1], 0.0)))
+        .collect()
 }
 
 /// Ground truth of one board image.
@@ -63,7 +85,10 @@ pub struct BoardTruth {
 pub fn board_truth(b: &BoardSpec, pose: &Pose, rig: &Rig, image: &str) -> Option<BoardTruth> {
     let cs = corners(b, pose);
     let rm = rig.camera.max_radius();
-    let px: Option<Vec<[f64; 2]>> = cs.iter().map(|p| rig.camera.project(*p, rm).map(|(u, v)| [u, v])).collect();
+    let px: Option<Vec<[f64; 2]>> = cs
+        .iter()
+        .map(|p| rig.camera.project(*p, rm).map(|(u, v)| [u, v]))
+        .collect();
     let r = pose.rotation();
     let mut n = r.column(2);
     if n.dot(Vec3::from_array(pose.center)) > 0.0 {
@@ -83,7 +108,10 @@ pub fn board_truth(b: &BoardSpec, pose: &Pose, rig: &Rig, image: &str) -> Option
 /// `margin_px`, tilted less than 60° from the camera, and — if `lit` — every corner on the DMD
 /// and facing the projector.
 pub fn pose_ok(b: &BoardSpec, pose: &Pose, rig: &Rig, margin_px: f64, lit: bool) -> bool {
-    let (w, h) = (b.cols as f64 * b.square + 2.0 * b.margin, b.rows as f64 * b.square + 2.0 * b.margin);
+    let (w, h) = (
+        b.cols as f64 * b.square + 2.0 * b.margin,
+        b.rows as f64 * b.square + 2.0 * b.margin,
+    );
     let mut pts = corners(b, pose);
     for (sx, sy) in [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)] {
         pts.push(pose.apply(Vec3::new(sx * w, sy * h, 0.0)));
@@ -92,7 +120,10 @@ pub fn pose_ok(b: &BoardSpec, pose: &Pose, rig: &Rig, margin_px: f64, lit: bool)
     let cam = &rig.camera;
     let inside = pts.iter().all(|p| {
         cam.project(*p, rm).is_some_and(|(u, v)| {
-            u >= margin_px && v >= margin_px && u <= cam.width as f64 - 1.0 - margin_px && v <= cam.height as f64 - 1.0 - margin_px
+            u >= margin_px
+                && v >= margin_px
+                && u <= cam.width as f64 - 1.0 - margin_px
+                && v <= cam.height as f64 - 1.0 - margin_px
         })
     });
     if !inside {
@@ -110,7 +141,10 @@ pub fn pose_ok(b: &BoardSpec, pose: &Pose, rig: &Rig, margin_px: f64, lit: bool)
             let facing = n.dot(p - *x).signum() == n.dot(-*x).signum();
             facing
                 && rig.projector_pixel(*x).is_some_and(|(xi, eta)| {
-                    xi >= 0.0 && eta >= 0.0 && xi <= rig.projector.width as f64 - 1.0 && eta <= rig.projector.height as f64 - 1.0
+                    xi >= 0.0
+                        && eta >= 0.0
+                        && xi <= rig.projector.width as f64 - 1.0
+                        && eta <= rig.projector.height as f64 - 1.0
                 })
         });
         if !ok {
@@ -121,7 +155,13 @@ pub fn pose_ok(b: &BoardSpec, pose: &Pose, rig: &Rig, margin_px: f64, lit: bool)
 }
 
 /// `count` random well-seen poses, deterministic in `seed`.
-pub fn random_poses(b: &BoardSpec, rig: &Rig, seed: u64, count: usize, lit: bool) -> Result<Vec<Pose>, String> {
+pub fn random_poses(
+    b: &BoardSpec,
+    rig: &Rig,
+    seed: u64,
+    count: usize,
+    lit: bool,
+) -> Result<Vec<Pose>, String> {
     let mut rng = Rng::new(derive(&[seed, 0xB0A7D]));
     let (lo, hi) = (rig.volume_min, rig.volume_max);
     let zmid = 0.5 * (lo[2] + hi[2]);
@@ -140,7 +180,11 @@ pub fn random_poses(b: &BoardSpec, rig: &Rig, seed: u64, count: usize, lit: bool
         // Spread over the field at that depth.
         let s = z / zmid;
         let pose = Pose {
-            center: [u(0.35 * lo[0] * s, 0.35 * hi[0] * s), u(0.35 * lo[1] * s, 0.35 * hi[1] * s), z],
+            center: [
+                u(0.35 * lo[0] * s, 0.35 * hi[0] * s),
+                u(0.35 * lo[1] * s, 0.35 * hi[1] * s),
+                z,
+            ],
             euler_deg: [u(-30.0, 30.0), u(-30.0, 30.0), u(-15.0, 15.0)],
         };
         if pose_ok(b, &pose, rig, 12.0, lit) {

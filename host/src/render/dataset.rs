@@ -60,7 +60,10 @@ struct Out {
 }
 
 fn file_err(path: &Path, m: impl std::fmt::Display) -> RenderError {
-    RenderError::File { path: path.to_path_buf(), message: m.to_string() }
+    RenderError::File {
+        path: path.to_path_buf(),
+        message: m.to_string(),
+    }
 }
 
 fn hex(d: &[u8]) -> String {
@@ -68,7 +71,13 @@ fn hex(d: &[u8]) -> String {
 }
 
 impl Out {
-    fn put(&mut self, rel: &str, bytes: &[u8], format: &str, description: &str) -> Result<(), RenderError> {
+    fn put(
+        &mut self,
+        rel: &str,
+        bytes: &[u8],
+        format: &str,
+        description: &str,
+    ) -> Result<(), RenderError> {
         let path = self.dir.join(rel);
         if let Some(p) = path.parent() {
             std::fs::create_dir_all(p).map_err(|e| file_err(p, e))?;
@@ -102,19 +111,42 @@ impl Out {
         Ok(p)
     }
 
-    fn image(&mut self, rel: &str, f: &Frames, i: usize, description: &str) -> Result<(), RenderError> {
+    fn image(
+        &mut self,
+        rel: &str,
+        f: &Frames,
+        i: usize,
+        description: &str,
+    ) -> Result<(), RenderError> {
         let path = self.dir.join(rel);
         let img = &f.images[i];
         let (bytes, fmt) = if f.bits == 8 {
             let v: Vec<u8> = img.iter().map(|&x| x.min(255) as u8).collect();
-            (encode_png_u8(&path, f.width, f.height, &v)?, "png gray 8-bit")
+            (
+                encode_png_u8(&path, f.width, f.height, &v)?,
+                "png gray 8-bit",
+            )
         } else {
-            (encode_png_u16(&path, f.width, f.height, img, f.bits)?, if f.bits == 12 { "png gray 16-bit container, 12 significant bits (sBIT), codes 0..4095" } else { "png gray 16-bit" })
+            (
+                encode_png_u16(&path, f.width, f.height, img, f.bits)?,
+                if f.bits == 12 {
+                    "png gray 16-bit container, 12 significant bits (sBIT), codes 0..4095"
+                } else {
+                    "png gray 16-bit"
+                },
+            )
         };
         self.put(rel, &bytes, fmt, description)
     }
 
-    fn tiff(&mut self, rel: &str, w: u32, h: u32, data: &[f32], description: &str) -> Result<(), RenderError> {
+    fn tiff(
+        &mut self,
+        rel: &str,
+        w: u32,
+        h: u32,
+        data: &[f32],
+        description: &str,
+    ) -> Result<(), RenderError> {
         let path = self.dir.join(rel);
         let b = encode_tiff_f32(&path, w, h, data)?;
         self.put(rel, &b, "tiff gray float32 (NaN = invalid)", description)
@@ -125,15 +157,26 @@ impl Out {
 pub fn planned_rows(scene: &Scene) -> u64 {
     let h = scene.rig.camera.height as u64;
     let s = &scene.spec;
-    let refs = u64::from(s.reference.mode == ReferenceMode::Render && s.kind != DatasetKind::Checkerboard);
+    let refs =
+        u64::from(s.reference.mode == ReferenceMode::Render && s.kind != DatasetKind::Checkerboard);
     match s.kind {
         DatasetKind::Fringe => h * (1 + refs),
         DatasetKind::Checkerboard => {
             let b = s.board.as_ref();
-            let n = b.map(|b| if b.poses.is_empty() { b.count as u64 } else { b.poses.len() as u64 }).unwrap_or(0);
+            let n = b
+                .map(|b| {
+                    if b.poses.is_empty() {
+                        b.count as u64
+                    } else {
+                        b.poses.len() as u64
+                    }
+                })
+                .unwrap_or(0);
             h * n
         }
-        DatasetKind::Plates => h * (3 * s.plates.as_ref().map_or(0, |p| p.positions.len() as u64) + refs),
+        DatasetKind::Plates => {
+            h * (3 * s.plates.as_ref().map_or(0, |p| p.positions.len() as u64) + refs)
+        }
     }
 }
 
@@ -148,17 +191,38 @@ fn lit_phase(set: &PatternSet, truth: &Truth) -> Vec<f64> {
         .projector
         .iter()
         .zip(&truth.mask)
-        .map(|(p, &m)| if m & need == need { set.finest_phase(p[0], p[1]) } else { f64::NAN })
+        .map(|(p, &m)| {
+            if m & need == need {
+                set.finest_phase(p[0], p[1])
+            } else {
+                f64::NAN
+            }
+        })
         .collect()
 }
 
-fn write_truth(out: &mut Out, dir: &str, set: Option<&PatternSet>, t: &Truth) -> Result<(), RenderError> {
+fn write_truth(
+    out: &mut Out,
+    dir: &str,
+    set: Option<&PatternSet>,
+    t: &Truth,
+) -> Result<(), RenderError> {
     let (w, h) = (t.width, t.height);
     let (wu, hu) = (w as usize, h as usize);
     let pts: Vec<f64> = t.points.iter().flatten().copied().collect();
-    out.put(&format!("{dir}/points.npy"), &npy::encode(&[hu, wu, 3], &pts), "npy float64 (H, W, 3)", "hit point of the pixel-centre ray, camera frame, mm; NaN = no hit")?;
+    out.put(
+        &format!("{dir}/points.npy"),
+        &npy::encode(&[hu, wu, 3], &pts),
+        "npy float64 (H, W, 3)",
+        "hit point of the pixel-centre ray, camera frame, mm; NaN = no hit",
+    )?;
     let nrm: Vec<f32> = t.normals.iter().flatten().map(|&x| x as f32).collect();
-    out.put(&format!("{dir}/normals.npy"), &npy::encode(&[hu, wu, 3], &nrm), "npy float32 (H, W, 3)", "unit surface normal towards the camera; NaN = no hit")?;
+    out.put(
+        &format!("{dir}/normals.npy"),
+        &npy::encode(&[hu, wu, 3], &nrm),
+        "npy float32 (H, W, 3)",
+        "unit surface normal towards the camera; NaN = no hit",
+    )?;
     let pr: Vec<f64> = t.projector.iter().flatten().copied().collect();
     out.put(
         &format!("{dir}/projector.npy"),
@@ -167,14 +231,36 @@ fn write_truth(out: &mut Out, dir: &str, set: Option<&PatternSet>, t: &Truth) ->
         "exact projector coordinates (xi, eta) of the hit point, projector pixels (centres at integers); NaN = none",
     )?;
     let depth: Vec<f32> = t.points.iter().map(|p| p[2] as f32).collect();
-    out.tiff(&format!("{dir}/depth.tif"), w, h, &depth, "z of the hit point, mm")?;
+    out.tiff(
+        &format!("{dir}/depth.tif"),
+        w,
+        h,
+        &depth,
+        "z of the hit point, mm",
+    )?;
     let mp = std::path::Path::new("mask.png");
     out.put(&format!("{dir}/mask.png"), &encode_png_u8(mp, w, h, &t.mask)?, "png gray 8-bit bit mask", "1 hit | 2 on the DMD | 4 lit (faces the projector, unshadowed) | 8 clean (whole pixel on one surface, away from edges); 15 = valid")?;
-    out.put(&format!("{dir}/object_id.png"), &encode_png_u16(mp, w, h, &t.object_id, 16)?, "png gray 16-bit", "object id of the hit (manifest primitives); 0 = none")?;
+    out.put(
+        &format!("{dir}/object_id.png"),
+        &encode_png_u16(mp, w, h, &t.object_id, 16)?,
+        "png gray 16-bit",
+        "object id of the hit (manifest primitives); 0 = none",
+    )?;
     if let Some(set) = set {
         let ph = lit_phase(set, t);
-        out.tiff(&format!("{dir}/phase.tif"), w, h, &f32s(&ph), "true absolute phase c_K*Phi(xi, eta) of the finest level, radians; NaN where not lit")?;
-        out.put(&format!("{dir}/phase.npy"), &npy::encode(&[hu, wu], &ph), "npy float64 (H, W)", "true absolute phase, float64")?;
+        out.tiff(
+            &format!("{dir}/phase.tif"),
+            w,
+            h,
+            &f32s(&ph),
+            "true absolute phase c_K*Phi(xi, eta) of the finest level, radians; NaN where not lit",
+        )?;
+        out.put(
+            &format!("{dir}/phase.npy"),
+            &npy::encode(&[hu, wu], &ph),
+            "npy float64 (H, W)",
+            "true absolute phase, float64",
+        )?;
     }
     Ok(())
 }
@@ -204,11 +290,21 @@ fn prim_json(scene_objects: &[super::ObjectSpec], g: &Geometry) -> serde_json::V
     serde_json::Value::Array(v)
 }
 
-fn pattern_file(out: &mut Out, rel: &str, set: &PatternSet, bits: u8, images: Option<Vec<String>>) -> Result<(), RenderError> {
+fn pattern_file(
+    out: &mut Out,
+    rel: &str,
+    set: &PatternSet,
+    bits: u8,
+    images: Option<Vec<String>>,
+) -> Result<(), RenderError> {
     let mut f = PatternSetFile::from_pattern_set(set, bits);
     f.images = images.map(|v| v.into_iter().map(PathBuf::from).collect());
     f.save(&out.dir.join(rel))?;
-    out.adopt(rel, "fringe3d pattern-set TOML (docs/formats.md)", "the projected pattern set")
+    out.adopt(
+        rel,
+        "fringe3d pattern-set TOML (docs/formats.md)",
+        "the projected pattern set",
+    )
 }
 
 fn image_list(set: &PatternSet, prefix: &str) -> Vec<serde_json::Value> {
@@ -221,10 +317,21 @@ fn image_list(set: &PatternSet, prefix: &str) -> Vec<serde_json::Value> {
 
 /// Render `scene` and write its dataset folder to `out` atomically. See `docs/render.md` for the
 /// layout.
-pub fn write_dataset(scene: &Scene, out_dir: &Path, opts: DatasetOptions<'_>) -> Result<Summary, RenderError> {
+pub fn write_dataset(
+    scene: &Scene,
+    out_dir: &Path,
+    opts: DatasetOptions<'_>,
+) -> Result<Summary, RenderError> {
     let dir = AtomicDir::create(out_dir, opts.overwrite)?;
-    let mut out = Out { dir, files: Vec::new() };
-    let ropts = RenderOptions { keep_float: false, progress: opts.progress, sensor: None };
+    let mut out = Out {
+        dir,
+        files: Vec::new(),
+    };
+    let ropts = RenderOptions {
+        keep_float: false,
+        progress: opts.progress,
+        sensor: None,
+    };
     let spec = &scene.spec;
     let rig = &scene.rig;
     let mut extra = serde_json::Map::new();
@@ -233,7 +340,9 @@ pub fn write_dataset(scene: &Scene, out_dir: &Path, opts: DatasetOptions<'_>) ->
     let mut reference_files: Option<(String, String)> = None;
 
     // The reference map (fringe and plates scenes).
-    let mut reference = |out: &mut Out, main: Option<(&Frames, &Truth)>| -> Result<(), RenderError> {
+    let mut reference = |out: &mut Out,
+                         main: Option<(&Frames, &Truth)>|
+     -> Result<(), RenderError> {
         let owned;
         let (frames, truth): (&Frames, &Truth) = match (spec.reference.mode, main) {
             (ReferenceMode::Render, _) => {
@@ -247,7 +356,13 @@ pub fn write_dataset(scene: &Scene, out_dir: &Path, opts: DatasetOptions<'_>) ->
         let (w, h) = (frames.width, frames.height);
         out.tiff("reference_phase.tif", w, h, &decoded, "reference plane phase map decoded from its own render by the core decoder (what a user gets); NaN = invalid")?;
         let tp = lit_phase(&scene.patterns, truth);
-        out.tiff("truth/reference_phase_true.tif", w, h, &f32s(&tp), "exact reference plane phase c_K*Phi(xi, eta); NaN where not lit")?;
+        out.tiff(
+            "truth/reference_phase_true.tif",
+            w,
+            h,
+            &f32s(&tp),
+            "exact reference plane phase c_K*Phi(xi, eta); NaN where not lit",
+        )?;
         reference_files = Some(("reference_phase.tif".into(), "patterns.toml".into()));
         Ok(())
     };
@@ -256,22 +371,40 @@ pub fn write_dataset(scene: &Scene, out_dir: &Path, opts: DatasetOptions<'_>) ->
         DatasetKind::Fringe => {
             let (frames, truth) = scene.render_fringes(ropts)?;
             gains.push(frames.gain);
-            let names: Vec<String> = (0..frames.images.len()).map(|i| format!("img_{i:02}.png")).collect();
+            let names: Vec<String> = (0..frames.images.len())
+                .map(|i| format!("img_{i:02}.png"))
+                .collect();
             for (i, n) in names.iter().enumerate() {
                 out.image(n, &frames, i, "camera image of pattern image i (set order)")?;
             }
             images += names.len();
-            pattern_file(&mut out, "patterns.toml", &scene.patterns, scene.pattern_bits, Some(names))?;
+            pattern_file(
+                &mut out,
+                "patterns.toml",
+                &scene.patterns,
+                scene.pattern_bits,
+                Some(names),
+            )?;
             write_truth(&mut out, "truth", Some(&scene.patterns), &truth)?;
             reference(&mut out, Some((&frames, &truth)))?;
-            extra.insert("images".into(), serde_json::Value::Array(image_list(&scene.patterns, "")));
-            extra.insert("primitives".into(), prim_json(&spec.objects, &scene.geometry));
+            extra.insert(
+                "images".into(),
+                serde_json::Value::Array(image_list(&scene.patterns, "")),
+            );
+            extra.insert(
+                "primitives".into(),
+                prim_json(&spec.objects, &scene.geometry),
+            );
         }
         DatasetKind::Checkerboard => {
-            let b = spec.board.clone().ok_or_else(|| RenderError::Decode("no board".into()))?;
+            let b = spec
+                .board
+                .clone()
+                .ok_or_else(|| RenderError::Decode("no board".into()))?;
             let lit = spec.photometry.board_light == BoardLight::Projector;
             let poses = if b.poses.is_empty() {
-                random_poses(&b, rig, spec.seed, b.count as usize, lit).map_err(|m| scene_err(scene, m))?
+                random_poses(&b, rig, spec.seed, b.count as usize, lit)
+                    .map_err(|m| scene_err(scene, m))?
             } else {
                 b.poses.clone()
             };
@@ -280,19 +413,36 @@ pub fn write_dataset(scene: &Scene, out_dir: &Path, opts: DatasetOptions<'_>) ->
             let mut truths: Vec<BoardTruth> = Vec::new();
             for (k, pose) in poses.iter().enumerate() {
                 let name = format!("board_{k:02}.png");
-                let g = Geometry::build(&[board_object(&b, pose, None, true, b.light)]).map_err(|m| scene_err(scene, m))?;
-                let (f, _) = scene.render_slides(&g, &slides, 100 + k as u64, RenderOptions { sensor: Some(sensor), ..ropts })?;
+                let g = Geometry::build(&[board_object(&b, pose, None, true, b.light)])
+                    .map_err(|m| scene_err(scene, m))?;
+                let (f, _) = scene.render_slides(
+                    &g,
+                    &slides,
+                    100 + k as u64,
+                    RenderOptions {
+                        sensor: Some(sensor),
+                        ..ropts
+                    },
+                )?;
                 gains.push(f.gain);
                 out.image(&name, &f, 0, "checkerboard under uniform light")?;
                 images += 1;
-                truths.push(board_truth(&b, pose, rig, &name).ok_or_else(|| scene_err(scene, format!("board pose {k}: a corner does not project")))?);
+                truths.push(board_truth(&b, pose, rig, &name).ok_or_else(|| {
+                    scene_err(scene, format!("board pose {k}: a corner does not project"))
+                })?);
             }
             let j = json!({"board": b, "corner_order": "row by row, x fastest (OpenCV)", "poses": truths});
             out.put("truth/corners.json", &pretty(&j)?, "json", "board poses, inner corners in mm (camera frame) and in pixels (camera model, distortion included)")?;
         }
         DatasetKind::Plates => {
-            let b = spec.board.clone().ok_or_else(|| RenderError::Decode("no board".into()))?;
-            let plates = spec.plates.clone().ok_or_else(|| RenderError::Decode("no plates".into()))?;
+            let b = spec
+                .board
+                .clone()
+                .ok_or_else(|| RenderError::Decode("no board".into()))?;
+            let plates = spec
+                .plates
+                .clone()
+                .ok_or_else(|| RenderError::Decode("no plates".into()))?;
             let (set_v, bits) = spec.pattern_set(scene.base_dir(), Some(FringeAxis::Xi))?;
             let (set_h, _) = spec.pattern_set(scene.base_dir(), Some(FringeAxis::Eta))?;
             pattern_file(&mut out, "patterns_v.toml", &set_v, bits, None)?;
@@ -303,51 +453,117 @@ pub fn write_dataset(scene: &Scene, out_dir: &Path, opts: DatasetOptions<'_>) ->
             for (k, pose) in plates.positions.iter().enumerate() {
                 let pd = format!("plate_{k:02}");
                 out.ensure_dir(&pd)?;
-                let plate = Geometry::build(&[board_object(&b, pose, Some(plates.size), false, plates.albedo)]).map_err(|m| scene_err(scene, m))?;
-                for (axis, set, stream) in [("v", &set_v, 1000 + 3 * k as u64), ("h", &set_h, 1001 + 3 * k as u64)] {
-                    let slides: Vec<Slide> = (0..set.image_count()).map(|index| Slide::Pattern { set, index, bits }).collect();
+                let plate = Geometry::build(&[board_object(
+                    &b,
+                    pose,
+                    Some(plates.size),
+                    false,
+                    plates.albedo,
+                )])
+                .map_err(|m| scene_err(scene, m))?;
+                for (axis, set, stream) in [
+                    ("v", &set_v, 1000 + 3 * k as u64),
+                    ("h", &set_h, 1001 + 3 * k as u64),
+                ] {
+                    let slides: Vec<Slide> = (0..set.image_count())
+                        .map(|index| Slide::Pattern { set, index, bits })
+                        .collect();
                     let (f, t) = scene.render_slides(&plate, &slides, stream, ropts)?;
                     gains.push(f.gain);
                     for i in 0..f.images.len() {
-                        out.image(&format!("{pd}/{axis}/img_{i:02}.png"), &f, i, &format!("plate {k}, {axis} fringes, pattern image i"))?;
+                        out.image(
+                            &format!("{pd}/{axis}/img_{i:02}.png"),
+                            &f,
+                            i,
+                            &format!("plate {k}, {axis} fringes, pattern image i"),
+                        )?;
                     }
                     images += f.images.len();
                     let ph = lit_phase(set, &t);
-                    out.tiff(&format!("truth/{pd}/phase_{axis}.tif"), t.width, t.height, &f32s(&ph), "true absolute phase of this fringe set; NaN where not lit")?;
+                    out.tiff(
+                        &format!("truth/{pd}/phase_{axis}.tif"),
+                        t.width,
+                        t.height,
+                        &f32s(&ph),
+                        "true absolute phase of this fringe set; NaN where not lit",
+                    )?;
                     if axis == "v" {
                         let mp = Path::new("mask.png");
-                        out.put(&format!("truth/{pd}/mask.png"), &encode_png_u8(mp, t.width, t.height, &t.mask)?, "png gray 8-bit bit mask", "as truth/mask.png of a fringe dataset")?;
+                        out.put(
+                            &format!("truth/{pd}/mask.png"),
+                            &encode_png_u8(mp, t.width, t.height, &t.mask)?,
+                            "png gray 8-bit bit mask",
+                            "as truth/mask.png of a fringe dataset",
+                        )?;
                     }
                 }
-                let board_g = Geometry::build(&[board_object(&b, pose, Some(plates.size), true, b.light)]).map_err(|m| scene_err(scene, m))?;
+                let board_g =
+                    Geometry::build(&[board_object(&b, pose, Some(plates.size), true, b.light)])
+                        .map_err(|m| scene_err(scene, m))?;
                 let slides = [Slide::Uniform(if lit { 1.0 } else { 0.0 })];
-                let (f, _) = scene.render_slides(&board_g, &slides, 1002 + 3 * k as u64, RenderOptions { sensor: Some(bsensor), ..ropts })?;
+                let (f, _) = scene.render_slides(
+                    &board_g,
+                    &slides,
+                    1002 + 3 * k as u64,
+                    RenderOptions {
+                        sensor: Some(bsensor),
+                        ..ropts
+                    },
+                )?;
                 gains.push(f.gain);
                 let bname = format!("{pd}/board.png");
-                out.image(&bname, &f, 0, "the plate's board pattern under uniform light (same pose)")?;
+                out.image(
+                    &bname,
+                    &f,
+                    0,
+                    "the plate's board pattern under uniform light (same pose)",
+                )?;
                 images += 1;
-                let bt = board_truth(&b, pose, rig, &bname).ok_or_else(|| scene_err(scene, format!("plate {k}: a board corner does not project")))?;
+                let bt = board_truth(&b, pose, rig, &bname).ok_or_else(|| {
+                    scene_err(scene, format!("plate {k}: a board corner does not project"))
+                })?;
                 recs.push(json!({"folder": pd, "pose": pose, "plane_point": pose.center, "plane_normal": bt.normal, "board": bt}));
             }
             let j = json!({"board": b, "plate_size": plates.size, "plates": recs});
-            out.put("truth/plates.json", &pretty(&j)?, "json", "plate poses and planes, board corners (mm and pixels)")?;
+            out.put(
+                "truth/plates.json",
+                &pretty(&j)?,
+                "json",
+                "plate poses and planes, board corners (mm and pixels)",
+            )?;
             if spec.reference.mode == ReferenceMode::Render {
                 reference(&mut out, None)?;
             }
             // The calibration names patterns.toml for the reference; the plates' V set is it.
-            pattern_file(&mut out, "patterns.toml", &scene.patterns, scene.pattern_bits, None)?;
+            pattern_file(
+                &mut out,
+                "patterns.toml",
+                &scene.patterns,
+                scene.pattern_bits,
+                None,
+            )?;
         }
     }
 
     // Scene, calibration, manifest.
     let scene_toml = spec.to_toml()?;
-    out.put("scene.toml", scene_toml.as_bytes(), "fringe3d scene TOML (docs/render.md)", "the resolved scene; `fringe3d render --scene scene.toml` re-renders this dataset")?;
+    out.put(
+        "scene.toml",
+        scene_toml.as_bytes(),
+        "fringe3d scene TOML (docs/render.md)",
+        "the resolved scene; `fringe3d render --scene scene.toml` re-renders this dataset",
+    )?;
     let (map, pat) = match &reference_files {
         Some((m, p)) => (Some(PathBuf::from(m)), Some(PathBuf::from(p))),
         None => (None, None),
     };
-    rig.calibration(map, pat).save(&out.dir.join("calibration.toml"))?;
-    out.adopt("calibration.toml", "fringe3d calibration TOML (docs/formats.md)", "the true calibration of the rig")?;
+    rig.calibration(map, pat)
+        .save(&out.dir.join("calibration.toml"))?;
+    out.adopt(
+        "calibration.toml",
+        "fringe3d calibration TOML (docs/formats.md)",
+        "the true calibration of the rig",
+    )?;
 
     let total: u64 = out.files.iter().map(|f| f.bytes).sum();
     let n_files = out.files.len();
@@ -368,24 +584,39 @@ pub fn write_dataset(scene: &Scene, out_dir: &Path, opts: DatasetOptions<'_>) ->
         "extra": extra,
         "files": files,
     });
-    out.put("manifest.json", &pretty(&manifest)?, "json", "this manifest")?;
+    out.put(
+        "manifest.json",
+        &pretty(&manifest)?,
+        "json",
+        "this manifest",
+    )?;
     let path = out.dir.commit()?;
-    Ok(Summary { path, kind: spec.kind, images, files: n_files, bytes: total })
+    Ok(Summary {
+        path,
+        kind: spec.kind,
+        images,
+        files: n_files,
+        bytes: total,
+    })
 }
 
 fn pretty(v: &serde_json::Value) -> Result<Vec<u8>, RenderError> {
-    let mut s = serde_json::to_vec_pretty(v).map_err(|e| file_err(Path::new("manifest.json"), e))?;
+    let mut s =
+        serde_json::to_vec_pretty(v).map_err(|e| file_err(Path::new("manifest.json"), e))?;
     s.push(b'\n');
     Ok(s)
 }
 
 fn scene_err(scene: &Scene, m: impl Into<String>) -> RenderError {
-    RenderError::Scene(super::scene::SceneError::Invalid { scene: scene.spec.name.clone(), message: m.into() })
+    RenderError::Scene(super::scene::SceneError::Invalid {
+        scene: scene.spec.name.clone(),
+        message: m.into(),
+    })
 }
 
 fn board_sensor(scene: &Scene, ss: u32) -> Sensor {
     let mut s = scene.spec.camera.sensor();
     s.supersample = ss;
-    s.edge_supersample = s.edge_supersample.max(16).max(ss);
+    s.edge_supersample = s.edge_supersample.max(12).max(ss);
     s
 }

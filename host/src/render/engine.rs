@@ -35,9 +35,9 @@ pub const MASK_HIT: u8 = 1;
 pub const MASK_IN_FRAME: u8 = 2;
 /// Mask bit: the hit point faces the projector and is not shadowed.
 pub const MASK_LIT: u8 = 4;
-/// Mask bit: the whole pixel footprint (every base sample) is on the same object face and
-/// texture cell, equally lit, and at least `3σ + 2` projector pixels inside the DMD frame: the
-/// pixel's value is free of edge effects.
+/// Mask bit: every base sample of the pixel and of its 8 neighbours is on the same object face
+/// and texture cell, equally lit and on the DMD, and the centre is at least `3σ + 2` projector
+/// pixels inside the DMD frame: the pixel's value is free of edge effects.
 pub const MASK_CLEAN: u8 = 8;
 /// All mask bits: a pixel whose phase is meaningful and unbiased by edges.
 pub const MASK_VALID: u8 = MASK_HIT | MASK_IN_FRAME | MASK_LIT | MASK_CLEAN;
@@ -137,7 +137,16 @@ impl Truth {
     /// The absolute phase `f(ξ, η)` per pixel (e.g. `|ξ, η| set.finest_phase(ξ, η)`), NaN where
     /// the pixel has no projector coordinate.
     pub fn map_projector(&self, f: impl Fn(f64, f64) -> f64 + Sync) -> Vec<f64> {
-        self.projector.par_iter().map(|p| if p[0].is_nan() { f64::NAN } else { f(p[0], p[1]) }).collect()
+        self.projector
+            .par_iter()
+            .map(|p| {
+                if p[0].is_nan() {
+                    f64::NAN
+                } else {
+                    f(p[0], p[1])
+                }
+            })
+            .collect()
     }
 }
 
@@ -176,8 +185,21 @@ impl Tracer<'_> {
         let hit = g.trace(Vec3::ZERO, dir, 1e-9, f64::INFINITY)?;
         let ph = &self.job.photometry;
         let base = hit.albedo * ph.ambient;
-        let mut s = Shade { class: hit.class, lit: false, in_frame: false, base, direct: 0.0, xi: f64::NAN, eta: f64::NAN };
-        if let Some((xi, eta)) = self.job.rig.projector.project(self.job.rig.to_projector_frame(hit.point), self.proj_rmax) {
+        let mut s = Shade {
+            class: hit.class,
+            lit: false,
+            in_frame: false,
+            base,
+            direct: 0.0,
+            xi: f64::NAN,
+            eta: f64::NAN,
+        };
+        if let Some((xi, eta)) = self
+            .job
+            .rig
+            .projector
+            .project(self.job.rig.to_projector_frame(hit.point), self.proj_rmax)
+        {
             s.xi = xi;
             s.eta = eta;
             s.in_frame = self.job.lights.in_frame(xi, eta);
@@ -208,12 +230,21 @@ fn check(job: &Job<'_>) -> Result<(), EngineError> {
         return e(format!("camera bits must be 8, 12 or 16, got {}", s.bits));
     }
     if !(s.noise.is_finite() && s.noise >= 0.0) {
-        return e(format!("noise must be a non-negative number of gray levels, got {}", s.noise));
+        return e(format!(
+            "noise must be a non-negative number of gray levels, got {}",
+            s.noise
+        ));
     }
     if !(s.blur.is_finite() && s.blur >= 0.0 && s.blur <= 50.0) {
-        return e(format!("camera blur must be in [0, 50] pixels, got {}", s.blur));
+        return e(format!(
+            "camera blur must be in [0, 50] pixels, got {}",
+            s.blur
+        ));
     }
-    if !(1..=32).contains(&s.supersample) || s.edge_supersample < s.supersample || s.edge_supersample > 64 {
+    if !(1..=32).contains(&s.supersample)
+        || s.edge_supersample < s.supersample
+        || s.edge_supersample > 64
+    {
         return e(format!(
             "supersample must be 1..32 and edge_supersample in [supersample, 64], got {} and {}",
             s.supersample, s.edge_supersample
@@ -227,7 +258,10 @@ fn check(job: &Job<'_>) -> Result<(), EngineError> {
         return e("gain must be positive".into());
     }
     if !(p.auto_level > 0.0 && p.auto_level <= 1.0) {
-        return e(format!("auto_level must be in (0, 1], got {}", p.auto_level));
+        return e(format!(
+            "auto_level must be in (0, 1], got {}",
+            p.auto_level
+        ));
     }
     if !(p.reference_distance.is_finite() && p.reference_distance > 0.0) {
         return e("reference_distance must be positive".into());
@@ -242,7 +276,12 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
     let cam = &job.rig.camera;
     let (w, h) = (cam.width as usize, cam.height as usize);
     let n_img = job.lights.len();
-    let tr = Tracer { job, p: job.rig.projector_center(), cam_rmax: cam.max_radius(), proj_rmax: job.rig.projector.max_radius() };
+    let tr = Tracer {
+        job,
+        p: job.rig.projector_center(),
+        cam_rmax: cam.max_radius(),
+        proj_rmax: job.rig.projector.max_radius(),
+    };
     let full = ((1u32 << job.sensor.bits) - 1) as f64;
     let gain = match job.photometry.gain {
         Some(g) => g,
@@ -250,7 +289,8 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
     };
     let n = job.sensor.supersample as usize;
     let ne = job.sensor.edge_supersample as usize;
-    let offsets = |k: usize| -> Vec<f64> { (0..k).map(|i| (i as f64 + 0.5) / k as f64 - 0.5).collect() };
+    let offsets =
+        |k: usize| -> Vec<f64> { (0..k).map(|i| (i as f64 + 0.5) / k as f64 - 0.5).collect() };
     let (off, off_e) = (offsets(n), offsets(ne));
     let sigma = job.lights.sigma();
     let clean_margin = 3.0 * sigma + 2.0;
@@ -262,8 +302,37 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
         proj: Vec<[f64; 2]>,
         mask: Vec<u8>,
         ids: Vec<u16>,
+        /// Per pixel: the class shared by all base samples, or [`MIXED`].
+        class: Vec<u64>,
+        /// Per pixel: the pixel-centre ray's direction (x/z, y/z), to warm-start refinement.
+        centre: Vec<Option<(f64, f64)>>,
     }
-    let rows: Vec<Row> = (0..h)
+    const MIXED: u64 = u64::MAX;
+    type Guess = Option<(f64, f64)>;
+    let undistort = |u: f64, v: f64, guess: Option<(f64, f64)>| {
+        cam.undistort_pixel(u, v, guess, tr.cam_rmax)
+            .or_else(|| cam.undistort_pixel(u, v, None, tr.cam_rmax))
+    };
+    let add = |sh: &Option<(Shade, super::objects::Hit)>,
+               acc: &mut [f64],
+               tmp: &mut [f64]|
+     -> Option<u32> {
+        let (s, _) = sh.as_ref()?;
+        if s.lit && s.in_frame {
+            job.lights.eval(s.xi, s.eta, tmp);
+            for (a, t) in acc.iter_mut().zip(tmp.iter()) {
+                *a += s.base + s.direct * t;
+            }
+        } else {
+            for a in acc.iter_mut() {
+                *a += s.base;
+            }
+        }
+        Some(s.class)
+    };
+
+    // Pass 1: n × n samples per pixel, the truth, and whether the pixel is uniform.
+    let mut rows: Vec<Row> = (0..h)
         .into_par_iter()
         .map(|y| {
             let mut row = Row {
@@ -273,29 +342,74 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
                 proj: vec![[f64::NAN; 2]; w],
                 mask: vec![0; w],
                 ids: vec![0; w],
+                class: vec![MIXED; w],
+                centre: vec![None; w],
             };
             let mut tmp = vec![0.0; n_img];
             let mut acc = vec![0.0; n_img];
-            let mut guess = None;
-            let ray = |u: f64, v: f64, guess: &mut Option<(f64, f64)>| -> Option<Vec3> {
-                let r = cam.undistort_pixel(u, v, *guess, tr.cam_rmax).or_else(|| cam.undistort_pixel(u, v, None, tr.cam_rmax));
-                *guess = r;
-                r.map(|(x, y)| Vec3::new(x, y, 1.0))
-            };
+            // Directions of the base samples, one sample row at a time, each warm-started by linear
+            // extrapolation from the two previous samples of its row (uniform steps of 1/n px).
+            let nn = n * n;
+            let mut dirs: Vec<Option<Vec3>> = vec![None; w * nn];
+            for (iy, &oy) in off.iter().enumerate() {
+                let v = y as f64 + oy;
+                let (mut p2, mut p1): (Guess, Guess) = (None, None);
+                for x in 0..w {
+                    for (ix, &ox) in off.iter().enumerate() {
+                        let guess = match (p2, p1) {
+                            (Some(a), Some(b)) => Some((2.0 * b.0 - a.0, 2.0 * b.1 - a.1)),
+                            (_, b) => b,
+                        };
+                        let r = undistort(x as f64 + ox, v, guess);
+                        p2 = p1;
+                        p1 = r;
+                        dirs[x * nn + iy * n + ix] = r.map(|(a, b)| Vec3::new(a, b, 1.0));
+                    }
+                }
+            }
+            // With odd n the middle sample is the pixel centre: its shading is the truth.
+            let centre_idx = (n % 2 == 1).then_some((n / 2) * n + n / 2);
             for x in 0..w {
+                acc.fill(0.0);
+                let mut first = None;
+                let mut same = true;
+                let mut centre = None;
+                for (k, d) in dirs[x * nn..(x + 1) * nn].iter().enumerate() {
+                    let sh = d.and_then(|d| tr.shade(d));
+                    let class = add(&sh, &mut acc, &mut tmp).map_or(MIXED - 1, u64::from);
+                    match first {
+                        None => first = Some(class),
+                        Some(c) => same &= c == class,
+                    }
+                    if Some(k) == centre_idx {
+                        centre = sh;
+                    }
+                }
+                if centre_idx.is_none() {
+                    centre = undistort(x as f64, y as f64, None)
+                        .and_then(|(a, b)| tr.shade(Vec3::new(a, b, 1.0)));
+                }
+                for (i, a) in acc.iter().enumerate() {
+                    row.vals[i * w + x] = *a / nn as f64 * gain;
+                }
+                row.class[x] = if same { first.unwrap_or(MIXED) } else { MIXED };
                 // Truth from the pixel centre.
                 let mut m = 0u8;
-                let mut centre_margin = f64::NEG_INFINITY;
-                if let Some(d) = ray(x as f64, y as f64, &mut guess)
-                    && let Some((s, hit)) = tr.shade(d)
-                {
+                if let Some((s, hit)) = centre {
                     m |= MASK_HIT;
                     row.points[x] = hit.point.to_array();
                     row.normals[x] = hit.normal.to_array();
                     row.ids[x] = job.geometry.prims[hit.prim].id;
+                    row.centre[x] = Some((hit.point.x / hit.point.z, hit.point.y / hit.point.z));
                     if !s.xi.is_nan() {
                         row.proj[x] = [s.xi, s.eta];
-                        centre_margin = job.lights.frame_margin(s.xi, s.eta);
+                        if s.in_frame
+                            && s.lit
+                            && job.lights.frame_margin(s.xi, s.eta) >= clean_margin
+                        {
+                            // Candidate for CLEAN; confirmed in pass 2.
+                            m |= MASK_CLEAN;
+                        }
                     }
                     if s.in_frame {
                         m |= MASK_IN_FRAME;
@@ -304,56 +418,7 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
                         m |= MASK_LIT;
                     }
                 }
-                // Supersampled value.
-                let mut sample_all = |offs: &[f64], acc: &mut [f64], guess: &mut Option<(f64, f64)>| -> (bool, bool) {
-                    acc.fill(0.0);
-                    let mut first = None;
-                    let mut same = true;
-                    let mut all_hit = true;
-                    for &oy in offs {
-                        for &ox in offs {
-                            let class = match ray(x as f64 + ox, y as f64 + oy, guess).and_then(|d| tr.shade(d)) {
-                                Some((s, _)) => {
-                                    if s.lit && s.in_frame {
-                                        job.lights.eval(s.xi, s.eta, &mut tmp);
-                                        for (a, t) in acc.iter_mut().zip(&tmp) {
-                                            *a += s.base + s.direct * t;
-                                        }
-                                    } else {
-                                        for a in acc.iter_mut() {
-                                            *a += s.base;
-                                        }
-                                    }
-                                    s.class
-                                }
-                                None => {
-                                    all_hit = false;
-                                    0
-                                }
-                            };
-                            match first {
-                                None => first = Some(class),
-                                Some(c) => same &= c == class,
-                            }
-                        }
-                    }
-                    let k = (offs.len() * offs.len()) as f64;
-                    for a in acc.iter_mut() {
-                        *a = *a / k * gain;
-                    }
-                    (same, all_hit)
-                };
-                let (same, all_hit) = sample_all(&off, &mut acc, &mut guess);
-                if !same && ne > n {
-                    sample_all(&off_e, &mut acc, &mut guess);
-                }
-                if same && all_hit && m & (MASK_IN_FRAME | MASK_LIT) == (MASK_IN_FRAME | MASK_LIT) && centre_margin >= clean_margin {
-                    m |= MASK_CLEAN;
-                }
                 row.mask[x] = m;
-                for (i, a) in acc.iter().enumerate() {
-                    row.vals[i * w + x] = *a;
-                }
             }
             if let Some(p) = job.progress {
                 p(1);
@@ -361,6 +426,52 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
             row
         })
         .collect();
+
+    // Pass 2: a pixel whose samples, or whose 8 neighbours' samples, are not all of one class
+    // (object, face, texture cell, shadow, DMD frame) sits at an edge: resample it with
+    // n_e × n_e samples. Looking at the neighbours catches edges that pass between a pixel's
+    // outermost samples and its border. Only uniform pixels with uniform neighbours are CLEAN.
+    let classes: Vec<u64> = rows.iter().flat_map(|r| r.class.iter().copied()).collect();
+    let uniform = |x: usize, y: usize| -> bool {
+        let c = classes[y * w + x];
+        if c == MIXED {
+            return false;
+        }
+        let (x0, x1, y0, y1) = (
+            x.saturating_sub(1),
+            (x + 1).min(w - 1),
+            y.saturating_sub(1),
+            (y + 1).min(h - 1),
+        );
+        (y0..=y1).all(|yy| (x0..=x1).all(|xx| classes[yy * w + xx] == c))
+    };
+    rows.par_iter_mut().enumerate().for_each(|(y, row)| {
+        let mut tmp = vec![0.0; n_img];
+        let mut acc = vec![0.0; n_img];
+        for x in 0..w {
+            let uni = uniform(x, y);
+            if !uni {
+                row.mask[x] &= !MASK_CLEAN;
+            }
+            if uni || ne <= n {
+                continue;
+            }
+            acc.fill(0.0);
+            let mut g = row.centre[x];
+            for &oy in &off_e {
+                for &ox in &off_e {
+                    let r = undistort(x as f64 + ox, y as f64 + oy, g);
+                    g = r.or(g);
+                    let sh = r.and_then(|(a, b)| tr.shade(Vec3::new(a, b, 1.0)));
+                    add(&sh, &mut acc, &mut tmp);
+                }
+            }
+            let k = (ne * ne) as f64;
+            for (i, a) in acc.iter().enumerate() {
+                row.vals[i * w + x] = *a / k * gain;
+            }
+        }
+    });
 
     // Assemble.
     let mut float: Vec<Vec<f64>> = (0..n_img).map(|_| vec![0.0; w * h]).collect();
@@ -385,7 +496,9 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
     }
     let kept = job.keep_float.then(|| float.clone());
     if job.sensor.blur > 0.0 {
-        float.par_iter_mut().for_each(|img| gaussian_blur(img, w, h, job.sensor.blur));
+        float
+            .par_iter_mut()
+            .for_each(|img| gaussian_blur(img, w, h, job.sensor.blur));
     }
     let noise = job.sensor.noise;
     let images: Vec<Vec<u16>> = float
@@ -393,20 +506,34 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
         .enumerate()
         .map(|(i, img)| {
             let mut out = vec![0u16; w * h];
-            out.par_chunks_mut(w).zip(img.par_chunks(w)).enumerate().for_each(|(y, (o, src))| {
-                let mut rng = (noise > 0.0).then(|| Rng::new(derive(&[job.seed, job.stream, i as u64, y as u64])));
-                for (o, &v) in o.iter_mut().zip(src) {
-                    let v = match rng.as_mut() {
-                        Some(r) => v + noise * r.gauss(),
-                        None => v,
-                    };
-                    *o = v.clamp(0.0, full).round() as u16;
-                }
-            });
+            out.par_chunks_mut(w)
+                .zip(img.par_chunks(w))
+                .enumerate()
+                .for_each(|(y, (o, src))| {
+                    let mut rng = (noise > 0.0)
+                        .then(|| Rng::new(derive(&[job.seed, job.stream, i as u64, y as u64])));
+                    for (o, &v) in o.iter_mut().zip(src) {
+                        let v = match rng.as_mut() {
+                            Some(r) => v + noise * r.gauss(),
+                            None => v,
+                        };
+                        *o = v.clamp(0.0, full).round() as u16;
+                    }
+                });
             out
         })
         .collect();
-    Ok((Frames { width: w as u32, height: h as u32, bits: job.sensor.bits, images, gain, float: kept }, truth))
+    Ok((
+        Frames {
+            width: w as u32,
+            height: h as u32,
+            bits: job.sensor.bits,
+            images,
+            gain,
+            float: kept,
+        },
+        truth,
+    ))
 }
 
 /// Gain that puts the brightest pixel centre (of a grid of about 160 × 128) under full white at
@@ -437,7 +564,9 @@ fn auto_gain(tr: &Tracer<'_>, full: f64) -> f64 {
 /// In-place separable Gaussian blur with replicated edges.
 pub fn gaussian_blur(img: &mut [f64], w: usize, h: usize, sigma: f64) {
     let r = (4.0 * sigma).ceil() as isize;
-    let k: Vec<f64> = (-r..=r).map(|i| libm::exp(-0.5 * (i as f64 / sigma).powi(2))).collect();
+    let k: Vec<f64> = (-r..=r)
+        .map(|i| libm::exp(-0.5 * (i as f64 / sigma).powi(2)))
+        .collect();
     let sum: f64 = k.iter().sum();
     let k: Vec<f64> = k.iter().map(|v| v / sum).collect();
     let mut tmp = vec![0.0; w * h];

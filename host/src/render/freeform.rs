@@ -30,18 +30,35 @@ const STEP_MIN: f64 = 1e-3;
 impl HeightField {
     /// A height field centred at `c`, local → camera rotation `rot`, `size = [w, h]`.
     pub fn new(c: Vec3, rot: Mat3, size: [f64; 2], base: f64, bumps: &[[f64; 4]]) -> Self {
-        let lo: f64 = bumps.iter().map(|b| b[2].min(0.0)).sum();
-        let hi: f64 = bumps.iter().map(|b| b[2].max(0.0)).sum();
-        HeightField {
+        let mut hf = HeightField {
             c,
             rot,
             hw: 0.5 * size[0],
             hh: 0.5 * size[1],
             base,
             bumps: bumps.to_vec(),
-            z_lo: base + lo - 1e-9,
-            z_hi: base + hi + 1e-9,
+            z_lo: f64::NEG_INFINITY,
+            z_hi: f64::INFINITY,
+        };
+        // Height bounds: extremes on a grid plus the most the surface can rise between grid
+        // points (global gradient bound G times the largest distance to a grid point).
+        let g: f64 = bumps.iter().map(|b| b[2].abs() / b[3] * 0.606_530_66).sum();
+        let n = 400usize;
+        let (dx, dy) = (size[0] / n as f64, size[1] / n as f64);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for j in 0..=n {
+            for i in 0..=n {
+                let (h, _, _) = hf.height(-hf.hw + i as f64 * dx, -hf.hh + j as f64 * dy);
+                lo = lo.min(h);
+                hi = hi.max(h);
+            }
         }
+        let margin = g * 0.5 * dx.hypot(dy) + 1e-9;
+        let abs_lo: f64 = base + bumps.iter().map(|b| b[2].min(0.0)).sum::<f64>();
+        let abs_hi: f64 = base + bumps.iter().map(|b| b[2].max(0.0)).sum::<f64>();
+        hf.z_lo = (lo - margin).max(abs_lo - 1e-9);
+        hf.z_hi = (hi + margin).min(abs_hi + 1e-9);
+        hf
     }
 
     /// Height and gradient at local (x, y).
@@ -100,7 +117,11 @@ impl HeightField {
             let cc = px * px + py * py;
             let s2 = 2.0 * b[3] * b[3];
             // Minimum squared distance over all t (a ≥ 0).
-            let min_q = if a > 0.0 { (cc - bb * bb / (4.0 * a)).max(0.0) } else { cc };
+            let min_q = if a > 0.0 {
+                (cc - bb * bb / (4.0 * a)).max(0.0)
+            } else {
+                cc
+            };
             let peak = b[2].abs() * libm::exp(-min_q / s2);
             if peak < 1e-15 {
                 continue;
@@ -116,13 +137,15 @@ impl HeightField {
             }
             ol.z + t * dl.z - h
         };
-        let df = |t: f64| -> f64 {
-            let mut dh = 0.0;
+        let f_df = |t: f64| -> (f64, f64) {
+            let (mut h, mut dh) = (self.base, 0.0);
             for b in &active {
                 let q = (a * t + b[0]) * t + b[1];
-                dh += b[3] * libm::exp(-q / b[2]) * (-(2.0 * a * t + b[0]) / b[2]);
+                let g = b[3] * libm::exp(-q / b[2]);
+                h += g;
+                dh -= g * (2.0 * a * t + b[0]) / b[2];
             }
-            dl.z - dh
+            (ol.z + t * dl.z - h, dl.z - dh)
         };
         let lip = lip * (1.0 + 1e-9) + 1e-12;
         let mut t = ta;
@@ -132,17 +155,42 @@ impl HeightField {
         }
         let s0 = ft > 0.0;
         let mut bracket = None;
+        // Relaxed Lipschitz marching: try 1.5× the secant prediction of the root; keep the step
+        // only if it brackets a root or provably skips none (|f_a| + |f_b| ≥ L·Δ: a root inside
+        // would need the function to fall to 0 and come back, which takes more than L·Δ);
+        // otherwise take the safe step |f|/L.
+        let mut prev: Option<(f64, f64)> = None;
         for _ in 0..200_000 {
             if t >= tb {
                 break;
             }
-            let step = (ft.abs() / lip).max(STEP_MIN);
-            let tn = (t + step).min(tb);
-            let fnx = f(tn);
+            let safe = (ft.abs() / lip).max(STEP_MIN);
+            let mut step = safe;
+            if let Some((tp, fp)) = prev {
+                let slope = (ft - fp) / (t - tp);
+                step = if slope != 0.0 && (-ft / slope) > 0.0 {
+                    // Heading for a root: aim past it.
+                    step.max((1.5 * -ft / slope).min(50.0 * safe))
+                } else {
+                    // Moving away from the surface: |f| grows, longer steps verify.
+                    2.5 * safe
+                };
+            }
+            let mut tn = (t + step).min(tb);
+            let mut fnx = f(tn);
+            if (fnx > 0.0) == s0
+                && fnx != 0.0
+                && step > safe
+                && ft.abs() + fnx.abs() < lip * (tn - t)
+            {
+                tn = (t + safe).min(tb);
+                fnx = f(tn);
+            }
             if (fnx > 0.0) != s0 || fnx == 0.0 {
                 bracket = Some((t, ft, tn, fnx));
                 break;
             }
+            prev = Some((t, ft));
             t = tn;
             ft = fnx;
         }
@@ -151,7 +199,7 @@ impl HeightField {
         let mut x = 0.5 * (lo_t + hi_t);
         let mut result = None;
         for _ in 0..200 {
-            let fx = f(x);
+            let (fx, dfx) = f_df(x);
             if fx == 0.0 {
                 result = Some(x);
                 break;
@@ -162,10 +210,13 @@ impl HeightField {
             } else {
                 hi_t = x;
             }
-            let dfx = df(x);
             let step = if dfx != 0.0 { fx / dfx } else { f64::INFINITY };
             let xn = x - step;
-            let (l, h) = if lo_t < hi_t { (lo_t, hi_t) } else { (hi_t, lo_t) };
+            let (l, h) = if lo_t < hi_t {
+                (lo_t, hi_t)
+            } else {
+                (hi_t, lo_t)
+            };
             if step.abs() < 1e-11 && xn >= l && xn <= h {
                 result = Some(xn);
                 break;
@@ -205,7 +256,11 @@ mod tests {
             Mat3::from_euler_deg([180.0, 0.0, 0.0]),
             [200.0, 160.0],
             0.0,
-            &[[0.0, 0.0, 40.0, 30.0], [50.0, 20.0, -20.0, 20.0], [-60.0, -30.0, 25.0, 15.0]],
+            &[
+                [0.0, 0.0, 40.0, 30.0],
+                [50.0, 20.0, -20.0, 20.0],
+                [-60.0, -30.0, 25.0, 15.0],
+            ],
         );
         let mut n = 0;
         for i in 0..50 {

@@ -15,7 +15,11 @@ pub struct Vec3 {
 
 impl Vec3 {
     /// The zero vector.
-    pub const ZERO: Vec3 = Vec3 { x: 0.0, y: 0.0, z: 0.0 };
+    pub const ZERO: Vec3 = Vec3 {
+        x: 0.0,
+        y: 0.0,
+        z: 0.0,
+    };
 
     /// A vector from components.
     #[inline]
@@ -26,7 +30,11 @@ impl Vec3 {
     /// From an array.
     #[inline]
     pub const fn from_array(a: [f64; 3]) -> Self {
-        Vec3 { x: a[0], y: a[1], z: a[2] }
+        Vec3 {
+            x: a[0],
+            y: a[1],
+            z: a[2],
+        }
     }
 
     /// As an array.
@@ -44,7 +52,11 @@ impl Vec3 {
     /// Cross product.
     #[inline]
     pub fn cross(self, o: Vec3) -> Vec3 {
-        Vec3::new(self.y * o.z - self.z * o.y, self.z * o.x - self.x * o.z, self.x * o.y - self.y * o.x)
+        Vec3::new(
+            self.y * o.z - self.z * o.y,
+            self.z * o.x - self.x * o.z,
+            self.x * o.y - self.y * o.x,
+        )
     }
 
     /// Euclidean length.
@@ -151,7 +163,11 @@ impl Mat3 {
     /// Transpose.
     pub fn transpose(&self) -> Mat3 {
         let m = &self.0;
-        Mat3([[m[0][0], m[1][0], m[2][0]], [m[0][1], m[1][1], m[2][1]], [m[0][2], m[1][2], m[2][2]]])
+        Mat3([
+            [m[0][0], m[1][0], m[2][0]],
+            [m[0][1], m[1][1], m[2][1]],
+            [m[0][2], m[1][2], m[2][2]],
+        ])
     }
 
     /// Rotation about x by `a` radians.
@@ -176,7 +192,9 @@ impl Mat3 {
     /// fixed camera axes).
     pub fn from_euler_deg(e: [f64; 3]) -> Mat3 {
         let r = |d: f64| d.to_radians();
-        Mat3::rot_z(r(e[2])).mul_mat(&Mat3::rot_y(r(e[1]))).mul_mat(&Mat3::rot_x(r(e[0])))
+        Mat3::rot_z(r(e[2]))
+            .mul_mat(&Mat3::rot_y(r(e[1])))
+            .mul_mat(&Mat3::rot_x(r(e[0])))
     }
 
     /// Largest deviation of `MᵀM` from the identity, and the determinant: a rotation has ~0 and 1.
@@ -190,7 +208,8 @@ impl Mat3 {
             }
         }
         let m = &self.0;
-        let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
         (e, det)
     }

@@ -18,6 +18,9 @@
 //!
 //! See `docs/render.md` for the models, formats and measured accuracy.
 
+// `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod board;
 pub mod camera;
 pub mod dataset;
@@ -32,7 +35,9 @@ pub mod rng;
 pub mod scene;
 
 pub use camera::Intrinsics;
-pub use engine::{Frames, MASK_CLEAN, MASK_HIT, MASK_IN_FRAME, MASK_LIT, MASK_VALID, Photometry, Sensor, Truth};
+pub use engine::{
+    Frames, MASK_CLEAN, MASK_HIT, MASK_IN_FRAME, MASK_LIT, MASK_VALID, Photometry, Sensor, Truth,
+};
 pub use light::{LightSet, Optics, ProjectorMode, Slide};
 pub use objects::{Geometry, ObjectSpec, Shape, Texture};
 pub use rig::{Rig, default_rig};
@@ -109,9 +114,18 @@ impl Scene {
         spec.validate(base_dir)?;
         let rig = spec.rig()?;
         let (patterns, pattern_bits) = spec.pattern_set(base_dir, None)?;
-        let geometry = Geometry::build(&spec.objects)
-            .map_err(|m| scene::SceneError::Invalid { scene: spec.name.clone(), message: m })?;
-        Ok(Scene { spec, rig, patterns, pattern_bits, geometry, base_dir: base_dir.map(Path::to_path_buf) })
+        let geometry = Geometry::build(&spec.objects).map_err(|m| scene::SceneError::Invalid {
+            scene: spec.name.clone(),
+            message: m,
+        })?;
+        Ok(Scene {
+            spec,
+            rig,
+            patterns,
+            pattern_bits,
+            geometry,
+            base_dir: base_dir.map(Path::to_path_buf),
+        })
     }
 
     /// A built-in scene with overrides.
@@ -147,12 +161,23 @@ impl Scene {
         stream: u64,
         opts: RenderOptions<'_>,
     ) -> Result<(Frames, Truth), RenderError> {
-        let lights = LightSet::new(self.rig.projector.width, self.rig.projector.height, slides, self.optics())?;
+        let lights = LightSet::new(
+            self.rig.projector.width,
+            self.rig.projector.height,
+            slides,
+            self.optics(),
+        )?;
         self.render_lights(geometry, &lights, stream, opts)
     }
 
     /// Render with a prepared light set (reuse it across renders of the same slides).
-    pub fn render_lights(&self, geometry: &Geometry, lights: &LightSet, stream: u64, opts: RenderOptions<'_>) -> Result<(Frames, Truth), RenderError> {
+    pub fn render_lights(
+        &self,
+        geometry: &Geometry,
+        lights: &LightSet,
+        stream: u64,
+        opts: RenderOptions<'_>,
+    ) -> Result<(Frames, Truth), RenderError> {
         let job = engine::Job {
             rig: &self.rig,
             geometry,
@@ -169,7 +194,13 @@ impl Scene {
 
     /// The slides of a pattern set.
     pub fn pattern_slides<'a>(&self, set: &'a PatternSet) -> Vec<Slide<'a>> {
-        (0..set.image_count()).map(|index| Slide::Pattern { set, index, bits: self.pattern_bits }).collect()
+        (0..set.image_count())
+            .map(|index| Slide::Pattern {
+                set,
+                index,
+                bits: self.pattern_bits,
+            })
+            .collect()
     }
 
     /// The scene's fringe set on its objects.
@@ -184,14 +215,22 @@ impl Scene {
         let o = ObjectSpec {
             name: "reference".into(),
             albedo: self.spec.reference.albedo,
-            shape: Shape::Plane { point: self.rig.reference_point, normal: self.rig.reference_normal, size: None, u_axis: None },
+            shape: Shape::Plane {
+                point: self.rig.reference_point,
+                normal: self.rig.reference_normal,
+                size: None,
+                u_axis: None,
+            },
             texture: None,
         };
         Geometry::build(&[o]).unwrap_or_default()
     }
 
     /// The scene's fringe set on the reference plane (noise stream 1).
-    pub fn render_reference(&self, opts: RenderOptions<'_>) -> Result<(Frames, Truth), RenderError> {
+    pub fn render_reference(
+        &self,
+        opts: RenderOptions<'_>,
+    ) -> Result<(Frames, Truth), RenderError> {
         let slides = self.pattern_slides(&self.patterns);
         self.render_slides(&self.reference_geometry(), &slides, 1, opts)
     }
@@ -207,19 +246,36 @@ impl Scene {
 /// Decode rendered frames with the core's decoder (thresholds for the frames' bit depth):
 /// the finest absolute phase per pixel, NaN where invalid.
 pub fn decode_phase(set: &PatternSet, frames: &Frames) -> Result<Vec<f32>, RenderError> {
-    let dec = Decoder::new(set, DecodeConfig::for_bit_depth(frames.bits as u32)).map_err(|e| RenderError::Decode(e.to_string()))?;
+    let dec = Decoder::new(set, DecodeConfig::for_bit_depth(frames.bits as u32))
+        .map_err(|e| RenderError::Decode(e.to_string()))?;
     let (w, h) = (frames.width as usize, frames.height as usize);
     if frames.images.len() != set.image_count() {
-        return Err(RenderError::Decode(format!("{} frames for a set of {} images", frames.images.len(), set.image_count())));
+        return Err(RenderError::Decode(format!(
+            "{} frames for a set of {} images",
+            frames.images.len(),
+            set.image_count()
+        )));
     }
     let mut phase = vec![f32::NAN; w * h];
     let mut m = vec![0f32; w];
     let mut a = vec![0f32; w];
     let mut v = vec![0u8; w];
     for y in 0..h {
-        let rows: Vec<&[u16]> = frames.images.iter().map(|img| &img[y * w..(y + 1) * w]).collect();
-        dec.decode_row(&rows, RowOut { phase: &mut phase[y * w..(y + 1) * w], modulation: &mut m, dc: &mut a, validity: &mut v })
-            .map_err(|e| RenderError::Decode(e.to_string()))?;
+        let rows: Vec<&[u16]> = frames
+            .images
+            .iter()
+            .map(|img| &img[y * w..(y + 1) * w])
+            .collect();
+        dec.decode_row(
+            &rows,
+            RowOut {
+                phase: &mut phase[y * w..(y + 1) * w],
+                modulation: &mut m,
+                dc: &mut a,
+                validity: &mut v,
+            },
+        )
+        .map_err(|e| RenderError::Decode(e.to_string()))?;
     }
     Ok(phase)
 }

@@ -142,10 +142,29 @@ pub struct ObjectSpec {
 /// A primitive ready for intersection.
 #[derive(Clone, Debug)]
 pub(crate) enum Prim {
-    Plane { p: Vec3, n: Vec3, u: Vec3, v: Vec3, half: Option<(f64, f64)> },
-    Sphere { c: Vec3, r: f64 },
-    Cylinder { c0: Vec3, w: Vec3, r: f64, len: f64, caps: bool },
-    Box { c: Vec3, rot: Mat3, half: Vec3 },
+    Plane {
+        p: Vec3,
+        n: Vec3,
+        u: Vec3,
+        v: Vec3,
+        half: Option<(f64, f64)>,
+    },
+    Sphere {
+        c: Vec3,
+        r: f64,
+    },
+    Cylinder {
+        c0: Vec3,
+        w: Vec3,
+        r: f64,
+        len: f64,
+        caps: bool,
+    },
+    Box {
+        c: Vec3,
+        rot: Mat3,
+        half: Vec3,
+    },
     Height(Box<HeightField>),
 }
 
@@ -192,11 +211,19 @@ fn unit(a: [f64; 3], what: &str) -> Result<Vec3, String> {
 }
 
 fn finite(a: &[f64], what: &str) -> Result<(), String> {
-    if a.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(format!("{what} must be finite")) }
+    if a.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(format!("{what} must be finite"))
+    }
 }
 
 fn positive(v: f64, what: &str) -> Result<(), String> {
-    if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{what} must be positive, got {v}")) }
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("{what} must be positive, got {v}"))
+    }
 }
 
 /// In-plane axes: `u` from a hint projected onto the plane, `v = n × u`.
@@ -206,7 +233,9 @@ pub(crate) fn plane_axes(n: Vec3, hint: Option<[f64; 3]>) -> Result<(Vec3, Vec3)
         (p.norm() > 1e-6).then(|| p.normalized())
     };
     let u = match hint {
-        Some(h) => try_axis(unit(h, "plane u_axis")?).ok_or("plane u_axis is normal to the plane")?,
+        Some(h) => {
+            try_axis(unit(h, "plane u_axis")?).ok_or("plane u_axis is normal to the plane")?
+        }
         None => try_axis(Vec3::new(1.0, 0.0, 0.0))
             .or_else(|| try_axis(Vec3::new(0.0, 1.0, 0.0)))
             .ok_or("plane normal is degenerate")?,
@@ -222,12 +251,23 @@ impl ObjectSpec {
 
     /// The primitives of this object, ids from `first_id`.
     pub fn primitives(&self, index: usize, first_id: u16) -> Result<Vec<Primitive>, String> {
-        let label = if self.name.is_empty() { format!("object {index}") } else { format!("object {index} ({})", self.name) };
+        let label = if self.name.is_empty() {
+            format!("object {index}")
+        } else {
+            format!("object {index} ({})", self.name)
+        };
         let e = |m: String| format!("{label}: {m}");
         if !(self.albedo.is_finite() && (0.0..=1.0).contains(&self.albedo)) {
             return Err(e(format!("albedo must be in [0, 1], got {}", self.albedo)));
         }
-        if let Some(Texture::Checker { square, cols, rows, dark, light }) = &self.texture {
+        if let Some(Texture::Checker {
+            square,
+            cols,
+            rows,
+            dark,
+            light,
+        }) = &self.texture
+        {
             positive(*square, "checker square").map_err(e)?;
             if *cols == 0 || *rows == 0 {
                 return Err(e("checker needs at least one column and row".into()));
@@ -250,7 +290,12 @@ impl ObjectSpec {
             prim,
         };
         let prims = match &self.shape {
-            Shape::Plane { point, normal, size, u_axis } => {
+            Shape::Plane {
+                point,
+                normal,
+                size,
+                u_axis,
+            } => {
                 finite(point, "plane point").map_err(e)?;
                 let n = unit(*normal, "plane normal").map_err(e)?;
                 let (u, v) = plane_axes(n, *u_axis).map_err(e)?;
@@ -262,31 +307,81 @@ impl ObjectSpec {
                     }
                     None => None,
                 };
-                vec![mk(0, first_id, Prim::Plane { p: Vec3::from_array(*point), n, u, v, half })]
+                vec![mk(
+                    0,
+                    first_id,
+                    Prim::Plane {
+                        p: Vec3::from_array(*point),
+                        n,
+                        u,
+                        v,
+                        half,
+                    },
+                )]
             }
             Shape::Sphere { center, radius } => {
                 finite(center, "sphere centre").map_err(e)?;
                 positive(*radius, "sphere radius").map_err(e)?;
-                vec![mk(0, first_id, Prim::Sphere { c: Vec3::from_array(*center), r: *radius })]
+                vec![mk(
+                    0,
+                    first_id,
+                    Prim::Sphere {
+                        c: Vec3::from_array(*center),
+                        r: *radius,
+                    },
+                )]
             }
-            Shape::Cylinder { center, axis, radius, length, caps } => {
+            Shape::Cylinder {
+                center,
+                axis,
+                radius,
+                length,
+                caps,
+            } => {
                 finite(center, "cylinder centre").map_err(e)?;
                 let w = unit(*axis, "cylinder axis").map_err(e)?;
                 positive(*radius, "cylinder radius").map_err(e)?;
                 positive(*length, "cylinder length").map_err(e)?;
                 let c0 = Vec3::from_array(*center) - w * (0.5 * length);
-                vec![mk(0, first_id, Prim::Cylinder { c0, w, r: *radius, len: *length, caps: *caps })]
+                vec![mk(
+                    0,
+                    first_id,
+                    Prim::Cylinder {
+                        c0,
+                        w,
+                        r: *radius,
+                        len: *length,
+                        caps: *caps,
+                    },
+                )]
             }
-            Shape::Box { center, size, euler_deg } => {
+            Shape::Box {
+                center,
+                size,
+                euler_deg,
+            } => {
                 finite(center, "box centre").map_err(e)?;
                 finite(euler_deg, "box euler_deg").map_err(e)?;
                 for s in size {
                     positive(*s, "box size").map_err(e)?;
                 }
                 let half = Vec3::from_array(*size) * 0.5;
-                vec![mk(0, first_id, Prim::Box { c: Vec3::from_array(*center), rot: Mat3::from_euler_deg(*euler_deg), half })]
+                vec![mk(
+                    0,
+                    first_id,
+                    Prim::Box {
+                        c: Vec3::from_array(*center),
+                        rot: Mat3::from_euler_deg(*euler_deg),
+                        half,
+                    },
+                )]
             }
-            Shape::BallBar { center_a, center_b, radius, bar_radius } => {
+            Shape::BallBar {
+                center_a,
+                center_b,
+                radius,
+                bar_radius,
+            } => {
                 finite(center_a, "ball bar centre_a").map_err(e)?;
                 finite(center_b, "ball bar centre_b").map_err(e)?;
                 positive(*radius, "ball radius").map_err(e)?;
@@ -305,11 +400,27 @@ impl ObjectSpec {
                         return Err(e("bar radius must be below the ball radius".into()));
                     }
                     let w = (b - a) * (1.0 / len);
-                    v.push(mk(2, first_id + 2, Prim::Cylinder { c0: a, w, r: *bar_radius, len, caps: false }));
+                    v.push(mk(
+                        2,
+                        first_id + 2,
+                        Prim::Cylinder {
+                            c0: a,
+                            w,
+                            r: *bar_radius,
+                            len,
+                            caps: false,
+                        },
+                    ));
                 }
                 v
             }
-            Shape::HeightField { center, euler_deg, size, base, bumps } => {
+            Shape::HeightField {
+                center,
+                euler_deg,
+                size,
+                base,
+                bumps,
+            } => {
                 finite(center, "height field centre").map_err(e)?;
                 finite(euler_deg, "height field euler_deg").map_err(e)?;
                 positive(size[0], "height field width").map_err(e)?;
@@ -319,7 +430,13 @@ impl ObjectSpec {
                     finite(b, "bump").map_err(e)?;
                     positive(b[3], "bump sigma").map_err(e)?;
                 }
-                let hf = HeightField::new(Vec3::from_array(*center), Mat3::from_euler_deg(*euler_deg), *size, *base, bumps);
+                let hf = HeightField::new(
+                    Vec3::from_array(*center),
+                    Mat3::from_euler_deg(*euler_deg),
+                    *size,
+                    *base,
+                    bumps,
+                );
                 vec![mk(0, first_id, Prim::Height(Box::new(hf)))]
             }
         };
@@ -344,7 +461,13 @@ fn quadratic(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
 
 impl Primitive {
     /// The nearest intersection with `t ∈ (t_min, t_max)`: (t, outward normal, class).
-    pub(crate) fn intersect(&self, o: Vec3, d: Vec3, t_min: f64, t_max: f64) -> Option<(f64, Vec3, u32)> {
+    pub(crate) fn intersect(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<(f64, Vec3, u32)> {
         let inside = |t: f64| t > t_min && t < t_max;
         match &self.prim {
             Prim::Plane { p, n, u, v, half } => {
@@ -378,11 +501,21 @@ impl Primitive {
                 // One Newton step on |o + t d − c|² − r².
                 let q = oc + d * t0;
                 let t = t0 - (q.dot(q) - r * r) / (2.0 * d.dot(q));
-                let t = if (t - t0).abs() < 1e-6 * (1.0 + t0.abs()) { t } else { t0 };
+                let t = if (t - t0).abs() < 1e-6 * (1.0 + t0.abs()) {
+                    t
+                } else {
+                    t0
+                };
                 let nrm = (o + d * t - *c) * (1.0 / r);
                 Some((t, nrm, 0))
             }
-            Prim::Cylinder { c0, w, r, len, caps } => {
+            Prim::Cylinder {
+                c0,
+                w,
+                r,
+                len,
+                caps,
+            } => {
                 let mut best: Option<(f64, Vec3, u32)> = None;
                 let oc = o - *c0;
                 let dp = d - *w * d.dot(*w);
@@ -394,7 +527,11 @@ impl Primitive {
                         }
                         let q = op + dp * t0;
                         let t = t0 - (q.dot(q) - r * r) / (2.0 * dp.dot(q));
-                        let t = if (t - t0).abs() < 1e-6 * (1.0 + t0.abs()) { t } else { t0 };
+                        let t = if (t - t0).abs() < 1e-6 * (1.0 + t0.abs()) {
+                            t
+                        } else {
+                            t0
+                        };
                         let s = (oc + d * t).dot(*w);
                         if (0.0..=*len).contains(&s) {
                             let q = op + dp * t;
@@ -458,7 +595,11 @@ impl Primitive {
                 };
                 let mut nl = [0.0; 3];
                 // Entering through a face: normal opposes the ray; leaving: along it.
-                nl[ax] = if enter { -da[ax].signum() } else { da[ax].signum() };
+                nl[ax] = if enter {
+                    -da[ax].signum()
+                } else {
+                    da[ax].signum()
+                };
                 let face = (ax as u32) * 2 + u32::from(nl[ax] > 0.0);
                 Some((t, rot.mul_vec(Vec3::from_array(nl)), face))
             }
@@ -469,7 +610,16 @@ impl Primitive {
     /// Albedo and texture class at a point of this primitive.
     fn material(&self, p: Vec3) -> (f64, u32) {
         match (&self.texture, &self.prim) {
-            (Some(Texture::Checker { square, cols, rows, dark, light }), Prim::Plane { p: p0, u, v, .. }) => {
+            (
+                Some(Texture::Checker {
+                    square,
+                    cols,
+                    rows,
+                    dark,
+                    light,
+                }),
+                Prim::Plane { p: p0, u, v, .. },
+            ) => {
                 let q = p - *p0;
                 let (x, y) = (q.dot(*u), q.dot(*v));
                 let w = *cols as f64 * square;
@@ -528,11 +678,20 @@ impl Geometry {
         let n = if n.dot(d) > 0.0 { -n } else { n };
         let (albedo, tex) = self.prims[i].material(point);
         let class = ((i as u32 + 1) << 8) | (face << 2) | tex;
-        Some(Hit { t, point, normal: n, prim: i, albedo, class })
+        Some(Hit {
+            t,
+            point,
+            normal: n,
+            prim: i,
+            albedo,
+            class,
+        })
     }
 
     /// `true` if anything lies on the ray `o + t·d`, `t ∈ (t_min, t_max)`.
     pub fn occluded(&self, o: Vec3, d: Vec3, t_min: f64, t_max: f64) -> bool {
-        self.prims.iter().any(|p| p.intersect(o, d, t_min, t_max).is_some())
+        self.prims
+            .iter()
+            .any(|p| p.intersect(o, d, t_min, t_max).is_some())
     }
 }

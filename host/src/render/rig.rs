@@ -110,7 +110,8 @@ impl Rig {
     /// The projector pixel (ξ, η) lighting the camera-frame point `p`, by the exact forward model
     /// (no inversion needed); `None` behind the projector or beyond its lens model.
     pub fn projector_pixel(&self, p: Vec3) -> Option<(f64, f64)> {
-        self.projector.project(self.to_projector_frame(p), self.projector.max_radius())
+        self.projector
+            .project(self.to_projector_frame(p), self.projector.max_radius())
     }
 
     /// Check every parameter; the message names the field.
@@ -119,7 +120,9 @@ impl Rig {
         self.projector.validate("projector")?;
         let (e, det) = self.rotation_matrix().orthonormality_error();
         if !(e < 1e-9 && (det - 1.0).abs() < 1e-9) {
-            return Err(format!("projector rotation is not a rotation (|RᵀR − I| = {e:e}, det = {det})"));
+            return Err(format!(
+                "projector rotation is not a rotation (|RᵀR − I| = {e:e}, det = {det})"
+            ));
         }
         let t = self.projector_center();
         if !(t.is_finite() && t.norm() > 1e-6) {
@@ -131,7 +134,9 @@ impl Rig {
         }
         let [z0, z1] = self.depth_range;
         if !(z0 > 0.0 && z0 < z1 && z1.is_finite()) {
-            return Err(format!("depth_range must satisfy 0 < z_min < z_max, got [{z0}, {z1}]"));
+            return Err(format!(
+                "depth_range must satisfy 0 < z_min < z_max, got [{z0}, {z1}]"
+            ));
         }
         if !(0..3).all(|i| self.volume_min[i] < self.volume_max[i]) {
             return Err("volume_min must be below volume_max in x, y and z".into());
@@ -154,7 +159,11 @@ impl Rig {
 
     /// The true calibration of this rig. `reference_map` (relative to the calibration file) and
     /// `pattern_set` name the reference files when a reference was rendered.
-    pub fn calibration(&self, reference_map: Option<PathBuf>, pattern_set: Option<PathBuf>) -> Calibration {
+    pub fn calibration(
+        &self,
+        reference_map: Option<PathBuf>,
+        pattern_set: Option<PathBuf>,
+    ) -> Calibration {
         Calibration {
             version: 1,
             camera: self.camera_model(),

@@ -18,7 +18,16 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// The names of the built-in scenes.
-pub const BUILTIN_SCENES: [&str; 8] = ["sphere", "ballbar", "steps", "freeform", "plane", "reference", "checkerboard", "plates"];
+pub const BUILTIN_SCENES: [&str; 8] = [
+    "sphere",
+    "ballbar",
+    "steps",
+    "freeform",
+    "plane",
+    "reference",
+    "checkerboard",
+    "plates",
+];
 
 /// What a scene produces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -219,7 +228,12 @@ impl ProjectorSpec {
 
     /// The optics.
     pub fn optics(&self) -> Optics {
-        Optics { mode: self.mode, defocus: self.defocus, gamma: self.gamma, black_level: self.black_level }
+        Optics {
+            mode: self.mode,
+            defocus: self.defocus,
+            gamma: self.gamma,
+            black_level: self.black_level,
+        }
     }
 }
 
@@ -407,7 +421,7 @@ pub struct BoardSpec {
     /// Explicit poses (override `count`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub poses: Vec<Pose>,
-    /// Samples per pixel side for board images (default 4; 16 at edges).
+    /// Samples per pixel side for board images (default 2; at least 12 at edges).
     #[serde(default = "d_board_ss")]
     pub supersample: u32,
 }
@@ -425,7 +439,7 @@ fn d_count() -> u32 {
     15
 }
 fn d_board_ss() -> u32 {
-    4
+    2
 }
 
 /// A rigid pose: the object's local frame (x right, y down, z away from the camera at zero
@@ -569,13 +583,19 @@ pub struct Overrides {
 impl SceneSpec {
     /// Read a scene file.
     pub fn load(path: &Path) -> Result<SceneSpec, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io { path: path.to_path_buf(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
         Self::parse(&text, path)
     }
 
     /// Parse scene TOML; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<SceneSpec, SceneError> {
-        toml::from_str(text).map_err(|e| SceneError::Parse { path: path.to_path_buf(), message: e.to_string().trim_end().to_string() })
+        toml::from_str(text).map_err(|e| SceneError::Parse {
+            path: path.to_path_buf(),
+            message: e.to_string().trim_end().to_string(),
+        })
     }
 
     /// The scene as TOML text (round-trips through [`SceneSpec::parse`]).
@@ -584,7 +604,10 @@ impl SceneSpec {
     }
 
     fn invalid(&self, message: impl Into<String>) -> SceneError {
-        SceneError::Invalid { scene: self.name.clone(), message: message.into() }
+        SceneError::Invalid {
+            scene: self.name.clone(),
+            message: message.into(),
+        }
     }
 
     /// Apply command-line overrides.
@@ -611,7 +634,9 @@ impl SceneSpec {
         if let Some((w, h)) = o.size {
             let s = self.camera.intrinsics().scaled(w, h);
             let keep = self.camera.clone();
-            self.camera = CameraSpec { ..CameraSpec::from_intrinsics(&s) };
+            self.camera = CameraSpec {
+                ..CameraSpec::from_intrinsics(&s)
+            };
             self.camera.bits = keep.bits;
             self.camera.noise = keep.noise;
             self.camera.blur = keep.blur;
@@ -624,11 +649,17 @@ impl SceneSpec {
     pub fn rig(&self) -> Result<Rig, SceneError> {
         let t = Vec3::from_array(self.projector.center);
         let r = match (&self.projector.rotation, &self.projector.look_at) {
-            (Some(_), Some(_)) => return Err(self.invalid("projector: give either rotation or look_at, not both")),
+            (Some(_), Some(_)) => {
+                return Err(self.invalid("projector: give either rotation or look_at, not both"));
+            }
             (Some(r), None) => Mat3(*r),
             (None, a) => {
                 let aim = Vec3::from_array(a.unwrap_or(DEFAULT_AIM));
-                look_at(t, aim).ok_or_else(|| self.invalid("projector.look_at: cannot aim at its own centre or straight up/down"))?
+                look_at(t, aim).ok_or_else(|| {
+                    self.invalid(
+                        "projector.look_at: cannot aim at its own centre or straight up/down",
+                    )
+                })?
             }
         };
         let n = Vec3::from_array(self.reference.normal);
@@ -642,7 +673,10 @@ impl SceneSpec {
         }
         let vol = self.volume.clone().unwrap_or_else(|| {
             let d = default_rig();
-            VolumeSpec { min: d.volume_min, max: d.volume_max }
+            VolumeSpec {
+                min: d.volume_min,
+                max: d.volume_max,
+            }
         });
         let rig = Rig {
             camera: self.camera.intrinsics(),
@@ -661,27 +695,38 @@ impl SceneSpec {
 
     /// The pattern set for fringe axis `axis` (`None`: the scene's own). `base_dir` resolves a
     /// relative pattern file. Also returns the pattern bits.
-    pub fn pattern_set(&self, base_dir: Option<&Path>, axis: Option<FringeAxis>) -> Result<(PatternSet, u8), SceneError> {
+    pub fn pattern_set(
+        &self,
+        base_dir: Option<&Path>,
+        axis: Option<FringeAxis>,
+    ) -> Result<(PatternSet, u8), SceneError> {
         let bits = self.projector.bits;
         if bits != 8 && bits != 16 {
             return Err(self.invalid(format!("projector.bits must be 8 or 16, got {bits}")));
         }
         let p = &self.patterns;
         let file = match (&p.file, &p.set) {
-            (Some(_), Some(_)) => return Err(self.invalid("patterns: give either file or set, not both")),
+            (Some(_), Some(_)) => {
+                return Err(self.invalid("patterns: give either file or set, not both"));
+            }
             (Some(f), None) => {
                 let path = match base_dir {
                     Some(b) if f.is_relative() => b.join(f),
                     _ => f.clone(),
                 };
-                Some(PatternSetFile::load(&path).map_err(|e| self.invalid(format!("patterns.file: {e}")))?)
+                Some(
+                    PatternSetFile::load(&path)
+                        .map_err(|e| self.invalid(format!("patterns.file: {e}")))?,
+                )
             }
             (None, Some(s)) => Some(s.clone()),
             (None, None) => None,
         };
         if let Some(mut f) = file {
             if axis.is_some() {
-                return Err(self.invalid("plates scenes need the shorthand pattern description (they use both axes)"));
+                return Err(self.invalid(
+                    "plates scenes need the shorthand pattern description (they use both axes)",
+                ));
             }
             let old = f.bit_depth();
             if old != bits {
@@ -690,8 +735,12 @@ impl SceneSpec {
                 f.projector.i_max = f.projector.i_max.map(|v| v * s);
                 f.projector.bit_depth = Some(bits);
             }
-            let set = f.to_pattern_set().map_err(|e| self.invalid(format!("patterns: {e}")))?;
-            if set.output().width != self.projector.width || set.output().height != self.projector.height {
+            let set = f
+                .to_pattern_set()
+                .map_err(|e| self.invalid(format!("patterns: {e}")))?;
+            if set.output().width != self.projector.width
+                || set.output().height != self.projector.height
+            {
                 return Err(self.invalid(format!(
                     "patterns are for a {}x{} projector, the scene's is {}x{}",
                     set.output().width,
@@ -712,17 +761,35 @@ impl SceneSpec {
             i_min: 0.0,
             i_max: ((1u32 << bits) - 1) as f64,
         };
-        let size = if axis == Axis::Xi { out.width } else { out.height };
-        let other = if axis == Axis::Xi { out.height } else { out.width };
+        let size = if axis == Axis::Xi {
+            out.width
+        } else {
+            out.height
+        };
+        let other = if axis == Axis::Xi {
+            out.height
+        } else {
+            out.width
+        };
         let e = |m: &dyn std::fmt::Display| self.invalid(format!("patterns: {m}"));
         let mut f = PhaseFunction::centered(axis, size, p.span).map_err(|x| e(&x))?;
         if p.curvature != 0.0 {
-            f = f.curved(p.curvature, 0.5 * (other as f64 - 1.0)).map_err(|x| e(&x))?;
+            f = f
+                .curved(p.curvature, 0.5 * (other as f64 - 1.0))
+                .map_err(|x| e(&x))?;
         }
         let r = p.ratio;
         let levels = match p.preset {
-            PresetName::Paper8 => [Level::two_step(1.0), Level::two_step(r), Level::n_step(r * r, 4)],
-            PresetName::Twelve => [Level::n_step(1.0, 4), Level::n_step(r, 4), Level::n_step(r * r, 4)],
+            PresetName::Paper8 => [
+                Level::two_step(1.0),
+                Level::two_step(r),
+                Level::n_step(r * r, 4),
+            ],
+            PresetName::Twelve => [
+                Level::n_step(1.0, 4),
+                Level::n_step(r, 4),
+                Level::n_step(r * r, 4),
+            ],
         };
         let set = PatternSet::new(f, &levels, out).map_err(|x| e(&x))?;
         Ok((set, bits))
@@ -739,7 +806,9 @@ impl SceneSpec {
             return Err(self.invalid(format!("camera.bits must be 8, 12 or 16, got {}", s.bits)));
         }
         if !(1..=32).contains(&s.supersample) || s.edge_supersample > 64 {
-            return Err(self.invalid("camera.supersample must be 1..32 and edge_supersample at most 64"));
+            return Err(
+                self.invalid("camera.supersample must be 1..32 and edge_supersample at most 64")
+            );
         }
         if !(s.noise.is_finite() && s.noise >= 0.0) {
             return Err(self.invalid(format!("camera.noise must be >= 0, got {}", s.noise)));
@@ -757,25 +826,40 @@ impl SceneSpec {
                 }
             }
             DatasetKind::Checkerboard => {
-                let b = self.board.as_ref().ok_or_else(|| self.invalid("a checkerboard scene needs [board]"))?;
+                let b = self
+                    .board
+                    .as_ref()
+                    .ok_or_else(|| self.invalid("a checkerboard scene needs [board]"))?;
                 self.check_board(b)?;
             }
             DatasetKind::Plates => {
-                let p = self.plates.as_ref().ok_or_else(|| self.invalid("a plates scene needs [plates]"))?;
+                let p = self
+                    .plates
+                    .as_ref()
+                    .ok_or_else(|| self.invalid("a plates scene needs [plates]"))?;
                 if p.positions.len() < 2 {
-                    return Err(self.invalid("plates: at least two positions are needed (paper §7)"));
+                    return Err(
+                        self.invalid("plates: at least two positions are needed (paper §7)")
+                    );
                 }
                 if !(p.size[0] > 0.0 && p.size[1] > 0.0) {
                     return Err(self.invalid("plates.size must be positive"));
                 }
-                let b = self.board.as_ref().ok_or_else(|| self.invalid("a plates scene needs [board] (printed on the plate)"))?;
+                let b = self.board.as_ref().ok_or_else(|| {
+                    self.invalid("a plates scene needs [board] (printed on the plate)")
+                })?;
                 self.check_board(b)?;
                 if self.patterns.file.is_some() || self.patterns.set.is_some() {
-                    return Err(self.invalid("plates scenes need the shorthand pattern description (they use both axes)"));
+                    return Err(self.invalid(
+                        "plates scenes need the shorthand pattern description (they use both axes)",
+                    ));
                 }
             }
         }
-        if self.photometry.board_light == BoardLight::Ambient && self.photometry.ambient <= 0.0 && self.kind != DatasetKind::Fringe {
+        if self.photometry.board_light == BoardLight::Ambient
+            && self.photometry.ambient <= 0.0
+            && self.kind != DatasetKind::Fringe
+        {
             return Err(self.invalid("board_light = \"ambient\" needs photometry.ambient > 0"));
         }
         Ok(())
@@ -844,11 +928,25 @@ fn base(name: &str) -> SceneSpec {
 }
 
 fn obj(name: &str, albedo: f64, shape: Shape) -> ObjectSpec {
-    ObjectSpec { name: name.into(), albedo, shape, texture: None }
+    ObjectSpec {
+        name: name.into(),
+        albedo,
+        shape,
+        texture: None,
+    }
 }
 
 fn background() -> ObjectSpec {
-    obj("background", 0.6, Shape::Plane { point: [0.0, 0.0, 725.0], normal: [0.0, 0.0, -1.0], size: None, u_axis: None })
+    obj(
+        "background",
+        0.6,
+        Shape::Plane {
+            point: [0.0, 0.0, 725.0],
+            normal: [0.0, 0.0, -1.0],
+            size: None,
+            u_axis: None,
+        },
+    )
 }
 
 fn builtin(name: &str) -> Option<SceneSpec> {
@@ -856,26 +954,58 @@ fn builtin(name: &str) -> Option<SceneSpec> {
     match name {
         "plane" => {
             let n = Mat3::from_euler_deg([12.0, -18.0, 0.0]).mul_vec(Vec3::new(0.0, 0.0, -1.0));
-            s.objects.push(obj("plane", 0.8, Shape::Plane { point: [0.0, 0.0, 600.0], normal: n.to_array(), size: None, u_axis: None }));
+            s.objects.push(obj(
+                "plane",
+                0.8,
+                Shape::Plane {
+                    point: [0.0, 0.0, 600.0],
+                    normal: n.to_array(),
+                    size: None,
+                    u_axis: None,
+                },
+            ));
         }
         "sphere" => {
-            s.objects.push(obj("sphere", 0.8, Shape::Sphere { center: [10.0, -5.0, 590.0], radius: 60.0 }));
+            s.objects.push(obj(
+                "sphere",
+                0.8,
+                Shape::Sphere {
+                    center: [10.0, -5.0, 590.0],
+                    radius: 60.0,
+                },
+            ));
             s.objects.push(background());
         }
         "ballbar" => {
             s.objects.push(obj(
                 "ballbar",
                 0.8,
-                Shape::BallBar { center_a: [-95.0, -40.0, 620.0], center_b: [95.0, 35.0, 570.0], radius: 20.0, bar_radius: 6.0 },
+                Shape::BallBar {
+                    center_a: [-95.0, -40.0, 620.0],
+                    center_b: [95.0, 35.0, 570.0],
+                    radius: 20.0,
+                    bar_radius: 6.0,
+                },
             ));
             s.objects.push(background());
         }
         "steps" => {
             // A base plate with five blocks of increasing height separated by 10 mm gaps, the
             // whole assembly tilted about the volume centre.
-            let pose = Pose { center: [0.0, 0.0, 650.0], euler_deg: [6.0, -10.0, 4.0] };
+            let pose = Pose {
+                center: [0.0, 0.0, 650.0],
+                euler_deg: [6.0, -10.0, 4.0],
+            };
             let place = |c: [f64; 3]| pose.apply(Vec3::new(c[0], c[1], c[2] - 650.0)).to_array();
-            s.objects.push(obj("base", 0.75, Shape::Box { center: place([0.0, 0.0, 705.0]), size: [300.0, 230.0, 20.0], euler_deg: pose.euler_deg }));
+            s.objects.push(obj(
+                "base",
+                0.75,
+                Shape::Box {
+                    center: place([0.0, 0.0, 705.0]),
+                    size: [300.0, 230.0, 20.0],
+                    euler_deg: pose.euler_deg,
+                },
+            ));
             let heights = [15.0, 35.0, 60.0, 90.0, 125.0];
             for (i, hgt) in heights.iter().enumerate() {
                 let x = -110.0 + 55.0 * i as f64;
@@ -883,7 +1013,11 @@ fn builtin(name: &str) -> Option<SceneSpec> {
                 s.objects.push(obj(
                     &format!("step{}", i + 1),
                     0.8,
-                    Shape::Box { center: place(c), size: [45.0, 170.0, *hgt], euler_deg: pose.euler_deg },
+                    Shape::Box {
+                        center: place(c),
+                        size: [45.0, 170.0, *hgt],
+                        euler_deg: pose.euler_deg,
+                    },
                 ));
             }
         }
@@ -911,7 +1045,12 @@ fn builtin(name: &str) -> Option<SceneSpec> {
             s.objects.push(obj(
                 "reference",
                 d_albedo(),
-                Shape::Plane { point: s.reference.point, normal: s.reference.normal, size: None, u_axis: None },
+                Shape::Plane {
+                    point: s.reference.point,
+                    normal: s.reference.normal,
+                    size: None,
+                    u_axis: None,
+                },
             ));
             s.reference.mode = ReferenceMode::Images;
         }
@@ -949,9 +1088,18 @@ fn builtin(name: &str) -> Option<SceneSpec> {
                 size: [420.0, 340.0],
                 albedo: 0.8,
                 positions: vec![
-                    Pose { center: [0.0, 0.0, 710.0], euler_deg: e },
-                    Pose { center: [0.0, 0.0, 600.0], euler_deg: e },
-                    Pose { center: [0.0, 0.0, 490.0], euler_deg: e },
+                    Pose {
+                        center: [0.0, 0.0, 710.0],
+                        euler_deg: e,
+                    },
+                    Pose {
+                        center: [0.0, 0.0, 600.0],
+                        euler_deg: e,
+                    },
+                    Pose {
+                        center: [0.0, 0.0, 490.0],
+                        euler_deg: e,
+                    },
                 ],
             });
         }

@@ -20,7 +20,10 @@ pub fn decode_pixel(set: &PatternSet, samples: &[f64]) -> (f64, f64, f64) {
         per[id.level as usize].push((samples[i], d));
     }
     // DC from the level with most shifts (≥ 3): least squares [1, sin δ, cos δ].
-    let dc_level = (0..levels.len()).filter(|&l| per[l].len() >= 3).max_by_key(|&l| (per[l].len(), l)).expect("a DC level");
+    let dc_level = (0..levels.len())
+        .filter(|&l| per[l].len() >= 3)
+        .max_by_key(|&l| (per[l].len(), l))
+        .expect("a DC level");
     let lsq = |v: &[(f64, f64)]| -> (f64, f64, f64) {
         // Normal equations for x = (A, S, C): I = A + S·cos δ + C·sin δ, S = B sin Φ, C = B cos Φ.
         let mut m = [[0.0f64; 4]; 3];
@@ -35,13 +38,16 @@ pub fn decode_pixel(set: &PatternSet, samples: &[f64]) -> (f64, f64, f64) {
         }
         // Gauss-Jordan.
         for c in 0..3 {
-            let p = (c..3).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs())).unwrap();
+            let p = (c..3)
+                .max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))
+                .unwrap();
             m.swap(c, p);
             for r in 0..3 {
                 if r != c {
                     let f = m[r][c] / m[c][c];
-                    for k in 0..4 {
-                        m[r][k] -= f * m[c][k];
+                    let pivot = m[c];
+                    for (v, p) in m[r].iter_mut().zip(pivot) {
+                        *v -= f * p;
                     }
                 }
             }
@@ -61,7 +67,10 @@ pub fn decode_pixel(set: &PatternSet, samples: &[f64]) -> (f64, f64, f64) {
             let (i1, d1) = v[1];
             let det = d0.cos() * d1.sin() - d0.sin() * d1.cos();
             let (r0, r1) = (i0 - a_dc, i1 - a_dc);
-            ((r0 * d1.sin() - r1 * d0.sin()) / det, (d0.cos() * r1 - d1.cos() * r0) / det)
+            (
+                (r0 * d1.sin() - r1 * d0.sin()) / det,
+                (d0.cos() * r1 - d1.cos() * r0) / det,
+            )
         };
         let wrapped = s.atan2(c);
         b_last = (s * s + c * c).sqrt();

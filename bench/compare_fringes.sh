@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Optional side-by-side timing of fringe3d against the `fringes` Python package (PyPI) on the same
+# data: a rendered 1280x1024 scan with the conventional 12-image set (3 levels x 4 steps), which
+# both can decode. Not part of the tests. Needs python3 with venv and network access to PyPI.
+#
+#   bash bench/compare_fringes.sh            # prints both times and the ratio
+set -euo pipefail
+cd "$(dirname "$0")/.."
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+cargo build --release -q -p fringe3d
+bin=target/release/fringe3d
+
+# The sphere scene with the 12-image preset instead of the paper's 8.
+$bin render --scene sphere --print | sed 's/^preset = "paper8"/preset = "twelve"/' > "$work/scene.toml"
+$bin render -q --scene "$work/scene.toml" --out "$work/ds" --bits 8 --noise 1
+
+python3 -m venv "$work/venv"
+"$work/venv/bin/pip" install -q fringes numpy pillow
+
+# fringe3d: whole process, images on disk to a point cloud (and to a phase map alone).
+TIMEFORMAT=%R
+t_scan=$( { time $bin scan -q --patterns "$work/ds/patterns.toml" \
+    --calibration "$work/ds/calibration.toml" "$work/ds" -o "$work/cloud.ply"; } 2>&1 )
+t_decode=$( { time $bin decode -q --patterns "$work/ds/patterns.toml" "$work/ds" \
+    --out "$work/dec"; } 2>&1 )
+
+# fringes: decode the same 12 images (loading excluded: only its decode() is timed).
+t_fringes=$("$work/venv/bin/python" - "$work/ds" <<'PY'
+import sys, time, glob, numpy as np
+from PIL import Image
+import fringes as frng
+files = sorted(glob.glob(sys.argv[1] + "/img_*.png"))
+I = np.stack([np.asarray(Image.open(f)) for f in files])[..., None]   # (T, Y, X, 1)
+f = frng.Fringes()
+f.X, f.Y = I.shape[2], I.shape[1]
+f.K, f.N = 3, 4
+f.v = [0.9, 7.2, 57.6]   # periods across the projector, as fringe3d's 12-image preset
+t = time.perf_counter()
+f.decode(I)
+print(f"{time.perf_counter() - t:.3f}")
+PY
+)
+echo "fringe3d scan (whole process, 12 PNGs -> binary PLY): ${t_scan} s"
+echo "fringe3d decode (whole process, 12 PNGs -> float TIFFs): ${t_decode} s"
+echo "fringes decode() (in Python, images already loaded):    ${t_fringes} s"
+python3 -c "print(f'ratio fringes / fringe3d scan: {float(\"$t_fringes\") / float(\"$t_scan\"):.1f}x')"

@@ -1,0 +1,194 @@
+//! The f32 backends: one implementation of [`Arith`] over f32, differing only in `atan2` and the
+//! square root of the modulation output.
+
+use super::{Arith, LevelCoefs, Limits, Plan, Sealed};
+use crate::decode::{DecodeError, Sample};
+use crate::math;
+use crate::unwrap::{consistent, unwrap_step};
+
+/// The default backend: f32 accumulators, [`math::atan2`] (degree-13 polynomial, 5e-7 rad) and
+/// `libm::sqrtf` (correctly rounded). Exactly the decoder as it was before backends existed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct F32Accurate;
+
+/// Fast f32: [`math::atan2_fast`] (degree-9 polynomial, 1.2e-5 rad) and [`math::sqrt_fast`]
+/// (Newton reciprocal square root, no division, 5e-6 relative). Everything else as
+/// [`F32Accurate`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct F32Fast;
+
+/// f32 with `micromath`'s approximations: `micromath::F32::atan2` (error up to 2.8e-3 rad) and
+/// `micromath::F32::sqrt` (about 5 %). Kept for comparison (`docs/arithmetic.md`); [`F32Fast`] is
+/// both faster and far more accurate.
+///
+/// The functions are called on micromath's own `F32` type, never through its `F32Ext` trait:
+/// under `std` the inherent `f32` methods shadow that trait's and would silently change results.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct F32Micromath;
+
+/// What distinguishes the f32 backends.
+pub trait FloatKernels: Sealed + Copy + core::fmt::Debug + PartialEq + Default + Send + Sync + 'static {
+    /// [`Arith::NAME`].
+    const NAME: &'static str;
+    /// Four-quadrant arctangent, radians.
+    fn atan2(y: f32, x: f32) -> f32;
+    /// Square root of a finite non-negative value.
+    fn sqrt(x: f32) -> f32;
+}
+
+impl Sealed for F32Accurate {}
+impl Sealed for F32Fast {}
+impl Sealed for F32Micromath {}
+
+impl FloatKernels for F32Accurate {
+    const NAME: &'static str = "f32";
+    #[inline(always)]
+    fn atan2(y: f32, x: f32) -> f32 {
+        math::atan2(y, x)
+    }
+    #[inline(always)]
+    fn sqrt(x: f32) -> f32 {
+        // One correctly rounded square root (libm: `sqrtss` on x86, IEEE on every target).
+        libm::sqrtf(x)
+    }
+}
+
+impl FloatKernels for F32Fast {
+    const NAME: &'static str = "f32-fast";
+    #[inline(always)]
+    fn atan2(y: f32, x: f32) -> f32 {
+        math::atan2_fast(y, x)
+    }
+    #[inline(always)]
+    fn sqrt(x: f32) -> f32 {
+        math::sqrt_fast(x)
+    }
+}
+
+impl FloatKernels for F32Micromath {
+    const NAME: &'static str = "f32-micromath";
+    #[inline(always)]
+    fn atan2(y: f32, x: f32) -> f32 {
+        micromath::F32(y).atan2(micromath::F32(x)).0
+    }
+    #[inline(always)]
+    fn sqrt(x: f32) -> f32 {
+        micromath::F32(x).sqrt().0
+    }
+}
+
+impl<K: FloatKernels> Arith for K {
+    const NAME: &'static str = K::NAME;
+    type Acc = f32;
+    type In = f32;
+    type Coef = f32;
+    type Phase = f32;
+    type Ratio = f32;
+    type Tolerance = f32;
+    type Mag = f32;
+    type Format = ();
+
+    const ZERO: f32 = 0.0;
+    const COEF_ZERO: f32 = 0.0;
+    const MAG_MAX: f32 = f32::INFINITY;
+
+    fn format(_plan: &Plan<'_>) -> Result<(), DecodeError> {
+        Ok(())
+    }
+
+    fn level_coefs(plan: &Plan<'_>, level: usize, _format: &()) -> LevelCoefs<f32> {
+        let e = &plan.levels[level];
+        LevelCoefs { a: e.a, b: e.b, w: e.w, a_dc: e.a_dc, b_dc: e.b_dc }
+    }
+
+    fn ratio(r: f64, _format: &()) -> f32 {
+        r as f32
+    }
+
+    fn limits(plan: &Plan<'_>, _format: &()) -> Limits<Self> {
+        let cfg = plan.config;
+        Limits {
+            saturation: cfg.saturation_level,
+            dark: cfg.dark_level,
+            min_modulation: cfg.min_modulation * cfg.min_modulation,
+            coarse_lo: plan.coarse_range.0 as f32 - cfg.range_tolerance,
+            coarse_hi: plan.coarse_range.1 as f32 + cfg.range_tolerance,
+            unwrap_tolerance: cfg.unwrap_tolerance,
+        }
+    }
+
+    #[inline(always)]
+    fn is_zero(k: f32) -> bool {
+        k == 0.0
+    }
+
+    #[inline(always)]
+    fn input<P: Sample>(v: P) -> f32 {
+        v.to_f32()
+    }
+
+    #[inline(always)]
+    fn mac(acc: f32, k: f32, v: f32) -> f32 {
+        acc + k * v
+    }
+
+    #[inline(always)]
+    fn saturated(v: f32, threshold: f32) -> bool {
+        v >= threshold
+    }
+
+    #[inline(always)]
+    fn level_sc(s: f32, c: f32, a_dc: f32, b_dc: f32, dc: f32, _format: &()) -> (f32, f32) {
+        (s + a_dc * dc, c + b_dc * dc)
+    }
+
+    #[inline(always)]
+    fn polar(s: f32, c: f32) -> (f32, f32) {
+        (K::atan2(s, c), s * s + c * c)
+    }
+
+    #[inline(always)]
+    fn min_mag(m: f32, current: f32) -> f32 {
+        if m < current { m } else { current }
+    }
+
+    #[inline(always)]
+    fn in_range(w: f32, lo: f32, hi: f32) -> bool {
+        w >= lo && w <= hi
+    }
+
+    #[inline(always)]
+    fn unwrap(coarse: f32, ratio: f32, wrapped: f32) -> (f32, f32) {
+        unwrap_step(coarse, ratio, wrapped)
+    }
+
+    #[inline(always)]
+    fn consistent(residual: f32, tolerance: f32) -> bool {
+        consistent(residual, tolerance)
+    }
+
+    #[inline(always)]
+    fn mag_at_least(m: f32, threshold: f32) -> bool {
+        m >= threshold
+    }
+
+    #[inline(always)]
+    fn dc_at_least(a: f32, threshold: f32) -> bool {
+        a >= threshold
+    }
+
+    #[inline(always)]
+    fn phase_out(p: f32) -> f32 {
+        p
+    }
+
+    #[inline(always)]
+    fn mag_out(m: f32, _format: &()) -> f32 {
+        K::sqrt(m)
+    }
+
+    #[inline(always)]
+    fn dc_out(a: f32, _format: &()) -> f32 {
+        a
+    }
+}

@@ -1,0 +1,190 @@
+//! Selectable arithmetic for phase decoding: f32 (accurate or fast) and fixed point.
+//!
+//! Scan heads differ: a Cortex-M4F or a desktop has a single-precision FPU, a Cortex-M0/M3 has
+//! none, and an FPGA computes in fixed point. The decoding kernel ([`crate::decode`]) is written
+//! once, generic over an [`Arith`] backend that supplies the number types and the few primitive
+//! operations (multiply-accumulate, `atan2` with the modulation measure, the unwrapping step,
+//! threshold tests, conversions to the f32 outputs). Every backend is deterministic and gives the
+//! same bits on every target (x86-64 with or without AVX2, thumbv7m, thumbv7em): plain IEEE `+ - *
+//! /` without fusion for the f32 backends, explicit wrapping integer operations for fixed point.
+//!
+//! | backend | accumulators | `atan2` | modulation | unwrapping | for |
+//! |---|---|---|---|---|---|
+//! | [`F32Accurate`] (default) | f32 | degree-13 polynomial ([`crate::math::atan2`], 5e-7 rad) | `libm::sqrtf` | radians, f32 | desktop, FPU heads |
+//! | [`F32Fast`] | f32 | degree-9 polynomial ([`crate::math::atan2_fast`], 1.2e-5 rad) | Newton `rsqrt` ([`crate::math::sqrt_fast`]) | radians, f32 | FPU heads short of time |
+//! | [`F32Micromath`] | f32 | `micromath` (2.8e-3 rad) | `micromath` (≈ 5 %) | radians, f32 | comparison only |
+//! | [`Fixed`] | i32, Q format per decoder | 24-step CORDIC, turns | CORDIC magnitude | turns, `I8F24` | FPU-less heads, FPGA reference |
+//!
+//! Measured errors, unwrapping failure rates, depth errors and costs are in `docs/arithmetic.md`.
+//!
+//! # Choosing
+//! [`crate::decode::Decoder::new`] builds the default backend, exactly the decoder of before
+//! (same public API, same bits). Any backend: `Decoder::<Fixed>::with_arith(&set, config)`, whose
+//! row API, [`crate::decode::Decoder::accumulate`]/[`crate::decode::Decoder::finish`] and
+//! frame-sequential decoder ([`crate::sequential::FrameDecoder`]) are the same generic code. For
+//! a choice made at run time (tools, golden vectors) use [`AnyDecoder`] with a [`Backend`].
+//!
+//! # Outputs
+//! Whatever the backend, the outputs are the decoder's f32 rows (phase and wrapped phase in
+//! radians, modulation and DC term in camera codes) and validity codes. The fixed-point backend
+//! converts at the very end with one correctly rounded conversion (and one f32 product for the
+//! phase), which is deterministic on every target, soft-float included.
+
+mod cordic;
+mod fixed;
+mod float;
+pub mod parity;
+mod select;
+
+pub use cordic::{CORDIC_ANGLES, CORDIC_INV_GAIN_Q32, CORDIC_ITERATIONS, cordic_atan2};
+pub use fixed::{Fixed, FixedFormat, PHASE_TURNS_LIMIT};
+pub use float::{F32Accurate, F32Fast, F32Micromath};
+pub use select::{AnyDecoder, Backend};
+
+use crate::decode::{DecodeConfig, DecodeError, LevelEstimator, Sample};
+use crate::pattern::MAX_SHIFTS;
+use core::fmt::Debug;
+
+mod sealed {
+    pub trait Sealed {}
+}
+pub(crate) use sealed::Sealed;
+
+/// Everything a backend needs to choose its number formats, computed by the decoder from the
+/// pattern set and thresholds (backend-independent, in f64 where it matters).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plan<'a> {
+    /// The estimator of every level.
+    pub levels: &'a [LevelEstimator],
+    /// The level whose DC term A the decoder accumulates (the one with most shifts), if any.
+    pub dc_level: Option<usize>,
+    /// `c_k / c_{k−1}` per level (entry 0 unused, 1.0).
+    pub ratios: &'a [f64],
+    /// The coarsest level's phase range (radians), as the set reports it.
+    pub coarse_range: (f64, f64),
+    /// The thresholds.
+    pub config: &'a DecodeConfig,
+}
+
+/// Quantized coefficients of one level in a backend's [`Arith::Coef`] type.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LevelCoefs<K> {
+    /// Coefficients of S per shift.
+    pub a: [K; MAX_SHIFTS],
+    /// Coefficients of C per shift.
+    pub b: [K; MAX_SHIFTS],
+    /// Coefficients of A per shift (used only for the DC level).
+    pub w: [K; MAX_SHIFTS],
+    /// Coefficient of A in S.
+    pub a_dc: K,
+    /// Coefficient of A in C.
+    pub b_dc: K,
+}
+
+/// Thresholds and range limits in a backend's units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits<A: Arith> {
+    /// A sample at or above this is saturated.
+    pub saturation: A::In,
+    /// A DC accumulator below this is dark.
+    pub dark: A::Acc,
+    /// A modulation measure below this is low.
+    pub min_modulation: A::Mag,
+    /// Accepted range of the coarsest wrapped phase (tolerance included).
+    pub coarse_lo: A::Phase,
+    /// See `coarse_lo`.
+    pub coarse_hi: A::Phase,
+    /// Largest accepted unwrapping residual.
+    pub unwrap_tolerance: A::Tolerance,
+}
+
+/// A decoding arithmetic: number types and the primitive operations of the kernel.
+///
+/// Implemented by [`F32Accurate`], [`F32Fast`], [`F32Micromath`] and [`Fixed`] only (sealed). The
+/// kernel ([`crate::decode::Decoder`]) calls the per-pixel methods in a fixed order with no
+/// data-dependent branching; they are all `#[inline(always)]` so that the host's wide-ISA builds
+/// vectorize them. Construction-time methods run once per decoder.
+pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'static {
+    /// Short name (`"f32"`, `"f32-fast"`, `"f32-micromath"`, `"fixed"`).
+    const NAME: &'static str;
+    /// Element of the per-pixel state planes (S, C and DC accumulators).
+    type Acc: Copy + Default + Debug + PartialEq + Send + Sync + 'static;
+    /// A camera sample as the kernel multiplies it.
+    type In: Copy + Debug + PartialEq + Send + Sync;
+    /// A linear coefficient of an estimator.
+    type Coef: Copy + Debug + PartialEq + Send + Sync;
+    /// Wrapped and absolute phase (radians for f32, turns for fixed point).
+    type Phase: Copy + Default + Debug + PartialEq + Send + Sync;
+    /// A level ratio `c_k / c_{k−1}`.
+    type Ratio: Copy + Debug + PartialEq + Send + Sync;
+    /// The unwrapping tolerance (absolute residual).
+    type Tolerance: Copy + Debug + PartialEq + Send + Sync;
+    /// The modulation measure compared against the threshold (B² for f32, B for fixed point).
+    type Mag: Copy + Default + Debug + PartialEq + Send + Sync;
+    /// The run-time part of the number format, chosen per decoder (`()` for f32).
+    type Format: Copy + Debug + PartialEq + Send + Sync;
+
+    /// The zero accumulator.
+    const ZERO: Self::Acc;
+    /// The zero coefficient.
+    const COEF_ZERO: Self::Coef;
+    /// A modulation measure above every real one (start of the per-pixel minimum).
+    const MAG_MAX: Self::Mag;
+
+    // ---- construction (once per decoder) ----
+
+    /// Choose the number format for a plan, or refuse the set.
+    fn format(plan: &Plan<'_>) -> Result<Self::Format, DecodeError>;
+    /// The coefficients of level `level` of the plan.
+    fn level_coefs(plan: &Plan<'_>, level: usize, format: &Self::Format) -> LevelCoefs<Self::Coef>;
+    /// A level ratio.
+    fn ratio(r: f64, format: &Self::Format) -> Self::Ratio;
+    /// The thresholds and ranges.
+    fn limits(plan: &Plan<'_>, format: &Self::Format) -> Limits<Self>;
+    /// `true` if a coefficient is exactly zero (the kernel then skips that product).
+    fn is_zero(k: Self::Coef) -> bool;
+
+    // ---- per pixel: accumulate ----
+
+    /// A sample as the kernel multiplies it.
+    fn input<P: Sample>(v: P) -> Self::In;
+    /// `acc + k·v`.
+    fn mac(acc: Self::Acc, k: Self::Coef, v: Self::In) -> Self::Acc;
+    /// `v ≥ threshold`.
+    fn saturated(v: Self::In, threshold: Self::In) -> bool;
+
+    // ---- per pixel: finish ----
+
+    /// S and C of a level from its accumulators and the DC accumulator: `S = s + a_dc·A`,
+    /// `C = c + b_dc·A`.
+    fn level_sc(s: Self::Acc, c: Self::Acc, a_dc: Self::Coef, b_dc: Self::Coef, dc: Self::Acc, format: &Self::Format) -> (Self::Acc, Self::Acc);
+    /// Wrapped phase `atan2(S, C)` and the modulation measure of (S, C).
+    fn polar(s: Self::Acc, c: Self::Acc) -> (Self::Phase, Self::Mag);
+    /// The smaller of two measures (the first if they are unordered).
+    fn min_mag(m: Self::Mag, current: Self::Mag) -> Self::Mag;
+    /// `lo ≤ w ≤ hi`.
+    fn in_range(w: Self::Phase, lo: Self::Phase, hi: Self::Phase) -> bool;
+    /// One unwrapping step: absolute phase and residual (see [`crate::unwrap`]).
+    fn unwrap(coarse: Self::Phase, ratio: Self::Ratio, wrapped: Self::Phase) -> (Self::Phase, Self::Phase);
+    /// `|residual| ≤ tolerance`.
+    fn consistent(residual: Self::Phase, tolerance: Self::Tolerance) -> bool;
+    /// `m ≥ threshold` (false for NaN).
+    fn mag_at_least(m: Self::Mag, threshold: Self::Mag) -> bool;
+    /// `a ≥ threshold` (false for NaN).
+    fn dc_at_least(a: Self::Acc, threshold: Self::Acc) -> bool;
+
+    // ---- outputs ----
+
+    /// A phase in radians.
+    fn phase_out(p: Self::Phase) -> f32;
+    /// A modulation B in camera codes.
+    fn mag_out(m: Self::Mag, format: &Self::Format) -> f32;
+    /// A DC term A in camera codes.
+    fn dc_out(a: Self::Acc, format: &Self::Format) -> f32;
+}
+
+/// The largest sample a pixel that is not saturated can hold: `⌈saturation⌉ − 1`, at most 65535
+/// (the widest [`Sample`]) and at least 1.
+pub(crate) fn max_unsaturated(config: &DecodeConfig) -> f64 {
+    (libm::ceil(config.saturation_level as f64) - 1.0).clamp(1.0, 65535.0)
+}

@@ -1,0 +1,44 @@
+//! Golden digests of the parity workload ([`fringe3d_core::arith::parity`]) for every backend:
+//! the bits x86-64 computes, which the Cortex-M builds reproduce (`arith_qemu.rs`, and the table
+//! in docs/arithmetic.md). A change here is a change of some backend's results: update the
+//! constants only on purpose, and say so in docs/arithmetic.md.
+
+use fringe3d_core::arith::{Backend, parity};
+
+/// `backend → digest per case` (cases: [`parity::CASE_NAMES`]).
+const GOLDEN: [(&str, [u64; parity::CASES]); 4] = [
+    ("f32", [0x39391392311b13ef, 0x01e2f86b5805e1e0, 0x3ea786dee4067cf5, 0xaf5a4f41bb68eb37, 0xf3337085b7553ee1]),
+    ("f32-fast", [0xa68bc29c047d929f, 0x30b9b3c75ee563df, 0x1627b0a279d16e23, 0xbecf965f2a8743b6, 0x892497f336ef9700]),
+    ("f32-micromath", [0xa6404b2c96c8b455, 0x448db36a41be827b, 0x53a42920faed9f8a, 0x4e24ff59a6ef4c4d, 0xff06000959f93034]),
+    ("fixed", [0x9c0a7182af9da10c, 0x62065a3c85a004cb, 0x6e89d400f6f0c146, 0x57acd6561fb75752, 0x93e63ad5c6faffa2]),
+];
+
+#[test]
+fn parity_digests_are_the_golden_ones() {
+    for (b, (name, want)) in Backend::ALL.into_iter().zip(GOLDEN) {
+        assert_eq!(b.name(), name);
+        for (case, w) in want.iter().enumerate() {
+            let got = parity::digest(b, case).unwrap();
+            assert_eq!(got, *w, "{b}, case {case} ({}): 0x{got:016x}", parity::CASE_NAMES[case]);
+        }
+    }
+}
+
+#[test]
+fn the_workload_exercises_every_validity_code_it_should() {
+    // Valid and invalid pixels in every case, so that the digests cover both paths.
+    use fringe3d_core::arith::AnyDecoder;
+    use fringe3d_core::decode::RowOut;
+    use fringe3d_core::pattern::MAX_IMAGES;
+    for case in 0..parity::CASES {
+        let set = parity::set(case).unwrap();
+        let d = AnyDecoder::new(&set, parity::config(case), Backend::Fixed).unwrap();
+        let mut rows = [[0u16; parity::WIDTH]; MAX_IMAGES];
+        let n = parity::samples(case, &mut rows).unwrap();
+        let refs: Vec<&[u16]> = rows[..n].iter().map(|r| &r[..]).collect();
+        let (mut p, mut m, mut a, mut v) = ([0.0f32; parity::WIDTH], [0.0f32; parity::WIDTH], [0.0f32; parity::WIDTH], [0u8; parity::WIDTH]);
+        d.decode_row(&refs, RowOut { phase: &mut p, modulation: &mut m, dc: &mut a, validity: &mut v }).unwrap();
+        let valid = v.iter().filter(|x| **x == 0).count();
+        assert!(valid > parity::WIDTH / 2 && valid < parity::WIDTH, "case {case}: {valid} valid");
+    }
+}

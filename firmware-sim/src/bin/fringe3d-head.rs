@@ -1,0 +1,141 @@
+//! `fringe3d-head`: the simulated scan head on a pseudo-terminal.
+//!
+//! ```text
+//! fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N]
+//! ```
+//!
+//! DATASET is a dataset folder (or its `patterns.toml`): the pattern-set file lists the camera
+//! image of every pattern, which the simulated camera replays whatever the head projects. The
+//! head prints `PTY /dev/pts/N`; use that path as `fringe3d device --port`. `--link PATH` also
+//! makes a symlink to it. Stop with Ctrl-C.
+
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::AtomicBool;
+
+use fringe3d_core::pattern::MAX_LEVELS;
+use fringe3d_core::reconstruct::MAX_BAND_ROWS;
+use fringe3d_firmware_sim::desktop::{OwnedMemory, Pty, Replay, serve, sim_board};
+use fringe3d_firmware_sim::port::QUEUE_LEN;
+use fringe3d_firmware_sim::sim::{FrameSource, NoSink, SimWorld};
+use fringe3d_firmware_sim::{Head, HeadConfig, MemoryPlan};
+
+fn usage() -> ExitCode {
+    eprintln!(
+        "usage: fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N]"
+    );
+    eprintln!(
+        "  DATASET: a dataset folder (its patterns.toml lists the camera images) or a pattern-set file"
+    );
+    ExitCode::from(2)
+}
+
+fn main() -> ExitCode {
+    let mut args = std::env::args().skip(1);
+    let mut dataset: Option<PathBuf> = None;
+    let mut link: Option<PathBuf> = None;
+    let mut readout_us: u32 = 1_000;
+    let mut store_mib: usize = 64;
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--link" => link = args.next().map(PathBuf::from),
+            "--readout-us" => match args.next().and_then(|v| v.parse().ok()) {
+                Some(v) => readout_us = v,
+                None => return usage(),
+            },
+            "--pattern-store-mib" => match args.next().and_then(|v| v.parse().ok()) {
+                Some(v) => store_mib = v,
+                None => return usage(),
+            },
+            "-h" | "--help" => {
+                usage();
+                return ExitCode::SUCCESS;
+            }
+            s if !s.starts_with('-') && dataset.is_none() => dataset = Some(PathBuf::from(s)),
+            _ => return usage(),
+        }
+    }
+    let Some(dataset) = dataset else {
+        return usage();
+    };
+    let patterns = if dataset.is_dir() {
+        dataset.join("patterns.toml")
+    } else {
+        dataset.clone()
+    };
+    let replay = match Replay::load(&patterns) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("fringe3d-head: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let o = *replay.set.output();
+    let (Ok(pw), Ok(ph)) = (u16::try_from(o.width), u16::try_from(o.height)) else {
+        eprintln!("fringe3d-head: projector larger than 65535 pixels");
+        return ExitCode::FAILURE;
+    };
+    let (w, h) = (replay.width() as usize, replay.height() as usize);
+    let world = SimWorld::new(readout_us as u64 * 1_000);
+    let plan = MemoryPlan::new(w, h, pw as usize, MAX_LEVELS, MAX_BAND_ROWS.min(h));
+    let mut mem = OwnedMemory::new(plan);
+    let board = sim_board(&world, replay, NoSink, (pw, ph), store_mib << 20, w * h * 5);
+    let cfg = HeadConfig {
+        readout_us,
+        ..HeadConfig::DEFAULT
+    };
+    let mut head = match Head::new(board, mem.memory(), cfg) {
+        Ok(h) => h,
+        Err(e) => {
+            eprintln!("fringe3d-head: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    head.set_queue_sizes(QUEUE_LEN, QUEUE_LEN);
+    let pty = match Pty::open() {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("fringe3d-head: cannot open a pseudo-terminal: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if let Some(l) = &link {
+        let _ = std::fs::remove_file(l);
+        if let Err(e) = std::os::unix::fs::symlink(pty.path(), l) {
+            eprintln!(
+                "fringe3d-head: cannot link {} to {}: {e}",
+                l.display(),
+                pty.path()
+            );
+            return ExitCode::FAILURE;
+        }
+    }
+    println!(
+        "fringe3d-head: {} — camera {w}x{h}, projector {pw}x{ph}",
+        dataset.display()
+    );
+    println!("PTY {}", pty.path());
+    let _ = std::io::stdout().flush();
+    let stop = AtomicBool::new(false);
+    let mut rows_seen = 0;
+    serve(&mut head, &pty, &stop, |head| {
+        let st = head.status();
+        if st.rows_sent != rows_seen && st.state != fringe3d_core::wire::HeadState::Scanning {
+            rows_seen = st.rows_sent;
+            let m = head.memory_report();
+            eprintln!(
+                "fringe3d-head: {} rows sent; peak memory: decoder {} B + flags {} B, reference ring {} B, lines {} B, head {} B, UART queues {} B: {} B in all",
+                st.rows_sent,
+                m.decode_state,
+                m.decode_flags,
+                m.ring,
+                m.lines,
+                m.head_struct,
+                m.rx_queue + m.tx_queue,
+                m.total()
+            );
+        }
+    });
+    ExitCode::SUCCESS
+}

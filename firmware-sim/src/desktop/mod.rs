@@ -1,0 +1,196 @@
+//! The desktop side of the simulated head (feature `std`): a pseudo-terminal front so that
+//! `fringe3d device` talks to it like to a USB serial device, a camera that replays a dataset's
+//! images, heap-backed stores and buffers, and an in-process link for deterministic tests.
+//!
+//! None of this is firmware: it plays the board (interrupts, external memory, peripherals) around
+//! the `no_std` [`Head`](crate::Head).
+
+mod inprocess;
+mod pty;
+mod replay;
+
+pub use inprocess::{Device, HeadPort, InProcess, VecSink};
+pub use pty::{Pty, ServeReport, serve};
+pub use replay::{Replay, wire_index};
+
+use crate::hal::{Board, HwError, Storage};
+use crate::head::Head;
+use crate::memory::{HeadMemory, MemoryPlan};
+use crate::sim::{
+    FrameSource, Line, RowSink, SimCamera, SimDelay, SimInput, SimOutput, SimProjector, SimWorld,
+};
+
+/// A [`Storage`] over a `Vec` (the head's external memory on the desktop).
+#[derive(Clone, Debug, Default)]
+pub struct VecStore {
+    bytes: std::vec::Vec<u8>,
+}
+
+impl VecStore {
+    /// `capacity` zero bytes.
+    pub fn new(capacity: usize) -> Self {
+        VecStore {
+            bytes: std::vec![0; capacity],
+        }
+    }
+
+    /// The stored bytes.
+    pub fn bytes(&self) -> &[u8] {
+        &self.bytes
+    }
+
+    /// The stored bytes, mutably (tests damage them).
+    pub fn bytes_mut(&mut self) -> &mut [u8] {
+        &mut self.bytes
+    }
+}
+
+impl Storage for VecStore {
+    fn capacity(&self) -> u32 {
+        u32::try_from(self.bytes.len()).unwrap_or(u32::MAX)
+    }
+
+    fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), HwError> {
+        let s = offset as usize;
+        let d = self
+            .bytes
+            .get_mut(s..s.checked_add(data.len()).ok_or(HwError::Storage)?)
+            .ok_or(HwError::Storage)?;
+        d.copy_from_slice(data);
+        Ok(())
+    }
+
+    fn read(&mut self, offset: u32, out: &mut [u8]) -> Result<(), HwError> {
+        let s = offset as usize;
+        let d = self
+            .bytes
+            .get(s..s.checked_add(out.len()).ok_or(HwError::Storage)?)
+            .ok_or(HwError::Storage)?;
+        out.copy_from_slice(d);
+        Ok(())
+    }
+}
+
+/// A [`RowSink`] keeping every pattern the projector was sent (index → image bytes).
+#[derive(Clone, Debug, Default)]
+pub struct Recorder {
+    /// Patterns by index, the last one sent of each.
+    pub patterns: std::collections::BTreeMap<u16, std::vec::Vec<u8>>,
+}
+
+impl RowSink for Recorder {
+    fn row(&mut self, pattern: u16, y: u16, row: &[u8]) {
+        let img = self.patterns.entry(pattern).or_default();
+        if y == 0 {
+            img.clear();
+        }
+        img.extend_from_slice(row);
+    }
+}
+
+/// Heap-backed working memory, sized once by a [`MemoryPlan`] (the desktop's stand-in for the
+/// board's `static` buffers; `vec!` of zeros maps untouched pages lazily).
+pub struct OwnedMemory {
+    decode_state: std::vec::Vec<f32>,
+    decode_flags: std::vec::Vec<u8>,
+    ring_phase: std::vec::Vec<f32>,
+    ring_validity: std::vec::Vec<u8>,
+    camera_line: std::vec::Vec<u16>,
+    projector_line: std::vec::Vec<u8>,
+    rows_f32: [std::vec::Vec<f32>; 4],
+    rows_u8: [std::vec::Vec<u8>; 3],
+    xyz: std::vec::Vec<f32>,
+}
+
+impl OwnedMemory {
+    /// Buffers of the lengths of `plan`.
+    pub fn new(plan: MemoryPlan) -> Self {
+        let w = plan.line;
+        OwnedMemory {
+            decode_state: std::vec![0.0; plan.decode_state],
+            decode_flags: std::vec![0; plan.decode_flags],
+            ring_phase: std::vec![0.0; plan.ring],
+            ring_validity: std::vec![0; plan.ring],
+            camera_line: std::vec![0; w],
+            projector_line: std::vec![0; plan.projector_line],
+            rows_f32: [
+                std::vec![0.0; w],
+                std::vec![0.0; w],
+                std::vec![0.0; w],
+                std::vec![0.0; w],
+            ],
+            rows_u8: [std::vec![0; w], std::vec![0; w], std::vec![0; w]],
+            xyz: std::vec![0.0; 3 * w],
+        }
+    }
+
+    /// The buffers as a [`HeadMemory`].
+    pub fn memory(&mut self) -> HeadMemory<'_> {
+        let [phase_row, modulation_row, dc_row, reference_phase] = &mut self.rows_f32;
+        let [validity_row, point_validity, reference_validity] = &mut self.rows_u8;
+        HeadMemory {
+            decode_state: &mut self.decode_state,
+            decode_flags: &mut self.decode_flags,
+            ring_phase: &mut self.ring_phase,
+            ring_validity: &mut self.ring_validity,
+            camera_line: &mut self.camera_line,
+            projector_line: &mut self.projector_line,
+            phase_row,
+            modulation_row,
+            dc_row,
+            validity_row,
+            xyz_row: &mut self.xyz,
+            point_validity,
+            reference_phase,
+            reference_validity,
+        }
+    }
+}
+
+/// The simulated board type.
+pub type SimBoard<'w, F, R> = Board<
+    SimProjector<'w, R>,
+    SimCamera<'w, F>,
+    VecStore,
+    SimOutput<'w>,
+    SimOutput<'w>,
+    SimInput<'w>,
+    SimInput<'w>,
+    SimDelay<'w>,
+>;
+
+/// A head on the simulated board.
+pub type SimHead<'m, 'w, F, R> = Head<
+    'm,
+    SimProjector<'w, R>,
+    SimCamera<'w, F>,
+    VecStore,
+    SimOutput<'w>,
+    SimOutput<'w>,
+    SimInput<'w>,
+    SimInput<'w>,
+    SimDelay<'w>,
+>;
+
+/// A simulated board in `world`: camera seeing `source`, a `projector.0 × projector.1` projector
+/// passing its rows to `sink`, stores of the given sizes.
+pub fn sim_board<'w, F: FrameSource, R: RowSink>(
+    world: &'w SimWorld,
+    source: F,
+    sink: R,
+    projector: (u16, u16),
+    pattern_store: usize,
+    map_store: usize,
+) -> SimBoard<'w, F, R> {
+    Board {
+        projector: SimProjector::new(world, projector.0, projector.1, sink),
+        camera: SimCamera::new(world, source),
+        pattern_store: VecStore::new(pattern_store),
+        map_store: VecStore::new(map_store),
+        projector_trigger: SimOutput::new(world, Line::ProjectorTrigger),
+        camera_trigger: SimOutput::new(world, Line::CameraTrigger),
+        camera_ready: SimInput::new(world, Line::CameraReady),
+        external_trigger: SimInput::new(world, Line::ExternalTrigger),
+        delay: SimDelay::new(world),
+    }
+}

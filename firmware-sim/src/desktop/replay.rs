@@ -1,0 +1,116 @@
+//! A camera that replays a dataset folder: the pattern-set file there lists the camera image of
+//! each pattern (`images = [...]`, in the set's image order).
+
+use std::prelude::rust_2024::*;
+use std::{format, vec};
+
+use std::path::{Path, PathBuf};
+
+use fringe3d::io::image_set::{self, Frames};
+use fringe3d::io::pattern_file::PatternSetFile;
+use fringe3d_core::pattern::{ImageId, PatternSet};
+
+use crate::hal::HwError;
+use crate::sim::FrameSource;
+
+/// The wire pattern index (levels in order, shifts in order) of `id` in `set`.
+pub fn wire_index(set: &PatternSet, id: ImageId) -> Option<u16> {
+    let levels = set.levels();
+    if id.level as usize >= levels.len() || id.shift as usize >= levels[id.level as usize].len() {
+        return None;
+    }
+    let first: usize = levels[..id.level as usize].iter().map(|l| l.len()).sum();
+    u16::try_from(first + id.shift as usize).ok()
+}
+
+/// A dataset's camera images, by wire pattern index.
+pub struct Replay {
+    /// The pattern-set file.
+    pub path: PathBuf,
+    /// Its set.
+    pub set: PatternSet,
+    /// Pattern bits of the file.
+    pub pattern_bits: u8,
+    width: u16,
+    height: u16,
+    bits: u8,
+    frames: Frames,
+    /// `index[p]` = the image of wire pattern `p`.
+    index: Vec<usize>,
+}
+
+impl Replay {
+    /// Load the pattern-set file `patterns` (`patterns.toml` of a dataset folder) and the camera
+    /// images it lists.
+    pub fn load(patterns: &Path) -> Result<Replay, String> {
+        let file = PatternSetFile::load(patterns).map_err(|e| e.to_string())?;
+        let set = file.to_pattern_set().map_err(|e| e.to_string())?;
+        let paths = file.image_paths(patterns).ok_or_else(|| {
+            format!(
+                "{}: lists no images (`images = [...]`): nothing to replay",
+                patterns.display()
+            )
+        })?;
+        let imgs = image_set::load(&paths, set.image_count(), &patterns.display().to_string())
+            .map_err(|e| e.to_string())?;
+        let mut index = vec![usize::MAX; set.image_count()];
+        for (i, id) in set.order().iter().enumerate() {
+            let p = wire_index(&set, *id).ok_or("image order outside the set")? as usize;
+            *index.get_mut(p).ok_or("pattern index outside the set")? = i;
+        }
+        let width = u16::try_from(imgs.width).map_err(|_| "images wider than 65535 pixels")?;
+        let height = u16::try_from(imgs.height).map_err(|_| "images taller than 65535 pixels")?;
+        Ok(Replay {
+            path: patterns.to_path_buf(),
+            set,
+            pattern_bits: file.bit_depth(),
+            width,
+            height,
+            bits: imgs.bits,
+            frames: imgs.frames,
+            index,
+        })
+    }
+
+    /// Load the dataset folder `dir` (its `patterns.toml`).
+    pub fn load_dir(dir: &Path) -> Result<Replay, String> {
+        Self::load(&dir.join("patterns.toml"))
+    }
+}
+
+impl FrameSource for Replay {
+    fn width(&self) -> u16 {
+        self.width
+    }
+
+    fn height(&self) -> u16 {
+        self.height
+    }
+
+    fn bit_depth(&self) -> u8 {
+        self.bits
+    }
+
+    fn row(&self, pattern: Option<u16>, y: u16, out: &mut [u16]) -> Result<(), HwError> {
+        let w = self.width as usize;
+        let Some(p) = pattern else {
+            out.fill(0);
+            return Ok(());
+        };
+        let i = *self.index.get(p as usize).ok_or(HwError::Camera)?;
+        let s = y as usize * w..(y as usize + 1) * w;
+        match &self.frames {
+            Frames::U8(f) => {
+                let row = f.get(i).and_then(|v| v.get(s)).ok_or(HwError::Camera)?;
+                for (o, v) in out.iter_mut().zip(row) {
+                    *o = *v as u16;
+                }
+            }
+            Frames::U16(f) => {
+                let row = f.get(i).and_then(|v| v.get(s)).ok_or(HwError::Camera)?;
+                out.copy_from_slice(row);
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,223 @@
+//! The head's working memory: fixed buffers handed over once, never grown, and a report of how
+//! much of them the scans used.
+//!
+//! Everything per-pixel or per-line lives in caller-owned slices ([`HeadMemory`]); on a board
+//! they are `static` arrays ([`HeadBuffers`] holds a complete set in one value that can be a
+//! `static`), in tests and on the desktop any slices. The head's own struct adds the frame
+//! buffers of the link (receive, transmit, result row): see [`MemoryReport::head_struct`].
+//!
+//! | buffer | length | bytes per element | for |
+//! |---|---|---|---|
+//! | `decode_state` | `(1 + 2L)·W·H` | 4 | the frame-sequential decoder's accumulators |
+//! | `decode_flags` | `W·H` | 1 | its saturation flags |
+//! | `ring_phase` | `band·W` | 4 | the reference-row ring of the reconstruction |
+//! | `ring_validity` | `band·W` | 1 | its validity codes |
+//! | `camera_line` | `W` | 2 | one camera row |
+//! | `projector_line` | `PW` | 1 | one pattern row |
+//! | `phase_row`, `modulation_row`, `dc_row` | `W` | 4 | one decoded row |
+//! | `validity_row`, `point_validity` | `W` | 1 | its codes, the points' codes |
+//! | `xyz_row` | `3·W` | 4 | one point row |
+//! | `reference_phase`, `reference_validity` | `W` | 4 + 1 | one reference row from storage |
+//!
+//! `W × H` is the camera, `PW` the projector width, `L` the pattern set's levels and `band` the
+//! reference rows a point row needs (`Reconstructor::band`).
+
+/// The head's working buffers (see the module documentation for their sizes).
+pub struct HeadMemory<'a> {
+    /// Decoder accumulators, `(1 + 2L)·W·H` f32.
+    pub decode_state: &'a mut [f32],
+    /// Decoder flags, `W·H` bytes.
+    pub decode_flags: &'a mut [u8],
+    /// Reference ring phases, `band·W` f32.
+    pub ring_phase: &'a mut [f32],
+    /// Reference ring validity, `band·W` bytes.
+    pub ring_validity: &'a mut [u8],
+    /// One camera row, `W` samples.
+    pub camera_line: &'a mut [u16],
+    /// One pattern row, `PW` bytes.
+    pub projector_line: &'a mut [u8],
+    /// Decoded phase, `W`.
+    pub phase_row: &'a mut [f32],
+    /// Decoded modulation, `W`.
+    pub modulation_row: &'a mut [f32],
+    /// Decoded DC term, `W`.
+    pub dc_row: &'a mut [f32],
+    /// Decoded validity, `W`.
+    pub validity_row: &'a mut [u8],
+    /// Points, `3·W`.
+    pub xyz_row: &'a mut [f32],
+    /// Point validity, `W`.
+    pub point_validity: &'a mut [u8],
+    /// One reference row's phases, `W`.
+    pub reference_phase: &'a mut [f32],
+    /// One reference row's validity, `W`.
+    pub reference_validity: &'a mut [u8],
+}
+
+/// Buffer lengths (elements) for a head.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MemoryPlan {
+    /// `decode_state` length.
+    pub decode_state: usize,
+    /// `decode_flags` length.
+    pub decode_flags: usize,
+    /// `ring_phase` and `ring_validity` length.
+    pub ring: usize,
+    /// Camera line length (`W`).
+    pub line: usize,
+    /// Projector line length.
+    pub projector_line: usize,
+}
+
+impl MemoryPlan {
+    /// The lengths for a `width × height` camera, a projector `projector_width` wide, pattern sets
+    /// of up to `levels` levels and reference bands of up to `band_rows` rows.
+    pub const fn new(
+        width: usize,
+        height: usize,
+        projector_width: usize,
+        levels: usize,
+        band_rows: usize,
+    ) -> Self {
+        MemoryPlan {
+            decode_state: (1 + 2 * levels) * width * height,
+            decode_flags: width * height,
+            ring: band_rows * width,
+            line: width,
+            projector_line: projector_width,
+        }
+    }
+
+    /// Total bytes of the buffers of this plan.
+    pub const fn bytes(&self) -> usize {
+        self.decode_state * 4
+            + self.decode_flags
+            + self.ring * 5
+            + self.line * (2 + 3 * 4 + 2 + 3 * 4 + 1 + 4 + 1)
+            + self.projector_line
+    }
+}
+
+/// A complete set of buffers in one value, for a `static` on a board. The const parameters are
+/// the lengths of [`MemoryPlan`] (`LINE3 = 3·LINE`); compute them where the type is named, e.g.
+/// `HeadBuffers<{ 7 * 64 * 48 }, { 64 * 48 }, 64, 192, 64, { 20 * 64 }>`.
+pub struct HeadBuffers<
+    const STATE: usize,
+    const PIXELS: usize,
+    const LINE: usize,
+    const LINE3: usize,
+    const PLINE: usize,
+    const RING: usize,
+> {
+    decode_state: [f32; STATE],
+    decode_flags: [u8; PIXELS],
+    ring_phase: [f32; RING],
+    ring_validity: [u8; RING],
+    camera_line: [u16; LINE],
+    projector_line: [u8; PLINE],
+    phase_row: [f32; LINE],
+    modulation_row: [f32; LINE],
+    dc_row: [f32; LINE],
+    validity_row: [u8; LINE],
+    xyz_row: [f32; LINE3],
+    point_validity: [u8; LINE],
+    reference_phase: [f32; LINE],
+    reference_validity: [u8; LINE],
+}
+
+impl<
+    const STATE: usize,
+    const PIXELS: usize,
+    const LINE: usize,
+    const LINE3: usize,
+    const PLINE: usize,
+    const RING: usize,
+> Default for HeadBuffers<STATE, PIXELS, LINE, LINE3, PLINE, RING>
+{
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<
+    const STATE: usize,
+    const PIXELS: usize,
+    const LINE: usize,
+    const LINE3: usize,
+    const PLINE: usize,
+    const RING: usize,
+> HeadBuffers<STATE, PIXELS, LINE, LINE3, PLINE, RING>
+{
+    /// Zeroed buffers (a `const fn`: usable in a `static` initialiser, placed in `.bss`).
+    pub const fn new() -> Self {
+        HeadBuffers {
+            decode_state: [0.0; STATE],
+            decode_flags: [0; PIXELS],
+            ring_phase: [0.0; RING],
+            ring_validity: [0; RING],
+            camera_line: [0; LINE],
+            projector_line: [0; PLINE],
+            phase_row: [0.0; LINE],
+            modulation_row: [0.0; LINE],
+            dc_row: [0.0; LINE],
+            validity_row: [0; LINE],
+            xyz_row: [0.0; LINE3],
+            point_validity: [0; LINE],
+            reference_phase: [0.0; LINE],
+            reference_validity: [0; LINE],
+        }
+    }
+
+    /// The buffers as a [`HeadMemory`].
+    pub fn memory(&mut self) -> HeadMemory<'_> {
+        HeadMemory {
+            decode_state: &mut self.decode_state,
+            decode_flags: &mut self.decode_flags,
+            ring_phase: &mut self.ring_phase,
+            ring_validity: &mut self.ring_validity,
+            camera_line: &mut self.camera_line,
+            projector_line: &mut self.projector_line,
+            phase_row: &mut self.phase_row,
+            modulation_row: &mut self.modulation_row,
+            dc_row: &mut self.dc_row,
+            validity_row: &mut self.validity_row,
+            xyz_row: &mut self.xyz_row,
+            point_validity: &mut self.point_validity,
+            reference_phase: &mut self.reference_phase,
+            reference_validity: &mut self.reference_validity,
+        }
+    }
+}
+
+/// Peak use of the head's memory, bytes: the high-water marks of every scan since start.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemoryReport {
+    /// Decoder accumulators used.
+    pub decode_state: usize,
+    /// Decoder flags used.
+    pub decode_flags: usize,
+    /// Reference ring used (phase and validity).
+    pub ring: usize,
+    /// Line buffers used (camera, projector, decoded row, point row, reference row).
+    pub lines: usize,
+    /// The head struct itself: link frame buffers, pattern-set slots, trigger table, decoder
+    /// and reconstructor (`size_of` the `Head`).
+    pub head_struct: usize,
+    /// The receive queue between the UART interrupt and the main loop, if the board reports it.
+    pub rx_queue: usize,
+    /// The transmit queue, if the board reports it.
+    pub tx_queue: usize,
+}
+
+impl MemoryReport {
+    /// Sum of all parts.
+    pub const fn total(&self) -> usize {
+        self.decode_state
+            + self.decode_flags
+            + self.ring
+            + self.lines
+            + self.head_struct
+            + self.rx_queue
+            + self.tx_queue
+    }
+}

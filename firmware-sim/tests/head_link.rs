@@ -1,0 +1,725 @@
+//! The head and the host's client over an in-process link: uploads, parametric patterns, the
+//! trigger timeline, scans bit-identical to the desktop's decode, and thousands of seeded line
+//! faults (drops, corruption, duplicates, cuts) with resumed uploads.
+
+use fringe3d::batch::{FrameOut, Isa, decode_frames};
+use fringe3d::device::desc::{
+    capture_sequence, desc_to_set, pattern_bytes, pattern_desc, render_pattern,
+};
+use fringe3d::device::{Client, ClientOptions, DeviceError};
+use fringe3d_core::decode::{DecodeConfig, Decoder};
+use fringe3d_core::math::canonical;
+use fringe3d_core::pattern::{Level, Output, PatternSet};
+use fringe3d_core::phase_function::{Axis, PhaseFunction};
+use fringe3d_core::wire::{
+    FaultConfig, HeadState, LinearPhase, NakCode, PatternAxis, PatternSetDesc, ScanOutput, Shifts,
+    ValidationStatus, Waveform,
+};
+use fringe3d_firmware_sim::desktop::{InProcess, OwnedMemory, Recorder, SimHead, sim_board};
+use fringe3d_firmware_sim::sim::{
+    DirectView, EventKind, FrameSource, Line, NoSink, RowSink, SimWorld,
+};
+use fringe3d_firmware_sim::{Head, HeadConfig, MemoryPlan, desc};
+use std::time::Duration;
+
+const PW: u16 = 128;
+const PH: u16 = 96;
+const CW: u16 = 64;
+const CH: u16 = 48;
+const EXPOSURE_US: u32 = 5_000;
+const DARK_US: u32 = 2_000;
+const READOUT_NS: u64 = 500_000;
+
+/// The paper's 8-pattern set with f32-exact parameters (slope 2⁻⁶ rad/px, centred): the head
+/// rebuilds it bit for bit from its wire description.
+fn exact_set() -> PatternSet {
+    let f = PhaseFunction::linear(Axis::Xi, (PW as f64 - 1.0) / 2.0, 1.0 / 64.0).unwrap();
+    PatternSet::paper_eight(
+        f,
+        8.0,
+        Output {
+            width: PW as u32,
+            height: PH as u32,
+            i_min: 0.0,
+            i_max: 255.0,
+        },
+    )
+    .unwrap()
+}
+
+fn view(set: &PatternSet, desc: &PatternSetDesc) -> DirectView {
+    DirectView {
+        set: *set,
+        desc: *desc,
+        width: CW,
+        height: CH,
+        bits: 8,
+        gain: 0.8,
+        offset: 20.0,
+    }
+}
+
+fn opts() -> ClientOptions {
+    ClientOptions {
+        timeout: Duration::from_millis(200),
+        retries: 12,
+        window: 4,
+        scan_timeout: Duration::from_secs(2),
+    }
+}
+
+/// The desktop's answer: the camera frames the scene gives under each pattern (set order),
+/// decoded by the host's batch path.
+fn desktop_phase(set: &PatternSet, desc: &PatternSetDesc) -> (Vec<f32>, Vec<u8>) {
+    let v = view(set, desc);
+    let (w, h) = (CW as usize, CH as usize);
+    let frames: Vec<Vec<u16>> = set
+        .order()
+        .iter()
+        .map(|id| {
+            let p = fringe3d::device::desc::pattern_index(desc, *id).unwrap();
+            let mut f = vec![0u16; w * h];
+            for (y, row) in f.chunks_exact_mut(w).enumerate() {
+                v.row(Some(p), y as u16, row).unwrap();
+            }
+            f
+        })
+        .collect();
+    let refs: Vec<&[u16]> = frames.iter().map(|f| f.as_slice()).collect();
+    let d = Decoder::new(set, DecodeConfig::for_bit_depth(8)).unwrap();
+    let n = w * h;
+    let (mut p, mut m, mut a, mut q) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0u8; n]);
+    decode_frames(
+        &d,
+        &refs,
+        w,
+        h,
+        FrameOut {
+            phase: &mut p,
+            modulation: &mut m,
+            dc: &mut a,
+            validity: &mut q,
+        },
+        Isa::detect(),
+        false,
+    )
+    .unwrap();
+    (p, q)
+}
+
+fn bits(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| canonical(*x).to_bits()).collect()
+}
+
+fn head<'m, 'w, R: RowSink>(
+    world: &'w SimWorld,
+    mem: &'m mut OwnedMemory,
+    set: &PatternSet,
+    desc: &PatternSetDesc,
+    sink: R,
+) -> SimHead<'m, 'w, DirectView, R> {
+    let board = sim_board(
+        world,
+        view(set, desc),
+        sink,
+        (PW, PH),
+        1 << 20,
+        CW as usize * CH as usize * 5,
+    );
+    Head::new(board, mem.memory(), HeadConfig::DEFAULT).unwrap()
+}
+
+fn plan() -> MemoryPlan {
+    MemoryPlan::new(CW as usize, CH as usize, PW as usize, 3, 8)
+}
+
+#[test]
+fn host_and_head_build_the_same_set_from_a_description() {
+    let set = exact_set();
+    let d = pattern_desc(&set, 8).unwrap();
+    assert_eq!(desc_to_set(&d).unwrap(), set, "host mapping");
+    assert_eq!(desc::pattern_set(&d).unwrap(), set, "head mapping");
+    // Other shapes: η axis, cosine, an offset, explicit shifts, a 5-step level.
+    let mut levels = [fringe3d_core::wire::Level::UNUSED; 8];
+    levels[0] = fringe3d_core::wire::Level {
+        scale: 1.0,
+        shifts: Shifts::Uniform { n: 5, count: 5 },
+    };
+    let mut r = [0.0f32; 16];
+    r[..3].copy_from_slice(&[0.0, 2.0, 4.0]);
+    levels[1] = fringe3d_core::wire::Level {
+        scale: 6.0,
+        shifts: Shifts::Explicit {
+            count: 3,
+            radians: r,
+        },
+    };
+    let d2 = PatternSetDesc {
+        width: 96,
+        height: 128,
+        bit_depth: 7,
+        i_max: 100.0,
+        axis: PatternAxis::Eta,
+        waveform: Waveform::Cosine,
+        phase_offset: 0.25,
+        phase: LinearPhase {
+            a: 0.0,
+            b: 0.015625,
+            c: -1.0,
+        },
+        level_count: 2,
+        levels,
+    };
+    let a = desc_to_set(&d2).unwrap();
+    let b = desc::pattern_set(&d2).unwrap();
+    assert_eq!(a, b);
+    assert_eq!(a.levels()[0], Level::n_step(1.0, 5));
+    // Not describable: a knot profile is refused by the host, a cross term by the head.
+    let mut bad = d2;
+    bad.phase.a = 0.001;
+    assert!(desc::pattern_set(&bad).is_err() && desc_to_set(&bad).is_err());
+}
+
+#[test]
+fn upload_then_scan_phase_is_bit_identical_to_the_desktop() {
+    let set = exact_set();
+    let d = pattern_desc(&set, 8).unwrap();
+    let world = SimWorld::new(READOUT_NS);
+    let mut mem = OwnedMemory::new(plan());
+    let h = head(&world, &mut mem, &set, &d, NoSink);
+    let mut c = Client::connect(
+        InProcess::new(h, FaultConfig::NONE, FaultConfig::NONE, 1),
+        opts(),
+    )
+    .unwrap();
+    assert_eq!(c.capabilities().sensor_width, CW);
+    c.define_pattern_set(0, &d).unwrap();
+    let data = pattern_bytes(&set, &d, |i| render_pattern(&set, i)).unwrap();
+    let r = c.upload_patterns(0, &d, &data, &mut |_, _| {}).unwrap();
+    assert_eq!((r.total, r.resumed_from), (data.len() as u64, 0));
+    c.configure_sequence(
+        0,
+        false,
+        &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
+    )
+    .unwrap();
+    let v = c.validate().unwrap();
+    assert_eq!(
+        v.0,
+        ValidationStatus::NO_CALIBRATION | ValidationStatus::NO_REFERENCE
+    );
+    // Points need the calibration and the reference map: refused, with the reason.
+    match c.scan(ScanOutput::Points, 0, 0, &mut |_, _| {}) {
+        Err(DeviceError::Refused {
+            code: NakCode::SequenceInvalid,
+            reason,
+            ..
+        }) => assert!(reason.contains("no calibration"), "{reason}"),
+        other => panic!("{other:?}"),
+    }
+    let out = c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}).unwrap();
+    let (p, q) = desktop_phase(&set, &d);
+    assert_eq!(bits(out.phase.as_ref().unwrap()), bits(&p));
+    assert_eq!(out.phase_validity.as_ref().unwrap(), &q);
+    assert!(
+        q.iter().filter(|&&v| v == 0).count() > q.len() / 2,
+        "mostly valid"
+    );
+    // A window of rows.
+    let part = c.scan(ScanOutput::Phase, 10, 7, &mut |_, _| {}).unwrap();
+    let w = CW as usize;
+    assert_eq!(bits(part.phase.as_ref().unwrap()), bits(&p[10 * w..17 * w]));
+    let st = c.status().unwrap();
+    assert_eq!(st.state, HeadState::Ready);
+    assert_eq!(st.rows_sent, CH as u32 + 7);
+    let head = c.into_transport().device;
+    assert_eq!(&head.board().pattern_store.bytes()[..data.len()], &data[..]);
+    let m = head.memory_report();
+    assert_eq!(m.decode_state, 7 * w * CH as usize * 4);
+    assert_eq!(m.decode_flags, w * CH as usize);
+    assert!(m.head_struct > 16_000 && m.head_struct < 40_000, "{m:?}");
+}
+
+#[test]
+fn parametric_patterns_equal_the_fringe3d_patterns_pngs() {
+    let dir = std::env::temp_dir().join(format!("fringe3d-head-pngs-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("exact.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "version = 1\npreset = \"paper8\"\nratio = 8.0\n[projector]\nwidth = {PW}\nheight = {PH}\nbit_depth = 8\n\
+             [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 63.5\nslope = 0.015625\n"
+        ),
+    )
+    .unwrap();
+    let out = dir.join("pngs");
+    fringe3d::cli::run([
+        "fringe3d",
+        "--quiet",
+        "patterns",
+        "--patterns",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ])
+    .unwrap();
+    let ls = fringe3d::cli::common::load_set(&file).unwrap();
+    let set = ls.set;
+    let d = pattern_desc(&set, 8).unwrap();
+    let fid = fringe3d::device::desc::fidelity(&set, &d, 8);
+    assert!(fid.patterns && fid.decoder, "{fid:?}");
+
+    let world = SimWorld::new(READOUT_NS);
+    let mut mem = OwnedMemory::new(plan());
+    let h = head(&world, &mut mem, &set, &d, Recorder::default());
+    let mut c = Client::connect(
+        InProcess::new(h, FaultConfig::NONE, FaultConfig::NONE, 2),
+        opts(),
+    )
+    .unwrap();
+    c.define_pattern_set(0, &d).unwrap(); // no upload: the head renders the set itself
+    c.configure_sequence(
+        0,
+        false,
+        &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
+    )
+    .unwrap();
+    c.scan(ScanOutput::Phase, 0, 1, &mut |_, _| {}).unwrap();
+    let head = c.into_transport().device;
+    let rec = head.board().projector.sink();
+    assert_eq!(rec.patterns.len(), 8);
+    for (i, id) in set.order().iter().enumerate() {
+        let p = fringe3d::device::desc::pattern_index(&d, *id).unwrap();
+        let (img, _) =
+            fringe3d::io::image::read_gray(&out.join(format!("pattern_{i:02}.png"))).unwrap();
+        let fringe3d::io::image::Pixels::U8(px) = img.pixels else {
+            panic!("8-bit PNG expected")
+        };
+        assert_eq!(
+            rec.patterns[&p], px,
+            "pattern {i} (wire {p}) differs from the PNG"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn trigger_timeline_follows_the_sequence() {
+    let set = exact_set();
+    let d = pattern_desc(&set, 8).unwrap();
+    let world = SimWorld::new(READOUT_NS);
+    let mut mem = OwnedMemory::new(plan());
+    let h = head(&world, &mut mem, &set, &d, NoSink);
+    let mut c = Client::connect(
+        InProcess::new(h, FaultConfig::NONE, FaultConfig::NONE, 3),
+        opts(),
+    )
+    .unwrap();
+    c.define_pattern_set(0, &d).unwrap();
+    let lut = capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap();
+    c.configure_sequence(0, false, &lut).unwrap();
+    world.clear_timeline();
+    c.scan(ScanOutput::Phase, 0, 1, &mut |_, _| {}).unwrap();
+    let mut ev = Vec::new();
+    world.for_each_event(|e| ev.push(*e));
+    // Per entry: load, projector on, camera on, (exposure) camera off + capture, projector off,
+    // (dark) ready seen, frame read.
+    assert_eq!(ev.len(), lut.len() * 8, "{ev:#?}");
+    for (k, (e, chunk)) in lut.iter().zip(ev.chunks(8)).enumerate() {
+        let p = e.pattern;
+        let kinds: Vec<EventKind> = chunk.iter().map(|x| x.kind).collect();
+        assert_eq!(
+            kinds,
+            vec![
+                EventKind::PatternLoaded {
+                    pattern: p,
+                    crc: match kinds[0] {
+                        EventKind::PatternLoaded { crc, .. } => crc,
+                        _ => 0,
+                    }
+                },
+                EventKind::Drive {
+                    line: Line::ProjectorTrigger,
+                    high: true
+                },
+                EventKind::Drive {
+                    line: Line::CameraTrigger,
+                    high: true
+                },
+                EventKind::Drive {
+                    line: Line::CameraTrigger,
+                    high: false
+                },
+                EventKind::Captured { pattern: Some(p) },
+                EventKind::Drive {
+                    line: Line::ProjectorTrigger,
+                    high: false
+                },
+                EventKind::Sensed {
+                    line: Line::CameraReady
+                },
+                EventKind::FrameRead { pattern: Some(p) },
+            ],
+            "entry {k}"
+        );
+        let t = |i: usize| chunk[i].t_ns;
+        assert_eq!(t(2) - t(1), 0, "camera starts with the projector");
+        assert_eq!(t(3) - t(2), EXPOSURE_US as u64 * 1000, "exposure");
+        assert_eq!(
+            t(6) - t(5),
+            DARK_US as u64 * 1000,
+            "dark time covers the readout"
+        );
+        if k > 0 {
+            assert!(t(0) >= ev[8 * k - 1].t_ns);
+        }
+    }
+    let s = world.stats();
+    assert_eq!((s.exposures, s.blurred, s.lost_frames), (8, 0, 0));
+}
+
+/// Everything in one run under faults: connect, define, upload patterns, configure, scan phase.
+/// `Ok` only with correct results; errors must be the line's, with a message.
+fn faulty_session(
+    seed: u64,
+    up: FaultConfig,
+    down: FaultConfig,
+    truth: &(Vec<f32>, Vec<u8>),
+    data: &[u8],
+) -> (Result<(), String>, u64) {
+    let set = exact_set();
+    let d = pattern_desc(&set, 8).unwrap();
+    let world = SimWorld::new(READOUT_NS);
+    let mut mem = OwnedMemory::new(plan());
+    let h = head(&world, &mut mem, &set, &d, NoSink);
+    let mut link = InProcess::new(h, up, down, seed);
+    let mut result = Err("no session".to_string());
+    // Up to three sessions (a user running the command again after a failure).
+    for _session in 0..3 {
+        let mut c = Client::open(link, opts());
+        let r = (|| -> Result<(), DeviceError> {
+            c.hello()?;
+            c.define_pattern_set(0, &d)?;
+            let rep = c.upload_patterns(0, &d, data, &mut |_, _| {})?;
+            assert_eq!(rep.total, data.len() as u64);
+            // Confirmed: the head must hold exactly the data.
+            let held = &c.link().transport().device.board().pattern_store.bytes()[..data.len()];
+            assert!(
+                held == data,
+                "seed {seed}: confirmed upload differs from the data"
+            );
+            c.configure_sequence(
+                0,
+                false,
+                &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
+            )?;
+            let out = c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {})?;
+            assert!(
+                bits(out.phase.as_ref().unwrap()) == bits(&truth.0),
+                "seed {seed}: phases differ"
+            );
+            assert!(
+                out.phase_validity.as_ref().unwrap() == &truth.1,
+                "seed {seed}: validity differs"
+            );
+            Ok(())
+        })();
+        link = c.into_transport();
+        match r {
+            Ok(()) => {
+                result = Ok(());
+                break;
+            }
+            Err(e) => {
+                let msg = e.to_string();
+                assert!(
+                    e.is_transient(),
+                    "seed {seed}: non-line error under line faults: {msg}"
+                );
+                assert!(msg.len() > 20, "seed {seed}: unclear error {msg:?}");
+                // Whatever failed, an unconfirmed set is refused.
+                let head = &link.device;
+                let st = head.status();
+                assert_ne!(st.state, HeadState::Scanning);
+                result = Err(msg);
+            }
+        }
+    }
+    let (a, b) = link.fault_stats();
+    (result, a.faults() + b.faults())
+}
+
+#[test]
+fn thousands_of_seeded_line_faults() {
+    let set = exact_set();
+    let d = pattern_desc(&set, 8).unwrap();
+    let truth = desktop_phase(&set, &d);
+    let data = pattern_bytes(&set, &d, |i| render_pattern(&set, i)).unwrap();
+    let up = FaultConfig {
+        drop_ppm: 25,
+        corrupt_ppm: 25,
+        duplicate_ppm: 25,
+        cut_ppm: 10,
+        max_cut_len: 6000,
+    };
+    let down = FaultConfig {
+        drop_ppm: 150,
+        corrupt_ppm: 150,
+        duplicate_ppm: 150,
+        cut_ppm: 40,
+        max_cut_len: 3000,
+    };
+    let (mut ok, mut failed, mut faults) = (0, 0, 0u64);
+    let t0 = std::time::Instant::now();
+    for seed in 0..120u64 {
+        let (r, f) = faulty_session(seed, up, down, &truth, &data);
+        faults += f;
+        match r {
+            Ok(()) => ok += 1,
+            Err(e) => {
+                if failed < 12 {
+                    eprintln!("seed {seed}: {e}");
+                }
+                failed += 1
+            }
+        }
+    }
+    eprintln!(
+        "{ok} sessions completed, {failed} failed cleanly, {faults} faults injected in {:.1} s",
+        t0.elapsed().as_secs_f64()
+    );
+    assert!(faults >= 2000, "only {faults} faults");
+    assert!(ok >= 110, "too few sessions completed: {ok}");
+}
+
+#[test]
+fn a_cut_line_fails_clearly_the_upload_resumes_and_nothing_unconfirmed_is_used() {
+    let set = exact_set();
+    let d = pattern_desc(&set, 8).unwrap();
+    let data = pattern_bytes(&set, &d, |i| render_pattern(&set, i)).unwrap();
+    let truth = desktop_phase(&set, &d);
+    let world = SimWorld::new(READOUT_NS);
+    let mut mem = OwnedMemory::new(plan());
+    let h = head(&world, &mut mem, &set, &d, NoSink);
+    let mut c = Client::connect(
+        InProcess::new(h, FaultConfig::NONE, FaultConfig::NONE, 5),
+        opts(),
+    )
+    .unwrap();
+    c.define_pattern_set(0, &d).unwrap();
+    c.configure_sequence(
+        0,
+        false,
+        &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
+    )
+    .unwrap();
+
+    // Unplug a third of the way through.
+    let sent = c.link().stats().bytes_sent;
+    c.link_mut()
+        .transport_mut()
+        .cut_after(sent + data.len() as u64 / 3);
+    let err = c.upload_patterns(0, &d, &data, &mut |_, _| {}).unwrap_err();
+    let msg = err.to_string();
+    let DeviceError::UploadInterrupted { acked, total, .. } = err else {
+        panic!("{msg}")
+    };
+    assert!(acked > 0 && acked < total, "{msg}");
+    assert!(
+        msg.contains(&format!("stopped at byte {acked} of {total}")) && msg.contains("resume"),
+        "{msg}"
+    );
+
+    // Plugged in again: the set is not usable until confirmed.
+    c.link_mut().transport_mut().set_connected(true);
+    let mut c = Client::connect(c.into_transport(), opts()).unwrap();
+    assert!(
+        c.validate()
+            .unwrap()
+            .has(ValidationStatus::SET_NOT_CONFIRMED)
+    );
+    match c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}) {
+        Err(DeviceError::Refused {
+            code: NakCode::SequenceInvalid,
+            reason,
+            ..
+        }) => assert!(reason.contains("not confirmed"), "{reason}"),
+        other => panic!("{other:?}"),
+    }
+
+    // A storage fault in what the head holds: the resumed upload completes, the digest check
+    // catches it, nothing is used.
+    c.link_mut()
+        .transport_mut()
+        .device
+        .board_mut()
+        .pattern_store
+        .bytes_mut()[7] ^= 0x40;
+    let before = c.link().stats().bytes_sent;
+    let err = c.upload_patterns(0, &d, &data, &mut |_, _| {}).unwrap_err();
+    assert!(matches!(err, DeviceError::DigestMismatch { .. }), "{err}");
+    let resumed_bytes = c.link().stats().bytes_sent - before;
+    assert!(
+        resumed_bytes < data.len() as u64,
+        "the upload resumed: {resumed_bytes} bytes sent"
+    );
+    assert!(
+        c.validate()
+            .unwrap()
+            .has(ValidationStatus::SET_NOT_CONFIRMED)
+    );
+    assert!(c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}).is_err());
+
+    // Uploaded again in full: confirmed, and the scan is right.
+    let r = c.upload_patterns(0, &d, &data, &mut |_, _| {}).unwrap();
+    assert_eq!(r.resumed_from, 0);
+    let out = c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}).unwrap();
+    assert_eq!(bits(out.phase.as_ref().unwrap()), bits(&truth.0));
+}
+
+#[test]
+fn an_interrupted_upload_resumes_from_the_last_acknowledged_chunk() {
+    let set = exact_set();
+    let d = pattern_desc(&set, 8).unwrap();
+    let data = pattern_bytes(&set, &d, |i| render_pattern(&set, i)).unwrap();
+    let world = SimWorld::new(READOUT_NS);
+    let mut mem = OwnedMemory::new(plan());
+    let h = head(&world, &mut mem, &set, &d, NoSink);
+    let mut c = Client::connect(
+        InProcess::new(h, FaultConfig::NONE, FaultConfig::NONE, 6),
+        opts(),
+    )
+    .unwrap();
+    c.define_pattern_set(0, &d).unwrap();
+    let sent = c.link().stats().bytes_sent;
+    c.link_mut()
+        .transport_mut()
+        .cut_after(sent + data.len() as u64 / 2);
+    let DeviceError::UploadInterrupted { acked, .. } =
+        c.upload_patterns(0, &d, &data, &mut |_, _| {}).unwrap_err()
+    else {
+        panic!("expected an interrupted upload")
+    };
+    c.link_mut().transport_mut().set_connected(true);
+    let mut c = Client::connect(c.into_transport(), opts()).unwrap();
+    let r = c.upload_patterns(0, &d, &data, &mut |_, _| {}).unwrap();
+    // The head may hold more than the client saw acknowledged (acks lost in the cut).
+    assert!(
+        r.resumed_from >= acked && r.resumed_from < data.len() as u64,
+        "{r:?}, acked {acked}"
+    );
+    assert!(
+        r.wire_bytes < (data.len() as u64 - acked) + data.len() as u64 / 8,
+        "{r:?}"
+    );
+    assert_eq!(
+        &c.link().transport().device.board().pattern_store.bytes()[..data.len()],
+        &data[..]
+    );
+}
+
+#[test]
+fn a_hostile_line_ends_in_clean_errors_never_in_wrong_data() {
+    let set = exact_set();
+    let d = pattern_desc(&set, 8).unwrap();
+    let truth = desktop_phase(&set, &d);
+    let data = pattern_bytes(&set, &d, |i| render_pattern(&set, i)).unwrap();
+    let up = FaultConfig {
+        drop_ppm: 150,
+        corrupt_ppm: 150,
+        duplicate_ppm: 150,
+        cut_ppm: 40,
+        max_cut_len: 20_000,
+    };
+    let down = FaultConfig {
+        drop_ppm: 800,
+        corrupt_ppm: 800,
+        duplicate_ppm: 800,
+        cut_ppm: 150,
+        max_cut_len: 5000,
+    };
+    let (mut ok, mut failed, mut faults) = (0, 0, 0u64);
+    for seed in 1000..1030u64 {
+        // `faulty_session` asserts: Ok only with the exact data and phases, errors only of the
+        // line's kind and with a message.
+        let (r, f) = faulty_session(seed, up, down, &truth, &data);
+        faults += f;
+        if r.is_ok() { ok += 1 } else { failed += 1 }
+    }
+    eprintln!("hostile line: {ok} completed, {failed} failed cleanly, {faults} faults");
+    assert!(faults >= 1000, "{faults}");
+}
+
+/// A complete set of working buffers in one `static`, as on a board.
+static BUFFERS: std::sync::Mutex<
+    fringe3d_firmware_sim::HeadBuffers<{ 7 * 64 * 48 }, { 64 * 48 }, 64, 192, 128, { 16 * 64 }>,
+> = std::sync::Mutex::new(fringe3d_firmware_sim::HeadBuffers::new());
+
+#[test]
+fn the_head_runs_in_static_buffers() {
+    let set = exact_set();
+    let d = pattern_desc(&set, 8).unwrap();
+    let world = SimWorld::new(READOUT_NS);
+    let mut bufs = BUFFERS.lock().unwrap();
+    let board = sim_board(
+        &world,
+        view(&set, &d),
+        NoSink,
+        (PW, PH),
+        1 << 20,
+        CW as usize * CH as usize * 5,
+    );
+    let h = Head::new(board, bufs.memory(), HeadConfig::DEFAULT).unwrap();
+    let mut c = Client::connect(
+        InProcess::new(h, FaultConfig::NONE, FaultConfig::NONE, 8),
+        opts(),
+    )
+    .unwrap();
+    c.define_pattern_set(0, &d).unwrap();
+    c.configure_sequence(
+        0,
+        false,
+        &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
+    )
+    .unwrap();
+    let out = c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}).unwrap();
+    assert_eq!(
+        bits(out.phase.as_ref().unwrap()),
+        bits(&desktop_phase(&set, &d).0)
+    );
+    // A set of more levels than the buffers hold is refused, not overrun.
+    let f = PhaseFunction::linear(Axis::Xi, 63.5, 1.0 / 256.0).unwrap();
+    let big = PatternSet::new(
+        f,
+        &[
+            Level::n_step(1.0, 3),
+            Level::two_step(4.0),
+            Level::two_step(16.0),
+            Level::two_step(64.0),
+        ],
+        Output {
+            width: PW as u32,
+            height: PH as u32,
+            i_min: 0.0,
+            i_max: 255.0,
+        },
+    )
+    .unwrap();
+    let bd = pattern_desc(&big, 8).unwrap();
+    c.define_pattern_set(1, &bd).unwrap();
+    c.configure_sequence(
+        1,
+        false,
+        &capture_sequence(&big, &bd, EXPOSURE_US, DARK_US).unwrap(),
+    )
+    .unwrap();
+    match c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}) {
+        Err(DeviceError::Refused {
+            code: NakCode::OutOfMemory,
+            ..
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+}

@@ -1,0 +1,461 @@
+//! The calibration steps on files, as `fringe3d calibrate` and the demo run them: images in,
+//! calibration files, phase maps and reports out. Every error names the file, folder or view.
+
+use super::camera::{CameraCalibration, CameraOptions, Rejected, View, calibrate};
+use super::corners::{Board, DetectOptions, Detection, Image, detect};
+use super::lens::Lens;
+use super::projector_centre::{PlateObservation, ProjectorCentre, ProjectorOptions, estimate};
+use super::reference::ReferencePose;
+use super::report::{nice_scale, view_picture};
+use super::{CalibError, pose};
+use crate::batch::{FrameOut, Isa, decode_frames};
+use crate::io::calibration::{Calibration, CameraModel, ReferencePlane, import_bouguet_file, import_opencv};
+use crate::io::image::{Pixels, read_gray, write_tiff_f32};
+use crate::io::image_set::{self, Frames};
+use crate::io::pattern_file::PatternSetFile;
+use fringe3d_core::decode::{DecodeConfig, Decoder};
+use fringe3d_core::phase_function::Axis;
+use rayon::prelude::*;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// A progress callback: called with the number of work items just finished.
+pub type Progress<'a> = &'a (dyn Fn(u64) + Sync);
+
+fn input(what: &Path, message: impl Into<String>) -> CalibError {
+    CalibError::Input { what: what.display().to_string(), message: message.into() }
+}
+
+/// The images named on a command line: the files themselves, or every PNG/TIFF/BMP of one
+/// folder sorted by name.
+pub fn image_list(args: &[PathBuf]) -> Result<Vec<PathBuf>, CalibError> {
+    match args {
+        [] => Err(CalibError::Input { what: "images".into(), message: "no images given".into() }),
+        [d] if d.is_dir() => Ok(image_set::list_folder(d)?),
+        list => Ok(list.to_vec()),
+    }
+}
+
+/// Read an image for corner detection.
+pub fn load_image(path: &Path) -> Result<Image, CalibError> {
+    let (g, _) = read_gray(path)?;
+    Ok(Image::from_gray(&g))
+}
+
+/// The views found in a set of board images.
+#[derive(Clone, Debug)]
+pub struct DetectedViews {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Views with a board, in image order.
+    pub views: Vec<View>,
+    /// The image of each view.
+    pub images: Vec<PathBuf>,
+    /// Images without a usable board, with the reason.
+    pub rejected: Vec<Rejected>,
+    /// Views whose board looks the same after a half turn (labelling one of two).
+    pub half_turn_ambiguous: usize,
+}
+
+/// Detect `board` in every image (in parallel). Unreadable images and images of another size
+/// are errors; images without the board are rejected views.
+pub fn detect_views(paths: &[PathBuf], board: &Board, opts: &DetectOptions, progress: Progress<'_>) -> Result<DetectedViews, CalibError> {
+    if paths.is_empty() {
+        return Err(CalibError::Input { what: "camera calibration".into(), message: "no board images given".into() });
+    }
+    let res: Vec<Result<(u32, u32, Result<Detection, String>), CalibError>> = paths
+        .par_iter()
+        .map(|p| {
+            let img = load_image(p)?;
+            let d = detect(&img, board, opts).map_err(|e| e.to_string());
+            progress(1);
+            Ok((img.width as u32, img.height as u32, d))
+        })
+        .collect();
+    let mut out = DetectedViews { width: 0, height: 0, views: Vec::new(), images: Vec::new(), rejected: Vec::new(), half_turn_ambiguous: 0 };
+    for (p, r) in paths.iter().zip(res) {
+        let (w, h, d) = r?;
+        if out.width == 0 {
+            out.width = w;
+            out.height = h;
+        } else if (w, h) != (out.width, out.height) {
+            return Err(input(p, format!("{w}x{h} pixels, but {} is {}x{}: all views must come from one camera", paths[0].display(), out.width, out.height)));
+        }
+        let name = p.display().to_string();
+        match d {
+            Ok(d) => {
+                out.half_turn_ambiguous += d.half_turn_ambiguous as usize;
+                out.views.push(View { name, corners: d.corners });
+                out.images.push(p.clone());
+            }
+            Err(reason) => out.rejected.push(Rejected { name, reason }),
+        }
+    }
+    Ok(out)
+}
+
+/// Detect the board in `paths` and calibrate the camera. Rejected views of both stages are in
+/// the result's `rejected`.
+pub fn calibrate_camera_files(
+    paths: &[PathBuf],
+    board: &Board,
+    detect_opts: &DetectOptions,
+    opts: &CameraOptions,
+    progress: Progress<'_>,
+) -> Result<(CameraCalibration, DetectedViews), CalibError> {
+    let dv = detect_views(paths, board, detect_opts, progress)?;
+    match calibrate(board, &dv.views, dv.width, dv.height, opts) {
+        Ok(mut c) => {
+            let mut all = dv.rejected.clone();
+            all.append(&mut c.rejected);
+            c.rejected = all;
+            Ok((c, dv))
+        }
+        Err(CalibError::TooFewViews { usable, needed, rejected }) => {
+            let mut all: Vec<String> = dv.rejected.iter().map(|r| format!("{}: {}", r.name, r.reason)).collect();
+            all.extend(rejected);
+            Err(CalibError::TooFewViews { usable, needed, rejected: all })
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// A float for YAML/TOML: the shortest exact form.
+fn num(v: f64) -> String {
+    format!("{v:?}")
+}
+
+/// Write the camera as an OpenCV `cv::FileStorage` YAML file (`camera_matrix` with
+/// `K[0][1] = α·fx`, `distortion_coefficients` `[k1, k2, p1, p2, k3]`, image size, RMS), readable
+/// by OpenCV and by `import_opencv` (`--camera-from`).
+pub fn write_opencv_yaml(path: &Path, cal: &CameraCalibration, board: &Board) -> Result<(), CalibError> {
+    let p = &cal.lens.p;
+    let (ni, nj) = board.inner();
+    let text = format!(
+        "%YAML:1.0\n---\n# fringe3d calibrate camera. Pixel centres at integers (OpenCV's convention); K[0][1] = skew * fx\n\
+         # where skew is alpha of paper eq 4 (u = fx*x + alpha*fx*y + cx).\n\
+         image_width: {}\nimage_height: {}\nboard_width: {ni}\nboard_height: {nj}\nsquare_size: {}\nnr_of_frames: {}\n\
+         camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {}, {}, {}, 0., {}, {}, 0., 0., 1. ]\n\
+         distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n   data: [ {}, {}, {}, {}, {} ]\n\
+         avg_reprojection_error: {}\n",
+        cal.lens.width,
+        cal.lens.height,
+        num(board.square),
+        cal.views.len(),
+        num(p[0]),
+        num(p[2] * p[0]),
+        num(p[3]),
+        num(p[1]),
+        num(p[4]),
+        num(p[5]),
+        num(p[6]),
+        num(p[7]),
+        num(p[8]),
+        num(p[9]),
+        num(cal.rms),
+    );
+    crate::io::atomic::write_atomic(path, |w| w.write_all(text.as_bytes())).map_err(|e| input(path, e.to_string()))
+}
+
+/// Write `report.json` and one PNG per used view (corners, residuals magnified) into `dir`.
+/// Returns the report.
+pub fn write_camera_report(dir: &Path, cal: &CameraCalibration, dv: &DetectedViews, board: &Board) -> Result<serde_json::Value, CalibError> {
+    std::fs::create_dir_all(dir).map_err(|e| input(dir, format!("cannot create: {e}")))?;
+    let mut all: Vec<f64> = cal.views.iter().flat_map(|v| v.residuals.iter().map(|r| (r[0] * r[0] + r[1] * r[1]).sqrt())).collect();
+    all.sort_by(f64::total_cmp);
+    let p95 = all.get(((all.len().max(1) - 1) as f64 * 0.95) as usize).cloned().unwrap_or(0.0);
+    let scale = nice_scale(p95, 15.0);
+    let pics: Vec<Result<String, CalibError>> = cal
+        .views
+        .par_iter()
+        .map(|v| {
+            let src = dv.images.iter().find(|p| p.display().to_string() == v.name).cloned().unwrap_or_else(|| PathBuf::from(&v.name));
+            let img = load_image(&src)?;
+            let stem = src.file_stem().and_then(|s| s.to_str()).unwrap_or("view").to_string();
+            let name = format!("view_{stem}.png");
+            let c = view_picture(img.width, img.height, &img.data, &v.corners, &v.residuals, scale);
+            c.save(&dir.join(&name)).map_err(|m| input(&dir.join(&name), m))?;
+            Ok(name)
+        })
+        .collect();
+    let pics: Vec<String> = pics.into_iter().collect::<Result<_, _>>()?;
+    let mut j = cal.to_json();
+    j["board"] = json!({"cols": board.cols, "rows": board.rows, "square_mm": board.square, "inner_corners": [board.inner().0, board.inner().1]});
+    j["pictures"] = json!({"files": pics, "residual_scale": scale, "scale_bar_px": 0.1,
+        "legend": "green +: detected corner; red arrow: reprojection residual (projected - detected) x residual_scale; cyan ring: corner (0, 0); yellow bar: 0.1 px x residual_scale"});
+    j["half_turn_ambiguous_views"] = json!(dv.half_turn_ambiguous);
+    let text = serde_json::to_string_pretty(&j).unwrap_or_default();
+    let rp = dir.join("report.json");
+    crate::io::atomic::write_atomic(&rp, |w| w.write_all(text.as_bytes())).map_err(|e| input(&rp, e.to_string()))?;
+    Ok(j)
+}
+
+/// A camera model from a file: a fringe3d calibration (`.toml`, its `[camera]`), an OpenCV
+/// `cv::FileStorage` file (`.yml`, `.yaml`, `.xml`, `.json`) or Bouguet's `Calib_Results.m`.
+/// `size` (the images' size) fills in a size the file does not state and is checked against one
+/// it does.
+pub fn load_camera(path: &Path, size: Option<(u32, u32)>) -> Result<CameraModel, CalibError> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let (w, h) = size.unwrap_or((0, 0));
+    let cam = match ext.as_str() {
+        "toml" => Calibration::load(path)?.camera,
+        "m" => import_bouguet_file(path, w.max(1), h.max(1))?,
+        "yml" | "yaml" | "xml" | "json" => import_opencv(path, w.max(1), h.max(1))?,
+        _ => return Err(input(path, "unknown camera file type: use a fringe3d calibration (.toml), an OpenCV file (.yml, .yaml, .xml, .json) or Bouguet's Calib_Results.m")),
+    };
+    if let Some((w, h)) = size
+        && (cam.width, cam.height) != (w, h)
+    {
+        return Err(input(path, format!("the camera was calibrated for {}x{} images, these are {w}x{h}", cam.width, cam.height)));
+    }
+    Ok(cam)
+}
+
+/// A decoded fringe set.
+#[derive(Clone, Debug)]
+pub struct DecodedSet {
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// Finest absolute phase, NaN where invalid.
+    pub phase: Vec<f32>,
+    /// Fraction of valid pixels.
+    pub valid_fraction: f64,
+    /// The phase axis of the set.
+    pub axis: Axis,
+    /// The images decoded.
+    pub images: Vec<PathBuf>,
+}
+
+/// Decode the fringe images of the pattern set `set_path`: `images` empty → the set file's own
+/// `images` list; one folder → the set file's names inside it, else every image of the folder
+/// sorted by name; else the files in set order.
+pub fn decode_set(set_path: &Path, images: &[PathBuf]) -> Result<DecodedSet, CalibError> {
+    let file = PatternSetFile::load(set_path)?;
+    let set = file.to_pattern_set()?;
+    let n = set.image_count();
+    let (paths, what) = match images {
+        [] => (
+            file.image_paths(set_path).ok_or_else(|| input(set_path, format!("no images given and the pattern-set file lists none; pass the {n} images or their folder")))?,
+            set_path.display().to_string(),
+        ),
+        [d] if d.is_dir() => match &file.images {
+            Some(names) => (names.iter().map(|x| d.join(x)).collect(), format!("{} (names from {})", d.display(), set_path.display())),
+            None => (image_set::list_folder(d)?, format!("folder {}", d.display())),
+        },
+        list => (list.to_vec(), "the images given".to_string()),
+    };
+    let imgs = image_set::load(&paths, n, &what)?;
+    let dec = Decoder::new(&set, DecodeConfig::for_bit_depth(imgs.bits as u32)).map_err(|e| input(set_path, format!("decoder: {e}")))?;
+    let (w, h) = (imgs.width as usize, imgs.height as usize);
+    let mut phase = vec![0f32; w * h];
+    let mut m = vec![0f32; w * h];
+    let mut a = vec![0f32; w * h];
+    let mut v = vec![0u8; w * h];
+    let out = FrameOut { phase: &mut phase, modulation: &mut m, dc: &mut a, validity: &mut v };
+    let r = match &imgs.frames {
+        Frames::U8(f) => {
+            let fr: Vec<&[u8]> = f.iter().map(|x| x.as_slice()).collect();
+            decode_frames(&dec, &fr, w, h, out, Isa::detect(), true)
+        }
+        Frames::U16(f) => {
+            let fr: Vec<&[u16]> = f.iter().map(|x| x.as_slice()).collect();
+            decode_frames(&dec, &fr, w, h, out, Isa::detect(), true)
+        }
+    };
+    r.map_err(|e| input(&paths[0], format!("decoding the set of {}: {e}", set_path.display())))?;
+    for (p, c) in phase.iter_mut().zip(&v) {
+        if *c != 0 {
+            *p = f32::NAN;
+        }
+    }
+    let valid = phase.iter().filter(|p| p.is_finite()).count();
+    Ok(DecodedSet { width: imgs.width, height: imgs.height, phase, valid_fraction: valid as f64 / (w * h).max(1) as f64, axis: set.axis(), images: paths })
+}
+
+/// The board pose in one image with a calibrated lens; errors name the image.
+pub fn board_pose_file(path: &Path, lens: &Lens, board: &Board, opts: &DetectOptions) -> Result<(pose::PlanePose, Detection), CalibError> {
+    let img = load_image(path)?;
+    if (img.width as u32, img.height as u32) != (lens.width, lens.height) {
+        return Err(input(path, format!("{}x{} pixels, but the camera is {}x{}", img.width, img.height, lens.width, lens.height)));
+    }
+    let d = detect(&img, board, opts).map_err(|e| CalibError::Board { path: path.to_path_buf(), message: e.to_string() })?;
+    let p = pose::board_pose(lens, board, &d.corners).map_err(|e| CalibError::Board { path: path.to_path_buf(), message: e.to_string() })?;
+    Ok((p, d))
+}
+
+/// One plate position's files: `DIR/v/` (vertical fringes, phase along ξ), `DIR/h/` (horizontal
+/// fringes, phase along η) and `DIR/board.png` (the board printed on the plate).
+pub fn load_plate(dir: &Path, lens: &Lens, board: &Board, set_v: &Path, set_h: &Path, opts: &DetectOptions) -> Result<PlateObservation, CalibError> {
+    if !dir.is_dir() {
+        return Err(input(dir, "not a folder (a plate position is a folder with v/, h/ and board.png)"));
+    }
+    let board_img = ["board.png", "board.tif", "board.tiff", "board.bmp"].iter().map(|n| dir.join(n)).find(|p| p.is_file()).ok_or_else(|| input(dir, "no board.png (the board image of this plate position)"))?;
+    let (pose, _) = board_pose_file(&board_img, lens, board, opts)?;
+    let v = decode_set(set_v, &[dir.join("v")])?;
+    let h = decode_set(set_h, &[dir.join("h")])?;
+    for (d, which) in [(&v, "v"), (&h, "h")] {
+        if (d.width, d.height) != (lens.width, lens.height) {
+            return Err(input(&dir.join(which), format!("images are {}x{}, the camera is {}x{}", d.width, d.height, lens.width, lens.height)));
+        }
+    }
+    Ok(PlateObservation { name: dir.display().to_string(), pose, width: v.width as usize, height: v.height as usize, phase_v: v.phase, phase_h: h.phase })
+}
+
+/// The result of [`calibrate_projector_files`].
+#[derive(Clone, Debug)]
+pub struct ProjectorRun {
+    /// The estimate.
+    pub result: ProjectorCentre,
+    /// The calibration file's content (camera, P, depth range; no reference yet).
+    pub calibration: Calibration,
+    /// Per plate: folder, plane point, normal, board RMS and valid phase fractions.
+    pub plates: Vec<serde_json::Value>,
+}
+
+/// Check that two pattern-set files are a vertical (phase along ξ) and a horizontal (along η) set.
+fn check_axes(set_v: &Path, set_h: &Path) -> Result<(), CalibError> {
+    let av = PatternSetFile::load(set_v)?.to_pattern_set()?.axis();
+    let ah = PatternSetFile::load(set_h)?.to_pattern_set()?.axis();
+    if av != Axis::Xi {
+        return Err(input(set_v, "this pattern set has its phase along η (horizontal fringes); --patterns-v needs vertical fringes (phase along ξ)"));
+    }
+    if ah != Axis::Eta {
+        return Err(input(set_h, "this pattern set has its phase along ξ (vertical fringes); --patterns-h needs horizontal fringes (phase along η)"));
+    }
+    Ok(())
+}
+
+/// Estimate P from plate folders (see [`load_plate`]) with a calibrated camera, and build the
+/// calibration file's content. `depth_range` defaults to the plate points' z range padded by
+/// 10 % of its span.
+#[allow(clippy::too_many_arguments)]
+pub fn calibrate_projector_files(
+    camera: &CameraModel,
+    plate_dirs: &[PathBuf],
+    set_v: &Path,
+    set_h: &Path,
+    board: &Board,
+    detect_opts: &DetectOptions,
+    opts: &ProjectorOptions,
+    depth_range: Option<[f64; 2]>,
+    progress: Progress<'_>,
+) -> Result<ProjectorRun, CalibError> {
+    check_axes(set_v, set_h)?;
+    let lens = Lens::from_model(camera);
+    let mut plates = Vec::new();
+    for d in plate_dirs {
+        plates.push(load_plate(d, &lens, board, set_v, set_h, detect_opts)?);
+        progress(1);
+    }
+    let result = estimate(&lens, &plates, opts)?;
+    let dr = depth_range.unwrap_or_else(|| {
+        let [a, b] = result.z_range;
+        let pad = 0.1 * (b - a).max(10.0);
+        [(a - pad).max(1.0), b + pad]
+    });
+    let calibration = Calibration { version: 1, camera: camera.clone(), projector_center: result.center, reference: None, depth_range: dr, projector: None };
+    calibration.validate().map_err(|m| CalibError::Degenerate { what: format!("the resulting calibration: {m}") })?;
+    let summary = plates
+        .iter()
+        .map(|p| {
+            let fv = p.phase_v.iter().filter(|x| x.is_finite()).count() as f64 / p.phase_v.len().max(1) as f64;
+            let fh = p.phase_h.iter().filter(|x| x.is_finite()).count() as f64 / p.phase_h.len().max(1) as f64;
+            json!({"plate": p.name, "plane_point": p.pose.point(), "plane_normal": p.pose.normal(), "board_rms_px": p.pose.rms,
+                   "pose_std": p.pose.std(), "valid_v": fv, "valid_h": fh})
+        })
+        .collect();
+    Ok(ProjectorRun { result, calibration, plates: summary })
+}
+
+/// Where the reference plane's pose comes from.
+#[derive(Clone, Debug)]
+pub enum PlaneSource {
+    /// A board lying on the plane.
+    Board {
+        /// The board image.
+        image: PathBuf,
+        /// The board.
+        board: Board,
+        /// Thickness of the board above the reference surface, mm.
+        offset_mm: f64,
+    },
+    /// Given point and normal (camera frame, mm).
+    Given {
+        /// O_R.
+        point: [f64; 3],
+        /// n_R.
+        normal: [f64; 3],
+    },
+}
+
+/// The result of [`calibrate_reference_files`].
+#[derive(Clone, Debug)]
+pub struct ReferenceRun {
+    /// The plane.
+    pub plane: ReferencePose,
+    /// The calibration written.
+    pub calibration: Calibration,
+    /// The phase map written.
+    pub map_path: PathBuf,
+    /// Fraction of valid pixels in the map.
+    pub valid_fraction: f64,
+}
+
+/// Decode the reference plane's fringe set, find its pose, write the phase map (float TIFF,
+/// `map_name` beside `out`), a copy of the pattern-set file (`reference_patterns.toml`) and the
+/// calibration `out` (the given calibration with its `[reference]` set).
+pub fn calibrate_reference_files(
+    calibration: &Calibration,
+    out: &Path,
+    patterns: &Path,
+    images: &[PathBuf],
+    plane: &PlaneSource,
+    detect_opts: &DetectOptions,
+    map_name: &str,
+) -> Result<ReferenceRun, CalibError> {
+    let lens = Lens::from_model(&calibration.camera);
+    let pose = match plane {
+        PlaneSource::Board { image, board, offset_mm } => {
+            let img = load_image(image)?;
+            if (img.width as u32, img.height as u32) != (lens.width, lens.height) {
+                return Err(input(image, format!("{}x{} pixels, but the camera is {}x{}", img.width, img.height, lens.width, lens.height)));
+            }
+            let d = detect(&img, board, detect_opts).map_err(|e| CalibError::Board { path: image.clone(), message: e.to_string() })?;
+            ReferencePose::from_board(&lens, board, &d.corners, *offset_mm).map_err(|e| CalibError::Board { path: image.clone(), message: e.to_string() })?
+        }
+        PlaneSource::Given { point, normal } => ReferencePose::given(*point, *normal)
+            .ok_or_else(|| CalibError::Input { what: "--plane-point/--plane-normal".into(), message: "the normal must be non-zero and the plane must not pass through the camera centre".into() })?,
+    };
+    let dec = decode_set(patterns, images)?;
+    if (dec.width, dec.height) != (lens.width, lens.height) {
+        return Err(input(&dec.images[0], format!("{}x{} pixels, but the camera is {}x{}", dec.width, dec.height, lens.width, lens.height)));
+    }
+    if dec.valid_fraction < 0.05 {
+        return Err(input(&dec.images[0], format!("only {:.1} % of the reference images decode to a valid phase", 100.0 * dec.valid_fraction)));
+    }
+    let dir = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| input(dir, format!("cannot create: {e}")))?;
+    let map_path = dir.join(map_name);
+    write_tiff_f32(&map_path, dec.width, dec.height, &dec.phase)?;
+    let mut pf = PatternSetFile::load(patterns)?;
+    pf.images = None;
+    let pat_name = "reference_patterns.toml";
+    pf.save(&dir.join(pat_name))?;
+    let mut cal = calibration.clone();
+    cal.reference = Some(ReferencePlane { point: pose.point, normal: pose.normal, phase_map: PathBuf::from(map_name), pattern_set: Some(PathBuf::from(pat_name)) });
+    cal.save(out)?;
+    Ok(ReferenceRun { plane: pose, calibration: cal, map_path, valid_fraction: dec.valid_fraction })
+}
+
+/// Read a float phase map (TIFF).
+pub fn read_phase_map(path: &Path) -> Result<(u32, u32, Vec<f32>), CalibError> {
+    let (g, _) = read_gray(path)?;
+    match g.pixels {
+        Pixels::F32(v) => Ok((g.width, g.height, v)),
+        _ => Err(input(path, "not a 32-bit float image")),
+    }
+}

@@ -1,0 +1,90 @@
+//! Calibration (paper §7): the camera (checkerboard views → intrinsics and Brown distortion by
+//! Zhang's closed form and a bundle adjustment), the projector centre P (two or more parallel plate
+//! positions with vertical and horizontal fringes), and the reference plane with its phase map.
+//! See `docs/calibration.md`.
+//!
+//! Conventions: the camera frame of OpenCV (x right, y down, z forward), pixel centres at integer
+//! coordinates, millimetres, distortion `[k1, k2, p1, p2, k3]`, and the paper's dimensionless skew
+//! α of eq 4 (`u = fx·x + α·fx·y + u0`; OpenCV's camera matrix holds `α·fx`).
+
+pub mod camera;
+pub mod corners;
+pub mod files;
+pub mod lens;
+pub mod linalg;
+pub mod lm;
+pub mod pose;
+pub mod projector_centre;
+pub mod reference;
+pub mod report;
+pub mod zhang;
+
+use std::path::PathBuf;
+
+/// Why a calibration failed. Messages name the files (or views, plates) concerned.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibError {
+    /// Not enough usable checkerboard views.
+    #[error("too few usable views: {usable} (need at least {needed}){}", list(rejected))]
+    TooFewViews {
+        /// Views usable.
+        usable: usize,
+        /// Views needed.
+        needed: usize,
+        /// The views left out, with reasons.
+        rejected: Vec<String>,
+    },
+    /// The data do not determine the solution.
+    #[error("calibration is degenerate: {what}")]
+    Degenerate {
+        /// What could not be determined.
+        what: String,
+    },
+    /// An input is unusable.
+    #[error("{what}: {message}")]
+    Input {
+        /// The file, folder, plate or view.
+        what: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A board was not found where one is required.
+    #[error("{path}: {message}")]
+    Board {
+        /// The image.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// Two plate positions are not parallel.
+    #[error("plates {a} and {b} are not parallel: their normals differ by {angle_deg:.3} degrees (limit {limit_deg} degrees; the method of paper §7 translates the plate without turning it)")]
+    NotParallel {
+        /// One plate.
+        a: String,
+        /// The other.
+        b: String,
+        /// Angle between their normals.
+        angle_deg: f64,
+        /// The limit.
+        limit_deg: f64,
+    },
+    /// The plate positions' phase maps do not overlap.
+    #[error("the plate positions' phase maps do not overlap enough to match points ({detail}); the plates must be lit by the same projector area and seen by the camera at every position")]
+    NoOverlap {
+        /// Per pair: matched pixels.
+        detail: String,
+    },
+    /// An image could not be read or written.
+    #[error(transparent)]
+    Image(#[from] crate::io::image::ImageError),
+    /// An image set could not be loaded.
+    #[error(transparent)]
+    ImageSet(#[from] crate::io::image_set::ImageSetError),
+    /// A calibration or pattern-set file could not be read or written.
+    #[error(transparent)]
+    Format(#[from] crate::io::calibration::FormatError),
+}
+
+fn list(v: &[String]) -> String {
+    if v.is_empty() { String::new() } else { format!("; left out: {}", v.join("; ")) }
+}

@@ -1,0 +1,136 @@
+//! The pose of a checkerboard (and so of the plane it lies on) seen by a calibrated camera:
+//! homography to undistorted normalized coordinates, decomposed, then refined by
+//! Levenberg–Marquardt on the pixel reprojection error; with its covariance.
+
+use super::camera::d_point;
+use super::corners::Board;
+use super::lens::Lens;
+use super::linalg::{M3, V3, add, column, dot, mm, mv, rodrigues, scale, skew};
+use super::lm::{self, Eval};
+use super::zhang;
+
+/// A board's pose: board frame → camera frame, `X_c = R X_b + t`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PlanePose {
+    /// R (row-major).
+    pub rotation: M3,
+    /// t: the board origin (centre of its squares) in the camera frame, mm.
+    pub translation: V3,
+    /// Covariance of the local parameters `(δω, δt)` (left rotation perturbation
+    /// `R ← exp([δω]×) R`, radians; translation, mm), 6 × 6 row-major, from σ²(JᵀJ)⁻¹.
+    #[serde(skip)]
+    pub covariance: [f64; 36],
+    /// RMS reprojection error of the corners, pixels.
+    pub rms: f64,
+    /// Corners used.
+    pub corners: usize,
+}
+
+impl PlanePose {
+    /// The plane's unit normal, pointing towards the camera.
+    pub fn normal(&self) -> V3 {
+        let n = column(&self.rotation, 2);
+        if dot(n, self.translation) > 0.0 { scale(n, -1.0) } else { n }
+    }
+
+    /// A point of the plane (the board origin).
+    pub fn point(&self) -> V3 {
+        self.translation
+    }
+
+    /// The pose moved by the local parameters `(δω, δt)`.
+    pub fn perturbed(&self, d: &[f64; 6]) -> PlanePose {
+        let mut p = self.clone();
+        p.rotation = mm(&rodrigues([d[0], d[1], d[2]]), &self.rotation);
+        p.translation = add(self.translation, [d[3], d[4], d[5]]);
+        p
+    }
+
+    /// Standard deviations of the local parameters (rad, rad, rad, mm, mm, mm).
+    pub fn std(&self) -> [f64; 6] {
+        std::array::from_fn(|i| self.covariance[i * 6 + i].max(0.0).sqrt())
+    }
+}
+
+/// Why a pose could not be found.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PoseError {
+    /// A corner pixel lies outside the lens model's range.
+    #[error("corner {0} is outside the camera model's range (wrong camera for this image?)")]
+    Undistort(usize),
+    /// The homography or its decomposition failed.
+    #[error("degenerate corner layout (no homography)")]
+    Degenerate,
+    /// The refinement failed.
+    #[error("pose refinement failed (board behind the camera)")]
+    Refine,
+}
+
+/// The pose of `board` from its detected `corners` (object-point order) with a calibrated lens.
+pub fn board_pose(lens: &Lens, board: &Board, corners: &[[f64; 2]]) -> Result<PlanePose, PoseError> {
+    let obj = board.object_points();
+    if corners.len() != obj.len() || obj.len() < 4 {
+        return Err(PoseError::Degenerate);
+    }
+    let norm_pts: Vec<[f64; 2]> = corners
+        .iter()
+        .enumerate()
+        .map(|(i, c)| lens.undistort(c[0], c[1]).map(|(x, y)| [x, y]).ok_or(PoseError::Undistort(i)))
+        .collect::<Result<_, _>>()?;
+    let h = zhang::homography(&obj, &norm_pts).ok_or(PoseError::Degenerate)?;
+    let (r0, t0) = zhang::pose_from_homography(&h).ok_or(PoseError::Degenerate)?;
+    let eval = |s: &(M3, V3), _j: bool| -> Option<Eval> {
+        let mut e = Eval { width: 6, ..Default::default() };
+        for (o, c) in obj.iter().zip(corners) {
+            let rx = mv(&s.0, [o[0], o[1], 0.0]);
+            let xc = add(rx, s.1);
+            if !(xc[2] > 1e-9) {
+                return None;
+            }
+            let ((u, v), j) = lens.project_jac(xc[0] / xc[2], xc[1] / xc[2]);
+            let dp = d_point(&j.d_xy, xc);
+            let sk = skew(rx);
+            for (row, res) in [(0usize, u - c[0]), (1, v - c[1])] {
+                e.r.push(res);
+                for a in 0..3 {
+                    let mut s_ = 0.0;
+                    for b in 0..3 {
+                        s_ -= dp[row][b] * sk[b][a];
+                    }
+                    e.vals.push(s_);
+                }
+                e.vals.extend(dp[row]);
+                e.cols.extend(0..6);
+            }
+        }
+        Some(e)
+    };
+    let apply = |s: &(M3, V3), d: &[f64]| (mm(&rodrigues([d[0], d[1], d[2]]), &s.0), add(s.1, [d[3], d[4], d[5]]));
+    let sol = lm::solve((r0, t0), 6, eval, apply, lm::Options::default()).ok_or(PoseError::Refine)?;
+    let cov = sol.covariance(6).unwrap_or_else(|| vec![0.0; 36]);
+    let m = sol.residuals.len();
+    Ok(PlanePose {
+        rotation: sol.state.0,
+        translation: sol.state.1,
+        covariance: std::array::from_fn(|i| cov[i]),
+        rms: (sol.cost / (m / 2) as f64).sqrt(),
+        corners: m / 2,
+    })
+}
+
+/// The point where the viewing ray of pixel `(u, v)` meets the plane `(o, n)` (`None` if the
+/// pixel cannot be undistorted or the ray is parallel to the plane or meets it behind the camera).
+pub fn ray_plane(lens: &Lens, u: f64, v: f64, o: V3, n: V3) -> Option<V3> {
+    let (x, y) = lens.undistort(u, v)?;
+    ray_dir_plane([x, y, 1.0], o, n)
+}
+
+/// The point where the ray `s·d` (s > 0) meets the plane `(o, n)`.
+pub fn ray_dir_plane(d: V3, o: V3, n: V3) -> Option<V3> {
+    let den = dot(n, d);
+    if den.abs() < 1e-12 {
+        return None;
+    }
+    let s = dot(n, o) / den;
+    (s > 0.0).then(|| scale(d, s))
+}

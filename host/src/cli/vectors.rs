@@ -1,0 +1,140 @@
+//! `fringe3d vectors`: write (or verify) the golden test vectors of a small rendered scan.
+
+use super::Global;
+use crate::vectors::{self, VectorOptions};
+use anyhow::{Context, Result, bail};
+use std::path::PathBuf;
+
+/// Arguments of `fringe3d vectors`.
+#[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Examples:\n  fringe3d vectors --out golden            # ballbar scene, 320x240, 16-bit camera\n  \
+fringe3d vectors --out golden --verify   # regenerate in memory and compare with golden/\n  \
+fringe3d vectors --out golden8 --bits 8 --scene steps\n\n\
+Writes DIR/input (camera rows, reference map, params.bin, calibration and pattern set),\n\
+DIR/decode, DIR/reconstruct, DIR/filter (raw little-endian arrays) and DIR/manifest.json\n\
+(dtype, shape, order and SHA-256 of every file). Same options, same bytes. See docs/golden-vectors.md."
+)]
+pub struct VectorsArgs {
+    /// Output folder (written atomically).
+    #[arg(long, short = 'o')]
+    pub out: PathBuf,
+    /// Built-in scene: sphere, ballbar, steps, freeform or plane.
+    #[arg(long, default_value = "ballbar")]
+    pub scene: String,
+    /// Camera image size (same field of view as the 1280x1024 rig).
+    #[arg(long, default_value = "320x240")]
+    pub size: String,
+    /// Camera bit depth (8 gives u8 image files, 12 and 16 give u16).
+    #[arg(long, value_parser = ["8", "12", "16"])]
+    pub bits: Option<String>,
+    /// Camera noise σ, gray levels (default: the scene's).
+    #[arg(long)]
+    pub noise: Option<f64>,
+    /// Noise seed (default: the scene's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Steepest surface the depth-edge filter accepts, degrees from facing the camera.
+    #[arg(long, default_value_t = 80.0)]
+    pub max_angle: f64,
+    /// Replace an existing, non-empty output folder.
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Do not write: regenerate in memory and check DIR's files against the new vectors and
+    /// against DIR's own manifest (exit status 1 on any difference).
+    #[arg(long)]
+    pub verify: bool,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32)> {
+    let (w, h) = s
+        .split_once('x')
+        .with_context(|| format!("--size {s:?}: expected WxH, e.g. 320x240"))?;
+    Ok((
+        w.parse()
+            .with_context(|| format!("--size {s:?}: bad width"))?,
+        h.parse()
+            .with_context(|| format!("--size {s:?}: bad height"))?,
+    ))
+}
+
+/// Run `fringe3d vectors`.
+pub fn run(a: VectorsArgs, g: Global) -> Result<()> {
+    let opts = VectorOptions {
+        scene: a.scene.clone(),
+        size: parse_size(&a.size)?,
+        bits: a
+            .bits
+            .as_deref()
+            .map(str::parse)
+            .transpose()
+            .context("--bits")?,
+        noise: a.noise,
+        seed: a.seed,
+        max_angle_deg: a.max_angle,
+    };
+    let say = |s: String| {
+        if !g.quiet && !g.json {
+            println!("{s}");
+        }
+    };
+    if a.verify {
+        let bad_disk = vectors::check_dir(&a.out)?;
+        let on_disk = vectors::read_dir(&a.out)?;
+        let fresh = vectors::generate(&opts)?;
+        let mut bad = bad_disk;
+        for f in &fresh.files {
+            match on_disk.file(&f.path) {
+                None => bad.push(vectors::Mismatch {
+                    path: f.path.clone(),
+                    what: "missing from the folder".into(),
+                }),
+                Some(d) if d.bytes != f.bytes => bad.push(vectors::Mismatch {
+                    path: f.path.clone(),
+                    what: vectors::first_difference(f, &d.bytes),
+                }),
+                Some(_) => {}
+            }
+        }
+        if g.json {
+            let list: Vec<_> = bad
+                .iter()
+                .map(|m| serde_json::json!({"path": m.path, "what": m.what}))
+                .collect();
+            println!(
+                "{}",
+                serde_json::json!({"command": "vectors", "verify": a.out, "files": fresh.files.len(), "mismatches": list})
+            );
+        }
+        if bad.is_empty() {
+            say(format!(
+                "{}: all {} files match the regenerated vectors and the manifest",
+                a.out.display(),
+                fresh.files.len()
+            ));
+            return Ok(());
+        }
+        for m in &bad {
+            eprintln!("{}: {}", m.path, m.what);
+        }
+        bail!("{}: {} file(s) differ", a.out.display(), bad.len());
+    }
+    let v = vectors::generate_into(&opts, &a.out, a.overwrite)?;
+    let bytes: usize = v.files.iter().map(|f| f.bytes.len()).sum();
+    if g.json {
+        println!(
+            "{}",
+            serde_json::json!({"command": "vectors", "out": a.out, "files": v.files.len(), "bytes": bytes, "width": v.width, "height": v.height})
+        );
+    } else {
+        say(format!(
+            "wrote {} files ({:.1} MB) of golden vectors for a {}x{} scan to {} (manifest.json lists formats and SHA-256)",
+            v.files.len(),
+            bytes as f64 / 1e6,
+            v.width,
+            v.height,
+            a.out.display()
+        ));
+    }
+    Ok(())
+}

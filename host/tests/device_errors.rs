@@ -1,0 +1,176 @@
+//! `fringe3d device` against a missing port, a silent line, a device speaking another protocol
+//! version and one speaking garbage: every case ends quickly with an error that says what is
+//! wrong. The far ends are fakes on a pseudo-terminal pair (no head involved).
+
+use std::io::{Read, Write};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use fringe3d::device::{Client, ClientOptions, DeviceError, SerialTransport, open_serial};
+use fringe3d_core::wire::crc::crc32c;
+use fringe3d_core::wire::{
+    Capabilities, FirmwareVersion, FrameDecoder, MAX_ENCODED_FRAME, Message, cobs,
+};
+use serialport::{SerialPort, TTYPort};
+
+fn quick() -> ClientOptions {
+    ClientOptions {
+        timeout: Duration::from_millis(60),
+        retries: 2,
+        window: 2,
+        scan_timeout: Duration::from_millis(200),
+    }
+}
+
+/// A fake device on the master end of a PTY pair: `answer` maps each intact frame received to the
+/// bytes sent back. Returns the client's transport on the slave end.
+fn fake(
+    answer: impl Fn(&[u8]) -> Vec<u8> + Send + 'static,
+) -> (
+    SerialTransport,
+    Arc<AtomicBool>,
+    std::thread::JoinHandle<()>,
+) {
+    let (mut master, slave) = TTYPort::pair().expect("a PTY pair");
+    master.set_timeout(Duration::from_millis(10)).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let s = stop.clone();
+    let h = std::thread::spawn(move || {
+        let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+        let mut buf = [0u8; 512];
+        while !s.load(Ordering::Relaxed) {
+            let n = match master.read(&mut buf) {
+                Ok(n) => n,
+                Err(_) => continue,
+            };
+            let mut input = &buf[..n];
+            while !input.is_empty() {
+                let (used, ev) = dec.feed(input);
+                input = &input[used..];
+                if let Some(Ok(f)) = ev {
+                    let reply = answer(f);
+                    let _ = master.write_all(&reply);
+                }
+            }
+        }
+    });
+    (
+        SerialTransport::from_port(Box::new(slave) as Box<dyn SerialPort>, 921_600),
+        stop,
+        h,
+    )
+}
+
+/// Line bytes of a frame with an arbitrary version byte.
+fn frame_with_version(version: u8, seq: u8, msg: &Message<'_>) -> Vec<u8> {
+    let mut payload = [0u8; 256];
+    let n = msg.encode(&mut payload).unwrap();
+    let mut f = vec![version, 0, seq, msg.command() as u8, n as u8, 0];
+    f.extend_from_slice(&payload[..n]);
+    let crc = crc32c(&f);
+    f.extend_from_slice(&crc.to_le_bytes());
+    let mut out = vec![0u8; f.len() + 8];
+    let m = cobs::encode(&f, &mut out).unwrap();
+    out.truncate(m);
+    out.push(0);
+    out
+}
+
+#[test]
+fn a_missing_port_is_named() {
+    let e = open_serial("/dev/fringe3d-no-such-port", 921_600)
+        .err()
+        .expect("no such port");
+    let m = e.to_string();
+    assert!(matches!(e, DeviceError::Open { .. }), "{m}");
+    assert!(
+        m.contains("/dev/fringe3d-no-such-port") && m.contains("plugged in"),
+        "{m}"
+    );
+    // Through the CLI as a user runs it.
+    let e = fringe3d::cli::run([
+        "fringe3d",
+        "--quiet",
+        "device",
+        "info",
+        "--port",
+        "/dev/fringe3d-no-such-port",
+    ])
+    .unwrap_err();
+    let m = format!("{e:#}");
+    assert!(m.contains("cannot open /dev/fringe3d-no-such-port"), "{m}");
+}
+
+#[test]
+fn a_silent_line_times_out_with_a_hint() {
+    let (io, stop, h) = fake(|_| Vec::new());
+    let t0 = Instant::now();
+    let e = Client::connect(io, quick()).err().expect("nobody answers");
+    let m = e.to_string();
+    assert!(
+        matches!(e, DeviceError::NoResponse { attempts: 3, .. }),
+        "{m}"
+    );
+    assert!(
+        m.contains("no answer from the device to Hello after 3 attempts"),
+        "{m}"
+    );
+    assert!(t0.elapsed() < Duration::from_secs(3));
+    stop.store(true, Ordering::Relaxed);
+    h.join().unwrap();
+}
+
+#[test]
+fn another_protocol_version_is_reported_as_such() {
+    let (io, stop, h) = fake(|f| {
+        let caps = Capabilities {
+            protocol_version: 2,
+            firmware: FirmwareVersion {
+                major: 2,
+                minor: 0,
+                patch: 0,
+            },
+            sensor_width: 64,
+            sensor_height: 48,
+            projector_width: 64,
+            projector_height: 48,
+            free_memory: 1,
+            max_chunk: 64,
+            max_sets: 1,
+            max_lut_entries: 1,
+        };
+        frame_with_version(2, f[2], &Message::Capabilities(caps))
+    });
+    let e = Client::connect(io, quick()).err().expect("version 2");
+    let m = e.to_string();
+    assert!(
+        matches!(e, DeviceError::Version { device: 2, host: 1 }),
+        "{m}"
+    );
+    assert!(
+        m.contains("protocol version 2") && m.contains("version 1"),
+        "{m}"
+    );
+    stop.store(true, Ordering::Relaxed);
+    h.join().unwrap();
+}
+
+#[test]
+fn a_device_speaking_garbage_is_not_mistaken_for_a_head() {
+    let (io, stop, h) = fake(|f| {
+        // Bytes with delimiters: frames, but never intact ones.
+        let mut v: Vec<u8> = f
+            .iter()
+            .map(|b| b.wrapping_mul(31).wrapping_add(7))
+            .collect();
+        v.extend_from_slice(&[0x41, 0x54, 0x0d, 0x00, 0x05, 0x99, 0x98, 0x97, 0x96, 0x00]);
+        v
+    });
+    let e = Client::connect(io, quick()).err().expect("garbage");
+    let m = e.to_string();
+    assert!(matches!(e, DeviceError::NoResponse { .. }), "{m}");
+    assert!(m.contains("damaged frames received"), "{m}");
+    stop.store(true, Ordering::Relaxed);
+    h.join().unwrap();
+}

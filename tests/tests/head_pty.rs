@@ -1,0 +1,379 @@
+//! The simulated head on a real pseudo-terminal, driven by the host's `fringe3d device` code:
+//! upload a rendered dataset's pattern set (8 × 1024 × 768), its calibration and reference map,
+//! scan, and compare the streamed phases and points bit for bit with what the desktop computes
+//! from the same images (`batch::decode_frames` through `cli::common::decode`, then
+//! `scan::ScanCalibration::reconstruct`, the path of `fringe3d scan`). Then the cable is pulled
+//! mid-upload: a clear error, and the upload resumes on the new port.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, mpsc};
+use std::time::{Duration, Instant};
+
+use fringe3d::cli::common;
+use fringe3d::device::desc::{
+    capture_sequence, fidelity, pattern_bytes, pattern_desc, phase_map_bytes, render_pattern,
+    round_calibration_to_f32, wire_calibration,
+};
+use fringe3d::device::{Client, ClientOptions, DeviceError, open_serial};
+use fringe3d::io::calibration::Calibration;
+use fringe3d::render::dataset::{DatasetOptions, write_dataset};
+use fringe3d::render::{Overrides, SceneSpec};
+use fringe3d::scan::ScanCalibration;
+use fringe3d_core::math::canonical;
+use fringe3d_core::wire::{ScanOutput, ValidationStatus};
+use fringe3d_firmware_sim::desktop::{OwnedMemory, Pty, Replay, serve, sim_board};
+use fringe3d_firmware_sim::port::QUEUE_LEN;
+use fringe3d_firmware_sim::sim::{FrameSource, NoSink, SimWorld};
+use fringe3d_firmware_sim::{Head, HeadConfig, MemoryPlan, MemoryReport};
+
+const CAM: (u32, u32) = (320, 256);
+
+/// A small rendered sphere scene whose pattern set has f32-exact parameters (slope 2⁻⁸ rad/px,
+/// centred on the 1024-pixel DMD), so that the head's description of it is the desktop's set.
+fn dataset(root: &Path) -> PathBuf {
+    let dir = root.join("sphere");
+    let set_file = root.join("set.toml");
+    std::fs::write(
+        &set_file,
+        "version = 1\npreset = \"paper8\"\nratio = 8.0\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
+         [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 511.5\nslope = 0.00390625\n",
+    )
+    .unwrap();
+    let mut spec = SceneSpec::builtin("sphere").unwrap();
+    spec.apply(&Overrides {
+        size: Some(CAM),
+        supersample: Some(1),
+        pattern_bits: Some(8),
+        ..Default::default()
+    });
+    spec.patterns.set = Some(fringe3d::io::pattern_file::PatternSetFile::load(&set_file).unwrap());
+    let scene = fringe3d::render::Scene::new(spec, None).unwrap();
+    write_dataset(
+        &scene,
+        &dir,
+        DatasetOptions {
+            overwrite: true,
+            progress: None,
+        },
+    )
+    .unwrap();
+    // A calibration the head (f32 on the wire) and the desktop share exactly.
+    let cal = Calibration::load(&dir.join("calibration.toml")).unwrap();
+    round_calibration_to_f32(&cal)
+        .save(&dir.join("calibration_f32.toml"))
+        .unwrap();
+    dir
+}
+
+enum Cmd {
+    Replug,
+    Exit,
+}
+
+/// The head in its own thread (its simulated board is single-threaded), serving one PTY per
+/// "plug-in"; sends each PTY path, and at exit the memory report.
+fn spawn_head(
+    dataset: PathBuf,
+    stop: Arc<AtomicBool>,
+) -> (
+    mpsc::Receiver<String>,
+    mpsc::Sender<Cmd>,
+    std::thread::JoinHandle<MemoryReport>,
+) {
+    let (path_tx, path_rx) = mpsc::channel();
+    let (cmd_tx, cmd_rx) = mpsc::channel();
+    let h = std::thread::spawn(move || {
+        let replay = Replay::load_dir(&dataset).unwrap();
+        let o = *replay.set.output();
+        let (w, h) = (replay.width() as usize, replay.height() as usize);
+        let world = SimWorld::new(1_000_000);
+        let mut mem = OwnedMemory::new(MemoryPlan::new(w, h, o.width as usize, 3, h));
+        let board = sim_board(
+            &world,
+            replay,
+            NoSink,
+            (o.width as u16, o.height as u16),
+            8 << 20,
+            w * h * 5,
+        );
+        let mut head = Head::new(board, mem.memory(), HeadConfig::DEFAULT).unwrap();
+        head.set_queue_sizes(QUEUE_LEN, QUEUE_LEN);
+        loop {
+            let pty = Pty::open().unwrap();
+            path_tx.send(pty.path().to_string()).unwrap();
+            serve(&mut head, &pty, &stop, |_| {});
+            drop(pty); // the cable is out
+            match cmd_rx.recv() {
+                Ok(Cmd::Replug) => stop.store(false, Ordering::SeqCst),
+                _ => break,
+            }
+        }
+        head.memory_report()
+    });
+    (path_rx, cmd_tx, h)
+}
+
+fn opts() -> ClientOptions {
+    ClientOptions {
+        timeout: Duration::from_millis(1500),
+        retries: 6,
+        window: 4,
+        scan_timeout: Duration::from_secs(60),
+    }
+}
+
+fn bits(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| canonical(*x).to_bits()).collect()
+}
+
+#[test]
+fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplug() {
+    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let t0 = Instant::now();
+    let dir = dataset(&root);
+    eprintln!("dataset rendered in {:.1} s", t0.elapsed().as_secs_f64());
+
+    // The desktop's answer.
+    let patterns = dir.join("patterns.toml");
+    let calib = dir.join("calibration_f32.toml");
+    let ls = common::load_set(&patterns).unwrap();
+    let imgs = common::load_images(&ls, &[], true).unwrap();
+    let dec = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).unwrap();
+    let sc = ScanCalibration::load(&calib, ls.set.axis()).unwrap();
+    let cloud = sc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
+    assert!(
+        cloud.valid_count() > (CAM.0 * CAM.1 / 4) as usize,
+        "a real scene: {} valid points",
+        cloud.valid_count()
+    );
+
+    // What the host sends.
+    let set = &ls.set;
+    let desc = pattern_desc(set, ls.file.bit_depth()).unwrap();
+    let fid = fidelity(set, &desc, imgs.bits as u32);
+    assert!(fid.patterns && fid.decoder, "{fid:?}");
+    let data = pattern_bytes(set, &desc, |i| render_pattern(set, i)).unwrap();
+    assert_eq!(data.len(), 8 * 1024 * 768);
+    let cal = Calibration::load(&calib).unwrap();
+    let wcal = wire_calibration(&cal).unwrap();
+    let map = phase_map_bytes(&sc.reference_phase, sc.width());
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let (paths, cmd, head) = spawn_head(dir.clone(), stop.clone());
+    let port = paths.recv().unwrap();
+
+    // The CLI's info command on the port.
+    fringe3d::cli::run(["fringe3d", "--quiet", "device", "info", "--port", &port]).unwrap();
+
+    let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    assert_eq!(
+        (
+            c.capabilities().sensor_width,
+            c.capabilities().sensor_height
+        ),
+        (CAM.0 as u16, CAM.1 as u16)
+    );
+    c.define_pattern_set(0, &desc).unwrap();
+    let up = c.upload_patterns(0, &desc, &data, &mut |_, _| {}).unwrap();
+    eprintln!(
+        "PTY upload of 8 x 1024 x 768 patterns: {} data bytes, {} on the wire, {:.3} s ({:.1} MB/s)",
+        up.total,
+        up.wire_bytes,
+        up.seconds,
+        up.wire_bytes as f64 / up.seconds / 1e6
+    );
+    c.upload_calibration(&wcal).unwrap();
+    c.upload_phase_map(CAM.0 as u16, CAM.1 as u16, &map, &mut |_, _| {})
+        .unwrap();
+    c.configure_sequence(
+        0,
+        false,
+        &capture_sequence(set, &desc, 10_000, 2_000).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
+
+    let out = c.scan(ScanOutput::Both, 0, 0, &mut |_, _| {}).unwrap();
+    eprintln!(
+        "PTY scan of {}x{} phase + points: {} bytes received in {:.3} s",
+        CAM.0, CAM.1, out.wire_bytes, out.seconds
+    );
+    assert_eq!(out.rescans, 0);
+    assert!(
+        bits(out.phase.as_ref().unwrap()) == bits(&dec.phase),
+        "phases differ from the desktop's"
+    );
+    assert!(
+        out.phase_validity.as_ref().unwrap() == &dec.validity,
+        "phase validity differs"
+    );
+    assert!(
+        bits(out.xyz.as_ref().unwrap()) == bits(&cloud.xyz),
+        "points differ from the desktop's"
+    );
+    assert!(
+        out.point_validity.as_ref().unwrap() == &cloud.validity,
+        "point validity differs"
+    );
+
+    // The CLI scan writes the cloud.
+    drop(c);
+    let ply = root.join("cloud.ply");
+    fringe3d::cli::run([
+        "fringe3d",
+        "--quiet",
+        "device",
+        "scan",
+        "--port",
+        &port,
+        "--out",
+        ply.to_str().unwrap(),
+    ])
+    .unwrap();
+    assert!(std::fs::metadata(&ply).unwrap().len() > 12 * cloud.valid_count() as u64);
+
+    // Pull the cable a third of the way into an upload of other data.
+    let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    let mut other = data.clone();
+    other[0] ^= 1;
+    let s2 = stop.clone();
+    let third = other.len() as u64 / 3;
+    let err = c
+        .upload_patterns(0, &desc, &other, &mut |done, _| {
+            if done >= third {
+                s2.store(true, Ordering::SeqCst);
+            }
+        })
+        .unwrap_err();
+    let msg = err.to_string();
+    eprintln!("unplugged: {msg}");
+    let DeviceError::UploadInterrupted { acked, .. } = &err else {
+        panic!("{msg}")
+    };
+    let acked = *acked;
+    assert!(acked >= third && acked < other.len() as u64, "{msg}");
+    assert!(
+        msg.contains("disconnected") || msg.contains("no answer"),
+        "{msg}"
+    );
+    drop(c);
+
+    // Plugged in again (a new port): the set is unusable until the resumed upload is confirmed.
+    cmd.send(Cmd::Replug).unwrap();
+    let port = paths.recv().unwrap();
+    let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    assert!(
+        c.validate()
+            .unwrap()
+            .has(ValidationStatus::SET_NOT_CONFIRMED)
+    );
+    let r = c.upload_patterns(0, &desc, &other, &mut |_, _| {}).unwrap();
+    assert!(r.resumed_from >= acked, "{r:?}");
+    assert!(
+        r.wire_bytes < other.len() as u64 - acked + 200_000,
+        "resumed, not restarted: {r:?}"
+    );
+    assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
+    drop(c);
+    stop.store(true, Ordering::SeqCst);
+    cmd.send(Cmd::Exit).unwrap();
+    let m = head.join().unwrap();
+    eprintln!("head peak memory: {m:?}, total {} B", m.total());
+    assert_eq!(m.decode_state, 7 * (CAM.0 * CAM.1) as usize * 4);
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Throughput over an unthrottled PTY at full size (1280 × 1024 camera): the upload of the
+/// 8 × 1024 × 768 set and the stream of the point cloud. Slow-ish (renders a full-size dataset),
+/// so run on demand: `cargo test -p fringe3d-tests --test head_pty -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn pty_throughput_full_size() {
+    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-full-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let set_file = root.join("set.toml");
+    std::fs::write(
+        &set_file,
+        "version = 1\npreset = \"paper8\"\nratio = 8.0\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
+         [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 511.5\nslope = 0.00390625\n",
+    )
+    .unwrap();
+    let mut spec = SceneSpec::builtin("sphere").unwrap();
+    spec.apply(&Overrides {
+        supersample: Some(1),
+        pattern_bits: Some(8),
+        ..Default::default()
+    });
+    spec.patterns.set = Some(fringe3d::io::pattern_file::PatternSetFile::load(&set_file).unwrap());
+    let scene = fringe3d::render::Scene::new(spec, None).unwrap();
+    let dir = root.join("sphere");
+    write_dataset(
+        &scene,
+        &dir,
+        DatasetOptions {
+            overwrite: true,
+            progress: None,
+        },
+    )
+    .unwrap();
+    let cal = Calibration::load(&dir.join("calibration.toml")).unwrap();
+    let calib = dir.join("calibration_f32.toml");
+    round_calibration_to_f32(&cal).save(&calib).unwrap();
+    let ls = common::load_set(&dir.join("patterns.toml")).unwrap();
+    let set = &ls.set;
+    let desc = pattern_desc(set, 8).unwrap();
+    let data = pattern_bytes(set, &desc, |i| render_pattern(set, i)).unwrap();
+    let sc = ScanCalibration::load(&calib, set.axis()).unwrap();
+    let map = phase_map_bytes(&sc.reference_phase, sc.width());
+    let wcal = wire_calibration(&Calibration::load(&calib).unwrap()).unwrap();
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let (paths, cmd, head) = spawn_head(dir.clone(), stop.clone());
+    let port = paths.recv().unwrap();
+    let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    c.define_pattern_set(0, &desc).unwrap();
+    let up = c.upload_patterns(0, &desc, &data, &mut |_, _| {}).unwrap();
+    println!(
+        "PTY upload 8x1024x768: {} wire bytes in {:.3} s = {:.1} MB/s ({:.0}x the 921600-baud line rate)",
+        up.wire_bytes,
+        up.seconds,
+        up.wire_bytes as f64 / up.seconds / 1e6,
+        (up.wire_bytes as f64 / 92_160.0) / up.seconds
+    );
+    c.upload_calibration(&wcal).unwrap();
+    let m = c
+        .upload_phase_map(sc.width() as u16, sc.height() as u16, &map, &mut |_, _| {})
+        .unwrap();
+    println!(
+        "PTY upload of the 1280x1024 reference map: {} bytes in {:.3} s",
+        m.wire_bytes, m.seconds
+    );
+    c.configure_sequence(
+        0,
+        false,
+        &capture_sequence(set, &desc, 10_000, 2_000).unwrap(),
+    )
+    .unwrap();
+    for output in [ScanOutput::Points, ScanOutput::Phase] {
+        let out = c.scan(output, 0, 0, &mut |_, _| {}).unwrap();
+        println!(
+            "PTY scan {output:?} 1280x1024: {} bytes received in {:.3} s (capture, decode, reconstruct and stream) = {:.1} MB/s",
+            out.wire_bytes,
+            out.seconds,
+            out.wire_bytes as f64 / out.seconds / 1e6
+        );
+    }
+    drop(c);
+    stop.store(true, Ordering::SeqCst);
+    cmd.send(Cmd::Exit).unwrap();
+    let m = head.join().unwrap();
+    println!(
+        "head peak memory at 1280x1024: {m:?}, total {} B",
+        m.total()
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -1,0 +1,296 @@
+//! The head firmware on an emulated Cortex-M4F (QEMU `mps2-an386`): it decodes, reconstructs and
+//! edge-filters the golden-vector scan (320 × 240) and sends every stage's rows over its UART;
+//! each stage must be bit-identical to the desktop's golden vectors (NaNs mapped to the canonical
+//! NaN first). Also prints the firmware's measurements (flash, static RAM, stack high-water mark,
+//! instructions per pixel from QEMU's `-icount`).
+//!
+//! Skips with a notice when `qemu-system-arm` or the `thumbv7em-none-eabihf` target is missing;
+//! `.ci/run` installs both, so CI runs it.
+
+use fringe3d::vectors::{self, GoldenVectors, VectorOptions};
+use std::collections::BTreeMap;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const BOARD: &str = "firmware-sim/board-mps2";
+const TARGET: &str = "thumbv7em-none-eabihf";
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ is in the repository")
+        .to_path_buf()
+}
+
+/// Why the test cannot run here, if it cannot.
+fn missing_tools() -> Option<String> {
+    match Command::new("qemu-system-arm")
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+    {
+        Ok(s) if s.success() => {}
+        _ => {
+            return Some(
+                "qemu-system-arm is not installed (Debian: apt-get install qemu-system-arm)".into(),
+            );
+        }
+    }
+    let Ok(sysroot) = Command::new("rustc").args(["--print", "sysroot"]).output() else {
+        return Some("rustc is not on PATH".into());
+    };
+    let root = String::from_utf8_lossy(&sysroot.stdout).trim().to_string();
+    if !Path::new(&root).join("lib/rustlib").join(TARGET).exists() {
+        return Some(format!(
+            "the {TARGET} target is not installed (rustup target add {TARGET})"
+        ));
+    }
+    None
+}
+
+/// The board crate's target folder: `<this build's target dir>/board-mps2` (what `.ci/run` and
+/// the board's `.cargo/config.toml` use for the default target dir).
+fn board_target_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("CARGO_TARGET_DIR") {
+        return PathBuf::from(d).join("board-mps2");
+    }
+    // target/<profile>/deps/<this test> → target
+    let exe = std::env::current_exe().expect("test executable path");
+    exe.ancestors()
+        .nth(3)
+        .map(|t| t.join("board-mps2"))
+        .unwrap_or_else(|| repo().join("target/board-mps2"))
+}
+
+fn build_firmware() -> PathBuf {
+    let dir = repo().join(BOARD);
+    let target_dir = board_target_dir();
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .args(["build", "--release", "--target", TARGET])
+        .current_dir(&dir)
+        .env("CARGO_TARGET_DIR", &target_dir)
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS")
+        .env_remove("CARGO_BUILD_TARGET")
+        .output()
+        .expect("run cargo for the firmware");
+    assert!(
+        out.status.success(),
+        "firmware build failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let elf = target_dir.join(TARGET).join("release/fringe3d-board-mps2");
+    assert!(elf.exists(), "no firmware at {}", elf.display());
+    elf
+}
+
+/// Run the firmware on the vectors in `dir`; returns (UART bytes, console text).
+fn run_qemu(elf: &Path, dir: &Path) -> (Vec<u8>, String) {
+    let uart = dir.join("uart.bin");
+    let mut child = Command::new("qemu-system-arm")
+        .args([
+            "-M",
+            "mps2-an386",
+            "-cpu",
+            "cortex-m4",
+            "-display",
+            "none",
+            "-monitor",
+            "none",
+            "-icount",
+            "shift=0",
+        ])
+        .arg("-serial")
+        .arg(format!("file:{}", uart.display()))
+        .arg("-semihosting-config")
+        .arg(format!(
+            "enable=on,target=native,arg=fringe3d-board-mps2,arg={}",
+            dir.display()
+        ))
+        .arg("-kernel")
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start qemu-system-arm");
+    // QEMU writes the semihosting console to stderr; read both pipes so neither fills.
+    let mut stdout = child.stdout.take().expect("piped stdout");
+    let mut stderr = child.stderr.take().expect("piped stderr");
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stdout.read_to_string(&mut s);
+        s
+    });
+    let err_reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stderr.read_to_string(&mut s);
+        s
+    });
+    let deadline = Instant::now() + Duration::from_secs(300);
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait for qemu") {
+            break s;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("the firmware did not finish within 300 s");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let console = reader.join().unwrap_or_default() + &err_reader.join().unwrap_or_default();
+    assert!(status.success(), "firmware failed ({status}):\n{console}");
+    (std::fs::read(&uart).expect("UART capture"), console)
+}
+
+/// UART records: (tag, level, row) → payload.
+fn parse_records(b: &[u8]) -> BTreeMap<(u8, u8, u16), Vec<u8>> {
+    let mut m = BTreeMap::new();
+    let mut i = 0;
+    while i < b.len() {
+        assert!(
+            b.len() >= i + 12 && &b[i..i + 4] == b"F3DR",
+            "bad UART record at byte {i}"
+        );
+        let (tag, level) = (b[i + 4], b[i + 5]);
+        let row = u16::from_le_bytes([b[i + 6], b[i + 7]]);
+        let len = u32::from_le_bytes([b[i + 8], b[i + 9], b[i + 10], b[i + 11]]) as usize;
+        assert!(b.len() >= i + 12 + len, "truncated UART record at byte {i}");
+        m.insert((tag, level, row), b[i + 12..i + 12 + len].to_vec());
+        i += 12 + len;
+    }
+    m
+}
+
+fn canonical_nan(b: &mut [u8]) {
+    for c in b.chunks_exact_mut(4) {
+        let x = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+        if x.is_nan() {
+            c.copy_from_slice(&0x7fc0_0000u32.to_le_bytes());
+        }
+    }
+}
+
+fn report_value(report: &str, key: &str) -> Option<u64> {
+    report
+        .split_whitespace()
+        .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('=')?.parse().ok())
+}
+
+/// Generate the vectors of `opts`, run the firmware on them and compare every stage.
+fn check_scan(elf: &Path, opts: &VectorOptions, name: &str) {
+    let dir = std::env::temp_dir().join(format!("fringe3d-qemu-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let v: GoldenVectors = vectors::generate_into(opts, &dir, false).expect("golden vectors");
+    let t0 = Instant::now();
+    let (uart, console) = run_qemu(elf, &dir);
+    println!("{console}");
+    println!(
+        "{name}: firmware run {:.1} s under QEMU (-icount shift=0), {} UART bytes",
+        t0.elapsed().as_secs_f64(),
+        uart.len()
+    );
+
+    let recs = parse_records(&uart);
+    assert!(
+        recs.contains_key(&(0xFF, 0, 0)),
+        "no End record: the firmware stopped early"
+    );
+    let report =
+        String::from_utf8_lossy(recs.get(&(0xFE, 0, 0)).expect("report record")).to_string();
+    let h = v.height;
+    let levels = v.info["pattern_set"]["levels"]
+        .as_array()
+        .expect("levels")
+        .len();
+    let mut stages: Vec<((u8, u8), String)> = vec![
+        ((1, 0), "decode/phase.f32".into()),
+        ((2, 0), "decode/modulation.f32".into()),
+        ((3, 0), "decode/dc.f32".into()),
+        ((4, 0), "decode/validity.u8".into()),
+        ((7, 0), "reconstruct/points.f32".into()),
+        ((8, 0), "reconstruct/validity.u8".into()),
+        ((9, 0), "filter/validity.u8".into()),
+        ((10, 0), "filter/points.f32".into()),
+    ];
+    for l in 0..levels as u8 {
+        stages.push(((5, l), format!("decode/wrapped_level{l}.f32")));
+        stages.push(((6, l), format!("decode/modulation_level{l}.f32")));
+    }
+    let mut bad = Vec::new();
+    for ((tag, level), path) in &stages {
+        let mut bytes = Vec::new();
+        for r in 0..h as u16 {
+            match recs.get(&(*tag, *level, r)) {
+                Some(p) => bytes.extend_from_slice(p),
+                None => panic!("{path}: the firmware sent no row {r}"),
+            }
+        }
+        if path.ends_with(".f32") {
+            canonical_nan(&mut bytes);
+        }
+        let golden = v.file(path).expect("golden file");
+        if vectors::sha256_hex(&bytes) != golden.sha256() {
+            bad.push(format!(
+                "{path}: {}",
+                vectors::first_difference(golden, &bytes)
+            ));
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "{name}: the Cortex-M4F differs from the desktop:\n{}",
+        bad.join("\n")
+    );
+    println!(
+        "{name}: all {} stage files bit-identical to the desktop's golden vectors",
+        stages.len()
+    );
+
+    // The measurements are there and plausible: the set-up and scan stacks stay inside the room
+    // left by the statics (a full room would mean the stack ran into them), all within 256 KiB.
+    let ram = report_value(&report, "static_ram_bytes").expect("static RAM in the report");
+    let stack_scan = report_value(&report, "scan").expect("scan stack in the report");
+    let stack_setup = report_value(&report, "setup").expect("setup stack in the report");
+    let room = report_value(&report, "stack_room_bytes").expect("stack room in the report");
+    assert!(
+        stack_scan > 1024 && stack_setup < room && stack_scan < room,
+        "stack high-water marks {stack_setup}/{stack_scan} vs room {room}"
+    );
+    assert!(
+        ram + stack_setup.max(stack_scan) <= 256 * 1024,
+        "static RAM + stack exceed 256 KiB"
+    );
+    assert_eq!(
+        report_value(&report, "calibration_ticks"),
+        Some(50_000),
+        "-icount shift=0 should give 40 instructions per tick"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
+    if let Some(why) = missing_tools() {
+        println!("SKIPPED qemu_firmware_matches_the_golden_vectors_bit_for_bit: {why}");
+        return;
+    }
+    let elf = build_firmware();
+    // The golden vectors as `fringe3d vectors` writes them by default (16-bit camera)...
+    check_scan(&elf, &VectorOptions::default(), "ballbar-320x240-u16");
+    // ...and an 8-bit camera with noise on another scene (the u8 kernel).
+    let u8_opts = VectorOptions {
+        scene: "steps".into(),
+        size: (160, 128),
+        bits: Some(8),
+        noise: Some(1.0),
+        seed: Some(7),
+        ..VectorOptions::default()
+    };
+    check_scan(&elf, &u8_opts, "steps-160x128-u8");
+}
