@@ -138,7 +138,7 @@ pub struct Accuracy {
     pub truth_pixels: usize,
     /// Of those, reconstructed as valid.
     pub valid_pixels: usize,
-    /// Valid points where truth has none (should be 0).
+    /// Valid points with no true surface point in their pixel's 3×3 neighbourhood (should be 0).
     pub spurious_points: usize,
     /// All compared pixels; each point's error is its distance to the nearest true point of its
     /// 3×3 pixel neighbourhood, i.e. to the surfaces the pixel's footprint sees (a pixel on a
@@ -173,8 +173,28 @@ pub fn evaluate(cloud: &PointCloud, truth: &Truth) -> Result<Accuracy> {
     for i in 0..w * h {
         let t = &truth.points[3 * i..3 * i + 3];
         let ok = cloud.validity[i] == 0;
+        let p = &cloud.xyz[3 * i..3 * i + 3];
+        let dist = |t: &[f64]| ((p[0] as f64 - t[0]).powi(2) + (p[1] as f64 - t[1]).powi(2) + (p[2] as f64 - t[2]).powi(2)).sqrt();
+        // Distance to the nearest true point of the pixel's 3×3 neighbourhood, if any.
+        let (x, y) = (i % w, i / w);
+        let mut near: Option<f64> = None;
+        for yy in y.saturating_sub(1)..(y + 2).min(h) {
+            for xx in x.saturating_sub(1)..(x + 2).min(w) {
+                let q = &truth.points[3 * (yy * w + xx)..3 * (yy * w + xx) + 3];
+                if q[0].is_finite() {
+                    near = Some(near.map_or(dist(q), |n: f64| n.min(dist(q))));
+                }
+            }
+        }
         if !t[0].is_finite() {
-            spurious += ok as usize;
+            // The centre ray sees nothing lit, but part of the pixel may: score the point against
+            // the surfaces around it; with none there, it is spurious.
+            if ok {
+                match near {
+                    Some(d) => all.push(d),
+                    None => spurious += 1,
+                }
+            }
             continue;
         }
         truth_px += 1;
@@ -182,20 +202,8 @@ pub fn evaluate(cloud: &PointCloud, truth: &Truth) -> Result<Accuracy> {
             continue;
         }
         valid += 1;
-        let p = &cloud.xyz[3 * i..3 * i + 3];
-        let dist = |t: &[f64]| ((p[0] as f64 - t[0]).powi(2) + (p[1] as f64 - t[1]).powi(2) + (p[2] as f64 - t[2]).powi(2)).sqrt();
         let d = dist(t);
-        let (x, y) = (i % w, i / w);
-        let mut near = d;
-        for yy in y.saturating_sub(1)..(y + 2).min(h) {
-            for xx in x.saturating_sub(1)..(x + 2).min(w) {
-                let q = &truth.points[3 * (yy * w + xx)..3 * (yy * w + xx) + 3];
-                if q[0].is_finite() {
-                    near = near.min(dist(q));
-                }
-            }
-        }
-        all.push(near);
+        all.push(near.map_or(d, |n| n.min(d)));
         if interior(i) {
             inner.push(d);
         }
@@ -328,7 +336,7 @@ mod tests {
         for i in 0..40 {
             for j in 0..40 {
                 let th = 0.1 + 1.2 * i as f64 / 40.0;
-                let ph = 6.28 * j as f64 / 40.0;
+                let ph = std::f64::consts::TAU * j as f64 / 40.0;
                 let rr = r + 0.005 * ((i * 7 + j * 3) % 3) as f64 - 0.005;
                 pts.push([c[0] + rr * th.sin() * ph.cos(), c[1] + rr * th.sin() * ph.sin(), c[2] - rr * th.cos()]);
             }

@@ -143,7 +143,7 @@ pub fn decode_frames<P: Sample + Sync>(
     if parallel {
         tasks.par_bridge().try_for_each(run)
     } else {
-        tasks.map(run).collect::<Result<(), _>>()
+        tasks.into_iter().try_for_each(run)
     }
 }
 

@@ -161,7 +161,8 @@ impl ScanCalibration {
             })
         };
         let rows = xyz.chunks_mut(3 * w * ROWS).zip(out_v.chunks_mut(w * ROWS)).enumerate();
-        let res: Result<(), _> = if parallel { rows.par_bridge().try_for_each(job) } else { rows.map(job).collect() };
+        let mut rows = rows;
+        let res: Result<(), _> = if parallel { rows.par_bridge().try_for_each(job) } else { rows.try_for_each(job) };
         res.map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reconstruction: {e}") })?;
         Ok(PointCloud { width: w, height: h, xyz, validity: out_v })
     }

@@ -149,7 +149,8 @@ fn noise_free_16bit_scan_is_within_2um_rms_over_the_volume() {
     assert!(e.len() > 200_000, "too few points compared: {}", e.len());
     assert!(zmax - zmin > 200.0, "points must span the volume's depth: {zmin}..{zmax}");
     assert!(r <= 0.002, "RMS error {:.3} µm exceeds 2 µm", r * 1e3);
-    assert_eq!(s.acc.spurious_points, 0);
+    assert_eq!(s.acc.spurious_points, 0, "valid points far from any true surface");
+    assert!(s.acc.all.max < 2.0, "a valid point {} mm from every surface near its pixel", s.acc.all.max);
 }
 
 #[test]

@@ -209,7 +209,7 @@ fn terms(a: f64, b: f64) -> [f64; 10] {
 impl Predictor {
     fn fit(p: &PlateObservation, valid: &[bool]) -> Option<Predictor> {
         let w = p.width;
-        let idx: Vec<usize> = (0..valid.len()).filter(|&i| valid[i] && (i % w) % 4 == 0 && (i / w) % 4 == 0).collect();
+        let idx: Vec<usize> = (0..valid.len()).filter(|&i| valid[i] && (i % w).is_multiple_of(4) && (i / w).is_multiple_of(4)).collect();
         if idx.len() < 30 {
             return None;
         }

@@ -73,13 +73,12 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
-    let cli = Cli::try_parse_from(args).map_err(|e| {
+    let cli = Cli::try_parse_from(args).inspect_err(|e| {
         // --help and --version are "errors" to clap; print them and succeed.
         if matches!(e.kind(), clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion) {
             let _ = e.print();
             std::process::exit(0);
         }
-        e
     });
     let cli = match cli {
         Ok(c) => c,
