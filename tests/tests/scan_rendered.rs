@@ -2,6 +2,8 @@
 //! independent truth), write it as a dataset, scan it through the same path as `fringe3d scan`
 //! (files in: images, pattern set, calibration with the decoded reference map), and compare the
 //! points with the true surface points.
+// `!(x <= t)` rejects NaN angles on purpose.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use fringe3d::accuracy::{self, Accuracy};
 use fringe3d::cli::common;
