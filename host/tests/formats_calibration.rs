@@ -366,7 +366,8 @@ fn opencv_yaml_and_xml_examples() {
 }
 
 fn opencv_file(name: &str, text: &str) -> PathBuf {
-    let d = scratch("opencv");
+    // One directory per file: tests run in parallel and `scratch` empties its directory.
+    let d = scratch(&format!("opencv-{}", name.replace('.', "-")));
     let p = d.join(name);
     fs::write(&p, text).unwrap();
     p
