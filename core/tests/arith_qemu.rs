@@ -1,11 +1,13 @@
 //! Bit parity between x86-64 and Cortex-M for every arithmetic backend: builds `core/arith-bench`
 //! for thumbv7m-none-eabi (Cortex-M3, no FPU) and thumbv7em-none-eabihf (Cortex-M4F), runs its
 //! `parity` command under `qemu-system-arm` (mps2-an385 / mps2-an386) and compares every digest
-//! with the one computed here ([`fringe3d_core::arith::parity`]).
+//! with the one computed here ([`fringe3d_core::arith::parity`]); checks the targets'
+//! [`fringe3d_core::arith::TargetDefault`] too.
 //!
-//! Needs `qemu-system-arm` and the two rustup targets; without them the test prints a notice and
-//! passes (set `FRINGE3D_REQUIRE_QEMU=1` to make that a failure, `FRINGE3D_SKIP_QEMU=1` to skip).
-//! The first run builds the bench (a few minutes; its crates come from crates.io).
+//! Needs `qemu-system-arm` and the two rustup targets. Without QEMU, or for a target that is not
+//! installed, it prints a notice and passes, checking what it can (`FRINGE3D_REQUIRE_QEMU=1` makes
+//! that a failure, `FRINGE3D_SKIP_QEMU=1` skips the test). The first run builds the bench (a few
+//! minutes; its crates come from crates.io).
 
 use fringe3d_core::arith::{Backend, parity};
 use std::path::{Path, PathBuf};
@@ -87,10 +89,15 @@ fn every_backend_gives_the_same_bits_on_cortex_m3_and_m4f() {
             want.push(format!("parity {} {} {:016x}", b.name(), case, parity::digest(b, case).unwrap()));
         }
     }
-    for (target, machine, cpu) in [("thumbv7m-none-eabi", "mps2-an385", "cortex-m3"), ("thumbv7em-none-eabihf", "mps2-an386", "cortex-m4")] {
+    for (target, machine, cpu, default) in
+        [("thumbv7m-none-eabi", "mps2-an385", "cortex-m3", "fixed"), ("thumbv7em-none-eabihf", "mps2-an386", "cortex-m4", "f32")]
+    {
         let elf = match build(target) {
             Ok(e) => e,
-            Err(why) => return skip(&why),
+            Err(why) => {
+                skip(&why);
+                continue;
+            }
         };
         let out = run(machine, cpu, &elf);
         let got: Vec<&str> = out.lines().map(str::trim).filter(|l| l.starts_with("parity ")).collect();
@@ -98,6 +105,7 @@ fn every_backend_gives_the_same_bits_on_cortex_m3_and_m4f() {
         for (g, w) in got.iter().zip(&want) {
             assert_eq!(g, w, "{target} ({machine}) differs from x86-64");
         }
+        assert!(out.lines().any(|l| l.trim() == format!("default {default}")), "{target}: TargetDefault should be {default}:\n{out}");
         eprintln!("{target} on {machine}: {} digests equal to x86-64's", got.len());
     }
 }

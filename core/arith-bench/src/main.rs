@@ -1,7 +1,8 @@
 //! The decoding kernel of every arithmetic backend on a Cortex-M under QEMU.
 //!
 //! Commands (semihosting command line, after the program name):
-//! * `parity` — print `parity <backend> <case> <digest>` for every backend and case of
+//! * `parity` — print `default <backend>` (the target's [`TargetDefault`]), then
+//!   `parity <backend> <case> <digest>` for every backend and case of
 //!   [`fringe3d_core::arith::parity`]; the host compares them with its own digests.
 //! * `count <backend> <case> <reps>` — decode the case's row `reps` times with the backend and
 //!   print its digest. Instructions per pixel are the difference of the instruction counts of
@@ -12,7 +13,7 @@
 use core::fmt::Write;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hio};
-use fringe3d_core::arith::{Backend, parity};
+use fringe3d_core::arith::{Arith, Backend, TargetDefault, parity};
 
 /// SYS_GET_CMDLINE: the command line QEMU was given (`-semihosting-config arg=…`).
 fn cmdline(buf: &mut [u8]) -> &str {
@@ -31,6 +32,7 @@ fn run(out: &mut hio::HostStream, args: &str) -> Result<(), &'static str> {
     let mut w = args.split_ascii_whitespace().skip(1);
     match w.next() {
         Some("parity") => {
+            let _ = writeln!(out, "default {}", <TargetDefault as Arith>::NAME);
             for b in Backend::ALL {
                 for case in 0..parity::CASES {
                     let d = parity::digest(b, case).map_err(|_| "decoder refused a parity case")?;

@@ -13,22 +13,26 @@
 //! | [`F32Accurate`] (default) | f32 | degree-13 polynomial ([`crate::math::atan2`], 5e-7 rad) | `libm::sqrtf` | radians, f32 | desktop, FPU heads |
 //! | [`F32Fast`] | f32 | degree-9 polynomial ([`crate::math::atan2_fast`], 1.2e-5 rad) | Newton `rsqrt` ([`crate::math::sqrt_fast`]) | radians, f32 | FPU heads short of time |
 //! | [`F32Micromath`] | f32 | `micromath` (2.8e-3 rad) | `micromath` (≈ 5 %) | radians, f32 | comparison only |
-//! | [`Fixed`] | i32, Q format per decoder | 24-step CORDIC, turns | CORDIC magnitude | turns, `I8F24` | FPU-less heads, FPGA reference |
+//! | [`Fixed`] | i32, Q format per decoder | 24-step CORDIC ([`cordic_atan2`], 2.5e-7 rad) | CORDIC magnitude | turns, `I8F24` | FPU-less heads (Cortex-M0/M3), FPGA reference |
 //!
-//! Measured errors, unwrapping failure rates, depth errors and costs are in `docs/arithmetic.md`.
+//! Measured errors, unwrapping failure rates, depth errors and costs (ns per pixel on the desktop,
+//! instructions per pixel on Cortex-M3 and M4F under QEMU) are in `docs/arithmetic.md`; from them,
+//! [`TargetDefault`] names the recommended backend of the target being compiled.
 //!
 //! # Choosing
 //! [`crate::decode::Decoder::new`] builds the default backend, exactly the decoder of before
-//! (same public API, same bits). Any backend: `Decoder::<Fixed>::with_arith(&set, config)`, whose
-//! row API, [`crate::decode::Decoder::accumulate`]/[`crate::decode::Decoder::finish`] and
-//! frame-sequential decoder ([`crate::sequential::FrameDecoder`]) are the same generic code. For
-//! a choice made at run time (tools, golden vectors) use [`AnyDecoder`] with a [`Backend`].
+//! (same public API, same bits) on every target. Any backend: `Decoder::<Fixed>::with_arith(&set,
+//! config)` (or `Decoder::<TargetDefault>::with_arith`), whose row API,
+//! [`crate::decode::Decoder::accumulate`]/[`crate::decode::Decoder::finish`] and frame-sequential
+//! decoder ([`crate::sequential::FrameDecoder`]) are the same generic code. For a choice made at
+//! run time (tools, golden vectors) use [`AnyDecoder`] with a [`Backend`].
 //!
 //! # Outputs
 //! Whatever the backend, the outputs are the decoder's f32 rows (phase and wrapped phase in
 //! radians, modulation and DC term in camera codes) and validity codes. The fixed-point backend
-//! converts at the very end with one correctly rounded conversion (and one f32 product for the
-//! phase), which is deterministic on every target, soft-float included.
+//! converts at the very end: an exact integer product (phase: turns × 2π), one correctly rounded
+//! integer-to-f32 conversion and an exact power-of-two scale, which is deterministic on every
+//! target, soft float included.
 
 mod cordic;
 mod fixed;
@@ -40,6 +44,21 @@ pub use cordic::{CORDIC_ANGLES, CORDIC_INV_GAIN_Q32, CORDIC_ITERATIONS, cordic_a
 pub use fixed::{Fixed, FixedFormat, PHASE_TURNS_LIMIT};
 pub use float::{F32Accurate, F32Fast, F32Micromath};
 pub use select::{AnyDecoder, Backend};
+
+/// The recommended backend for the target being compiled (`docs/arithmetic.md`): [`Fixed`] on
+/// ARM without the hard-float ABI (thumbv6m/thumbv7m/thumbv7em-none-eabi: no FPU in use, f32 would
+/// run in software at about 5× the instructions), [`F32Accurate`] everywhere else (desktop,
+/// Cortex-M4F/M7 with `eabihf`). [`crate::decode::Decoder::new`] stays [`F32Accurate`] on every
+/// target; use `Decoder::<TargetDefault>::with_arith` to follow the recommendation.
+#[cfg(all(target_arch = "arm", not(target_abi = "eabihf")))]
+pub type TargetDefault = Fixed;
+/// The recommended backend for the target being compiled (`docs/arithmetic.md`): [`Fixed`] on
+/// ARM without the hard-float ABI (thumbv6m/thumbv7m/thumbv7em-none-eabi: no FPU in use, f32 would
+/// run in software at about 5× the instructions), [`F32Accurate`] everywhere else (desktop,
+/// Cortex-M4F/M7 with `eabihf`). [`crate::decode::Decoder::new`] stays [`F32Accurate`] on every
+/// target; use `Decoder::<TargetDefault>::with_arith` to follow the recommendation.
+#[cfg(not(all(target_arch = "arm", not(target_abi = "eabihf"))))]
+pub type TargetDefault = F32Accurate;
 
 use crate::decode::{DecodeConfig, DecodeError, LevelEstimator, Sample};
 use crate::pattern::MAX_SHIFTS;
