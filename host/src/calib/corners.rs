@@ -540,11 +540,10 @@ pub fn refine_saddle(img: &Image, q0: [f64; 2], sigma: f64) -> Result<[f64; 2], 
     Err("no convergence")
 }
 
-/// Smallest edge width β of the corner model, pixels (a box pixel alone has σ = 0.29 px).
-const BETA_MIN: f64 = 0.4;
-const EARLY: f64 = 0.0;
-const B0: f64 = 0.7;
-fn beta_min() -> f64 { std::env::var("BMIN").ok().and_then(|s| s.parse().ok()).unwrap_or(BETA_MIN) }
+/// Smallest edge width β of the corner model, pixels: a step integrated over a box pixel has a
+/// profile of standard deviation √(1/12) = 0.29 px whatever its direction; a free β → 0 would
+/// leave the position of a step that falls on a pixel boundary undetermined within the pixel.
+const BETA_MIN: f64 = 0.3;
 
 /// Hessian of `Σ_k G_σ(q − k) I(k)` at `q` (up to a positive factor).
 fn saddle_hessian(img: &Image, q: [f64; 2], sigma: f64) -> Option<[f64; 3]> {
@@ -598,7 +597,7 @@ fn edge_angles(h: [f64; 3]) -> Option<(f64, f64)> {
 /// Model errors (edge profile, non-orthogonal blur) are point-symmetric about q and do not bias it.
 /// Levenberg–Marquardt over the 11 parameters; the window is re-centred once on the result.
 pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) -> Result<[f64; 2], &'static str> {
-    let taper: f64 = std::env::var("TAPER").ok().and_then(|s| s.parse().ok()).unwrap_or(3.0f64).min(0.5 * radius).max(1e-9);
+    let taper = 3.0f64.min(0.5 * radius);
     // Pixels within `radius` of `c` with a cosine taper over the outer `taper` pixels (so that
     // the estimate does not jump when a rim pixel enters or leaves the window).
     let window = |c: [f64; 2]| -> Result<Vec<(f64, f64, f64, f64)>, &'static str> {
@@ -628,8 +627,6 @@ pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) 
         let (dx, dy) = (p.0 - x[0], p.1 - x[1]);
         let (s1, c1) = x[2].sin_cos();
         let (s2, c2) = x[3].sin_cos();
-        // β = √(β_min² + b²): an edge is never sharper than a box pixel allows, and a free
-        // β → 0 would leave a pixel-aligned step's position undetermined within its pixel.
         let beta = x[4];
         let a1 = -s1 * dx + c1 * dy;
         let a2 = -s2 * dx + c2 * dy;
@@ -641,7 +638,7 @@ pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) 
     };
     let mut q = q0;
     let mut state: Option<Vec<f64>> = None;
-    for pass in 0..2 {
+    for _pass in 0..2 {
         let px = window(q)?;
         let lo = px.iter().map(|p| p.2).fold(f64::INFINITY, f64::min);
         let hi = px.iter().map(|p| p.2).fold(f64::NEG_INFINITY, f64::max);
@@ -682,13 +679,13 @@ pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) 
                 x
             }
             None => {
-                let mut x = vec![q[0], q[1], angles.0, angles.1, B0];
+                let mut x = vec![q[0], q[1], angles.0, angles.1, 0.7];
                 x.extend(linear(&x).ok_or("degenerate window")?);
                 x
             }
         };
         let eval = |x: &Vec<f64>, _j: bool| -> Option<super::lm::Eval> {
-            if !(x[4] >= beta_min() && x[4] < 20.0) {
+            if !(x[4] >= BETA_MIN && x[4] < 20.0) {
                 return None;
             }
             let mut e = super::lm::Eval { width: 11, ..Default::default() };
@@ -721,9 +718,6 @@ pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) 
         let apply = |x: &Vec<f64>, d: &[f64]| x.iter().zip(d).map(|(a, b)| a + b).collect::<Vec<f64>>();
         let sol = super::lm::solve(x0, 11, eval, apply, super::lm::Options { max_iterations: 100, cost_tolerance: 1e-12, step_tolerance: 1e-9 })
             .ok_or("model fit failed")?;
-        if std::env::var("DBGLM").is_ok() {
-            eprintln!("pass {pass} it {} conv {} cost {:.3e} b {:.3} q ({:.4},{:.4})", sol.iterations, sol.converged, sol.cost, sol.state[4], sol.state[0], sol.state[1]);
-        }
         let x = sol.state;
         let nq = [x[0], x[1]];
         if !(nq[0].is_finite() && nq[1].is_finite()) || dist(nq, q0) > 0.5 * radius {
@@ -734,9 +728,6 @@ pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) 
         }
         q = nq;
         state = Some(x);
-        if pass == 0 && dist(q, q0) < EARLY {
-            break;
-        }
     }
     Ok(q)
 }

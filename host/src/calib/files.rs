@@ -4,7 +4,7 @@
 use super::camera::{CameraCalibration, CameraOptions, Rejected, View, calibrate};
 use super::corners::{Board, DetectOptions, Detection, Image, detect};
 use super::lens::Lens;
-use super::projector_centre::{PlateObservation, ProjectorCentre, ProjectorOptions, estimate};
+use super::projector_centre::{PlateObservation, ProjectorCentre, ProjectorOptions, check_parallel, estimate};
 use super::reference::ReferencePose;
 use super::report::{nice_scale, view_picture};
 use super::{CalibError, pose};
@@ -222,6 +222,8 @@ pub struct DecodedSet {
     pub height: u32,
     /// Finest absolute phase, NaN where invalid.
     pub phase: Vec<f32>,
+    /// Validity codes (0 = valid; see `fringe3d_core::validity`).
+    pub validity: Vec<u8>,
     /// Fraction of valid pixels.
     pub valid_fraction: f64,
     /// The phase axis of the set.
@@ -273,7 +275,7 @@ pub fn decode_set(set_path: &Path, images: &[PathBuf]) -> Result<DecodedSet, Cal
         }
     }
     let valid = phase.iter().filter(|p| p.is_finite()).count();
-    Ok(DecodedSet { width: imgs.width, height: imgs.height, phase, valid_fraction: valid as f64 / (w * h).max(1) as f64, axis: set.axis(), images: paths })
+    Ok(DecodedSet { width: imgs.width, height: imgs.height, phase, validity: v, valid_fraction: valid as f64 / (w * h).max(1) as f64, axis: set.axis(), images: paths })
 }
 
 /// The board pose in one image with a calibrated lens; errors name the image.
@@ -289,12 +291,13 @@ pub fn board_pose_file(path: &Path, lens: &Lens, board: &Board, opts: &DetectOpt
 
 /// One plate position's files: `DIR/v/` (vertical fringes, phase along ξ), `DIR/h/` (horizontal
 /// fringes, phase along η) and `DIR/board.png` (the board printed on the plate).
-pub fn load_plate(dir: &Path, lens: &Lens, board: &Board, set_v: &Path, set_h: &Path, opts: &DetectOptions) -> Result<PlateObservation, CalibError> {
+/// Also returns the board corners.
+pub fn load_plate(dir: &Path, lens: &Lens, board: &Board, set_v: &Path, set_h: &Path, opts: &DetectOptions) -> Result<(PlateObservation, Vec<[f64; 2]>), CalibError> {
     if !dir.is_dir() {
         return Err(input(dir, "not a folder (a plate position is a folder with v/, h/ and board.png)"));
     }
     let board_img = ["board.png", "board.tif", "board.tiff", "board.bmp"].iter().map(|n| dir.join(n)).find(|p| p.is_file()).ok_or_else(|| input(dir, "no board.png (the board image of this plate position)"))?;
-    let (pose, _) = board_pose_file(&board_img, lens, board, opts)?;
+    let (pose, det) = board_pose_file(&board_img, lens, board, opts)?;
     let v = decode_set(set_v, &[dir.join("v")])?;
     let h = decode_set(set_h, &[dir.join("h")])?;
     for (d, which) in [(&v, "v"), (&h, "h")] {
@@ -302,7 +305,7 @@ pub fn load_plate(dir: &Path, lens: &Lens, board: &Board, set_v: &Path, set_h: &
             return Err(input(&dir.join(which), format!("images are {}x{}, the camera is {}x{}", d.width, d.height, lens.width, lens.height)));
         }
     }
-    Ok(PlateObservation { name: dir.display().to_string(), pose, width: v.width as usize, height: v.height as usize, phase_v: v.phase, phase_h: h.phase })
+    Ok((PlateObservation { name: dir.display().to_string(), pose, width: v.width as usize, height: v.height as usize, phase_v: v.phase, phase_h: h.phase }, det.corners))
 }
 
 /// The result of [`calibrate_projector_files`].
@@ -346,12 +349,31 @@ pub fn calibrate_projector_files(
 ) -> Result<ProjectorRun, CalibError> {
     check_axes(set_v, set_h)?;
     let lens = Lens::from_model(camera);
+    if plate_dirs.len() < 2 {
+        return Err(CalibError::Input { what: "projector calibration".into(), message: format!("{} plate position(s) given; at least two are needed (paper §7)", plate_dirs.len()) });
+    }
     let mut plates = Vec::new();
+    let mut corners = Vec::new();
     for d in plate_dirs {
-        plates.push(load_plate(d, &lens, board, set_v, set_h, detect_opts)?);
+        let (p, c) = load_plate(d, &lens, board, set_v, set_h, detect_opts)?;
+        plates.push(p);
+        corners.push(c);
         progress(1);
     }
-    let result = estimate(&lens, &plates, opts)?;
+    // Parallelism from the independent board poses.
+    let angles = check_parallel(&plates, opts.max_plate_angle_deg)?;
+    let independent: Vec<pose::PlanePose> = plates.iter().map(|p| p.pose.clone()).collect();
+    let mut result = if opts.translated {
+        let (poses, cov) = pose::translated_board_poses(&lens, board, &corners)
+            .map_err(|e| CalibError::Degenerate { what: format!("joint board fit of the plate positions: {e}") })?;
+        for (p, q) in plates.iter_mut().zip(poses) {
+            p.pose = q;
+        }
+        estimate(&lens, &plates, opts, Some(&cov))?
+    } else {
+        estimate(&lens, &plates, opts, None)?
+    };
+    result.plate_angles_deg = angles;
     let dr = depth_range.unwrap_or_else(|| {
         let [a, b] = result.z_range;
         let pad = 0.1 * (b - a).max(10.0);
@@ -361,11 +383,13 @@ pub fn calibrate_projector_files(
     calibration.validate().map_err(|m| CalibError::Degenerate { what: format!("the resulting calibration: {m}") })?;
     let summary = plates
         .iter()
-        .map(|p| {
+        .zip(&independent)
+        .map(|(p, ind)| {
             let fv = p.phase_v.iter().filter(|x| x.is_finite()).count() as f64 / p.phase_v.len().max(1) as f64;
             let fh = p.phase_h.iter().filter(|x| x.is_finite()).count() as f64 / p.phase_h.len().max(1) as f64;
             json!({"plate": p.name, "plane_point": p.pose.point(), "plane_normal": p.pose.normal(), "board_rms_px": p.pose.rms,
-                   "pose_std": p.pose.std(), "valid_v": fv, "valid_h": fh})
+                   "pose_std": p.pose.std(), "valid_v": fv, "valid_h": fh,
+                   "independent_fit": {"plane_point": ind.point(), "plane_normal": ind.normal(), "board_rms_px": ind.rms}})
         })
         .collect();
     Ok(ProjectorRun { result, calibration, plates: summary })
@@ -374,10 +398,10 @@ pub fn calibrate_projector_files(
 /// Where the reference plane's pose comes from.
 #[derive(Clone, Debug)]
 pub enum PlaneSource {
-    /// A board lying on the plane.
+    /// One or more boards lying on the plane (anywhere on it, one per image).
     Board {
-        /// The board image.
-        image: PathBuf,
+        /// The board images.
+        images: Vec<PathBuf>,
         /// The board.
         board: Board,
         /// Thickness of the board above the reference surface, mm.
@@ -419,13 +443,20 @@ pub fn calibrate_reference_files(
 ) -> Result<ReferenceRun, CalibError> {
     let lens = Lens::from_model(&calibration.camera);
     let pose = match plane {
-        PlaneSource::Board { image, board, offset_mm } => {
-            let img = load_image(image)?;
-            if (img.width as u32, img.height as u32) != (lens.width, lens.height) {
-                return Err(input(image, format!("{}x{} pixels, but the camera is {}x{}", img.width, img.height, lens.width, lens.height)));
+        PlaneSource::Board { images, board, offset_mm } => {
+            let mut all = Vec::new();
+            for image in images {
+                let img = load_image(image)?;
+                if (img.width as u32, img.height as u32) != (lens.width, lens.height) {
+                    return Err(input(image, format!("{}x{} pixels, but the camera is {}x{}", img.width, img.height, lens.width, lens.height)));
+                }
+                let d = detect(&img, board, detect_opts).map_err(|e| CalibError::Board { path: image.clone(), message: e.to_string() })?;
+                all.push(d.corners);
             }
-            let d = detect(&img, board, detect_opts).map_err(|e| CalibError::Board { path: image.clone(), message: e.to_string() })?;
-            ReferencePose::from_board(&lens, board, &d.corners, *offset_mm).map_err(|e| CalibError::Board { path: image.clone(), message: e.to_string() })?
+            ReferencePose::from_boards(&lens, board, &all, *offset_mm).map_err(|e| CalibError::Input {
+                what: images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "),
+                message: format!("board pose: {e}"),
+            })?
         }
         PlaneSource::Given { point, normal } => ReferencePose::given(*point, *normal)
             .ok_or_else(|| CalibError::Input { what: "--plane-point/--plane-normal".into(), message: "the normal must be non-zero and the plane must not pass through the camera centre".into() })?,

@@ -9,6 +9,7 @@
 
 pub mod camera;
 pub mod corners;
+pub mod demo;
 pub mod files;
 pub mod lens;
 pub mod linalg;
@@ -18,6 +19,8 @@ pub mod projector_centre;
 pub mod reference;
 pub mod report;
 pub mod zhang;
+
+pub use demo::{DemoOptions, demo_calibrate, demo_calibrate_with};
 
 use std::path::PathBuf;
 

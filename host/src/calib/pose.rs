@@ -134,3 +134,76 @@ pub fn ray_dir_plane(d: V3, o: V3, n: V3) -> Option<V3> {
     let s = dot(n, o) / den;
     (s > 0.0).then(|| scale(d, s))
 }
+
+/// The poses of one board seen at several positions of a plate that is *translated without
+/// turning* (paper §7: the plate moves from `(O_P^(S), n_P)` to `(O_P^(T), n_P)`): one rotation
+/// shared by all views and a translation per view, fitted jointly to all corners. Returns the poses
+/// (each with the marginal covariance of `(δω, δt_k)`) and the joint covariance of
+/// `(δω, δt_1, …, δt_n)` (`(3 + 3n)²`, row-major).
+pub fn translated_board_poses(lens: &Lens, board: &Board, views: &[Vec<[f64; 2]>]) -> Result<(Vec<PlanePose>, Vec<f64>), PoseError> {
+    let n = views.len();
+    let obj = board.object_points();
+    let single: Vec<PlanePose> = views.iter().map(|c| board_pose(lens, board, c)).collect::<Result<_, _>>()?;
+    // Start: the mean rotation.
+    let mut sum = [[0.0; 3]; 3];
+    for p in &single {
+        for i in 0..3 {
+            for j in 0..3 {
+                sum[i][j] += p.rotation[i][j];
+            }
+        }
+    }
+    let r0 = super::linalg::nearest_rotation(&sum);
+    let t0: Vec<V3> = single.iter().map(|p| p.translation).collect();
+    let np = 3 + 3 * n;
+    let eval = |s: &(M3, Vec<V3>), _j: bool| -> Option<Eval> {
+        let mut e = Eval { width: 6, ..Default::default() };
+        for (k, corners) in views.iter().enumerate() {
+            for (o, c) in obj.iter().zip(corners) {
+                let rx = mv(&s.0, [o[0], o[1], 0.0]);
+                let xc = add(rx, s.1[k]);
+                if !(xc[2] > 1e-9) {
+                    return None;
+                }
+                let ((u, v), j) = lens.project_jac(xc[0] / xc[2], xc[1] / xc[2]);
+                let dp = d_point(&j.d_xy, xc);
+                let sk = skew(rx);
+                for (row, res) in [(0usize, u - c[0]), (1, v - c[1])] {
+                    e.r.push(res);
+                    for a in 0..3 {
+                        let mut s_ = 0.0;
+                        for b in 0..3 {
+                            s_ -= dp[row][b] * sk[b][a];
+                        }
+                        e.vals.push(s_);
+                    }
+                    e.vals.extend(dp[row]);
+                    e.cols.extend([0, 1, 2, 3 + 3 * k, 4 + 3 * k, 5 + 3 * k]);
+                }
+            }
+        }
+        Some(e)
+    };
+    let apply = |s: &(M3, Vec<V3>), d: &[f64]| {
+        let r = mm(&rodrigues([d[0], d[1], d[2]]), &s.0);
+        let t = s.1.iter().enumerate().map(|(k, t)| add(*t, [d[3 + 3 * k], d[4 + 3 * k], d[5 + 3 * k]])).collect();
+        (r, t)
+    };
+    let sol = lm::solve((r0, t0), np, eval, apply, lm::Options::default()).ok_or(PoseError::Refine)?;
+    let cov = sol.covariance(np).unwrap_or_else(|| vec![0.0; np * np]);
+    let per = obj.len();
+    let poses = (0..n)
+        .map(|k| {
+            let idx = [0, 1, 2, 3 + 3 * k, 4 + 3 * k, 5 + 3 * k];
+            let ss: f64 = (0..2 * per).map(|i| sol.residuals[2 * per * k + i].powi(2)).sum();
+            PlanePose {
+                rotation: sol.state.0,
+                translation: sol.state.1[k],
+                covariance: std::array::from_fn(|i| cov[idx[i / 6] * np + idx[i % 6]]),
+                rms: (ss / per as f64).sqrt(),
+                corners: per,
+            }
+        })
+        .collect();
+    Ok((poses, cov))
+}

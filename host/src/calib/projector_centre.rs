@@ -55,11 +55,15 @@ pub struct ProjectorOptions {
     /// Pixels of the phase maps' valid areas ignored at their borders (mixed pixels at plate
     /// edges).
     pub erode: usize,
+    /// The plate is translated without turning (paper §7): fit one board rotation shared by all
+    /// positions (with a translation each) instead of independent poses. Parallelism is checked
+    /// on the independent poses first.
+    pub translated: bool,
 }
 
 impl Default for ProjectorOptions {
     fn default() -> Self {
-        ProjectorOptions { stride: 2, max_plate_angle_deg: 2.0, outlier_sigmas: 4.0, min_pair_lines: 200, blocks: 4, erode: 2 }
+        ProjectorOptions { stride: 2, max_plate_angle_deg: 2.0, outlier_sigmas: 4.0, min_pair_lines: 200, blocks: 4, erode: 2, translated: true }
     }
 }
 
@@ -307,8 +311,36 @@ pub fn invert_bilinear(plate: &PlateObservation, valid: &[bool], pv: f64, ph: f6
     None
 }
 
+/// The angles between the plates' normals (each pair once), and an error if one exceeds
+/// `max_deg` or two positions are less than 5 mm apart.
+pub fn check_parallel(plates: &[PlateObservation], max_deg: f64) -> Result<Vec<(String, String, f64)>, CalibError> {
+    let mut angles = Vec::new();
+    for a in 0..plates.len() {
+        for b in a + 1..plates.len() {
+            let c = dot(plates[a].pose.normal(), plates[b].pose.normal()).clamp(-1.0, 1.0);
+            let ang = c.acos().to_degrees();
+            angles.push((plates[a].name.clone(), plates[b].name.clone(), ang));
+            if ang > max_deg {
+                return Err(CalibError::NotParallel { a: plates[a].name.clone(), b: plates[b].name.clone(), angle_deg: ang, limit_deg: max_deg });
+            }
+            let gap = dot(plates[a].pose.normal(), sub(plates[b].pose.point(), plates[a].pose.point())).abs();
+            if gap < 5.0 {
+                return Err(CalibError::Input {
+                    what: format!("plates {} and {}", plates[a].name, plates[b].name),
+                    message: format!("the two positions are only {gap:.1} mm apart; move the plate by at least a few centimetres"),
+                });
+            }
+        }
+    }
+    Ok(angles)
+}
+
 /// Estimate P from two or more plate positions seen by the calibrated `lens`.
-pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOptions) -> Result<ProjectorCentre, CalibError> {
+///
+/// `shared_covariance`: when the plate poses come from a joint fit with one rotation
+/// ([`super::pose::translated_board_poses`]), its covariance of `(δω, δt_1, …, δt_n)`; `None` when
+/// each plate's pose (and covariance) is its own.
+pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOptions, shared_covariance: Option<&[f64]>) -> Result<ProjectorCentre, CalibError> {
     if plates.len() < 2 {
         return Err(CalibError::Input { what: "projector calibration".into(), message: format!("{} plate position(s) given; at least two are needed (paper §7)", plates.len()) });
     }
@@ -320,25 +352,7 @@ pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOption
             });
         }
     }
-    // Parallelism.
-    let mut angles = Vec::new();
-    for a in 0..plates.len() {
-        for b in a + 1..plates.len() {
-            let c = dot(plates[a].pose.normal(), plates[b].pose.normal()).clamp(-1.0, 1.0);
-            let ang = c.acos().to_degrees();
-            angles.push((plates[a].name.clone(), plates[b].name.clone(), ang));
-            if ang > opts.max_plate_angle_deg {
-                return Err(CalibError::NotParallel { a: plates[a].name.clone(), b: plates[b].name.clone(), angle_deg: ang, limit_deg: opts.max_plate_angle_deg });
-            }
-            let gap = dot(plates[a].pose.normal(), sub(plates[b].pose.point(), plates[a].pose.point())).abs();
-            if gap < 5.0 {
-                return Err(CalibError::Input {
-                    what: format!("plates {} and {}", plates[a].name, plates[b].name),
-                    message: format!("the two positions are only {gap:.1} mm apart; move the plate by at least a few centimetres"),
-                });
-            }
-        }
-    }
+    let angles = check_parallel(plates, opts.max_plate_angle_deg)?;
     let valid: Vec<Vec<bool>> = plates.iter().map(|p| eroded_valid(p, opts.erode)).collect();
     let preds: Vec<Option<Predictor>> = plates.iter().zip(&valid).map(|(p, v)| Predictor::fit(p, v)).collect();
     for (p, pr) in plates.iter().zip(&preds) {
@@ -474,9 +488,9 @@ pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOption
             }
         }
     }
-    // Plate poses, propagated.
-    let resolve = |plate: usize, pose: &PlanePose| -> Option<V3> {
-        let (n_, o_) = (pose.normal(), pose.point());
+    // Plate poses, propagated: P re-solved with every pose parameter moved by ± its σ.
+    let resolve = |poses: &[PlanePose]| -> Option<V3> {
+        let planes: Vec<(V3, V3)> = poses.iter().map(|p| (p.normal(), p.point())).collect();
         let mut a = [0.0; 9];
         let mut b = [0.0; 3];
         for ((l, &k), &wt) in lines.iter().zip(&keep).zip(&weights) {
@@ -484,41 +498,75 @@ pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOption
                 continue;
             }
             let (sa, ta) = pair_of[l.pair];
-            let s = if sa == plate { ray_dir_plane(l.ds, o_, n_)? } else { l.s };
-            let t = if ta == plate { ray_dir_plane(l.dt, o_, n_)? } else { l.t };
+            let s = ray_dir_plane(l.ds, planes[sa].1, planes[sa].0)?;
+            let t = ray_dir_plane(l.dt, planes[ta].1, planes[ta].0)?;
             let d = sub(t, s);
             accumulate(&mut a, &mut b, s, scale(d, 1.0 / norm(d)), wt);
         }
         solve(&a, b)
     };
-    let mut cov_pose = [0.0; 9];
-    for (pi, pl) in plates.iter().enumerate() {
-        let sd = pl.pose.std();
-        let mut jac = [[0.0; 6]; 3];
-        for k in 0..6 {
-            let hk = if sd[k] > 0.0 { sd[k] } else if k < 3 { 1e-5 } else { 1e-3 };
-            let mut dp = [0.0; 6];
-            dp[k] = hk;
-            let plus = resolve(pi, &pl.pose.perturbed(&dp));
-            dp[k] = -hk;
-            let minus = resolve(pi, &pl.pose.perturbed(&dp));
-            if let (Some(a1), Some(a2)) = (plus, minus) {
-                for i in 0..3 {
-                    jac[i][k] = (a1[i] - a2[i]) / (2.0 * hk);
-                }
-            }
-        }
-        let c = &pl.pose.covariance;
-        for i in 0..3 {
-            for j in 0..3 {
-                let mut s = 0.0;
-                for k in 0..6 {
-                    for l in 0..6 {
-                        s += jac[i][k] * c[k * 6 + l] * jac[j][l];
+    let base: Vec<PlanePose> = plates.iter().map(|p| p.pose.clone()).collect();
+    // Parameters: per plate (δω_k, δt_k), or (δω shared, δt_1, …, δt_n) for translated plates.
+    let (np, cov_params): (usize, Vec<f64>) = match shared_covariance {
+        Some(c) => (3 + 3 * plates.len(), c.to_vec()),
+        None => {
+            let np = 6 * plates.len();
+            let mut c = vec![0.0; np * np];
+            for (k, pl) in plates.iter().enumerate() {
+                for i in 0..6 {
+                    for j in 0..6 {
+                        c[(6 * k + i) * np + 6 * k + j] = pl.pose.covariance[i * 6 + j];
                     }
                 }
-                cov_pose[i * 3 + j] += s;
             }
+            (np, c)
+        }
+    };
+    if cov_params.len() != np * np {
+        return Err(CalibError::Degenerate { what: "plate pose covariance of the wrong size".into() });
+    }
+    let moved = |param: usize, h: f64| -> Vec<PlanePose> {
+        let mut out = base.clone();
+        let mut d = [0.0; 6];
+        if shared_covariance.is_some() {
+            if param < 3 {
+                d[param] = h;
+                for o in out.iter_mut() {
+                    *o = o.perturbed(&d);
+                }
+            } else {
+                let k = (param - 3) / 3;
+                d[3 + (param - 3) % 3] = h;
+                out[k] = out[k].perturbed(&d);
+            }
+        } else {
+            let k = param / 6;
+            d[param % 6] = h;
+            out[k] = out[k].perturbed(&d);
+        }
+        out
+    };
+    let mut jac = vec![[0.0; 3]; np];
+    for (q, jq) in jac.iter_mut().enumerate() {
+        let sdq = cov_params[q * np + q].max(0.0).sqrt();
+        let is_rot = if shared_covariance.is_some() { q < 3 } else { q % 6 < 3 };
+        let hk = if sdq > 0.0 { sdq } else if is_rot { 1e-5 } else { 1e-3 };
+        if let (Some(a1), Some(a2)) = (resolve(&moved(q, hk)), resolve(&moved(q, -hk))) {
+            for i in 0..3 {
+                jq[i] = (a1[i] - a2[i]) / (2.0 * hk);
+            }
+        }
+    }
+    let mut cov_pose = [0.0; 9];
+    for i in 0..3 {
+        for j in 0..3 {
+            let mut s = 0.0;
+            for k in 0..np {
+                for l in 0..np {
+                    s += jac[k][i] * cov_params[k * np + l] * jac[l][j];
+                }
+            }
+            cov_pose[i * 3 + j] = s;
         }
     }
     let cov: [f64; 9] = std::array::from_fn(|i| cov_lines[i] + cov_pose[i]);

@@ -3,7 +3,7 @@
 
 use super::corners::Board;
 use super::lens::Lens;
-use super::linalg::{V3, add, normalize, scale};
+use super::linalg::{V3, add, dot, normalize, scale, sub};
 use super::pose::{PlanePose, PoseError, board_pose};
 
 /// A reference plane.
@@ -13,8 +13,8 @@ pub struct ReferencePose {
     pub point: V3,
     /// Unit normal n_R, towards the camera.
     pub normal: V3,
-    /// The board pose it came from, if any.
-    pub board: Option<PlanePose>,
+    /// The board poses it came from (none when given).
+    pub boards: Vec<PlanePose>,
     /// Standard deviation of the plane's distance from the camera centre along n_R, mm (from the
     /// board fit; 0 when given).
     pub distance_std_mm: f64,
@@ -29,28 +29,61 @@ impl ReferencePose {
         if super::linalg::dot(n, point) > 0.0 {
             n = scale(n, -1.0);
         }
-        (super::linalg::dot(n, point).abs() > 1e-6).then_some(ReferencePose { point, normal: n, board: None, distance_std_mm: 0.0, tilt_std_deg: 0.0 })
+        (super::linalg::dot(n, point).abs() > 1e-6).then_some(ReferencePose { point, normal: n, boards: Vec::new(), distance_std_mm: 0.0, tilt_std_deg: 0.0 })
     }
 
-    /// The plane of a board seen by the calibrated `lens`, moved by `offset_mm` along the normal
-    /// away from the camera (the board's thickness when it lies on the reference surface: the
-    /// printed face is `offset_mm` in front of the surface).
-    pub fn from_board(lens: &Lens, board: &Board, corners: &[[f64; 2]], offset_mm: f64) -> Result<ReferencePose, PoseError> {
-        let pose = board_pose(lens, board, corners)?;
-        let n = pose.normal();
-        let point = add(pose.point(), scale(n, -offset_mm));
-        // σ of the distance n·O: the translation's covariance along n; tilt: the rotation's
-        // covariance perpendicular to n.
-        let c = &pose.covariance;
-        let mut var_d = 0.0;
-        for i in 0..3 {
-            for j in 0..3 {
-                var_d += n[i] * c[(3 + i) * 6 + 3 + j] * n[j];
-            }
+    /// The plane of one or more boards lying on it, seen by the calibrated `lens`, moved by
+    /// `offset_mm` along the normal away from the camera (the board's thickness: its printed face
+    /// is `offset_mm` in front of the reference surface). Several boards (placed anywhere on the
+    /// plane, turned as they come) are combined: the normal is their inverse-variance weighted
+    /// mean, the distance the weighted mean of their distances along it, O_R the centroid of the
+    /// board origins projected onto the plane.
+    pub fn from_boards(lens: &Lens, board: &Board, corners: &[Vec<[f64; 2]>], offset_mm: f64) -> Result<ReferencePose, PoseError> {
+        if corners.is_empty() {
+            return Err(PoseError::Degenerate);
         }
-        let var_rot: f64 = (0..3).map(|i| c[i * 6 + i]).sum::<f64>();
-        let var_about_n: f64 = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| n[i] * c[i * 6 + j] * n[j]).sum();
-        let tilt = (var_rot - var_about_n).max(0.0).sqrt().to_degrees();
-        Ok(ReferencePose { point, normal: n, board: Some(pose), distance_std_mm: var_d.max(0.0).sqrt(), tilt_std_deg: tilt })
+        let poses: Vec<PlanePose> = corners.iter().map(|c| board_pose(lens, board, c)).collect::<Result<_, _>>()?;
+        // Per board: normal, tilt variance (rad²), distance variance (mm²).
+        let stats: Vec<(V3, f64, f64)> = poses
+            .iter()
+            .map(|p| {
+                let n = p.normal();
+                let c = &p.covariance;
+                let var_rot: f64 = (0..3).map(|i| c[i * 6 + i]).sum();
+                let var_about_n: f64 = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| n[i] * c[i * 6 + j] * n[j]).sum();
+                let mut var_d = 0.0;
+                for i in 0..3 {
+                    for j in 0..3 {
+                        var_d += n[i] * c[(3 + i) * 6 + 3 + j] * n[j];
+                    }
+                }
+                (n, (var_rot - var_about_n).max(1e-18), var_d.max(1e-18))
+            })
+            .collect();
+        let mut nsum = [0.0; 3];
+        let mut wt = 0.0;
+        for (n, vt, _) in &stats {
+            nsum = add(nsum, scale(*n, 1.0 / vt));
+            wt += 1.0 / vt;
+        }
+        let n = normalize(nsum).ok_or(PoseError::Degenerate)?;
+        let (mut dsum, mut wd) = (0.0, 0.0);
+        let mut centroid = [0.0; 3];
+        for (p, (_, _, vd)) in poses.iter().zip(&stats) {
+            dsum += dot(n, p.point()) / vd;
+            wd += 1.0 / vd;
+            centroid = add(centroid, scale(p.point(), 1.0 / poses.len() as f64));
+        }
+        let d = dsum / wd;
+        // Project the centroid onto the plane n·X = d, then move by the offset.
+        let on_plane = sub(centroid, scale(n, dot(n, centroid) - d));
+        let point = add(on_plane, scale(n, -offset_mm));
+        Ok(ReferencePose {
+            point,
+            normal: n,
+            boards: poses,
+            distance_std_mm: (1.0 / wd).sqrt(),
+            tilt_std_deg: (1.0 / wt).sqrt().to_degrees(),
+        })
     }
 }

@@ -1,10 +1,312 @@
-//! `fringe3d calibrate` (placeholder: being written).
+//! `fringe3d calibrate camera | projector | reference`: the calibration workflow of paper §7
+//! (see `docs/calibration.md`).
+
+use super::{Global, common};
+use crate::calib::camera::CameraOptions;
+use crate::calib::corners::{Board, DetectOptions};
+use crate::calib::files::{self, PlaneSource};
+use crate::calib::lens::PARAM_NAMES;
+use crate::calib::projector_centre::ProjectorOptions;
+use crate::io::calibration::Calibration;
+use anyhow::{Context, Result, bail};
+use serde_json::json;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `fringe3d calibrate`.
 #[derive(clap::Args, Debug)]
-pub struct CalibrateArgs {}
+#[command(after_help = "The workflow (docs/calibration.md):\n  \
+fringe3d calibrate camera boards/ --board 11x8 --square 25 -o camera.yml\n  \
+fringe3d calibrate projector plates/plate_* --camera-from camera.yml --board 9x7 --square 30 -o calibration.toml\n  \
+fringe3d calibrate reference ref/ --patterns ref/patterns.toml --calibration calibration.toml --board-image ref/board.png --board 11x8 --square 25\n\n\
+The result is calibration.toml with reference_phase.tif beside it, as `fringe3d scan` reads them.\n\
+Camera intrinsics calibrated elsewhere: `--camera-from` takes an OpenCV file (.yml/.yaml/.xml/.json),\n\
+Bouguet's Calib_Results.m or a fringe3d calibration (.toml) instead of `calibrate camera`'s output.")]
+pub struct CalibrateArgs {
+    /// The step.
+    #[command(subcommand)]
+    pub step: Step,
+}
+
+/// The calibration steps.
+#[derive(clap::Subcommand, Debug)]
+pub enum Step {
+    /// Camera intrinsics and Brown distortion from checkerboard images (Zhang's closed form, then
+    /// a bundle adjustment of all parameters and poses).
+    Camera(CameraArgs),
+    /// The projector centre P from a flat plate at two or more parallel positions (paper §7).
+    Projector(ProjectorArgs),
+    /// The reference plane's pose and phase map (paper §6); completes the calibration file.
+    Reference(ReferenceArgs),
+}
+
+/// The checkerboard.
+#[derive(clap::Args, Debug, Clone)]
+pub struct BoardArgs {
+    /// Board size in SQUARES, COLSxROWS (inner corners: (COLS−1)×(ROWS−1)), e.g. 11x8.
+    #[arg(long, value_name = "COLSxROWS")]
+    pub board: Option<String>,
+    /// Square edge, mm.
+    #[arg(long, value_name = "MM")]
+    pub square: Option<f64>,
+}
+
+impl BoardArgs {
+    fn get(&self, what: &str) -> Result<Board> {
+        let (Some(b), Some(s)) = (&self.board, self.square) else {
+            bail!("{what} needs the board: --board COLSxROWS (squares) and --square MM");
+        };
+        Board::parse(b, s).map_err(anyhow::Error::msg)
+    }
+}
+
+/// Arguments of `fringe3d calibrate camera`.
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Example:\n  fringe3d calibrate camera data/checkerboard/ --board 11x8 --square 25 -o camera.yml\n\n\
+IMAGES: board images (PNG/TIFF/BMP), or one folder (every image in it, sorted by name). The whole\n\
+board must be in view; views without it are left out with the reason. Writes the camera as an\n\
+OpenCV FileStorage YAML file (K[0][1] = skew·fx, distortion [k1, k2, p1, p2, k3]) and a report\n\
+folder: report.json (intrinsics with standard deviations, per-view RMS, rejected views) and a PNG\n\
+per view with the detected corners and the residual vectors magnified.")]
+pub struct CameraArgs {
+    /// Board images, or one folder.
+    #[arg(required = true)]
+    pub images: Vec<PathBuf>,
+    /// The board.
+    #[command(flatten)]
+    pub board: BoardArgs,
+    /// Output camera file (OpenCV YAML).
+    #[arg(long, short = 'o', default_value = "camera.yml")]
+    pub out: PathBuf,
+    /// Report folder (default: OUT's name with `_report`, beside it).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Hold the skew α at 0.
+    #[arg(long)]
+    pub fix_skew: bool,
+    /// Hold k3 at 0.
+    #[arg(long)]
+    pub fix_k3: bool,
+    /// Hold p1 and p2 at 0.
+    #[arg(long)]
+    pub fix_tangential: bool,
+    /// Leave out a view whose RMS exceeds this multiple of the median view's (and 0.1 px).
+    #[arg(long, default_value_t = 5.0)]
+    pub outlier_factor: f64,
+}
+
+/// Arguments of `fringe3d calibrate projector`.
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Example:\n  fringe3d calibrate projector data/plates/plate_00 data/plates/plate_01 data/plates/plate_02 \\\n      \
+--camera-from camera.yml --board 9x7 --square 30 -o calibration.toml\n\n\
+PLATES: one folder per plate position (far to near or any order), each holding v/ (the images of the\n\
+vertical-fringe set, phase along ξ), h/ (horizontal fringes, phase along η) and board.png (the board\n\
+printed on the plate, same pose). The positions must be parallel (the plate translated, not turned).\n\
+Writes the calibration file (camera, projector_center P, depth_range; no reference yet) and\n\
+OUT's name with `_projector.json` (P's uncertainty, line residuals, per-pair statistics).")]
+pub struct ProjectorArgs {
+    /// Plate-position folders (two or more).
+    #[arg(required = true)]
+    pub plates: Vec<PathBuf>,
+    /// The camera: an OpenCV file (.yml/.yaml/.xml/.json, e.g. from `calibrate camera`), Bouguet's
+    /// Calib_Results.m, or a fringe3d calibration (.toml).
+    #[arg(long, visible_alias = "camera", value_name = "FILE")]
+    pub camera_from: PathBuf,
+    /// Pattern-set file of the vertical fringes (default: patterns_v.toml beside the first plate).
+    #[arg(long)]
+    pub patterns_v: Option<PathBuf>,
+    /// Pattern-set file of the horizontal fringes (default: patterns_h.toml beside the first plate).
+    #[arg(long)]
+    pub patterns_h: Option<PathBuf>,
+    /// The board on the plate.
+    #[command(flatten)]
+    pub board: BoardArgs,
+    /// Output calibration file.
+    #[arg(long, short = 'o', default_value = "calibration.toml")]
+    pub out: PathBuf,
+    /// Depth range of the measurement volume "MIN,MAX" in mm (default: the plates' z range ± 10 %).
+    #[arg(long, value_name = "MIN,MAX")]
+    pub depth_range: Option<String>,
+    /// Sample every N-th pixel of each plate.
+    #[arg(long, default_value_t = 2)]
+    pub stride: usize,
+    /// Largest angle between plate normals, degrees.
+    #[arg(long, default_value_t = 2.0)]
+    pub max_plate_angle: f64,
+    /// Fit each plate position's board pose on its own instead of one rotation shared by all
+    /// positions (use when the plate was not moved by pure translation).
+    #[arg(long)]
+    pub independent_plates: bool,
+}
+
+/// Arguments of `fringe3d calibrate reference`.
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Example:\n  fringe3d calibrate reference data/ref/ --patterns data/ref/patterns.toml --calibration calibration.toml \\\n      \
+--board-image data/ref/board.png --board 11x8 --square 25\n\n\
+IMAGES: the reference plane's fringe images in set order, or one folder (the pattern file's `images`\n\
+names inside it, else every image sorted by name); none: the pattern file's own `images` list.\n\
+The plane's pose comes from a board lying on it (--board-image; --board-offset for its thickness) or\n\
+is given (--plane-point and --plane-normal, camera frame, mm). Writes reference_phase.tif and\n\
+reference_patterns.toml beside OUT and OUT itself (the calibration with its [reference] section).")]
+pub struct ReferenceArgs {
+    /// The reference plane's fringe images, or one folder.
+    pub images: Vec<PathBuf>,
+    /// The pattern-set file of the reference images (scans must use the same set).
+    #[arg(long, short = 'p')]
+    pub patterns: PathBuf,
+    /// The calibration from `calibrate projector`.
+    #[arg(long, short = 'c')]
+    pub calibration: PathBuf,
+    /// Output calibration (default: update --calibration in place).
+    #[arg(long, short = 'o')]
+    pub out: Option<PathBuf>,
+    /// An image of a board lying on the reference plane (repeat for several boards/positions on
+    /// the plane: they are combined).
+    #[arg(long)]
+    pub board_image: Vec<PathBuf>,
+    /// The board.
+    #[command(flatten)]
+    pub board: BoardArgs,
+    /// Board thickness: its printed face lies this far in front of the reference surface, mm.
+    #[arg(long, default_value_t = 0.0)]
+    pub board_offset: f64,
+    /// A point of the plane "X,Y,Z" (camera frame, mm), instead of a board image.
+    #[arg(long, value_name = "X,Y,Z")]
+    pub plane_point: Option<String>,
+    /// The plane's normal "X,Y,Z", with --plane-point.
+    #[arg(long, value_name = "X,Y,Z")]
+    pub plane_normal: Option<String>,
+    /// File name of the phase map written beside OUT.
+    #[arg(long, default_value = "reference_phase.tif")]
+    pub map: String,
+}
 
 /// Run `fringe3d calibrate`.
-pub fn run(_a: CalibrateArgs, _g: super::Global) -> anyhow::Result<()> {
-    anyhow::bail!("calibrate: not built yet")
+pub fn run(a: CalibrateArgs, g: Global) -> Result<()> {
+    match a.step {
+        Step::Camera(c) => camera(c, g),
+        Step::Projector(p) => projector(p, g),
+        Step::Reference(r) => reference(r, g),
+    }
+}
+
+fn sibling(out: &Path, suffix: &str) -> PathBuf {
+    let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("calibration");
+    out.with_file_name(format!("{stem}{suffix}"))
+}
+
+fn camera(a: CameraArgs, g: Global) -> Result<()> {
+    let board = a.board.get("calibrate camera")?;
+    let paths = files::image_list(&a.images)?;
+    let opts = CameraOptions { fix_skew: a.fix_skew, fix_k3: a.fix_k3, fix_tangential: a.fix_tangential, outlier_factor: a.outlier_factor, ..Default::default() };
+    let pb = common::progress(paths.len() as u64, "corners", g.quiet || g.json);
+    let inc = |n: u64| pb.inc(n);
+    let (cal, dv) = files::calibrate_camera_files(&paths, &board, &DetectOptions::default(), &opts, &inc)?;
+    pb.finish_and_clear();
+    files::write_opencv_yaml(&a.out, &cal, &board)?;
+    let report_dir = a.report.clone().unwrap_or_else(|| sibling(&a.out, "_report"));
+    let report = files::write_camera_report(&report_dir, &cal, &dv, &board)?;
+    if g.json {
+        let mut j = report;
+        j["command"] = json!("calibrate camera");
+        j["out"] = json!(a.out);
+        j["report_dir"] = json!(report_dir);
+        println!("{}", serde_json::to_string_pretty(&j)?);
+    } else if !g.quiet {
+        println!("{} of {} views used ({} corners each); overall reprojection RMS {:.4} px (corner noise σ ≈ {:.4} px)", cal.views.len(), paths.len(), board.corner_count(), cal.rms, cal.sigma);
+        for (k, n) in PARAM_NAMES.iter().enumerate() {
+            println!("  {n:>4} = {:>14.6} ± {:.6}", cal.lens.p[k], cal.std[k]);
+        }
+        for v in &cal.views {
+            println!("  view {}: RMS {:.4} px, max {:.4} px", v.name, v.rms, v.max);
+        }
+        for r in &cal.rejected {
+            println!("  left out {}: {}", r.name, r.reason);
+        }
+        println!("wrote {} and {}/ (report.json, a picture per view)", a.out.display(), report_dir.display());
+    }
+    Ok(())
+}
+
+fn parse3(s: &str, what: &str) -> Result<[f64; 3]> {
+    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().with_context(|| format!("{what} {s:?}: expected X,Y,Z"))?;
+    let [x, y, z] = v[..] else { bail!("{what} {s:?}: expected three numbers X,Y,Z") };
+    Ok([x, y, z])
+}
+
+fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
+    let board = a.board.get("calibrate projector")?;
+    if a.plates.len() < 2 {
+        bail!("calibrate projector: {} plate folder(s) given; at least two plate positions are needed (paper §7)", a.plates.len());
+    }
+    let base = a.plates[0].parent().map(Path::to_path_buf).unwrap_or_default();
+    let set_v = a.patterns_v.clone().unwrap_or_else(|| base.join("patterns_v.toml"));
+    let set_h = a.patterns_h.clone().unwrap_or_else(|| base.join("patterns_h.toml"));
+    // The image size, to complete camera files that do not state it.
+    let size = crate::io::image::read_gray(&a.plates[0].join("board.png")).ok().map(|(i, _)| (i.width, i.height));
+    let camera = files::load_camera(&a.camera_from, size)?;
+    let depth = match &a.depth_range {
+        Some(s) => {
+            let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().with_context(|| format!("--depth-range {s:?}: expected MIN,MAX in mm"))?;
+            let [z0, z1] = v[..] else { bail!("--depth-range {s:?}: expected MIN,MAX") };
+            Some([z0, z1])
+        }
+        None => None,
+    };
+    let opts = ProjectorOptions { stride: a.stride.max(1), max_plate_angle_deg: a.max_plate_angle, translated: !a.independent_plates, ..Default::default() };
+    let pb = common::progress(a.plates.len() as u64, "plates", g.quiet || g.json);
+    let inc = |n: u64| pb.inc(n);
+    let run = files::calibrate_projector_files(&camera, &a.plates, &set_v, &set_h, &board, &DetectOptions::default(), &opts, depth, &inc)?;
+    pb.finish_and_clear();
+    run.calibration.save(&a.out)?;
+    let report = json!({"command": "calibrate projector", "out": a.out, "camera_from": a.camera_from,
+        "projector_center": run.result.center, "depth_range": run.calibration.depth_range,
+        "estimate": run.result, "plates": run.plates});
+    let rp = sibling(&a.out, "_projector.json");
+    let text = serde_json::to_string_pretty(&report)?;
+    crate::io::atomic::write_atomic(&rp, |w| w.write_all(text.as_bytes()))?;
+    if g.json {
+        println!("{text}");
+    } else if !g.quiet {
+        let r = &run.result;
+        let [x, y, z] = r.center;
+        println!("P = ({x:.4}, {y:.4}, {z:.4}) mm ± ({:.4}, {:.4}, {:.4}) mm (lines {:.4}/{:.4}/{:.4}, plate poses {:.4}/{:.4}/{:.4})",
+            r.std[0], r.std[1], r.std[2], r.std_lines[0], r.std_lines[1], r.std_lines[2], r.std_poses[0], r.std_poses[1], r.std_poses[2]);
+        println!("{} lines ({} rejected): distance from P RMS {:.4} mm, median {:.4} mm, max {:.4} mm", r.lines, r.rejected, r.rms_distance_mm, r.median_distance_mm, r.max_distance_mm);
+        for p in &r.pairs {
+            println!("  {} -> {}: {} of {} sampled pixels matched, {} used, RMS {:.4} mm", p.s, p.t, p.matched, p.sampled, p.used, p.rms_distance_mm);
+        }
+        for (a_, b_, ang) in &r.plate_angles_deg {
+            println!("  angle between {a_} and {b_}: {ang:.4} degrees");
+        }
+        println!("depth range [{:.1}, {:.1}] mm", run.calibration.depth_range[0], run.calibration.depth_range[1]);
+        println!("wrote {} and {}", a.out.display(), rp.display());
+    }
+    Ok(())
+}
+
+fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
+    let cal = Calibration::load(&a.calibration)?;
+    let imgs = !a.board_image.is_empty();
+    let plane = match (imgs, &a.plane_point, &a.plane_normal) {
+        (true, None, None) => PlaneSource::Board { images: a.board_image.clone(), board: a.board.get("--board-image")?, offset_mm: a.board_offset },
+        (false, Some(p), Some(n)) => PlaneSource::Given { point: parse3(p, "--plane-point")?, normal: parse3(n, "--plane-normal")? },
+        (false, None, None) => bail!("calibrate reference: give the plane's pose, either --board-image (with --board, --square) or --plane-point and --plane-normal"),
+        _ => bail!("calibrate reference: give either --board-image or both --plane-point and --plane-normal, not a mix"),
+    };
+    let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
+    let run = files::calibrate_reference_files(&cal, &out, &a.patterns, &a.images, &plane, &DetectOptions::default(), &a.map)?;
+    let j = json!({"command": "calibrate reference", "out": out, "map": run.map_path, "valid_fraction": run.valid_fraction,
+        "plane": run.plane});
+    if g.json {
+        println!("{}", serde_json::to_string_pretty(&j)?);
+    } else if !g.quiet {
+        let p = &run.plane;
+        println!(
+            "reference plane O_R = ({:.4}, {:.4}, {:.4}) mm, n_R = ({:.6}, {:.6}, {:.6}); distance σ {:.4} mm, tilt σ {:.5} degrees",
+            p.point[0], p.point[1], p.point[2], p.normal[0], p.normal[1], p.normal[2], p.distance_std_mm, p.tilt_std_deg
+        );
+        println!("phase map: {:.1} % of the pixels valid", 100.0 * run.valid_fraction);
+        println!("wrote {} (with {} and reference_patterns.toml beside it)", out.display(), a.map);
+    }
+    Ok(())
 }

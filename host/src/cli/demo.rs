@@ -17,7 +17,8 @@ use std::time::Instant;
 /// Arguments of `fringe3d demo`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Example:\n  fringe3d demo                          # ball bar, default rig, into ./fringe3d-demo\n  \
-fringe3d demo --scene sphere --noise 1 --bits 8 --out /tmp/demo\n\n\
+fringe3d demo --scene sphere --noise 1 --bits 8 --out /tmp/demo\n  \
+fringe3d demo --calibrate --noise 1     # calibrate from rendered data, compare with the truth\n\n\
 Writes DIR/dataset (the rendered scan with its calibration and ground truth), DIR/cloud.ply,\n\
 DIR/phase.png, DIR/depth.png, DIR/error.png (false colour) and DIR/report.json, replacing DIR.")]
 pub struct DemoArgs {
@@ -42,20 +43,27 @@ pub struct DemoArgs {
     /// Keep points at depth discontinuities (to see what the edge filter removes).
     #[arg(long)]
     pub no_edge_filter: bool,
+    /// Instead of scanning one scene: render the calibration data (checkerboard views, the plate
+    /// at two positions, the reference plane), run `calibrate camera`, `calibrate projector` and
+    /// `calibrate reference` on the files, compare every estimate with the truth, then scan the
+    /// sphere and the ball bar with the true and with the self-calibrated file (sphere diameter
+    /// and ball-bar length errors, VDI/VDE 2634-2 style).
+    #[arg(long)]
+    pub calibrate: bool,
+    /// Checkerboard views rendered for `--calibrate`.
+    #[arg(long, default_value_t = 15)]
+    pub views: usize,
 }
 
 /// Run `fringe3d demo`.
 pub fn run(a: DemoArgs, g: Global) -> Result<()> {
+    if a.calibrate {
+        return run_calibrate(a, g);
+    }
     if !BUILTIN_SCENES.contains(&a.scene.as_str()) || matches!(a.scene.as_str(), "reference" | "checkerboard" | "plates") {
         bail!("--scene {:?}: the demo scans one of sphere, ballbar, steps, freeform, plane", a.scene);
     }
-    let size = match a.size.as_deref() {
-        Some(s) => {
-            let (w, h) = s.split_once('x').with_context(|| format!("--size {s:?}: expected WxH, e.g. 640x512"))?;
-            Some((w.parse().with_context(|| format!("--size {s:?}: bad width"))?, h.parse().with_context(|| format!("--size {s:?}: bad height"))?))
-        }
-        None => None,
-    };
+    let size = parse_size(a.size.as_deref())?;
     let o = Overrides { seed: a.seed, noise: a.noise, bits: a.bits, size, ..Overrides::default() };
     let say = |s: String| {
         if !g.quiet && !g.json {
@@ -119,6 +127,92 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
         print_report(&acc, &hist, n, t_scan.as_secs_f64(), &out);
     }
     Ok(())
+}
+
+/// Parse `--size WxH`.
+fn parse_size(s: Option<&str>) -> Result<Option<(u32, u32)>> {
+    let Some(s) = s else { return Ok(None) };
+    let (w, h) = s.split_once('x').with_context(|| format!("--size {s:?}: expected WxH, e.g. 640x512"))?;
+    Ok(Some((w.parse().with_context(|| format!("--size {s:?}: bad width"))?, h.parse().with_context(|| format!("--size {s:?}: bad height"))?)))
+}
+
+/// `fringe3d demo --calibrate`.
+fn run_calibrate(a: DemoArgs, g: Global) -> Result<()> {
+    if a.views < 3 {
+        bail!("--views {}: the camera calibration needs at least 3 checkerboard views", a.views);
+    }
+    let dir = AtomicDir::create(&a.out, true)?;
+    let opts = crate::calib::DemoOptions {
+        size: parse_size(a.size.as_deref())?,
+        noise: a.noise,
+        bits: a.bits,
+        seed: a.seed,
+        views: a.views,
+        quiet: g.quiet || g.json,
+        ..crate::calib::DemoOptions::default()
+    };
+    let (_, report) = crate::calib::demo_calibrate_with(dir.path(), &opts)?;
+    // The report names files inside the temporary folder: name them where they will be.
+    let tmp = serde_json::to_string(&dir.path().display().to_string())?;
+    let fin = serde_json::to_string(&dir.target().display().to_string())?;
+    let text = serde_json::to_string_pretty(&report)?.replace(tmp.trim_end_matches('"'), fin.trim_end_matches('"'));
+    let report: serde_json::Value = serde_json::from_str(&text)?;
+    crate::io::atomic::write_atomic(&dir.join("calibration").join("demo_report.json"), |w| w.write_all(text.as_bytes()))?;
+    let out = dir.commit()?;
+    if g.json {
+        println!("{text}");
+    } else if !g.quiet {
+        print_calibration_report(&report, &out);
+    }
+    Ok(())
+}
+
+fn print_calibration_report(r: &serde_json::Value, out: &std::path::Path) {
+    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let c = &r["camera"];
+    println!();
+    println!(
+        "camera: {} views used; reprojection RMS {:.3} px; corners vs truth RMS {:.3} px; fx {:+.4} %, fy {:+.4} %, principal point off by {:.3} px",
+        c["views_used"],
+        f(&c["reprojection_rms_px"]),
+        f(&c["corner_error_vs_truth_px"]["rms"]),
+        100.0 * f(&c["fx_relative_error"]),
+        100.0 * f(&c["fy_relative_error"]),
+        f(&c["principal_point_error_px"])
+    );
+    let p = &r["projector"];
+    println!(
+        "projector centre: off by {:.3} mm from truth ({} lines, RMS line distance {:.3} mm)",
+        f(&p["error_norm_mm"]),
+        p["lines"],
+        f(&p["rms_line_distance_mm"])
+    );
+    let rf = &r["reference"];
+    println!(
+        "reference plane: {:+.3} mm along the normal, normal off by {:.4}°",
+        f(&rf["offset_along_normal_mm"]),
+        f(&rf["normal_angle_deg"])
+    );
+    for s in r["scans"].as_array().into_iter().flatten() {
+        let um = |v: &serde_json::Value| 1e3 * f(v);
+        let (t, o) = (&s["true_calibration"], &s["self_calibration"]);
+        println!(
+            "scan {}: interior RMS {:.1} µm with the true calibration, {:.1} µm self-calibrated (ratio {:.2})",
+            s["scene"].as_str().unwrap_or("?"),
+            um(&t["interior"]["rms"]),
+            um(&o["interior"]["rms"]),
+            f(&s["rms_ratio_interior"])
+        );
+        for (name, cal) in [("true", t), ("self", o)] {
+            for sp in cal["spheres"].as_array().into_iter().flatten() {
+                println!("  {name}: sphere {} diameter error {:+.1} µm", sp["name"].as_str().unwrap_or("?"), um(&sp["diameter_error_mm"]));
+            }
+            for b in cal["ball_bars"].as_array().into_iter().flatten() {
+                println!("  {name}: ball-bar length error {:+.1} µm", um(&b["length_error_mm"]));
+            }
+        }
+    }
+    println!("wrote {}/{{checkerboard, plates, reference, scans, calibration/}} (report: calibration/demo_report.json)", out.display());
 }
 
 fn print_report(acc: &Accuracy, hist: &common::Histogram, n: u64, scan_s: f64, out: &std::path::Path) {

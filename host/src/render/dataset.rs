@@ -331,6 +331,7 @@ pub fn write_dataset(
         keep_float: false,
         progress: opts.progress,
         sensor: None,
+        photometry: None,
     };
     let spec = &scene.spec;
     let rig = &scene.rig;
@@ -421,6 +422,7 @@ pub fn write_dataset(
                     100 + k as u64,
                     RenderOptions {
                         sensor: Some(sensor),
+                        photometry: Some(board_photometry(scene, lit)),
                         ..ropts
                     },
                 )?;
@@ -507,6 +509,7 @@ pub fn write_dataset(
                     1002 + 3 * k as u64,
                     RenderOptions {
                         sensor: Some(bsensor),
+                        photometry: Some(board_photometry(scene, lit)),
                         ..ropts
                     },
                 )?;
@@ -612,6 +615,13 @@ fn scene_err(scene: &Scene, m: impl Into<String>) -> RenderError {
         scene: scene.spec.name.clone(),
         message: m.into(),
     })
+}
+
+/// Board images lit by ambient light only are exposed for the ambient light.
+fn board_photometry(scene: &Scene, lit: bool) -> super::Photometry {
+    let mut p = scene.spec.photometry.photometry();
+    p.auto_with_projector = lit;
+    p
 }
 
 fn board_sensor(scene: &Scene, ss: u32) -> Sensor {

@@ -12,10 +12,11 @@
 //!
 //! (the `(d_ref/|P − X|)²` falloff can be switched off). The pixel value is the mean of `E` over
 //! `n × n` sample positions `((i + ½)/n − ½, (j + ½)/n − ½)` around the pixel centre (a box pixel),
-//! refined to `n_e × n_e` samples where the samples disagree about object, face, texture cell,
-//! shadow or DMD frame (edges). Then: `gain·E`, optional Gaussian camera blur (σ in camera pixels,
-//! edges replicated), plus Gaussian noise (σ in gray levels, one seeded stream per image row),
-//! clipped to `[0, 2^bits − 1]` and rounded to the nearest code.
+//! refined to `n_e × n_e` samples where the samples of the pixel or of its 8 neighbours disagree
+//! about object, face, texture cell, shadow or DMD frame (edges). Then: `gain·E`, optional
+//! Gaussian camera blur (σ in camera pixels, edges replicated), plus Gaussian noise (σ in gray
+//! levels, one seeded stream per image row), clipped to `[0, 2^bits − 1]` and rounded to the
+//! nearest code.
 //!
 //! # Ground truth
 //! Per pixel, from the ray through the pixel *centre*: the hit point (camera frame, mm), the exact
@@ -72,6 +73,10 @@ pub struct Photometry {
     pub falloff: bool,
     /// Distance (mm) at which the falloff factor is 1.
     pub reference_distance: f64,
+    /// Automatic exposure assumes the projector shows full white (`true`: the gain then depends
+    /// on the geometry only, so renders of different slides get the same gain) or shows nothing
+    /// (`false`: ambient light only, for images without projector light).
+    pub auto_with_projector: bool,
 }
 
 /// Everything one render needs.
@@ -550,7 +555,11 @@ fn auto_gain(tr: &Tracer<'_>, full: f64) -> f64 {
                 if let Some(d) = cam.pixel_ray(x as f64, y as f64, tr.cam_rmax)
                     && let Some((s, _)) = tr.shade(d)
                 {
-                    let l = if s.lit && s.in_frame { 1.0 } else { 0.0 };
+                    let l = if s.lit && s.in_frame && tr.job.photometry.auto_with_projector {
+                        1.0
+                    } else {
+                        0.0
+                    };
                     m = m.max(s.base + s.direct * l);
                 }
             }

@@ -240,6 +240,20 @@ impl LightSet {
             )));
         }
         for s in slides {
+            if let Slide::Pattern { bits, index, .. } = s
+                && *bits != 8
+                && *bits != 16
+            {
+                return Err(LightError::Pattern {
+                    index: *index,
+                    message: format!("pattern bits must be 8 or 16, got {bits}"),
+                });
+            }
+            if let Slide::Frame { max: 0, .. } = s {
+                return Err(LightError::Optics(
+                    "a frame's full-scale code must be positive".into(),
+                ));
+            }
             if let Slide::Pattern { set, .. } = s {
                 let o = set.output();
                 if o.width != width || o.height != height {

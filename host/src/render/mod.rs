@@ -90,6 +90,8 @@ pub struct RenderOptions<'a> {
     pub progress: Option<&'a (dyn Fn(u64) + Sync)>,
     /// Use these sensor settings instead of the scene's.
     pub sensor: Option<Sensor>,
+    /// Use this photometry instead of the scene's.
+    pub photometry: Option<Photometry>,
 }
 
 /// A resolved scene: rig, pattern set, objects.
@@ -152,8 +154,10 @@ impl Scene {
         self.spec.projector.optics()
     }
 
-    /// Render `slides` onto `geometry` with this scene's rig, sensor and photometry. `stream`
-    /// separates the noise of several renders with one seed.
+    /// Render `slides` onto `geometry` with this scene's rig, sensor and photometry: one camera
+    /// image per slide. `stream` separates the noise of several renders with one seed — give every
+    /// call a different one (e.g. a frame counter), or their noise repeats. The automatic exposure
+    /// depends on the geometry only (it assumes full white), so separate calls get equal gains.
     pub fn render_slides(
         &self,
         geometry: &Geometry,
@@ -183,7 +187,9 @@ impl Scene {
             geometry,
             lights,
             sensor: opts.sensor.unwrap_or_else(|| self.spec.camera.sensor()),
-            photometry: self.spec.photometry.photometry(),
+            photometry: opts
+                .photometry
+                .unwrap_or_else(|| self.spec.photometry.photometry()),
             seed: self.spec.seed,
             stream,
             keep_float: opts.keep_float,
@@ -256,26 +262,36 @@ pub fn decode_phase(set: &PatternSet, frames: &Frames) -> Result<Vec<f32>, Rende
             set.image_count()
         )));
     }
-    let mut phase = vec![f32::NAN; w * h];
-    let mut m = vec![0f32; w];
-    let mut a = vec![0f32; w];
-    let mut v = vec![0u8; w];
-    for y in 0..h {
-        let rows: Vec<&[u16]> = frames
-            .images
-            .iter()
-            .map(|img| &img[y * w..(y + 1) * w])
-            .collect();
-        dec.decode_row(
-            &rows,
-            RowOut {
-                phase: &mut phase[y * w..(y + 1) * w],
-                modulation: &mut m,
-                dc: &mut a,
-                validity: &mut v,
-            },
-        )
-        .map_err(|e| RenderError::Decode(e.to_string()))?;
+    if frames.images.iter().any(|i| i.len() != w * h) {
+        return Err(RenderError::Decode(format!(
+            "frames must hold {w} x {h} samples each"
+        )));
     }
+    let mut phase = vec![f32::NAN; w * h];
+    if w == 0 {
+        return Ok(phase);
+    }
+    use rayon::prelude::*;
+    phase
+        .par_chunks_mut(w)
+        .enumerate()
+        .try_for_each(|(y, out)| {
+            let (mut m, mut a, mut v) = (vec![0f32; w], vec![0f32; w], vec![0u8; w]);
+            let rows: Vec<&[u16]> = frames
+                .images
+                .iter()
+                .map(|img| &img[y * w..(y + 1) * w])
+                .collect();
+            dec.decode_row(
+                &rows,
+                RowOut {
+                    phase: out,
+                    modulation: &mut m,
+                    dc: &mut a,
+                    validity: &mut v,
+                },
+            )
+            .map_err(|e| RenderError::Decode(e.to_string()))
+        })?;
     Ok(phase)
 }

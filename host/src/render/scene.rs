@@ -351,6 +351,7 @@ impl PhotometrySpec {
             auto_level: self.auto_level,
             falloff: self.falloff,
             reference_distance: self.reference_distance,
+            auto_with_projector: true,
         }
     }
 }
@@ -802,6 +803,9 @@ impl SceneSpec {
             self.pattern_set(base_dir, None)?;
         }
         let s = self.camera.sensor();
+        if self.camera.width as u64 * self.camera.height as u64 > 64_000_000 {
+            return Err(self.invalid("camera images larger than 64 megapixels are not supported"));
+        }
         if ![8u8, 12, 16].contains(&s.bits) {
             return Err(self.invalid(format!("camera.bits must be 8, 12 or 16, got {}", s.bits)));
         }
