@@ -5,7 +5,7 @@
 //! instructions per pixel from QEMU's `-icount`).
 //!
 //! Skips with a notice when `qemu-system-arm` or the `thumbv7em-none-eabihf` target is missing;
-//! `.ci/run` installs both, so CI runs it.
+//! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
 use fringe3d::vectors::{self, GoldenVectors, VectorOptions};
 use std::collections::BTreeMap;
@@ -277,6 +277,8 @@ fn check_scan(elf: &Path, opts: &VectorOptions, name: &str) {
 #[test]
 fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
     if let Some(why) = missing_tools() {
+        // CI sets FRINGE3D_REQUIRE_QEMU=1: there a missing tool is a failure, not a skip.
+        assert!(std::env::var_os("FRINGE3D_REQUIRE_QEMU").is_none(), "FRINGE3D_REQUIRE_QEMU is set but {why}");
         println!("SKIPPED qemu_firmware_matches_the_golden_vectors_bit_for_bit: {why}");
         return;
     }
