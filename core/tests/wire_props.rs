@@ -8,17 +8,17 @@ use proptest::prelude::*;
 // ------------------------------------------------------------------------------------------------
 // Random valid messages
 
-fn finite(r: &mut XorShift64) -> f32 {
+fn finite(r: &mut XorShift64) -> f64 {
     loop {
-        let x = f32::from_bits(r.next_u32());
+        let x = f64::from_bits(r.next_u64());
         if x.is_finite() {
             return x;
         }
     }
 }
 
-fn positive(r: &mut XorShift64) -> f32 {
-    (1 + r.below(100_000)) as f32 / 64.0
+fn positive(r: &mut XorShift64) -> f64 {
+    (1 + r.below(100_000)) as f64 / 64.0
 }
 
 fn target(r: &mut XorShift64) -> UploadTarget {
@@ -37,16 +37,26 @@ fn pattern_set(r: &mut XorShift64) -> PatternSetDesc {
     } else {
         PatternAxis::Eta
     };
-    let mut phase = LinearPhase {
-        a: finite(r),
-        b: finite(r),
-        c: finite(r),
+    let profile = if r.below(2) == 0 {
+        PhaseProfile::Linear {
+            origin: finite(r),
+            slope: positive(r),
+        }
+    } else {
+        let count = 2 + r.below(MAX_KNOTS as u32 - 1) as u8;
+        let mut k = Knots {
+            count,
+            s: [0.0; MAX_KNOTS],
+            phi: [0.0; MAX_KNOTS],
+            slope: [0.0; MAX_KNOTS],
+        };
+        for i in 0..count as usize {
+            k.s[i] = finite(r);
+            k.phi[i] = finite(r);
+            k.slope[i] = finite(r);
+        }
+        PhaseProfile::Knots(k)
     };
-    match axis {
-        PatternAxis::Xi if phase.a == 0.0 => phase.a = 1.0,
-        PatternAxis::Eta if phase.b == 0.0 => phase.b = -1.0,
-        _ => {}
-    }
     let level_count = 1 + r.below(MAX_LEVELS as u32) as u8;
     let mut levels = [Level::UNUSED; MAX_LEVELS];
     for l in levels.iter_mut().take(level_count as usize) {
@@ -69,19 +79,25 @@ fn pattern_set(r: &mut XorShift64) -> PatternSetDesc {
             shifts,
         };
     }
+    let i_max = (1 + r.below(full * 16)) as f64 / 16.0;
     PatternSetDesc {
         width: 1 + r.below(65535) as u16,
         height: 1 + r.below(65535) as u16,
         bit_depth,
-        i_max: (1 + r.below(full * 16)) as f32 / 16.0,
-        axis,
+        i_min: i_max * r.below(1000) as f64 / 1000.0,
+        i_max,
         waveform: if r.below(2) == 0 {
             Waveform::Sine
         } else {
             Waveform::Cosine
         },
         phase_offset: finite(r),
-        phase,
+        phase: PhaseDesc {
+            axis,
+            profile,
+            curvature: finite(r),
+            bend_center: finite(r),
+        },
         level_count,
         levels,
     }
@@ -95,7 +111,7 @@ fn calibration(r: &mut XorShift64) -> Calibration {
     if plane_normal.iter().all(|&x| x == 0.0) {
         plane_normal[2] = 1.0;
     }
-    let depth_min = r.below(2000) as f32 - 1000.0;
+    let depth_min = r.below(2_000_000) as f64 / 1024.0 - 1000.0;
     Calibration {
         camera: CameraModel {
             width: 1 + r.below(65535) as u16,
@@ -111,7 +127,7 @@ fn calibration(r: &mut XorShift64) -> Calibration {
         plane_point,
         plane_normal,
         depth_min,
-        depth_max: depth_min + 1.0 + r.below(1000) as f32,
+        depth_max: depth_min + 1.0 + r.below(1000) as f64 / 3.0,
     }
 }
 
@@ -186,6 +202,11 @@ fn random_message<'a>(
             output: [ScanOutput::Phase, ScanOutput::Points, ScanOutput::Both][r.below(3) as usize],
             first_row: r.next_u32() as u16,
             row_count: r.next_u32() as u16,
+            edge_filter: if r.below(2) == 0 {
+                EdgeFilterMode::Off
+            } else {
+                EdgeFilterMode::MaxAngle((1 + r.below(89_999)) as f64 / 1000.0)
+            },
         }),
         13 => Message::Abort,
         14 => Message::GetStatus,

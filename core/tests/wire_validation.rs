@@ -19,6 +19,22 @@ fn invalid(why: Invalid) -> Result<(), WireError> {
     Err(WireError::Invalid(why))
 }
 
+/// `n` knots (10·i, i, 0.1), the rest of the arrays zero.
+fn knots(n: usize) -> Knots {
+    let mut k = Knots {
+        count: n as u8,
+        s: [0.0; MAX_KNOTS],
+        phi: [0.0; MAX_KNOTS],
+        slope: [0.0; MAX_KNOTS],
+    };
+    for i in 0..n {
+        k.s[i] = 10.0 * i as f64;
+        k.phi[i] = i as f64;
+        k.slope[i] = 0.1;
+    }
+    k
+}
+
 fn paper_set() -> PatternSetDesc {
     let mut levels = [Level::UNUSED; MAX_LEVELS];
     levels[0] = Level {
@@ -33,14 +49,18 @@ fn paper_set() -> PatternSetDesc {
         width: 912,
         height: 1140,
         bit_depth: 8,
+        i_min: 0.0,
         i_max: 255.0,
-        axis: PatternAxis::Xi,
         waveform: Waveform::Sine,
         phase_offset: 0.0,
-        phase: LinearPhase {
-            a: 0.01,
-            b: 0.0,
-            c: 0.0,
+        phase: PhaseDesc {
+            axis: PatternAxis::Xi,
+            profile: PhaseProfile::Linear {
+                origin: 455.5,
+                slope: 0.01,
+            },
+            curvature: 0.0,
+            bend_center: 0.0,
         },
         level_count: 2,
         levels,
@@ -71,21 +91,75 @@ fn pattern_set_rules() {
         ),
         (
             PatternSetDesc {
-                i_max: f32::NAN,
+                i_max: f64::NAN,
                 ..ok
             },
             Invalid::NotFinite,
         ),
         (
             PatternSetDesc {
-                phase_offset: f32::INFINITY,
+                phase_offset: f64::INFINITY,
+                ..ok
+            },
+            Invalid::NotFinite,
+        ),
+        (PatternSetDesc { i_min: 255.0, ..ok }, Invalid::Intensity),
+        (PatternSetDesc { i_min: -1.0, ..ok }, Invalid::Intensity),
+        (
+            PatternSetDesc {
+                phase: PhaseDesc {
+                    profile: PhaseProfile::Linear {
+                        origin: 0.0,
+                        slope: 0.0,
+                    },
+                    ..ok.phase
+                },
+                ..ok
+            },
+            Invalid::PhaseFunction,
+        ),
+        (
+            PatternSetDesc {
+                phase: PhaseDesc {
+                    curvature: f64::NAN,
+                    ..ok.phase
+                },
                 ..ok
             },
             Invalid::NotFinite,
         ),
         (
             PatternSetDesc {
-                axis: PatternAxis::Eta,
+                phase: PhaseDesc {
+                    profile: PhaseProfile::Knots(knots(1)),
+                    ..ok.phase
+                },
+                ..ok
+            },
+            Invalid::PhaseFunction,
+        ),
+        (
+            PatternSetDesc {
+                phase: PhaseDesc {
+                    profile: PhaseProfile::Knots(Knots {
+                        count: 2,
+                        ..knots(3)
+                    }),
+                    ..ok.phase
+                },
+                ..ok
+            },
+            Invalid::UnusedSlot,
+        ),
+        (
+            PatternSetDesc {
+                phase: PhaseDesc {
+                    profile: PhaseProfile::Knots(Knots {
+                        count: MAX_KNOTS as u8 + 1,
+                        ..knots(3)
+                    }),
+                    ..ok.phase
+                },
                 ..ok
             },
             Invalid::PhaseFunction,
@@ -99,7 +173,7 @@ fn pattern_set_rules() {
         ),
         (
             PatternSetDesc {
-                level_count: 9,
+                level_count: MAX_LEVELS as u8 + 1,
                 ..ok
             },
             Invalid::LevelCount,
@@ -124,15 +198,23 @@ fn pattern_set_rules() {
     for (desc, why) in cases {
         assert_eq!(desc.validate(), invalid(why), "{desc:?}");
         let msg = Message::DefinePatternSet(DefinePatternSet { set_id: 0, desc });
-        assert_eq!(msg.encode(&mut [0u8; 1024]), Err(WireError::Invalid(why)));
+        assert_eq!(msg.encode(&mut [0u8; 4096]), Err(WireError::Invalid(why)));
     }
+    let knotted = PatternSetDesc {
+        phase: PhaseDesc {
+            profile: PhaseProfile::Knots(knots(3)),
+            ..ok.phase
+        },
+        ..ok
+    };
+    assert_eq!(knotted.validate(), Ok(()));
 
     let with_level = |l: Level| {
         let mut d = ok;
         d.levels[1] = l;
         d
     };
-    let mut radians = [0.0f32; MAX_SHIFTS];
+    let mut radians = [0.0f64; MAX_SHIFTS];
     radians[1] = 1.0;
     let level_cases = [
         (
@@ -144,7 +226,7 @@ fn pattern_set_rules() {
         ),
         (
             Level {
-                scale: f32::NAN,
+                scale: f64::NAN,
                 shifts: Shifts::Uniform { n: 3, count: 3 },
             },
             Invalid::NotFinite,
@@ -196,7 +278,7 @@ fn pattern_set_rules() {
         assert_eq!(with_level(l).validate(), invalid(why), "{l:?}");
     }
     let mut nan = radians;
-    nan[0] = f32::NAN;
+    nan[0] = f64::NAN;
     assert_eq!(
         with_level(Level {
             scale: 1.0,
@@ -356,10 +438,10 @@ fn calibration_rules() {
     c.camera.width = 0;
     assert_eq!(c.validate(), invalid(Invalid::Dimension));
     let mut c = ok;
-    c.camera.distortion[4] = f32::NAN;
+    c.camera.distortion[4] = f64::NAN;
     assert_eq!(c.validate(), invalid(Invalid::NotFinite));
     let mut c = ok;
-    c.plane_point[1] = f32::NEG_INFINITY;
+    c.plane_point[1] = f64::NEG_INFINITY;
     assert_eq!(c.validate(), invalid(Invalid::NotFinite));
     let mut c = ok;
     c.plane_normal = [0.0, -0.0, 0.0];
@@ -423,14 +505,14 @@ fn lut_rules() {
     // A payload whose byte string is not a whole number of entries fails to decode.
     let bad = [0x00, 0x00, 0x05, 1, 2, 3, 4, 5];
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x01, 0, 0x20, &bad)),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x20, &bad)),
         Err(WireError::Payload)
     );
     // A whole entry with bit depth 0 decodes but fails validation.
     let mut bad = vec![0x00, 0x00, 0x0C];
     bad.extend(LutEntry { bit_depth: 0, ..e }.to_bytes());
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x01, 0, 0x20, &bad)),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x20, &bad)),
         Err(WireError::Invalid(Invalid::LutEntry))
     );
 }
@@ -590,12 +672,12 @@ fn header_must_agree_with_message() {
     );
     // Received frames are checked the same way: Start without WRITE.
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x00, 0, 0x22, &[])),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x00, 0, 0x22, &[])),
         Err(WireError::FlagMismatch)
     );
     // Ack with ERROR.
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x04, 0, 0x81, &[0x22])),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x04, 0, 0x81, &[0x22])),
         Err(WireError::FlagMismatch)
     );
     // Reply to a request keeps its seq.
@@ -608,7 +690,7 @@ fn header_must_agree_with_message() {
 
 #[test]
 fn frame_level_errors() {
-    let good = raw_frame(1, 0x02, 5, 0x32, &[]);
+    let good = raw_frame(PROTOCOL_VERSION, 0x02, 5, 0x32, &[]);
     assert_eq!(
         parse_packet(&good).map(|(h, m)| (h.seq, m)),
         Ok((5, Message::GetStatus))
@@ -619,46 +701,55 @@ fn frame_level_errors() {
     bad[2] ^= 0x40;
     assert_eq!(parse_packet(&bad), Err(WireError::Crc));
     assert_eq!(
-        parse_packet(&raw_frame(2, 0x02, 5, 0x32, &[])),
-        Err(WireError::Version(2))
+        parse_packet(&raw_frame(1, 0x02, 5, 0x32, &[])),
+        Err(WireError::Version(1))
     );
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x42, 5, 0x32, &[])),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x42, 5, 0x32, &[])),
         Err(WireError::ReservedFlags)
     );
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x02, 5, 0x7F, &[])),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x02, 5, 0x7F, &[])),
         Err(WireError::UnknownCommand(0x7F))
     );
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x02, 5, 0x32, &[0])),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x02, 5, 0x32, &[0])),
         Err(WireError::TrailingBytes)
     );
     // Ack body is one byte: two is trailing, zero is a decode failure.
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x00, 5, 0x81, &[1, 2])),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x00, 5, 0x81, &[1, 2])),
         Err(WireError::TrailingBytes)
     );
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x00, 5, 0x81, &[])),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x00, 5, 0x81, &[])),
         Err(WireError::Payload)
     );
     // bool must be 0 or 1 (ConfigureSequence.repeat).
     let mut seq = vec![0x00, 0x02, 0x0C];
     seq.extend([0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 8, 0]);
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x01, 0, 0x20, &seq)),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x20, &seq)),
         Err(WireError::Payload)
     );
     seq[1] = 1;
-    assert!(parse_packet(&raw_frame(1, 0x01, 0, 0x20, &seq)).is_ok());
-    // Enum index out of range (ScanOutput [3]).
+    assert!(parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x20, &seq)).is_ok());
+    // Enum index out of range (ScanOutput [3], EdgeFilterMode [2]).
     assert_eq!(
-        parse_packet(&raw_frame(1, 0x01, 0, 0x30, &[3, 0, 0])),
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x30, &[3, 0, 0, 0])),
+        Err(WireError::Payload)
+    );
+    assert_eq!(
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x30, &[1, 0, 0, 2])),
+        Err(WireError::Payload)
+    );
+    // A version-1 Scan body (no edge-filter field) is a truncated version-2 body.
+    assert_eq!(
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x30, &[1, 0, 0])),
         Err(WireError::Payload)
     );
     // Header length disagreeing with the frame, with a valid CRC.
-    let mut f = vec![1, 0x02, 5, 0x32, 1, 0];
+    let mut f = vec![PROTOCOL_VERSION, 0x02, 5, 0x32, 1, 0];
     let c = crc32c(&f);
     f.extend(c.to_le_bytes());
     assert_eq!(parse_packet(&f), Err(WireError::Length));
@@ -769,5 +860,40 @@ fn error_classes_and_naks() {
     assert_eq!(
         format!("{}", WireError::Invalid(Invalid::Scale)),
         "invalid field: scale"
+    );
+}
+
+#[test]
+fn scan_request_rules() {
+    let req = |edge_filter| ScanRequest {
+        output: ScanOutput::Points,
+        first_row: 0,
+        row_count: 0,
+        edge_filter,
+    };
+    assert_eq!(req(EdgeFilterMode::Off).validate(), Ok(()));
+    assert_eq!(req(EdgeFilterMode::MaxAngle(80.0)).validate(), Ok(()));
+    for a in [0.0, -1.0, 90.0, 180.0] {
+        assert_eq!(
+            req(EdgeFilterMode::MaxAngle(a)).validate(),
+            invalid(Invalid::EdgeFilter),
+            "{a}"
+        );
+        let msg = Message::Scan(req(EdgeFilterMode::MaxAngle(a)));
+        assert_eq!(
+            msg.encode(&mut [0u8; 64]),
+            Err(WireError::Invalid(Invalid::EdgeFilter))
+        );
+    }
+    assert_eq!(
+        req(EdgeFilterMode::MaxAngle(f64::NAN)).validate(),
+        invalid(Invalid::NotFinite)
+    );
+    // An out-of-range angle on the wire is refused on decode: [1] Points, 0, 0, [1] 90.0.
+    let mut p = vec![0x01, 0x00, 0x00, 0x01];
+    p.extend(90.0f64.to_le_bytes());
+    assert_eq!(
+        Message::decode(Command::Scan as u8, &p),
+        Err(WireError::Invalid(Invalid::EdgeFilter))
     );
 }

@@ -35,26 +35,24 @@
 use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::{InputPin, OutputPin};
 use embedded_io::{Read, ReadReady, Write};
-use fringe3d_core::camera::{CameraModel, Distortion, Intrinsics};
 use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut};
-use fringe3d_core::geometry::Vec3;
+use fringe3d_core::filter::EdgeFilter;
+use fringe3d_core::math::CANONICAL_NAN;
 use fringe3d_core::pattern::{ImageId, MAX_IMAGES, PatternSet};
-use fringe3d_core::phase_function::Axis;
-use fringe3d_core::reconstruct::{ReconstructError, Reconstructor, ReferenceRing, Setup};
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceRing};
 use fringe3d_core::sequential::FrameDecoder as CaptureDecoder;
 use fringe3d_core::validity::Validity;
 use fringe3d_core::wire::crc::Crc32c;
 use fringe3d_core::wire::frame;
 use fringe3d_core::wire::{
-    Ack, BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, FirmwareVersion, Flags,
-    FrameDecoder, HeadErrors, HeadState, Header, Invalid, LUT_ENTRY_LEN, LutEntry, MAX_CHUNK,
-    MAX_ENCODED_FRAME, MAX_FRAME, MAX_LUT_ENTRIES, MAX_ROW_DATA, Message, Nak, NakCode,
-    PROTOCOL_VERSION, PatternAxis, PatternSetDesc, ResultRow, RowKind, ScanDone, ScanOutput,
+    Ack, BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, EdgeFilterMode,
+    FirmwareVersion, Flags, FrameDecoder, HeadErrors, HeadState, Header, Invalid, LUT_ENTRY_LEN,
+    LutEntry, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_FRAME, MAX_LUT_ENTRIES, MAX_ROW_DATA, Message, Nak,
+    NakCode, PROTOCOL_VERSION, PatternSetDesc, ResultRow, RowKind, ScanDone, ScanOutput,
     ScanRequest, Status, UploadAck, UploadTarget, ValidationStatus, WireError, check_header,
-    emit_packet,
+    emit_packet, image_index,
 };
 
-use crate::desc;
 use crate::hal::{Board, Camera, HwError, Projector, Storage};
 use crate::memory::{HeadMemory, MemoryReport};
 
@@ -238,6 +236,7 @@ struct PendingScan {
     set: PatternSet,
     slot: u8,
     recon: Option<Reconstructor>,
+    filter: Option<EdgeFilter>,
 }
 
 struct Control {
@@ -433,6 +432,7 @@ impl Tx {
     }
 
     /// Stream one result row as segments of at most [`MAX_ROW_DATA`] bytes.
+    #[allow(clippy::too_many_arguments)]
     fn rows<T: Write>(
         &mut self,
         io: &mut T,
@@ -441,6 +441,7 @@ impl Tx {
         kind: RowKind,
         values: &[f32],
         validity: &[u8],
+        before_filter: Option<&[u8]>,
     ) -> Result<(), LinkError> {
         let k = kind.components();
         let stride = kind.stride();
@@ -453,7 +454,15 @@ impl Tx {
             let vals = values
                 .get(c0 * k..c1 * k)
                 .ok_or(LinkError::Wire(WireError::BufferTooSmall))?;
-            for (v, dst) in vals.iter().zip(self.row.chunks_exact_mut(4)) {
+            for (j, (v, dst)) in vals.iter().zip(self.row.chunks_exact_mut(4)).enumerate() {
+                // Points the edge filter flagged (valid before, DepthEdge now) go as canonical
+                // NaN, like every invalid point.
+                let c = c0 + j / k;
+                let flagged = before_filter.is_some_and(|b| {
+                    validity.get(c) == Some(&(Validity::DepthEdge as u8))
+                        && b.get(c) == Some(&(Validity::Valid as u8))
+                });
+                let v = if flagged { CANONICAL_NAN } else { *v };
                 dst.copy_from_slice(&v.to_le_bytes());
             }
             let codes = self
@@ -512,51 +521,6 @@ pub struct Head<'m, P, C, S, PT, CT, CR, ET, D> {
     rx: FrameDecoder<[u8; MAX_ENCODED_FRAME]>,
     tx: Tx,
     ctl: Control,
-}
-
-fn reconstructor(cal: &Calibration, axis: PatternAxis) -> Result<Reconstructor, Invalid> {
-    let cam = camera_model(cal)?;
-    let f = |a: [f32; 3]| Vec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
-    let setup = Setup {
-        projector_centre: f(cal.projector_centre),
-        reference_point: f(cal.plane_point),
-        reference_normal: f(cal.plane_normal),
-        axis: match axis {
-            PatternAxis::Xi => Axis::Xi,
-            PatternAxis::Eta => Axis::Eta,
-        },
-        z_min: cal.depth_min as f64,
-        z_max: cal.depth_max as f64,
-    };
-    Reconstructor::new(&cam, &setup).map_err(|e| match e {
-        ReconstructError::DepthRange => Invalid::DepthRange,
-        ReconstructError::ReferencePlane => Invalid::PlaneNormal,
-        _ => Invalid::Intrinsics,
-    })
-}
-
-fn camera_model(cal: &Calibration) -> Result<CameraModel, Invalid> {
-    let c = &cal.camera;
-    let d = c.distortion;
-    CameraModel::new(
-        Intrinsics {
-            fx: c.fx as f64,
-            fy: c.fy as f64,
-            skew: c.skew as f64,
-            u0: c.cx as f64,
-            v0: c.cy as f64,
-            width: c.width as u32,
-            height: c.height as u32,
-        },
-        Distortion::from_array([
-            d[0] as f64,
-            d[1] as f64,
-            d[2] as f64,
-            d[3] as f64,
-            d[4] as f64,
-        ]),
-    )
-    .map_err(|_| Invalid::Intrinsics)
 }
 
 /// CRC-32C of the first `len` bytes of `store`.
@@ -643,8 +607,8 @@ where
             || m.modulation_row.len() < w
             || m.dc_row.len() < w
             || m.validity_row.len() < w
-            || m.xyz_row.len() < 3 * w
-            || m.point_validity.len() < w
+            || m.xyz_rows.len() < 9 * w
+            || m.point_codes.len() < 4 * w
             || m.reference_phase.len() < w
             || m.reference_validity.len() < w
         {
@@ -879,8 +843,8 @@ where
             modulation_row,
             dc_row,
             validity_row,
-            xyz_row,
-            point_validity,
+            xyz_rows,
+            point_codes,
             reference_phase,
             reference_validity,
         } = mem;
@@ -894,9 +858,12 @@ where
         r.decode_state = r.decode_state.max(state_len * 4);
         r.decode_flags = r.decode_flags.max(plane);
         let points = !matches!(sc.output, ScanOutput::Phase);
+        // Camera line, decoded row; projector line; three point rows with their codes, the
+        // reference row, and with the edge filter its output codes.
         let lines = w * (2 + 12 + 1)
             + board.projector.width() as usize
-            + if points { w * (12 + 1 + 5) } else { 0 };
+            + if points { w * (3 * 13 + 5) } else { 0 }
+            + if points && sc.filter.is_some() { w } else { 0 };
         r.lines = r.lines.max(lines);
 
         // Capture: the sequence once, every camera-triggered frame into the decoder.
@@ -935,12 +902,26 @@ where
             &mut dc_row[..w],
             &mut validity_row[..w],
         );
-        let (xyz_row, point_validity) = (&mut xyz_row[..3 * w], &mut point_validity[..w]);
+        let (xyz_rows, point_codes) = (&mut xyz_rows[..9 * w], &mut point_codes[..4 * w]);
+        let (point_codes, filtered) = point_codes.split_at_mut(3 * w);
         let (reference_phase, reference_validity) =
             (&mut reference_phase[..w], &mut reference_validity[..w]);
+        let filter = sc.filter.filter(|_| recon.is_some());
+        let end = sc.first.saturating_add(sc.count);
+        let wanted = |r: u16| r >= sc.first && r < end;
+        // With the edge filter, point row y needs rows y − 1 and y + 1 too: decode and
+        // reconstruct one row beyond the range at each end (where the image has one), and emit
+        // row y once row y + 1 is reconstructed. Point rows rotate through three slots.
+        let (lo, hi) = match filter {
+            Some(_) => (
+                sc.first.saturating_sub(1),
+                end.saturating_add(1).min(h as u16),
+            ),
+            None => (sc.first, end),
+        };
         let mut valid = 0u32;
         let mut sent = 0u16;
-        for y in sc.first..sc.first.saturating_add(sc.count) {
+        for y in lo..hi {
             pump::<T, S>(rx, tx, ctl, cfg, io, None)?;
             if ctl.abort {
                 return Ok(ScanEnd::Aborted);
@@ -955,47 +936,140 @@ where
                 },
             )
             .map_err(|_| ScanFail::Internal)?;
-            if matches!(sc.output, ScanOutput::Phase | ScanOutput::Both) {
-                tx.rows(io, sc.seq, y, RowKind::Phase, phase_row, validity_row)?;
+            if wanted(y) && matches!(sc.output, ScanOutput::Phase | ScanOutput::Both) {
+                tx.rows(io, sc.seq, y, RowKind::Phase, phase_row, validity_row, None)?;
             }
-            if let (Some(rc), Some(ring)) = (recon, ring.as_mut()) {
-                let (_, last) = rc.rows_needed(y as u32);
-                while ring.rows_pushed() <= last {
-                    read_reference_row(
-                        &mut board.map_store,
-                        ring.rows_pushed(),
-                        w,
-                        reference_phase,
-                        reference_validity,
-                    )?;
-                    ring.push_row(reference_phase, reference_validity)
-                        .map_err(|_| ScanFail::Internal)?;
+            let (Some(rc), Some(ring)) = (recon, ring.as_mut()) else {
+                if wanted(y) {
+                    valid += count_valid(validity_row);
+                    sent += 1;
+                    ctl.rows_sent = ctl.rows_sent.wrapping_add(1);
                 }
-                rc.reconstruct_row(
-                    ring,
-                    y as u32,
-                    phase_row,
-                    validity_row,
-                    xyz_row,
-                    point_validity,
-                )
-                .map_err(|_| ScanFail::Internal)?;
-                tx.rows(io, sc.seq, y, RowKind::Points, xyz_row, point_validity)?;
-                valid += point_validity
-                    .iter()
-                    .filter(|&&v| v == Validity::Valid as u8)
-                    .count() as u32;
-            } else {
-                valid += validity_row
-                    .iter()
-                    .filter(|&&v| v == Validity::Valid as u8)
-                    .count() as u32;
+                continue;
+            };
+            let (_, last) = rc.rows_needed(y as u32);
+            while ring.rows_pushed() <= last {
+                read_reference_row(
+                    &mut board.map_store,
+                    ring.rows_pushed(),
+                    w,
+                    reference_phase,
+                    reference_validity,
+                )?;
+                ring.push_row(reference_phase, reference_validity)
+                    .map_err(|_| ScanFail::Internal)?;
             }
-            sent += 1;
-            ctl.rows_sent = ctl.rows_sent.wrapping_add(1);
+            let k = y as usize % 3;
+            rc.reconstruct_row(
+                ring,
+                y as u32,
+                phase_row,
+                validity_row,
+                &mut xyz_rows[3 * w * k..3 * w * (k + 1)],
+                &mut point_codes[w * k..w * (k + 1)],
+            )
+            .map_err(|_| ScanFail::Internal)?;
+            // The point row now complete: y itself without the filter, else y − 1.
+            let (done, below) = match filter {
+                None => (Some(y), false),
+                Some(_) => (y.checked_sub(1).filter(|&t| wanted(t)), true),
+            };
+            if let Some(t) = done {
+                valid += emit_points(
+                    tx,
+                    io,
+                    sc.seq,
+                    t,
+                    h,
+                    filter,
+                    below,
+                    xyz_rows,
+                    point_codes,
+                    filtered,
+                    w,
+                )?;
+                sent += 1;
+                ctl.rows_sent = ctl.rows_sent.wrapping_add(1);
+            }
+        }
+        // The image's last row has no row below: filter it now.
+        if let (Some(_), Some(_)) = (filter, recon) {
+            let t = end.saturating_sub(1);
+            if end as usize == h && wanted(t) {
+                valid += emit_points(
+                    tx,
+                    io,
+                    sc.seq,
+                    t,
+                    h,
+                    filter,
+                    false,
+                    xyz_rows,
+                    point_codes,
+                    filtered,
+                    w,
+                )?;
+                sent += 1;
+                ctl.rows_sent = ctl.rows_sent.wrapping_add(1);
+            }
         }
         Ok(ScanEnd::Done { rows: sent, valid })
     }
+}
+
+fn count_valid(codes: &[u8]) -> u32 {
+    codes
+        .iter()
+        .filter(|&&v| v == Validity::Valid as u8)
+        .count() as u32
+}
+
+/// Stream point row `t` from its slot (`t % 3`) of `xyz_rows` / `codes`; with `filter`, first run
+/// the depth-edge filter over it with its neighbours (rows `t ± 1`, read from their slots; the
+/// row below only if `below`), exactly as the desktop's `filter_edges`: flagged points become
+/// canonical NaN. Returns the number of valid points sent.
+#[allow(clippy::too_many_arguments)]
+fn emit_points<T: Write>(
+    tx: &mut Tx,
+    io: &mut T,
+    seq: u8,
+    t: u16,
+    h: usize,
+    filter: Option<EdgeFilter>,
+    below: bool,
+    xyz_rows: &[f32],
+    codes: &[u8],
+    filtered: &mut [u8],
+    w: usize,
+) -> Result<u32, ScanFail> {
+    let slot = |r: usize| {
+        let k = r % 3;
+        (
+            &xyz_rows[3 * w * k..3 * w * (k + 1)],
+            &codes[w * k..w * (k + 1)],
+        )
+    };
+    let t = t as usize;
+    let cur = slot(t);
+    let Some(f) = filter else {
+        tx.rows(io, seq, t as u16, RowKind::Points, cur.0, cur.1, None)?;
+        return Ok(count_valid(cur.1));
+    };
+    let above = (t > 0).then(|| slot(t - 1));
+    let below = (below && t + 1 < h).then(|| slot(t + 1));
+    if !f.filter_row(above, cur, below, filtered) {
+        return Err(ScanFail::Internal);
+    }
+    tx.rows(
+        io,
+        seq,
+        t as u16,
+        RowKind::Points,
+        cur.0,
+        filtered,
+        Some(cur.1),
+    )?;
+    Ok(count_valid(filtered))
 }
 
 /// Read row `r` of the reference phase map from `store` (phases LE, then validity codes).
@@ -1083,8 +1157,8 @@ where
     let pw = board.projector.width() as usize;
     let ph = board.projector.height();
     let line = lines.projector.get_mut(..pw).ok_or(ScanFail::Internal)?;
-    let id = desc::pattern_id(&slot.desc, e.pattern).ok_or(ScanFail::Internal)?;
-    let image = desc::image_index(&slot.set, id).ok_or(ScanFail::Internal)?;
+    let id = slot.desc.pattern_id(e.pattern).ok_or(ScanFail::Internal)?;
+    let image = image_index(&slot.set, id).ok_or(ScanFail::Internal)?;
     board.projector.begin_frame(e.pattern)?;
     for y in 0..ph {
         match slot.source {
@@ -1311,7 +1385,7 @@ fn dispatch<T: Write, S: Storage>(
             {
                 nak!(NakCode::Invalid, Invalid::Dimension);
             }
-            let set = match desc::pattern_set(&d.desc) {
+            let set = match d.desc.to_set() {
                 Ok(s) => s,
                 Err(why) => nak!(NakCode::Invalid, why),
             };
@@ -1489,7 +1563,7 @@ fn dispatch<T: Write, S: Storage>(
             {
                 nak!(NakCode::Invalid, Invalid::Dimension);
             }
-            if let Err(why) = camera_model(&cal) {
+            if let Err(why) = cal.camera_model() {
                 nak!(NakCode::Invalid, why);
             }
             ctl.calibration = Some(cal);
@@ -1575,7 +1649,9 @@ fn plan_scan(
         if !e.trigger_out {
             continue;
         }
-        let id = desc::pattern_id(&slot.desc, e.pattern)
+        let id = slot
+            .desc
+            .pattern_id(e.pattern)
             .ok_or((NakCode::SequenceInvalid, ValidationStatus::PATTERN_INDEX))?;
         *order
             .get_mut(n)
@@ -1608,13 +1684,22 @@ fn plan_scan(
             .calibration
             .as_ref()
             .ok_or((NakCode::SequenceInvalid, ValidationStatus::NO_CALIBRATION))?;
-        let r = reconstructor(cal, slot.desc.axis).map_err(|why| (NakCode::Invalid, why as u32))?;
+        let r = cal
+            .reconstructor(slot.desc.phase.axis)
+            .map_err(|why| (NakCode::Invalid, why as u32))?;
         if (r.band().rows() as usize).min(h) * w > ctl.ring_capacity {
             return Err((NakCode::OutOfMemory, 0));
         }
         Some(r)
     } else {
         None
+    };
+    let filter = match (req.edge_filter, ctl.calibration.as_ref()) {
+        (EdgeFilterMode::MaxAngle(a), Some(cal)) if points => Some(
+            cal.edge_filter(a)
+                .ok_or((NakCode::Invalid, Invalid::EdgeFilter as u32))?,
+        ),
+        _ => None,
     };
     Ok(PendingScan {
         seq,
@@ -1624,5 +1709,6 @@ fn plan_scan(
         set,
         slot: lut.set_id,
         recon,
+        filter,
     })
 }

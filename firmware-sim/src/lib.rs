@@ -6,7 +6,6 @@
 //! - [`hal`]: what the head needs from a board ([`Board`]: projector, camera, stores, pins, delay);
 //! - [`port`]: the `heapless` queues between the UART interrupts and the main loop;
 //! - [`memory`]: the fixed working buffers and the peak-use report;
-//! - [`desc`]: parametric pattern sets (wire description → core `PatternSet`);
 //! - [`sim`]: a simulated board with virtual time and a trigger timeline;
 //! - `desktop` (feature `std`): the PTY front, dataset replay and in-process links for tests.
 //!
@@ -18,7 +17,6 @@
 #[cfg(feature = "std")]
 extern crate std;
 
-pub mod desc;
 pub mod hal;
 pub mod head;
 pub mod memory;

@@ -15,8 +15,9 @@
 //! | `camera_line` | `W` | 2 | one camera row |
 //! | `projector_line` | `PW` | 1 | one pattern row |
 //! | `phase_row`, `modulation_row`, `dc_row` | `W` | 4 | one decoded row |
-//! | `validity_row`, `point_validity` | `W` | 1 | its codes, the points' codes |
-//! | `xyz_row` | `3·W` | 4 | one point row |
+//! | `validity_row` | `W` | 1 | its codes |
+//! | `xyz_rows` | `9·W` | 4 | three point rows (the depth-edge filter's window) |
+//! | `point_codes` | `4·W` | 1 | their codes, and the filter's output codes |
 //! | `reference_phase`, `reference_validity` | `W` | 4 + 1 | one reference row from storage |
 //!
 //! `W × H` is the camera, `PW` the projector width, `L` the pattern set's levels and `band` the
@@ -44,10 +45,10 @@ pub struct HeadMemory<'a> {
     pub dc_row: &'a mut [f32],
     /// Decoded validity, `W`.
     pub validity_row: &'a mut [u8],
-    /// Points, `3·W`.
-    pub xyz_row: &'a mut [f32],
-    /// Point validity, `W`.
-    pub point_validity: &'a mut [u8],
+    /// Three point rows, `9·W` (x, y, z interleaved, row after row).
+    pub xyz_rows: &'a mut [f32],
+    /// Their validity codes, then the edge filter's output codes: `4·W`.
+    pub point_codes: &'a mut [u8],
     /// One reference row's phases, `W`.
     pub reference_phase: &'a mut [f32],
     /// One reference row's validity, `W`.
@@ -93,19 +94,21 @@ impl MemoryPlan {
         self.decode_state * 4
             + self.decode_flags
             + self.ring * 5
-            + self.line * (2 + 3 * 4 + 2 + 3 * 4 + 1 + 4 + 1)
+            + self.line * (2 + 3 * 4 + 1 + 9 * 4 + 4 + 4 + 1)
             + self.projector_line
     }
 }
 
 /// A complete set of buffers in one value, for a `static` on a board. The const parameters are
-/// the lengths of [`MemoryPlan`] (`LINE3 = 3·LINE`); compute them where the type is named, e.g.
-/// `HeadBuffers<{ 7 * 64 * 48 }, { 64 * 48 }, 64, 192, 64, { 20 * 64 }>`.
+/// the lengths of [`MemoryPlan`] (`LINE9 = 9·LINE`, `LINE4 = 4·LINE`); compute them where the
+/// type is named, e.g.
+/// `HeadBuffers<{ 7 * 64 * 48 }, { 64 * 48 }, 64, { 9 * 64 }, { 4 * 64 }, 64, { 20 * 64 }>`.
 pub struct HeadBuffers<
     const STATE: usize,
     const PIXELS: usize,
     const LINE: usize,
-    const LINE3: usize,
+    const LINE9: usize,
+    const LINE4: usize,
     const PLINE: usize,
     const RING: usize,
 > {
@@ -119,8 +122,8 @@ pub struct HeadBuffers<
     modulation_row: [f32; LINE],
     dc_row: [f32; LINE],
     validity_row: [u8; LINE],
-    xyz_row: [f32; LINE3],
-    point_validity: [u8; LINE],
+    xyz_rows: [f32; LINE9],
+    point_codes: [u8; LINE4],
     reference_phase: [f32; LINE],
     reference_validity: [u8; LINE],
 }
@@ -129,10 +132,11 @@ impl<
     const STATE: usize,
     const PIXELS: usize,
     const LINE: usize,
-    const LINE3: usize,
+    const LINE9: usize,
+    const LINE4: usize,
     const PLINE: usize,
     const RING: usize,
-> Default for HeadBuffers<STATE, PIXELS, LINE, LINE3, PLINE, RING>
+> Default for HeadBuffers<STATE, PIXELS, LINE, LINE9, LINE4, PLINE, RING>
 {
     fn default() -> Self {
         Self::new()
@@ -143,10 +147,11 @@ impl<
     const STATE: usize,
     const PIXELS: usize,
     const LINE: usize,
-    const LINE3: usize,
+    const LINE9: usize,
+    const LINE4: usize,
     const PLINE: usize,
     const RING: usize,
-> HeadBuffers<STATE, PIXELS, LINE, LINE3, PLINE, RING>
+> HeadBuffers<STATE, PIXELS, LINE, LINE9, LINE4, PLINE, RING>
 {
     /// Zeroed buffers (a `const fn`: usable in a `static` initialiser, placed in `.bss`).
     pub const fn new() -> Self {
@@ -161,8 +166,8 @@ impl<
             modulation_row: [0.0; LINE],
             dc_row: [0.0; LINE],
             validity_row: [0; LINE],
-            xyz_row: [0.0; LINE3],
-            point_validity: [0; LINE],
+            xyz_rows: [0.0; LINE9],
+            point_codes: [0; LINE4],
             reference_phase: [0.0; LINE],
             reference_validity: [0; LINE],
         }
@@ -181,8 +186,8 @@ impl<
             modulation_row: &mut self.modulation_row,
             dc_row: &mut self.dc_row,
             validity_row: &mut self.validity_row,
-            xyz_row: &mut self.xyz_row,
-            point_validity: &mut self.point_validity,
+            xyz_rows: &mut self.xyz_rows,
+            point_codes: &mut self.point_codes,
             reference_phase: &mut self.reference_phase,
             reference_validity: &mut self.reference_validity,
         }

@@ -543,8 +543,8 @@ impl FrameSource for DirectView {
             out.fill(0);
             return Ok(());
         };
-        let id = crate::desc::pattern_id(&self.desc, p).ok_or(HwError::Camera)?;
-        let image = crate::desc::image_index(&self.set, id).ok_or(HwError::Camera)?;
+        let id = self.desc.pattern_id(p).ok_or(HwError::Camera)?;
+        let image = fringe3d_core::wire::image_index(&self.set, id).ok_or(HwError::Camera)?;
         let eta = (y as u64 * o.height as u64 / self.height.max(1) as u64) as f64;
         for (u, s) in out.iter_mut().enumerate() {
             let xi = (u as u64 * o.width as u64 / self.width.max(1) as u64) as f64;

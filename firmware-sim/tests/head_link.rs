@@ -9,17 +9,17 @@ use fringe3d::device::desc::{
 use fringe3d::device::{Client, ClientOptions, DeviceError};
 use fringe3d_core::decode::{DecodeConfig, Decoder};
 use fringe3d_core::math::canonical;
-use fringe3d_core::pattern::{Level, Output, PatternSet};
-use fringe3d_core::phase_function::{Axis, PhaseFunction};
+use fringe3d_core::pattern::{Convention, Level, Output, PatternSet};
+use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
 use fringe3d_core::wire::{
-    FaultConfig, HeadState, LinearPhase, NakCode, PatternAxis, PatternSetDesc, ScanOutput, Shifts,
-    ValidationStatus, Waveform,
+    EdgeFilterMode, FaultConfig, HeadState, Invalid, NakCode, PatternSetDesc, PhaseProfile,
+    ScanOutput, ValidationStatus,
 };
 use fringe3d_firmware_sim::desktop::{InProcess, OwnedMemory, Recorder, SimHead, sim_board};
 use fringe3d_firmware_sim::sim::{
     DirectView, EventKind, FrameSource, Line, NoSink, RowSink, SimWorld,
 };
-use fringe3d_firmware_sim::{Head, HeadConfig, MemoryPlan, desc};
+use fringe3d_firmware_sim::{Head, HeadConfig, MemoryPlan};
 use std::time::Duration;
 
 const PW: u16 = 128;
@@ -30,7 +30,8 @@ const EXPOSURE_US: u32 = 5_000;
 const DARK_US: u32 = 2_000;
 const READOUT_NS: u64 = 500_000;
 
-/// The paper's 8-pattern set with f32-exact parameters (slope 2⁻⁶ rad/px, centred): the head
+/// The paper's 8-pattern set (slope 2⁻⁶ rad/px, centred); other sets (knots, curves, non-f32
+/// parameters) are exercised below and in `tests/tests/head_pty.rs`. The head
 /// rebuilds it bit for bit from its wire description.
 fn exact_set() -> PatternSet {
     let f = PhaseFunction::linear(Axis::Xi, (PW as f64 - 1.0) / 2.0, 1.0 / 64.0).unwrap();
@@ -77,7 +78,7 @@ fn desktop_phase(set: &PatternSet, desc: &PatternSetDesc) -> (Vec<f32>, Vec<u8>)
         .order()
         .iter()
         .map(|id| {
-            let p = fringe3d::device::desc::pattern_index(desc, *id).unwrap();
+            let p = desc.pattern_index(*id).unwrap();
             let mut f = vec![0u16; w * h];
             for (y, row) in f.chunks_exact_mut(w).enumerate() {
                 v.row(Some(p), y as u16, row).unwrap();
@@ -135,49 +136,68 @@ fn plan() -> MemoryPlan {
 
 #[test]
 fn host_and_head_build_the_same_set_from_a_description() {
-    let set = exact_set();
-    let d = pattern_desc(&set, 8).unwrap();
-    assert_eq!(desc_to_set(&d).unwrap(), set, "host mapping");
-    assert_eq!(desc::pattern_set(&d).unwrap(), set, "head mapping");
-    // Other shapes: η axis, cosine, an offset, explicit shifts, a 5-step level.
-    let mut levels = [fringe3d_core::wire::Level::UNUSED; 8];
-    levels[0] = fringe3d_core::wire::Level {
-        scale: 1.0,
-        shifts: Shifts::Uniform { n: 5, count: 5 },
+    // The paper's set, and sets with parameters that are not f32: knots, curved fringes, I_min,
+    // cosine, an offset, explicit and 5-step shifts. The description (core::wire, used by both
+    // ends) rebuilds each bit for bit, and the rebuilt set renders the same rows.
+    let o = Output {
+        width: PW as u32,
+        height: PH as u32,
+        i_min: 3.3,
+        i_max: 250.7,
     };
-    let mut r = [0.0f32; 16];
-    r[..3].copy_from_slice(&[0.0, 2.0, 4.0]);
-    levels[1] = fringe3d_core::wire::Level {
-        scale: 6.0,
-        shifts: Shifts::Explicit {
-            count: 3,
-            radians: r,
-        },
+    let knots =
+        KnotProfile::from_slopes(&[0.0, 40.3, 127.0], &[0.011, 0.021, 0.013], -0.9).unwrap();
+    let curved = PhaseFunction::with_profile(Axis::Xi, Profile::Knots(knots))
+        .unwrap()
+        .curved(1.7e-3, 47.1)
+        .unwrap();
+    let eta = PhaseFunction::linear(Axis::Eta, 47.3, 0.1 / 1.57).unwrap();
+    let sets = [
+        exact_set(),
+        PatternSet::paper_eight(curved, 7.3, o).unwrap(),
+        PatternSet::new(
+            eta,
+            &[
+                Level::n_step(1.0, 5),
+                Level::with_shifts(6.1, &[0.0, 2.0, 4.1]),
+            ],
+            o,
+        )
+        .unwrap()
+        .with_convention(Convention::Cosine)
+        .with_phase_offset(0.3)
+        .unwrap(),
+    ];
+    for set in sets {
+        let d = pattern_desc(&set, 8).unwrap();
+        let back = d.to_set().unwrap();
+        assert_eq!(back, set, "{d:?}");
+        assert_eq!(desc_to_set(&d).unwrap(), set);
+        let mut a = vec![0u8; PW as usize];
+        let mut b = vec![0u8; PW as usize];
+        for i in 0..set.image_count() {
+            for y in [0, PH as u32 / 2, PH as u32 - 1] {
+                set.generate_row(i, y, &mut a).unwrap();
+                back.generate_row(i, y, &mut b).unwrap();
+                assert_eq!(a, b);
+            }
+        }
+        // Every image is addressable by its wire index and back.
+        for &id in set.order() {
+            let p = d.pattern_index(id).unwrap();
+            assert_eq!(d.pattern_id(p), Some(id));
+        }
+    }
+    // Not describable: a 9-bit projector; refused by the head: a set that fails the core's
+    // check (slope so steep the finest level aliases).
+    assert!(pattern_desc(&exact_set(), 9).is_err());
+    let mut bad = pattern_desc(&exact_set(), 8).unwrap();
+    bad.phase.profile = PhaseProfile::Linear {
+        origin: 63.5,
+        slope: 0.5,
     };
-    let d2 = PatternSetDesc {
-        width: 96,
-        height: 128,
-        bit_depth: 7,
-        i_max: 100.0,
-        axis: PatternAxis::Eta,
-        waveform: Waveform::Cosine,
-        phase_offset: 0.25,
-        phase: LinearPhase {
-            a: 0.0,
-            b: 0.015625,
-            c: -1.0,
-        },
-        level_count: 2,
-        levels,
-    };
-    let a = desc_to_set(&d2).unwrap();
-    let b = desc::pattern_set(&d2).unwrap();
-    assert_eq!(a, b);
-    assert_eq!(a.levels()[0], Level::n_step(1.0, 5));
-    // Not describable: a knot profile is refused by the host, a cross term by the head.
-    let mut bad = d2;
-    bad.phase.a = 0.001;
-    assert!(desc::pattern_set(&bad).is_err() && desc_to_set(&bad).is_err());
+    assert_eq!(bad.validate(), Ok(()));
+    assert_eq!(bad.to_set(), Err(Invalid::PhaseFunction));
 }
 
 #[test]
@@ -209,7 +229,13 @@ fn upload_then_scan_phase_is_bit_identical_to_the_desktop() {
         ValidationStatus::NO_CALIBRATION | ValidationStatus::NO_REFERENCE
     );
     // Points need the calibration and the reference map: refused, with the reason.
-    match c.scan(ScanOutput::Points, 0, 0, &mut |_, _| {}) {
+    match c.scan(
+        ScanOutput::Points,
+        0,
+        0,
+        EdgeFilterMode::Off,
+        &mut |_, _| {},
+    ) {
         Err(DeviceError::Refused {
             code: NakCode::SequenceInvalid,
             reason,
@@ -217,7 +243,9 @@ fn upload_then_scan_phase_is_bit_identical_to_the_desktop() {
         }) => assert!(reason.contains("no calibration"), "{reason}"),
         other => panic!("{other:?}"),
     }
-    let out = c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}).unwrap();
+    let out = c
+        .scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})
+        .unwrap();
     let (p, q) = desktop_phase(&set, &d);
     assert_eq!(bits(out.phase.as_ref().unwrap()), bits(&p));
     assert_eq!(out.phase_validity.as_ref().unwrap(), &q);
@@ -226,7 +254,15 @@ fn upload_then_scan_phase_is_bit_identical_to_the_desktop() {
         "mostly valid"
     );
     // A window of rows.
-    let part = c.scan(ScanOutput::Phase, 10, 7, &mut |_, _| {}).unwrap();
+    let part = c
+        .scan(
+            ScanOutput::Phase,
+            10,
+            7,
+            EdgeFilterMode::Off,
+            &mut |_, _| {},
+        )
+        .unwrap();
     let w = CW as usize;
     assert_eq!(bits(part.phase.as_ref().unwrap()), bits(&p[10 * w..17 * w]));
     let st = c.status().unwrap();
@@ -242,64 +278,101 @@ fn upload_then_scan_phase_is_bit_identical_to_the_desktop() {
 
 #[test]
 fn parametric_patterns_equal_the_fringe3d_patterns_pngs() {
+    // A linear set, and the curved and variable-width examples of examples/patterns/ scaled to
+    // this 128 x 96 projector (ratio 4 keeps the finest level resolvable): the head renders each
+    // from its wire description, and every projected pattern equals `fringe3d patterns`' PNG.
+    let head_of = "version = 1\npreset = \"paper8\"\n";
+    let proj = format!("[projector]\nwidth = {PW}\nheight = {PH}\nbit_depth = 8\n");
+    let files = [
+        (
+            "exact",
+            format!(
+                "{head_of}ratio = 8.0\n{proj}[phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 63.5\nslope = 0.015625\n"
+            ),
+        ),
+        (
+            "curved",
+            format!(
+                "{head_of}ratio = 4.0\n{proj}[phase]\naxis = \"xi\"\nkind = \"centered\"\nspan = 5.2\ncurvature = 0.002\nbend_center = 47.5\n"
+            ),
+        ),
+        (
+            "variable-width",
+            format!(
+                "{head_of}ratio = 4.0\n{proj}[phase]\naxis = \"xi\"\nkind = \"knots\"\n\
+                 positions = [0.0, 32.0, 64.0, 96.0, 127.0]\nslopes = [0.024, 0.048, 0.0576, 0.048, 0.024]\n"
+            ),
+        ),
+    ];
     let dir = std::env::temp_dir().join(format!("fringe3d-head-pngs-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("exact.toml");
-    std::fs::write(
-        &file,
-        format!(
-            "version = 1\npreset = \"paper8\"\nratio = 8.0\n[projector]\nwidth = {PW}\nheight = {PH}\nbit_depth = 8\n\
-             [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 63.5\nslope = 0.015625\n"
-        ),
-    )
-    .unwrap();
-    let out = dir.join("pngs");
-    fringe3d::cli::run([
-        "fringe3d",
-        "--quiet",
-        "patterns",
-        "--patterns",
-        file.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ])
-    .unwrap();
-    let ls = fringe3d::cli::common::load_set(&file).unwrap();
-    let set = ls.set;
-    let d = pattern_desc(&set, 8).unwrap();
-    let fid = fringe3d::device::desc::fidelity(&set, &d, 8);
-    assert!(fid.patterns && fid.decoder, "{fid:?}");
+    for (k, (name, text)) in files.iter().enumerate() {
+        let file = dir.join(format!("{name}.toml"));
+        std::fs::write(&file, text).unwrap();
+        let out = dir.join(name);
+        fringe3d::cli::run([
+            "fringe3d",
+            "--quiet",
+            "patterns",
+            "--patterns",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .unwrap();
+        let ls = fringe3d::cli::common::load_set(&file).unwrap();
+        let set = ls.set;
+        if *name == "variable-width" {
+            assert!(matches!(set.function().profile(), Profile::Knots(_)));
+        }
+        if *name == "curved" {
+            assert!(set.function().curvature() != 0.0);
+        }
+        let d = pattern_desc(&set, 8).unwrap();
+        let fid = fringe3d::device::desc::fidelity(&set, &d, 8);
+        assert!(fid.patterns && fid.decoder, "{name}: {fid:?}");
 
-    let world = SimWorld::new(READOUT_NS);
-    let mut mem = OwnedMemory::new(plan());
-    let h = head(&world, &mut mem, &set, &d, Recorder::default());
-    let mut c = Client::connect(
-        InProcess::new(h, FaultConfig::NONE, FaultConfig::NONE, 2),
-        opts(),
-    )
-    .unwrap();
-    c.define_pattern_set(0, &d).unwrap(); // no upload: the head renders the set itself
-    c.configure_sequence(
-        0,
-        false,
-        &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
-    )
-    .unwrap();
-    c.scan(ScanOutput::Phase, 0, 1, &mut |_, _| {}).unwrap();
-    let head = c.into_transport().device;
-    let rec = head.board().projector.sink();
-    assert_eq!(rec.patterns.len(), 8);
-    for (i, id) in set.order().iter().enumerate() {
-        let p = fringe3d::device::desc::pattern_index(&d, *id).unwrap();
-        let (img, _) =
-            fringe3d::io::image::read_gray(&out.join(format!("pattern_{i:02}.png"))).unwrap();
-        let fringe3d::io::image::Pixels::U8(px) = img.pixels else {
-            panic!("8-bit PNG expected")
-        };
-        assert_eq!(
-            rec.patterns[&p], px,
-            "pattern {i} (wire {p}) differs from the PNG"
+        let world = SimWorld::new(READOUT_NS);
+        let mut mem = OwnedMemory::new(plan());
+        let h = head(&world, &mut mem, &set, &d, Recorder::default());
+        let mut c = Client::connect(
+            InProcess::new(h, FaultConfig::NONE, FaultConfig::NONE, 2 + k as u64),
+            opts(),
+        )
+        .unwrap();
+        c.define_pattern_set(0, &d).unwrap(); // no upload: the head renders the set itself
+        c.configure_sequence(
+            0,
+            false,
+            &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
+        )
+        .unwrap();
+        let out_scan = c
+            .scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})
+            .unwrap();
+        let head = c.into_transport().device;
+        let rec = head.board().projector.sink();
+        assert_eq!(rec.patterns.len(), 8);
+        for (i, id) in set.order().iter().enumerate() {
+            let p = d.pattern_index(*id).unwrap();
+            let (img, _) =
+                fringe3d::io::image::read_gray(&out.join(format!("pattern_{i:02}.png"))).unwrap();
+            let fringe3d::io::image::Pixels::U8(px) = img.pixels else {
+                panic!("8-bit PNG expected")
+            };
+            assert_eq!(
+                rec.patterns[&p], px,
+                "{name}: pattern {i} (wire {p}) differs from the PNG"
+            );
+        }
+        // And the head decodes the set as the desktop does.
+        let (p, q) = desktop_phase(&set, &d);
+        assert_eq!(bits(out_scan.phase.as_ref().unwrap()), bits(&p), "{name}");
+        assert_eq!(out_scan.phase_validity.as_ref().unwrap(), &q, "{name}");
+        assert!(
+            q.iter().filter(|&&v| v == 0).count() > q.len() / 2,
+            "{name}: mostly valid"
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
@@ -321,7 +394,8 @@ fn trigger_timeline_follows_the_sequence() {
     let lut = capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap();
     c.configure_sequence(0, false, &lut).unwrap();
     world.clear_timeline();
-    c.scan(ScanOutput::Phase, 0, 1, &mut |_, _| {}).unwrap();
+    c.scan(ScanOutput::Phase, 0, 1, EdgeFilterMode::Off, &mut |_, _| {})
+        .unwrap();
     let mut ev = Vec::new();
     world.for_each_event(|e| ev.push(*e));
     // Per entry: load, projector on, camera on, (exposure) camera off + capture, projector off,
@@ -415,7 +489,7 @@ fn faulty_session(
                 false,
                 &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
             )?;
-            let out = c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {})?;
+            let out = c.scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})?;
             assert!(
                 bits(out.phase.as_ref().unwrap()) == bits(&truth.0),
                 "seed {seed}: phases differ"
@@ -540,7 +614,7 @@ fn a_cut_line_fails_clearly_the_upload_resumes_and_nothing_unconfirmed_is_used()
             .unwrap()
             .has(ValidationStatus::SET_NOT_CONFIRMED)
     );
-    match c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}) {
+    match c.scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {}) {
         Err(DeviceError::Refused {
             code: NakCode::SequenceInvalid,
             reason,
@@ -570,12 +644,17 @@ fn a_cut_line_fails_clearly_the_upload_resumes_and_nothing_unconfirmed_is_used()
             .unwrap()
             .has(ValidationStatus::SET_NOT_CONFIRMED)
     );
-    assert!(c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}).is_err());
+    assert!(
+        c.scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})
+            .is_err()
+    );
 
     // Uploaded again in full: confirmed, and the scan is right.
     let r = c.upload_patterns(0, &d, &data, &mut |_, _| {}).unwrap();
     assert_eq!(r.resumed_from, 0);
-    let out = c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}).unwrap();
+    let out = c
+        .scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})
+        .unwrap();
     assert_eq!(bits(out.phase.as_ref().unwrap()), bits(&truth.0));
 }
 
@@ -654,7 +733,15 @@ fn a_hostile_line_ends_in_clean_errors_never_in_wrong_data() {
 
 /// A complete set of working buffers in one `static`, as on a board.
 static BUFFERS: std::sync::Mutex<
-    fringe3d_firmware_sim::HeadBuffers<{ 7 * 64 * 48 }, { 64 * 48 }, 64, 192, 128, { 16 * 64 }>,
+    fringe3d_firmware_sim::HeadBuffers<
+        { 7 * 64 * 48 },
+        { 64 * 48 },
+        64,
+        { 9 * 64 },
+        { 4 * 64 },
+        128,
+        { 16 * 64 },
+    >,
 > = std::sync::Mutex::new(fringe3d_firmware_sim::HeadBuffers::new());
 
 #[test]
@@ -684,7 +771,9 @@ fn the_head_runs_in_static_buffers() {
         &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
     )
     .unwrap();
-    let out = c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}).unwrap();
+    let out = c
+        .scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})
+        .unwrap();
     assert_eq!(
         bits(out.phase.as_ref().unwrap()),
         bits(&desktop_phase(&set, &d).0)
@@ -715,7 +804,7 @@ fn the_head_runs_in_static_buffers() {
         &capture_sequence(&big, &bd, EXPOSURE_US, DARK_US).unwrap(),
     )
     .unwrap();
-    match c.scan(ScanOutput::Phase, 0, 0, &mut |_, _| {}) {
+    match c.scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {}) {
         Err(DeviceError::Refused {
             code: NakCode::OutOfMemory,
             ..

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use fringe3d::device::{Client, ClientOptions, DeviceError, SerialTransport, open_serial};
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::{
-    Capabilities, FirmwareVersion, FrameDecoder, MAX_ENCODED_FRAME, Message, cobs,
+    Capabilities, FirmwareVersion, FrameDecoder, MAX_ENCODED_FRAME, Message, Nak, NakCode, cobs,
 };
 use serialport::{SerialPort, TTYPort};
 
@@ -66,7 +66,12 @@ fn fake(
 fn frame_with_version(version: u8, seq: u8, msg: &Message<'_>) -> Vec<u8> {
     let mut payload = [0u8; 256];
     let n = msg.encode(&mut payload).unwrap();
-    let mut f = vec![version, 0, seq, msg.command() as u8, n as u8, 0];
+    let flags = if matches!(msg, Message::Nak(_)) {
+        0x04
+    } else {
+        0
+    }; // ERROR on a Nak
+    let mut f = vec![version, flags, seq, msg.command() as u8, n as u8, 0];
     f.extend_from_slice(&payload[..n]);
     let crc = crc32c(&f);
     f.extend_from_slice(&crc.to_le_bytes());
@@ -123,11 +128,35 @@ fn a_silent_line_times_out_with_a_hint() {
 
 #[test]
 fn another_protocol_version_is_reported_as_such() {
+    // An old head (protocol 1) cannot parse our version-2 Hello: it answers, in its own version,
+    // Nak Version naming the version it speaks.
+    let (io, stop, h) = fake(|f| {
+        let nak = Nak {
+            command: f[3],
+            code: NakCode::Version,
+            detail: 1,
+        };
+        frame_with_version(1, f[2], &Message::Nak(nak))
+    });
+    let e = Client::connect(io, quick()).err().expect("version 1");
+    let m = e.to_string();
+    assert!(
+        matches!(e, DeviceError::Version { device: 1, host: 2 }),
+        "{m}"
+    );
+    assert!(
+        m.contains("protocol version 1") && m.contains("version 2") && m.contains("update"),
+        "{m}"
+    );
+    stop.store(true, Ordering::Relaxed);
+    h.join().unwrap();
+
+    // A newer head (protocol 3) answering Capabilities in its version.
     let (io, stop, h) = fake(|f| {
         let caps = Capabilities {
-            protocol_version: 2,
+            protocol_version: 3,
             firmware: FirmwareVersion {
-                major: 2,
+                major: 3,
                 minor: 0,
                 patch: 0,
             },
@@ -140,16 +169,12 @@ fn another_protocol_version_is_reported_as_such() {
             max_sets: 1,
             max_lut_entries: 1,
         };
-        frame_with_version(2, f[2], &Message::Capabilities(caps))
+        frame_with_version(3, f[2], &Message::Capabilities(caps))
     });
-    let e = Client::connect(io, quick()).err().expect("version 2");
+    let e = Client::connect(io, quick()).err().expect("version 3");
     let m = e.to_string();
     assert!(
-        matches!(e, DeviceError::Version { device: 2, host: 1 }),
-        "{m}"
-    );
-    assert!(
-        m.contains("protocol version 2") && m.contains("version 1"),
+        matches!(e, DeviceError::Version { device: 3, host: 2 }),
         "{m}"
     );
     stop.store(true, Ordering::Relaxed);

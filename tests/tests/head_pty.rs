@@ -1,8 +1,10 @@
 //! The simulated head on a real pseudo-terminal, driven by the host's `fringe3d device` code:
-//! upload a rendered dataset's pattern set (8 × 1024 × 768), its calibration and reference map,
-//! scan, and compare the streamed phases and points bit for bit with what the desktop computes
-//! from the same images (`batch::decode_frames` through `cli::common::decode`, then
-//! `scan::ScanCalibration::reconstruct`, the path of `fringe3d scan`). Then the cable is pulled
+//! upload a rendered dataset's pattern set (8 × 1024 × 768, curved fringes), its calibration
+//! (the renderer's, arbitrary f64 values) and reference map, scan, and compare the streamed
+//! phases and points bit for bit with what the desktop computes from the same images
+//! (`batch::decode_frames` through `cli::common::decode`, then
+//! `scan::ScanCalibration::reconstruct` and the depth-edge filter, the path of `fringe3d scan`).
+//! The CLI's start / stop / abort drive the trigger sequence. Then the cable is pulled
 //! mid-upload: a clear error, and the upload resumes on the new port.
 
 use std::path::{Path, PathBuf};
@@ -13,15 +15,17 @@ use std::time::{Duration, Instant};
 use fringe3d::cli::common;
 use fringe3d::device::desc::{
     capture_sequence, fidelity, pattern_bytes, pattern_desc, phase_map_bytes, render_pattern,
-    round_calibration_to_f32, wire_calibration,
+    wire_calibration,
 };
 use fringe3d::device::{Client, ClientOptions, DeviceError, open_serial};
 use fringe3d::io::calibration::Calibration;
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::{Overrides, SceneSpec};
-use fringe3d::scan::ScanCalibration;
+use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d_core::math::canonical;
-use fringe3d_core::wire::{ScanOutput, ValidationStatus};
+use fringe3d_core::phase_function::Profile;
+use fringe3d_core::validity::Validity;
+use fringe3d_core::wire::{EdgeFilterMode, HeadState, ScanOutput, ValidationStatus};
 use fringe3d_firmware_sim::desktop::{OwnedMemory, Pty, Replay, serve, sim_board};
 use fringe3d_firmware_sim::port::QUEUE_LEN;
 use fringe3d_firmware_sim::sim::{FrameSource, NoSink, SimWorld};
@@ -29,15 +33,15 @@ use fringe3d_firmware_sim::{Head, HeadConfig, MemoryPlan, MemoryReport};
 
 const CAM: (u32, u32) = (320, 256);
 
-/// A small rendered sphere scene whose pattern set has f32-exact parameters (slope 2⁻⁸ rad/px,
-/// centred on the 1024-pixel DMD), so that the head's description of it is the desktop's set.
+/// A small rendered sphere scene under the curved fringes of examples/patterns/curved.toml
+/// (parameters and derived slope not f32-exact).
 fn dataset(root: &Path) -> PathBuf {
     let dir = root.join("sphere");
     let set_file = root.join("set.toml");
     std::fs::write(
         &set_file,
         "version = 1\npreset = \"paper8\"\nratio = 8.0\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
-         [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 511.5\nslope = 0.00390625\n",
+         [phase]\naxis = \"xi\"\nkind = \"centered\"\nspan = 5.2\ncurvature = 0.0002\nbend_center = 383.5\n",
     )
     .unwrap();
     let mut spec = SceneSpec::builtin("sphere").unwrap();
@@ -58,12 +62,21 @@ fn dataset(root: &Path) -> PathBuf {
         },
     )
     .unwrap();
-    // A calibration the head (f32 on the wire) and the desktop share exactly.
-    let cal = Calibration::load(&dir.join("calibration.toml")).unwrap();
-    round_calibration_to_f32(&cal)
-        .save(&dir.join("calibration_f32.toml"))
-        .unwrap();
     dir
+}
+
+/// `true` if some number of the calibration the head uses is not an f32 (so that carrying f32
+/// would lose it).
+fn has_non_f32_values(c: &Calibration) -> bool {
+    let r = c.reference.as_ref().unwrap();
+    let cam = &c.camera;
+    let mut all = vec![cam.fx, cam.fy, cam.cx, cam.cy, cam.skew];
+    all.extend(cam.distortion);
+    all.extend(c.projector_center);
+    all.extend(c.depth_range);
+    all.extend(r.point);
+    all.extend(r.normal);
+    all.iter().filter(|&&v| (v as f32) as f64 != v).count() >= 3
 }
 
 enum Cmd {
@@ -136,18 +149,34 @@ fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplu
     let dir = dataset(&root);
     eprintln!("dataset rendered in {:.1} s", t0.elapsed().as_secs_f64());
 
-    // The desktop's answer.
+    // The desktop's answer, `fringe3d scan`'s path: decode, reconstruct, depth-edge filter (80°).
     let patterns = dir.join("patterns.toml");
-    let calib = dir.join("calibration_f32.toml");
+    let calib = dir.join("calibration.toml");
     let ls = common::load_set(&patterns).unwrap();
+    assert!(ls.set.function().curvature() != 0.0);
+    assert!(
+        matches!(ls.set.function().profile(), Profile::Linear { slope, .. } if (*slope as f32) as f64 != *slope)
+    );
+    assert!(has_non_f32_values(&Calibration::load(&calib).unwrap()));
     let imgs = common::load_images(&ls, &[], true).unwrap();
     let dec = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).unwrap();
     let sc = ScanCalibration::load(&calib, ls.set.axis()).unwrap();
-    let cloud = sc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
+    let raw = sc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
+    let mut cloud = raw.clone();
+    filter_edges(&mut cloud, &sc.edge_filter(80.0).unwrap());
     assert!(
         cloud.valid_count() > (CAM.0 * CAM.1 / 4) as usize,
         "a real scene: {} valid points",
         cloud.valid_count()
+    );
+    let edges = cloud
+        .validity
+        .iter()
+        .filter(|&&v| v == Validity::DepthEdge as u8)
+        .count();
+    assert!(
+        edges > 50,
+        "the filter flags the silhouette: {edges} points"
     );
 
     // What the host sends.
@@ -196,7 +225,15 @@ fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplu
     .unwrap();
     assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
 
-    let out = c.scan(ScanOutput::Both, 0, 0, &mut |_, _| {}).unwrap();
+    let out = c
+        .scan(
+            ScanOutput::Both,
+            0,
+            0,
+            EdgeFilterMode::MaxAngle(80.0),
+            &mut |_, _| {},
+        )
+        .unwrap();
     eprintln!(
         "PTY scan of {}x{} phase + points: {} bytes received in {:.3} s",
         CAM.0, CAM.1, out.wire_bytes, out.seconds
@@ -218,6 +255,37 @@ fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplu
         out.point_validity.as_ref().unwrap() == &cloud.validity,
         "point validity differs"
     );
+    // A band of rows: filtered with their true neighbours, as in the whole cloud; and the last
+    // rows (no row below). Unfiltered points equal the desktop's unfiltered cloud.
+    let w = CAM.0 as usize;
+    for (first, n) in [(60u16, 9u16), (CAM.1 as u16 - 5, 5)] {
+        let part = c
+            .scan(
+                ScanOutput::Points,
+                first,
+                n,
+                EdgeFilterMode::MaxAngle(80.0),
+                &mut |_, _| {},
+            )
+            .unwrap();
+        let r = first as usize * w..(first + n) as usize * w;
+        assert!(bits(part.xyz.as_ref().unwrap()) == bits(&cloud.xyz[3 * r.start..3 * r.end]));
+        assert!(part.point_validity.as_ref().unwrap()[..] == cloud.validity[r]);
+    }
+    let unf = c
+        .scan(
+            ScanOutput::Points,
+            0,
+            0,
+            EdgeFilterMode::Off,
+            &mut |_, _| {},
+        )
+        .unwrap();
+    assert!(
+        bits(unf.xyz.as_ref().unwrap()) == bits(&raw.xyz),
+        "unfiltered points differ"
+    );
+    assert!(unf.point_validity.as_ref().unwrap() == &raw.validity);
 
     // The CLI scan writes the cloud.
     drop(c);
@@ -234,6 +302,47 @@ fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplu
     ])
     .unwrap();
     assert!(std::fs::metadata(&ply).unwrap().len() > 12 * cloud.valid_count() as u64);
+
+    // The trigger sequence from the CLI: once (back to ready by itself), then repeating until
+    // stop; abort clears it too.
+    let cli =
+        |what: &str| fringe3d::cli::run(["fringe3d", "--quiet", "device", what, "--port", &port]);
+    let status = || {
+        let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+        c.status().unwrap()
+    };
+    let rows0 = status().rows_sent;
+    cli("start").unwrap();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while status().state != HeadState::Ready {
+        assert!(Instant::now() < deadline, "a single run ends by itself");
+    }
+    let seq = capture_sequence(set, &desc, 10_000, 2_000).unwrap();
+    let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    c.configure_sequence(0, true, &seq).unwrap();
+    assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
+    drop(c);
+    cli("start").unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(
+        status().state,
+        HeadState::Running,
+        "a repeating sequence runs until stopped"
+    );
+    cli("stop").unwrap();
+    assert_eq!(status().state, HeadState::Ready);
+    cli("start").unwrap();
+    assert_eq!(status().state, HeadState::Running);
+    cli("abort").unwrap();
+    let st = status();
+    assert_eq!(
+        (st.state, st.rows_sent),
+        (HeadState::Ready, rows0),
+        "nothing streamed"
+    );
+    let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    c.configure_sequence(0, false, &seq).unwrap();
+    drop(c);
 
     // Pull the cable a third of the way into an upload of other data.
     let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
@@ -320,9 +429,7 @@ fn pty_throughput_full_size() {
         },
     )
     .unwrap();
-    let cal = Calibration::load(&dir.join("calibration.toml")).unwrap();
-    let calib = dir.join("calibration_f32.toml");
-    round_calibration_to_f32(&cal).save(&calib).unwrap();
+    let calib = dir.join("calibration.toml");
     let ls = common::load_set(&dir.join("patterns.toml")).unwrap();
     let set = &ls.set;
     let desc = pattern_desc(set, 8).unwrap();
@@ -359,7 +466,9 @@ fn pty_throughput_full_size() {
     )
     .unwrap();
     for output in [ScanOutput::Points, ScanOutput::Phase] {
-        let out = c.scan(output, 0, 0, &mut |_, _| {}).unwrap();
+        let out = c
+            .scan(output, 0, 0, EdgeFilterMode::MaxAngle(80.0), &mut |_, _| {})
+            .unwrap();
         println!(
             "PTY scan {output:?} 1280x1024: {} bytes received in {:.3} s (capture, decode, reconstruct and stream) = {:.1} MB/s",
             out.wire_bytes,

@@ -11,7 +11,12 @@
 use super::{MAX_PAYLOAD, WireError};
 
 /// The protocol version this module speaks; frames of any other version are rejected.
-pub const PROTOCOL_VERSION: u8 = 1;
+///
+/// Version 2 carries the pattern-set description and the calibration as f64 (the values the
+/// core's set-up consumes, so the head computes exactly what the desktop computes), describes
+/// knot profiles and curved fringes, and adds the edge-filter mode to Scan. Version 1 carried
+/// f32 and linear phase functions only.
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// Length of the header in bytes.
 pub const HEADER_LEN: usize = 6;

@@ -10,10 +10,15 @@ use super::crc::crc32c;
 use super::{Invalid, MAX_PAYLOAD, WireError};
 use crate::Validity;
 
-/// Most fringe levels (scale coefficients `c_k`) in a [`PatternSetDesc`].
-pub const MAX_LEVELS: usize = 8;
-/// Most phase shifts in one level of a [`PatternSetDesc`].
-pub const MAX_SHIFTS: usize = 16;
+/// Most fringe levels (scale coefficients `c_k`) in a [`PatternSetDesc`]: the core's
+/// [`pattern::MAX_LEVELS`](crate::pattern::MAX_LEVELS).
+pub const MAX_LEVELS: usize = crate::pattern::MAX_LEVELS;
+/// Most phase shifts in one level of a [`PatternSetDesc`]: the core's
+/// [`pattern::MAX_SHIFTS`](crate::pattern::MAX_SHIFTS).
+pub const MAX_SHIFTS: usize = crate::pattern::MAX_SHIFTS;
+/// Most knots of a [`Knots`] profile: the core's
+/// [`phase_function::MAX_KNOTS`](crate::phase_function::MAX_KNOTS).
+pub const MAX_KNOTS: usize = crate::phase_function::MAX_KNOTS;
 /// Most data bytes in one [`UploadChunk`]; a multiple of 4 so phase-map chunks can hold whole f32s.
 pub const MAX_CHUNK: usize = 4064;
 /// Most data bytes in one [`ResultRow`].
@@ -161,7 +166,7 @@ fn check(ok: bool, why: Invalid) -> Result<(), WireError> {
     }
 }
 
-fn finite(xs: &[f32]) -> Result<(), WireError> {
+fn finite64(xs: &[f64]) -> Result<(), WireError> {
     check(xs.iter().all(|x| x.is_finite()), Invalid::NotFinite)
 }
 
@@ -244,28 +249,65 @@ pub enum PatternAxis {
 /// The periodic function turning phase into intensity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Waveform {
-    /// `I = I_max/2 · (1 + sin(·))`, the paper's eq 5 (wire value 0).
+    /// `I = I_min + (I_max − I_min)/2 · (1 + sin(·))`, the paper's eq 5 (wire value 0).
     Sine,
-    /// `I = I_max/2 · (1 + cos(·))` (wire value 1).
+    /// `I = I_min + (I_max − I_min)/2 · (1 + cos(·))` (wire value 1).
     Cosine,
 }
 
-/// A linear phase function `Φ(ξ, η) = a·ξ + b·η + c` (radians; ξ, η in projector pixels).
+/// Knots of a monotonic cubic Hermite profile (the core's
+/// [`KnotProfile`](crate::phase_function::KnotProfile)): positions `s` (projector pixels),
+/// phases `phi` (radians) and slopes (radians per pixel) of the first `count` knots; the unused
+/// entries are `+0.0`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct LinearPhase {
-    /// Radians per projector column.
-    pub a: f32,
-    /// Radians per projector row.
-    pub b: f32,
-    /// Constant, radians.
-    pub c: f32,
+pub struct Knots {
+    /// Knots used, `2..=MAX_KNOTS`.
+    pub count: u8,
+    /// Knot positions.
+    pub s: [f64; MAX_KNOTS],
+    /// Knot phases.
+    pub phi: [f64; MAX_KNOTS],
+    /// Knot slopes.
+    pub slope: [f64; MAX_KNOTS],
+}
+
+/// The 1-D profile `g(t)` of the phase function along its axis (the core's
+/// [`Profile`](crate::phase_function::Profile)).
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum PhaseProfile {
+    /// `g(t) = slope·(t − origin)`, `slope > 0` (wire value 0): straight fringes of fixed width.
+    Linear {
+        /// Position (projector pixels) where the phase is zero.
+        origin: f64,
+        /// Radians per projector pixel.
+        slope: f64,
+    },
+    /// A monotonic cubic through knots (wire value 1): fringes of varying width.
+    Knots(Knots),
+}
+
+/// The phase function `Φ(ξ, η) = g(t + curvature·(w − bend_center)²)`, `t` the coordinate along
+/// `axis`, `w` the other one (the core's [`PhaseFunction`](crate::phase_function::PhaseFunction);
+/// curvature 0: straight fringes).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PhaseDesc {
+    /// The axis along which Φ increases.
+    pub axis: PatternAxis,
+    /// The profile `g`.
+    pub profile: PhaseProfile,
+    /// Bending coefficient `a`, 1/pixel.
+    pub curvature: f64,
+    /// The line `w₀` about which fringes bend, pixels.
+    pub bend_center: f64,
 }
 
 /// The phase shifts of one level.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Shifts {
-    /// The first `count` of `n` equally spaced shifts `2π·i/n`, `i = 0..count` (eq 14; the
-    /// paper's eq 7 levels 0 and 1 are `{ n: 4, count: 2 }`). `1 <= count <= n <= MAX_SHIFTS`.
+    /// The first `count` of `n` equally spaced shifts `2π·i/n` (evaluated in f64 as
+    /// `TAU * i as f64 / n as f64`), `i = 0..count` (eq 14; the paper's eq 7 levels 0 and 1 are
+    /// `{ n: 4, count: 2 }`). `1 <= count <= n <= MAX_SHIFTS`.
     Uniform {
         /// Number of equal steps in 2π.
         n: u8,
@@ -278,7 +320,7 @@ pub enum Shifts {
         /// Number of shifts used.
         count: u8,
         /// The shifts, radians.
-        radians: [f32; MAX_SHIFTS],
+        radians: [f64; MAX_SHIFTS],
     },
 }
 
@@ -300,7 +342,7 @@ impl Shifts {
                 let count = count as usize;
                 check((1..=MAX_SHIFTS).contains(&count), Invalid::Shifts)?;
                 let (used, unused) = radians.split_at(count);
-                finite(used)?;
+                finite64(used)?;
                 check(unused.iter().all(|x| x.to_bits() == 0), Invalid::UnusedSlot)
             }
         }
@@ -311,7 +353,7 @@ impl Shifts {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Level {
     /// Scale coefficient `c_k` (eq 7), finite and `> 0`.
-    pub scale: f32,
+    pub scale: f64,
     /// The level's phase shifts.
     pub shifts: Shifts,
 }
@@ -328,10 +370,13 @@ impl Level {
     }
 }
 
-/// A parametric pattern set the head generates row by row (the paper's eq 7 generalised):
-/// pattern `(k, n)` has intensity
-/// `I_max/2 · (1 + wave(c_k · Φ(ξ, η) + shift_{k,n} + phase_offset))`, quantised to `bit_depth`
-/// bits, levels in order, shifts in order within a level.
+/// A parametric pattern set the head generates row by row: the core's
+/// [`PatternSet`](crate::pattern::PatternSet) (eq 7 generalised) with every parameter as the
+/// core holds it (f64), so the head's set is the desktop's bit for bit
+/// ([`PatternSetDesc::from_set`], [`PatternSetDesc::to_set`]). Pattern `(k, n)` has intensity
+/// `I_min + (I_max − I_min)/2 · (1 + wave(c_k · Φ(ξ, η) + shift_{k,n} + phase_offset))`, quantised
+/// to `bit_depth` bits; wire pattern indices count levels in order, shifts in order within a
+/// level.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PatternSetDesc {
     /// Projector width, pixels, `>= 1`.
@@ -340,19 +385,19 @@ pub struct PatternSetDesc {
     pub height: u16,
     /// Bits per pattern pixel, `1..=MAX_BIT_DEPTH`.
     pub bit_depth: u8,
-    /// Peak intensity `I_max`, `0 < I_max <= 2^bit_depth - 1`.
-    pub i_max: f32,
-    /// The axis along which Φ is monotonic; its coefficient in `phase` must be non-zero.
-    pub axis: PatternAxis,
+    /// Gray level of the fringe minimum, `0 <= I_min < I_max`.
+    pub i_min: f64,
+    /// Peak intensity `I_max`, `<= 2^bit_depth - 1`.
+    pub i_max: f64,
     /// Sine or cosine modulation.
     pub waveform: Waveform,
     /// Constant phase added to every pattern, radians.
-    pub phase_offset: f32,
+    pub phase_offset: f64,
     /// The phase function Φ.
-    pub phase: LinearPhase,
+    pub phase: PhaseDesc,
     /// Levels used, `1..=MAX_LEVELS`.
     pub level_count: u8,
-    /// The levels; slots from `level_count` on must be [`Level::UNUSED`].
+    /// The levels, coarse to fine; slots from `level_count` on must be [`Level::UNUSED`].
     pub levels: [Level; MAX_LEVELS],
 }
 
@@ -367,29 +412,45 @@ impl PatternSetDesc {
         self.used_levels().iter().map(|l| l.shifts.count()).sum()
     }
 
-    /// Check every field (see the field docs).
+    /// Check every field (see the field docs). What only the whole set can tell (monotonic,
+    /// continuous phase, coarse range, scales increasing, shifts separating the unknowns) is
+    /// checked by [`PatternSetDesc::to_set`].
     pub fn validate(&self) -> Result<(), WireError> {
         check(self.width >= 1 && self.height >= 1, Invalid::Dimension)?;
         check(bit_depth_ok(self.bit_depth), Invalid::BitDepth)?;
-        finite(&[
+        let p = &self.phase;
+        finite64(&[
+            self.i_min,
             self.i_max,
             self.phase_offset,
-            self.phase.a,
-            self.phase.b,
-            self.phase.c,
+            p.curvature,
+            p.bend_center,
         ])?;
-        let full = ((1u32 << self.bit_depth) - 1) as f32;
-        check(self.i_max > 0.0 && self.i_max <= full, Invalid::Intensity)?;
-        let along = match self.axis {
-            PatternAxis::Xi => self.phase.a,
-            PatternAxis::Eta => self.phase.b,
-        };
-        check(along != 0.0, Invalid::PhaseFunction)?;
+        let full = ((1u32 << self.bit_depth) - 1) as f64;
+        check(
+            self.i_min >= 0.0 && self.i_min < self.i_max && self.i_max <= full,
+            Invalid::Intensity,
+        )?;
+        match &p.profile {
+            PhaseProfile::Linear { origin, slope } => {
+                finite64(&[*origin, *slope])?;
+                check(*slope > 0.0, Invalid::PhaseFunction)?;
+            }
+            PhaseProfile::Knots(k) => {
+                let n = k.count as usize;
+                check((2..=MAX_KNOTS).contains(&n), Invalid::PhaseFunction)?;
+                for a in [&k.s, &k.phi, &k.slope] {
+                    let (used, unused) = a.split_at(n);
+                    finite64(used)?;
+                    check(unused.iter().all(|x| x.to_bits() == 0), Invalid::UnusedSlot)?;
+                }
+            }
+        }
         let n = self.level_count as usize;
         check((1..=MAX_LEVELS).contains(&n), Invalid::LevelCount)?;
         let (used, unused) = self.levels.split_at(n);
         for level in used {
-            finite(&[level.scale])?;
+            finite64(&[level.scale])?;
             check(level.scale > 0.0, Invalid::Scale)?;
             level.shifts.validate()?;
         }
@@ -534,7 +595,9 @@ pub struct UploadAck {
 // ---------------------------------------------------------------------------------------------
 // Calibration
 
-/// Camera intrinsics: pinhole with skew and Brown distortion (OpenCV order).
+/// Camera intrinsics: pinhole with skew and Brown distortion (OpenCV order), the values the
+/// core's [`CameraModel`](crate::camera::CameraModel) is built from (f64, as the desktop holds
+/// them).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CameraModel {
     /// Image width, pixels, `>= 1`.
@@ -542,35 +605,36 @@ pub struct CameraModel {
     /// Image height, pixels, `>= 1`.
     pub height: u16,
     /// Focal length in x, pixels, `> 0`.
-    pub fx: f32,
+    pub fx: f64,
     /// Focal length in y, pixels, `> 0`.
-    pub fy: f32,
+    pub fy: f64,
     /// Principal point x, pixels.
-    pub cx: f32,
+    pub cx: f64,
     /// Principal point y, pixels.
-    pub cy: f32,
+    pub cy: f64,
     /// Skew α.
-    pub skew: f32,
+    pub skew: f64,
     /// `[k1, k2, p1, p2, k3]`.
-    pub distortion: [f32; 5],
+    pub distortion: [f64; 5],
 }
 
 /// Host → head: everything reconstruction needs besides the reference phase map (mm, camera
-/// frame).
+/// frame): the inputs of the core's [`Setup`](crate::reconstruct::Setup), in f64, so the head's
+/// reconstructor is the desktop's ([`Calibration::reconstructor`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Calibration {
     /// The camera.
     pub camera: CameraModel,
     /// Projector centre of projection.
-    pub projector_centre: [f32; 3],
+    pub projector_centre: [f64; 3],
     /// A point of the reference plane.
-    pub plane_point: [f32; 3],
+    pub plane_point: [f64; 3],
     /// The reference plane's normal, non-zero (need not be unit length).
-    pub plane_normal: [f32; 3],
+    pub plane_normal: [f64; 3],
     /// Nearest accepted depth.
-    pub depth_min: f32,
+    pub depth_min: f64,
     /// Farthest accepted depth, `> depth_min`.
-    pub depth_max: f32,
+    pub depth_max: f64,
 }
 
 impl Calibration {
@@ -578,12 +642,12 @@ impl Calibration {
     pub fn validate(&self) -> Result<(), WireError> {
         let c = &self.camera;
         check(c.width >= 1 && c.height >= 1, Invalid::Dimension)?;
-        finite(&[c.fx, c.fy, c.cx, c.cy, c.skew])?;
-        finite(&c.distortion)?;
-        finite(&self.projector_centre)?;
-        finite(&self.plane_point)?;
-        finite(&self.plane_normal)?;
-        finite(&[self.depth_min, self.depth_max])?;
+        finite64(&[c.fx, c.fy, c.cx, c.cy, c.skew])?;
+        finite64(&c.distortion)?;
+        finite64(&self.projector_centre)?;
+        finite64(&self.plane_point)?;
+        finite64(&self.plane_normal)?;
+        finite64(&[self.depth_min, self.depth_max])?;
         check(c.fx > 0.0 && c.fy > 0.0, Invalid::Intrinsics)?;
         check(
             self.plane_normal.iter().any(|&x| x != 0.0),
@@ -827,8 +891,19 @@ pub enum ScanOutput {
     Both,
 }
 
+/// Whether a point scan runs the depth-edge filter ([`EdgeFilter`](crate::filter::EdgeFilter),
+/// as `fringe3d scan` does by default).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum EdgeFilterMode {
+    /// No filter (wire value 0).
+    Off,
+    /// Flag points steeper than this many degrees from facing the camera, `0 < angle < 90`
+    /// (wire value 1, then the f64).
+    MaxAngle(f64),
+}
+
 /// Host → head: run the configured sequence, decode, stream rows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ScanRequest {
     /// What to stream.
     pub output: ScanOutput,
@@ -836,6 +911,21 @@ pub struct ScanRequest {
     pub first_row: u16,
     /// Number of rows (0 = to the last row).
     pub row_count: u16,
+    /// The depth-edge filter of point rows (ignored for phase rows).
+    pub edge_filter: EdgeFilterMode,
+}
+
+impl ScanRequest {
+    /// Check the filter angle.
+    pub fn validate(&self) -> Result<(), WireError> {
+        match self.edge_filter {
+            EdgeFilterMode::Off => Ok(()),
+            EdgeFilterMode::MaxAngle(a) => {
+                finite64(&[a])?;
+                check(a > 0.0 && a < 90.0, Invalid::EdgeFilter)
+            }
+        }
+    }
 }
 
 /// The kind of a [`ResultRow`].
@@ -1117,7 +1207,7 @@ impl Nak {
 /// Every message, request or reply. The variant's [`Command`] is the header's command byte; its
 /// body, postcard-encoded, is the payload (empty for the unit variants).
 ///
-/// About 610 bytes, nearly all of it the pattern-set variant; without alloc there is nothing to box
+/// About 1.4 KB, nearly all of it the pattern-set variant; without alloc there is nothing to box
 /// it into, and a head keeps one message at a time.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1237,13 +1327,13 @@ impl<'a> Message<'a> {
             Message::Validation(m) => m.validate(),
             Message::Status(m) => m.errors.validate(),
             Message::ResultRow(m) => m.validate(),
+            Message::Scan(m) => m.validate(),
             Message::Hello(_)
             | Message::QueryUpload(_)
             | Message::ConfirmUpload(_)
             | Message::ValidateSequence
             | Message::Start
             | Message::Stop
-            | Message::Scan(_)
             | Message::Abort
             | Message::GetStatus
             | Message::Ack(_)

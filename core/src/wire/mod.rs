@@ -30,7 +30,7 @@
 //!
 //! | offset   | size | field                                                    |
 //! |---------:|-----:|----------------------------------------------------------|
-//! | 0        | 1    | protocol version = 1 ([`PROTOCOL_VERSION`])              |
+//! | 0        | 1    | protocol version = 2 ([`PROTOCOL_VERSION`])              |
 //! | 1        | 1    | flags (below)                                            |
 //! | 2        | 1    | sequence number                                          |
 //! | 3        | 1    | command id (table below)                                 |
@@ -65,7 +65,8 @@
 //! Fields in the order listed, no padding, no enum tag for the body itself (the command id is the
 //! tag): `u8` one byte; `u16`, `u32` unsigned LEB128 varint (7 bits per byte, least significant
 //! group first, high bit = more; at most 3 / 5 bytes; emit the shortest form, receivers also
-//! accept padded forms); `bool` one byte 0 or 1; `f32` 4 bytes IEEE-754 LE; `[T; N]` N elements;
+//! accept padded forms); `bool` one byte 0 or 1; `f32` 4 bytes IEEE-754 LE; `f64` 8 bytes
+//! IEEE-754 LE; `[T; N]` N elements;
 //! `bytes` varint length then the bytes; an enum is a varint variant index (shown as `[i]`) then
 //! the variant's fields; a struct its fields.
 //!
@@ -77,13 +78,13 @@
 //! | `0x12` | UploadChunk         | 1 | target T, offset u32, crc u32, data bytes (1..=4064)                        | UploadAck |
 //! | `0x13` | QueryUpload         | 0 | target T                                                                    | UploadAck |
 //! | `0x14` | ConfirmUpload       | 1 | target T                                                                    | Ack |
-//! | `0x18` | UploadCalibration   | 1 | width u16, height u16, fx, fy, cx, cy, skew f32, k1, k2, p1, p2, k3 f32, projector_centre 3×f32, plane_point 3×f32, plane_normal 3×f32, depth_min f32, depth_max f32 | Ack |
+//! | `0x18` | UploadCalibration   | 1 | width u16, height u16, fx, fy, cx, cy, skew f64, k1, k2, p1, p2, k3 f64, projector_centre 3×f64, plane_point 3×f64, plane_normal 3×f64, depth_min f64, depth_max f64 | Ack |
 //! | `0x19` | BeginPhaseMapUpload | 1 | width u16, height u16, total_bytes u32, digest u32                          | UploadAck |
 //! | `0x20` | ConfigureSequence   | 1 | set_id u8, repeat bool, entries bytes (n × 12-byte [`LutEntry`], 1..=256)   | Ack |
 //! | `0x21` | ValidateSequence    | 0 | (empty)                                                                     | Validation |
 //! | `0x22` | Start               | 1 | (empty)                                                                     | Ack |
 //! | `0x23` | Stop                | 1 | (empty)                                                                     | Ack |
-//! | `0x30` | Scan                | 1 | output `[0]` Phase `[1]` Points `[2]` Both, first_row u16, row_count u16     | Ack, rows, ScanDone |
+//! | `0x30` | Scan                | 1 | output `[0]` Phase `[1]` Points `[2]` Both, first_row u16, row_count u16, edge filter `[0]` Off `[1]` MaxAngle f64 (degrees, `0 < a < 90`) | Ack, rows, ScanDone |
 //! | `0x31` | Abort               | 1 | (empty)                                                                     | Ack |
 //! | `0x32` | GetStatus           | 0 | (empty)                                                                     | Status |
 //! | `0x80` | Capabilities        | 0 | protocol_version u8, fw major u8, minor u8, patch u8, sensor_width u16, sensor_height u16, projector_width u16, projector_height u16, free_memory u32, max_chunk u16, max_sets u8, max_lut_entries u16 | |
@@ -97,11 +98,15 @@
 //!
 //! `T` ([`UploadTarget`]) is `[0] set_id u8` (a pattern set) or `[1]` (the reference phase map).
 //!
-//! [`PatternSetDesc`]: width u16, height u16, bit_depth u8, i_max f32, axis `[0]` ξ `[1]` η,
-//! waveform `[0]` sine `[1]` cosine, phase_offset f32, a f32, b f32, c f32 (Φ = a·ξ + b·η + c),
-//! level_count u8, then 8 levels, each: scale f32, shifts = `[0]` Uniform n u8, count u8 or
-//! `[1]` Explicit count u8, 16 × f32. Unused levels are `0.0, [0] 0 0`; unused explicit shifts
-//! are `0.0`.
+//! [`PatternSetDesc`]: width u16, height u16, bit_depth u8, i_min f64, i_max f64, waveform `[0]`
+//! sine `[1]` cosine, phase_offset f64, then the phase function: axis `[0]` ξ `[1]` η, profile
+//! `[0]` Linear origin f64, slope f64 (`g(t) = slope·(t − origin)`) or `[1]` Knots count u8,
+//! 16 × f64 positions, 16 × f64 phases, 16 × f64 slopes (monotonic cubic Hermite), curvature f64,
+//! bend_center f64 (`Φ = g(t + curvature·(w − bend_center)²)`); then level_count u8 and 6 levels,
+//! each: scale f64, shifts = `[0]` Uniform n u8, count u8 (shifts `2π·i/n`, `i < count`) or `[1]`
+//! Explicit count u8, 16 × f64. Unused levels are `0.0, [0] 0 0`; unused knots and explicit shifts
+//! are `0.0`. These are the parameters of the core's `PatternSet` exactly ([`desc`] maps both
+//! ways), so the head's set is the desktop's bit for bit.
 //!
 //! [`LutEntry`] (12 bytes, LE, not postcard): pattern u16, exposure_us u32, dark_us u32,
 //! bit_depth u8, flags u8 (bit 0 wait for trigger, bit 1 trigger out).
@@ -111,20 +116,27 @@
 //! column. Pattern image uploads: one byte per pixel, row-major, images in order.
 //!
 //! Worked example: GetStatus (`0x32`), seq 7, REPLY_WANTED, empty payload. Header
-//! `01 02 07 32 00 00`; CRC-32C of those six bytes `0x0FB1A492`, sent LE: decoded frame
-//! `01 02 07 32 00 00 92 A4 B1 0F`; COBS and delimiter: `05 01 02 07 32 01 05 92 A4 B1 0F 00`.
+//! `02 02 07 32 00 00`; CRC-32C of those six bytes `0x3B0D6F48`, sent LE: decoded frame
+//! `02 02 07 32 00 00 48 6F 0D 3B`; COBS and delimiter: `05 02 02 07 32 01 05 48 6F 0D 3B 00`.
+//!
+//! Version history: 1 carried the pattern set (linear phase only) and the calibration as f32 and
+//! had no edge-filter field in Scan. A head and a host of different versions refuse each other's
+//! frames: the head answers a frame of another version with Nak Version (detail: its version),
+//! which the host reports as such.
 //! `core/tests/wire_vectors.rs` spells out more, one per kind of body.
 //!
 //! [postcard]: https://postcard.jamesmunns.com/wire-format
 
 pub mod cobs;
 pub mod crc;
+pub mod desc;
 pub mod frame;
 pub mod header;
 pub mod link;
 pub mod message;
 mod packet;
 
+pub use desc::{DescError, image_index};
 pub use frame::{DecoderStats, FrameDecoder, MAX_ENCODED_FRAME, MAX_FRAME, MIN_FRAME};
 pub use header::{Flags, HEADER_LEN, Header, PROTOCOL_VERSION};
 pub use link::{FaultConfig, FaultInjector, FaultStats, Loopback, LoopbackError, XorShift64};
@@ -289,6 +301,8 @@ pub enum Invalid {
     RowData = 20,
     /// A validity byte is not a [`Validity`](crate::Validity) code.
     ValidityCode = 21,
+    /// The edge-filter angle is not in `(0, 90)` degrees.
+    EdgeFilter = 22,
 }
 
 impl Invalid {
@@ -316,12 +330,13 @@ impl Invalid {
             Invalid::ReservedBits => "reserved-bits",
             Invalid::RowData => "row-data",
             Invalid::ValidityCode => "validity-code",
+            Invalid::EdgeFilter => "edge-filter",
         }
     }
 
     /// The rule with code `code`, if any.
     pub const fn from_u8(code: u8) -> Option<Invalid> {
-        const ALL: [Invalid; 21] = [
+        const ALL: [Invalid; 22] = [
             Invalid::Dimension,
             Invalid::BitDepth,
             Invalid::Intensity,
@@ -343,6 +358,7 @@ impl Invalid {
             Invalid::ReservedBits,
             Invalid::RowData,
             Invalid::ValidityCode,
+            Invalid::EdgeFilter,
         ];
         if code >= 1 && (code as usize) <= ALL.len() {
             Some(ALL[code as usize - 1])

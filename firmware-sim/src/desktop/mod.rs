@@ -98,7 +98,8 @@ pub struct OwnedMemory {
     camera_line: std::vec::Vec<u16>,
     projector_line: std::vec::Vec<u8>,
     rows_f32: [std::vec::Vec<f32>; 4],
-    rows_u8: [std::vec::Vec<u8>; 3],
+    rows_u8: [std::vec::Vec<u8>; 2],
+    point_codes: std::vec::Vec<u8>,
     xyz: std::vec::Vec<f32>,
 }
 
@@ -119,15 +120,16 @@ impl OwnedMemory {
                 std::vec![0.0; w],
                 std::vec![0.0; w],
             ],
-            rows_u8: [std::vec![0; w], std::vec![0; w], std::vec![0; w]],
-            xyz: std::vec![0.0; 3 * w],
+            rows_u8: [std::vec![0; w], std::vec![0; w]],
+            point_codes: std::vec![0; 4 * w],
+            xyz: std::vec![0.0; 9 * w],
         }
     }
 
     /// The buffers as a [`HeadMemory`].
     pub fn memory(&mut self) -> HeadMemory<'_> {
         let [phase_row, modulation_row, dc_row, reference_phase] = &mut self.rows_f32;
-        let [validity_row, point_validity, reference_validity] = &mut self.rows_u8;
+        let [validity_row, reference_validity] = &mut self.rows_u8;
         HeadMemory {
             decode_state: &mut self.decode_state,
             decode_flags: &mut self.decode_flags,
@@ -139,8 +141,8 @@ impl OwnedMemory {
             modulation_row,
             dc_row,
             validity_row,
-            xyz_row: &mut self.xyz,
-            point_validity,
+            xyz_rows: &mut self.xyz,
+            point_codes: &mut self.point_codes,
             reference_phase,
             reference_validity,
         }

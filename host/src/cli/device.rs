@@ -1,16 +1,19 @@
-//! `fringe3d device`: talk to a scan head over a serial port — `info`, `upload`, `scan`.
+//! `fringe3d device`: talk to a scan head over a serial port — `info`, `upload`, `scan`, and
+//! the trigger-sequence controls `start`, `stop`, `abort`.
 
 use super::{Global, common};
 use crate::device::desc::{
-    calibration_is_f32, capture_sequence, fidelity, pattern_bytes, pattern_desc, phase_map_bytes,
-    render_pattern, wire_calibration,
+    capture_sequence, fidelity, pattern_bytes, pattern_desc, phase_map_bytes, render_pattern,
+    wire_calibration,
 };
 use crate::device::{Client, ClientOptions, DeviceError, SerialTransport, nak_reason, open_serial};
 use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, read_gray, write_tiff_f32};
 use crate::io::ply::{PlyOptions, PlyWriter, PointRow};
 use anyhow::{Context, Result, bail};
-use fringe3d_core::wire::{HeadErrors, NakCode, PROTOCOL_VERSION, ScanOutput, ValidationStatus};
+use fringe3d_core::wire::{
+    EdgeFilterMode, HeadErrors, HeadState, NakCode, PROTOCOL_VERSION, ScanOutput, ValidationStatus,
+};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -19,7 +22,8 @@ use std::time::Duration;
 #[command(
     after_help = "Examples:\n  fringe3d device info --port /dev/ttyUSB0\n  \
 fringe3d device upload --port /dev/ttyUSB0 --patterns scan/patterns.toml --calibration scan/calibration.toml\n  \
-fringe3d device scan --port /dev/ttyUSB0 --out cloud.ply\n\n\
+fringe3d device scan --port /dev/ttyUSB0 --out cloud.ply\n  \
+fringe3d device start --port /dev/ttyUSB0   (project the sequence; stop / abort end it)\n\n\
 The simulated head `fringe3d-head DATASET` prints the PTY path to use as --port. See docs/device.md."
 )]
 pub struct DeviceArgs {
@@ -38,6 +42,14 @@ pub enum DeviceCommand {
     Upload(UploadArgs),
     /// Scan: the head projects, captures, decodes, reconstructs and streams the rows back.
     Scan(ScanArgs),
+    /// Start the configured trigger sequence: the head projects it (and triggers the camera as
+    /// configured) once, or until `stop` if it was uploaded with `--repeat`. Nothing is streamed.
+    Start(PortArgs),
+    /// Stop a running sequence after its current entry (refused while a scan streams: use abort).
+    Stop(PortArgs),
+    /// Abort whatever runs (a sequence or a scan) and clear a fault; the head returns to ready
+    /// (or idle after a fault).
+    Abort(PortArgs),
 }
 
 /// The serial port and link options.
@@ -87,6 +99,10 @@ pub struct UploadArgs {
     /// Dark time after each pattern (covers the camera readout), µs.
     #[arg(long, default_value_t = 2_000)]
     pub dark_us: u32,
+    /// Configure the sequence to repeat until `fringe3d device stop` (for `device start`; a scan
+    /// always runs it once).
+    #[arg(long)]
+    pub repeat: bool,
 }
 
 /// What a scan streams.
@@ -124,6 +140,13 @@ pub struct ScanArgs {
     /// Silence tolerated while the head captures, seconds.
     #[arg(long, default_value_t = 30.0)]
     pub scan_timeout_s: f64,
+    /// Keep points at depth discontinuities ("flying pixels" that mix two surfaces); by default
+    /// the head filters them as `fringe3d scan` does.
+    #[arg(long)]
+    pub no_edge_filter: bool,
+    /// Steepest accepted surface for the edge filter, degrees from facing the camera.
+    #[arg(long, default_value_t = 80.0)]
+    pub max_angle: f64,
 }
 
 fn connect(p: &PortArgs, scan_timeout: Option<f64>) -> Result<Client<SerialTransport>> {
@@ -145,7 +168,57 @@ pub fn run(a: DeviceArgs, g: Global) -> Result<()> {
         DeviceCommand::Info(p) => info(p, g),
         DeviceCommand::Upload(u) => upload(u, g),
         DeviceCommand::Scan(s) => scan(s, g),
+        DeviceCommand::Start(p) => control(p, Control::Start, g),
+        DeviceCommand::Stop(p) => control(p, Control::Stop, g),
+        DeviceCommand::Abort(p) => control(p, Control::Abort, g),
     }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Control {
+    Start,
+    Stop,
+    Abort,
+}
+
+/// `device start | stop | abort`: send the command, then report the head's state.
+fn control(p: PortArgs, what: Control, g: Global) -> Result<()> {
+    let mut c = connect(&p, None)?;
+    let name = match what {
+        Control::Start => "start",
+        Control::Stop => "stop",
+        Control::Abort => "abort",
+    };
+    let r = match what {
+        Control::Start => c.start(),
+        Control::Stop => c.stop(),
+        Control::Abort => c.abort(),
+    };
+    match r {
+        Err(DeviceError::Refused {
+            code: NakCode::Busy,
+            ..
+        }) if what == Control::Stop => bail!(
+            "the head is scanning: a scan is not stopped but aborted (`fringe3d device abort`)"
+        ),
+        r => r.with_context(|| format!("device {name} on {}", p.port))?,
+    }
+    let st = c.status()?;
+    if g.json {
+        println!(
+            "{}",
+            serde_json::json!({"command": format!("device {name}"), "port": p.port, "state": state_name(st.state),
+                "errors": error_names(st.errors)})
+        );
+    } else if !g.quiet {
+        let note = match (what, st.state) {
+            (Control::Start, HeadState::Running) => "; `fringe3d device stop` or `abort` ends it",
+            (Control::Start, _) => " (the sequence already ran to its end)",
+            _ => "",
+        };
+        println!("{name}: the head is {}{note}", state_name(st.state));
+    }
+    Ok(())
 }
 
 fn state_name(s: fringe3d_core::wire::HeadState) -> &'static str {
@@ -253,7 +326,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
     let images = if a.parametric {
         if !fid.patterns {
             bail!(
-                "{}: the head's own rendering of this set would differ from `fringe3d patterns` (its parameters are not all f32); upload the images instead (omit --parametric)",
+                "{}: the head's own rendering of this set would differ from `fringe3d patterns` (a bug: its wire description does not rebuild it); upload the images instead (omit --parametric)",
                 a.patterns.display()
             );
         }
@@ -302,7 +375,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
             let w =
                 wire_calibration(&cal).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
             let map = phase_map_bytes(&sc.reference_phase, sc.width());
-            Some((path.clone(), cal, w, map, sc.width(), sc.height()))
+            Some((path.clone(), w, map, sc.width(), sc.height()))
         }
         None => None,
     };
@@ -348,13 +421,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
             desc.pattern_count()
         );
     }
-    if let Some((path, cal, w, map, mw, mh)) = &calib {
-        if !calibration_is_f32(cal) && !g.quiet {
-            eprintln!(
-                "warning: {}: some calibration values are not f32; the head gets them rounded, so its points may differ from the desktop's in the last bits",
-                path.display()
-            );
-        }
+    if let Some((_, w, map, mw, mh)) = &calib {
         if (caps.sensor_width as usize, caps.sensor_height as usize) != (*mw, *mh) {
             bail!(
                 "the head's camera is {}x{}, the calibration's {}x{}",
@@ -379,12 +446,12 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
     }
     if !fid.decoder && !g.quiet {
         eprintln!(
-            "warning: the head's decoder for this set differs from the desktop's (parameters not all f32): phases may differ in the last bits"
+            "warning: the head's decoder for this set differs from the desktop's (a bug: its wire description does not rebuild the set): phases may differ in the last bits"
         );
     }
     let lut = capture_sequence(set, &desc, a.exposure_us, a.dark_us)
         .map_err(|m| anyhow::anyhow!("{m}"))?;
-    c.configure_sequence(a.set_id, false, &lut)?;
+    c.configure_sequence(a.set_id, a.repeat, &lut)?;
     let v = c.validate()?;
     summary["validation"] = serde_json::json!(v.0);
     let blocking = v.0 & !(ValidationStatus::NO_CALIBRATION | ValidationStatus::NO_REFERENCE);
@@ -423,9 +490,20 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
         (OutputKind::Phase, _, _) => ScanOutput::Phase,
         (OutputKind::Points, _, _) => ScanOutput::Points,
     };
+    let edge_filter = if a.no_edge_filter {
+        EdgeFilterMode::Off
+    } else {
+        if !(a.max_angle > 0.0 && a.max_angle < 90.0) {
+            bail!(
+                "--max-angle: the edge filter's angle must be in (0, 90) degrees, got {}",
+                a.max_angle
+            );
+        }
+        EdgeFilterMode::MaxAngle(a.max_angle)
+    };
     let mut c = connect(&a.port, Some(a.scan_timeout_s))?;
     let (pb, mut cb) = bar(0, "rows", g.quiet);
-    let r = c.scan(output, a.first_row, a.rows, &mut cb);
+    let r = c.scan(output, a.first_row, a.rows, edge_filter, &mut cb);
     pb.finish_and_clear();
     let r = match r {
         Err(DeviceError::Refused {

@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::{
     BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, DefinePatternSet,
-    FirmwareVersion, HeadState, Hello, LutEntry, LutTable, Message, Nak, NakCode,
+    EdgeFilterMode, FirmwareVersion, HeadState, Hello, LutEntry, LutTable, Message, Nak, NakCode,
     PHASE_MAP_BYTES_PER_PIXEL, PROTOCOL_VERSION, Packet, PatternSetDesc, RowKind, ScanOutput,
     ScanRequest, Sequence, Status, UploadAck, UploadChunk, UploadTarget, ValidationStatus,
     WireError, check_header, frame,
@@ -599,12 +599,16 @@ impl<T: Transport> Client<T> {
     }
 
     /// Scan: run the sequence, stream rows `first_row .. first_row + row_count` (0: to the last
-    /// row) of `output`, and request lost rows again until all are in.
+    /// row) of `output`, and request lost rows again until all are in. Point rows go through the
+    /// head's depth-edge filter when `edge_filter` says so (`fringe3d scan` filters at 80° by
+    /// default); the head filters each row with its true neighbours, so the rows of a partial
+    /// scan or a re-request equal those of a whole-image scan.
     pub fn scan(
         &mut self,
         output: ScanOutput,
         first_row: u16,
         row_count: u16,
+        edge_filter: EdgeFilterMode,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<ScanOutcome, DeviceError> {
         let t0 = Instant::now();
@@ -644,7 +648,7 @@ impl<T: Transport> Client<T> {
         let mut rescans = 0u32;
         loop {
             for &(f, n) in &ranges {
-                self.scan_stream(output, f as u16, n as u16, &mut acc, progress)?;
+                self.scan_stream(output, f as u16, n as u16, edge_filter, &mut acc, progress)?;
             }
             let missing: Vec<usize> = (0..rows).filter(|&r| !acc.complete(r)).collect();
             if missing.is_empty() {
@@ -688,6 +692,7 @@ impl<T: Transport> Client<T> {
         output: ScanOutput,
         first: u16,
         count: u16,
+        edge_filter: EdgeFilterMode,
         acc: &mut Assembly,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<(), DeviceError> {
@@ -696,6 +701,7 @@ impl<T: Transport> Client<T> {
             output,
             first_row: first,
             row_count: count,
+            edge_filter,
         });
         let mut seqs: Vec<u8> = Vec::new();
         let mut started = false;

@@ -1,29 +1,24 @@
 //! Desktop data in wire form: pattern sets, calibrations, trigger tables, pattern images and the
 //! reference phase map.
 //!
-//! The wire carries f32 where the desktop files hold f64, so a value survives the trip exactly
-//! only if it is an f32. [`Fidelity`] says, for a pattern set, whether the set the head rebuilds
-//! from its description (the same mapping as the head's `desc` module, repeated here and checked
-//! against it by the firmware's tests) is the desktop's set bit for bit — then the head's own
-//! patterns equal `fringe3d patterns` and its decoder equals the desktop's — and
-//! [`calibration_is_f32`] says the same of a calibration.
-
-use std::f64::consts::TAU;
+//! The mapping between the core's types and the wire's descriptions is the core's own
+//! (`fringe3d_core::wire::desc`), the same code the head runs. Since protocol version 2 it carries
+//! every parameter as the f64 the core holds, so the head rebuilds the desktop's pattern set and
+//! reconstructor exactly: its generated patterns are the PNGs of `fringe3d patterns` and its
+//! phases and points those of `fringe3d scan`, whatever the parameters. [`fidelity`] checks that
+//! (a rebuilt set that differed would be a bug).
 
 use fringe3d_core::decode::{DecodeConfig, Decoder};
-use fringe3d_core::pattern::{
-    Convention, ImageId, Level, MAX_LEVELS as CORE_MAX_LEVELS, MAX_SHIFTS, Output, PatternSet,
-};
-use fringe3d_core::phase_function::{Axis, PhaseFunction, Profile};
+use fringe3d_core::geometry::Vec3;
+use fringe3d_core::pattern::PatternSet;
+use fringe3d_core::phase_function::Axis;
+use fringe3d_core::reconstruct::Setup;
 use fringe3d_core::validity::Validity;
-use fringe3d_core::wire::{
-    self, CameraModel, LinearPhase, LutEntry, MAX_LEVELS, PatternAxis, PatternSetDesc, Shifts,
-    Waveform,
-};
+use fringe3d_core::wire::{self, LutEntry, PatternSetDesc};
 
 use crate::io::calibration::Calibration;
 
-/// How faithfully the head can rebuild a desktop pattern set from its wire description.
+/// How faithfully the head rebuilds a desktop pattern set from its wire description.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Fidelity {
     /// The rebuilt set equals the desktop's bit for bit: the head's generated patterns are the
@@ -34,147 +29,17 @@ pub struct Fidelity {
     pub decoder: bool,
 }
 
-/// The wire description of `set` for a projector of `bit_depth` bits (1 to 8). Fails for what the
-/// wire cannot describe: non-linear or curved phase functions, `i_min ≠ 0`, more than the core's
-/// levels, deeper than 8 bits.
+/// The wire description of `set` for a projector of `bit_depth` bits (1 to 8): linear or knot
+/// profiles, straight or curved fringes, every parameter as the core holds it.
 pub fn pattern_desc(set: &PatternSet, bit_depth: u8) -> Result<PatternSetDesc, String> {
-    if !(1..=8).contains(&bit_depth) {
-        return Err(format!(
-            "the head projects 1- to 8-bit patterns, this set is {bit_depth}-bit"
-        ));
-    }
-    let f = set.function();
-    let Profile::Linear { origin, slope } = *f.profile() else {
-        return Err("the head knows linear phase functions only (no knots); this set cannot be decoded on the head".into());
-    };
-    if f.curvature() != 0.0 {
-        return Err("the head knows straight fringes only (curvature 0); this set cannot be decoded on the head".into());
-    }
-    let o = set.output();
-    if o.i_min != 0.0 {
-        return Err(format!(
-            "the head's patterns start at gray level 0; this set has i_min = {}",
-            o.i_min
-        ));
-    }
-    let levels = set.levels();
-    if levels.len() > CORE_MAX_LEVELS.min(MAX_LEVELS) {
-        return Err(format!(
-            "{} levels; the head takes at most {}",
-            levels.len(),
-            CORE_MAX_LEVELS
-        ));
-    }
-    let (a, c) = ((slope) as f32, (-slope * origin) as f32);
-    let phase = match f.axis() {
-        Axis::Xi => LinearPhase { a, b: 0.0, c },
-        Axis::Eta => LinearPhase { a: 0.0, b: a, c },
-    };
-    let mut wl = [wire::Level::UNUSED; MAX_LEVELS];
-    for (dst, l) in wl.iter_mut().zip(levels) {
-        *dst = wire::Level {
-            scale: l.scale() as f32,
-            shifts: shifts(l.shifts()),
-        };
-    }
-    let d = PatternSetDesc {
-        width: u16::try_from(o.width)
-            .map_err(|_| "projector wider than 65535 pixels".to_string())?,
-        height: u16::try_from(o.height)
-            .map_err(|_| "projector taller than 65535 pixels".to_string())?,
-        bit_depth,
-        i_max: o.i_max as f32,
-        axis: match f.axis() {
-            Axis::Xi => PatternAxis::Xi,
-            Axis::Eta => PatternAxis::Eta,
-        },
-        waveform: match set.convention() {
-            Convention::Sine => Waveform::Sine,
-            Convention::Cosine => Waveform::Cosine,
-        },
-        phase_offset: set.phase_offset() as f32,
-        phase,
-        level_count: levels.len() as u8,
-        levels: wl,
-    };
-    d.validate()
-        .map_err(|e| format!("the wire description is invalid: {e}"))?;
-    Ok(d)
+    PatternSetDesc::from_set(set, bit_depth as u32).map_err(|e| e.to_string())
 }
 
-/// Uniform `2π·i/n` shifts when they are exactly that, else explicit f32 shifts.
-fn shifts(s: &[f64]) -> Shifts {
-    let count = s.len();
-    for n in count.max(1)..=MAX_SHIFTS {
-        if s.iter()
-            .enumerate()
-            .all(|(i, &v)| v.to_bits() == (TAU * i as f64 / n as f64).to_bits())
-        {
-            return Shifts::Uniform {
-                n: n as u8,
-                count: count as u8,
-            };
-        }
-    }
-    let mut radians = [0.0f32; MAX_SHIFTS];
-    for (d, v) in radians.iter_mut().zip(s) {
-        *d = *v as f32;
-    }
-    Shifts::Explicit {
-        count: count as u8,
-        radians,
-    }
-}
-
-/// The core set the head builds from `d` (its mapping, repeated: see the module documentation),
-/// images in the core's default order.
+/// The core set the head builds from `d` (the core's mapping, the head's code path), images in
+/// the core's default order.
 pub fn desc_to_set(d: &PatternSetDesc) -> Result<PatternSet, String> {
-    d.validate().map_err(|e| e.to_string())?;
-    let (axis, along, across) = match d.axis {
-        PatternAxis::Xi => (Axis::Xi, d.phase.a, d.phase.b),
-        PatternAxis::Eta => (Axis::Eta, d.phase.b, d.phase.a),
-    };
-    if across != 0.0 || along.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-        return Err("the phase must increase along its axis only".into());
-    }
-    let slope = along as f64;
-    let function = PhaseFunction::linear(axis, -(d.phase.c as f64) / slope, slope)
-        .map_err(|e| e.to_string())?;
-    let mut levels = Vec::new();
-    for l in d.used_levels() {
-        let scale = l.scale as f64;
-        levels.push(match l.shifts {
-            Shifts::Uniform { n, count } if count == n => Level::n_step(scale, n as usize),
-            Shifts::Uniform { n, count } => {
-                let s: Vec<f64> = (0..count as usize)
-                    .map(|i| TAU * i as f64 / n as f64)
-                    .collect();
-                Level::with_shifts(scale, &s)
-            }
-            Shifts::Explicit { count, radians } => {
-                let s: Vec<f64> = radians[..count as usize]
-                    .iter()
-                    .map(|&r| r as f64)
-                    .collect();
-                Level::with_shifts(scale, &s)
-            }
-        });
-    }
-    let output = Output {
-        width: d.width as u32,
-        height: d.height as u32,
-        i_min: 0.0,
-        i_max: d.i_max as f64,
-    };
-    let conv = match d.waveform {
-        Waveform::Sine => Convention::Sine,
-        Waveform::Cosine => Convention::Cosine,
-    };
-    PatternSet::new(function, &levels, output)
-        .map_err(|e| e.to_string())?
-        .with_convention(conv)
-        .with_phase_offset(d.phase_offset as f64)
-        .map_err(|e| e.to_string())
+    d.to_set()
+        .map_err(|why| format!("the head would refuse this set: {}", why.name()))
 }
 
 /// How faithfully the head rebuilds `set` from `d` (decoders compared for `camera_bits`).
@@ -198,20 +63,6 @@ pub fn fidelity(set: &PatternSet, d: &PatternSetDesc, camera_bits: u32) -> Fidel
     }
 }
 
-/// Wire pattern index (levels in order, shifts in order) of `id`.
-pub fn pattern_index(d: &PatternSetDesc, id: ImageId) -> Option<u16> {
-    let levels = d.used_levels();
-    let l = levels.get(id.level as usize)?;
-    if id.shift as usize >= l.shifts.count() {
-        return None;
-    }
-    let first: usize = levels[..id.level as usize]
-        .iter()
-        .map(|l| l.shifts.count())
-        .sum();
-    u16::try_from(first + id.shift as usize).ok()
-}
-
 /// The trigger table that captures `set` in its image order: one entry per image, each showing
 /// its pattern for `exposure_us` and triggering the camera, then `dark_us` dark.
 pub fn capture_sequence(
@@ -223,7 +74,7 @@ pub fn capture_sequence(
     set.order()
         .iter()
         .map(|&id| {
-            let pattern = pattern_index(d, id).ok_or_else(|| {
+            let pattern = d.pattern_index(id).ok_or_else(|| {
                 format!(
                     "image (level {}, shift {}) is not in the description",
                     id.level, id.shift
@@ -253,7 +104,9 @@ pub fn pattern_bytes(
     let (w, h) = (d.width as usize, d.height as usize);
     let mut out = Vec::with_capacity(n * w * h);
     for p in 0..n {
-        let id = pattern_id(d, p as u16).ok_or("pattern index outside the description")?;
+        let id = d
+            .pattern_id(p as u16)
+            .ok_or("pattern index outside the description")?;
         let i = set
             .order()
             .iter()
@@ -273,22 +126,6 @@ pub fn pattern_bytes(
     Ok(out)
 }
 
-/// Level and shift of wire pattern `p`.
-pub fn pattern_id(d: &PatternSetDesc, p: u16) -> Option<ImageId> {
-    let mut first = 0usize;
-    for (k, l) in d.used_levels().iter().enumerate() {
-        let n = l.shifts.count();
-        if (p as usize) < first + n {
-            return Some(ImageId {
-                level: k as u8,
-                shift: (p as usize - first) as u8,
-            });
-        }
-        first += n;
-    }
-    None
-}
-
 /// Image `i` of `set`, rendered as the 8-bit PNGs of `fringe3d patterns` are.
 pub fn render_pattern(set: &PatternSet, i: usize) -> Result<Vec<u8>, String> {
     let o = set.output();
@@ -301,84 +138,26 @@ pub fn render_pattern(set: &PatternSet, i: usize) -> Result<Vec<u8>, String> {
     Ok(img)
 }
 
-/// The wire form of a calibration (values rounded to f32). Needs the reference plane.
+/// The wire form of a calibration: the camera's intrinsics and distortion as the desktop's core
+/// camera model holds them, and the reconstruction set-up exactly as `fringe3d scan` builds it
+/// (`scan::ScanCalibration::from_parts`), all f64. Needs the reference plane.
 pub fn wire_calibration(c: &Calibration) -> Result<wire::Calibration, String> {
     let r = c
         .reference
         .as_ref()
         .ok_or("the calibration has no [reference] section (plane and phase map)")?;
-    let f3 = |v: &[f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32];
-    let cam = &c.camera;
-    let d = &cam.distortion;
-    let w = wire::Calibration {
-        camera: CameraModel {
-            width: u16::try_from(cam.width).map_err(|_| "camera wider than 65535 pixels")?,
-            height: u16::try_from(cam.height).map_err(|_| "camera taller than 65535 pixels")?,
-            fx: cam.fx as f32,
-            fy: cam.fy as f32,
-            cx: cam.cx as f32,
-            cy: cam.cy as f32,
-            skew: cam.skew as f32,
-            distortion: [
-                d[0] as f32,
-                d[1] as f32,
-                d[2] as f32,
-                d[3] as f32,
-                d[4] as f32,
-            ],
-        },
-        projector_centre: f3(&c.projector_center),
-        plane_point: f3(&r.point),
-        plane_normal: f3(&r.normal),
-        depth_min: c.depth_range[0] as f32,
-        depth_max: c.depth_range[1] as f32,
+    let cam = crate::scan::core_camera(&c.camera)?;
+    let v = |a: &[f64; 3]| Vec3::new(a[0], a[1], a[2]);
+    let setup = Setup {
+        projector_centre: v(&c.projector_center),
+        reference_point: v(&r.point),
+        reference_normal: v(&r.normal),
+        axis: Axis::Xi, // not carried: the head takes the pattern set's
+        z_min: c.depth_range[0],
+        z_max: c.depth_range[1],
     };
-    w.validate()
-        .map_err(|e| format!("the calibration does not fit the wire: {e}"))?;
-    Ok(w)
-}
-
-fn f32_exact(v: f64) -> bool {
-    (v as f32) as f64 == v
-}
-
-/// `true` if every number the head uses from `c` is an f32 (then the head reconstructs with the
-/// desktop's exact calibration).
-pub fn calibration_is_f32(c: &Calibration) -> bool {
-    let cam = &c.camera;
-    let mut all = vec![cam.fx, cam.fy, cam.cx, cam.cy, cam.skew];
-    all.extend_from_slice(&cam.distortion);
-    all.extend_from_slice(&c.projector_center);
-    all.extend_from_slice(&c.depth_range);
-    if let Some(r) = &c.reference {
-        all.extend_from_slice(&r.point);
-        all.extend_from_slice(&r.normal);
-    }
-    all.into_iter().all(f32_exact)
-}
-
-/// `c` with every number the head uses rounded to f32 (a calibration the head and the desktop
-/// share exactly).
-pub fn round_calibration_to_f32(c: &Calibration) -> Calibration {
-    let r = |v: f64| (v as f32) as f64;
-    let r3 = |v: [f64; 3]| [r(v[0]), r(v[1]), r(v[2])];
-    let mut o = c.clone();
-    o.camera.fx = r(o.camera.fx);
-    o.camera.fy = r(o.camera.fy);
-    o.camera.cx = r(o.camera.cx);
-    o.camera.cy = r(o.camera.cy);
-    o.camera.skew = r(o.camera.skew);
-    o.camera.distortion = o.camera.distortion.map(r);
-    o.projector_center = r3(o.projector_center);
-    o.depth_range = [r(o.depth_range[0]), r(o.depth_range[1])];
-    if let Some(re) = o.reference.as_mut() {
-        re.point = r3(re.point);
-        re.normal = r3(re.normal);
-    }
-    if let Some(p) = o.projector.as_mut() {
-        p.translation = o.projector_center;
-    }
-    o
+    wire::Calibration::from_core(cam.intrinsics(), cam.distortion(), &setup)
+        .map_err(|e| format!("the calibration does not fit the wire: {e}"))
 }
 
 /// The bytes of a reference phase-map upload: per row, the f32 phases (LE) then one validity
