@@ -1,0 +1,540 @@
+//! The scan head's firmware on an emulated Cortex-M4F, reached by the host through QEMU's
+//! `-serial pty` with the same `fringe3d device` commands as the simulated head.
+//!
+//! Builds `fringe3d-board-mps2-head` (firmware-sim/board-mps2/src/bin/head.rs: `fringe3d-firmware-sim`'s
+//! `Head` on the CMSDK UART0 of QEMU's `mps2-an386`, its camera reading the frames of a rendered
+//! scene from a file on the host through semihosting), starts QEMU with `-serial pty`, reads the
+//! PTY QEMU announces, then runs `fringe3d device info`, `fringe3d device upload` (pattern images
+//! into the head's PSRAM store, calibration, reference phase map) and `fringe3d device scan`
+//! (points to a PLY, phase to a float TIFF) against it. The scan must be bit-identical (canonical
+//! NaN) to what the desktop computes from the same images — the decode and reconstruction of
+//! `fringe3d scan` (`cli::common::decode`, `ScanCalibration::reconstruct`) — and the PLY must hold
+//! exactly the desktop's valid points.
+//!
+//! Skips with a notice when `qemu-system-arm` or the `thumbv7em-none-eabihf` target is missing,
+//! unless `FRINGE3D_REQUIRE_QEMU` is set (`.ci/run` sets it): then it fails.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex, mpsc};
+use std::time::{Duration, Instant};
+
+use fringe3d::cli::common;
+use fringe3d::io::image::{Pixels, read_gray};
+use fringe3d::render::dataset::{DatasetOptions, write_dataset};
+use fringe3d::render::{Overrides, SceneSpec};
+use fringe3d::scan::ScanCalibration;
+use fringe3d_core::math::canonical;
+use fringe3d_firmware_sim::desktop::Replay;
+use fringe3d_firmware_sim::sim::FrameSource;
+
+const BOARD: &str = "firmware-sim/board-mps2";
+const TARGET: &str = "thumbv7em-none-eabihf";
+const BIN: &str = "fringe3d-board-mps2-head";
+/// The camera: small, because QEMU moves PTY input into the emulated UART one byte per
+/// main-loop round (tens of KB/s), and the reference map (5 bytes per pixel) goes that way.
+const CAM: (u32, u32) = (160, 120);
+/// The projector of the pattern set (its 8 images are uploaded through the emulated UART).
+const PROJ: (u32, u32) = (128, 96);
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ is in the repository")
+        .to_path_buf()
+}
+
+/// Why the test cannot run here, if it cannot.
+fn missing_tools() -> Option<String> {
+    match Command::new("qemu-system-arm")
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+    {
+        Ok(s) if s.success() => {}
+        _ => {
+            return Some(
+                "qemu-system-arm is not installed (Debian: apt-get install qemu-system-arm)".into(),
+            );
+        }
+    }
+    let Ok(sysroot) = Command::new("rustc").args(["--print", "sysroot"]).output() else {
+        return Some("rustc is not on PATH".into());
+    };
+    let root = String::from_utf8_lossy(&sysroot.stdout).trim().to_string();
+    if !Path::new(&root).join("lib/rustlib").join(TARGET).exists() {
+        return Some(format!(
+            "the {TARGET} target is not installed (rustup target add {TARGET})"
+        ));
+    }
+    None
+}
+
+/// The board crate's target folder: `<this build's target dir>/board-mps2`, as in
+/// `qemu_firmware.rs`.
+fn board_target_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("CARGO_TARGET_DIR") {
+        return PathBuf::from(d).join("board-mps2");
+    }
+    let exe = std::env::current_exe().expect("test executable path");
+    exe.ancestors()
+        .nth(3)
+        .map(|t| t.join("board-mps2"))
+        .unwrap_or_else(|| repo().join("target/board-mps2"))
+}
+
+fn build_firmware() -> PathBuf {
+    let target_dir = board_target_dir();
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .args(["build", "--release", "--target", TARGET, "--bin", BIN])
+        .current_dir(repo().join(BOARD))
+        .env("CARGO_TARGET_DIR", &target_dir)
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS")
+        .env_remove("CARGO_BUILD_TARGET")
+        .output()
+        .expect("run cargo for the firmware");
+    assert!(
+        out.status.success(),
+        "firmware build failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let elf = target_dir.join(TARGET).join("release").join(BIN);
+    assert!(elf.exists(), "no firmware at {}", elf.display());
+    elf
+}
+
+/// QEMU running the head; killed when dropped, on every path out of the test.
+struct Qemu {
+    child: Child,
+    console: Arc<Mutex<String>>,
+}
+
+impl Qemu {
+    /// Start the head on `frames`; returns it and the PTY QEMU connected UART0 to.
+    fn start(elf: &Path, frames: &Path) -> (Qemu, String) {
+        let mut child = Command::new("qemu-system-arm")
+            .args([
+                "-M",
+                "mps2-an386",
+                "-cpu",
+                "cortex-m4",
+                "-nographic",
+                "-monitor",
+                "none",
+                "-serial",
+                "pty",
+            ])
+            .arg("-semihosting-config")
+            .arg(format!(
+                "enable=on,target=native,arg={BIN},arg={}",
+                frames.display()
+            ))
+            .arg("-kernel")
+            .arg(elf)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start qemu-system-arm");
+        let console = Arc::new(Mutex::new(String::new()));
+        let (tx, rx) = mpsc::channel();
+        // QEMU announces the PTY on stdout ("char device redirected to /dev/pts/N (label
+        // serial0)"); the firmware's semihosting console goes to stderr. Read both.
+        let pipes: [Box<dyn std::io::Read + Send>; 2] = [
+            Box::new(child.stdout.take().expect("piped stdout")),
+            Box::new(child.stderr.take().expect("piped stderr")),
+        ];
+        for pipe in pipes {
+            let (console, tx) = (console.clone(), tx.clone());
+            std::thread::spawn(move || {
+                for line in BufReader::new(pipe).lines().map_while(Result::ok) {
+                    if let Some(at) = line.find("char device redirected to ") {
+                        let rest = &line[at + "char device redirected to ".len()..];
+                        let path = rest.split_whitespace().next().unwrap_or("").to_string();
+                        let _ = tx.send(path);
+                    }
+                    let mut c = console.lock().unwrap();
+                    c.push_str(&line);
+                    c.push('\n');
+                }
+            });
+        }
+        let mut qemu = Qemu { child, console };
+        let port = match rx.recv_timeout(Duration::from_secs(60)) {
+            Ok(p) if p.starts_with("/dev/") => p,
+            other => panic!(
+                "QEMU announced no PTY within 60 s ({other:?}); output:\n{}",
+                qemu.console()
+            ),
+        };
+        // The firmware prints its start-up line once it serves the link.
+        let t0 = Instant::now();
+        while !qemu.console().contains("serving the head on UART0") {
+            if let Ok(Some(s)) = qemu.child.try_wait() {
+                panic!("QEMU exited ({s}):\n{}", qemu.console());
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(60),
+                "the firmware did not start within 60 s:\n{}",
+                qemu.console()
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        (qemu, port)
+    }
+
+    fn console(&self) -> String {
+        self.console.lock().unwrap().clone()
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A small rendered sphere scene: the default rig with a `PROJ`-sized projector (same field of
+/// view), its pattern set with exact binary parameters.
+fn dataset(root: &Path) -> PathBuf {
+    let dir = root.join("sphere");
+    let set_file = root.join("set.toml");
+    std::fs::write(
+        &set_file,
+        format!(
+            "version = 1\npreset = \"paper8\"\nratio = 8.0\n[projector]\nwidth = {}\nheight = {}\nbit_depth = 8\n\
+             [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = {}\nslope = {}\n",
+            PROJ.0,
+            PROJ.1,
+            (PROJ.0 as f64 - 1.0) / 2.0,
+            // 2⁻⁷ rad per pixel: the finest of the 3 levels (×64) moves 0.5 rad per pixel.
+            1.0 / 128.0
+        ),
+    )
+    .unwrap();
+    let mut spec = SceneSpec::builtin("sphere").unwrap();
+    spec.apply(&Overrides {
+        size: Some(CAM),
+        supersample: Some(1),
+        pattern_bits: Some(8),
+        ..Default::default()
+    });
+    // The rig's projector with a coarser DMD over the same field of view.
+    let p = &mut spec.projector;
+    let s = PROJ.0 as f64 / p.width as f64;
+    assert_eq!(PROJ.1 as f64 / p.height as f64, s, "same aspect ratio");
+    (p.width, p.height) = PROJ;
+    (p.fx, p.fy) = (p.fx * s, p.fy * s);
+    (p.cx, p.cy) = ((p.cx + 0.5) * s - 0.5, (p.cy + 0.5) * s - 0.5);
+    spec.patterns.set = Some(fringe3d::io::pattern_file::PatternSetFile::load(&set_file).unwrap());
+    let scene = fringe3d::render::Scene::new(spec, None).unwrap();
+    write_dataset(
+        &scene,
+        &dir,
+        DatasetOptions {
+            overwrite: true,
+            progress: None,
+        },
+    )
+    .unwrap();
+    dir
+}
+
+/// The head's camera frames (layout: firmware-sim/board-mps2/src/bin/head.rs): the dataset's
+/// images by wire pattern index, as the simulated head's replay camera delivers them.
+fn write_frames(dataset: &Path, out: &Path) {
+    let replay = Replay::load_dir(dataset).unwrap();
+    let (w, h, bits) = (replay.width(), replay.height(), replay.bit_depth());
+    let o = *replay.set.output();
+    let count = replay.set.image_count() as u16;
+    let sb: u8 = if bits <= 8 { 1 } else { 2 };
+    let mut f = Vec::with_capacity(16 + count as usize * w as usize * h as usize * sb as usize);
+    f.extend_from_slice(b"F3DC");
+    for v in [w, h] {
+        f.extend_from_slice(&v.to_le_bytes());
+    }
+    f.extend_from_slice(&[bits, sb]);
+    for v in [count, o.width as u16, o.height as u16] {
+        f.extend_from_slice(&v.to_le_bytes());
+    }
+    let mut row = vec![0u16; w as usize];
+    for p in 0..count {
+        for y in 0..h {
+            replay.row(Some(p), y, &mut row).unwrap();
+            for s in &row {
+                if sb == 1 {
+                    f.push(*s as u8);
+                } else {
+                    f.extend_from_slice(&s.to_le_bytes());
+                }
+            }
+        }
+    }
+    std::fs::write(out, f).unwrap();
+}
+
+/// The vertices of a binary little-endian PLY: (u, v, [x, y, z]).
+fn read_ply(path: &Path) -> Vec<(u32, u32, [f32; 3])> {
+    let bytes = std::fs::read(path).unwrap();
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .expect("PLY header")
+        + 11;
+    let header = std::str::from_utf8(&bytes[..end]).unwrap();
+    assert!(
+        header.contains("format binary_little_endian 1.0"),
+        "{header}"
+    );
+    let mut count = 0usize;
+    let mut props: Vec<(String, usize)> = Vec::new();
+    for line in header.lines() {
+        let t: Vec<&str> = line.split_whitespace().collect();
+        match t.as_slice() {
+            ["element", "vertex", n] => count = n.parse().unwrap(),
+            ["property", ty, name] => {
+                let size = match *ty {
+                    "char" | "uchar" | "int8" | "uint8" => 1,
+                    "short" | "ushort" | "int16" | "uint16" => 2,
+                    "int" | "uint" | "float" | "int32" | "uint32" | "float32" => 4,
+                    "double" | "float64" => 8,
+                    _ => panic!("PLY property type {ty}"),
+                };
+                props.push((format!("{ty} {name}"), size));
+            }
+            _ => {}
+        }
+    }
+    let stride: usize = props.iter().map(|p| p.1).sum();
+    assert_eq!(bytes.len(), end + count * stride, "PLY body size");
+    let offset = |want: &str| {
+        let mut at = 0;
+        for (p, s) in &props {
+            if p.ends_with(&format!(" {want}")) {
+                return (at, p.clone());
+            }
+            at += s;
+        }
+        panic!("PLY has no property {want}: {header}")
+    };
+    let f32_at = |b: &[u8], o: usize| f32::from_le_bytes(b[o..o + 4].try_into().unwrap());
+    let idx_at = |b: &[u8], (o, ty): &(usize, String)| {
+        if ty.starts_with("ushort") || ty.starts_with("uint16") {
+            u16::from_le_bytes(b[*o..*o + 2].try_into().unwrap()) as u32
+        } else {
+            u32::from_le_bytes(b[*o..*o + 4].try_into().unwrap())
+        }
+    };
+    let (x, y, z) = (offset("x").0, offset("y").0, offset("z").0);
+    let (u, v) = (offset("u"), offset("v"));
+    bytes[end..]
+        .chunks_exact(stride)
+        .map(|b| {
+            (
+                idx_at(b, &u),
+                idx_at(b, &v),
+                [f32_at(b, x), f32_at(b, y), f32_at(b, z)],
+            )
+        })
+        .collect()
+}
+
+fn bits(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| canonical(*x).to_bits()).collect()
+}
+
+/// `fringe3d ARGS…` in this process, timed.
+fn fringe3d(args: &[&str]) -> f64 {
+    let t0 = Instant::now();
+    let mut all = vec!["fringe3d", "--quiet"];
+    all.extend_from_slice(args);
+    if let Err(e) = fringe3d::cli::run(all.clone()) {
+        panic!("`{}` failed: {e:#}", all.join(" "));
+    }
+    t0.elapsed().as_secs_f64()
+}
+
+#[test]
+fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() {
+    if let Some(why) = missing_tools() {
+        if std::env::var_os("FRINGE3D_REQUIRE_QEMU").is_some() {
+            panic!("FRINGE3D_REQUIRE_QEMU is set but {why}");
+        }
+        eprintln!("SKIPPED qemu_head_pty: {why}");
+        return;
+    }
+    let root = std::env::temp_dir().join(format!("fringe3d-qemu-head-pty-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let dir = dataset(&root);
+    let patterns = dir.join("patterns.toml");
+    let calib = dir.join("calibration.toml");
+
+    // The desktop's answer, from the images: the decode and reconstruction of `fringe3d scan`.
+    let ls = common::load_set(&patterns).unwrap();
+    let imgs = common::load_images(&ls, &[], true).unwrap();
+    let dec = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).unwrap();
+    let sc = ScanCalibration::load(&calib, ls.set.axis()).unwrap();
+    let cloud = sc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
+    let (w, h) = (CAM.0 as usize, CAM.1 as usize);
+    assert_eq!((cloud.width, cloud.height), (w, h));
+    assert!(
+        cloud.valid_count() > w * h / 4,
+        "a real scene: {} valid points",
+        cloud.valid_count()
+    );
+
+    let frames = root.join("frames.bin");
+    write_frames(&dir, &frames);
+    let t0 = Instant::now();
+    let elf = build_firmware();
+    eprintln!("firmware built in {:.1} s", t0.elapsed().as_secs_f64());
+    let (qemu, port) = Qemu::start(&elf, &frames);
+    eprintln!("emulated head on {port}");
+
+    // The same commands as for the simulated head. The emulated UART takes PTY input slowly,
+    // so answers get more time than on a real line (`--timeout-ms`).
+    let port_args = ["--port", port.as_str(), "--timeout-ms", "5000"];
+    fringe3d(&[&["device", "info"][..], &port_args[..]].concat());
+    let t_up = fringe3d(
+        &[
+            &["device", "upload"][..],
+            &port_args[..],
+            &[
+                "--patterns",
+                patterns.to_str().unwrap(),
+                "--calibration",
+                calib.to_str().unwrap(),
+            ][..],
+        ]
+        .concat(),
+    );
+    // A scan as `fringe3d scan` does it by default (depth-edge filter at 80°), with the phase;
+    // then one without the filter.
+    let ply = root.join("head.ply");
+    let tif = root.join("head_phase.tif");
+    let t_scan = fringe3d(
+        &[
+            &["device", "scan"][..],
+            &port_args[..],
+            &[
+                "--max-angle",
+                "80",
+                "--out",
+                ply.to_str().unwrap(),
+                "--phase-out",
+                tif.to_str().unwrap(),
+            ][..],
+        ]
+        .concat(),
+    );
+    let ply_raw = root.join("head_unfiltered.ply");
+    fringe3d(
+        &[
+            &["device", "scan"][..],
+            &port_args[..],
+            &["--no-edge-filter", "--out", ply_raw.to_str().unwrap()][..],
+        ]
+        .concat(),
+    );
+    fringe3d(&[&["device", "info"][..], &port_args[..]].concat());
+    let console = qemu.console();
+    drop(qemu);
+    eprintln!(
+        "upload of {} pattern bytes, calibration and {} map bytes: {t_up:.1} s; scan of {w}x{h} (phase and filtered points): {t_scan:.1} s",
+        8 * PROJ.0 * PROJ.1,
+        w * h * 5
+    );
+    eprintln!("firmware console:\n{console}");
+
+    // Phase: the TIFF holds the streamed phase rows.
+    let (img, _) = read_gray(&tif).unwrap();
+    assert_eq!((img.width as usize, img.height as usize), (w, h));
+    let Pixels::F32(phase) = img.pixels else {
+        panic!("the phase TIFF is not f32")
+    };
+    let same_phase = bits(&phase)
+        .iter()
+        .zip(bits(&dec.phase))
+        .filter(|(a, b)| **a == *b)
+        .count();
+    assert_eq!(
+        same_phase,
+        w * h,
+        "phases differ from the desktop's at {} of {} pixels",
+        w * h - same_phase,
+        w * h
+    );
+
+    // Points: each PLY holds exactly the desktop's valid points, bit for bit.
+    let mut filtered = cloud.clone();
+    fringe3d::scan::filter_edges(&mut filtered, &sc.edge_filter(80.0).unwrap());
+    assert!(
+        filtered.valid_count() < cloud.valid_count(),
+        "the edge filter flags some points of the sphere's rim"
+    );
+    for (path, desk, what) in [
+        (&ply, &filtered, "edge-filtered"),
+        (&ply_raw, &cloud, "unfiltered"),
+    ] {
+        let pts = read_ply(path);
+        assert_eq!(
+            pts.len(),
+            desk.valid_count(),
+            "{what} valid points: emulated head vs desktop"
+        );
+        let mut seen = vec![false; w * h];
+        for (u, v, xyz) in &pts {
+            let i = *v as usize * w + *u as usize;
+            assert!(
+                (*u as usize) < w && (*v as usize) < h && !seen[i],
+                "{what}: pixel ({u}, {v})"
+            );
+            seen[i] = true;
+            assert_eq!(
+                desk.validity[i], 0,
+                "{what}: the head has a point at ({u}, {v}), the desktop none"
+            );
+            assert_eq!(
+                bits(xyz),
+                bits(&desk.xyz[3 * i..3 * i + 3]),
+                "{what}: point at ({u}, {v})"
+            );
+        }
+    }
+
+    // The firmware's own report: it ran the scan in its SRAM budget.
+    assert!(
+        console.matches(&format!("scan: {h} rows sent")).count() == 2,
+        "{console}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Not a check: writes the emulated head's frames file for a dataset folder, for running the head
+/// by hand (docs/firmware.md): `FRINGE3D_DATASET=scan FRINGE3D_FRAMES=scan/frames.bin cargo test
+/// -p fringe3d-tests --test qemu_head_pty -- --ignored frames_file`.
+#[test]
+#[ignore]
+fn frames_file() {
+    let (Some(dataset), Some(out)) = (
+        std::env::var_os("FRINGE3D_DATASET"),
+        std::env::var_os("FRINGE3D_FRAMES"),
+    ) else {
+        eprintln!(
+            "set FRINGE3D_DATASET (a dataset folder) and FRINGE3D_FRAMES (the file to write)"
+        );
+        return;
+    };
+    write_frames(Path::new(&dataset), Path::new(&out));
+    eprintln!(
+        "wrote {} for {}",
+        Path::new(&out).display(),
+        Path::new(&dataset).display()
+    );
+}
