@@ -226,6 +226,7 @@ pub fn calibrate(board: &Board, views: &[View], width: u32, height: u32, opts: &
     let too_few = |used: &[View], rejected: &[Rejected]| CalibError::TooFewViews {
         usable: used.len(),
         needed: min_views,
+        used: used.iter().map(|v| v.name.clone()).collect(),
         rejected: rejected.iter().map(|r| format!("{}: {}", r.name, r.reason)).collect(),
     };
     if used.len() < min_views {

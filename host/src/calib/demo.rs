@@ -37,6 +37,9 @@ pub struct DemoOptions {
     pub views: usize,
     /// Samples per pixel side of the board images (`None`: the renderer's default).
     pub board_supersample: Option<u32>,
+    /// `calibrate projector` with the rig's measurement volume as the depth range (as a user states
+    /// it with `--depth-range`); `false`: the default from the plates' z range.
+    pub volume_depth_range: bool,
     /// Also render and scan the sphere and ball-bar scenes with both calibrations.
     pub end_to_end: bool,
     /// Print nothing.
@@ -45,7 +48,7 @@ pub struct DemoOptions {
 
 impl Default for DemoOptions {
     fn default() -> Self {
-        DemoOptions { size: None, noise: None, bits: None, seed: None, views: 15, board_supersample: None, end_to_end: true, quiet: true }
+        DemoOptions { size: None, noise: None, bits: None, seed: None, views: 15, board_supersample: None, volume_depth_range: true, end_to_end: true, quiet: true }
     }
 }
 
@@ -62,52 +65,69 @@ fn board_of(spec: &SceneSpec) -> Result<Board> {
     Board::new(b.cols, b.rows, b.square).map_err(anyhow::Error::msg)
 }
 
-/// [`demo_calibrate`] with options.
-pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf, Value)> {
+/// The calibration data of the default rig as [`render_calibration_data`] writes them: what a user
+/// photographs before `fringe3d calibrate`.
+#[derive(Clone, Debug)]
+pub struct CalibrationData {
+    /// Checkerboard views (`img_NN.png`, `truth/corners.json`).
+    pub checkerboard: PathBuf,
+    /// The checkerboard views' board.
+    pub checkerboard_board: Board,
+    /// Plate positions: `plate_NN/{v,h,board.png}`, `patterns_v.toml`, `patterns_h.toml`.
+    pub plates: PathBuf,
+    /// The plate folders, sorted.
+    pub plate_dirs: Vec<PathBuf>,
+    /// The board printed on the plate.
+    pub plate_board: Board,
+    /// The reference plane's fringe set (`img_NN.png`, `patterns.toml`).
+    pub reference: PathBuf,
+    /// Images of the checkerboard lying on the reference plane (three places, turned in the plane).
+    pub reference_boards: Vec<PathBuf>,
+    /// The rig the data were rendered with (the truth).
+    pub rig: crate::render::rig::Rig,
+}
+
+fn scene_with(name: &str, o: &DemoOptions, views: Option<usize>) -> Result<Scene> {
+    let ov = Overrides { seed: o.seed, noise: o.noise, bits: o.bits, size: o.size, ..Overrides::default() };
+    let mut s = SceneSpec::builtin(name)?;
+    s.apply(&ov);
+    if let Some(b) = s.board.as_mut() {
+        if let Some(n) = views {
+            b.count = n as u32;
+        }
+        if let Some(ss) = o.board_supersample {
+            b.supersample = ss;
+        }
+    }
+    Ok(Scene::new(s, None)?)
+}
+
+fn render_into(sc: &Scene, dir: &Path) -> Result<()> {
+    write_dataset(sc, dir, DatasetOptions { overwrite: true, progress: None }).with_context(|| format!("rendering {}", dir.display()))?;
+    Ok(())
+}
+
+/// Render the calibration data of the default rig (with `o`'s size, noise, bit depth, seed, views
+/// and board supersampling) into `work_dir`: `checkerboard/`, `plates/` and `reference/` (with
+/// `board_0.png` … `board_2.png`, the board lying on the reference plane).
+pub fn render_calibration_data(work_dir: &Path, o: &DemoOptions) -> Result<CalibrationData> {
     let say = |s: &str| {
         if !o.quiet {
             eprintln!("{s}");
         }
     };
-    let t_all = Instant::now();
     std::fs::create_dir_all(work_dir).with_context(|| format!("{}: cannot create", work_dir.display()))?;
-    let ov = Overrides { seed: o.seed, noise: o.noise, bits: o.bits, size: o.size, ..Overrides::default() };
-    let scene = |name: &str, views: Option<usize>| -> Result<Scene> {
-        let mut s = SceneSpec::builtin(name)?;
-        s.apply(&ov);
-        if let Some(b) = s.board.as_mut() {
-            if let Some(n) = views {
-                b.count = n as u32;
-            }
-            if let Some(ss) = o.board_supersample {
-                b.supersample = ss;
-            }
-        }
-        Ok(Scene::new(s, None)?)
-    };
-    let render = |sc: &Scene, dir: &Path| -> Result<()> {
-        write_dataset(sc, dir, DatasetOptions { overwrite: true, progress: None }).with_context(|| format!("rendering {}", dir.display()))?;
-        Ok(())
-    };
-    let mut times = serde_json::Map::new();
-    let mut lap = Instant::now();
-    let mut tick = |name: &str, t: &mut Instant| {
-        times.insert(name.into(), json!(t.elapsed().as_secs_f64()));
-        *t = Instant::now();
-    };
-
-    // 1. Datasets.
     say("calibration demo 1/6: rendering the checkerboard views ...");
-    let cb_scene = scene("checkerboard", Some(o.views))?;
+    let cb_scene = scene_with("checkerboard", o, Some(o.views))?;
     let cb_dir = work_dir.join("checkerboard");
-    render(&cb_scene, &cb_dir)?;
+    render_into(&cb_scene, &cb_dir)?;
     say("calibration demo 2/6: rendering the plate positions and the reference plane ...");
-    let pl_scene = scene("plates", None)?;
+    let pl_scene = scene_with("plates", o, None)?;
     let pl_dir = work_dir.join("plates");
-    render(&pl_scene, &pl_dir)?;
-    let ref_scene = scene("reference", None)?;
+    render_into(&pl_scene, &pl_dir)?;
+    let ref_scene = scene_with("reference", o, None)?;
     let ref_dir = work_dir.join("reference");
-    render(&ref_scene, &ref_dir)?;
+    render_into(&ref_scene, &ref_dir)?;
     // Three images of a board lying on the reference plane (the checkerboard scene's board, at
     // three places, turned in the plane as a hand-placed board would be), under the projector's
     // white, as a user would photograph them. (A board whose edges run exactly along pixel rows and
@@ -136,14 +156,50 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         }
         ref_boards.push(path);
     }
+    let mut plate_dirs: Vec<PathBuf> = std::fs::read_dir(&pl_dir)
+        .with_context(|| format!("{}: cannot list", pl_dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir() && p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("plate_")))
+        .collect();
+    plate_dirs.sort();
+    Ok(CalibrationData {
+        checkerboard: cb_dir,
+        checkerboard_board: board_of(&cb_scene.spec)?,
+        plates: pl_dir,
+        plate_dirs,
+        plate_board: board_of(&pl_scene.spec)?,
+        reference: ref_dir,
+        reference_boards: ref_boards,
+        rig,
+    })
+}
+
+/// [`demo_calibrate`] with options.
+pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf, Value)> {
+    let say = |s: &str| {
+        if !o.quiet {
+            eprintln!("{s}");
+        }
+    };
+    let t_all = Instant::now();
+    let mut times = serde_json::Map::new();
+    let mut lap = Instant::now();
+    let mut tick = |name: &str, t: &mut Instant| {
+        times.insert(name.into(), json!(t.elapsed().as_secs_f64()));
+        *t = Instant::now();
+    };
+
+    // 1. Datasets.
+    let data = render_calibration_data(work_dir, o)?;
+    let (cb_dir, pl_dir, ref_dir, rig) = (&data.checkerboard, &data.plates, &data.reference, &data.rig);
     tick("render_calibration_data", &mut lap);
 
     // 2. Camera.
     say("calibration demo 3/6: calibrate camera ...");
     let out_dir = work_dir.join("calibration");
     std::fs::create_dir_all(&out_dir).with_context(|| format!("{}: cannot create", out_dir.display()))?;
-    let cb_board = board_of(&cb_scene.spec)?;
-    let imgs = files::image_list(std::slice::from_ref(&cb_dir))?;
+    let cb_board = data.checkerboard_board;
+    let imgs = files::image_list(std::slice::from_ref(cb_dir))?;
     let (cam, dv) = files::calibrate_camera_files(&imgs, &cb_board, &DetectOptions::default(), &CameraOptions::default(), &|_| {})?;
     let cam_file = out_dir.join("camera.yml");
     files::write_opencv_yaml(&cam_file, &cam, &cb_board)?;
@@ -152,19 +208,17 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
 
     // 3. Projector.
     say("calibration demo 4/6: calibrate projector ...");
-    let pl_board = board_of(&pl_scene.spec)?;
+    let pl_board = data.plate_board;
     let camera = files::load_camera(&cam_file, Some((cam.lens.width, cam.lens.height)))?;
-    let mut plates: Vec<PathBuf> = std::fs::read_dir(&pl_dir)?.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_dir() && p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("plate_"))).collect();
-    plates.sort();
     let pr = files::calibrate_projector_files(
         &camera,
-        &plates,
+        &data.plate_dirs,
         &pl_dir.join("patterns_v.toml"),
         &pl_dir.join("patterns_h.toml"),
         &pl_board,
         &DetectOptions::default(),
         &ProjectorOptions::default(),
-        None,
+        o.volume_depth_range.then_some(rig.depth_range),
         &|_| {},
     )?;
     let cal_path = out_dir.join("calibration.toml");
@@ -177,8 +231,8 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         &pr.calibration,
         &cal_path,
         &ref_dir.join("patterns.toml"),
-        std::slice::from_ref(&ref_dir),
-        &PlaneSource::Board { images: ref_boards.clone(), board: cb_board, offset_mm: 0.0 },
+        std::slice::from_ref(ref_dir),
+        &PlaneSource::Board { images: data.reference_boards.clone(), board: cb_board, offset_mm: 0.0 },
         &DetectOptions::default(),
         "reference_phase.tif",
     )?;
@@ -198,7 +252,7 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
     let n_true = rig.reference_normal;
     let plane_offset = dot(n_true, sub(rr.plane.point, rig.reference_point));
     let plane_angle = dot(n_true, rr.plane.normal).clamp(-1.0, 1.0).acos().to_degrees();
-    let corner_truth = corner_errors(&cb_dir, &dv)?;
+    let corner_truth = corner_errors(cb_dir, &dv)?;
     let mut report = json!({
         "work_dir": work_dir, "calibration": cal_path,
         "camera": {"parameters": cam_j, "fx_relative_error": fx_rel, "fy_relative_error": fy_rel, "principal_point_error_px": pp_err,
@@ -206,7 +260,8 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
                    "corner_error_vs_truth_px": corner_truth},
         "projector": {"estimate": pr.result.center, "truth": p_true, "error": p_err, "error_norm_mm": norm(p_err),
                       "std": pr.result.std, "lines": pr.result.lines, "rms_line_distance_mm": pr.result.rms_distance_mm,
-                      "depth_range": pr.calibration.depth_range},
+                      "depth_range": pr.calibration.depth_range,
+                      "depth_range_source": if o.volume_depth_range { "the rig's measurement volume (--depth-range)" } else { "the plates' z range padded by 10 %" }},
         "reference": {"point": rr.plane.point, "normal": rr.plane.normal, "truth_point": rig.reference_point, "truth_normal": n_true,
                       "offset_along_normal_mm": plane_offset, "normal_angle_deg": plane_angle,
                       "distance_std_mm": rr.plane.distance_std_mm, "valid_fraction": rr.valid_fraction},
@@ -217,9 +272,9 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         say("calibration demo 6/6: scanning the sphere and the ball bar with both calibrations ...");
         let mut scans = Vec::new();
         for name in ["sphere", "ballbar"] {
-            let sc = scene(name, None)?;
+            let sc = scene_with(name, o, None)?;
             let dir = work_dir.join("scans").join(name);
-            render(&sc, &dir)?;
+            render_into(&sc, &dir)?;
             let truth = accuracy::load_truth(&dir)?;
             let c_true = scan_cloud(&dir, &dir.join("calibration.toml"))?;
             let c_self = scan_cloud(&dir, &cal_path)?;

@@ -113,10 +113,10 @@ pub fn calibrate_camera_files(
             c.rejected = all;
             Ok((c, dv))
         }
-        Err(CalibError::TooFewViews { usable, needed, rejected }) => {
+        Err(CalibError::TooFewViews { usable, needed, used, rejected }) => {
             let mut all: Vec<String> = dv.rejected.iter().map(|r| format!("{}: {}", r.name, r.reason)).collect();
             all.extend(rejected);
-            Err(CalibError::TooFewViews { usable, needed, rejected: all })
+            Err(CalibError::TooFewViews { usable, needed, used, rejected: all })
         }
         Err(e) => Err(e),
     }

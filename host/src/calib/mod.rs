@@ -28,12 +28,14 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum CalibError {
     /// Not enough usable checkerboard views.
-    #[error("too few usable views: {usable} (need at least {needed}){}", list(rejected))]
+    #[error("too few usable views: {usable} (need at least {needed}, taken from different angles){}{}", list_used(used), list(rejected))]
     TooFewViews {
         /// Views usable.
         usable: usize,
         /// Views needed.
         needed: usize,
+        /// The usable views.
+        used: Vec<String>,
         /// The views left out, with reasons.
         rejected: Vec<String>,
     },
@@ -86,6 +88,10 @@ pub enum CalibError {
     /// A calibration or pattern-set file could not be read or written.
     #[error(transparent)]
     Format(#[from] crate::io::calibration::FormatError),
+}
+
+fn list_used(v: &[String]) -> String {
+    if v.is_empty() { String::new() } else { format!("; usable: {}", v.join(", ")) }
 }
 
 fn list(v: &[String]) -> String {

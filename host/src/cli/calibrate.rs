@@ -189,6 +189,14 @@ pub fn run(a: CalibrateArgs, g: Global) -> Result<()> {
     }
 }
 
+/// Create the folder an output file goes into (after the computation succeeded: no partial output).
+fn make_parent(out: &Path) -> Result<()> {
+    if let Some(d) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).with_context(|| format!("{}: cannot create the output folder", d.display()))?;
+    }
+    Ok(())
+}
+
 fn sibling(out: &Path, suffix: &str) -> PathBuf {
     let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("calibration");
     out.with_file_name(format!("{stem}{suffix}"))
@@ -202,6 +210,7 @@ fn camera(a: CameraArgs, g: Global) -> Result<()> {
     let inc = |n: u64| pb.inc(n);
     let (cal, dv) = files::calibrate_camera_files(&paths, &board, &DetectOptions::default(), &opts, &inc)?;
     pb.finish_and_clear();
+    make_parent(&a.out)?;
     files::write_opencv_yaml(&a.out, &cal, &board)?;
     let report_dir = a.report.clone().unwrap_or_else(|| sibling(&a.out, "_report"));
     let report = files::write_camera_report(&report_dir, &cal, &dv, &board)?;
@@ -257,6 +266,7 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
     let inc = |n: u64| pb.inc(n);
     let run = files::calibrate_projector_files(&camera, &a.plates, &set_v, &set_h, &board, &DetectOptions::default(), &opts, depth, &inc)?;
     pb.finish_and_clear();
+    make_parent(&a.out)?;
     run.calibration.save(&a.out)?;
     let report = json!({"command": "calibrate projector", "out": a.out, "camera_from": a.camera_from,
         "projector_center": run.result.center, "depth_range": run.calibration.depth_range,

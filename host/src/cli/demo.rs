@@ -45,7 +45,8 @@ pub struct DemoArgs {
     pub no_edge_filter: bool,
     /// Instead of scanning one scene: render the calibration data (checkerboard views, the plate
     /// at two positions, the reference plane), run `calibrate camera`, `calibrate projector` and
-    /// `calibrate reference` on the files, compare every estimate with the truth, then scan the
+    /// `calibrate reference` on the files (with the rig's measurement volume as `--depth-range`),
+    /// compare every estimate with the truth, then scan the
     /// sphere and the ball bar with the true and with the self-calibrated file (sphere diameter
     /// and ball-bar length errors, VDI/VDE 2634-2 style).
     #[arg(long)]
@@ -187,6 +188,14 @@ fn print_calibration_report(r: &serde_json::Value, out: &std::path::Path) {
         p["lines"],
         f(&p["rms_line_distance_mm"])
     );
+    if let Some(d) = p["depth_range"].as_array() {
+        println!(
+            "depth range [{:.1}, {:.1}] mm: {}",
+            d.first().map(f).unwrap_or(f64::NAN),
+            d.get(1).map(f).unwrap_or(f64::NAN),
+            p["depth_range_source"].as_str().unwrap_or("")
+        );
+    }
     let rf = &r["reference"];
     println!(
         "reference plane: {:+.3} mm along the normal, normal off by {:.4}°",
@@ -197,11 +206,14 @@ fn print_calibration_report(r: &serde_json::Value, out: &std::path::Path) {
         let um = |v: &serde_json::Value| 1e3 * f(v);
         let (t, o) = (&s["true_calibration"], &s["self_calibration"]);
         println!(
-            "scan {}: interior RMS {:.1} µm with the true calibration, {:.1} µm self-calibrated (ratio {:.2})",
+            "scan {}: interior RMS {:.1} µm with the true calibration, {:.1} µm self-calibrated (ratio {:.2}; after a rigid alignment {:.2}); max error {:.3} / {:.3} mm",
             s["scene"].as_str().unwrap_or("?"),
             um(&t["interior"]["rms"]),
             um(&o["interior"]["rms"]),
-            f(&s["rms_ratio_interior"])
+            f(&s["rms_ratio_interior"]),
+            f(&s["rms_ratio_interior_aligned"]),
+            f(&t["interior"]["max"]),
+            f(&o["interior"]["max"])
         );
         for (name, cal) in [("true", t), ("self", o)] {
             for sp in cal["spheres"].as_array().into_iter().flatten() {
