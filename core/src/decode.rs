@@ -48,9 +48,19 @@ pub trait Sample: Copy {
     fn to_i32(self) -> i32 {
         self.to_f32() as i32
     }
+    /// The larger of two samples (the row decoder tracks the largest sample of each pixel to test
+    /// saturation once, instead of once per image).
+    #[inline(always)]
+    fn max_of(self, other: Self) -> Self {
+        if self.to_f32() > other.to_f32() { self } else { other }
+    }
 }
 
 impl Sample for u8 {
+    #[inline(always)]
+    fn max_of(self, other: Self) -> Self {
+        if self > other { self } else { other }
+    }
     const MAX: f32 = 255.0;
     #[inline(always)]
     fn to_f32(self) -> f32 {
@@ -63,6 +73,10 @@ impl Sample for u8 {
 }
 
 impl Sample for u16 {
+    #[inline(always)]
+    fn max_of(self, other: Self) -> Self {
+        if self > other { self } else { other }
+    }
     const MAX: f32 = 65535.0;
     #[inline(always)]
     fn to_f32(self) -> f32 {
@@ -267,9 +281,18 @@ struct ImageCoef<K> {
     a: K,
     b: K,
     w: K,
-    /// `w` is non-zero: the image contributes to the DC accumulator.
-    use_w: bool,
+    /// How the image enters the S, C and DC planes: [`SKIP`] (zero coefficient: `acc + 0·v` is
+    /// `acc` exactly, as no accumulator is ever −0), [`INIT`] (the plane's first non-zero
+    /// contribution in image order: `0 + k·v`) or [`ACC`].
+    mode: [u8; 3],
 }
+
+/// Plane mode: the coefficient is zero, the plane is left alone.
+const SKIP: u8 = 0;
+/// Plane mode: first contribution, `ZERO + k·v` (the row driver then needs no zeroed state).
+const INIT: u8 = 1;
+/// Plane mode: `acc + k·v`.
+const ACC: u8 = 2;
 
 /// A decoder for one pattern set: estimators, level ratios and thresholds, computed once, in the
 /// number formats of the arithmetic `A` ([`crate::arith`]; the default is [`F32Accurate`]).
@@ -285,6 +308,8 @@ pub struct Decoder<A: Arith = F32Accurate> {
     limits: Limits<A>,
     format: A::Format,
     config: DecodeConfig,
+    /// Planes (DC, then S and C of each level) no image contributes to: the row driver zeroes them.
+    untouched: [bool; 1 + 2 * MAX_LEVELS],
 }
 
 /// Output rows of the decoder, all the same length.
@@ -362,7 +387,7 @@ impl<A: Arith> Decoder<A> {
         let n_levels = levels.len();
         let plan = Plan { levels: &est[..n_levels], dc_level, ratios: &ratios[..n_levels], coarse_range: set.coarse_range(), config: &config };
         let format = A::format(&plan)?;
-        let zero = ImageCoef { level: 0, a: A::COEF_ZERO, b: A::COEF_ZERO, w: A::COEF_ZERO, use_w: false };
+        let zero = ImageCoef { level: 0, a: A::COEF_ZERO, b: A::COEF_ZERO, w: A::COEF_ZERO, mode: [SKIP; 3] };
         let mut d = Decoder {
             n_levels,
             n_images: set.image_count(),
@@ -373,6 +398,7 @@ impl<A: Arith> Decoder<A> {
             limits: A::limits(&plan, &format),
             format,
             config,
+            untouched: [true; 1 + 2 * MAX_LEVELS],
         };
         let mut coefs = [None; MAX_LEVELS];
         for i in 0..n_levels {
@@ -389,7 +415,14 @@ impl<A: Arith> Decoder<A> {
             let s = id.shift as usize;
             let c = coefs[l].ok_or(DecodeError::Degenerate(id.level))?;
             let w = if dc_level == Some(l) { c.w[s] } else { A::COEF_ZERO };
-            d.images[k] = ImageCoef { level: id.level, a: c.a[s], b: c.b[s], w, use_w: !A::is_zero(w) };
+            let mut mode = [SKIP; 3];
+            for (m, (k, plane)) in mode.iter_mut().zip([(c.a[s], 1 + 2 * l), (c.b[s], 2 + 2 * l), (w, 0)]) {
+                if !A::is_zero(k) {
+                    *m = if d.untouched[plane] { INIT } else { ACC };
+                    d.untouched[plane] = false;
+                }
+            }
+            d.images[k] = ImageCoef { level: id.level, a: c.a[s], b: c.b[s], w, mode };
         }
         Ok(d)
     }
@@ -418,6 +451,11 @@ impl<A: Arith> Decoder<A> {
     /// Decode one row: `rows[i]` is the row of image `i` (in the set's order), all of the same
     /// length as the outputs. Writes the finest absolute phase, its modulation B, the DC term A and
     /// a validity code for every pixel.
+    ///
+    /// Runs the kernel of [`Self::accumulate`] and [`Self::finish`] block by block on a stack
+    /// state, with two shortcuts that leave every bit alone: a plane's first contribution is
+    /// written as `0 + k·v` instead of being added to a zeroed plane, and saturation is tested once
+    /// on the largest sample of the pixel (`v ≥ t` for some sample ⇔ `max v ≥ t`).
     #[inline(always)]
     pub fn decode_row<P: Sample>(&self, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
         if rows.len() != self.n_images {
@@ -428,20 +466,40 @@ impl<A: Arith> Decoder<A> {
             return Err(DecodeError::Length);
         }
         let RowOut { phase, modulation, dc, validity } = out;
+        let sat = self.limits.saturation;
+        // The block state, zeroed once per row: every plane an image contributes to is overwritten
+        // by its first contribution ([`INIT`]), the others stay zero.
+        let mut st_dc = [A::ZERO; BLOCK];
+        let mut st_s = [[A::ZERO; BLOCK]; MAX_LEVELS];
+        let mut st_c = [[A::ZERO; BLOCK]; MAX_LEVELS];
+        let mut flags = [0u8; 0];
+        let Some(&first) = rows.first().and_then(|r| r.first()) else {
+            return Ok(());
+        };
+        let mut peak = [first; BLOCK];
         let mut start = 0;
         while start < w {
             let end = if w - start > BLOCK { start + BLOCK } else { w };
             let n = end - start;
-            let mut st_dc = [A::ZERO; BLOCK];
-            let mut st_s = [[A::ZERO; BLOCK]; MAX_LEVELS];
-            let mut st_c = [[A::ZERO; BLOCK]; MAX_LEVELS];
-            let mut flags = [0u8; BLOCK];
             let mut st = block_state(&mut st_dc, &mut st_s, &mut st_c, &mut flags, n);
-            for (i, r) in rows.iter().enumerate() {
-                self.accumulate(i, &r[start..end], &mut st)?;
+            // A loop over the decoder's image count (known at run time only), so that it is never
+            // unrolled into copies of the per-image loops even when the caller's row count is
+            // a constant (that left the finishing loop unvectorized in such callers).
+            for i in 0..self.n_images {
+                let r = rows.get(i).map(|r| &r[start..end]).ok_or(DecodeError::ImageCount)?;
+                self.accumulate_modes::<P, false, false>(i, r, &mut st)?;
+                if i == 0 {
+                    peak[..n].copy_from_slice(r);
+                } else {
+                    for (p, v) in peak[..n].iter_mut().zip(r) {
+                        *p = v.max_of(*p);
+                    }
+                }
             }
-            self.finish(
+            let peak = &peak[..n];
+            self.finish_levels(
                 &st,
+                |i| A::saturated(A::input(peak[i]), sat),
                 RowOut {
                     phase: &mut phase[start..end],
                     modulation: &mut modulation[start..end],
@@ -458,37 +516,46 @@ impl<A: Arith> Decoder<A> {
     /// kernel). The state must have been zeroed before the first image.
     #[inline(always)]
     pub fn accumulate<P: Sample>(&self, image: usize, row: &[P], st: &mut State<'_, A::Acc>) -> Result<(), DecodeError> {
+        self.accumulate_modes::<P, true, true>(image, row, st)
+    }
+
+    /// [`Self::accumulate`] with the plane modes of the image. `ZEROED`: the state was zeroed, so
+    /// a first contribution may be added (the bits of `0 + k·v` either way); `FLAGS`: update the
+    /// saturation flags.
+    #[inline(always)]
+    fn accumulate_modes<P: Sample, const ZEROED: bool, const FLAGS: bool>(
+        &self,
+        image: usize,
+        row: &[P],
+        st: &mut State<'_, A::Acc>,
+    ) -> Result<(), DecodeError> {
         let coef = *self.images.get(image).filter(|_| image < self.n_images).ok_or(DecodeError::Sequence)?;
         let n = row.len();
         let l = coef.level as usize;
-        let sat = self.limits.saturation;
         let (dc, flags) = (&mut st.dc[..], &mut st.flags[..]);
         let (s, c) = match (st.s.get_mut(l), st.c.get_mut(l)) {
             (Some(s), Some(c)) => (&mut s[..], &mut c[..]),
             _ => return Err(DecodeError::Sequence),
         };
-        if dc.len() != n || s.len() != n || c.len() != n || flags.len() != n {
+        if dc.len() != n || s.len() != n || c.len() != n || (FLAGS && flags.len() != n) {
             return Err(DecodeError::Length);
         }
-        // Zipped iterators: no bounds checks, so the loop vectorizes. The DC plane is only touched
-        // by images of the DC level (the choice depends on the plan, not on the data).
-        let (ca, cb, cw) = (coef.a, coef.b, coef.w);
-        if coef.use_w {
-            for ((((v, s), c), d), f) in row.iter().zip(s.iter_mut()).zip(c.iter_mut()).zip(dc.iter_mut()).zip(flags.iter_mut()) {
-                let v = A::input(*v);
-                *s = A::mac(*s, ca, v);
-                *c = A::mac(*c, cb, v);
-                *d = A::mac(*d, cw, v);
-                *f |= A::saturated(v, sat) as u8;
-            }
-        } else {
-            for (((v, s), c), f) in row.iter().zip(s.iter_mut()).zip(c.iter_mut()).zip(flags.iter_mut()) {
-                let v = A::input(*v);
-                *s = A::mac(*s, ca, v);
-                *c = A::mac(*c, cb, v);
-                *f |= A::saturated(v, sat) as u8;
-            }
+        let k = Coefs { a: coef.a, b: coef.b, w: coef.w, sat: self.limits.saturation };
+        let m = |x: u8| if ZEROED && x == INIT { ACC } else { x };
+        let [ms, mc, mw] = coef.mode;
+        // One loop per combination of plane modes (chosen per image by the plan, never by the
+        // data), each a straight-line body over zipped slices that vectorizes.
+        macro_rules! go {
+            ($($a:literal $b:literal $c:literal),*) => {
+                match (m(ms), m(mc), m(mw)) {
+                    $(($a, $b, $c) => acc_loop::<A, P, $a, $b, $c, FLAGS>(row, s, c, dc, flags, &k),)*
+                    _ => {}
+                }
+            };
         }
+        go!(0 0 0, 0 0 1, 0 0 2, 0 1 0, 0 1 1, 0 1 2, 0 2 0, 0 2 1, 0 2 2,
+            1 0 0, 1 0 1, 1 0 2, 1 1 0, 1 1 1, 1 1 2, 1 2 0, 1 2 1, 1 2 2,
+            2 0 0, 2 0 1, 2 0 2, 2 1 0, 2 1 1, 2 1 2, 2 2 0, 2 2 1, 2 2 2);
         Ok(())
     }
 
@@ -501,79 +568,81 @@ impl<A: Arith> Decoder<A> {
     /// operations wider; IEEE arithmetic without contraction gives the same bits.
     #[inline(always)]
     pub fn finish(&self, st: &State<'_, A::Acc>, out: RowOut<'_>) -> Result<(), DecodeError> {
-        let n = st.dc.len();
-        if !out.len_ok(n) || st.flags.len() != n || (0..self.n_levels).any(|l| st.s[l].len() != n || st.c[l].len() != n) {
+        let flags = &st.flags[..];
+        if flags.len() != st.dc.len() {
             return Err(DecodeError::Length);
         }
+        self.finish_levels(st, |i| flags[i] & 1 != 0, out)
+    }
+
+    /// [`Self::finish`] with the saturation test of pixel `i` given by `saturated(i)`: one pass over
+    /// the pixels computing every level in registers, compiled once per level count.
+    #[inline(always)]
+    fn finish_levels(&self, st: &State<'_, A::Acc>, saturated: impl Fn(usize) -> bool, out: RowOut<'_>) -> Result<(), DecodeError> {
+        let n = st.dc.len();
+        if !out.len_ok(n) || (0..self.n_levels).any(|l| st.s[l].len() != n || st.c[l].len() != n) {
+            return Err(DecodeError::Length);
+        }
+        match self.n_levels {
+            1 => self.finish_fused::<1>(st, saturated, out),
+            2 => self.finish_fused::<2>(st, saturated, out),
+            3 => self.finish_fused::<3>(st, saturated, out),
+            4 => self.finish_fused::<4>(st, saturated, out),
+            5 => self.finish_fused::<5>(st, saturated, out),
+            _ => self.finish_fused::<6>(st, saturated, out),
+        }
+        Ok(())
+    }
+
+    /// The finishing kernel for `L` levels (lengths checked by the caller).
+    #[inline(always)]
+    fn finish_fused<const L: usize>(&self, st: &State<'_, A::Acc>, saturated: impl Fn(usize) -> bool, out: RowOut<'_>) {
+        let n = st.dc.len();
         let lim = &self.limits;
         let fmt = &self.format;
         let (min_b2, lo, hi) = (lim.min_modulation, lim.coarse_lo, lim.coarse_hi);
         let (tol, dark) = (lim.unwrap_tolerance, lim.dark);
-        let mut start = 0;
-        while start < n {
-            let end = if n - start > BLOCK { start + BLOCK } else { n };
-            let m = end - start;
-            let a = &st.dc[start..end];
-            let mut phi = [A::Phase::default(); BLOCK];
-            let mut b2min = [A::MAG_MAX; BLOCK];
-            let mut b2last = [A::Mag::default(); BLOCK];
-            // Per-pixel failure bits, combined by priority at the end.
-            let mut fail = [0u8; BLOCK];
-            let (phi, b2min, b2last, fail) = (&mut phi[..m], &mut b2min[..m], &mut b2last[..m], &mut fail[..m]);
-            for l in 0..self.n_levels {
-                let (sl, cl) = (&st.s[l][start..end], &st.c[l][start..end]);
-                let (ad, bd, ratio) = (self.a_dc[l], self.b_dc[l], self.ratio[l]);
-                let it = sl.iter().zip(cl).zip(a).zip(phi.iter_mut()).zip(b2min.iter_mut()).zip(b2last.iter_mut()).zip(fail.iter_mut());
+        let a = &st.dc[..n];
+        let s: [&[A::Acc]; L] = core::array::from_fn(|l| &st.s[l][..n]);
+        let c: [&[A::Acc]; L] = core::array::from_fn(|l| &st.c[l][..n]);
+        if s.iter().chain(c.iter()).any(|p| p.len() != n) {
+            return;
+        }
+        let (vo, po, mo, ao) = (&mut out.validity[..n], &mut out.phase[..n], &mut out.modulation[..n], &mut out.dc[..n]);
+        let outs = vo.iter_mut().zip(po.iter_mut()).zip(mo.iter_mut()).zip(ao.iter_mut()).zip(a);
+        for (i, ((((vo, po), mo), ao), a)) in outs.enumerate() {
+            let a = *a;
+            let mut phi = A::Phase::default();
+            let mut bmin = A::MAG_MAX;
+            let mut blast = A::Mag::default();
+            let (mut out_of_range, mut inconsistent) = (false, false);
+            for l in 0..L {
+                let (s, c) = A::level_sc(s[l][i], c[l][i], self.a_dc[l], self.b_dc[l], a, fmt);
+                let (wrapped, b2) = A::polar(s, c);
+                bmin = A::min_mag(b2, bmin);
+                blast = b2;
                 if l == 0 {
-                    for ((((((s, c), a), p), bmin), blast), f) in it {
-                        let (s, c) = A::level_sc(*s, *c, ad, bd, *a, fmt);
-                        let (wrapped, b2) = A::polar(s, c);
-                        *bmin = A::min_mag(b2, *bmin);
-                        *blast = b2;
-                        *f |= (!A::in_range(wrapped, lo, hi) as u8) << 1;
-                        *p = wrapped;
-                    }
+                    out_of_range = !A::in_range(wrapped, lo, hi);
+                    phi = wrapped;
                 } else {
-                    for ((((((s, c), a), p), bmin), blast), f) in it {
-                        let (s, c) = A::level_sc(*s, *c, ad, bd, *a, fmt);
-                        let (wrapped, b2) = A::polar(s, c);
-                        *bmin = A::min_mag(b2, *bmin);
-                        *blast = b2;
-                        let (abs, res) = A::unwrap(*p, ratio, wrapped);
-                        *f |= (!A::consistent(res, tol) as u8) << 2;
-                        *p = abs;
-                    }
+                    let (abs, res) = A::unwrap(phi, self.ratio[l], wrapped);
+                    inconsistent |= !A::consistent(res, tol);
+                    phi = abs;
                 }
             }
-            let (vo, po, mo, ao) = (
-                &mut out.validity[start..end],
-                &mut out.phase[start..end],
-                &mut out.modulation[start..end],
-                &mut out.dc[start..end],
-            );
-            let flags = &st.flags[start..end];
-            let it = vo.iter_mut().zip(po.iter_mut()).zip(ao.iter_mut()).zip(a).zip(flags).zip(fail.iter()).zip(phi.iter()).zip(b2min.iter());
-            for (((((((vo, po), ao), a), fl), f), p), bmin) in it {
-                // Priority (highest last): unwrap inconsistent, out of range, low modulation, dark,
-                // saturated. Selects, not branches, so the loop vectorizes.
-                let mut v = Validity::Valid as u8;
-                v = if f & 4 != 0 { Validity::UnwrapInconsistent as u8 } else { v };
-                v = if f & 2 != 0 { Validity::PhaseOutOfRange as u8 } else { v };
-                v = if !A::mag_at_least(*bmin, min_b2) { Validity::LowModulation as u8 } else { v };
-                v = if !A::dc_at_least(*a, dark) { Validity::Dark as u8 } else { v };
-                v = if fl & 1 != 0 { Validity::Saturated as u8 } else { v };
-                *vo = v;
-                *po = if v == 0 { A::phase_out(*p) } else { CANONICAL_NAN };
-                *ao = A::dc_out(*a, fmt);
-            }
-            // One square root per pixel (default: libm's correctly rounded one, `sqrtss` on x86,
-            // IEEE on every target).
-            for (mo, b2) in mo.iter_mut().zip(b2last.iter()) {
-                *mo = A::mag_out(*b2, fmt);
-            }
-            start = end;
+            // Priority (highest last): unwrap inconsistent, out of range, low modulation, dark,
+            // saturated. Selects, not branches, so the loop vectorizes.
+            let mut v = Validity::Valid as u8;
+            v = if inconsistent { Validity::UnwrapInconsistent as u8 } else { v };
+            v = if out_of_range { Validity::PhaseOutOfRange as u8 } else { v };
+            v = if !A::mag_at_least(bmin, min_b2) { Validity::LowModulation as u8 } else { v };
+            v = if !A::dc_at_least(a, dark) { Validity::Dark as u8 } else { v };
+            v = if saturated(i) { Validity::Saturated as u8 } else { v };
+            *vo = v;
+            *po = if v == 0 { A::phase_out(phi) } else { CANONICAL_NAN };
+            *ao = A::dc_out(a, fmt);
+            *mo = A::mag_out(blast, fmt);
         }
-        Ok(())
     }
 
     /// Wrapped phase φ^(k) ∈ [−π, π] (eqs 9, 11) and modulation B of one level from a complete
@@ -625,12 +694,60 @@ impl<A: Arith> Decoder<A> {
     }
 }
 
+/// The coefficients of one image and the saturation threshold, for [`acc_loop`].
+struct Coefs<A: Arith> {
+    a: A::Coef,
+    b: A::Coef,
+    w: A::Coef,
+    sat: A::In,
+}
+
+/// Fold one image row into the S, C and DC planes with the plane modes `MS`, `MC`, `MW`
+/// ([`SKIP`], [`INIT`], [`ACC`]), and into the saturation flags if `FLAGS`.
+#[inline(always)]
+fn acc_loop<A: Arith, P: Sample, const MS: u8, const MC: u8, const MW: u8, const FLAGS: bool>(
+    row: &[P],
+    s: &mut [A::Acc],
+    c: &mut [A::Acc],
+    dc: &mut [A::Acc],
+    flags: &mut [u8],
+    k: &Coefs<A>,
+) {
+    let n = row.len();
+    let (s, c, dc) = (&mut s[..n], &mut c[..n], &mut dc[..n]);
+    #[inline(always)]
+    fn plane<A: Arith, const M: u8>(acc: &mut A::Acc, k: A::Coef, v: A::In) {
+        if M == INIT {
+            *acc = A::mac(A::ZERO, k, v);
+        } else if M == ACC {
+            *acc = A::mac(*acc, k, v);
+        }
+    }
+    if FLAGS {
+        let flags = &mut flags[..n];
+        for i in 0..n {
+            let v = A::input(row[i]);
+            plane::<A, MS>(&mut s[i], k.a, v);
+            plane::<A, MC>(&mut c[i], k.b, v);
+            plane::<A, MW>(&mut dc[i], k.w, v);
+            flags[i] |= A::saturated(v, k.sat) as u8;
+        }
+    } else {
+        for i in 0..n {
+            let v = A::input(row[i]);
+            plane::<A, MS>(&mut s[i], k.a, v);
+            plane::<A, MC>(&mut c[i], k.b, v);
+            plane::<A, MW>(&mut dc[i], k.w, v);
+        }
+    }
+}
+
 /// A zeroed stack state for one block of `n ≤ BLOCK` pixels.
 fn block_state<'a, T>(
     dc: &'a mut [T; BLOCK],
     s: &'a mut [[T; BLOCK]; MAX_LEVELS],
     c: &'a mut [[T; BLOCK]; MAX_LEVELS],
-    flags: &'a mut [u8; BLOCK],
+    flags: &'a mut [u8],
     n: usize,
 ) -> State<'a, T> {
     let [s0, s1, s2, s3, s4, s5] = s;
@@ -639,6 +756,9 @@ fn block_state<'a, T>(
         dc: &mut dc[..n],
         s: [&mut s0[..n], &mut s1[..n], &mut s2[..n], &mut s3[..n], &mut s4[..n], &mut s5[..n]],
         c: [&mut c0[..n], &mut c1[..n], &mut c2[..n], &mut c3[..n], &mut c4[..n], &mut c5[..n]],
-        flags: &mut flags[..n],
+        flags: {
+            let k = n.min(flags.len());
+            &mut flags[..k]
+        },
     }
 }

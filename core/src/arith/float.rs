@@ -7,7 +7,7 @@ use crate::math;
 use crate::unwrap::{consistent, unwrap_step};
 
 /// The default backend: f32 accumulators, [`math::atan2`] (degree-13 polynomial, 5e-7 rad) and
-/// `libm::sqrtf` (correctly rounded). Exactly the decoder as it was before backends existed.
+/// a correctly rounded square root (`libm::sqrtf`, or the same bits from [`math::sqrt`] on x86-64). Exactly the decoder as it was before backends existed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct F32Accurate;
 
@@ -44,12 +44,23 @@ impl FloatKernels for F32Accurate {
     const NAME: &'static str = "f32";
     #[inline(always)]
     fn atan2(y: f32, x: f32) -> f32 {
-        math::atan2(y, x)
+        // S and C are finite (sums of products of finite samples and coefficients): the guard of
+        // `math::atan2` against NaN inputs would never fire.
+        math::atan2_finite(y, x)
     }
     #[inline(always)]
     fn sqrt(x: f32) -> f32 {
-        // One correctly rounded square root (libm: `sqrtss` on x86, IEEE on every target).
-        libm::sqrtf(x)
+        // One correctly rounded square root: on x86-64 our kernel in plain arithmetic, which
+        // vectorizes (libm's is a scalar `sqrtss` in inline assembly), elsewhere libm's (a
+        // hardware instruction where there is one). Both are IEEE `sqrt`: the same bits.
+        #[cfg(target_arch = "x86_64")]
+        {
+            math::sqrt(x)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            libm::sqrtf(x)
+        }
     }
 }
 
@@ -57,7 +68,7 @@ impl FloatKernels for F32Fast {
     const NAME: &'static str = "f32-fast";
     #[inline(always)]
     fn atan2(y: f32, x: f32) -> f32 {
-        math::atan2_fast(y, x)
+        math::atan2_fast_finite(y, x)
     }
     #[inline(always)]
     fn sqrt(x: f32) -> f32 {

@@ -10,7 +10,7 @@
 //!
 //! | backend | accumulators | `atan2` | modulation | unwrapping | for |
 //! |---|---|---|---|---|---|
-//! | [`F32Accurate`] (default) | f32 | degree-13 polynomial ([`crate::math::atan2`], 5e-7 rad) | `libm::sqrtf` | radians, f32 | desktop, FPU heads |
+//! | [`F32Accurate`] (default) | f32 | degree-13 polynomial ([`crate::math::atan2`], 5e-7 rad) | correctly rounded: `libm::sqrtf`, on x86-64 [`crate::math::sqrt`] (same bits, vectorizes) | radians, f32 | desktop, FPU heads |
 //! | [`F32Fast`] | f32 | degree-9 polynomial ([`crate::math::atan2_fast`], 1.2e-5 rad) | Newton `rsqrt` ([`crate::math::sqrt_fast`]) | radians, f32 | FPU heads short of time |
 //! | [`F32Micromath`] | f32 | `micromath` (2.8e-3 rad) | `micromath` (≈ 5 %) | radians, f32 | comparison only |
 //! | [`Fixed`] | i32, Q format per decoder | 24-step CORDIC ([`cordic_atan2`], 2.5e-7 rad) | CORDIC magnitude | turns, `I8F24` | FPU-less heads (Cortex-M0/M3), FPGA reference |
