@@ -36,6 +36,16 @@ pub const UNDISTORT_TOLERANCE_F32_PX: f64 = 1e-3;
 pub const ROW_KNOT_STEP: usize = 32;
 /// Most knots of one row: `MAX_DIMENSION / ROW_KNOT_STEP + 1`.
 pub const MAX_ROW_KNOTS: usize = MAX_DIMENSION as usize / ROW_KNOT_STEP + 1;
+/// `0.0, 1.0, …, (ROW_KNOT_STEP − 1) as f32`.
+const KNOT_OFFSETS_F32: [f32; ROW_KNOT_STEP] = {
+    let mut a = [0f32; ROW_KNOT_STEP];
+    let mut j = 0;
+    while j < ROW_KNOT_STEP {
+        a[j] = j as f32;
+        j += 1;
+    }
+    a
+};
 /// Largest image side accepted.
 pub const MAX_DIMENSION: u32 = 16384;
 /// Grid step (pixels) of the interior convergence check of [`CameraModel::new`].
@@ -649,11 +659,15 @@ impl CameraModel {
         let f = self.f;
         let yd = (v as f32 - f.v0) / f.fy;
         let xoff = f.u0 + f.sfx * yd;
+        let caf = c_a as f32;
         for j in 0..ROW_KNOT_STEP {
-            let wgt = j as f32 * span;
+            // `j as f32` from a table and `c_a + j` as a sum of exact f32 integers: no per-lane
+            // integer conversion (which does not vectorize for usize); same values.
+            let jf = KNOT_OFFSETS_F32[j];
+            let wgt = jf * span;
             let gx = ka[0] + wgt * (kb[0] - ka[0]);
             let gy = ka[1] + wgt * (kb[1] - ka[1]);
-            let xd = ((c_a + j) as f32 - xoff) / f.fx;
+            let xd = ((caf + jf) - xoff) / f.fx;
             let (x, y) = newton32(k, xd, yd, gx, gy, 1);
             xs[j] = x;
             ys[j] = y;
@@ -661,7 +675,8 @@ impl CameraModel {
     }
 
     /// Ideal normalized coordinates of every pixel of row `v` (see
-    /// [`CameraModel::undistort_span_f32`]); writes `min(xs.len(), ys.len(), width)` pixels.
+    /// [`CameraModel::undistort_span_from_knots_f32`]); writes `min(xs.len(), ys.len(), width)`
+    /// pixels.
     pub fn undistort_row_f32(&self, v: u32, xs: &mut [f32], ys: &mut [f32]) {
         let n = xs.len().min(ys.len()).min(self.intr.width as usize);
         let mut kx = [0f32; MAX_ROW_KNOTS];

@@ -246,6 +246,51 @@ fn added_error_against_f64_reference_is_below_one_micrometre() {
     assert!(s.max <= 1.0, "max added error {} µm", s.max);
 }
 
+/// The same with Gaussian phase noise (σ = 0.01 rad, seeded) on both maps: the search must still
+/// find the crossing of the (now rough) interpolated reference, as the f64 bisection does.
+#[test]
+fn added_error_with_phase_noise_is_below_one_micrometre() {
+    let rig = Rig::default_rig();
+    let mut reference = render_reference(&rig);
+    let rows: Vec<usize> = (2..1024).step_by(29).collect();
+    let mut object = render(&rig, &object(&rig), volume(&rig), rows.iter().copied());
+    let mut rng = Rng(0x0401_5eed);
+    let mut gauss = || {
+        let (a, b) = (rng.uniform().max(1e-300), rng.uniform());
+        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+    };
+    for m in [&mut reference, &mut object] {
+        for p in m.phase.iter_mut() {
+            if p.is_finite() {
+                *p = (*p as f64 + 0.01 * gauss()) as f32;
+            }
+        }
+    }
+    let r = run(&rig, &reference, &object, &rows);
+    let mut prep = reference.phase.clone();
+    ReferenceMap::prepare(&mut prep, &reference.validity, 1280, 1024).unwrap();
+    let mut errs = vec![];
+    for &(u, v, m, _) in &r.pts {
+        let phi = object.phase[v * 1280 + u] as f64;
+        if let Some(rf) = reference_f64(&rig, &prep, u, v, phi) {
+            errs.push(err_um(m, rf));
+        }
+    }
+    let s = stats(&errs);
+    let truth_n = object.truth.iter().filter(|t| t.is_some()).count();
+    eprintln!(
+        "noisy maps: {} of {} object pixels valid; added error vs the f64 reference: n {} RMS {:.4} µm max {:.4} µm",
+        r.pts.len(),
+        truth_n,
+        s.n,
+        s.rms,
+        s.max
+    );
+    assert!(r.pts.len() as f64 > 0.99 * truth_n as f64);
+    assert!(s.n as f64 > 0.99 * r.pts.len() as f64);
+    assert!(s.max <= 1.0, "max added error {} µm", s.max);
+}
+
 /// The paper claims the reference map absorbs the projector's lens distortion (§6, §9). Measure it:
 /// a projector with k1 = ±0.1 (and some k2), everything else as the default rig.
 #[test]

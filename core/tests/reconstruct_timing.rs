@@ -1,9 +1,10 @@
 //! Per-frame CPU time of the reconstruction (ignored by default; run with
-//! `cargo test --release -p fringe3d-core --test reconstruct_timing -- --ignored --nocapture`).
+//! `cargo test --release -p fringe3d-core --test reconstruct_timing -- --ignored --nocapture
+//! --test-threads 1`, so that the two scenes do not compete for the cores).
 //!
 //! Reports the thread's on-CPU time (Linux `/proc/thread-self/schedstat`) next to wall time, so
-//! that a busy machine does not inflate the numbers as much as criterion's wall clock. Same scene as
-//! `benches/reconstruct.rs`. Also checks that the AVX2 build of the kernel gives the same bits.
+//! that a busy machine does not inflate the numbers as much as criterion's wall clock. Same scenes
+//! (`exact` and `noisy`) as `benches/reconstruct.rs`. Also checks that the AVX2 build of the kernel gives the same bits.
 // Integration tests are std: std f64 maths builds the scene.
 #![allow(clippy::disallowed_methods)]
 
@@ -53,8 +54,19 @@ fn frame_avx2(
 #[test]
 #[ignore]
 fn frame_cpu_time() {
+    timing("exact", 0.0);
+}
+
+/// The benchmark's `noisy` scene: Gaussian phase noise σ = 0.01 rad on both maps.
+#[test]
+#[ignore]
+fn frame_cpu_time_noisy() {
+    timing("noisy", 0.01);
+}
+
+fn timing(name: &str, noise: f64) {
     let rig = Rig::default_rig();
-    let reference = render_reference(&rig);
+    let mut reference = render_reference(&rig);
     let surfaces = vec![
         Surface::Sphere {
             c: [-35.0, 25.0, 640.0],
@@ -69,7 +81,22 @@ fn frame_cpu_time() {
         min: [-1e9, -1e9, rig.z_range[0]],
         max: [1e9, 1e9, rig.z_range[1]],
     };
-    let object = render(&rig, &surfaces, bounds, 0..1024);
+    let mut object = render(&rig, &surfaces, bounds, 0..1024);
+    if noise > 0.0 {
+        // Same seed and order as benches/reconstruct.rs.
+        let mut rng = Rng(0x5eed_0004);
+        let mut gauss = || {
+            let (a, b) = (rng.uniform().max(1e-300), rng.uniform());
+            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+        };
+        for m in [&mut reference, &mut object] {
+            for p in m.phase.iter_mut() {
+                if p.is_finite() {
+                    *p = (*p as f64 + noise * gauss()) as f32;
+                }
+            }
+        }
+    }
     let recon = Reconstructor::new(&rig.cam.model(), &rig.setup()).unwrap();
     let (w, h) = (1280, 1024);
     let mut prep = reference.phase.clone();
@@ -120,7 +147,7 @@ fn frame_cpu_time() {
     }
     let mpx = |ms: f64| (w * h) as f64 / ms / 1e3;
     eprintln!(
-        "1280x1024, best of {n}: baseline {:.1} ms wall / {:.1} ms CPU ({:.1} Mpx/s CPU); avx2 {:.1} ms wall / {:.1} ms CPU ({:.1} Mpx/s CPU)",
+        "{name} 1280x1024, best of {n}: baseline {:.1} ms wall / {:.1} ms CPU ({:.1} Mpx/s CPU); avx2 {:.1} ms wall / {:.1} ms CPU ({:.1} Mpx/s CPU)",
         best[0],
         best[1],
         mpx(best[1]),

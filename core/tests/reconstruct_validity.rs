@@ -427,13 +427,97 @@ fn streaming_equals_batch_bit_for_bit() {
         }
         assert_consistent(&xyz, &out);
     }
+    // A reference store of another layout (rows in reverse order: the kernel cannot compute the
+    // row offsets by formula and looks them up), and a ring with spare rows (another wrap point).
+    let reversed = Reversed {
+        data: prep.iter().rev().copied().collect(),
+    }
+    .fix();
+    let mut ring_p2 = vec![0f32; (rows + 5) * W];
+    let mut ring_v2 = vec![0u8; (rows + 5) * W];
+    let mut ring2 = ReferenceRing::new(&f.recon, &mut ring_p2, &mut ring_v2).unwrap();
+    for v in 0..H as u32 {
+        let (_, last) = f.recon.rows_needed(v);
+        while ring2.rows_pushed() <= last {
+            let r = ring2.rows_pushed() as usize;
+            ring2
+                .push_row(&rp[r * W..(r + 1) * W], &rv[r * W..(r + 1) * W])
+                .unwrap();
+        }
+        let s = v as usize * W;
+        for k in 0..2 {
+            if k == 0 {
+                f.recon
+                    .reconstruct_row(
+                        &reversed,
+                        v,
+                        &op[s..s + W],
+                        &ov[s..s + W],
+                        &mut xyz,
+                        &mut out,
+                    )
+                    .unwrap();
+            } else {
+                f.recon
+                    .reconstruct_row(&ring2, v, &op[s..s + W], &ov[s..s + W], &mut xyz, &mut out)
+                    .unwrap();
+            }
+            for u in 0..W {
+                if out[u] != batch_val[s + u] {
+                    differ += 1;
+                }
+                for c in 0..3 {
+                    if xyz[3 * u + c].to_bits() != batch_xyz[3 * (s + u) + c].to_bits() {
+                        differ += 1;
+                    }
+                }
+            }
+        }
+    }
     let counts: Vec<usize> = (0..10)
         .map(|c| batch_val.iter().filter(|&&x| x == c).count())
         .collect();
-    eprintln!("streaming vs batch: {differ} differing values; codes {counts:?}");
+    eprintln!(
+        "streaming (two rings) and a reversed row store vs batch: {differ} differing values; codes {counts:?}"
+    );
     assert_eq!(differ, 0);
     assert!(counts[0] > 100_000 && counts[Validity::OutOfDepth as usize] > 10_000);
     rp.clear();
+}
+
+/// A whole reference map stored bottom row first, each row reversed (the samples of a row are
+/// read through [`ReferenceRows::row_offset`], so the row is stored left to right at its offset:
+/// reversing the whole buffer reverses the rows' order and their contents, so rows are re-reversed
+/// by taking each row's samples back in order).
+struct Reversed {
+    data: Vec<f32>,
+}
+
+impl Reversed {
+    fn fix(mut self) -> Self {
+        for row in self.data.chunks_exact_mut(W) {
+            row.reverse();
+        }
+        self
+    }
+}
+
+impl ReferenceRows for Reversed {
+    fn width(&self) -> usize {
+        W
+    }
+    fn height(&self) -> usize {
+        H
+    }
+    fn capacity_rows(&self) -> u32 {
+        H as u32
+    }
+    fn storage(&self) -> &[f32] {
+        &self.data
+    }
+    fn row_offset(&self, r: u32) -> Option<usize> {
+        ((r as usize) < H).then(|| (H - 1 - r as usize) * W)
+    }
 }
 
 fn bad_f32() -> impl Strategy<Value = f32> {

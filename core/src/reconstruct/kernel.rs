@@ -20,6 +20,30 @@ pub(crate) struct RefRows<'a> {
     last_image_row: i64,
     /// Rows set (`offs[..len]`).
     len: usize,
+    /// The offsets as a formula, when they follow one (always for [`super::ReferenceMap`] and
+    /// [`super::ReferenceRing`]): the sample indices are then computed in the vector passes.
+    affine: Option<Affine>,
+}
+
+/// Band row offsets `base + k·stride`, minus `wrap` from band row `split` on (a ring's wrap).
+#[derive(Clone, Copy)]
+struct Affine {
+    base: u32,
+    stride: u32,
+    split: u32,
+    wrap: u32,
+}
+
+impl Affine {
+    #[inline(always)]
+    fn offset(&self, k: u32) -> u32 {
+        let o = self.base.wrapping_add(k.wrapping_mul(self.stride));
+        if k >= self.split {
+            o.wrapping_sub(self.wrap)
+        } else {
+            o
+        }
+    }
 }
 
 impl<'a> RefRows<'a> {
@@ -30,6 +54,7 @@ impl<'a> RefRows<'a> {
             first,
             last_image_row,
             len: 0,
+            affine: None,
         }
     }
 
@@ -37,6 +62,42 @@ impl<'a> RefRows<'a> {
         if let Some(s) = self.offs.get_mut(k) {
             *s = u32::try_from(offset).unwrap_or(u32::MAX);
             self.len = self.len.max(k + 1);
+        }
+    }
+
+    /// After every row is set: find the affine form of the offsets (rows `stride` samples apart,
+    /// with at most one wrap), if they have one and the storage is indexable in u32.
+    pub(crate) fn finish(&mut self, stride: usize) {
+        self.affine = None;
+        let (Ok(stride), Ok(_)) = (u32::try_from(stride), u32::try_from(self.data.len())) else {
+            return;
+        };
+        let offs = &self.offs[..self.len.min(MAX_BAND_ROWS)];
+        let Some(&base) = offs.first() else {
+            return;
+        };
+        let split = offs
+            .windows(2)
+            .position(|w| w[1] < w[0])
+            .map_or(u32::MAX, |p| p as u32 + 1);
+        let wrap = match offs.get(split as usize) {
+            Some(&o) => base
+                .wrapping_add(split.wrapping_mul(stride))
+                .wrapping_sub(o),
+            None => 0,
+        };
+        let a = Affine {
+            base,
+            stride,
+            split,
+            wrap,
+        };
+        if offs
+            .iter()
+            .enumerate()
+            .all(|(k, &o)| o != u32::MAX && a.offset(k as u32) == o)
+        {
+            self.affine = Some(a);
         }
     }
 
@@ -75,23 +136,22 @@ fn cell(du: f32, dv: f32, u: f32, v: f32, gr: &Grid) -> (f32, f32, f32, f32, boo
     // 2²², but such offsets land far outside the image or band anyway).
     let iu = floor_small(du);
     let iv = floor_small(dv);
-    let fu0 = du - iu;
-    let fv0 = dv - iv;
+    // The cell's column and row, at most the last but one (a sample on the last column or row
+    // is read from the cell before it, with fraction 1; further out the fraction exceeds 1).
+    // Integers in f32 add and subtract exactly, so `fu = du − (col − u)` is `du − iu` (exact), or
+    // `(du − iu) + 1` rounded once on the last column.
     let col0 = u + iu;
     let row0 = v + iv;
-    let eu = col0 == gr.w - 1.0;
-    let ev = row0 == gr.last_row;
-    let col = if eu { col0 - 1.0 } else { col0 };
-    let fu = if eu { fu0 + 1.0 } else { fu0 };
-    let row = if ev { row0 - 1.0 } else { row0 };
-    let fv = if ev { fv0 + 1.0 } else { fv0 };
+    let col = if col0 < gr.w - 2.0 { col0 } else { gr.w - 2.0 };
+    let row = if row0 < gr.last_row - 1.0 {
+        row0
+    } else {
+        gr.last_row - 1.0
+    };
+    let fu = du - (col - u);
+    let fv = dv - (row - v);
     let k = row - gr.first;
-    let ok = (col >= 0.0)
-        & (col + 1.0 < gr.w)
-        & (fu <= 1.0)
-        & (fv <= 1.0)
-        & (k >= 0.0)
-        & (k + 1.0 < gr.band_len);
+    let ok = (col >= 0.0) & (fu <= 1.0) & (fv <= 1.0) & (k >= 0.0) & (k + 1.0 < gr.band_len);
     (k, col, fu, fv, ok)
 }
 
@@ -160,36 +220,74 @@ fn sample(
     interp(load(rr, small_int(k), small_int(col), ok), fu, fv, phi)
 }
 
-/// Per-pixel quantities of one lane.
+/// Per-pixel coefficients of one lane: the sample offset as a polynomial in `t` (see [`offset`]).
 #[derive(Clone, Copy)]
 struct Lane {
-    x: f32,
-    y: f32,
-    r2: f32,
-    rad: f32,
-    ex: f32,
-    ey: f32,
+    q1: f32,
+    q2: f32,
+    a: f32,
+    b: f32,
+    u1: f32,
+    u2: f32,
+    ux: f32,
+    ue: f32,
+    v1: f32,
+    v2: f32,
+    vy: f32,
+    ve: f32,
+}
+
+/// The per-pixel coefficients of [`offset`] for ideal coordinates `(x, y)` and epipolar direction
+/// `(ex, ey)`, and the pixel offset per unit `t` at `t = 0` (the Jacobian of eqs 3-4 applied to
+/// `e`).
+#[inline(always)]
+fn lane_coefficients(c: &Consts, x: f32, y: f32, ex: f32, ey: f32) -> (Lane, f32, f32) {
+    let [k1, k2, p1, p2, k3] = c.k;
+    let r2 = x * x + y * y;
+    let rad = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    let q1 = 2.0 * (x * ex + y * ey);
+    let q2 = ex * ex + ey * ey;
+    let a = k1 + r2 * (2.0 * k2 + r2 * (3.0 * k3));
+    let b = k2 + 3.0 * k3 * r2;
+    let pxy1 = x * ey + y * ex;
+    let pxy2 = ex * ey;
+    let tx1 = 2.0 * p1 * pxy1 + p2 * (q1 + 4.0 * x * ex);
+    let tx2 = 2.0 * p1 * pxy2 + p2 * (q2 + 2.0 * ex * ex);
+    let ty1 = p1 * (q1 + 4.0 * y * ey) + 2.0 * p2 * pxy1;
+    let ty2 = p1 * (q2 + 2.0 * ey * ey) + 2.0 * p2 * pxy2;
+    let cx1 = ex * rad + tx1;
+    let cy1 = ey * rad + ty1;
+    let l = Lane {
+        q1,
+        q2,
+        a,
+        b,
+        u1: c.fx * cx1 + c.sfx * cy1,
+        u2: c.fx * tx2 + c.sfx * ty2,
+        ux: c.fx * x + c.sfx * y,
+        ue: c.fx * ex + c.sfx * ey,
+        v1: c.fy * cy1,
+        v2: c.fy * ty2,
+        vy: c.fy * y,
+        ve: c.fy * ey,
+    };
+    let qa = q1 * a;
+    (l, l.u1 + qa * l.ux, l.v1 + qa * l.vy)
 }
 
 /// Pixel offset `A·(D(m + t·e) − D(m))` of the sample at parameter `t` (eqs 3-4 in difference
-/// form: every term is proportional to the offset `δ = t·e`, so it keeps f32 precision relative
-/// to the offset, not to the absolute pixel position).
+/// form, as a polynomial in `t` with per-pixel coefficients, so every term is proportional to the
+/// offset and keeps f32 precision relative to it, not to the absolute pixel position). With
+/// `q = |m + t·e|² − |m|² = t·(q1 + t·q2)`, the radial factor changes by
+/// `Δρ = q·(a + q·(b + k3·q))` and the distorted point by `t·e·ρ + Δρ·(m + t·e)` plus the
+/// tangential change `t·(T1 + t·T2)`; `A` (eq 4) is folded into the coefficients.
 #[inline(always)]
 fn offset(c: &Consts, l: Lane, t: f32) -> (f32, f32) {
-    let [k1, k2, p1, p2, k3] = c.k;
-    let dx = t * l.ex;
-    let dy = t * l.ey;
-    let (x, y, r2) = (l.x, l.y, l.r2);
-    let y1 = y + dy;
-    // q = |m + δ|² − |m|²
-    let q = 2.0 * (x * dx + y * dy) + (dx * dx + dy * dy);
-    let r2b = r2 + q;
-    let drad = q * (k1 + k2 * (r2b + r2) + k3 * (r2b * r2b + r2b * r2 + r2 * r2));
-    let rad1 = l.rad + drad;
-    let dxy = x * dy + dx * y1; // Δ(x·y)
-    let ddx = dx * rad1 + x * drad + (2.0 * p1 * dxy + p2 * (q + 2.0 * dx * (2.0 * x + dx)));
-    let ddy = dy * rad1 + y * drad + (p1 * (q + 2.0 * dy * (2.0 * y + dy)) + 2.0 * p2 * dxy);
-    (c.fx * ddx + c.sfx * ddy, c.fy * ddy)
+    let q = t * (l.q1 + t * l.q2);
+    let drad = q * (l.a + q * (l.b + c.k[4] * q));
+    let du = t * (l.u1 + t * l.u2) + drad * (l.ux + t * l.ue);
+    let dv = t * (l.v1 + t * l.v2) + drad * (l.vy + t * l.ve);
+    (du, dv)
 }
 
 #[inline(always)]
@@ -219,6 +317,23 @@ fn slope(s: f32, t0: f32, g0: f32, t1: f32, g1: f32, dp2: f32) -> f32 {
 
 /// Smallest separation (pixels) of two samples whose secant slope is trusted.
 const MIN_SECANT_PX: f32 = 1e-4;
+
+/// Acceptance of the secant answer `tn` reached by the step from `tc`, which was reached from
+/// `tp` (all in t; `dp2` squared pixels per unit t): the last step is below
+/// [`ACCEPT_LAST_STEP_PX`], the product of the last two below [`ACCEPT_STEP_PRODUCT_PX2`], and
+/// `tn` lies in the depth interval `[lo, hi]`.
+#[inline(always)]
+fn accept(tn: f32, tc: f32, tp: f32, dp2: f32, lo: f32, hi: f32) -> bool {
+    let s1 = tn - tc;
+    let s2 = tc - tp;
+    (s1 * s1 * dp2 <= ACCEPT_LAST_STEP_PX * ACCEPT_LAST_STEP_PX)
+        & (fabs(s1 * s2) * dp2 <= ACCEPT_STEP_PRODUCT_PX2)
+        & (tn >= lo)
+        & (tn <= hi)
+}
+
+/// Lanes of a chunk needing stage 2 from which it runs as a vector pass (below, per lane).
+const STAGE2_VECTOR_MIN: u32 = 4;
 
 /// Eq 16-18 in closed form: depth `s` of M along `(x, y, 1)` for the crossing at `t`.
 #[inline(always)]
@@ -269,31 +384,74 @@ pub(crate) fn row(
     }
 }
 
-/// Structure-of-arrays per-pixel quantities of a chunk.
+/// Structure-of-arrays per-pixel coefficients of a chunk.
 struct Lanes {
-    x: [f32; LANES],
-    y: [f32; LANES],
-    r2: [f32; LANES],
-    rad: [f32; LANES],
-    ex: [f32; LANES],
-    ey: [f32; LANES],
+    q1: [f32; LANES],
+    q2: [f32; LANES],
+    a: [f32; LANES],
+    b: [f32; LANES],
+    u1: [f32; LANES],
+    u2: [f32; LANES],
+    ux: [f32; LANES],
+    ue: [f32; LANES],
+    v1: [f32; LANES],
+    v2: [f32; LANES],
+    vy: [f32; LANES],
+    ve: [f32; LANES],
 }
 
 impl Lanes {
     #[inline(always)]
     fn get(&self, i: usize) -> Lane {
         Lane {
-            x: self.x[i],
-            y: self.y[i],
-            r2: self.r2[i],
-            rad: self.rad[i],
-            ex: self.ex[i],
-            ey: self.ey[i],
+            q1: self.q1[i],
+            q2: self.q2[i],
+            a: self.a[i],
+            b: self.b[i],
+            u1: self.u1[i],
+            u2: self.u2[i],
+            ux: self.ux[i],
+            ue: self.ue[i],
+            v1: self.v1[i],
+            v2: self.v2[i],
+            vy: self.vy[i],
+            ve: self.ve[i],
         }
+    }
+
+    #[inline(always)]
+    fn set(&mut self, i: usize, l: Lane) {
+        self.q1[i] = l.q1;
+        self.q2[i] = l.q2;
+        self.a[i] = l.a;
+        self.b[i] = l.b;
+        self.u1[i] = l.u1;
+        self.u2[i] = l.u2;
+        self.ux[i] = l.ux;
+        self.ue[i] = l.ue;
+        self.v1[i] = l.v1;
+        self.v2[i] = l.v2;
+        self.vy[i] = l.vy;
+        self.ve[i] = l.ve;
     }
 }
 
-/// Vector pass: sample offsets and cells for parameters `t`.
+/// `0.0, 1.0, …` as f32: lane offsets without an integer conversion per lane (which does not
+/// vectorize for `usize`).
+const LANE_F: [f32; LANES] = {
+    let mut a = [0f32; LANES];
+    let mut i = 0;
+    while i < LANES {
+        a[i] = i as f32;
+        i += 1;
+    }
+    a
+};
+
+/// Vector pass: sample offsets and cells for parameters `t`: the storage indices `ia`, `ib` of
+/// the cell's left samples in its upper and lower rows, and the fractions. Lanes whose cell is
+/// unusable (outside the image or band, or not `active`) get band row and column 0 (always
+/// loadable) and a NaN fraction, so their interpolated value is NaN whatever is loaded.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn pass_cells(
@@ -303,34 +461,48 @@ fn pass_cells(
     u0: f32,
     v: f32,
     gr: &Grid,
-    kk: &mut [u32; LANES],
-    cc: &mut [u32; LANES],
+    rr: &RefRows<'_>,
+    active: &[bool; LANES],
+    ia: &mut [u32; LANES],
+    ib: &mut [u32; LANES],
     fu: &mut [f32; LANES],
     fv: &mut [f32; LANES],
-    ok: &mut [bool; LANES],
 ) {
+    let mut kk = [0u32; LANES];
+    let mut cc = [0u32; LANES];
     for i in 0..LANES {
         let (du, dv) = offset(c, l.get(i), t[i]);
-        let (kr, col, f_u, f_v, o) = cell(du, dv, u0 + i as f32, v, gr);
-        kk[i] = small_int(kr);
-        cc[i] = small_int(col);
-        fu[i] = f_u;
+        let (kr, col, f_u, f_v, o) = cell(du, dv, u0 + LANE_F[i], v, gr);
+        let o = o & active[i];
+        kk[i] = if o { small_int(kr) } else { 0 };
+        cc[i] = if o { small_int(col) } else { 0 };
+        fu[i] = if o { f_u } else { CANONICAL_NAN };
         fv[i] = f_v;
-        ok[i] = o;
+    }
+    // Indices clamped into the storage, so that the loads need no early exit (the clamps never
+    // bind for a usable lane, whose band row and column were checked).
+    let last = u32::try_from(rr.data.len().saturating_sub(2)).unwrap_or(u32::MAX);
+    if let Some(a) = rr.affine {
+        for i in 0..LANES {
+            ia[i] = a.offset(kk[i]).wrapping_add(cc[i]).min(last);
+            ib[i] = a.offset(kk[i] + 1).wrapping_add(cc[i]).min(last);
+        }
+    } else {
+        for i in 0..LANES {
+            let k = (kk[i] as usize).min(MAX_BAND_ROWS - 2);
+            ia[i] = rr.offs[k].wrapping_add(cc[i]).min(last);
+            ib[i] = rr.offs[k + 1].wrapping_add(cc[i]).min(last);
+        }
     }
 }
 
-/// Gather pass: the four samples of every lane's cell (NaN where `ok` is false). Branch-free:
-/// indices are clamped into the storage so the loads need no early exit (the clamps never bind for
-/// a lane with `ok`, whose band row and column were checked), which lets a wide target use
-/// hardware gathers.
+/// Gather pass: the four samples of every lane's cell (indices from [`pass_cells`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn pass_load(
     rr: &RefRows<'_>,
-    kk: &[u32; LANES],
-    cc: &[u32; LANES],
-    ok: &[bool; LANES],
+    ia: &[u32; LANES],
+    ib: &[u32; LANES],
     qa: &mut [f32; LANES],
     qb: &mut [f32; LANES],
     qc: &mut [f32; LANES],
@@ -346,15 +518,12 @@ fn pass_load(
     }
     let last = data.len() - 2;
     for i in 0..LANES {
-        let k = if ok[i] { kk[i] as usize } else { 0 }.min(MAX_BAND_ROWS - 2);
-        let col = cc[i] as usize;
-        let i0 = (rr.offs[k] as usize).saturating_add(col).min(last);
-        let i1 = (rr.offs[k + 1] as usize).saturating_add(col).min(last);
-        let (a, b, c1, d) = (data[i0], data[i0 + 1], data[i1], data[i1 + 1]);
-        qa[i] = if ok[i] { a } else { CANONICAL_NAN };
-        qb[i] = if ok[i] { b } else { CANONICAL_NAN };
-        qc[i] = if ok[i] { c1 } else { CANONICAL_NAN };
-        qd[i] = if ok[i] { d } else { CANONICAL_NAN };
+        let i0 = (ia[i] as usize).min(last);
+        let i1 = (ib[i] as usize).min(last);
+        qa[i] = data[i0];
+        qb[i] = data[i0 + 1];
+        qc[i] = data[i1];
+        qd[i] = data[i1 + 1];
     }
 }
 
@@ -415,6 +584,34 @@ fn window(row: &[f32], c0: usize, w: usize) -> [f32; LANES + 2] {
         } else {
             CANONICAL_NAN
         };
+    }
+    out
+}
+
+/// Half-width (columns) of the central difference giving the reference phase's slope along
+/// the row at the pixel, for the first step (a power of two, so the scale is exact).
+const SLOPE_SPAN: usize = 8;
+
+/// The samples of row `row` at columns `c0 − SLOPE_SPAN ..= c0 + LANES − 1 + SLOPE_SPAN`, NaN
+/// outside the image or where the row is missing.
+#[inline(always)]
+fn window_wide(row: &[f32], c0: usize, w: usize) -> [f32; LANES + 2 * SLOPE_SPAN] {
+    let mut out = [CANONICAL_NAN; LANES + 2 * SLOPE_SPAN];
+    if c0 >= SLOPE_SPAN
+        && c0 + LANES + SLOPE_SPAN <= w
+        && let Some(src) = row.get(c0 - SLOPE_SPAN..c0 + LANES + SLOPE_SPAN)
+    {
+        out.copy_from_slice(src);
+        return out;
+    }
+    for (j, o) in out.iter_mut().enumerate() {
+        // Column c0 − SLOPE_SPAN + j.
+        if let Some(col) = (c0 + j).checked_sub(SLOPE_SPAN)
+            && col < w
+            && let Some(&x) = row.get(col)
+        {
+            *o = x;
+        }
     }
     out
 }
@@ -487,6 +684,7 @@ fn chunk(
     // Pass 1 (vector): per-pixel geometry, the sample at the pixel itself, the slope there, and
     // the first step.
     let rv = window(rr.get(vi as i64), c0, wu);
+    let rw = window_wide(rr.get(vi as i64), c0, wu);
     let up = if vi == 0 {
         [CANONICAL_NAN; LANES + 2]
     } else {
@@ -499,13 +697,21 @@ fn chunk(
     };
     let mut a = [0f32; LANES];
     let mut lane = Lanes {
-        x: [0.0; LANES],
-        y: [0.0; LANES],
-        r2: [0.0; LANES],
-        rad: [0.0; LANES],
-        ex: [0.0; LANES],
-        ey: [0.0; LANES],
+        q1: [0.0; LANES],
+        q2: [0.0; LANES],
+        a: [0.0; LANES],
+        b: [0.0; LANES],
+        u1: [0.0; LANES],
+        u2: [0.0; LANES],
+        ux: [0.0; LANES],
+        ue: [0.0; LANES],
+        v1: [0.0; LANES],
+        v2: [0.0; LANES],
+        vy: [0.0; LANES],
+        ve: [0.0; LANES],
     };
+    let mut ex = [0f32; LANES];
+    let mut ey = [0f32; LANES];
     let mut tlo = [0f32; LANES];
     let mut thi = [0f32; LANES];
     let mut dp2 = [0f32; LANES];
@@ -514,7 +720,6 @@ fn chunk(
     let mut t1 = [0f32; LANES];
     let mut g0 = [0f32; LANES];
     {
-        let [k1, k2, p1, p2, k3] = c.k;
         for i in 0..LANES {
             let (xi, yi) = (x[i], y[i]);
             let ai = c.nx * xi + c.ny * yi + c.nz;
@@ -529,28 +734,22 @@ fn chunk(
             let hi = if ta < tb { tb } else { ta };
             tlo[i] = lo;
             thi[i] = hi;
-            let rr2 = xi * xi + yi * yi;
-            let radial = 1.0 + rr2 * (k1 + rr2 * (k2 + rr2 * k3));
-            lane.x[i] = xi;
-            lane.y[i] = yi;
-            lane.r2[i] = rr2;
-            lane.rad[i] = radial;
-            lane.ex[i] = exi;
-            lane.ey[i] = eyi;
-            // Jacobian of eq 3 at m applied to e, then eq 4: pixels per unit t.
-            let dr = k1 + rr2 * (2.0 * k2 + rr2 * (3.0 * k3));
-            let xy = xi * yi;
-            let j00 = radial + 2.0 * xi * xi * dr + (2.0 * p1 * yi + 6.0 * p2 * xi);
-            let j01 = 2.0 * xy * dr + (2.0 * p1 * xi + 2.0 * p2 * yi);
-            let j11 = radial + 2.0 * yi * yi * dr + (6.0 * p1 * yi + 2.0 * p2 * xi);
-            let jx = j00 * exi + j01 * eyi;
-            let jy = j01 * exi + j11 * eyi;
-            let dpu = c.fx * jx + c.sfx * jy;
-            let dpv = c.fy * jy;
+            ex[i] = exi;
+            ey[i] = eyi;
+            // The offset polynomial, and its derivative at the pixel: pixels per unit t.
+            let (l, dpu, dpv) = lane_coefficients(&c, xi, yi, exi, eyi);
+            lane.set(i, l);
             dp2[i] = dpu * dpu + dpv * dpv;
             // Reference at the pixel (t = 0) and its gradient (central differences).
             let g0_ = rv[i + 1] - phi[i];
-            let gu = (rv[i + 2] - rv[i]) * 0.5;
+            // Along the row over ±SLOPE_SPAN columns where those samples exist (less noise in
+            // the first step), else over ±1.
+            let gw = (rw[i + 2 * SLOPE_SPAN] - rw[i]) * (0.5 / SLOPE_SPAN as f32);
+            let gu = if fabs(gw) < f32::INFINITY {
+                gw
+            } else {
+                (rv[i + 2] - rv[i]) * 0.5
+            };
             let gv = (dn[i + 1] - up[i + 1]) * 0.5;
             let gv = if vi == 0 { dn[i + 1] - rv[i + 1] } else { gv };
             let gv = if vi as i64 == rr.last_image_row {
@@ -568,11 +767,10 @@ fn chunk(
     // Fast path: two interpolated evaluations, secant steps in between (SECANT_EVALS = 2;
     // distinct arrays per step so that the passes vectorize).
     const _: () = assert!(SECANT_EVALS == 2);
-    let mut kk = [0u32; LANES];
-    let mut cc = [0u32; LANES];
+    let mut ia = [0u32; LANES];
+    let mut ib = [0u32; LANES];
     let mut fu = [0f32; LANES];
     let mut fv = [0f32; LANES];
-    let mut okc = [false; LANES];
     let mut qa = [0f32; LANES];
     let mut qb = [0f32; LANES];
     let mut qc = [0f32; LANES];
@@ -582,12 +780,9 @@ fn chunk(
     let mut t2 = [0f32; LANES];
     let mut t3 = [0f32; LANES];
     pass_cells(
-        &c, &lane, &t1, u0, vf, &gr, &mut kk, &mut cc, &mut fu, &mut fv, &mut okc,
+        &c, &lane, &t1, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
     );
-    for i in 0..LANES {
-        okc[i] &= active[i];
-    }
-    pass_load(rr, &kk, &cc, &okc, &mut qa, &mut qb, &mut qc, &mut qd);
+    pass_load(rr, &ia, &ib, &mut qa, &mut qb, &mut qc, &mut qd);
     pass_update(
         [&qa, &qb, &qc, &qd],
         &fu,
@@ -603,12 +798,9 @@ fn chunk(
         &mut t2,
     );
     pass_cells(
-        &c, &lane, &t2, u0, vf, &gr, &mut kk, &mut cc, &mut fu, &mut fv, &mut okc,
+        &c, &lane, &t2, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
     );
-    for i in 0..LANES {
-        okc[i] &= active[i];
-    }
-    pass_load(rr, &kk, &cc, &okc, &mut qa, &mut qb, &mut qc, &mut qd);
+    pass_load(rr, &ia, &ib, &mut qa, &mut qb, &mut qc, &mut qd);
     pass_update(
         [&qa, &qb, &qc, &qd],
         &fu,
@@ -627,42 +819,93 @@ fn chunk(
     // Acceptance (vector).
     let mut tfin = [0f32; LANES];
     let mut ok = [false; LANES];
-    {
-        let la = ACCEPT_LAST_STEP_PX * ACCEPT_LAST_STEP_PX;
-        let lb = ACCEPT_STEP_PRODUCT_PX2;
+    for i in 0..LANES {
+        ok[i] = accept(t3[i], t2[i], t1[i], dp2[i], tlo[i], thi[i]);
+        tfin[i] = t3[i];
+    }
+
+    // Stage 2, for lanes the fast path did not settle whose last point is usable (slow
+    // convergence, far crossing): one more evaluation and secant step. A vector pass over the
+    // chunk when enough lanes need it, else per lane in the scalar loop below: the same operations
+    // either way, so the same bits.
+    let mut st2 = [false; LANES];
+    let mut n2 = 0u32;
+    for i in 0..LANES {
+        let s2 = active[i]
+            & !ok[i]
+            & (t3[i] >= tlo[i])
+            & (t3[i] <= thi[i])
+            & (fabs(g2[i]) < f32::INFINITY);
+        st2[i] = s2;
+        n2 += s2 as u32;
+    }
+    let vector2 = n2 >= STAGE2_VECTOR_MIN;
+    if vector2 {
+        let mut g3 = [0f32; LANES];
+        let mut t4 = [0f32; LANES];
+        pass_cells(
+            &c, &lane, &t3, u0, vf, &gr, rr, &st2, &mut ia, &mut ib, &mut fu, &mut fv,
+        );
+        pass_load(rr, &ia, &ib, &mut qa, &mut qb, &mut qc, &mut qd);
+        pass_update(
+            [&qa, &qb, &qc, &qd],
+            &fu,
+            &fv,
+            &phi,
+            &t2,
+            &g2,
+            &t3,
+            &dp2,
+            (&tlo, &thi, false),
+            &mut sl,
+            &mut g3,
+            &mut t4,
+        );
         for i in 0..LANES {
-            let s1 = t3[i] - t2[i];
-            let s2 = t2[i] - t1[i];
-            let tf = t3[i];
-            ok[i] = (s1 * s1 * dp2[i] <= la)
-                & (fabs(s1 * s2) * dp2[i] <= lb)
-                & (tf >= tlo[i])
-                & (tf <= thi[i]);
-            tfin[i] = tf;
+            let acc = st2[i] & accept(t4[i], t3[i], t2[i], dp2[i], tlo[i], thi[i]);
+            tfin[i] = if acc { t4[i] } else { tfin[i] };
+            ok[i] |= acc;
         }
     }
 
-    // Fallback (scalar, rare).
+    // Fallback (scalar, rare): skipped when no lane needs it. Its first two evaluations, at the
+    // ends of the depth interval, run as two vector passes when enough lanes need them (same
+    // operations, same bits).
+    let mut fb = [false; LANES];
+    let mut nf = 0u32;
+    for i in 0..LANES {
+        fb[i] = active[i] & !ok[i];
+        nf += fb[i] as u32;
+    }
+    let need = nf > 0;
+    let vector_ends = nf >= STAGE2_VECTOR_MIN;
+    let mut g_lo = [0f32; LANES];
+    let mut g_hi = [0f32; LANES];
+    if vector_ends {
+        for (tt, gg) in [(&tlo, &mut g_lo), (&thi, &mut g_hi)] {
+            pass_cells(
+                &c, &lane, tt, u0, vf, &gr, rr, &fb, &mut ia, &mut ib, &mut fu, &mut fv,
+            );
+            pass_load(rr, &ia, &ib, &mut qa, &mut qb, &mut qc, &mut qd);
+            for i in 0..LANES {
+                gg[i] = interp([qa[i], qb[i], qc[i], qd[i]], fu[i], fv[i], phi[i]);
+            }
+        }
+    }
     let bis = r.bisection_count();
-    for i in 0..n {
+    for i in 0..if need { n } else { 0 } {
         if !active[i] || ok[i] {
             continue;
         }
         let l = lane.get(i);
-        let ui = u0 + i as f32;
+        let ui = u0 + LANE_F[i];
         let eval = |tt: f32| sample(&c, rr, &gr, l, ui, vf, tt, phi[i]);
-        // Stage 2: one more secant step from the last two points (slow convergence, far crossing).
-        let (tp, gp, tc) = (t2[i], g2[i], t3[i]);
-        if tc >= tlo[i] && tc <= thi[i] && gp.is_finite() {
+        if !vector2 && st2[i] {
+            let (tp, gp, tc) = (t2[i], g2[i], t3[i]);
             let gc = eval(tc);
             let sc = slope(sl[i], tp, gp, tc, gc, dp2[i]);
             let tn = tc - gc / sc;
-            let (s1, s2) = (tn - tc, tc - tp);
-            if (s1 * s1 * dp2[i] <= ACCEPT_LAST_STEP_PX * ACCEPT_LAST_STEP_PX)
-                & (fabs(s1 * s2) * dp2[i] <= ACCEPT_STEP_PRODUCT_PX2)
-                & (tn >= tlo[i])
-                & (tn <= thi[i])
-            {
+            if accept(tn, tc, tp, dp2[i], tlo[i], thi[i]) {
                 tfin[i] = tn;
                 ok[i] = true;
                 continue;
@@ -679,7 +922,12 @@ fn chunk(
             (t2[i], g2[i]),
             (t3[i], CANONICAL_NAN),
         ];
-        match fallback(eval, tlo[i], thi[i], &known, bis) {
+        let ends = if vector_ends {
+            (g_lo[i], g_hi[i])
+        } else {
+            (eval(tlo[i]), eval(thi[i]))
+        };
+        match fallback(eval, tlo[i], thi[i], ends, &known, bis) {
             Ok(tt) => {
                 tfin[i] = tt;
                 ok[i] = true;
@@ -722,8 +970,8 @@ fn chunk(
     if let Some(cx) = crossings {
         for (i, o) in cx.chunks_exact_mut(2).enumerate().take(n) {
             if good[i] {
-                o[0] = x[i] + tfin[i] * lane.ex[i];
-                o[1] = y[i] + tfin[i] * lane.ey[i];
+                o[0] = x[i] + tfin[i] * ex[i];
+                o[1] = y[i] + tfin[i] * ey[i];
             } else {
                 o[0] = CANONICAL_NAN;
                 o[1] = CANONICAL_NAN;
@@ -734,17 +982,17 @@ fn chunk(
 
 /// The bracketed search over `[tlo, thi]` for a pixel the fast path did not settle.
 ///
-/// `known` are samples `(t, g)` already taken (NaN g where unusable). Returns the crossing `t`, or
-/// the reason there is none.
+/// `ends` are the samples at `tlo` and `thi`, `known` other samples `(t, g)` already taken (NaN g
+/// where unusable). Returns the crossing `t`, or the reason there is none.
 fn fallback<F: Fn(f32) -> f32>(
     eval: F,
     tlo: f32,
     thi: f32,
+    ends: (f32, f32),
     known: &[(f32, f32)],
     bisections: u32,
 ) -> Result<f32, Validity> {
-    let glo = eval(tlo);
-    let ghi = eval(thi);
+    let (glo, ghi) = ends;
     let (mut ta, mut ga, mut tb, mut gb);
     if glo.is_finite() && ghi.is_finite() {
         if (glo < 0.0) == (ghi < 0.0) {
