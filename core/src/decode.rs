@@ -215,15 +215,27 @@ pub struct DecodeConfig {
 
 impl DecodeConfig {
     /// Defaults for a sensor of `bits` bits per sample (8 to 16): dark below 2 % of full scale,
-    /// saturated at full scale, modulation at least 2 % of full scale, unwrapping residual ≤ 2π/3,
-    /// coarse phase within 0.15 rad of the projected range (the range keeps 0.05 rad from ±π, and the level-0 noise at B/σ = 14 is 0.08 rad).
+    /// saturated at full scale, modulation at least 2 % of full scale but not below 12 codes (as
+    /// long as that is within 5 % of full scale), unwrapping residual ≤ 2π/3, coarse phase within
+    /// 0.15 rad of the projected range (the range keeps 0.05 rad from ±π, and the level-0 noise at
+    /// B/σ = 14 is 0.08 rad).
+    ///
+    /// Why 12 codes: the hierarchical unwrapping (eqs 12-13) picks a wrong fringe order *without
+    /// noticing* only when the residual's noise exceeds 2π minus the tolerance, 4π/3. With the
+    /// paper's set (2-step levels sharing A, level ratio 8) that noise is ≈ 9·σ_I/B rad, so at
+    /// B = 12 and σ_I = 1 code (a typical 8-bit sensor) a silent order error needs a 5.6σ event
+    /// (≈ 2e-8 per pixel); at 2 % of an 8-bit scale (5 codes) it was a 2.3σ event, and rendered
+    /// 8-bit scans showed dozens of valid-looking pixels a whole number of fringes off. From 10
+    /// bits up, 2 % of full scale is already ≥ 20 codes and the rule changes nothing.
     pub fn for_bit_depth(bits: u32) -> Self {
         let bits = bits.clamp(1, 16);
         let full = ((1u32 << bits) - 1) as f32;
+        let floor = if 12.0 < 0.05 * full { 12.0 } else { 0.05 * full };
+        let two_percent = 0.02 * full;
         DecodeConfig {
             dark_level: 0.02 * full,
             saturation_level: full,
-            min_modulation: 0.02 * full,
+            min_modulation: if two_percent > floor { two_percent } else { floor },
             unwrap_tolerance: 2.0 * core::f32::consts::PI / 3.0,
             range_tolerance: 0.15,
         }

@@ -130,6 +130,49 @@ fn no_unwrapping_error_on_valid_pixels_at_b_over_sigma_14_u8() {
     assert!(frac > 0.99, "only {:.3} % valid", 100.0 * frac);
 }
 
+/// Valid pixels whose absolute phase is a whole fringe (or more) off the truth.
+fn order_errors(set: &PatternSet, cfg: DecodeConfig, b: f64, sigma: f64, n: usize, seed: u64) -> (usize, usize) {
+    let d = Decoder::new(set, cfg).unwrap();
+    let px = ramp(set, n, 60.0, b);
+    let imgs = to_u8(&images(set, &px, sigma, 255.0, &mut Rng(seed)));
+    let o = decode(&d, &imgs);
+    let ck = set.levels()[set.levels().len() - 1].scale();
+    let mut wrong = 0;
+    let mut valid = 0;
+    for (i, p) in px.iter().enumerate() {
+        if o.v[i] == Validity::Valid as u8 {
+            valid += 1;
+            if (o.phase[i] as f64 - ck * p.phi_p).abs() > std::f64::consts::PI {
+                wrong += 1;
+            }
+        }
+    }
+    (wrong, valid)
+}
+
+#[test]
+fn weak_8bit_fringes_are_refused_rather_than_unwrapped_to_a_wrong_order() {
+    // Dim, weakly modulated 8-bit pixels (B = 6 to 9 codes, σ = 1 code, as on a dark or steep
+    // surface): with a modulation floor of 2 % of full scale (5.1 codes) some pass every test and
+    // come out whole fringes off; the default floor (12 codes at 8 bits) refuses them.
+    let set = PatternSet::default_for(Axis::Xi, Output { i_max: 255.0, ..out16() }).unwrap();
+    let old = DecodeConfig { min_modulation: 0.02 * 255.0, ..DecodeConfig::for_bit_depth(8) };
+    let mut silent_old = 0;
+    for (k, b) in [6.0, 7.5, 9.0].into_iter().enumerate() {
+        let (wrong, valid) = order_errors(&set, old, b, 1.0, 100_000, 40 + k as u64);
+        assert!(valid > 20_000, "B = {b}: the old floor should accept many pixels ({valid})");
+        eprintln!("B = {b}, σ = 1, floor 5.1 codes: {valid} valid, {wrong} a whole fringe off");
+        silent_old += wrong;
+        let (wrong, _) = order_errors(&set, DecodeConfig::for_bit_depth(8), b, 1.0, 100_000, 40 + k as u64);
+        assert_eq!(wrong, 0, "B = {b}: valid pixels with a wrong fringe order under the default config");
+    }
+    assert!(silent_old > 10, "the weak-fringe case should show silent order errors at the old floor ({silent_old})");
+    // Pixels of healthy modulation at 8 bits stay valid under the default config.
+    let (wrong, valid) = order_errors(&set, DecodeConfig::for_bit_depth(8), 20.0, 1.0, 100_000, 7);
+    assert_eq!(wrong, 0);
+    assert!(valid > 99_000, "B = 20, σ = 1: only {valid} of 100 000 valid");
+}
+
 #[test]
 fn generic_n_step_arbitrary_shifts_cosine_and_offset() {
     // N = 3, 5 and 7-step levels, then a level of non-uniform measured shifts, cosine convention
