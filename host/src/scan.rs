@@ -5,7 +5,7 @@
 //! ([`ReferenceMap`]), exactly as [`Reconstructor::reconstruct_frame`] and the streaming head do,
 //! so the points are bit-identical whatever the thread count.
 
-use crate::batch::{Isa, dispatch};
+use crate::batch::Isa;
 use crate::io::calibration::{Calibration, CameraModel as CameraFile};
 use crate::io::image::{Pixels, read_gray};
 use fringe3d_core::camera::{CameraModel, Distortion, Intrinsics};
@@ -151,14 +151,7 @@ impl ScanCalibration {
         // Tasks of 16 rows, each run through the kernel variant `isa`.
         const ROWS: usize = 16;
         let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| {
-            dispatch(isa, || -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
-                for (j, (o, ov)) in o.chunks_mut(3 * w).zip(ov.chunks_mut(w)).enumerate() {
-                    let v = k * ROWS + j;
-                    let r = v * w..(v + 1) * w;
-                    self.recon.reconstruct_row(&map, v as u32, &phase[r.clone()], &validity[r], o, ov)?;
-                }
-                Ok(())
-            })
+            recon_rows_dispatch(isa, &self.recon, &map, k * ROWS, w, phase, validity, o, ov)
         };
         let rows = xyz.chunks_mut(3 * w * ROWS).zip(out_v.chunks_mut(w * ROWS)).enumerate();
         let mut rows = rows;
@@ -175,6 +168,68 @@ impl ScanCalibration {
             path: self.source.clone(),
             message: format!("edge filter: the angle must be in (0, 90) degrees, got {max_angle_deg}"),
         })
+    }
+}
+
+/// Reconstruct the rows `v0..` whose outputs are `xyz` (3 × `w` per row) and `codes` (`w` per row).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn recon_rows(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    v0: usize,
+    w: usize,
+    phase: &[f32],
+    validity: &[u8],
+    xyz: &mut [f32],
+    codes: &mut [u8],
+) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
+    for (j, (o, ov)) in xyz.chunks_mut(3 * w).zip(codes.chunks_mut(w)).enumerate() {
+        let v = v0 + j;
+        let r = v * w..(v + 1) * w;
+        recon.reconstruct_row(map, v as u32, &phase[r.clone()], &validity[r], o, ov)?;
+    }
+    Ok(())
+}
+
+/// [`recon_rows`] compiled with AVX2 (the core's kernel is `#[inline(always)]`, so it is compiled
+/// here with AVX2 enabled; a closure handed to [`crate::batch::dispatch`] is not always inlined).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+fn recon_rows_avx2(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    v0: usize,
+    w: usize,
+    phase: &[f32],
+    validity: &[u8],
+    xyz: &mut [f32],
+    codes: &mut [u8],
+) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
+    recon_rows(recon, map, v0, w, phase, validity, xyz, codes)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn recon_rows_dispatch(
+    isa: Isa,
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    v0: usize,
+    w: usize,
+    phase: &[f32],
+    validity: &[u8],
+    xyz: &mut [f32],
+    codes: &mut [u8],
+) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
+            // SAFETY: the CPU supports AVX2 (checked just above), the only requirement of a
+            // `#[target_feature(enable = "avx2")]` function.
+            unsafe { recon_rows_avx2(recon, map, v0, w, phase, validity, xyz, codes) }
+        }
+        _ => recon_rows(recon, map, v0, w, phase, validity, xyz, codes),
     }
 }
 
