@@ -17,8 +17,8 @@
 //! one `atan2` per level — no per-pixel branching on the set's structure.
 //!
 //! # One kernel, two drivers
-//! Decoding is split into [`accumulate`] (fold one image's samples into a per-pixel state) and
-//! [`finish`] (state → phase, B, A, validity). The row API ([`Decoder::decode_row`]) runs both on a
+//! Decoding is split into `accumulate` (fold one image's samples into a per-pixel state) and
+//! `finish` (state → phase, B, A, validity). The row API ([`Decoder::decode_row`]) runs both on a
 //! small stack state; the frame-sequential API ([`crate::sequential`]) runs `accumulate` over whole
 //! frames as they arrive into a caller buffer and `finish` at the end. The operations per pixel
 //! are the same, in the same order, so both give the same bits.
