@@ -253,6 +253,38 @@ fn unorganized_binary() {
 }
 
 #[test]
+fn unorganized_with_the_count_announced_is_the_same_file() {
+    // The writer that knows the vertex count up front (no scratch file) must write exactly the
+    // bytes of the one that counts while writing; a wrong count is refused and leaves nothing.
+    let d = scratch("unorg-count");
+    for enc in [PlyEncoding::BinaryLittleEndian, PlyEncoding::Ascii] {
+        let a = d.join("a.ply");
+        let b = d.join("b.ply");
+        let n = write_unorganized(&a, enc);
+        let s = scan();
+        let opts = PlyOptions { encoding: enc, comments: vec!["scan 7\nsecond line".into()], ..Default::default() };
+        let mut w = PlyWriter::create_with_count(&b, n, opts.clone()).unwrap();
+        for v in [2, 0, 1] {
+            w.write_row(&row(&s, v)).unwrap();
+        }
+        assert_eq!(w.finish().unwrap(), n);
+        assert_eq!(fs::read(&a).unwrap(), fs::read(&b).unwrap(), "{enc:?}");
+        check_unorganized(&read_ply(&b));
+        let c = d.join("c.ply");
+        let mut w = PlyWriter::create_with_count(&c, n + 1, opts).unwrap();
+        for v in [2, 0, 1] {
+            w.write_row(&row(&s, v)).unwrap();
+        }
+        let e = w.finish().unwrap_err();
+        assert!(e.to_string().contains("c.ply") && e.to_string().contains("announced"), "{e}");
+        assert!(!c.exists());
+        fs::remove_file(&a).unwrap();
+        fs::remove_file(&b).unwrap();
+    }
+    assert!(listing(&d).is_empty(), "left: {:?}", listing(&d));
+}
+
+#[test]
 fn unorganized_ascii() {
     let d = scratch("unorg-ascii");
     let path = d.join("cloud.ply");

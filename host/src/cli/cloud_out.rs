@@ -60,7 +60,13 @@ pub fn write_cloud(args: &CloudArgs, cloud: &PointCloud, intensity: &[f32], modu
         comments,
         ..PlyOptions::default()
     };
-    let mut wr = if args.organized { PlyWriter::create_organized(&args.out, w as u32, h as u32, opts)? } else { PlyWriter::create(&args.out, opts)? };
+    let mut wr = if args.organized {
+        PlyWriter::create_organized(&args.out, w as u32, h as u32, opts)?
+    } else {
+        // The valid points are known: the header can carry their count from the start.
+        let n = cloud.validity.iter().filter(|&&c| c == 0).count() as u64;
+        PlyWriter::create_with_count(&args.out, n, opts)?
+    };
     for v in 0..h {
         wr.write_row(&row(v))?;
     }

@@ -31,8 +31,9 @@ pub struct ScanArgs {
 pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     let t0 = Instant::now();
     let ls = common::load_set(&a.patterns)?;
-    let cal = ScanCalibration::load(&a.calibration, ls.set.axis())?;
-    let imgs = common::load_images(&ls, &a.images, g.quiet)?;
+    // The calibration (with its reference map) and the images load side by side.
+    let (cal, imgs) = rayon::join(|| ScanCalibration::load(&a.calibration, ls.set.axis()), || common::load_images(&ls, &a.images, g.quiet));
+    let (cal, imgs) = (cal?, imgs?);
     if (imgs.width as usize, imgs.height as usize) != (cal.width(), cal.height()) {
         anyhow::bail!(
             "{}: images are {}x{} but the calibrated camera ({}) is {}x{}",

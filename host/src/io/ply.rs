@@ -178,6 +178,8 @@ pub struct PlyWriter {
     body: Body,
     rows: u32,
     count: u64,
+    /// The vertex count already written in the header ([`PlyWriter::create_with_count`]).
+    announced: Option<u64>,
     line: String,
 }
 
@@ -205,6 +207,7 @@ impl PlyWriter {
             body: Body::Scratch(scratch),
             rows: 0,
             count: 0,
+            announced: None,
             line: String::new(),
         })
     }
@@ -250,6 +253,28 @@ impl PlyWriter {
             body: Body::Direct,
             rows: 0,
             count: 0,
+            announced: None,
+            line: String::new(),
+        })
+    }
+
+    /// An unorganized cloud whose vertex count is known before writing: the header goes out at
+    /// once and the vertices straight into the (atomic) target, without the scratch file and the
+    /// copy that [`PlyWriter::create`] needs. [`PlyWriter::finish`] refuses (and writes nothing)
+    /// if a different number of vertices was written.
+    pub fn create_with_count(path: &Path, count: u64, opts: PlyOptions) -> Result<PlyWriter, FormatError> {
+        let mut out = AtomicFile::create(path)?;
+        out.write_all(header(&opts, None, count).as_bytes())
+            .map_err(|e| FormatError::io(path, "cannot write", e))?;
+        Ok(PlyWriter {
+            path: path.to_path_buf(),
+            opts,
+            organized: None,
+            out,
+            body: Body::Direct,
+            rows: 0,
+            count: 0,
+            announced: Some(count),
             line: String::new(),
         })
     }
@@ -440,6 +465,11 @@ impl PlyWriter {
                 "organized cloud: {} of {h} rows written",
                 self.rows
             )));
+        }
+        if let Some(n) = self.announced
+            && n != self.count
+        {
+            return Err(self.invalid(format!("{} vertices written, {n} announced in the header", self.count)));
         }
         let path = self.path.clone();
         let ioe = |e| FormatError::io(&path, "cannot write", e);
