@@ -8,85 +8,17 @@
 //! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
 use fringe3d::vectors::{self, GoldenVectors, VectorOptions};
+use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use std::collections::BTreeMap;
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const BOARD: &str = "firmware-sim/board-mps2";
-const TARGET: &str = "thumbv7em-none-eabihf";
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("tests/ is in the repository")
-        .to_path_buf()
-}
 
-/// Why the test cannot run here, if it cannot.
-fn missing_tools() -> Option<String> {
-    match Command::new("qemu-system-arm")
-        .arg("--version")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-    {
-        Ok(s) if s.success() => {}
-        _ => {
-            return Some(
-                "qemu-system-arm is not installed (Debian: apt-get install qemu-system-arm)".into(),
-            );
-        }
-    }
-    let Ok(sysroot) = Command::new("rustc").args(["--print", "sysroot"]).output() else {
-        return Some("rustc is not on PATH".into());
-    };
-    let root = String::from_utf8_lossy(&sysroot.stdout).trim().to_string();
-    if !Path::new(&root).join("lib/rustlib").join(TARGET).exists() {
-        return Some(format!(
-            "the {TARGET} target is not installed (rustup target add {TARGET})"
-        ));
-    }
-    None
-}
 
-/// The board crate's target folder: `<this build's target dir>/board-mps2` (what `.ci/run` and
-/// the board's `.cargo/config.toml` use for the default target dir).
-fn board_target_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("CARGO_TARGET_DIR") {
-        return PathBuf::from(d).join("board-mps2");
-    }
-    // target/<profile>/deps/<this test> → target
-    let exe = std::env::current_exe().expect("test executable path");
-    exe.ancestors()
-        .nth(3)
-        .map(|t| t.join("board-mps2"))
-        .unwrap_or_else(|| repo().join("target/board-mps2"))
-}
 
-fn build_firmware() -> PathBuf {
-    let dir = repo().join(BOARD);
-    let target_dir = board_target_dir();
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let out = Command::new(cargo)
-        .args(["build", "--release", "--target", TARGET])
-        .current_dir(&dir)
-        .env("CARGO_TARGET_DIR", &target_dir)
-        .env_remove("RUSTFLAGS")
-        .env_remove("CARGO_ENCODED_RUSTFLAGS")
-        .env_remove("CARGO_BUILD_TARGET")
-        .output()
-        .expect("run cargo for the firmware");
-    assert!(
-        out.status.success(),
-        "firmware build failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let elf = target_dir.join(TARGET).join("release/fringe3d-board-mps2");
-    assert!(elf.exists(), "no firmware at {}", elf.display());
-    elf
-}
 
 /// Run the firmware on the vectors in `dir`; returns (UART bytes, console text).
 fn run_qemu(elf: &Path, dir: &Path) -> (Vec<u8>, String) {
@@ -276,13 +208,10 @@ fn check_scan(elf: &Path, opts: &VectorOptions, name: &str) {
 
 #[test]
 fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
-    if let Some(why) = missing_tools() {
-        // CI sets FRINGE3D_REQUIRE_QEMU=1: there a missing tool is a failure, not a skip.
-        assert!(std::env::var_os("FRINGE3D_REQUIRE_QEMU").is_none(), "FRINGE3D_REQUIRE_QEMU is set but {why}");
-        println!("SKIPPED qemu_firmware_matches_the_golden_vectors_bit_for_bit: {why}");
+    if skip_without_tools("qemu_firmware_matches_the_golden_vectors_bit_for_bit") {
         return;
     }
-    let elf = build_firmware();
+    let elf = build_firmware("fringe3d-board-mps2");
     // The golden vectors as `fringe3d vectors` writes them by default (16-bit camera)...
     check_scan(&elf, &VectorOptions::default(), "ballbar-320x240-u16");
     // ...and an 8-bit camera with noise on another scene (the u8 kernel).

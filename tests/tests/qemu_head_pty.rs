@@ -21,6 +21,7 @@ use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 use fringe3d::cli::common;
+use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use fringe3d::io::image::{Pixels, read_gray};
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::{Overrides, SceneSpec};
@@ -29,8 +30,6 @@ use fringe3d_core::math::canonical;
 use fringe3d_firmware_sim::desktop::Replay;
 use fringe3d_firmware_sim::sim::FrameSource;
 
-const BOARD: &str = "firmware-sim/board-mps2";
-const TARGET: &str = "thumbv7em-none-eabihf";
 const BIN: &str = "fringe3d-board-mps2-head";
 /// The camera: small, because QEMU moves PTY input into the emulated UART one byte per
 /// main-loop round (tens of KB/s), and the reference map (5 bytes per pixel) goes that way.
@@ -38,74 +37,9 @@ const CAM: (u32, u32) = (160, 120);
 /// The projector of the pattern set (its 8 images are uploaded through the emulated UART).
 const PROJ: (u32, u32) = (128, 96);
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("tests/ is in the repository")
-        .to_path_buf()
-}
 
-/// Why the test cannot run here, if it cannot.
-fn missing_tools() -> Option<String> {
-    match Command::new("qemu-system-arm")
-        .arg("--version")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-    {
-        Ok(s) if s.success() => {}
-        _ => {
-            return Some(
-                "qemu-system-arm is not installed (Debian: apt-get install qemu-system-arm)".into(),
-            );
-        }
-    }
-    let Ok(sysroot) = Command::new("rustc").args(["--print", "sysroot"]).output() else {
-        return Some("rustc is not on PATH".into());
-    };
-    let root = String::from_utf8_lossy(&sysroot.stdout).trim().to_string();
-    if !Path::new(&root).join("lib/rustlib").join(TARGET).exists() {
-        return Some(format!(
-            "the {TARGET} target is not installed (rustup target add {TARGET})"
-        ));
-    }
-    None
-}
 
-/// The board crate's target folder: `<this build's target dir>/board-mps2`, as in
-/// `qemu_firmware.rs`.
-fn board_target_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("CARGO_TARGET_DIR") {
-        return PathBuf::from(d).join("board-mps2");
-    }
-    let exe = std::env::current_exe().expect("test executable path");
-    exe.ancestors()
-        .nth(3)
-        .map(|t| t.join("board-mps2"))
-        .unwrap_or_else(|| repo().join("target/board-mps2"))
-}
 
-fn build_firmware() -> PathBuf {
-    let target_dir = board_target_dir();
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let out = Command::new(cargo)
-        .args(["build", "--release", "--target", TARGET, "--bin", BIN])
-        .current_dir(repo().join(BOARD))
-        .env("CARGO_TARGET_DIR", &target_dir)
-        .env_remove("RUSTFLAGS")
-        .env_remove("CARGO_ENCODED_RUSTFLAGS")
-        .env_remove("CARGO_BUILD_TARGET")
-        .output()
-        .expect("run cargo for the firmware");
-    assert!(
-        out.status.success(),
-        "firmware build failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let elf = target_dir.join(TARGET).join("release").join(BIN);
-    assert!(elf.exists(), "no firmware at {}", elf.display());
-    elf
-}
 
 /// QEMU running the head; killed when dropped, on every path out of the test.
 struct Qemu {
@@ -361,11 +295,7 @@ fn fringe3d(args: &[&str]) -> f64 {
 
 #[test]
 fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() {
-    if let Some(why) = missing_tools() {
-        if std::env::var_os("FRINGE3D_REQUIRE_QEMU").is_some() {
-            panic!("FRINGE3D_REQUIRE_QEMU is set but {why}");
-        }
-        eprintln!("SKIPPED qemu_head_pty: {why}");
+    if skip_without_tools("qemu_head_pty") {
         return;
     }
     let root = std::env::temp_dir().join(format!("fringe3d-qemu-head-pty-{}", std::process::id()));
@@ -392,7 +322,7 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
     let frames = root.join("frames.bin");
     write_frames(&dir, &frames);
     let t0 = Instant::now();
-    let elf = build_firmware();
+    let elf = build_firmware(BIN);
     eprintln!("firmware built in {:.1} s", t0.elapsed().as_secs_f64());
     let (qemu, port) = Qemu::start(&elf, &frames);
     eprintln!("emulated head on {port}");
