@@ -150,9 +150,8 @@ impl ScanCalibration {
         let mut out_v = vec![0u8; w * h];
         // Tasks of 16 rows, each run through the kernel variant `isa`.
         const ROWS: usize = 16;
-        let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| {
-            recon_rows_dispatch(isa, &self.recon, &map, k * ROWS, w, phase, validity, o, ov)
-        };
+        let frame = Frame { recon: &self.recon, map: &map, width: w, phase, validity };
+        let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| recon_rows_dispatch(isa, &frame, k * ROWS, o, ov);
         let rows = xyz.chunks_mut(3 * w * ROWS).zip(out_v.chunks_mut(w * ROWS)).enumerate();
         let mut rows = rows;
         let res: Result<(), _> = if parallel { rows.par_bridge().try_for_each(job) } else { rows.try_for_each(job) };
@@ -171,23 +170,24 @@ impl ScanCalibration {
     }
 }
 
-/// Reconstruct the rows `v0..` whose outputs are `xyz` (3 × `w` per row) and `codes` (`w` per row).
+/// What every reconstruction task of one frame shares.
+struct Frame<'a> {
+    recon: &'a Reconstructor,
+    map: &'a ReferenceMap<'a>,
+    width: usize,
+    phase: &'a [f32],
+    validity: &'a [u8],
+}
+
+/// Reconstruct the rows `v0..` whose outputs are `xyz` (3 × width per row) and `codes` (width
+/// per row).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn recon_rows(
-    recon: &Reconstructor,
-    map: &ReferenceMap<'_>,
-    v0: usize,
-    w: usize,
-    phase: &[f32],
-    validity: &[u8],
-    xyz: &mut [f32],
-    codes: &mut [u8],
-) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
+fn recon_rows(f: &Frame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
+    let w = f.width;
     for (j, (o, ov)) in xyz.chunks_mut(3 * w).zip(codes.chunks_mut(w)).enumerate() {
         let v = v0 + j;
         let r = v * w..(v + 1) * w;
-        recon.reconstruct_row(map, v as u32, &phase[r.clone()], &validity[r], o, ov)?;
+        f.recon.reconstruct_row(f.map, v as u32, &f.phase[r.clone()], &f.validity[r], o, ov)?;
     }
     Ok(())
 }
@@ -196,40 +196,19 @@ fn recon_rows(
 /// here with AVX2 enabled; a closure handed to [`crate::batch::dispatch`] is not always inlined).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-fn recon_rows_avx2(
-    recon: &Reconstructor,
-    map: &ReferenceMap<'_>,
-    v0: usize,
-    w: usize,
-    phase: &[f32],
-    validity: &[u8],
-    xyz: &mut [f32],
-    codes: &mut [u8],
-) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
-    recon_rows(recon, map, v0, w, phase, validity, xyz, codes)
+fn recon_rows_avx2(f: &Frame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
+    recon_rows(f, v0, xyz, codes)
 }
 
-#[allow(clippy::too_many_arguments)]
-fn recon_rows_dispatch(
-    isa: Isa,
-    recon: &Reconstructor,
-    map: &ReferenceMap<'_>,
-    v0: usize,
-    w: usize,
-    phase: &[f32],
-    validity: &[u8],
-    xyz: &mut [f32],
-    codes: &mut [u8],
-) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
+fn recon_rows_dispatch(isa: Isa, f: &Frame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
     match isa {
         #[cfg(target_arch = "x86_64")]
         Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
             // SAFETY: the CPU supports AVX2 (checked just above), the only requirement of a
             // `#[target_feature(enable = "avx2")]` function.
-            unsafe { recon_rows_avx2(recon, map, v0, w, phase, validity, xyz, codes) }
+            unsafe { recon_rows_avx2(f, v0, xyz, codes) }
         }
-        _ => recon_rows(recon, map, v0, w, phase, validity, xyz, codes),
+        _ => recon_rows(f, v0, xyz, codes),
     }
 }
 

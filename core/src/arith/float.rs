@@ -80,11 +80,12 @@ impl FloatKernels for F32Micromath {
     const NAME: &'static str = "f32-micromath";
     #[inline(always)]
     fn atan2(y: f32, x: f32) -> f32 {
-        micromath::F32(y).atan2(micromath::F32(x)).0
+        // Fully qualified: micromath's own kernel on its `F32` newtype, never std's `f32::atan2`.
+        micromath::F32::atan2(micromath::F32(y), micromath::F32(x)).0
     }
     #[inline(always)]
     fn sqrt(x: f32) -> f32 {
-        micromath::F32(x).sqrt().0
+        micromath::F32::sqrt(micromath::F32(x)).0
     }
 }
 
