@@ -50,11 +50,11 @@ fn scene(noise: f64) -> (Rig, PhaseMap, PhaseMap) {
     (rig, reference, object)
 }
 
-/// The batch path compiled for AVX2 (the kernel is `#[inline(always)]`, so it is vectorized 8-wide
-/// inside this function), as a host would dispatch at run time. Same bits as the baseline build.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn frame_avx2(
+/// The batch path, always inlined into the wide-ISA wrappers below (the kernel is
+/// `#[inline(always)]`, so it is vectorized 8- or 16-wide inside them), as a host would dispatch
+/// at run time. Same bits as the baseline build.
+#[inline(always)]
+fn frame_rows(
     recon: &Reconstructor,
     map: &ReferenceMap<'_>,
     phase: &[f32],
@@ -70,6 +70,40 @@ fn frame_avx2(
     for (v, ((p, q), (o, ov))) in rows.enumerate() {
         recon.reconstruct_row(map, v as u32, p, q, o, ov).unwrap();
     }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn frame_avx2(recon: &Reconstructor, map: &ReferenceMap<'_>, phase: &[f32], validity: &[u8], xyz: &mut [f32], val: &mut [u8]) {
+    frame_rows(recon, map, phase, validity, xyz, val)
+}
+
+/// AVX-512 (compilers ≥ 1.89: `cfg(fringe3d_avx512)` from `build.rs`).
+#[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
+#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+fn frame_avx512(recon: &Reconstructor, map: &ReferenceMap<'_>, phase: &[f32], validity: &[u8], xyz: &mut [f32], val: &mut [u8]) {
+    frame_rows(recon, map, phase, validity, xyz, val)
+}
+
+type FrameFn = unsafe fn(&Reconstructor, &ReferenceMap<'_>, &[f32], &[u8], &mut [f32], &mut [u8]);
+
+/// The wide variants this build has and this CPU runs.
+fn wide_variants() -> Vec<(&'static str, FrameFn)> {
+    #[allow(unused_mut)]
+    let mut v: Vec<(&'static str, FrameFn)> = Vec::new();
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        v.push(("avx2", frame_avx2));
+    }
+    #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
+    if std::is_x86_feature_detected!("avx512f")
+        && std::is_x86_feature_detected!("avx512bw")
+        && std::is_x86_feature_detected!("avx512dq")
+        && std::is_x86_feature_detected!("avx512vl")
+    {
+        v.push(("avx512", frame_avx512));
+    }
+    v
 }
 
 fn bench(c: &mut Criterion) {
@@ -110,39 +144,16 @@ fn bench(c: &mut Criterion) {
                     .unwrap()
             })
         });
-        #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2") {
+        for (isa, f) in wide_variants() {
             let mut xyz2 = vec![0f32; 3 * w * h];
             let mut val2 = vec![0u8; w * h];
-            // SAFETY: AVX2 was detected at run time.
-            unsafe {
-                frame_avx2(
-                    &recon,
-                    &map,
-                    &object.phase,
-                    &object.validity,
-                    &mut xyz2,
-                    &mut val2,
-                )
-            };
-            let same = val == val2
-                && xyz
-                    .iter()
-                    .zip(&xyz2)
-                    .all(|(a, b)| a.to_bits() == b.to_bits());
-            assert!(same, "AVX2 build differs from the baseline build");
-            g.bench_function("frame_1280x1024_batch_avx2", |b| {
+            // SAFETY: `wide_variants` lists only variants whose features were detected at run time.
+            unsafe { f(&recon, &map, &object.phase, &object.validity, &mut xyz2, &mut val2) };
+            let same = val == val2 && xyz.iter().zip(&xyz2).all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "{isa} build differs from the baseline build");
+            g.bench_function(format!("frame_1280x1024_batch_{isa}"), |b| {
                 // SAFETY: as above.
-                b.iter(|| unsafe {
-                    frame_avx2(
-                        &recon,
-                        &map,
-                        black_box(&object.phase),
-                        &object.validity,
-                        &mut xyz2,
-                        &mut val2,
-                    )
-                })
+                b.iter(|| unsafe { f(&recon, &map, black_box(&object.phase), &object.validity, &mut xyz2, &mut val2) })
             });
         }
         let rows = recon.band().rows() as usize;

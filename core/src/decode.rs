@@ -322,7 +322,33 @@ pub struct Decoder<A: Arith = F32Accurate> {
     config: DecodeConfig,
     /// Planes (DC, then S and C of each level) no image contributes to: the row driver zeroes them.
     untouched: [bool; 1 + 2 * MAX_LEVELS],
+    /// The images of each level, in image order (the row driver's per-level passes).
+    level_images: [LevelImages; MAX_LEVELS],
+    /// The levels in the order the row driver computes them: the DC level first (the others'
+    /// S and C need its A), then the rest in level order.
+    level_order: [u8; MAX_LEVELS],
+    /// The level whose images carry the DC term A (eq 10/15), if any.
+    dc_level: Option<u8>,
 }
+
+/// The images of one level, in image order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LevelImages {
+    n: u8,
+    idx: [u8; MAX_SHIFTS],
+    /// Where the level's coefficients are zero, when it matches a pattern the row driver has a
+    /// shorter loop for ([`KIND_GENERIC`] otherwise).
+    kind: u8,
+}
+
+/// A level without a special pattern: every product is computed.
+const KIND_GENERIC: u8 = 0;
+/// Two images whose S and C each come from one of them (the paper's 2-image levels, shifts a
+/// quarter period apart, eq 11): `S = a₀·I₀ + a_dc·A`, `C = b₁·I₁ + b_dc·A`.
+const KIND_PAIR: u8 = 1;
+/// Four images a quarter period apart (eq 9): `S = a₀·I₀ + a₂·I₂`, `C = b₁·I₁ + b₃·I₃`, no
+/// external DC term.
+const KIND_QUAD: u8 = 2;
 
 /// Output rows of the decoder, all the same length.
 pub struct RowOut<'a> {
@@ -411,7 +437,15 @@ impl<A: Arith> Decoder<A> {
             format,
             config,
             untouched: [true; 1 + 2 * MAX_LEVELS],
+            level_images: [LevelImages { n: 0, idx: [0; MAX_SHIFTS], kind: KIND_GENERIC }; MAX_LEVELS],
+            level_order: [0; MAX_LEVELS],
+            dc_level: dc_level.map(|l| l as u8),
         };
+        let mut k = 0;
+        for l in dc_level.into_iter().chain((0..n_levels).filter(|&l| Some(l) != dc_level)) {
+            d.level_order[k] = l as u8;
+            k += 1;
+        }
         let mut coefs = [None; MAX_LEVELS];
         for i in 0..n_levels {
             let c = A::level_coefs(&plan, i, &format);
@@ -435,8 +469,32 @@ impl<A: Arith> Decoder<A> {
                 }
             }
             d.images[k] = ImageCoef { level: id.level, a: c.a[s], b: c.b[s], w, mode };
+            let li = &mut d.level_images[l];
+            if let Some(slot) = li.idx.get_mut(li.n as usize) {
+                *slot = k as u8;
+                li.n += 1;
+            } else {
+                return Err(DecodeError::Degenerate(id.level));
+            }
+        }
+        for l in 0..n_levels {
+            d.level_images[l].kind = d.level_kind(l);
         }
         Ok(d)
+    }
+
+    /// The zero pattern of level `l`'s coefficients ([`KIND_PAIR`], [`KIND_QUAD`] or
+    /// [`KIND_GENERIC`]). Skipping a zero product changes no bit: it adds ±0 to a sum that
+    /// started at +0 and so is never −0 (and 0 in the integer backends).
+    fn level_kind(&self, l: usize) -> u8 {
+        let li = &self.level_images[l];
+        let coef = |j: usize| self.images[li.idx[j] as usize];
+        let z = |k: A::Coef| A::is_zero(k);
+        match li.n {
+            2 if !z(coef(0).a) && z(coef(1).a) && z(coef(0).b) && !z(coef(1).b) && (0..2).all(|j| z(coef(j).w)) => KIND_PAIR,
+            4 if (0..4).all(|j| (j % 2 == 0) != z(coef(j).a) && (j % 2 == 1) != z(coef(j).b)) && z(self.a_dc[l]) && z(self.b_dc[l]) => KIND_QUAD,
+            _ => KIND_GENERIC,
+        }
     }
 
     /// The run-time number format of the backend (e.g. the accumulator fraction bits of
@@ -464,12 +522,24 @@ impl<A: Arith> Decoder<A> {
     /// length as the outputs. Writes the finest absolute phase, its modulation B, the DC term A and
     /// a validity code for every pixel.
     ///
-    /// Runs the kernel of [`Self::accumulate`] and [`Self::finish`] block by block on a stack
-    /// state, with two shortcuts that leave every bit alone: a plane's first contribution is
-    /// written as `0 + k·v` instead of being added to a zeroed plane, and saturation is tested once
-    /// on the largest sample of the pixel (`v ≥ t` for some sample ⇔ `max v ≥ t`).
+    /// Works block by block of [`BLOCK`] pixels on a [`DecodeScratch`] of its own (about 3.4 KiB
+    /// of stack in f32); a caller decoding many rows saves clearing it every row by keeping one
+    /// and calling [`Self::decode_row_with`]. Same bits either way.
     #[inline(always)]
     pub fn decode_row<P: Sample>(&self, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
+        self.decode_row_with(&mut DecodeScratch::new(), rows, out)
+    }
+
+    /// [`Self::decode_row`] with caller-kept scratch (e.g. one in a `static` on a head, or one
+    /// per worker on the desktop).
+    ///
+    /// Per block: the largest sample of every pixel (saturation is tested once on it:
+    /// `v ≥ t` for some sample ⇔ `max v ≥ t`); pass 1 per level, DC level first, straight from
+    /// the level's image rows ([`Self::level_from_rows`]); pass 2, the unwrapping and validity
+    /// ([`Self::unwrap_block`]). The frame-sequential path ([`Self::accumulate`] then
+    /// [`Self::finish`]) computes the same values in the same order: the same bits.
+    #[inline(always)]
+    pub fn decode_row_with<P: Sample>(&self, scratch: &mut DecodeScratch<A>, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
         if rows.len() != self.n_images {
             return Err(DecodeError::ImageCount);
         }
@@ -477,51 +547,189 @@ impl<A: Arith> Decoder<A> {
         if !out.len_ok(w) || rows.iter().any(|r| r.len() != w) {
             return Err(DecodeError::Length);
         }
-        let RowOut { phase, modulation, dc, validity } = out;
-        let sat = self.limits.saturation;
-        // The block state, zeroed once per row: every plane an image contributes to is overwritten
-        // by its first contribution ([`INIT`]), the others stay zero.
-        let mut st_dc = [A::ZERO; BLOCK];
-        let mut st_s = [[A::ZERO; BLOCK]; MAX_LEVELS];
-        let mut st_c = [[A::ZERO; BLOCK]; MAX_LEVELS];
-        let mut flags = [0u8; 0];
-        let Some(&first) = rows.first().and_then(|r| r.first()) else {
+        if w == 0 {
             return Ok(());
-        };
-        let mut peak = [first; BLOCK];
+        }
+        if w < BLOCK {
+            return self.decode_short_row(scratch, rows, out);
+        }
+        let RowOut { phase, modulation, dc, validity } = out;
+        let blk = &mut scratch.0;
+        // Whole blocks only, so that every loop has the constant trip count BLOCK (no remainder
+        // loops, whatever the vector width): the last block ends at the row's end and may overlap
+        // the one before, whose pixels it computes again to the same bits.
         let mut start = 0;
-        while start < w {
-            let end = if w - start > BLOCK { start + BLOCK } else { w };
-            let n = end - start;
-            let mut st = block_state(&mut st_dc, &mut st_s, &mut st_c, &mut flags, n);
-            // A loop over the decoder's image count (known at run time only), so that it is never
-            // unrolled into copies of the per-image loops even when the caller's row count is
-            // a constant (that left the finishing loop unvectorized in such callers).
-            for i in 0..self.n_images {
-                let r = rows.get(i).map(|r| &r[start..end]).ok_or(DecodeError::ImageCount)?;
-                self.accumulate_modes::<P, false, false>(i, r, &mut st)?;
-                if i == 0 {
-                    peak[..n].copy_from_slice(r);
-                } else {
-                    for (p, v) in peak[..n].iter_mut().zip(r) {
-                        *p = v.max_of(*p);
+        loop {
+            let r = start..start + BLOCK;
+            let out = BlockOut {
+                phase: block_mut(phase, r.clone())?,
+                modulation: block_mut(modulation, r.clone())?,
+                dc: block_mut(dc, r.clone())?,
+                validity: block_mut(validity, r.clone())?,
+            };
+            self.decode_block(blk, rows, start, out)?;
+            if start + BLOCK == w {
+                return Ok(());
+            }
+            start = if w - (start + BLOCK) >= BLOCK { start + BLOCK } else { w - BLOCK };
+        }
+    }
+
+    /// A row shorter than [`BLOCK`]: copied into a padded block (the padding decodes to values
+    /// that are dropped).
+    fn decode_short_row<P: Sample>(&self, scratch: &mut DecodeScratch<A>, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
+        let n = out.phase.len();
+        let first = rows.first().and_then(|r| r.first()).copied().ok_or(DecodeError::Length)?;
+        let mut padded = [[first; BLOCK]; MAX_IMAGES];
+        let mut refs: [&[P]; MAX_IMAGES] = [&[]; MAX_IMAGES];
+        for ((p, r), slot) in padded.iter_mut().zip(rows).zip(refs.iter_mut()) {
+            p[..n].copy_from_slice(r);
+            *slot = &p[..];
+        }
+        let (mut ph, mut mo, mut dc) = ([0.0f32; BLOCK], [0.0f32; BLOCK], [0.0f32; BLOCK]);
+        let mut va = [0u8; BLOCK];
+        let o = BlockOut { phase: &mut ph, modulation: &mut mo, dc: &mut dc, validity: &mut va };
+        self.decode_block(&mut scratch.0, &refs[..rows.len()], 0, o)?;
+        out.phase.copy_from_slice(&ph[..n]);
+        out.modulation.copy_from_slice(&mo[..n]);
+        out.dc.copy_from_slice(&dc[..n]);
+        out.validity.copy_from_slice(&va[..n]);
+        Ok(())
+    }
+
+    /// Decode the block of pixels `start..start + BLOCK` of every row.
+    ///
+    /// The largest sample of every pixel first (saturation is tested once on it: `v ≥ t` for
+    /// some sample ⇔ `max v ≥ t`); pass 1 per level, DC level first, straight from the level's
+    /// image rows ([`Self::level_from_rows`]); pass 2, the unwrapping and validity
+    /// ([`Self::unwrap_block`]).
+    #[inline(always)]
+    fn decode_block<P: Sample>(&self, blk: &mut Block<A>, rows: &[&[P]], start: usize, out: BlockOut<'_>) -> Result<(), DecodeError> {
+        let r = start..start + BLOCK;
+        let mut peak: [P; BLOCK] = *block(rows.first().copied().unwrap_or(&[]), r.clone())?;
+        for row in rows.iter().skip(1) {
+            let row = block(row, r.clone())?;
+            for (p, v) in peak.iter_mut().zip(row) {
+                *p = v.max_of(*p);
+            }
+        }
+        blk.dc = [A::ZERO; BLOCK];
+        for k in 0..self.n_levels {
+            let l = self.level_order[k] as usize;
+            self.level_from_rows(l, rows, start, blk, out.modulation)?;
+        }
+        let sat = self.limits.saturation;
+        self.unwrap_block(blk, &peak, |p| A::saturated(A::input(p), sat), out);
+        Ok(())
+    }
+
+    /// Pass 1 of the row driver for level `l`: its S and C straight from its images' rows
+    /// (the block at `start`), then as [`Self::polar_into`]. For the DC level also A, into the
+    /// block.
+    ///
+    /// The sums are those of [`Self::accumulate`] bit for bit: the same products added in the same
+    /// (image) order from +0, where a zero coefficient adds ±0, which leaves a sum that is never
+    /// −0 unchanged (the accumulate path skips those products).
+    #[inline(always)]
+    fn level_from_rows<P: Sample>(&self, l: usize, rows: &[&[P]], start: usize, blk: &mut Block<A>, modulation: &mut [f32; BLOCK]) -> Result<(), DecodeError> {
+        let li = self.level_images.get(l).ok_or(DecodeError::Sequence)?;
+        let is_dc = self.dc_level == Some(l as u8);
+        let fine = l + 1 == self.n_levels;
+        let range = start..start + BLOCK;
+        let row_of = |k: u8| rows.get(k as usize).ok_or(DecodeError::ImageCount).and_then(|row| block(row, range.clone()));
+        macro_rules! fixed_n {
+            ($n:literal, $k:expr) => {{
+                let mut r: [&[P; BLOCK]; $n] = [row_of(li.idx[0])?; $n];
+                for (slot, &k) in r.iter_mut().zip(&li.idx[..$n]) {
+                    *slot = row_of(k)?;
+                }
+                match (is_dc, fine) {
+                    (false, false) => self.level_rows::<P, $n, $k, false, false>(l, &r, blk, modulation),
+                    (false, true) => self.level_rows::<P, $n, $k, false, true>(l, &r, blk, modulation),
+                    (true, false) => self.level_rows::<P, $n, $k, true, false>(l, &r, blk, modulation),
+                    (true, true) => self.level_rows::<P, $n, $k, true, true>(l, &r, blk, modulation),
+                }
+            }};
+        }
+        match (li.n, li.kind) {
+            (2, KIND_PAIR) => fixed_n!(2, KIND_PAIR),
+            (2, _) => fixed_n!(2, KIND_GENERIC),
+            (3, _) => fixed_n!(3, KIND_GENERIC),
+            (4, KIND_QUAD) => fixed_n!(4, KIND_QUAD),
+            (4, _) => fixed_n!(4, KIND_GENERIC),
+            _ => {
+                // Any other number of images: fold them one by one into S and C planes (and A),
+                // in image order from +0, then the same polar pass as the frame-sequential path.
+                let mut sp = [A::ZERO; BLOCK];
+                let mut cp = [A::ZERO; BLOCK];
+                for &k in &li.idx[..li.n as usize] {
+                    let coef = self.images.get(k as usize).ok_or(DecodeError::Sequence)?;
+                    let row = row_of(k)?;
+                    for i in 0..BLOCK {
+                        let v = A::input(row[i]);
+                        sp[i] = A::mac(sp[i], coef.a, v);
+                        cp[i] = A::mac(cp[i], coef.b, v);
+                        if is_dc {
+                            blk.dc[i] = A::mac(blk.dc[i], coef.w, v);
+                        }
                     }
                 }
+                let dc = blk.dc;
+                self.polar_into(l, &sp, &cp, &dc, blk, modulation);
             }
-            let peak = &peak[..n];
-            self.finish_levels(
-                &st,
-                |i| A::saturated(A::input(peak[i]), sat),
-                RowOut {
-                    phase: &mut phase[start..end],
-                    modulation: &mut modulation[start..end],
-                    dc: &mut dc[start..end],
-                    validity: &mut validity[start..end],
-                },
-            )?;
-            start = end;
         }
         Ok(())
+    }
+
+    /// [`Self::level_from_rows`] for a level of `N` images: one loop over the block, every sum
+    /// in registers.
+    #[inline(always)]
+    fn level_rows<P: Sample, const N: usize, const KIND: u8, const DC: bool, const FINE: bool>(
+        &self,
+        l: usize,
+        rows: &[&[P; BLOCK]; N],
+        blk: &mut Block<A>,
+        mo: &mut [f32; BLOCK],
+    ) {
+        let (mut ka, mut kb, mut kw) = ([A::COEF_ZERO; N], [A::COEF_ZERO; N], [A::COEF_ZERO; N]);
+        for j in 0..N {
+            let k = self.level_images[l].idx[j] as usize;
+            if let Some(c) = self.images.get(k) {
+                (ka[j], kb[j], kw[j]) = (c.a, c.b, c.w);
+            }
+        }
+        let (ad, bd, fmt) = (self.a_dc[l], self.b_dc[l], &self.format);
+        let Block { dc, wrapped, mag } = blk;
+        let (w, mag) = (&mut wrapped[l], &mut mag[l]);
+        for i in 0..BLOCK {
+            let (mut s, mut c, mut a) = (A::ZERO, A::ZERO, A::ZERO);
+            for j in 0..N {
+                let v = A::input(rows[j][i]);
+                // The kinds' zero products are skipped (known at compile time).
+                let (sj, cj) = if KIND == KIND_GENERIC { (true, true) } else { (j % 2 == 0, j % 2 == 1) };
+                if sj {
+                    s = A::mac(s, ka[j], v);
+                }
+                if cj {
+                    c = A::mac(c, kb[j], v);
+                }
+                if DC {
+                    a = A::mac(a, kw[j], v);
+                }
+            }
+            if DC {
+                dc[i] = a;
+            } else {
+                a = dc[i];
+            }
+            let (s, c) = if KIND == KIND_QUAD { (s, c) } else { A::level_sc(s, c, ad, bd, a, fmt) };
+            let (p, b2) = if FINE { A::polar(s, c) } else { A::polar_coarse(s, c) };
+            w[i] = p;
+            mag[i] = b2;
+            if FINE {
+                mo[i] = A::mag_out(b2, fmt);
+            }
+        }
     }
 
     /// Fold the samples of image `image` (set order) into the state (the first half of the
@@ -584,76 +792,153 @@ impl<A: Arith> Decoder<A> {
         if flags.len() != st.dc.len() {
             return Err(DecodeError::Length);
         }
-        self.finish_levels(st, |i| flags[i] & 1 != 0, out)
+        self.finish_levels(st, flags, |f| f & 1 != 0, out)
     }
 
-    /// [`Self::finish`] with the saturation test of pixel `i` given by `saturated(i)`: one pass over
-    /// the pixels computing every level in registers, compiled once per level count.
+    /// [`Self::finish`] with the saturation test of pixel `i` given by `saturated(sat[i])`,
+    /// compiled once per level count.
     #[inline(always)]
-    fn finish_levels(&self, st: &State<'_, A::Acc>, saturated: impl Fn(usize) -> bool, out: RowOut<'_>) -> Result<(), DecodeError> {
+    fn finish_levels<T: Copy>(&self, st: &State<'_, A::Acc>, sat: &[T], saturated: impl Fn(T) -> bool, out: RowOut<'_>) -> Result<(), DecodeError> {
         let n = st.dc.len();
-        if !out.len_ok(n) || (0..self.n_levels).any(|l| st.s[l].len() != n || st.c[l].len() != n) {
+        if !out.len_ok(n) || sat.len() != n || (0..self.n_levels).any(|l| st.s[l].len() != n || st.c[l].len() != n) {
             return Err(DecodeError::Length);
         }
-        match self.n_levels {
-            1 => self.finish_fused::<1>(st, saturated, out),
-            2 => self.finish_fused::<2>(st, saturated, out),
-            3 => self.finish_fused::<3>(st, saturated, out),
-            4 => self.finish_fused::<4>(st, saturated, out),
-            5 => self.finish_fused::<5>(st, saturated, out),
-            _ => self.finish_fused::<6>(st, saturated, out),
+        if n == 0 {
+            return Ok(());
         }
-        Ok(())
+        let mut blk = Block::<A>::new();
+        if n < BLOCK {
+            // Short: padded copies of the state (the padding's results are dropped).
+            let pad = |p: &[A::Acc]| {
+                let mut b = [A::ZERO; BLOCK];
+                b[..n].copy_from_slice(p);
+                b
+            };
+            let mut sat_b = [sat[0]; BLOCK];
+            sat_b[..n].copy_from_slice(sat);
+            blk.dc = pad(st.dc);
+            let (mut ph, mut mo, mut dc) = ([0.0f32; BLOCK], [0.0f32; BLOCK], [0.0f32; BLOCK]);
+            let mut va = [0u8; BLOCK];
+            for l in 0..self.n_levels {
+                let dcb = blk.dc;
+                self.polar_into(l, &pad(st.s[l]), &pad(st.c[l]), &dcb, &mut blk, &mut mo);
+            }
+            self.unwrap_block(&blk, &sat_b, &saturated, BlockOut { phase: &mut ph, modulation: &mut mo, dc: &mut dc, validity: &mut va });
+            out.phase.copy_from_slice(&ph[..n]);
+            out.modulation.copy_from_slice(&mo[..n]);
+            out.dc.copy_from_slice(&dc[..n]);
+            out.validity.copy_from_slice(&va[..n]);
+            return Ok(());
+        }
+        // Whole blocks, the last one overlapping (see `decode_row_with`).
+        let mut start = 0;
+        loop {
+            let r = start..start + BLOCK;
+            blk.dc = *block(st.dc, r.clone())?;
+            let mo = block_mut(out.modulation, r.clone())?;
+            for l in 0..self.n_levels {
+                let dcb = blk.dc;
+                self.polar_into(l, block(st.s[l], r.clone())?, block(st.c[l], r.clone())?, &dcb, &mut blk, mo);
+            }
+            let o = BlockOut {
+                phase: block_mut(out.phase, r.clone())?,
+                modulation: mo,
+                dc: block_mut(out.dc, r.clone())?,
+                validity: block_mut(out.validity, r.clone())?,
+            };
+            self.unwrap_block(&blk, block(sat, r)?, &saturated, o);
+            if start + BLOCK == n {
+                return Ok(());
+            }
+            start = if n - (start + BLOCK) >= BLOCK { start + BLOCK } else { n - BLOCK };
+        }
     }
 
-    /// The finishing kernel for `L` levels (lengths checked by the caller).
+    /// Pass 1 for level `l` from its S and C accumulators and A (one block): S and C (eq 11 for
+    /// the 2-shift levels), the wrapped phase and the modulation measure. The coarser levels only
+    /// choose fringe orders, so they take the backend's cheaper arctangent
+    /// ([`Arith::polar_coarse`]); the finest level, whose phase is the output, the accurate one,
+    /// and it writes B into `modulation`.
     #[inline(always)]
-    fn finish_fused<const L: usize>(&self, st: &State<'_, A::Acc>, saturated: impl Fn(usize) -> bool, out: RowOut<'_>) {
-        let n = st.dc.len();
+    fn polar_into(&self, l: usize, s: &[A::Acc; BLOCK], c: &[A::Acc; BLOCK], dc: &[A::Acc; BLOCK], blk: &mut Block<A>, modulation: &mut [f32; BLOCK]) {
+        let (ad, bd, fmt) = (self.a_dc[l], self.b_dc[l], &self.format);
+        let (w, mag) = (&mut blk.wrapped[l], &mut blk.mag[l]);
+        if l + 1 < self.n_levels {
+            for i in 0..BLOCK {
+                let (s, c) = A::level_sc(s[i], c[i], ad, bd, dc[i], fmt);
+                let (p, b2) = A::polar_coarse(s, c);
+                w[i] = p;
+                mag[i] = b2;
+            }
+        } else {
+            for i in 0..BLOCK {
+                let (s, c) = A::level_sc(s[i], c[i], ad, bd, dc[i], fmt);
+                let (p, b2) = A::polar(s, c);
+                w[i] = p;
+                mag[i] = b2;
+                modulation[i] = A::mag_out(b2, fmt);
+            }
+        }
+    }
+
+    /// Pass 2, compiled once per level count: both unwrapping steps (eqs 12-13), the range test,
+    /// the validity selects and the phase, DC and validity outputs of one block. Pixel `i` is
+    /// saturated if `saturated(sat[i])`.
+    ///
+    /// Splitting the finishing work into these two passes keeps each loop body short, with
+    /// independent iterations an out-of-order core overlaps; one fused body (arctangents →
+    /// unwrapping → validity, ~300 instructions per vector) ran at the latency of its chain.
+    #[inline(always)]
+    fn unwrap_block<T: Copy>(&self, blk: &Block<A>, sat: &[T; BLOCK], saturated: impl Fn(T) -> bool, out: BlockOut<'_>) {
+        match self.n_levels {
+            1 => self.unwrap_levels::<1, T>(blk, sat, saturated, out),
+            2 => self.unwrap_levels::<2, T>(blk, sat, saturated, out),
+            3 => self.unwrap_levels::<3, T>(blk, sat, saturated, out),
+            4 => self.unwrap_levels::<4, T>(blk, sat, saturated, out),
+            5 => self.unwrap_levels::<5, T>(blk, sat, saturated, out),
+            _ => self.unwrap_levels::<6, T>(blk, sat, saturated, out),
+        }
+    }
+
+    /// [`Self::unwrap_block`] for `L` levels.
+    #[inline(always)]
+    fn unwrap_levels<const L: usize, T: Copy>(&self, blk: &Block<A>, sat: &[T; BLOCK], saturated: impl Fn(T) -> bool, out: BlockOut<'_>) {
         let lim = &self.limits;
         let fmt = &self.format;
         let (min_b2, lo, hi) = (lim.min_modulation, lim.coarse_lo, lim.coarse_hi);
         let (tol, dark) = (lim.unwrap_tolerance, lim.dark);
-        let a = &st.dc[..n];
-        let s: [&[A::Acc]; L] = core::array::from_fn(|l| &st.s[l][..n]);
-        let c: [&[A::Acc]; L] = core::array::from_fn(|l| &st.c[l][..n]);
-        if s.iter().chain(c.iter()).any(|p| p.len() != n) {
-            return;
-        }
-        let (vo, po, mo, ao) = (&mut out.validity[..n], &mut out.phase[..n], &mut out.modulation[..n], &mut out.dc[..n]);
-        let outs = vo.iter_mut().zip(po.iter_mut()).zip(mo.iter_mut()).zip(ao.iter_mut()).zip(a);
-        for (i, ((((vo, po), mo), ao), a)) in outs.enumerate() {
-            let a = *a;
-            let mut phi = A::Phase::default();
-            let mut bmin = A::MAG_MAX;
-            let mut blast = A::Mag::default();
-            let (mut out_of_range, mut inconsistent) = (false, false);
-            for l in 0..L {
-                let (s, c) = A::level_sc(s[l][i], c[l][i], self.a_dc[l], self.b_dc[l], a, fmt);
-                let (wrapped, b2) = A::polar(s, c);
-                bmin = A::min_mag(b2, bmin);
-                blast = b2;
-                if l == 0 {
-                    out_of_range = !A::in_range(wrapped, lo, hi);
-                    phi = wrapped;
-                } else {
-                    let (abs, res) = A::unwrap(phi, self.ratio[l], wrapped);
-                    inconsistent |= !A::consistent(res, tol);
-                    phi = abs;
-                }
+        let (wrapped, mag, a) = (&blk.wrapped, &blk.mag, &blk.dc);
+        let BlockOut { phase: po, dc: ao, validity: vo, .. } = out;
+        for i in 0..BLOCK {
+            let a = a[i];
+            let mut phi = wrapped[0][i];
+            let out_of_range = !A::in_range(phi, lo, hi);
+            let mut inconsistent = false;
+            for l in 1..L {
+                let (abs, res) = A::unwrap(phi, self.ratio[l], wrapped[l][i]);
+                inconsistent |= !A::consistent(res, tol);
+                phi = abs;
+            }
+            let mut bm = A::MAG_MAX;
+            for m in mag.iter().take(L) {
+                bm = A::min_mag(m[i], bm);
             }
             // Priority (highest last): unwrap inconsistent, out of range, low modulation, dark,
-            // saturated. Selects, not branches, so the loop vectorizes.
-            let mut v = Validity::Valid as u8;
-            v = if inconsistent { Validity::UnwrapInconsistent as u8 } else { v };
-            v = if out_of_range { Validity::PhaseOutOfRange as u8 } else { v };
-            v = if !A::mag_at_least(bmin, min_b2) { Validity::LowModulation as u8 } else { v };
-            v = if !A::dc_at_least(a, dark) { Validity::Dark as u8 } else { v };
-            v = if saturated(i) { Validity::Saturated as u8 } else { v };
-            *vo = v;
-            *po = if v == 0 { A::phase_out(phi) } else { CANONICAL_NAN };
-            *ao = A::dc_out(a, fmt);
-            *mo = A::mag_out(blast, fmt);
+            // saturated. Masks, not branches or a chain of selects (which LLVM may fold into
+            // branches), so the loop vectorizes.
+            let pick = |cond: bool, code: Validity, v: u32| {
+                let m = (cond as u32).wrapping_neg();
+                (v & !m) | (code as u32 & m)
+            };
+            let mut v = Validity::Valid as u32;
+            v = pick(inconsistent, Validity::UnwrapInconsistent, v);
+            v = pick(out_of_range, Validity::PhaseOutOfRange, v);
+            v = pick(!A::mag_at_least(bm, min_b2), Validity::LowModulation, v);
+            v = pick(!A::dc_at_least(a, dark), Validity::Dark, v);
+            v = pick(saturated(sat[i]), Validity::Saturated, v);
+            vo[i] = v as u8;
+            po[i] = if v == 0 { A::phase_out(phi) } else { CANONICAL_NAN };
+            ao[i] = A::dc_out(a, fmt);
         }
     }
 
@@ -704,6 +989,60 @@ impl<A: Arith> Decoder<A> {
         }
         Ok(())
     }
+}
+
+/// Scratch memory of the row decoder ([`Decoder::decode_row_with`]): one block of A, the wrapped
+/// phase and the modulation measure of every level (about 3.3 KiB with f32 backends). Its
+/// contents never carry over from one row to the next.
+pub struct DecodeScratch<A: Arith = F32Accurate>(Block<A>);
+
+impl<A: Arith> DecodeScratch<A> {
+    /// A cleared scratch.
+    pub fn new() -> Self {
+        DecodeScratch(Block::new())
+    }
+}
+
+impl<A: Arith> Default for DecodeScratch<A> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The per-block scratch of the finishing passes: A, the wrapped phase and the modulation
+/// measure of every level, for one block of [`BLOCK`] pixels.
+struct Block<A: Arith> {
+    dc: [A::Acc; BLOCK],
+    wrapped: [[A::Phase; BLOCK]; MAX_LEVELS],
+    /// The modulation measure of every level (the smallest is taken in pass 2: a running minimum
+    /// stored back per level becomes a masked store, which is slow on some x86 cores).
+    mag: [[A::Mag; BLOCK]; MAX_LEVELS],
+}
+
+impl<A: Arith> Block<A> {
+    fn new() -> Self {
+        Block { dc: [A::ZERO; BLOCK], wrapped: [[A::Phase::default(); BLOCK]; MAX_LEVELS], mag: [[A::Mag::default(); BLOCK]; MAX_LEVELS] }
+    }
+}
+
+/// The outputs of one block.
+struct BlockOut<'a> {
+    phase: &'a mut [f32; BLOCK],
+    modulation: &'a mut [f32; BLOCK],
+    dc: &'a mut [f32; BLOCK],
+    validity: &'a mut [u8; BLOCK],
+}
+
+/// The block `range` (of length [`BLOCK`]) of a row, as an array.
+#[inline(always)]
+fn block<T>(row: &[T], range: core::ops::Range<usize>) -> Result<&[T; BLOCK], DecodeError> {
+    row.get(range).and_then(|r| r.try_into().ok()).ok_or(DecodeError::Length)
+}
+
+/// [`block`], mutable.
+#[inline(always)]
+fn block_mut<T>(row: &mut [T], range: core::ops::Range<usize>) -> Result<&mut [T; BLOCK], DecodeError> {
+    row.get_mut(range).and_then(|r| r.try_into().ok()).ok_or(DecodeError::Length)
 }
 
 /// The coefficients of one image and the saturation threshold, for [`acc_loop`].

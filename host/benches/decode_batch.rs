@@ -1,5 +1,6 @@
 //! Decode throughput of the desktop batch path: a 1280×1024 8-image u8 set, single thread and all
-//! cores, baseline kernel and the runtime-dispatched one. Seeded synthetic input.
+//! cores, the baseline and AVX2 kernels and the runtime-dispatched one (AVX-512 where the CPU and
+//! the compiler have it). Seeded synthetic input.
 //! Run: `cargo bench -p fringe3d --bench decode_batch`.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -39,6 +40,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(20);
     for (name, isa, par) in [
         ("baseline_1thread", Isa::Baseline, false),
+        ("avx2_1thread", Isa::Avx2, false),
         ("dispatched_1thread", Isa::detect(), false),
         ("dispatched_all_cores", Isa::detect(), true),
     ] {

@@ -2,10 +2,13 @@
 //! for the widest instruction set the CPU has (runtime dispatch).
 //!
 //! Both axes of speed-up leave the bits alone: rows are independent, and the core's kernel is
-//! plain IEEE arithmetic with no fused operations, so an AVX2 build of it computes exactly what the
-//! baseline (SSE2) build computes, lane by lane. `tests` check it.
+//! plain IEEE arithmetic with no fused operations, so an AVX2 or AVX-512 build of it computes
+//! exactly what the baseline (SSE2) build computes, lane by lane. `tests` check it.
+//!
+//! The AVX-512 variant exists when the compiler is 1.89 or newer (`cfg(fringe3d_avx512)`, set by
+//! `build.rs`); with the MSRV the dispatch stops at AVX2.
 
-use fringe3d_core::decode::{DecodeError, Decoder, RowOut, Sample};
+use fringe3d_core::decode::{DecodeError, DecodeScratch, Decoder, RowOut, Sample};
 use rayon::prelude::*;
 
 /// Which compiled variant of the kernel runs.
@@ -15,18 +18,49 @@ pub enum Isa {
     Baseline,
     /// x86-64 with AVX2, detected at run time.
     Avx2,
+    /// x86-64 with AVX-512 (F, BW, DQ, VL), detected at run time; only in builds by rustc ≥ 1.89,
+    /// elsewhere it runs the AVX2 (or baseline) variant.
+    Avx512,
 }
 
 impl Isa {
     /// The best variant this CPU runs.
     pub fn detect() -> Isa {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::is_x86_feature_detected!("avx2") {
-                return Isa::Avx2;
-            }
+        if Isa::Avx512.available() {
+            return Isa::Avx512;
+        }
+        if Isa::Avx2.available() {
+            return Isa::Avx2;
         }
         Isa::Baseline
+    }
+
+    /// `true` if this build has the variant and this CPU runs it.
+    pub fn available(self) -> bool {
+        match self {
+            Isa::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => std::is_x86_feature_detected!("avx2"),
+            #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
+            Isa::Avx512 => {
+                std::is_x86_feature_detected!("avx512f")
+                    && std::is_x86_feature_detected!("avx512bw")
+                    && std::is_x86_feature_detected!("avx512dq")
+                    && std::is_x86_feature_detected!("avx512vl")
+            }
+            #[allow(unreachable_patterns)] // every arm exists on x86-64 with a recent compiler
+            _ => false,
+        }
+    }
+
+    /// The variant that actually runs for a request of `self`: the widest available one not
+    /// wider than it.
+    pub fn effective(self) -> Isa {
+        match self {
+            Isa::Avx512 if Isa::Avx512.available() => Isa::Avx512,
+            Isa::Avx512 | Isa::Avx2 if Isa::Avx2.available() => Isa::Avx2,
+            _ => Isa::Baseline,
+        }
     }
 }
 
@@ -60,11 +94,12 @@ fn in_avx2<R>(f: impl FnOnce() -> R) -> R {
 /// [`decode_frames`] does.
 #[inline(always)]
 pub fn dispatch<R>(isa: Isa, f: impl FnOnce() -> R) -> R {
-    match isa {
+    match isa.effective() {
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
-            // SAFETY: the CPU supports AVX2 (checked just above), the only requirement of a
-            // `#[target_feature(enable = "avx2")]` function.
+        Isa::Avx2 | Isa::Avx512 => {
+            // SAFETY: `effective` returned a variant with AVX2, so the CPU supports it (checked by
+            // `Isa::available`), the only requirement of a `#[target_feature(enable = "avx2")]`
+            // function.
             unsafe { in_avx2(f) }
         }
         _ => f(),
@@ -83,13 +118,15 @@ fn rows_generic<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize
     let n_rows = out.phase.len() / width;
     let mut rows: [&[P]; fringe3d_core::pattern::MAX_IMAGES] = [&[]; fringe3d_core::pattern::MAX_IMAGES];
     let k = frames.len().min(rows.len());
+    let mut scratch = DecodeScratch::new();
     for r in 0..n_rows {
         let y = y0 + r;
         for (slot, f) in rows.iter_mut().zip(frames) {
             *slot = f.get(y * width..(y + 1) * width).ok_or(DecodeError::Length)?;
         }
         let s = r * width..(r + 1) * width;
-        d.decode_row(
+        d.decode_row_with(
+            &mut scratch,
             &rows[..k],
             RowOut {
                 phase: &mut out.phase[s.clone()],
@@ -111,12 +148,26 @@ fn rows_avx2<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, o
     rows_generic(d, frames, width, y0, out)
 }
 
+/// [`rows_avx2`] with AVX-512.
+#[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
+#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+fn rows_avx512<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
+    rows_generic(d, frames, width, y0, out)
+}
+
 fn rows_dispatch<P: Sample>(isa: Isa, d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
-    match isa {
+    match isa.effective() {
+        #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
+        Isa::Avx512 => {
+            // SAFETY: `effective` returned Avx512, so the CPU has every feature the function
+            // enables (checked by `Isa::available`), the only requirement of `target_feature`.
+            unsafe { rows_avx512(d, frames, width, y0, out) }
+        }
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
-            // SAFETY: the CPU supports AVX2 (checked just above), the only requirement of a
-            // `#[target_feature(enable = "avx2")]` function.
+        Isa::Avx2 => {
+            // SAFETY: `effective` returned Avx2, so the CPU supports AVX2 (checked by
+            // `Isa::available`), the only requirement of a `#[target_feature(enable = "avx2")]`
+            // function.
             unsafe { rows_avx2(d, frames, width, y0, out) }
         }
         _ => rows_generic(d, frames, width, y0, out),
@@ -198,14 +249,16 @@ mod tests {
             .collect();
         let frames: Vec<&[u8]> = imgs.iter().map(|v| v.as_slice()).collect();
         let mut results = Vec::new();
-        for (isa, par) in [(Isa::Baseline, false), (Isa::Avx2, false), (Isa::Avx2, true), (Isa::Baseline, true)] {
+        for (isa, par) in [(Isa::Baseline, false), (Isa::Avx2, false), (Isa::Avx2, true), (Isa::Avx512, false), (Isa::Avx512, true), (Isa::Baseline, true)] {
             let (mut p, mut m, mut a, mut v) = (vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0u8; w * h]);
             decode_frames(&d, &frames, w, h, FrameOut { phase: &mut p, modulation: &mut m, dc: &mut a, validity: &mut v }, isa, par).unwrap();
             let bits: Vec<u32> = p.iter().chain(&m).chain(&a).map(|x| fringe3d_core::math::canonical(*x).to_bits()).collect();
             results.push((bits, v));
         }
-        if Isa::detect() != Isa::Avx2 {
-            eprintln!("note: this CPU has no AVX2; the AVX2 variant fell back to the baseline");
+        for isa in [Isa::Avx2, Isa::Avx512] {
+            if !isa.available() {
+                eprintln!("note: no {isa:?} on this CPU or in this build; that variant fell back to {:?}", isa.effective());
+            }
         }
         for r in &results[1..] {
             assert!(r.0 == results[0].0 && r.1 == results[0].1);

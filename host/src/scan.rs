@@ -200,12 +200,26 @@ fn recon_rows_avx2(f: &Frame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) 
     recon_rows(f, v0, xyz, codes)
 }
 
+/// [`recon_rows`] compiled with AVX-512 (compilers ≥ 1.89, see [`crate::batch`]).
+#[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
+#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+fn recon_rows_avx512(f: &Frame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
+    recon_rows(f, v0, xyz, codes)
+}
+
 fn recon_rows_dispatch(isa: Isa, f: &Frame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
-    match isa {
+    match isa.effective() {
+        #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
+        Isa::Avx512 => {
+            // SAFETY: `effective` returned Avx512, so the CPU has every feature the function
+            // enables (checked by `Isa::available`), the only requirement of `target_feature`.
+            unsafe { recon_rows_avx512(f, v0, xyz, codes) }
+        }
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 if std::is_x86_feature_detected!("avx2") => {
-            // SAFETY: the CPU supports AVX2 (checked just above), the only requirement of a
-            // `#[target_feature(enable = "avx2")]` function.
+        Isa::Avx2 => {
+            // SAFETY: `effective` returned Avx2, so the CPU supports AVX2 (checked by
+            // `Isa::available`), the only requirement of a `#[target_feature(enable = "avx2")]`
+            // function.
             unsafe { recon_rows_avx2(f, v0, xyz, codes) }
         }
         _ => recon_rows(f, v0, xyz, codes),

@@ -50,7 +50,7 @@ fn single_and_multi_threaded_scans_are_identical() {
     let fr: Vec<&[u8]> = f.iter().map(|v| v.as_slice()).collect();
     let (w, h) = (imgs.width as usize, imgs.height as usize);
     let mut results = Vec::new();
-    for (isa, par) in [(Isa::Baseline, false), (Isa::Avx2, true), (Isa::Avx2, false), (Isa::Baseline, true)] {
+    for (isa, par) in [(Isa::Baseline, false), (Isa::Avx2, true), (Isa::Avx2, false), (Isa::Avx512, false), (Isa::Avx512, true), (Isa::Baseline, true)] {
         let (mut p, mut m, mut a, mut v) = (vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0u8; w * h]);
         decode_frames(&d, &fr, w, h, FrameOut { phase: &mut p, modulation: &mut m, dc: &mut a, validity: &mut v }, isa, par).unwrap();
         let cloud = sc.reconstruct_with(&p, &v, par, isa).unwrap();

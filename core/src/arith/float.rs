@@ -6,8 +6,9 @@ use crate::decode::{DecodeError, Sample};
 use crate::math;
 use crate::unwrap::{consistent, unwrap_step};
 
-/// The default backend: f32 accumulators, [`math::atan2`] (degree-13 polynomial, 5e-7 rad) and
-/// a correctly rounded square root (`libm::sqrtf`, or the same bits from [`math::sqrt`] on x86-64). Exactly the decoder as it was before backends existed.
+/// The default backend: f32 accumulators, [`math::atan2`] (degree-13 polynomial, 5e-7 rad) for
+/// the finest level, [`math::atan2_coarse_finite`] (degree 5, 6.1e-4 rad) for the coarser ones,
+/// whose phase only picks fringe orders, and [`math::sqrt_newton`] (≤ 3 ulp) for the modulation.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct F32Accurate;
 
@@ -32,6 +33,12 @@ pub trait FloatKernels: Sealed + Copy + core::fmt::Debug + PartialEq + Default +
     const NAME: &'static str;
     /// Four-quadrant arctangent, radians.
     fn atan2(y: f32, x: f32) -> f32;
+    /// The arctangent of the coarser levels ([`Arith::polar_coarse`]); [`Self::atan2`] unless a
+    /// backend has a cheaper one.
+    #[inline(always)]
+    fn atan2_coarse(y: f32, x: f32) -> f32 {
+        Self::atan2(y, x)
+    }
     /// Square root of a finite non-negative value.
     fn sqrt(x: f32) -> f32;
 }
@@ -49,18 +56,12 @@ impl FloatKernels for F32Accurate {
         math::atan2_finite(y, x)
     }
     #[inline(always)]
+    fn atan2_coarse(y: f32, x: f32) -> f32 {
+        math::atan2_coarse_finite(y, x)
+    }
+    #[inline(always)]
     fn sqrt(x: f32) -> f32 {
-        // One correctly rounded square root: on x86-64 our kernel in plain arithmetic, which
-        // vectorizes (libm's is a scalar `sqrtss` in inline assembly), elsewhere libm's (a
-        // hardware instruction where there is one). Both are IEEE `sqrt`: the same bits.
-        #[cfg(target_arch = "x86_64")]
-        {
-            math::sqrt(x)
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            libm::sqrtf(x)
-        }
+        math::sqrt_newton(x)
     }
 }
 
@@ -69,6 +70,10 @@ impl FloatKernels for F32Fast {
     #[inline(always)]
     fn atan2(y: f32, x: f32) -> f32 {
         math::atan2_fast_finite(y, x)
+    }
+    #[inline(always)]
+    fn atan2_coarse(y: f32, x: f32) -> f32 {
+        math::atan2_coarse_finite(y, x)
     }
     #[inline(always)]
     fn sqrt(x: f32) -> f32 {
@@ -157,6 +162,11 @@ impl<K: FloatKernels> Arith for K {
     #[inline(always)]
     fn polar(s: f32, c: f32) -> (f32, f32) {
         (K::atan2(s, c), s * s + c * c)
+    }
+
+    #[inline(always)]
+    fn polar_coarse(s: f32, c: f32) -> (f32, f32) {
+        (K::atan2_coarse(s, c), s * s + c * c)
     }
 
     #[inline(always)]

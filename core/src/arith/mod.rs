@@ -10,7 +10,7 @@
 //!
 //! | backend | accumulators | `atan2` | modulation | unwrapping | for |
 //! |---|---|---|---|---|---|
-//! | [`F32Accurate`] (default) | f32 | degree-13 polynomial ([`crate::math::atan2`], 5e-7 rad) | correctly rounded: `libm::sqrtf`, on x86-64 [`crate::math::sqrt`] (same bits, vectorizes) | radians, f32 | desktop, FPU heads |
+//! | [`F32Accurate`] (default) | f32 | degree-13 polynomial ([`crate::math::atan2`], 5e-7 rad); coarser levels degree 5 ([`crate::math::atan2_coarse_finite`]) | [`crate::math::sqrt_newton`] (≤ 3 ulp, vectorizes) | radians, f32 | desktop, FPU heads |
 //! | [`F32Fast`] | f32 | degree-9 polynomial ([`crate::math::atan2_fast`], 1.2e-5 rad) | Newton `rsqrt` ([`crate::math::sqrt_fast`]) | radians, f32 | FPU heads short of time |
 //! | [`F32Micromath`] | f32 | `micromath` (2.8e-3 rad) | `micromath` (≈ 5 %) | radians, f32 | comparison only |
 //! | [`Fixed`] | i32, Q format per decoder | 24-step CORDIC ([`cordic_atan2`], 2.5e-7 rad) | CORDIC magnitude | turns, `I8F24` | FPU-less heads (Cortex-M0/M3), FPGA reference |
@@ -179,6 +179,13 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     fn level_sc(s: Self::Acc, c: Self::Acc, a_dc: Self::Coef, b_dc: Self::Coef, dc: Self::Acc, format: &Self::Format) -> (Self::Acc, Self::Acc);
     /// Wrapped phase `atan2(S, C)` and the modulation measure of (S, C).
     fn polar(s: Self::Acc, c: Self::Acc) -> (Self::Phase, Self::Mag);
+    /// [`Self::polar`] for the coarser levels, whose phase only chooses the next level's fringe
+    /// order: a backend may use a cheaper, less accurate arctangent (the f32 backends:
+    /// [`crate::math::atan2_coarse_finite`], 6.1e-4 rad). The default is [`Self::polar`].
+    #[inline(always)]
+    fn polar_coarse(s: Self::Acc, c: Self::Acc) -> (Self::Phase, Self::Mag) {
+        Self::polar(s, c)
+    }
     /// The smaller of two measures (the first if they are unordered).
     fn min_mag(m: Self::Mag, current: Self::Mag) -> Self::Mag;
     /// `lo ≤ w ≤ hi`.

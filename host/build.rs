@@ -1,0 +1,2 @@
+// The compiler probe shared with the core crate: see its documentation there.
+include!("../core/build.rs");
