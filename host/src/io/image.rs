@@ -223,7 +223,22 @@ fn decode_png(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageE
     }
     let mut out16 = Vec::new();
     let mut out8 = Vec::new();
-    for y in 0..h as usize {
+    if channels == 1 {
+        // Grayscale (the common case): the rows as they are, without the per-sample path below.
+        let rows = buf.chunks_exact(line).take(h as usize).map(|r| &r[..w as usize * bps]);
+        if sixteen {
+            out16.reserve_exact(n);
+            for r in rows {
+                out16.extend(r.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])));
+            }
+        } else {
+            out8.reserve_exact(n);
+            for r in rows {
+                out8.extend_from_slice(r);
+            }
+        }
+    }
+    for y in (0..h as usize).filter(|_| channels != 1) {
         for x in 0..w as usize {
             let v = if color {
                 luma(sample(y, x, 0), sample(y, x, 1), sample(y, x, 2))

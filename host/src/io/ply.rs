@@ -181,7 +181,13 @@ pub struct PlyWriter {
     /// The vertex count already written in the header ([`PlyWriter::create_with_count`]).
     announced: Option<u64>,
     line: String,
+    /// Binary vertices not yet handed to the file (written in blocks of [`PENDING_BYTES`], not
+    /// one small write per vertex).
+    pending: Vec<u8>,
 }
+
+/// Size of the blocks binary vertices are written in.
+const PENDING_BYTES: usize = 1 << 16;
 
 impl std::fmt::Debug for PlyWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -209,6 +215,7 @@ impl PlyWriter {
             count: 0,
             announced: None,
             line: String::new(),
+            pending: Vec::new(),
         })
     }
 
@@ -255,6 +262,7 @@ impl PlyWriter {
             count: 0,
             announced: None,
             line: String::new(),
+            pending: Vec::new(),
         })
     }
 
@@ -276,6 +284,7 @@ impl PlyWriter {
             count: 0,
             announced: Some(count),
             line: String::new(),
+            pending: Vec::new(),
         })
     }
 
@@ -406,11 +415,11 @@ impl PlyWriter {
                 if self.organized.is_some() {
                     push(&[code]);
                 }
-                let bytes = &buf[..k];
-                match &mut self.body {
-                    Body::Direct => self.out.write_all(bytes),
-                    Body::Scratch(s) => s.out.write_all(bytes),
+                self.pending.extend_from_slice(&buf[..k]);
+                if self.pending.len() >= PENDING_BYTES {
+                    self.flush_pending()?;
                 }
+                Ok(())
             }
             PlyEncoding::Ascii => {
                 use std::fmt::Write as _;
@@ -455,9 +464,20 @@ impl PlyWriter {
         Ok(())
     }
 
+    /// Hand the pending binary vertices to the file.
+    fn flush_pending(&mut self) -> Result<(), FormatError> {
+        let res = match &mut self.body {
+            Body::Direct => self.out.write_all(&self.pending),
+            Body::Scratch(s) => s.out.write_all(&self.pending),
+        };
+        self.pending.clear();
+        res.map_err(|e| FormatError::io(&self.path, "cannot write", e))
+    }
+
     /// Complete the file and move it into place; returns the number of vertices. An organized
     /// cloud must have received all its rows.
     pub fn finish(mut self) -> Result<u64, FormatError> {
+        self.flush_pending()?;
         if let Some((_, h)) = self.organized
             && self.rows != h
         {
