@@ -20,11 +20,10 @@ python3 -m venv "$work/venv"
 "$work/venv/bin/pip" install -q fringes numpy pillow
 
 # fringe3d: whole process, images on disk to a point cloud (and to a phase map alone).
-# Its in-memory decode time (images already loaded, as fringes' decode() below) comes from
-# `scan --json`, best of 3 runs.
-t_mem=$(for _ in 1 2 3; do $bin scan --json --patterns "$work/ds/patterns.toml" \
-    --calibration "$work/ds/calibration.toml" "$work/ds" -o "$work/cloud.ply" \
-    | python3 -c 'import json,sys; print(json.load(sys.stdin)["seconds"]["decode"])'; done | sort -g | head -1)
+# Its in-memory decode (images already loaded, as fringes' decode() below: decoder set-up, output
+# allocation, all cores), warm, best of 5: host/examples/decode_timing.rs.
+cargo build --release -q -p fringe3d --example decode_timing
+t_mem=$(target/release/examples/decode_timing "$work/ds/patterns.toml" "$work/ds" 5)
 TIMEFORMAT=%R
 t_scan=$( { time $bin scan -q --patterns "$work/ds/patterns.toml" \
     --calibration "$work/ds/calibration.toml" "$work/ds" -o "$work/cloud.ply"; } 2>&1 )
@@ -59,7 +58,7 @@ read -r t_fringes t_first <<<"$t_fringes"
 echo "uptime: $(uptime)"
 echo "fringe3d scan (whole process, 12 PNGs -> binary PLY): ${t_scan} s"
 echo "fringe3d decode (whole process, 12 PNGs -> float TIFFs): ${t_decode} s"
-echo "fringe3d decode in memory (images already loaded, all cores, best of 3): ${t_mem} s"
+echo "fringe3d decode in memory (images already loaded, all cores, warm, best of 5): ${t_mem} s"
 echo "fringes decode() (in Python, images already loaded, compiled, best of 3): ${t_fringes} s"
 echo "fringes decode() first call (includes its numba compilation): ${t_first} s"
 python3 -c "print(f'ratio, decode in memory, fringes (compiled) / fringe3d: {float(\"$t_fringes\") / float(\"$t_mem\"):.1f}x')"
