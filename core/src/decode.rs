@@ -352,6 +352,14 @@ const KIND_PAIR: u8 = 1;
 /// Four images a quarter period apart (eq 9): `S = a₀·I₀ + a₂·I₂`, `C = b₁·I₁ + b₃·I₃`, no
 /// external DC term.
 const KIND_QUAD: u8 = 2;
+/// [`KIND_PAIR`] with the paper's exact coefficients (shifts 0 and π/2, eq 11) in a backend whose
+/// sums are exact: `S = I₀ − A`, `C = I₁ − A`, the same bits as the products and sums.
+const KIND_PAIR_UNIT: u8 = 3;
+/// See [`KIND_PAIR_UNIT`].
+/// [`KIND_QUAD`] with the paper's exact coefficients (eqs 9-10) in a backend whose sums are
+/// exact: `S = ½·(I₀ − I₂)`, `C = ½·(I₁ − I₃)`, `A = ¼·(I₀ + I₁ + I₂ + I₃)`, the same bits as
+/// the products and sums (every intermediate is exact, and no sum is −0 either way).
+const KIND_QUAD_EXACT: u8 = 4;
 
 /// Output rows of the decoder, all the same length.
 pub struct RowOut<'a> {
@@ -492,10 +500,27 @@ impl<A: Arith> Decoder<A> {
         let li = &self.level_images[l];
         let coef = |j: usize| self.images[li.idx[j] as usize];
         let z = |k: A::Coef| A::is_zero(k);
-        match li.n {
+        let kind = match li.n {
             2 if !z(coef(0).a) && z(coef(1).a) && z(coef(0).b) && !z(coef(1).b) && (0..2).all(|j| z(coef(j).w)) => KIND_PAIR,
-            4 if (0..4).all(|j| (j % 2 == 0) != z(coef(j).a) && (j % 2 == 1) != z(coef(j).b)) && z(self.a_dc[l]) && z(self.b_dc[l]) => KIND_QUAD,
+            4 if (0..4).all(|j| (j % 2 == 0) != z(coef(j).a) && (j % 2 == 1) != z(coef(j).b)) && z(self.a_dc[l]) && z(self.b_dc[l]) => {
+                let e = |k: A::Coef, v: f32| A::exact_coef(k, v);
+                let exact = e(coef(0).a, 0.5) && e(coef(2).a, -0.5) && e(coef(1).b, 0.5) && e(coef(3).b, -0.5)
+                    && (0..4).all(|j| e(coef(j).w, 0.25) || z(coef(j).w))
+                    && (self.dc_level != Some(l as u8) || (0..4).all(|j| e(coef(j).w, 0.25)));
+                if exact { KIND_QUAD_EXACT } else { KIND_QUAD }
+            }
             _ => KIND_GENERIC,
+        };
+        match kind {
+            KIND_PAIR
+                if A::exact_coef(coef(0).a, 1.0)
+                    && A::exact_coef(coef(1).b, 1.0)
+                    && A::exact_coef(self.a_dc[l], -1.0)
+                    && A::exact_coef(self.b_dc[l], -1.0) =>
+            {
+                KIND_PAIR_UNIT
+            }
+            k => k,
         }
     }
 
@@ -654,9 +679,11 @@ impl<A: Arith> Decoder<A> {
             }};
         }
         match (li.n, li.kind) {
+            (2, KIND_PAIR_UNIT) => fixed_n!(2, KIND_PAIR_UNIT),
             (2, KIND_PAIR) => fixed_n!(2, KIND_PAIR),
             (2, _) => fixed_n!(2, KIND_GENERIC),
             (3, _) => fixed_n!(3, KIND_GENERIC),
+            (4, KIND_QUAD_EXACT) => fixed_n!(4, KIND_QUAD_EXACT),
             (4, KIND_QUAD) => fixed_n!(4, KIND_QUAD),
             (4, _) => fixed_n!(4, KIND_GENERIC),
             _ => {
@@ -701,6 +728,9 @@ impl<A: Arith> Decoder<A> {
             }
         }
         let (ad, bd, fmt) = (self.a_dc[l], self.b_dc[l], &self.format);
+        if KIND == KIND_PAIR_UNIT || KIND == KIND_QUAD_EXACT {
+            return self.level_rows_exact::<P, N, KIND, DC, FINE>(l, rows, (ka[0], kb[1 % N], kw[0]), blk, mo);
+        }
         let Block { dc, wrapped, mag } = blk;
         let (w, mag) = (&mut wrapped[l], &mut mag[l]);
         for i in 0..BLOCK {
@@ -725,6 +755,42 @@ impl<A: Arith> Decoder<A> {
                 a = dc[i];
             }
             let (s, c) = if KIND == KIND_QUAD { (s, c) } else { A::level_sc(s, c, ad, bd, a, fmt) };
+            let (p, b2) = if FINE { A::polar(s, c) } else { A::polar_coarse(s, c) };
+            w[i] = p;
+            mag[i] = b2;
+            if FINE {
+                mo[i] = A::mag_out(b2, fmt);
+            }
+        }
+    }
+
+    /// [`Self::level_rows`] for the regrouped kinds [`KIND_PAIR_UNIT`] and [`KIND_QUAD_EXACT`]
+    /// (`k` = a₀, b₁, w₀): the same bits with fewer operations.
+    #[inline(always)]
+    fn level_rows_exact<P: Sample, const N: usize, const KIND: u8, const DC: bool, const FINE: bool>(
+        &self,
+        l: usize,
+        rows: &[&[P; BLOCK]; N],
+        (ka, kb, kw): (A::Coef, A::Coef, A::Coef),
+        blk: &mut Block<A>,
+        mo: &mut [f32; BLOCK],
+    ) {
+        let fmt = &self.format;
+        let Block { dc, wrapped, mag } = blk;
+        let (w, mag) = (&mut wrapped[l], &mut mag[l]);
+        let (r0, r1, r2, r3) = (rows[0], rows[1 % N], rows[2 % N], rows[3 % N]);
+        for i in 0..BLOCK {
+            let (v0, v1) = (A::input(r0[i]), A::input(r1[i]));
+            let (s, c) = if KIND == KIND_PAIR_UNIT {
+                // S = 1·I₀ − 1·A, C = 1·I₁ − 1·A (not the DC level: its coefficients are zero).
+                (A::in_minus_acc(v0, dc[i]), A::in_minus_acc(v1, dc[i]))
+            } else {
+                let (v2, v3) = (A::input(r2[i]), A::input(r3[i]));
+                if DC {
+                    dc[i] = A::mac(A::ZERO, kw, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
+                }
+                (A::mac(A::ZERO, ka, A::in_sub(v0, v2)), A::mac(A::ZERO, kb, A::in_sub(v1, v3)))
+            };
             let (p, b2) = if FINE { A::polar(s, c) } else { A::polar_coarse(s, c) };
             w[i] = p;
             mag[i] = b2;

@@ -237,6 +237,22 @@ impl Arith for Fixed {
         acc.wrapping_add(k.wrapping_mul(v))
     }
 
+    // `exact_coef` keeps its default (never): the regrouped kinds are for the f32 backends.
+    #[inline(always)]
+    fn in_add(a: i32, b: i32) -> i32 {
+        a.wrapping_add(b)
+    }
+
+    #[inline(always)]
+    fn in_sub(a: i32, b: i32) -> i32 {
+        a.wrapping_sub(b)
+    }
+
+    #[inline(always)]
+    fn in_minus_acc(v: i32, dc: i32) -> i32 {
+        v.wrapping_sub(dc)
+    }
+
     #[inline(always)]
     fn saturated(v: i32, threshold: i32) -> bool {
         v >= threshold

@@ -150,6 +150,26 @@ impl<K: FloatKernels> Arith for K {
     }
 
     #[inline(always)]
+    fn exact_coef(k: f32, value: f32) -> bool {
+        k == value
+    }
+
+    #[inline(always)]
+    fn in_add(a: f32, b: f32) -> f32 {
+        a + b
+    }
+
+    #[inline(always)]
+    fn in_sub(a: f32, b: f32) -> f32 {
+        a - b
+    }
+
+    #[inline(always)]
+    fn in_minus_acc(v: f32, dc: f32) -> f32 {
+        v - dc
+    }
+
+    #[inline(always)]
     fn saturated(v: f32, threshold: f32) -> bool {
         v >= threshold
     }

@@ -169,6 +169,19 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     fn input<P: Sample>(v: P) -> Self::In;
     /// `acc + k·v`.
     fn mac(acc: Self::Acc, k: Self::Coef, v: Self::In) -> Self::Acc;
+    /// `true` if `k` equals `value` and the backend's sums of samples times `k` are exact, so
+    /// that the kernel may regroup them (`k·v₀ − k·v₂ = k·(v₀ − v₂)`) without changing a bit.
+    /// The f32 backends: `k == value` (samples are integers below 2¹⁷); fixed point: never.
+    #[inline(always)]
+    fn exact_coef(_k: Self::Coef, _value: f32) -> bool {
+        false
+    }
+    /// `a + b` of two samples (used only where [`Self::exact_coef`] allowed a regrouping).
+    fn in_add(a: Self::In, b: Self::In) -> Self::In;
+    /// `a − b` of two samples (as [`Self::in_add`]).
+    fn in_sub(a: Self::In, b: Self::In) -> Self::In;
+    /// `v − dc`, a sample minus a DC accumulator (as [`Self::in_add`]).
+    fn in_minus_acc(v: Self::In, dc: Self::Acc) -> Self::Acc;
     /// `v ≥ threshold`.
     fn saturated(v: Self::In, threshold: Self::In) -> bool;
 
