@@ -703,8 +703,7 @@ impl<A: Arith> Decoder<A> {
                         }
                     }
                 }
-                let dc = blk.dc;
-                self.polar_into(l, &sp, &cp, &dc, blk, modulation);
+                self.polar_into(l, &sp, &cp, blk, modulation);
             }
         }
         Ok(())
@@ -888,8 +887,7 @@ impl<A: Arith> Decoder<A> {
             let (mut ph, mut mo, mut dc) = ([0.0f32; BLOCK], [0.0f32; BLOCK], [0.0f32; BLOCK]);
             let mut va = [0u8; BLOCK];
             for l in 0..self.n_levels {
-                let dcb = blk.dc;
-                self.polar_into(l, &pad(st.s[l]), &pad(st.c[l]), &dcb, &mut blk, &mut mo);
+                self.polar_into(l, &pad(st.s[l]), &pad(st.c[l]), &mut blk, &mut mo);
             }
             self.unwrap_block(&blk, &sat_b, &saturated, BlockOut { phase: &mut ph, modulation: &mut mo, dc: &mut dc, validity: &mut va });
             out.phase.copy_from_slice(&ph[..n]);
@@ -905,8 +903,7 @@ impl<A: Arith> Decoder<A> {
             blk.dc = *block(st.dc, r.clone())?;
             let mo = block_mut(out.modulation, r.clone())?;
             for l in 0..self.n_levels {
-                let dcb = blk.dc;
-                self.polar_into(l, block(st.s[l], r.clone())?, block(st.c[l], r.clone())?, &dcb, &mut blk, mo);
+                self.polar_into(l, block(st.s[l], r.clone())?, block(st.c[l], r.clone())?, &mut blk, mo);
             }
             let o = BlockOut {
                 phase: block_mut(out.phase, r.clone())?,
@@ -922,29 +919,33 @@ impl<A: Arith> Decoder<A> {
         }
     }
 
-    /// Pass 1 for level `l` from its S and C accumulators and A (one block): S and C (eq 11 for
+    /// Pass 1 for level `l` from its S and C accumulators and the block's A: S and C (eq 11 for
     /// the 2-shift levels), the wrapped phase and the modulation measure. The coarser levels only
     /// choose fringe orders, so they take the backend's cheaper arctangent
     /// ([`Arith::polar_coarse`]); the finest level, whose phase is the output, the accurate one,
     /// and it writes B into `modulation`.
     #[inline(always)]
-    fn polar_into(&self, l: usize, s: &[A::Acc; BLOCK], c: &[A::Acc; BLOCK], dc: &[A::Acc; BLOCK], blk: &mut Block<A>, modulation: &mut [f32; BLOCK]) {
-        let (ad, bd, fmt) = (self.a_dc[l], self.b_dc[l], &self.format);
-        let (w, mag) = (&mut blk.wrapped[l], &mut blk.mag[l]);
+    fn polar_into(&self, l: usize, s: &[A::Acc; BLOCK], c: &[A::Acc; BLOCK], blk: &mut Block<A>, modulation: &mut [f32; BLOCK]) {
         if l + 1 < self.n_levels {
-            for i in 0..BLOCK {
-                let (s, c) = A::level_sc(s[i], c[i], ad, bd, dc[i], fmt);
-                let (p, b2) = A::polar_coarse(s, c);
-                w[i] = p;
-                mag[i] = b2;
-            }
+            self.polar_from_planes::<false>(l, s, c, blk, modulation);
         } else {
-            for i in 0..BLOCK {
-                let (s, c) = A::level_sc(s[i], c[i], ad, bd, dc[i], fmt);
-                let (p, b2) = A::polar(s, c);
-                w[i] = p;
-                mag[i] = b2;
-                modulation[i] = A::mag_out(b2, fmt);
+            self.polar_from_planes::<true>(l, s, c, blk, modulation);
+        }
+    }
+
+    /// [`Self::polar_into`] for a coarser (`FINE = false`) or the finest level.
+    #[inline(always)]
+    fn polar_from_planes<const FINE: bool>(&self, l: usize, s: &[A::Acc; BLOCK], c: &[A::Acc; BLOCK], blk: &mut Block<A>, mo: &mut [f32; BLOCK]) {
+        let (ad, bd, fmt) = (self.a_dc[l], self.b_dc[l], &self.format);
+        let Block { dc, wrapped, mag } = blk;
+        let (w, mag) = (&mut wrapped[l], &mut mag[l]);
+        for i in 0..BLOCK {
+            let (s, c) = A::level_sc(s[i], c[i], ad, bd, dc[i], fmt);
+            let (p, b2) = if FINE { A::polar(s, c) } else { A::polar_coarse(s, c) };
+            w[i] = p;
+            mag[i] = b2;
+            if FINE {
+                mo[i] = A::mag_out(b2, fmt);
             }
         }
     }
