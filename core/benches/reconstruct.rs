@@ -15,40 +15,6 @@ use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap, ReferenceRing};
 use std::hint::black_box;
 use support::*;
 
-fn scene(noise: f64) -> (Rig, PhaseMap, PhaseMap) {
-    let rig = Rig::default_rig();
-    let mut reference = render_reference(&rig);
-    let surfaces = vec![
-        Surface::Sphere {
-            c: [-35.0, 25.0, 640.0],
-            r: 55.0,
-        },
-        Surface::Plane {
-            p: [0.0, 0.0, 700.0],
-            n: unit([0.25, 0.15, -1.0]),
-        },
-    ];
-    let bounds = Bounds {
-        min: [-1e9, -1e9, rig.z_range[0]],
-        max: [1e9, 1e9, rig.z_range[1]],
-    };
-    let mut object = render(&rig, &surfaces, bounds, 0..rig.cam.height as usize);
-    if noise > 0.0 {
-        let mut rng = Rng(0x5eed_0004);
-        let mut gauss = || {
-            let (a, b) = (rng.uniform().max(1e-300), rng.uniform());
-            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-        };
-        for m in [&mut reference, &mut object] {
-            for p in m.phase.iter_mut() {
-                if p.is_finite() {
-                    *p = (*p as f64 + noise * gauss()) as f32;
-                }
-            }
-        }
-    }
-    (rig, reference, object)
-}
 
 /// The batch path, always inlined into the wide-ISA wrappers below (the kernel is
 /// `#[inline(always)]`, so it is vectorized 8- or 16-wide inside them), as a host would dispatch
@@ -108,7 +74,7 @@ fn wide_variants() -> Vec<(&'static str, FrameFn)> {
 
 fn bench(c: &mut Criterion) {
     for (name, noise) in [("exact", 0.0), ("noisy", 0.01)] {
-        let (rig, reference, object) = scene(noise);
+        let (rig, reference, object) = bench_scene(noise);
         let cam = rig.cam.model();
         let recon = Reconstructor::new(&cam, &rig.setup()).unwrap();
         let (w, h) = (reference.width, reference.height);

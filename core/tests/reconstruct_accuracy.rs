@@ -254,18 +254,7 @@ fn added_error_with_phase_noise_is_below_one_micrometre() {
     let mut reference = render_reference(&rig);
     let rows: Vec<usize> = (2..1024).step_by(29).collect();
     let mut object = render(&rig, &object(&rig), volume(&rig), rows.iter().copied());
-    let mut rng = Rng(0x0401_5eed);
-    let mut gauss = || {
-        let (a, b) = (rng.uniform().max(1e-300), rng.uniform());
-        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-    };
-    for m in [&mut reference, &mut object] {
-        for p in m.phase.iter_mut() {
-            if p.is_finite() {
-                *p = (*p as f64 + 0.01 * gauss()) as f32;
-            }
-        }
-    }
+    add_phase_noise([&mut reference, &mut object], 0.01, 0x0401_5eed);
     let r = run(&rig, &reference, &object, &rows);
     let mut prep = reference.phase.clone();
     ReferenceMap::prepare(&mut prep, &reference.validity, 1280, 1024).unwrap();

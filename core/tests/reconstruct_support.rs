@@ -429,3 +429,39 @@ impl Pinhole {
         self.pixel_of_distorted(xd, yd)
     }
 }
+
+/// Add seeded Gaussian phase noise of `sigma` radians to the finite phases of `maps`, in order
+/// (Box-Muller on [`Rng`]).
+pub fn add_phase_noise(maps: [&mut PhaseMap; 2], sigma: f64, seed: u64) {
+    let mut rng = Rng(seed);
+    let mut gauss = || {
+        let (a, b) = (rng.uniform().max(1e-300), rng.uniform());
+        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+    };
+    for m in maps {
+        for p in m.phase.iter_mut() {
+            if p.is_finite() {
+                *p = (*p as f64 + sigma * gauss()) as f32;
+            }
+        }
+    }
+}
+
+/// The reconstruction benchmark's scene (`benches/reconstruct.rs`, `tests/reconstruct_timing.rs`):
+/// the default rig's reference map, and a plane tilted through most of the depth range with a
+/// sphere in front of it, over the whole image; with `noise > 0`, that much phase noise (radians,
+/// seeded) on both maps.
+pub fn bench_scene(noise: f64) -> (Rig, PhaseMap, PhaseMap) {
+    let rig = Rig::default_rig();
+    let mut reference = render_reference(&rig);
+    let surfaces = vec![
+        Surface::Sphere { c: [-35.0, 25.0, 640.0], r: 55.0 },
+        Surface::Plane { p: [0.0, 0.0, 700.0], n: unit([0.25, 0.15, -1.0]) },
+    ];
+    let bounds = Bounds { min: [-1e9, -1e9, rig.z_range[0]], max: [1e9, 1e9, rig.z_range[1]] };
+    let mut object = render(&rig, &surfaces, bounds, 0..rig.cam.height as usize);
+    if noise > 0.0 {
+        add_phase_noise([&mut reference, &mut object], noise, 0x5eed_0004);
+    }
+    (rig, reference, object)
+}

@@ -65,38 +65,7 @@ fn frame_cpu_time_noisy() {
 }
 
 fn timing(name: &str, noise: f64) {
-    let rig = Rig::default_rig();
-    let mut reference = render_reference(&rig);
-    let surfaces = vec![
-        Surface::Sphere {
-            c: [-35.0, 25.0, 640.0],
-            r: 55.0,
-        },
-        Surface::Plane {
-            p: [0.0, 0.0, 700.0],
-            n: unit([0.25, 0.15, -1.0]),
-        },
-    ];
-    let bounds = Bounds {
-        min: [-1e9, -1e9, rig.z_range[0]],
-        max: [1e9, 1e9, rig.z_range[1]],
-    };
-    let mut object = render(&rig, &surfaces, bounds, 0..1024);
-    if noise > 0.0 {
-        // Same seed and order as benches/reconstruct.rs.
-        let mut rng = Rng(0x5eed_0004);
-        let mut gauss = || {
-            let (a, b) = (rng.uniform().max(1e-300), rng.uniform());
-            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-        };
-        for m in [&mut reference, &mut object] {
-            for p in m.phase.iter_mut() {
-                if p.is_finite() {
-                    *p = (*p as f64 + noise * gauss()) as f32;
-                }
-            }
-        }
-    }
+    let (rig, reference, object) = bench_scene(noise);
     let recon = Reconstructor::new(&rig.cam.model(), &rig.setup()).unwrap();
     let (w, h) = (1280, 1024);
     let mut prep = reference.phase.clone();
