@@ -45,6 +45,15 @@ fn frame_api<P: Sample>(d: &Decoder, frames: &[Vec<P>], w: usize, h: usize) -> P
     o
 }
 
+/// The 8-bit decoder of `sets(255.0)[set_idx]` and one row of `w` random samples per image.
+fn random_rows(set_idx: usize, w: usize, seed: u64) -> (Decoder, Vec<Vec<u8>>) {
+    let set = &sets(255.0)[set_idx];
+    let d = Decoder::new(set, DecodeConfig::for_bit_depth(8)).unwrap();
+    let mut rng = Rng(seed);
+    let frames = (0..set.image_count()).map(|_| (0..w).map(|_| (rng.next_u64() & 0xff) as u8).collect()).collect();
+    (d, frames)
+}
+
 fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| canonical(*x).to_bits()).collect()
 }
@@ -125,10 +134,7 @@ proptest! {
         seed in any::<u64>(),
         set_idx in 0usize..3,
     ) {
-        let set = &sets(255.0)[set_idx];
-        let d = Decoder::new(set, DecodeConfig::for_bit_depth(8)).unwrap();
-        let mut rng = Rng(seed);
-        let frames: Vec<Vec<u8>> = (0..set.image_count()).map(|_| (0..w).map(|_| (rng.next_u64() & 0xff) as u8).collect()).collect();
+        let (d, frames) = random_rows(set_idx, w, seed);
         let o = row_api(&d, &frames, w, 1);
         for i in 0..w {
             let v = Validity::from_u8(o.3[i]);
@@ -147,10 +153,7 @@ proptest! {
         seed in any::<u64>(),
         set_idx in 0usize..3,
     ) {
-        let set = &sets(255.0)[set_idx];
-        let d = Decoder::new(set, DecodeConfig::for_bit_depth(8)).unwrap();
-        let mut rng = Rng(seed);
-        let frames: Vec<Vec<u8>> = (0..set.image_count()).map(|_| (0..w).map(|_| (rng.next_u64() & 0xff) as u8).collect()).collect();
+        let (d, frames) = random_rows(set_idx, w, seed);
         let row = row_api(&d, &frames, w, 1);
         let seq = frame_api(&d, &frames, w, 1);
         prop_assert_eq!((bits(&row.0), bits(&row.1), bits(&row.2), &row.3), (bits(&seq.0), bits(&seq.1), bits(&seq.2), &seq.3));
