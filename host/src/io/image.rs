@@ -237,18 +237,19 @@ fn decode_png(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageE
                 out8.extend_from_slice(r);
             }
         }
-    }
-    for y in (0..h as usize).filter(|_| channels != 1) {
-        for x in 0..w as usize {
-            let v = if color {
-                luma(sample(y, x, 0), sample(y, x, 1), sample(y, x, 2))
-            } else {
-                sample(y, x, 0)
-            };
-            if sixteen {
-                out16.push(v as u16);
-            } else {
-                out8.push(v as u8);
+    } else {
+        for y in 0..h as usize {
+            for x in 0..w as usize {
+                let v = if color {
+                    luma(sample(y, x, 0), sample(y, x, 1), sample(y, x, 2))
+                } else {
+                    sample(y, x, 0)
+                };
+                if sixteen {
+                    out16.push(v as u16);
+                } else {
+                    out8.push(v as u8);
+                }
             }
         }
     }
