@@ -30,19 +30,30 @@ t_scan=$( { time $bin scan -q --patterns "$work/ds/patterns.toml" \
 t_decode=$( { time $bin decode -q --patterns "$work/ds/patterns.toml" "$work/ds" \
     --out "$work/dec"; } 2>&1 )
 
-# fringes: decode the same 12 images (loading excluded: only its decode() is timed).
-t_fringes=$("$work/venv/bin/python" - "$work/ds" <<'PY'
-import sys, time, glob, numpy as np
+# fringes, configured once for both timings below: the 12 images of the dataset, loaded, and a
+# decoder for them.
+cat > "$work/fringes_setup.py" <<'PY'
+import sys, glob, numpy as np
 from PIL import Image
 import fringes as frng
-files = sorted(glob.glob(sys.argv[1] + "/img_*.png"))
-I = np.stack([np.asarray(Image.open(f)) for f in files])[..., None]   # (T, Y, X, 1)
-f = frng.Fringes()
-f.X, f.Y = I.shape[2], I.shape[1]
-f.D = 1                  # one direction (vertical fringes); the default 2 expects 24 frames
-f.K, f.N = 3, 4
-f.v = [0.9, 7.2, 57.6]   # periods across the projector, as fringe3d's 12-image preset
-assert f.T == I.shape[0], (f.T, I.shape)
+
+def load(folder):
+    files = sorted(glob.glob(folder + "/img_*.png"))
+    I = np.stack([np.asarray(Image.open(f)) for f in files])[..., None]   # (T, Y, X, 1)
+    f = frng.Fringes()
+    f.X, f.Y = I.shape[2], I.shape[1]
+    f.D = 1                  # one direction (vertical fringes); the default 2 expects 24 frames
+    f.K, f.N = 3, 4
+    f.v = [0.9, 7.2, 57.6]   # periods across the projector, as fringe3d's 12-image preset
+    assert f.T == I.shape[0], (f.T, I.shape)
+    return f, I
+PY
+
+# fringes: decode the same 12 images (loading excluded: only its decode() is timed).
+t_fringes=$(PYTHONPATH="$work" "$work/venv/bin/python" - "$work/ds" <<'PY'
+import sys, time
+from fringes_setup import load
+f, I = load(sys.argv[1])
 t = time.perf_counter()
 f.decode(I)              # the first call compiles decode() (numba, cached on disk afterwards)
 first = time.perf_counter() - t
@@ -59,19 +70,12 @@ read -r t_fringes t_first <<<"$t_fringes"
 # fringes as a command-line user runs it, like the fringe3d processes above: a fresh Python
 # process that imports it, loads the PNGs and decodes once (its numba cache is warm by now).
 cat > "$work/fringes_once.py" <<'PY'
-import sys, glob, numpy as np
-from PIL import Image
-import fringes as frng
-files = sorted(glob.glob(sys.argv[1] + "/img_*.png"))
-I = np.stack([np.asarray(Image.open(f)) for f in files])[..., None]
-f = frng.Fringes()
-f.X, f.Y = I.shape[2], I.shape[1]
-f.D = 1
-f.K, f.N = 3, 4
-f.v = [0.9, 7.2, 57.6]
+import sys
+from fringes_setup import load
+f, I = load(sys.argv[1])
 f.decode(I)
 PY
-t_proc=$(for _ in 1 2 3; do { time "$work/venv/bin/python" "$work/fringes_once.py" "$work/ds" >/dev/null; } 2>&1; done | sort -g | head -1)
+t_proc=$(for _ in 1 2 3; do { time PYTHONPATH="$work" "$work/venv/bin/python" "$work/fringes_once.py" "$work/ds" >/dev/null; } 2>&1; done | sort -g | head -1)
 echo "uptime: $(uptime)"
 echo "fringe3d scan (whole process, 12 PNGs -> binary PLY): ${t_scan} s"
 echo "fringe3d decode (whole process, 12 PNGs -> float TIFFs): ${t_decode} s"
