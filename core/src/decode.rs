@@ -785,10 +785,11 @@ impl<A: Arith> Decoder<A> {
                 (A::in_minus_acc(v0, dc[i]), A::in_minus_acc(v1, dc[i]))
             } else {
                 let (v2, v3) = (A::input(r2[i]), A::input(r3[i]));
+                // k = 0.25, 0.5, 0.5 (`level_kind`): positive.
                 if DC {
-                    dc[i] = A::mac(A::ZERO, kw, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
+                    dc[i] = A::regrouped_product(kw, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
                 }
-                (A::mac(A::ZERO, ka, A::in_sub(v0, v2)), A::mac(A::ZERO, kb, A::in_sub(v1, v3)))
+                (A::regrouped_product(ka, A::in_sub(v0, v2)), A::regrouped_product(kb, A::in_sub(v1, v3)))
             };
             let (p, b2) = if FINE { A::polar(s, c) } else { A::polar_coarse(s, c) };
             w[i] = p;

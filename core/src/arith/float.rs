@@ -170,6 +170,13 @@ impl<K: FloatKernels> Arith for K {
     }
 
     #[inline(always)]
+    fn regrouped_product(k: f32, v: f32) -> f32 {
+        // A sum or difference of integer-valued samples is +0, never −0 (x − x = +0 in
+        // round-to-nearest), so with k > 0 the product is not −0 and `0 + k·v` is `k·v`.
+        k * v
+    }
+
+    #[inline(always)]
     fn saturated(v: f32, threshold: f32) -> bool {
         v >= threshold
     }

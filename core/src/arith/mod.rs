@@ -182,6 +182,12 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     fn in_sub(a: Self::In, b: Self::In) -> Self::In;
     /// `v − dc`, a sample minus a DC accumulator (as [`Self::in_add`]).
     fn in_minus_acc(v: Self::In, dc: Self::Acc) -> Self::Acc;
+    /// `mac(ZERO, k, v)` for `k > 0` and `v` a sum or difference of samples (as
+    /// [`Self::in_add`]): then `k·v` is never −0, so the f32 backends drop the `0 +`.
+    #[inline(always)]
+    fn regrouped_product(k: Self::Coef, v: Self::In) -> Self::Acc {
+        Self::mac(Self::ZERO, k, v)
+    }
     /// `v ≥ threshold`.
     fn saturated(v: Self::In, threshold: Self::In) -> bool;
 
