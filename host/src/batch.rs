@@ -8,7 +8,12 @@
 //! The AVX-512 variant exists when the compiler is 1.89 or newer (`cfg(fringe3d_avx512)`, set by
 //! `build.rs`); with the MSRV the dispatch stops at AVX2.
 
+#[cfg(target_arch = "x86_64")]
+use crate::gather::Avx2Pairs;
+#[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
+use crate::gather::Avx512Pairs;
 use fringe3d_core::decode::{DecodeError, DecodeScratch, Decoder, RowOut, Sample};
+use fringe3d_core::reconstruct::{CellGather, ReconstructError, Reconstructor, ReferenceMap, ScalarGather};
 use rayon::prelude::*;
 
 /// Which compiled variant of the kernel runs.
@@ -264,5 +269,98 @@ mod tests {
             assert!(r.0 == results[0].0 && r.1 == results[0].1);
         }
         assert!(results[0].1.contains(&0));
+    }
+}
+
+/// Whole-frame outputs of a reconstruction: `xyz` is `3 × width × height` (x, y, z per pixel, mm),
+/// `validity` `width × height`, row-major.
+pub struct PointsOut<'a> {
+    /// The points (canonical NaN where invalid).
+    pub xyz: &'a mut [f32],
+    /// Validity codes.
+    pub validity: &'a mut [u8],
+}
+
+/// Rows per parallel reconstruction task.
+const RECON_ROWS_PER_TASK: usize = 16;
+
+/// What every reconstruction task of one frame shares.
+struct ReconFrame<'a> {
+    recon: &'a Reconstructor,
+    map: &'a ReferenceMap<'a>,
+    phase: &'a [f32],
+    validity: &'a [u8],
+}
+
+/// Reconstruct a whole frame (paper §6, [`Reconstructor::reconstruct_row`] for every row) with
+/// the kernel variant `isa` and, on x86-64 with AVX2 or AVX-512, the pair gathers of
+/// [`crate::gather`]; rows in parallel when `parallel` is set (on rayon's current pool). The
+/// results are bit-identical whatever `isa` and `parallel` are.
+pub fn reconstruct_frame(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    phase: &[f32],
+    validity: &[u8],
+    out: PointsOut<'_>,
+    isa: Isa,
+    parallel: bool,
+) -> Result<(), ReconstructError> {
+    let w = recon.width();
+    let n = w * recon.height();
+    if phase.len() != n || validity.len() != n || out.xyz.len() != 3 * n || out.validity.len() != n {
+        return Err(ReconstructError::Length);
+    }
+    let f = ReconFrame { recon, map, phase, validity };
+    let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| recon_rows_dispatch(isa, &f, k * RECON_ROWS_PER_TASK, o, ov);
+    let mut rows = out.xyz.chunks_mut(3 * w * RECON_ROWS_PER_TASK).zip(out.validity.chunks_mut(w * RECON_ROWS_PER_TASK)).enumerate();
+    if parallel { rows.par_bridge().try_for_each(job) } else { rows.try_for_each(job) }
+}
+
+/// Reconstruct the rows `v0..` whose outputs are `xyz` (3 × width per row) and `codes` (width
+/// per row); `g` fetches the reference samples (the same values, and bits, whichever it is).
+#[inline(always)]
+fn recon_rows<G: CellGather>(g: G, f: &ReconFrame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), ReconstructError> {
+    let w = f.recon.width();
+    for (j, (o, ov)) in xyz.chunks_mut(3 * w).zip(codes.chunks_mut(w)).enumerate() {
+        let v = v0 + j;
+        let r = v * w..(v + 1) * w;
+        f.recon.reconstruct_row_gather(g, f.map, v as u32, &f.phase[r.clone()], &f.validity[r], o, ov)?;
+    }
+    Ok(())
+}
+
+/// [`recon_rows`] compiled with AVX2 (the core's kernel is `#[inline(always)]`, so it is compiled
+/// here with AVX2 enabled).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn recon_rows_avx2(g: Avx2Pairs, f: &ReconFrame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), ReconstructError> {
+    recon_rows(g, f, v0, xyz, codes)
+}
+
+/// [`recon_rows`] compiled with AVX-512.
+#[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
+#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+fn recon_rows_avx512(g: Avx512Pairs, f: &ReconFrame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), ReconstructError> {
+    recon_rows(g, f, v0, xyz, codes)
+}
+
+fn recon_rows_dispatch(isa: Isa, f: &ReconFrame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), ReconstructError> {
+    match isa.effective() {
+        #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
+        Isa::Avx512 => match Avx512Pairs::detect() {
+            // SAFETY: `effective` returned Avx512, so the CPU has every feature the function
+            // enables (checked by `Isa::available`), the only requirement of `target_feature`.
+            Some(g) => unsafe { recon_rows_avx512(g, f, v0, xyz, codes) },
+            None => recon_rows(ScalarGather, f, v0, xyz, codes),
+        },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => match Avx2Pairs::detect() {
+            // SAFETY: `effective` returned Avx2, so the CPU supports AVX2 (checked by
+            // `Isa::available`), the only requirement of a `#[target_feature(enable = "avx2")]`
+            // function.
+            Some(g) => unsafe { recon_rows_avx2(g, f, v0, xyz, codes) },
+            None => recon_rows(ScalarGather, f, v0, xyz, codes),
+        },
+        _ => recon_rows(ScalarGather, f, v0, xyz, codes),
     }
 }

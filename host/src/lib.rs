@@ -11,6 +11,7 @@ pub mod batch;
 pub mod calib;
 pub mod cli;
 pub mod device;
+pub mod gather;
 pub mod io;
 pub mod render;
 pub mod scan;

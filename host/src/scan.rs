@@ -5,7 +5,7 @@
 //! ([`ReferenceMap`]), exactly as [`Reconstructor::reconstruct_frame`] and the streaming head do,
 //! so the points are bit-identical whatever the thread count.
 
-use crate::batch::Isa;
+use crate::batch::{Isa, PointsOut as BatchOut};
 use crate::io::calibration::{Calibration, CameraModel as CameraFile};
 use crate::io::image::{Pixels, read_gray};
 use fringe3d_core::camera::{CameraModel, Distortion, Intrinsics};
@@ -148,14 +148,8 @@ impl ScanCalibration {
             .map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reference map: {e}") })?;
         let mut xyz = vec![0.0f32; 3 * w * h];
         let mut out_v = vec![0u8; w * h];
-        // Tasks of 16 rows, each run through the kernel variant `isa`.
-        const ROWS: usize = 16;
-        let frame = Frame { recon: &self.recon, map: &map, width: w, phase, validity };
-        let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| recon_rows_dispatch(isa, &frame, k * ROWS, o, ov);
-        let rows = xyz.chunks_mut(3 * w * ROWS).zip(out_v.chunks_mut(w * ROWS)).enumerate();
-        let mut rows = rows;
-        let res: Result<(), _> = if parallel { rows.par_bridge().try_for_each(job) } else { rows.try_for_each(job) };
-        res.map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reconstruction: {e}") })?;
+        crate::batch::reconstruct_frame(&self.recon, &map, phase, validity, BatchOut { xyz: &mut xyz, validity: &mut out_v }, isa, parallel)
+            .map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reconstruction: {e}") })?;
         Ok(PointCloud { width: w, height: h, xyz, validity: out_v })
     }
 
@@ -167,62 +161,6 @@ impl ScanCalibration {
             path: self.source.clone(),
             message: format!("edge filter: the angle must be in (0, 90) degrees, got {max_angle_deg}"),
         })
-    }
-}
-
-/// What every reconstruction task of one frame shares.
-struct Frame<'a> {
-    recon: &'a Reconstructor,
-    map: &'a ReferenceMap<'a>,
-    width: usize,
-    phase: &'a [f32],
-    validity: &'a [u8],
-}
-
-/// Reconstruct the rows `v0..` whose outputs are `xyz` (3 × width per row) and `codes` (width
-/// per row).
-#[inline(always)]
-fn recon_rows(f: &Frame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
-    let w = f.width;
-    for (j, (o, ov)) in xyz.chunks_mut(3 * w).zip(codes.chunks_mut(w)).enumerate() {
-        let v = v0 + j;
-        let r = v * w..(v + 1) * w;
-        f.recon.reconstruct_row(f.map, v as u32, &f.phase[r.clone()], &f.validity[r], o, ov)?;
-    }
-    Ok(())
-}
-
-/// [`recon_rows`] compiled with AVX2 (the core's kernel is `#[inline(always)]`, so it is compiled
-/// here with AVX2 enabled; a closure handed to [`crate::batch::dispatch`] is not always inlined).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn recon_rows_avx2(f: &Frame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
-    recon_rows(f, v0, xyz, codes)
-}
-
-/// [`recon_rows`] compiled with AVX-512 (compilers ≥ 1.89, see [`crate::batch`]).
-#[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
-#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
-fn recon_rows_avx512(f: &Frame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
-    recon_rows(f, v0, xyz, codes)
-}
-
-fn recon_rows_dispatch(isa: Isa, f: &Frame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), fringe3d_core::reconstruct::ReconstructError> {
-    match isa.effective() {
-        #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
-        Isa::Avx512 => {
-            // SAFETY: `effective` returned Avx512, so the CPU has every feature the function
-            // enables (checked by `Isa::available`), the only requirement of `target_feature`.
-            unsafe { recon_rows_avx512(f, v0, xyz, codes) }
-        }
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => {
-            // SAFETY: `effective` returned Avx2, so the CPU supports AVX2 (checked by
-            // `Isa::available`), the only requirement of a `#[target_feature(enable = "avx2")]`
-            // function.
-            unsafe { recon_rows_avx2(f, v0, xyz, codes) }
-        }
-        _ => recon_rows(f, v0, xyz, codes),
     }
 }
 

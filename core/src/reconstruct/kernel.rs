@@ -2,6 +2,7 @@
 //! pixels in structure-of-arrays form so that the arithmetic passes vectorize. Every lane runs
 //! the same IEEE operations whatever the chunk, so results do not depend on how a row is cut.
 
+use super::gather::CellGather;
 use super::{ACCEPT_LAST_STEP_PX, ACCEPT_STEP_PRODUCT_PX2, Consts, Reconstructor, SECANT_EVALS};
 use crate::camera::{MAX_ROW_KNOTS as MAX_KNOTS, ROW_KNOT_STEP};
 use crate::math::{CANONICAL_NAN, fabs};
@@ -347,7 +348,8 @@ fn depth(c: &Consts, a: f32, t: f32) -> f32 {
 /// operations, and so the bits, are the same.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub(crate) fn row(
+pub(crate) fn row<G: CellGather>(
+    g: G,
     r: &Reconstructor,
     rr: &RefRows<'_>,
     v: u32,
@@ -369,6 +371,7 @@ pub(crate) fn row(
             .as_deref_mut()
             .and_then(|c| c.get_mut(2 * c0..2 * (c0 + n)));
         chunk(
+            g,
             r,
             rr,
             knots,
@@ -496,37 +499,6 @@ fn pass_cells(
     }
 }
 
-/// Gather pass: the four samples of every lane's cell (indices from [`pass_cells`]).
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn pass_load(
-    rr: &RefRows<'_>,
-    ia: &[u32; LANES],
-    ib: &[u32; LANES],
-    qa: &mut [f32; LANES],
-    qb: &mut [f32; LANES],
-    qc: &mut [f32; LANES],
-    qd: &mut [f32; LANES],
-) {
-    let data = rr.data;
-    if data.len() < 2 {
-        *qa = [CANONICAL_NAN; LANES];
-        *qb = [CANONICAL_NAN; LANES];
-        *qc = [CANONICAL_NAN; LANES];
-        *qd = [CANONICAL_NAN; LANES];
-        return;
-    }
-    let last = data.len() - 2;
-    for i in 0..LANES {
-        let i0 = (ia[i] as usize).min(last);
-        let i1 = (ib[i] as usize).min(last);
-        qa[i] = data[i0];
-        qb[i] = data[i0 + 1];
-        qc[i] = data[i1];
-        qd[i] = data[i1 + 1];
-    }
-}
-
 /// Vector pass: interpolate the loaded cells, then the secant update `t_next`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -618,7 +590,8 @@ fn window_wide(row: &[f32], c0: usize, w: usize) -> [f32; LANES + 2 * SLOPE_SPAN
 
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn chunk(
+fn chunk<G: CellGather>(
+    g: G,
     r: &Reconstructor,
     rr: &RefRows<'_>,
     knots: (&[f32], &[f32]),
@@ -782,7 +755,7 @@ fn chunk(
     pass_cells(
         &c, &lane, &t1, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
     );
-    pass_load(rr, &ia, &ib, &mut qa, &mut qb, &mut qc, &mut qd);
+    g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
     pass_update(
         [&qa, &qb, &qc, &qd],
         &fu,
@@ -800,7 +773,7 @@ fn chunk(
     pass_cells(
         &c, &lane, &t2, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
     );
-    pass_load(rr, &ia, &ib, &mut qa, &mut qb, &mut qc, &mut qd);
+    g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
     pass_update(
         [&qa, &qb, &qc, &qd],
         &fu,
@@ -846,7 +819,7 @@ fn chunk(
         pass_cells(
             &c, &lane, &t3, u0, vf, &gr, rr, &st2, &mut ia, &mut ib, &mut fu, &mut fv,
         );
-        pass_load(rr, &ia, &ib, &mut qa, &mut qb, &mut qc, &mut qd);
+        g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
         pass_update(
             [&qa, &qb, &qc, &qd],
             &fu,
@@ -886,7 +859,7 @@ fn chunk(
             pass_cells(
                 &c, &lane, tt, u0, vf, &gr, rr, &fb, &mut ia, &mut ib, &mut fu, &mut fv,
             );
-            pass_load(rr, &ia, &ib, &mut qa, &mut qb, &mut qc, &mut qd);
+            g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
             for i in 0..LANES {
                 gg[i] = interp([qa[i], qb[i], qc[i], qd[i]], fu[i], fv[i], phi[i]);
             }

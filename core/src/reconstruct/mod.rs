@@ -95,8 +95,10 @@
 //! `#[target_feature(enable = "avx2")]` function and get 8-wide code with the same bits (tested
 //! in the benchmark).
 
+mod gather;
 mod kernel;
 
+pub use gather::{CellGather, ScalarGather};
 pub use kernel::{LANES, MAX_BAND_ROWS};
 
 use crate::camera::CameraModel;
@@ -453,6 +455,34 @@ impl Reconstructor {
         out_validity: &mut [u8],
     ) -> Result<(), ReconstructError> {
         self.row_impl(
+            ScalarGather,
+            reference,
+            v,
+            phase_row,
+            validity_row,
+            out_xyz,
+            out_validity,
+            None,
+        )
+    }
+
+    /// [`Reconstructor::reconstruct_row`] with the reference samples fetched by `gather` (a
+    /// host's wider gather, e.g. AVX-512 pairs): the same bits as [`ScalarGather`], which
+    /// `reconstruct_row` uses.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn reconstruct_row_gather<R: ReferenceRows + ?Sized, G: CellGather>(
+        &self,
+        gather: G,
+        reference: &R,
+        v: u32,
+        phase_row: &[f32],
+        validity_row: &[u8],
+        out_xyz: &mut [f32],
+        out_validity: &mut [u8],
+    ) -> Result<(), ReconstructError> {
+        self.row_impl(
+            gather,
             reference,
             v,
             phase_row,
@@ -481,6 +511,7 @@ impl Reconstructor {
             return Err(ReconstructError::Length);
         }
         self.row_impl(
+            ScalarGather,
             reference,
             v,
             phase_row,
@@ -524,8 +555,9 @@ impl Reconstructor {
 
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn row_impl<R: ReferenceRows + ?Sized>(
+    fn row_impl<R: ReferenceRows + ?Sized, G: CellGather>(
         &self,
+        gather: G,
         reference: &R,
         v: u32,
         phase_row: &[f32],
@@ -568,6 +600,7 @@ impl Reconstructor {
         }
         table.finish(w);
         kernel::row(
+            gather,
             self,
             &table,
             v,
