@@ -364,6 +364,9 @@ pub(crate) fn row<G: CellGather>(
     let mut ky = [0f32; MAX_KNOTS];
     let nk = r.camera().row_knots_f32(v, &mut kx, &mut ky);
     let knots = (&kx[..nk], &ky[..nk]);
+    // The chunks' per-pixel coefficients, set whole by every chunk's first pass (zeroed once per
+    // row, not per chunk: 1.5 KiB).
+    let mut lane = Lanes::zeroed();
     let mut c0 = 0;
     while c0 < w {
         let n = (w - c0).min(LANES);
@@ -372,6 +375,7 @@ pub(crate) fn row<G: CellGather>(
             .and_then(|c| c.get_mut(2 * c0..2 * (c0 + n)));
         chunk(
             g,
+            &mut lane,
             r,
             rr,
             knots,
@@ -404,6 +408,12 @@ struct Lanes {
 }
 
 impl Lanes {
+    #[inline(always)]
+    fn zeroed() -> Self {
+        const Z: [f32; LANES] = [0.0; LANES];
+        Lanes { q1: Z, q2: Z, a: Z, b: Z, u1: Z, u2: Z, ux: Z, ue: Z, v1: Z, v2: Z, vy: Z, ve: Z }
+    }
+
     #[inline(always)]
     fn get(&self, i: usize) -> Lane {
         Lane {
@@ -592,6 +602,7 @@ fn window_wide(row: &[f32], c0: usize, w: usize) -> [f32; LANES + 2 * SLOPE_SPAN
 #[inline(always)]
 fn chunk<G: CellGather>(
     g: G,
+    lane: &mut Lanes,
     r: &Reconstructor,
     rr: &RefRows<'_>,
     knots: (&[f32], &[f32]),
@@ -669,20 +680,6 @@ fn chunk<G: CellGather>(
         window(rr.get(vi as i64 + 1), c0, wu)
     };
     let mut a = [0f32; LANES];
-    let mut lane = Lanes {
-        q1: [0.0; LANES],
-        q2: [0.0; LANES],
-        a: [0.0; LANES],
-        b: [0.0; LANES],
-        u1: [0.0; LANES],
-        u2: [0.0; LANES],
-        ux: [0.0; LANES],
-        ue: [0.0; LANES],
-        v1: [0.0; LANES],
-        v2: [0.0; LANES],
-        vy: [0.0; LANES],
-        ve: [0.0; LANES],
-    };
     let mut ex = [0f32; LANES];
     let mut ey = [0f32; LANES];
     let mut tlo = [0f32; LANES];
@@ -753,7 +750,7 @@ fn chunk<G: CellGather>(
     let mut t2 = [0f32; LANES];
     let mut t3 = [0f32; LANES];
     pass_cells(
-        &c, &lane, &t1, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
+        &c, lane, &t1, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
     );
     g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
     pass_update(
@@ -771,7 +768,7 @@ fn chunk<G: CellGather>(
         &mut t2,
     );
     pass_cells(
-        &c, &lane, &t2, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
+        &c, lane, &t2, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
     );
     g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
     pass_update(
@@ -817,7 +814,7 @@ fn chunk<G: CellGather>(
         let mut g3 = [0f32; LANES];
         let mut t4 = [0f32; LANES];
         pass_cells(
-            &c, &lane, &t3, u0, vf, &gr, rr, &st2, &mut ia, &mut ib, &mut fu, &mut fv,
+            &c, lane, &t3, u0, vf, &gr, rr, &st2, &mut ia, &mut ib, &mut fu, &mut fv,
         );
         g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
         pass_update(
@@ -857,7 +854,7 @@ fn chunk<G: CellGather>(
     if vector_ends {
         for (tt, gg) in [(&tlo, &mut g_lo), (&thi, &mut g_hi)] {
             pass_cells(
-                &c, &lane, tt, u0, vf, &gr, rr, &fb, &mut ia, &mut ib, &mut fu, &mut fv,
+                &c, lane, tt, u0, vf, &gr, rr, &fb, &mut ia, &mut ib, &mut fu, &mut fv,
             );
             g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
             for i in 0..LANES {
