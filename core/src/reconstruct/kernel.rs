@@ -554,18 +554,24 @@ fn window(row: &[f32], c0: usize, w: usize) -> [f32; LANES + 2] {
         out.copy_from_slice(src);
         return out;
     }
+    // At an image edge (window index j holds column c0 + j − 1): the columns that exist, copied
+    // as one range, then the extrapolated column −1 or w where the window reaches it.
     let at = |k: usize| row.get(k).copied().unwrap_or(CANONICAL_NAN);
-    for (j, o) in out.iter_mut().enumerate() {
-        let col = c0 + j; // image column + 1
-        *o = if col == 0 {
-            2.0 * at(0) - at(1)
-        } else if col - 1 < w {
-            at(col - 1)
-        } else if col - 1 == w && w >= 2 {
-            2.0 * at(w - 1) - at(w - 2)
-        } else {
-            CANONICAL_NAN
-        };
+    let first = c0.saturating_sub(1);
+    let end = (c0 + LANES + 1).min(w).min(row.len());
+    if first < end {
+        let j0 = first + 1 - c0;
+        if let (Some(dst), Some(src)) = (out.get_mut(j0..j0 + (end - first)), row.get(first..end)) {
+            dst.copy_from_slice(src);
+        }
+    }
+    if c0 == 0 {
+        out[0] = 2.0 * at(0) - at(1);
+    }
+    if w >= 2
+        && let Some(o) = out.get_mut((w + 1).wrapping_sub(c0))
+    {
+        *o = 2.0 * at(w - 1) - at(w - 2);
     }
     out
 }
@@ -586,13 +592,14 @@ fn window_wide(row: &[f32], c0: usize, w: usize) -> [f32; LANES + 2 * SLOPE_SPAN
         out.copy_from_slice(src);
         return out;
     }
-    for (j, o) in out.iter_mut().enumerate() {
-        // Column c0 − SLOPE_SPAN + j.
-        if let Some(col) = (c0 + j).checked_sub(SLOPE_SPAN)
-            && col < w
-            && let Some(&x) = row.get(col)
-        {
-            *o = x;
+    // At an image edge: the columns that exist, copied as one range (window index j holds
+    // column c0 − SLOPE_SPAN + j).
+    let first = c0.saturating_sub(SLOPE_SPAN);
+    let end = (c0 + LANES + SLOPE_SPAN).min(w).min(row.len());
+    if first < end {
+        let j0 = first + SLOPE_SPAN - c0;
+        if let (Some(dst), Some(src)) = (out.get_mut(j0..j0 + (end - first)), row.get(first..end)) {
+            dst.copy_from_slice(src);
         }
     }
     out
