@@ -86,7 +86,10 @@
 //! triangulation). The gathers' storage indices are computed in the vector passes from a formula
 //! for the band's row offsets (rows `width` apart with at most one wrap: always true for
 //! [`ReferenceMap`] and [`ReferenceRing`]; other [`ReferenceRows`] layouts are looked up row by
-//! row, with the same loads and bits), so only the loads themselves are scalar. The scalar
+//! row, with the same loads and bits). The loads themselves go through a [`CellGather`]
+//! ([`Reconstructor::reconstruct_row_gather`]): [`ScalarGather`] here, one load per sample; a
+//! host may read each adjacent pair as one 64-bit element (`fringe3d::gather` does, with AVX2
+//! and AVX-512), the same values and bits with half the gathered elements. The scalar
 //! fallback loop is skipped for chunks that have no lane left; when at least 4 lanes of a chunk
 //! need stage 2 it runs as a vector pass over the chunk, and likewise the fallback's samples at
 //! the ends of the depth interval (the same operations per lane as the scalar code, so the same
