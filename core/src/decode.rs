@@ -562,8 +562,8 @@ impl<A: Arith> Decoder<A> {
     ///
     /// Per block: the largest sample of every pixel (saturation is tested once on it:
     /// `v ≥ t` for some sample ⇔ `max v ≥ t`); pass 1 per level, DC level first, straight from
-    /// the level's image rows ([`Self::level_from_rows`]); pass 2, the unwrapping and validity
-    /// ([`Self::unwrap_block`]). The frame-sequential path ([`Self::accumulate`] then
+    /// the level's image rows (`level_from_rows`); pass 2, the unwrapping and validity
+    /// (`unwrap_block`). The frame-sequential path ([`Self::accumulate`] then
     /// [`Self::finish`]) computes the same values in the same order: the same bits.
     #[inline(always)]
     pub fn decode_row_with<P: Sample>(&self, scratch: &mut DecodeScratch<A>, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
