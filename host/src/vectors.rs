@@ -998,7 +998,7 @@ pub fn write(
     Ok(out.commit()?)
 }
 
-/// Generate the vectors of `opts` and write them to `dir` ([`generate`] then [`write`]).
+/// Generate the vectors of `opts` and write them to `dir` ([`generate`] then [`write()`]).
 /// Returns the vectors as written (the project-format files included).
 pub fn generate_into(
     opts: &VectorOptions,

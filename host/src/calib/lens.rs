@@ -16,7 +16,7 @@ use crate::io::calibration::CameraModel;
 /// Number of intrinsic parameters: `[fx, fy, α, u0, v0, k1, k2, p1, p2, k3]`.
 pub const N_INTRINSICS: usize = 10;
 
-/// Names of the intrinsic parameters, in [`Lens::params`] order.
+/// Names of the intrinsic parameters, in [`Lens::p`] order.
 pub const PARAM_NAMES: [&str; N_INTRINSICS] = ["fx", "fy", "skew", "cx", "cy", "k1", "k2", "p1", "p2", "k3"];
 
 /// A pinhole camera with Brown distortion.
