@@ -457,16 +457,8 @@ impl Reconstructor {
         out_xyz: &mut [f32],
         out_validity: &mut [u8],
     ) -> Result<(), ReconstructError> {
-        self.row_impl(
-            ScalarGather,
-            reference,
-            v,
-            phase_row,
-            validity_row,
-            out_xyz,
-            out_validity,
-            None,
-        )
+        let (p, q) = (phase_row, validity_row);
+        self.reconstruct_row_gather(ScalarGather, reference, v, p, q, out_xyz, out_validity)
     }
 
     /// [`Reconstructor::reconstruct_row`] with the reference samples fetched by `gather` (a
