@@ -321,6 +321,7 @@ impl Bounds {
 
 /// A rendered phase map: f32 phase (canonical NaN where invalid), validity, and the true point of
 /// every valid pixel.
+#[derive(Clone)]
 pub struct PhaseMap {
     pub width: usize,
     pub height: usize,
@@ -454,14 +455,20 @@ pub fn add_phase_noise(maps: [&mut PhaseMap; 2], sigma: f64, seed: u64) {
 pub fn bench_scene(noise: f64) -> (Rig, PhaseMap, PhaseMap) {
     let rig = Rig::default_rig();
     let mut reference = render_reference(&rig);
-    let surfaces = vec![
-        Surface::Sphere { c: [-35.0, 25.0, 640.0], r: 55.0 },
-        Surface::Plane { p: [0.0, 0.0, 700.0], n: unit([0.25, 0.15, -1.0]) },
-    ];
-    let bounds = Bounds { min: [-1e9, -1e9, rig.z_range[0]], max: [1e9, 1e9, rig.z_range[1]] };
+    let (surfaces, bounds) = bench_surfaces(&rig);
     let mut object = render(&rig, &surfaces, bounds, 0..rig.cam.height as usize);
     if noise > 0.0 {
         add_phase_noise([&mut reference, &mut object], noise, 0x5eed_0004);
     }
     (rig, reference, object)
+}
+
+/// The benchmark scene's object ([`bench_scene`]): a plane tilted through most of the depth
+/// range and a sphere in front of it, within the rig's depth range.
+pub fn bench_surfaces(rig: &Rig) -> (Vec<Surface>, Bounds) {
+    let surfaces = vec![
+        Surface::Sphere { c: [-35.0, 25.0, 640.0], r: 55.0 },
+        Surface::Plane { p: [0.0, 0.0, 700.0], n: unit([0.25, 0.15, -1.0]) },
+    ];
+    (surfaces, Bounds { min: [-1e9, -1e9, rig.z_range[0]], max: [1e9, 1e9, rig.z_range[1]] })
 }
