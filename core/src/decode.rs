@@ -355,7 +355,6 @@ const KIND_QUAD: u8 = 2;
 /// [`KIND_PAIR`] with the paper's exact coefficients (shifts 0 and π/2, eq 11) in a backend whose
 /// sums are exact: `S = I₀ − A`, `C = I₁ − A`, the same bits as the products and sums.
 const KIND_PAIR_UNIT: u8 = 3;
-/// See [`KIND_PAIR_UNIT`].
 /// [`KIND_QUAD`] with the paper's exact coefficients (eqs 9-10) in a backend whose sums are
 /// exact: `S = ½·(I₀ − I₂)`, `C = ½·(I₁ − I₃)`, `A = ¼·(I₀ + I₁ + I₂ + I₃)`, the same bits as
 /// the products and sums (every intermediate is exact, and no sum is −0 either way).
@@ -504,8 +503,8 @@ impl<A: Arith> Decoder<A> {
             2 if !z(coef(0).a) && z(coef(1).a) && z(coef(0).b) && !z(coef(1).b) && (0..2).all(|j| z(coef(j).w)) => KIND_PAIR,
             4 if (0..4).all(|j| (j % 2 == 0) != z(coef(j).a) && (j % 2 == 1) != z(coef(j).b)) && z(self.a_dc[l]) && z(self.b_dc[l]) => {
                 let e = |k: A::Coef, v: f32| A::exact_coef(k, v);
+                // The weights of A only matter for the DC level (the others never compute it).
                 let exact = e(coef(0).a, 0.5) && e(coef(2).a, -0.5) && e(coef(1).b, 0.5) && e(coef(3).b, -0.5)
-                    && (0..4).all(|j| e(coef(j).w, 0.25) || z(coef(j).w))
                     && (self.dc_level != Some(l as u8) || (0..4).all(|j| e(coef(j).w, 0.25)));
                 if exact { KIND_QUAD_EXACT } else { KIND_QUAD }
             }
