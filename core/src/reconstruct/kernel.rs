@@ -557,14 +557,7 @@ fn window(row: &[f32], c0: usize, w: usize) -> [f32; LANES + 2] {
     // At an image edge (window index j holds column c0 + j − 1): the columns that exist, copied
     // as one range, then the extrapolated column −1 or w where the window reaches it.
     let at = |k: usize| row.get(k).copied().unwrap_or(CANONICAL_NAN);
-    let first = c0.saturating_sub(1);
-    let end = (c0 + LANES + 1).min(w).min(row.len());
-    if first < end {
-        let j0 = first + 1 - c0;
-        if let (Some(dst), Some(src)) = (out.get_mut(j0..j0 + (end - first)), row.get(first..end)) {
-            dst.copy_from_slice(src);
-        }
-    }
+    copy_columns(&mut out, row, c0, 1, w);
     if c0 == 0 {
         out[0] = 2.0 * at(0) - at(1);
     }
@@ -592,17 +585,24 @@ fn window_wide(row: &[f32], c0: usize, w: usize) -> [f32; LANES + 2 * SLOPE_SPAN
         out.copy_from_slice(src);
         return out;
     }
-    // At an image edge: the columns that exist, copied as one range (window index j holds
-    // column c0 − SLOPE_SPAN + j).
-    let first = c0.saturating_sub(SLOPE_SPAN);
-    let end = (c0 + LANES + SLOPE_SPAN).min(w).min(row.len());
+    // At an image edge: the columns that exist.
+    copy_columns(&mut out, row, c0, SLOPE_SPAN, w);
+    out
+}
+
+/// Copy into `out` (index j holds column `c0 + j − span`) the columns of `row` that exist: at
+/// or right of column 0, left of the width `w` and inside `row`, as one range; the rest of `out`
+/// is left as it is.
+#[inline(always)]
+fn copy_columns(out: &mut [f32], row: &[f32], c0: usize, span: usize, w: usize) {
+    let first = c0.saturating_sub(span);
+    let end = (c0 + out.len()).saturating_sub(span).min(w).min(row.len());
     if first < end {
-        let j0 = first + SLOPE_SPAN - c0;
+        let j0 = first + span - c0;
         if let (Some(dst), Some(src)) = (out.get_mut(j0..j0 + (end - first)), row.get(first..end)) {
             dst.copy_from_slice(src);
         }
     }
-    out
 }
 
 #[allow(clippy::too_many_arguments)]
