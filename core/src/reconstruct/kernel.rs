@@ -3,7 +3,7 @@
 //! the same IEEE operations whatever the chunk, so results do not depend on how a row is cut.
 
 use super::gather::CellGather;
-use super::{ACCEPT_LAST_STEP_PX, ACCEPT_STEP_PRODUCT_PX2, Consts, Reconstructor, SECANT_EVALS};
+use super::{ACCEPT_LAST_STEP_PX, Consts, NEWTON_EVALS, Reconstructor};
 use crate::camera::{MAX_ROW_KNOTS as MAX_KNOTS, ROW_KNOT_STEP};
 use crate::math::{CANONICAL_NAN, fabs};
 use crate::validity::Validity;
@@ -221,6 +221,27 @@ fn sample(
     interp(load(rr, small_int(k), small_int(col), ok), fu, fv, phi)
 }
 
+/// [`sample`] and the Newton slope there ([`cell_slope`], `s` where it has none).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn sample_slope(
+    c: &Consts,
+    rr: &RefRows<'_>,
+    gr: &Grid,
+    l: Lane,
+    u: f32,
+    v: f32,
+    t: f32,
+    phi: f32,
+    s: f32,
+) -> (f32, f32) {
+    let (ru, rv) = offset_rate(c, l, t);
+    let (du, dv) = offset(c, l, t);
+    let (k, col, fu, fv, ok) = cell(du, dv, u, v, gr);
+    let q = load(rr, small_int(k), small_int(col), ok);
+    (interp(q, fu, fv, phi), cell_slope(s, q, fu, fv, ru, rv))
+}
+
 /// Per-pixel coefficients of one lane: the sample offset as a polynomial in `t` (see [`offset`]).
 #[derive(Clone, Copy)]
 struct Lane {
@@ -291,6 +312,35 @@ fn offset(c: &Consts, l: Lane, t: f32) -> (f32, f32) {
     (du, dv)
 }
 
+/// The derivative of [`offset`] in `t`: pixels per unit `t` along the search line at `t`.
+#[inline(always)]
+fn offset_rate(c: &Consts, l: Lane, t: f32) -> (f32, f32) {
+    let q = t * (l.q1 + t * l.q2);
+    let dq = l.q1 + 2.0 * t * l.q2;
+    let drad = q * (l.a + q * (l.b + c.k[4] * q));
+    let ddrad = (l.a + q * (2.0 * l.b + 3.0 * c.k[4] * q)) * dq;
+    let ru = (l.u1 + 2.0 * t * l.u2) + ddrad * (l.ux + t * l.ue) + drad * l.ue;
+    let rv = (l.v1 + 2.0 * t * l.v2) + ddrad * (l.vy + t * l.ve) + drad * l.ve;
+    (ru, rv)
+}
+
+/// The slope in `t` of the bilinear interpolant of cell `q` at `(fu, fv)` for the sample moving
+/// at `(ru, rv)` pixels per unit `t`; the previous slope `s` where it is not finite and non-zero.
+#[inline(always)]
+fn cell_slope(s: f32, q: [f32; 4], fu: f32, fv: f32, ru: f32, rv: f32) -> f32 {
+    let [a, b, c1, d] = q;
+    let dab = b - a;
+    let twist = (d - c1) - dab;
+    let gu = dab + fv * twist;
+    let gv = (c1 - a) + fu * twist;
+    let sl = gu * ru + gv * rv;
+    if (fabs(sl) < f32::INFINITY) & (sl != 0.0) {
+        sl
+    } else {
+        s
+    }
+}
+
 #[inline(always)]
 fn clamp(t: f32, lo: f32, hi: f32) -> f32 {
     if t < lo {
@@ -302,35 +352,14 @@ fn clamp(t: f32, lo: f32, hi: f32) -> f32 {
     }
 }
 
-/// The slope for the next step: the secant slope of `(t0, g0)`, `(t1, g1)` when the two points
-/// are at least [`MIN_SECANT_PX`] apart (`dp2` = squared pixels per unit t) and it is finite and
-/// non-zero; otherwise the previous slope `s`. Points closer than that differ by f32 noise, and
-/// their secant would be noise.
+/// Acceptance of the Newton answer `tn` reached by the step from `tc` (in t; `dp2` squared
+/// pixels per unit t): the step is below [`ACCEPT_LAST_STEP_PX`] and `tn` lies in the depth
+/// interval `[lo, hi]`. The step is `g(tc)` (sampled) over the interpolant's slope at `tc`, so a
+/// short step certifies that `tc` is that close to a crossing.
 #[inline(always)]
-fn slope(s: f32, t0: f32, g0: f32, t1: f32, g1: f32, dp2: f32) -> f32 {
-    let dt = t1 - t0;
-    let sec = (g1 - g0) / dt;
-    let ok = (dt * dt * dp2 >= MIN_SECANT_PX * MIN_SECANT_PX)
-        & (fabs(sec) < f32::INFINITY)
-        & (sec != 0.0);
-    if ok { sec } else { s }
-}
-
-/// Smallest separation (pixels) of two samples whose secant slope is trusted.
-const MIN_SECANT_PX: f32 = 1e-4;
-
-/// Acceptance of the secant answer `tn` reached by the step from `tc`, which was reached from
-/// `tp` (all in t; `dp2` squared pixels per unit t): the last step is below
-/// [`ACCEPT_LAST_STEP_PX`], the product of the last two below [`ACCEPT_STEP_PRODUCT_PX2`], and
-/// `tn` lies in the depth interval `[lo, hi]`.
-#[inline(always)]
-fn accept(tn: f32, tc: f32, tp: f32, dp2: f32, lo: f32, hi: f32) -> bool {
+fn accept(tn: f32, tc: f32, dp2: f32, lo: f32, hi: f32) -> bool {
     let s1 = tn - tc;
-    let s2 = tc - tp;
-    (s1 * s1 * dp2 <= ACCEPT_LAST_STEP_PX * ACCEPT_LAST_STEP_PX)
-        & (fabs(s1 * s2) * dp2 <= ACCEPT_STEP_PRODUCT_PX2)
-        & (tn >= lo)
-        & (tn <= hi)
+    (s1 * s1 * dp2 <= ACCEPT_LAST_STEP_PX * ACCEPT_LAST_STEP_PX) & (tn >= lo) & (tn <= hi)
 }
 
 /// Lanes of a chunk needing stage 2 from which it runs as a vector pass (below, per lane).
@@ -462,9 +491,10 @@ const LANE_F: [f32; LANES] = {
 };
 
 /// Vector pass: sample offsets and cells for parameters `t`: the storage indices `ia`, `ib` of
-/// the cell's left samples in its upper and lower rows, and the fractions. Lanes whose cell is
-/// unusable (outside the image or band, or not `active`) get band row and column 0 (always
-/// loadable) and a NaN fraction, so their interpolated value is NaN whatever is loaded.
+/// the cell's left samples in its upper and lower rows, the fractions, and the offsets' rates of
+/// change ([`offset_rate`]). Lanes whose cell is unusable (outside the image or band, or not
+/// `active`) get band row and column 0 (always loadable) and a NaN fraction, so their
+/// interpolated value is NaN whatever is loaded.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn pass_cells(
@@ -480,10 +510,14 @@ fn pass_cells(
     ib: &mut [u32; LANES],
     fu: &mut [f32; LANES],
     fv: &mut [f32; LANES],
+    rate: (&mut [f32; LANES], &mut [f32; LANES]),
 ) {
     let mut kk = [0u32; LANES];
     let mut cc = [0u32; LANES];
     for i in 0..LANES {
+        let (ru, rv) = offset_rate(c, l.get(i), t[i]);
+        rate.0[i] = ru;
+        rate.1[i] = rv;
         let (du, dv) = offset(c, l.get(i), t[i]);
         let (kr, col, f_u, f_v, o) = cell(du, dv, u0 + LANE_F[i], v, gr);
         let o = o & active[i];
@@ -509,18 +543,17 @@ fn pass_cells(
     }
 }
 
-/// Vector pass: interpolate the loaded cells, then the secant update `t_next`.
+/// Vector pass: interpolate the loaded cells, then the Newton update `t_next` with the slope of
+/// the interpolant there ([`cell_slope`]; `rate` from [`pass_cells`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn pass_update(
     q: [&[f32; LANES]; 4],
     fu: &[f32; LANES],
     fv: &[f32; LANES],
+    rate: (&[f32; LANES], &[f32; LANES]),
     phi: &[f32; LANES],
-    t_prev: &[f32; LANES],
-    g_prev: &[f32; LANES],
     t_cur: &[f32; LANES],
-    dp2: &[f32; LANES],
     bounds: (&[f32; LANES], &[f32; LANES], bool),
     sl: &mut [f32; LANES],
     g_cur: &mut [f32; LANES],
@@ -530,7 +563,8 @@ fn pass_update(
     for i in 0..LANES {
         let gk = interp([q[0][i], q[1][i], q[2][i], q[3][i]], fu[i], fv[i], phi[i]);
         g_cur[i] = gk;
-        let si = slope(sl[i], t_prev[i], g_prev[i], t_cur[i], gk, dp2[i]);
+        let q4 = [q[0][i], q[1][i], q[2][i], q[3][i]];
+        let si = cell_slope(sl[i], q4, fu[i], fv[i], rate.0[i], rate.1[i]);
         sl[i] = si;
         let tn = t_cur[i] - gk / si;
         t_next[i] = if clamped {
@@ -693,7 +727,6 @@ fn chunk<G: CellGather>(
     let mut thi = [0f32; LANES];
     let mut dp2 = [0f32; LANES];
     let mut sl = [0f32; LANES];
-    let t0 = [0f32; LANES];
     let mut t1 = [0f32; LANES];
     let mut g0 = [0f32; LANES];
     {
@@ -741,11 +774,13 @@ fn chunk<G: CellGather>(
         }
     }
 
-    // Fast path: two interpolated evaluations, secant steps in between (SECANT_EVALS = 2;
+    // Fast path: two interpolated evaluations, each followed by a Newton step (NEWTON_EVALS = 2;
     // distinct arrays per step so that the passes vectorize).
-    const _: () = assert!(SECANT_EVALS == 2);
+    const _: () = assert!(NEWTON_EVALS == 2);
     let mut ia = [0u32; LANES];
     let mut ib = [0u32; LANES];
+    let mut ru = [0f32; LANES];
+    let mut rv = [0f32; LANES];
     let mut fu = [0f32; LANES];
     let mut fv = [0f32; LANES];
     let mut qa = [0f32; LANES];
@@ -757,36 +792,32 @@ fn chunk<G: CellGather>(
     let mut t2 = [0f32; LANES];
     let mut t3 = [0f32; LANES];
     pass_cells(
-        &c, lane, &t1, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
+        &c, lane, &t1, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv, (&mut ru, &mut rv),
     );
     g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
     pass_update(
         [&qa, &qb, &qc, &qd],
         &fu,
         &fv,
+        (&ru, &rv),
         &phi,
-        &t0,
-        &g0,
         &t1,
-        &dp2,
         (&tlo, &thi, true),
         &mut sl,
         &mut g1,
         &mut t2,
     );
     pass_cells(
-        &c, lane, &t2, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
+        &c, lane, &t2, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv, (&mut ru, &mut rv),
     );
     g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
     pass_update(
         [&qa, &qb, &qc, &qd],
         &fu,
         &fv,
+        (&ru, &rv),
         &phi,
-        &t1,
-        &g1,
         &t2,
-        &dp2,
         (&tlo, &thi, false),
         &mut sl,
         &mut g2,
@@ -797,12 +828,12 @@ fn chunk<G: CellGather>(
     let mut tfin = [0f32; LANES];
     let mut ok = [false; LANES];
     for i in 0..LANES {
-        ok[i] = accept(t3[i], t2[i], t1[i], dp2[i], tlo[i], thi[i]);
+        ok[i] = accept(t3[i], t2[i], dp2[i], tlo[i], thi[i]);
         tfin[i] = t3[i];
     }
 
     // Stage 2, for lanes the fast path did not settle whose last point is usable (slow
-    // convergence, far crossing): one more evaluation and secant step. A vector pass over the
+    // convergence, far crossing): one more evaluation and Newton step. A vector pass over the
     // chunk when enough lanes need it, else per lane in the scalar loop below: the same operations
     // either way, so the same bits.
     let mut st2 = [false; LANES];
@@ -821,25 +852,23 @@ fn chunk<G: CellGather>(
         let mut g3 = [0f32; LANES];
         let mut t4 = [0f32; LANES];
         pass_cells(
-            &c, lane, &t3, u0, vf, &gr, rr, &st2, &mut ia, &mut ib, &mut fu, &mut fv,
+            &c, lane, &t3, u0, vf, &gr, rr, &st2, &mut ia, &mut ib, &mut fu, &mut fv, (&mut ru, &mut rv),
         );
         g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
         pass_update(
             [&qa, &qb, &qc, &qd],
             &fu,
             &fv,
+            (&ru, &rv),
             &phi,
-            &t2,
-            &g2,
             &t3,
-            &dp2,
             (&tlo, &thi, false),
             &mut sl,
             &mut g3,
             &mut t4,
         );
         for i in 0..LANES {
-            let acc = st2[i] & accept(t4[i], t3[i], t2[i], dp2[i], tlo[i], thi[i]);
+            let acc = st2[i] & accept(t4[i], t3[i], dp2[i], tlo[i], thi[i]);
             tfin[i] = if acc { t4[i] } else { tfin[i] };
             ok[i] |= acc;
         }
@@ -861,7 +890,7 @@ fn chunk<G: CellGather>(
     if vector_ends {
         for (tt, gg) in [(&tlo, &mut g_lo), (&thi, &mut g_hi)] {
             pass_cells(
-                &c, lane, tt, u0, vf, &gr, rr, &fb, &mut ia, &mut ib, &mut fu, &mut fv,
+                &c, lane, tt, u0, vf, &gr, rr, &fb, &mut ia, &mut ib, &mut fu, &mut fv, (&mut ru, &mut rv),
             );
             g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
             for i in 0..LANES {
@@ -878,11 +907,10 @@ fn chunk<G: CellGather>(
         let ui = u0 + LANE_F[i];
         let eval = |tt: f32| sample(&c, rr, &gr, l, ui, vf, tt, phi[i]);
         if !vector2 && st2[i] {
-            let (tp, gp, tc) = (t2[i], g2[i], t3[i]);
-            let gc = eval(tc);
-            let sc = slope(sl[i], tp, gp, tc, gc, dp2[i]);
+            let tc = t3[i];
+            let (gc, sc) = sample_slope(&c, rr, &gr, l, ui, vf, tc, phi[i], sl[i]);
             let tn = tc - gc / sc;
-            if accept(tn, tc, tp, dp2[i], tlo[i], thi[i]) {
+            if accept(tn, tc, dp2[i], tlo[i], thi[i]) {
                 tfin[i] = tn;
                 ok[i] = true;
                 continue;
@@ -1058,5 +1086,93 @@ fn fallback<F: Fn(f32) -> f32>(
         Ok(tm)
     } else {
         Err(Validity::NoCrossing)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Brown model in f64, written out independently: the pixel offset of `m + t·e` from `m`.
+    fn brown_offset(c: &Consts, (x, y): (f64, f64), (ex, ey): (f64, f64), t: f64) -> (f64, f64) {
+        let [k1, k2, p1, p2, k3] = c.k.map(f64::from);
+        let d = |x: f64, y: f64| {
+            let r2 = x * x + y * y;
+            let rad = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2;
+            let xd = x * rad + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+            let yd = y * rad + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+            (f64::from(c.fx) * xd + f64::from(c.sfx) * yd, f64::from(c.fy) * yd)
+        };
+        let (u0, v0) = d(x, y);
+        let (u1, v1) = d(x + t * ex, y + t * ey);
+        (u1 - u0, v1 - v0)
+    }
+
+    fn consts() -> Consts {
+        Consts {
+            nx: 0.0,
+            ny: 0.0,
+            nz: 1.0,
+            h_r: 700.0,
+            h: 700.0,
+            px: 200.0,
+            py: -10.0,
+            pz: 5.0,
+            z_min: 575.0,
+            z_max: 825.0,
+            fx: 1500.0,
+            fy: 1498.0,
+            sfx: 0.8,
+            k: [-0.12, 0.05, 1e-3, -8e-4, 0.01],
+        }
+    }
+
+    #[test]
+    fn offset_rate_is_the_derivative_of_the_distortion() {
+        let c = consts();
+        let mut worst = 0f64;
+        for &(x, y) in &[(0.0, 0.0), (0.4, -0.3), (-0.42, 0.35), (0.1, 0.33)] {
+            for &(ex, ey) in &[(0.3, -0.01), (0.28, 0.05), (0.02, 0.3)] {
+                let (l, _, _) = lane_coefficients(&c, x as f32, y as f32, ex as f32, ey as f32);
+                for i in -8..=8 {
+                    let t = 0.02 * f64::from(i);
+                    let (ru, rv) = offset_rate(&c, l, t as f32);
+                    let h = 1e-6;
+                    let (a, b) = (brown_offset(&c, (x, y), (ex, ey), t + h), brown_offset(&c, (x, y), (ex, ey), t - h));
+                    let (wu, wv) = ((a.0 - b.0) / (2.0 * h), (a.1 - b.1) / (2.0 * h));
+                    let scale = libm::hypot(wu, wv);
+                    worst = worst.max(libm::hypot(f64::from(ru) - wu, f64::from(rv) - wv) / scale);
+                }
+            }
+        }
+        // f32 coefficients: a few ulp of the rate, not a wrong term (a missing one is ≥ 1e-3).
+        assert!(worst < 2e-5, "relative error of the offset rate {worst:e}");
+    }
+
+    #[test]
+    fn cell_slope_is_the_derivative_of_the_interpolant() {
+        let mut seed = 0x1234_5678_9abc_def0u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..1000 {
+            let q = [0.0, 0.0, 0.0, 0.0].map(|_: f64| 50.0 + 2.0 * next() - 1.0);
+            let (fu, fv) = (next(), next());
+            let (ru, rv) = (200.0 * next() - 100.0, 200.0 * next() - 100.0);
+            // The bilinear interpolant, written as the usual weighted sum, differentiated
+            // numerically along (ru, rv).
+            let bil = |u: f64, v: f64| q[0] * (1.0 - u) * (1.0 - v) + q[1] * u * (1.0 - v) + q[2] * (1.0 - u) * v + q[3] * u * v;
+            let h = 1e-7;
+            let want = (bil(fu + ru * h, fv + rv * h) - bil(fu - ru * h, fv - rv * h)) / (2.0 * h);
+            let got = cell_slope(f32::NAN, q.map(|v| v as f32), fu as f32, fv as f32, ru as f32, rv as f32);
+            let tol = 1e-5 * (ru.abs() + rv.abs()) * 4.0;
+            assert!((f64::from(got) - want).abs() <= tol, "slope {got} vs {want}");
+        }
+        // No slope (a flat cell or a NaN sample): the previous one.
+        assert_eq!(cell_slope(2.5, [1.0; 4], 0.3, 0.6, 10.0, 1.0), 2.5);
+        assert_eq!(cell_slope(2.5, [1.0, f32::NAN, 1.0, 1.0], 0.3, 0.6, 10.0, 1.0), 2.5);
     }
 }

@@ -33,15 +33,18 @@
 //! start at `t₀ = 0` (the pixel itself: the reference sample there needs no interpolation), take a
 //! first step with the slope of Φ_R at the pixel (central differences, over ±8 columns along the
 //! row where those samples are valid, else ±1, to keep phase noise out of the step; projected on
-//! the epipolar direction through the distortion Jacobian), then [`SECANT_EVALS`] (= 2) interpolated
-//! evaluations with secant steps between them, clamped to the depth interval. The secant slope is
-//! only trusted when its two points are ≥ 1e-4 px apart (closer points differ by f32 noise). The
-//! final, unevaluated secant step gives the answer; it is accepted if that step is below
-//! [`ACCEPT_LAST_STEP_PX`], the product of the last two steps is below [`ACCEPT_STEP_PRODUCT_PX2`]
-//! (the secant error is about `C·|last|·|previous|`, `C = Φ''/2Φ'` per pixel), it lies in the
-//! depth interval, and every sample was valid.
+//! the epipolar direction through the distortion Jacobian), then [`NEWTON_EVALS`] (= 2) interpolated
+//! evaluations, each followed by a Newton step (every step but the last clamped to the depth
+//! interval). The
+//! Newton slope is that of the bilinear interpolant in the sampled cell along the search line
+//! (the cell's gradient times the derivative of the sample offset in `t`): the interpolant is
+//! linear within a cell up to its small twist term, so a step taken inside the crossing's cell
+//! lands on the crossing whatever the phase noise, where a secant across cells would carry the
+//! cells' slope differences (a few % with 0.01 rad of noise). The final, unevaluated step gives
+//! the answer; it is accepted if it is below [`ACCEPT_LAST_STEP_PX`] (the sample before it was
+//! that close to a crossing), it lies in the depth interval, and every sample was valid.
 //! *Stage 2*, for lanes the fast path did not settle (a far crossing on a curved or noisy phase):
-//! one more evaluation and secant step, same acceptance.
+//! one more evaluation and Newton step, same acceptance.
 //! *Fallback*, for the remaining few (invalid reference on the way, crossing outside the depth
 //! range or the image): the ends of the depth interval are sampled; a phase outside them is
 //! [`Validity::OutOfDepth`]; otherwise the closest valid bracket is bisected a fixed number of times
@@ -82,7 +85,7 @@
 //!
 //! # Speed
 //! The fast path is a fixed sequence of vectorizable passes over [`LANES`] pixels (geometry and
-//! the offset polynomials, two sample positions, bilinear gathers, secant updates,
+//! the offset polynomials, two sample positions, bilinear gathers, Newton updates,
 //! triangulation). The gathers' storage indices are computed in the vector passes from a formula
 //! for the band's row offsets (rows `width` apart with at most one wrap: always true for
 //! [`ReferenceMap`] and [`ReferenceRing`]; other [`ReferenceRows`] layouts are looked up row by
@@ -111,17 +114,14 @@ use crate::phase_function::Axis;
 use crate::validity::Validity;
 
 /// Interpolated evaluations of the fast path (the first at the slope-guided step from the pixel
-/// itself, then secant steps).
-pub const SECANT_EVALS: usize = 2;
-/// Fast-path acceptance: largest last (unevaluated) secant step, pixels. Across bilinear cells
-/// the interpolated reference's slope jumps (by a few % with 0.01 rad of phase noise), which
-/// errs the last secant step by that fraction: 3e-3 px keeps it near 1e-4 px (≈ 0.2 µm of
-/// depth). 1e-2 px allowed up to 1.9 µm on noisy maps (`reconstruct_accuracy`).
+/// itself), each followed by a Newton step with the slope of the interpolated reference there.
+pub const NEWTON_EVALS: usize = 2;
+/// Fast-path acceptance: largest last (unevaluated) Newton step, pixels. Within a bilinear cell
+/// the interpolant along the search line is nearly linear, so Newton lands on its crossing; a
+/// last step that crosses into the next cell errs by the jump of the slope there (a few % with
+/// 0.01 rad of phase noise) times the step: 3e-3 px keeps that near 1e-4 px (≈ 0.2 µm of
+/// depth).
 pub const ACCEPT_LAST_STEP_PX: f32 = 3e-3;
-/// Fast-path acceptance: largest product of the last two steps, pixels². The secant error after
-/// the last step is about `C·|last|·|previous|` with `C = Φ''/(2Φ')` per pixel; for phases whose
-/// slope changes by less than 0.2 % per pixel (C ≤ 1e-3) this bounds it by 5e-6 px.
-pub const ACCEPT_STEP_PRODUCT_PX2: f32 = 5e-3;
 
 /// The geometry of a scan: everything §6 needs besides the camera model and the reference phase.
 #[derive(Clone, Copy, Debug, PartialEq)]
