@@ -203,28 +203,11 @@ struct Grid {
     band_len: f32,
 }
 
-/// One full sample (scalar): offset → cell → loads → interpolation.
+/// One full sample (scalar): offset → cell → loads → interpolation, and the Newton slope there
+/// ([`cell_slope`]; `s` where it has none).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn sample(
-    c: &Consts,
-    rr: &RefRows<'_>,
-    gr: &Grid,
-    l: Lane,
-    u: f32,
-    v: f32,
-    t: f32,
-    phi: f32,
-) -> f32 {
-    let (du, dv) = offset(c, l, t);
-    let (k, col, fu, fv, ok) = cell(du, dv, u, v, gr);
-    interp(load(rr, small_int(k), small_int(col), ok), fu, fv, phi)
-}
-
-/// [`sample`] and the Newton slope there ([`cell_slope`], `s` where it has none).
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn sample_slope(
     c: &Consts,
     rr: &RefRows<'_>,
     gr: &Grid,
@@ -905,10 +888,10 @@ fn chunk<G: CellGather>(
         }
         let l = lane.get(i);
         let ui = u0 + LANE_F[i];
-        let eval = |tt: f32| sample(&c, rr, &gr, l, ui, vf, tt, phi[i]);
+        let eval = |tt: f32| sample(&c, rr, &gr, l, ui, vf, tt, phi[i], CANONICAL_NAN).0;
         if !vector2 && st2[i] {
             let tc = t3[i];
-            let (gc, sc) = sample_slope(&c, rr, &gr, l, ui, vf, tc, phi[i], sl[i]);
+            let (gc, sc) = sample(&c, rr, &gr, l, ui, vf, tc, phi[i], sl[i]);
             let tn = tc - gc / sc;
             if accept(tn, tc, dp2[i], tlo[i], thi[i]) {
                 tfin[i] = tn;
