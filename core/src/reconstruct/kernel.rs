@@ -204,7 +204,7 @@ struct Grid {
 }
 
 /// One full sample (scalar): offset → cell → loads → interpolation, and the Newton slope there
-/// ([`cell_slope`]; `s` where it has none).
+/// ([`cell_slope`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn sample(
@@ -216,13 +216,12 @@ fn sample(
     v: f32,
     t: f32,
     phi: f32,
-    s: f32,
 ) -> (f32, f32) {
     let (ru, rv) = offset_rate(c, l, t);
     let (du, dv) = offset(c, l, t);
     let (k, col, fu, fv, ok) = cell(du, dv, u, v, gr);
     let q = load(rr, small_int(k), small_int(col), ok);
-    (interp(q, fu, fv, phi), cell_slope(s, q, fu, fv, ru, rv))
+    (interp(q, fu, fv, phi), cell_slope(q, fu, fv, ru, rv))
 }
 
 /// Per-pixel coefficients of one lane: the sample offset as a polynomial in `t` (see [`offset`]).
@@ -308,20 +307,17 @@ fn offset_rate(c: &Consts, l: Lane, t: f32) -> (f32, f32) {
 }
 
 /// The slope in `t` of the bilinear interpolant of cell `q` at `(fu, fv)` for the sample moving
-/// at `(ru, rv)` pixels per unit `t`; the previous slope `s` where it is not finite and non-zero.
+/// at `(ru, rv)` pixels per unit `t`: the Newton slope. No fallback: where it is zero or not
+/// finite (a flat cell, a NaN sample) the step it gives is infinite or NaN, which no acceptance
+/// passes (a first step is clamped to the depth interval and evaluated again).
 #[inline(always)]
-fn cell_slope(s: f32, q: [f32; 4], fu: f32, fv: f32, ru: f32, rv: f32) -> f32 {
+fn cell_slope(q: [f32; 4], fu: f32, fv: f32, ru: f32, rv: f32) -> f32 {
     let [a, b, c1, d] = q;
     let dab = b - a;
     let twist = (d - c1) - dab;
     let gu = dab + fv * twist;
     let gv = (c1 - a) + fu * twist;
-    let sl = gu * ru + gv * rv;
-    if (fabs(sl) < f32::INFINITY) & (sl != 0.0) {
-        sl
-    } else {
-        s
-    }
+    gu * ru + gv * rv
 }
 
 #[inline(always)]
@@ -337,8 +333,10 @@ fn clamp(t: f32, lo: f32, hi: f32) -> f32 {
 
 /// Acceptance of the Newton answer `tn` reached by the step from `tc` (in t; `dp2` squared
 /// pixels per unit t): the step is below [`ACCEPT_LAST_STEP_PX`] and `tn` lies in the depth
-/// interval `[lo, hi]`. The step is `g(tc)` (sampled) over the interpolant's slope at `tc`, so a
-/// short step certifies that `tc` is that close to a crossing.
+/// interval `[lo, hi]`. The step is `g(tc)` (sampled) over the interpolant's slope at `tc`, so
+/// it is exact to the crossing within `tc`'s cell (up to the small twist term); where the
+/// crossing lies in the next cell, `tn` errs by the step times the slope's relative change
+/// between the two cells.
 #[inline(always)]
 fn accept(tn: f32, tc: f32, dp2: f32, lo: f32, hi: f32) -> bool {
     let s1 = tn - tc;
@@ -538,7 +536,6 @@ fn pass_update(
     phi: &[f32; LANES],
     t_cur: &[f32; LANES],
     bounds: (&[f32; LANES], &[f32; LANES], bool),
-    sl: &mut [f32; LANES],
     g_cur: &mut [f32; LANES],
     t_next: &mut [f32; LANES],
 ) {
@@ -547,8 +544,7 @@ fn pass_update(
         let gk = interp([q[0][i], q[1][i], q[2][i], q[3][i]], fu[i], fv[i], phi[i]);
         g_cur[i] = gk;
         let q4 = [q[0][i], q[1][i], q[2][i], q[3][i]];
-        let si = cell_slope(sl[i], q4, fu[i], fv[i], rate.0[i], rate.1[i]);
-        sl[i] = si;
+        let si = cell_slope(q4, fu[i], fv[i], rate.0[i], rate.1[i]);
         let tn = t_cur[i] - gk / si;
         t_next[i] = if clamped {
             clamp(tn, tlo[i], thi[i])
@@ -709,7 +705,6 @@ fn chunk<G: CellGather>(
     let mut tlo = [0f32; LANES];
     let mut thi = [0f32; LANES];
     let mut dp2 = [0f32; LANES];
-    let mut sl = [0f32; LANES];
     let mut t1 = [0f32; LANES];
     let mut g0 = [0f32; LANES];
     {
@@ -752,7 +747,6 @@ fn chunk<G: CellGather>(
             };
             let s0 = gu * dpu + gv * dpv;
             g0[i] = g0_;
-            sl[i] = s0;
             t1[i] = clamp(-g0_ / s0, lo, hi);
         }
     }
@@ -775,7 +769,8 @@ fn chunk<G: CellGather>(
     let mut t2 = [0f32; LANES];
     let mut t3 = [0f32; LANES];
     pass_cells(
-        &c, lane, &t1, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv, (&mut ru, &mut rv),
+        &c, lane, &t1, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
+        (&mut ru, &mut rv),
     );
     g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
     pass_update(
@@ -786,12 +781,12 @@ fn chunk<G: CellGather>(
         &phi,
         &t1,
         (&tlo, &thi, true),
-        &mut sl,
         &mut g1,
         &mut t2,
     );
     pass_cells(
-        &c, lane, &t2, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv, (&mut ru, &mut rv),
+        &c, lane, &t2, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
+        (&mut ru, &mut rv),
     );
     g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
     pass_update(
@@ -802,7 +797,6 @@ fn chunk<G: CellGather>(
         &phi,
         &t2,
         (&tlo, &thi, false),
-        &mut sl,
         &mut g2,
         &mut t3,
     );
@@ -835,7 +829,8 @@ fn chunk<G: CellGather>(
         let mut g3 = [0f32; LANES];
         let mut t4 = [0f32; LANES];
         pass_cells(
-            &c, lane, &t3, u0, vf, &gr, rr, &st2, &mut ia, &mut ib, &mut fu, &mut fv, (&mut ru, &mut rv),
+            &c, lane, &t3, u0, vf, &gr, rr, &st2, &mut ia, &mut ib, &mut fu, &mut fv,
+            (&mut ru, &mut rv),
         );
         g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
         pass_update(
@@ -846,8 +841,7 @@ fn chunk<G: CellGather>(
             &phi,
             &t3,
             (&tlo, &thi, false),
-            &mut sl,
-            &mut g3,
+                &mut g3,
             &mut t4,
         );
         for i in 0..LANES {
@@ -873,7 +867,8 @@ fn chunk<G: CellGather>(
     if vector_ends {
         for (tt, gg) in [(&tlo, &mut g_lo), (&thi, &mut g_hi)] {
             pass_cells(
-                &c, lane, tt, u0, vf, &gr, rr, &fb, &mut ia, &mut ib, &mut fu, &mut fv, (&mut ru, &mut rv),
+                &c, lane, tt, u0, vf, &gr, rr, &fb, &mut ia, &mut ib, &mut fu, &mut fv,
+                (&mut ru, &mut rv),
             );
             g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
             for i in 0..LANES {
@@ -888,10 +883,10 @@ fn chunk<G: CellGather>(
         }
         let l = lane.get(i);
         let ui = u0 + LANE_F[i];
-        let eval = |tt: f32| sample(&c, rr, &gr, l, ui, vf, tt, phi[i], CANONICAL_NAN).0;
+        let eval = |tt: f32| sample(&c, rr, &gr, l, ui, vf, tt, phi[i]).0;
         if !vector2 && st2[i] {
             let tc = t3[i];
-            let (gc, sc) = sample(&c, rr, &gr, l, ui, vf, tc, phi[i], sl[i]);
+            let (gc, sc) = sample(&c, rr, &gr, l, ui, vf, tc, phi[i]);
             let tn = tc - gc / sc;
             if accept(tn, tc, dp2[i], tlo[i], thi[i]) {
                 tfin[i] = tn;
@@ -1150,12 +1145,17 @@ mod tests {
             let bil = |u: f64, v: f64| q[0] * (1.0 - u) * (1.0 - v) + q[1] * u * (1.0 - v) + q[2] * (1.0 - u) * v + q[3] * u * v;
             let h = 1e-7;
             let want = (bil(fu + ru * h, fv + rv * h) - bil(fu - ru * h, fv - rv * h)) / (2.0 * h);
-            let got = cell_slope(f32::NAN, q.map(|v| v as f32), fu as f32, fv as f32, ru as f32, rv as f32);
+            let got = cell_slope(q.map(|v| v as f32), fu as f32, fv as f32, ru as f32, rv as f32);
             let tol = 1e-5 * (ru.abs() + rv.abs()) * 4.0;
             assert!((f64::from(got) - want).abs() <= tol, "slope {got} vs {want}");
         }
-        // No slope (a flat cell or a NaN sample): the previous one.
-        assert_eq!(cell_slope(2.5, [1.0; 4], 0.3, 0.6, 10.0, 1.0), 2.5);
-        assert_eq!(cell_slope(2.5, [1.0, f32::NAN, 1.0, 1.0], 0.3, 0.6, 10.0, 1.0), 2.5);
+        // A flat cell or a NaN sample has no slope, and the step it gives is never accepted, however
+        // small the sample's distance from the phase.
+        let (tc, g, dp2) = (0.5f32, 1e-6f32, 100.0f32);
+        for q in [[1.0; 4], [1.0, f32::NAN, 1.0, 1.0]] {
+            let sl = cell_slope(q, 0.3, 0.6, 10.0, 1.0);
+            assert!(sl == 0.0 || sl.is_nan(), "slope {sl}");
+            assert!(!accept(tc - g / sl, tc, dp2, -1.0, 1.0));
+        }
     }
 }

@@ -33,16 +33,16 @@
 //! start at `t₀ = 0` (the pixel itself: the reference sample there needs no interpolation), take a
 //! first step with the slope of Φ_R at the pixel (central differences, over ±8 columns along the
 //! row where those samples are valid, else ±1, to keep phase noise out of the step; projected on
-//! the epipolar direction through the distortion Jacobian), then [`NEWTON_EVALS`] (= 2) interpolated
-//! evaluations, each followed by a Newton step (every step but the last clamped to the depth
-//! interval). The
-//! Newton slope is that of the bilinear interpolant in the sampled cell along the search line
-//! (the cell's gradient times the derivative of the sample offset in `t`): the interpolant is
-//! linear within a cell up to its small twist term, so a step taken inside the crossing's cell
-//! lands on the crossing whatever the phase noise, where a secant across cells would carry the
-//! cells' slope differences (a few % with 0.01 rad of noise). The final, unevaluated step gives
-//! the answer; it is accepted if it is below [`ACCEPT_LAST_STEP_PX`] (the sample before it was
-//! that close to a crossing), it lies in the depth interval, and every sample was valid.
+//! the epipolar direction through the distortion Jacobian), then [`NEWTON_EVALS`] (= 2)
+//! interpolated evaluations, each followed by a Newton step (every step but the last clamped to
+//! the depth interval). The Newton slope is that of the bilinear interpolant in the sampled cell
+//! along the search line (the cell's gradient times the derivative of the sample offset in `t`):
+//! the interpolant is linear within a cell up to its small twist term, so a step taken inside the
+//! crossing's cell lands on the crossing whatever the phase noise, where a secant across cells
+//! would carry the cells' slope differences (a few % with 0.01 rad of noise). A flat cell or an
+//! invalid sample gives no slope, and an infinite or NaN step that is never accepted. The final,
+//! unevaluated step gives the answer; it is accepted if it is below [`ACCEPT_LAST_STEP_PX`], it
+//! lies in the depth interval, and every sample was valid.
 //! *Stage 2*, for lanes the fast path did not settle (a far crossing on a curved or noisy phase):
 //! one more evaluation and Newton step, same acceptance.
 //! *Fallback*, for the remaining few (invalid reference on the way, crossing outside the depth
@@ -118,9 +118,9 @@ use crate::validity::Validity;
 pub const NEWTON_EVALS: usize = 2;
 /// Fast-path acceptance: largest last (unevaluated) Newton step, pixels. Within a bilinear cell
 /// the interpolant along the search line is nearly linear, so Newton lands on its crossing; a
-/// last step that crosses into the next cell errs by the jump of the slope there (a few % with
-/// 0.01 rad of phase noise) times the step: 3e-3 px keeps that near 1e-4 px (≈ 0.2 µm of
-/// depth).
+/// last step that crosses into the next cell errs by the step times the slope's relative change
+/// between the cells (a few % with 0.01 rad of phase noise): 3e-3 px keeps that near 1e-4 px
+/// (≈ 0.2 µm of depth).
 pub const ACCEPT_LAST_STEP_PX: f32 = 3e-3;
 
 /// The geometry of a scan: everything §6 needs besides the camera model and the reference phase.
