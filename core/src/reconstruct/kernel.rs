@@ -217,8 +217,7 @@ fn sample(
     t: f32,
     phi: f32,
 ) -> (f32, f32) {
-    let (ru, rv) = offset_rate(c, l, t);
-    let (du, dv) = offset(c, l, t);
+    let ((du, dv), (ru, rv)) = offset(c, l, t);
     let (k, col, fu, fv, ok) = cell(du, dv, u, v, gr);
     let q = load(rr, small_int(k), small_int(col), ok);
     (interp(q, fu, fv, phi), cell_slope(q, fu, fv, ru, rv))
@@ -285,25 +284,20 @@ fn lane_coefficients(c: &Consts, x: f32, y: f32, ex: f32, ey: f32) -> (Lane, f32
 /// `q = |m + t·e|² − |m|² = t·(q1 + t·q2)`, the radial factor changes by
 /// `Δρ = q·(a + q·(b + k3·q))` and the distorted point by `t·e·ρ + Δρ·(m + t·e)` plus the
 /// tangential change `t·(T1 + t·T2)`; `A` (eq 4) is folded into the coefficients.
+///
+/// Returns the offset `(du, dv)` and its derivative in `t` `(ru, rv)` (pixels per unit `t` along
+/// the search line, the rate of the Newton slope, [`cell_slope`]); they share `q` and `Δρ`.
 #[inline(always)]
-fn offset(c: &Consts, l: Lane, t: f32) -> (f32, f32) {
+fn offset(c: &Consts, l: Lane, t: f32) -> ((f32, f32), (f32, f32)) {
     let q = t * (l.q1 + t * l.q2);
     let drad = q * (l.a + q * (l.b + c.k[4] * q));
     let du = t * (l.u1 + t * l.u2) + drad * (l.ux + t * l.ue);
     let dv = t * (l.v1 + t * l.v2) + drad * (l.vy + t * l.ve);
-    (du, dv)
-}
-
-/// The derivative of [`offset`] in `t`: pixels per unit `t` along the search line at `t`.
-#[inline(always)]
-fn offset_rate(c: &Consts, l: Lane, t: f32) -> (f32, f32) {
-    let q = t * (l.q1 + t * l.q2);
     let dq = l.q1 + 2.0 * t * l.q2;
-    let drad = q * (l.a + q * (l.b + c.k[4] * q));
     let ddrad = (l.a + q * (2.0 * l.b + 3.0 * c.k[4] * q)) * dq;
     let ru = (l.u1 + 2.0 * t * l.u2) + ddrad * (l.ux + t * l.ue) + drad * l.ue;
     let rv = (l.v1 + 2.0 * t * l.v2) + ddrad * (l.vy + t * l.ve) + drad * l.ve;
-    (ru, rv)
+    ((du, dv), (ru, rv))
 }
 
 /// The slope in `t` of the bilinear interpolant of cell `q` at `(fu, fv)` for the sample moving
@@ -473,7 +467,7 @@ const LANE_F: [f32; LANES] = {
 
 /// Vector pass: sample offsets and cells for parameters `t`: the storage indices `ia`, `ib` of
 /// the cell's left samples in its upper and lower rows, the fractions, and the offsets' rates of
-/// change ([`offset_rate`]). Lanes whose cell is unusable (outside the image or band, or not
+/// change ([`offset`]). Lanes whose cell is unusable (outside the image or band, or not
 /// `active`) get band row and column 0 (always loadable) and a NaN fraction, so their
 /// interpolated value is NaN whatever is loaded.
 #[inline(always)]
@@ -496,10 +490,9 @@ fn pass_cells(
     let mut kk = [0u32; LANES];
     let mut cc = [0u32; LANES];
     for i in 0..LANES {
-        let (ru, rv) = offset_rate(c, l.get(i), t[i]);
+        let ((du, dv), (ru, rv)) = offset(c, l.get(i), t[i]);
         rate.0[i] = ru;
         rate.1[i] = rv;
-        let (du, dv) = offset(c, l.get(i), t[i]);
         let (kr, col, f_u, f_v, o) = cell(du, dv, u0 + LANE_F[i], v, gr);
         let o = o & active[i];
         kk[i] = if o { small_int(kr) } else { 0 };
@@ -541,9 +534,9 @@ fn pass_update(
 ) {
     let (tlo, thi, clamped) = bounds;
     for i in 0..LANES {
-        let gk = interp([q[0][i], q[1][i], q[2][i], q[3][i]], fu[i], fv[i], phi[i]);
-        g_cur[i] = gk;
         let q4 = [q[0][i], q[1][i], q[2][i], q[3][i]];
+        let gk = interp(q4, fu[i], fv[i], phi[i]);
+        g_cur[i] = gk;
         let si = cell_slope(q4, fu[i], fv[i], rate.0[i], rate.1[i]);
         let tn = t_cur[i] - gk / si;
         t_next[i] = if clamped {
@@ -841,7 +834,7 @@ fn chunk<G: CellGather>(
             &phi,
             &t3,
             (&tlo, &thi, false),
-                &mut g3,
+            &mut g3,
             &mut t4,
         );
         for i in 0..LANES {
@@ -1114,7 +1107,7 @@ mod tests {
                 let (l, _, _) = lane_coefficients(&c, x as f32, y as f32, ex as f32, ey as f32);
                 for i in -8..=8 {
                     let t = 0.02 * f64::from(i);
-                    let (ru, rv) = offset_rate(&c, l, t as f32);
+                    let (_, (ru, rv)) = offset(&c, l, t as f32);
                     let h = 1e-6;
                     let (a, b) = (brown_offset(&c, (x, y), (ex, ey), t + h), brown_offset(&c, (x, y), (ex, ey), t - h));
                     let (wu, wv) = ((a.0 - b.0) / (2.0 * h), (a.1 - b.1) / (2.0 * h));
