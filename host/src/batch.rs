@@ -179,7 +179,8 @@ fn rows_dispatch<P: Sample>(isa: Isa, d: &Decoder, frames: &[&[P]], width: usize
     }
 }
 
-/// Rows per parallel task: enough to amortise scheduling, small enough to balance two cores.
+/// Rows per parallel task (decode and reconstruction): enough to amortise scheduling, small
+/// enough to balance two cores.
 const ROWS_PER_TASK: usize = 16;
 
 /// Decode whole frames (`frames[i]` is image `i` of the set, `width × height`, row-major) with
@@ -281,9 +282,6 @@ pub struct PointsOut<'a> {
     pub validity: &'a mut [u8],
 }
 
-/// Rows per parallel reconstruction task.
-const RECON_ROWS_PER_TASK: usize = 16;
-
 /// What every reconstruction task of one frame shares.
 struct ReconFrame<'a> {
     recon: &'a Reconstructor,
@@ -311,8 +309,8 @@ pub fn reconstruct_frame(
         return Err(ReconstructError::Length);
     }
     let f = ReconFrame { recon, map, phase, validity };
-    let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| recon_rows_dispatch(isa, &f, k * RECON_ROWS_PER_TASK, o, ov);
-    let mut rows = out.xyz.chunks_mut(3 * w * RECON_ROWS_PER_TASK).zip(out.validity.chunks_mut(w * RECON_ROWS_PER_TASK)).enumerate();
+    let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| recon_rows_dispatch(isa, &f, k * ROWS_PER_TASK, o, ov);
+    let mut rows = out.xyz.chunks_mut(3 * w * ROWS_PER_TASK).zip(out.validity.chunks_mut(w * ROWS_PER_TASK)).enumerate();
     if parallel { rows.par_bridge().try_for_each(job) } else { rows.try_for_each(job) }
 }
 
