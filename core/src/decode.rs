@@ -24,7 +24,10 @@
 //! frames as they arrive into a caller buffer ([`Decoder::accumulate`]) and runs the same passes
 //! from it at the end ([`Decoder::finish`]). The sums are the same products added in the same
 //! order from +0 (a skipped zero product adds ±0, which changes no sum that is never −0), and the
-//! rest is the same code, so both give the same bits.
+//! rest is the same code, so both give the same bits. For the two common three-level structures
+//! (the paper's 8-pattern set and the 12-pattern set) the row driver's pass 1 computes all three
+//! levels in one loop with their arctangents side by side ([`crate::math::atan2_levels3_finite`]),
+//! the same operations per pixel.
 //!
 //! # Arithmetic
 //! The kernel is generic over an [`Arith`] backend ([`crate::arith`]): f32 with the accurate
@@ -332,7 +335,19 @@ pub struct Decoder<A: Arith = F32Accurate> {
     level_order: [u8; MAX_LEVELS],
     /// The level whose images carry the DC term A (eq 10/15), if any.
     dc_level: Option<u8>,
+    /// Whether the row driver computes every level in one loop ([`Self::fused_rows`]):
+    /// [`FUSED_PAIRS`] or [`FUSED_QUADS`] for three levels whose finest is the DC level of
+    /// kind [`KIND_QUAD_EXACT`] and whose coarser ones are both of kind [`KIND_PAIR_UNIT`] or
+    /// both [`KIND_QUAD_EXACT`]; [`FUSED_NONE`] otherwise.
+    fused: u8,
 }
+
+/// [`Decoder`]'s `fused`: one loop per level.
+const FUSED_NONE: u8 = 0;
+/// [`Decoder`]'s `fused`: the paper's 8-pattern structure (4-step finest level, two 2-image levels).
+const FUSED_PAIRS: u8 = 1;
+/// [`Decoder`]'s `fused`: three 4-step levels (the 12-pattern set).
+const FUSED_QUADS: u8 = 2;
 
 /// The images of one level, in image order.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -450,6 +465,7 @@ impl<A: Arith> Decoder<A> {
             level_images: [LevelImages { n: 0, idx: [0; MAX_SHIFTS], kind: KIND_GENERIC }; MAX_LEVELS],
             level_order: [0; MAX_LEVELS],
             dc_level: dc_level.map(|l| l as u8),
+            fused: FUSED_NONE,
         };
         let order = dc_level.into_iter().chain((0..n_levels).filter(|&l| Some(l) != dc_level));
         for (slot, l) in d.level_order.iter_mut().zip(order) {
@@ -488,6 +504,14 @@ impl<A: Arith> Decoder<A> {
         }
         for l in 0..n_levels {
             d.level_images[l].kind = d.level_kind(l);
+        }
+        let kinds = [d.level_images[0].kind, d.level_images[1].kind, d.level_images[2].kind];
+        if n_levels == 3 && dc_level == Some(2) && kinds[2] == KIND_QUAD_EXACT {
+            d.fused = match kinds[..2] {
+                [KIND_PAIR_UNIT, KIND_PAIR_UNIT] => FUSED_PAIRS,
+                [KIND_QUAD_EXACT, KIND_QUAD_EXACT] => FUSED_QUADS,
+                _ => FUSED_NONE,
+            };
         }
         Ok(d)
     }
@@ -631,18 +655,31 @@ impl<A: Arith> Decoder<A> {
     /// ([`Self::unwrap_block`]).
     #[inline(always)]
     fn decode_block<P: Sample>(&self, blk: &mut Block<A>, rows: &[&[P]], start: usize, out: BlockOut<'_>) -> Result<(), DecodeError> {
-        let r = start..start + BLOCK;
-        let mut peak: [P; BLOCK] = *block(rows.first().copied().unwrap_or(&[]), r.clone())?;
-        for row in rows.iter().skip(1) {
-            let row = block(row, r.clone())?;
-            for (p, v) in peak.iter_mut().zip(row) {
-                *p = v.max_of(*p);
+        let peak = match rows.len() {
+            8 => peak_of::<P, 8>(rows, start)?,
+            12 => peak_of::<P, 12>(rows, start)?,
+            _ => {
+                let r = start..start + BLOCK;
+                let mut peak: [P; BLOCK] = *block(rows.first().copied().unwrap_or(&[]), r.clone())?;
+                for row in rows.iter().skip(1) {
+                    let row = block(row, r.clone())?;
+                    for (p, v) in peak.iter_mut().zip(row) {
+                        *p = v.max_of(*p);
+                    }
+                }
+                peak
             }
-        }
-        blk.dc = [A::ZERO; BLOCK];
-        for k in 0..self.n_levels {
-            let l = self.level_order[k] as usize;
-            self.level_from_rows(l, rows, start, blk, out.modulation)?;
+        };
+        match self.fused {
+            FUSED_PAIRS => self.fused_rows::<P, KIND_PAIR_UNIT>(rows, start, blk, out.modulation)?,
+            FUSED_QUADS => self.fused_rows::<P, KIND_QUAD_EXACT>(rows, start, blk, out.modulation)?,
+            _ => {
+                blk.dc = [A::ZERO; BLOCK];
+                for k in 0..self.n_levels {
+                    let l = self.level_order[k] as usize;
+                    self.level_from_rows(l, rows, start, blk, out.modulation)?;
+                }
+            }
         }
         let sat = self.limits.saturation;
         self.unwrap_block(blk, &peak, |p| A::saturated(A::input(p), sat), out);
@@ -753,11 +790,11 @@ impl<A: Arith> Decoder<A> {
                 a = dc[i];
             }
             let (s, c) = if KIND == KIND_QUAD { (s, c) } else { A::level_sc(s, c, ad, bd, a, fmt) };
-            let (p, b2) = if FINE { A::polar(s, c) } else { A::polar_coarse(s, c) };
-            w[i] = p;
-            mag[i] = b2;
             if FINE {
-                mo[i] = A::mag_out(b2, fmt);
+                let (p, b2, b) = A::polar_fine(s, c, fmt);
+                (w[i], mag[i], mo[i]) = (p, b2, b);
+            } else {
+                (w[i], mag[i]) = A::polar_coarse(s, c);
             }
         }
     }
@@ -790,13 +827,75 @@ impl<A: Arith> Decoder<A> {
                 }
                 (A::regrouped_product(ka, A::in_sub(v0, v2)), A::regrouped_product(kb, A::in_sub(v1, v3)))
             };
-            let (p, b2) = if FINE { A::polar(s, c) } else { A::polar_coarse(s, c) };
-            w[i] = p;
-            mag[i] = b2;
             if FINE {
-                mo[i] = A::mag_out(b2, fmt);
+                let (p, b2, b) = A::polar_fine(s, c, fmt);
+                (w[i], mag[i], mo[i]) = (p, b2, b);
+            } else {
+                (w[i], mag[i]) = A::polar_coarse(s, c);
             }
         }
+    }
+
+    /// Pass 1 of the row driver for the sets of [`Decoder::fused`]: every level in one loop over
+    /// the block. The finest level is the DC level of four images ([`KIND_QUAD_EXACT`]); the
+    /// coarser levels, two of them, are all of kind `K` ([`KIND_PAIR_UNIT`]: the paper's
+    /// 8-pattern set, or [`KIND_QUAD_EXACT`]: the 12-pattern set).
+    ///
+    /// Each pixel's operations are those of [`Self::level_rows_exact`] for each level, in the
+    /// same order: the same bits. What changes is that the three levels' arctangents are
+    /// independent chains in one loop body, which the core overlaps (per-level loops ran at the
+    /// latency of one chain), and A stays in a register for the coarser levels.
+    #[inline(always)]
+    fn fused_rows<P: Sample, const K: u8>(&self, rows: &[&[P]], start: usize, blk: &mut Block<A>, mo: &mut [f32; BLOCK]) -> Result<(), DecodeError> {
+        let range = start..start + BLOCK;
+        let fmt = &self.format;
+        // Levels: [finest (DC), then the two coarser ones].
+        let lv = [self.n_levels - 1, 0, 1];
+        let mut r = [[&[] as &[P]; 4]; 3];
+        let mut k = [(A::COEF_ZERO, A::COEF_ZERO, A::COEF_ZERO); 3];
+        for (slot, (kslot, &l)) in r.iter_mut().zip(k.iter_mut().zip(&lv)) {
+            let li = self.level_images.get(l).ok_or(DecodeError::Sequence)?;
+            for (j, row) in slot.iter_mut().enumerate() {
+                let img = li.idx[j % li.n.max(1) as usize] as usize;
+                *row = rows.get(img).ok_or(DecodeError::ImageCount)?.get(range.clone()).ok_or(DecodeError::Length)?;
+            }
+            let coef = |j: usize| self.images.get(li.idx[j] as usize).ok_or(DecodeError::Sequence);
+            *kslot = (coef(0)?.a, coef(1)?.b, coef(0)?.w);
+        }
+        let rb = |l: usize, j: usize| -> Result<&[P; BLOCK], DecodeError> { r[l][j].try_into().map_err(|_| DecodeError::Length) };
+        let f = [rb(0, 0)?, rb(0, 1)?, rb(0, 2)?, rb(0, 3)?];
+        let c1 = [rb(1, 0)?, rb(1, 1)?, rb(1, 2)?, rb(1, 3)?];
+        let c2 = [rb(2, 0)?, rb(2, 1)?, rb(2, 2)?, rb(2, 3)?];
+        let Block { dc, wrapped, mag } = blk;
+        let [w0, w1, w2, ..] = wrapped;
+        let [m0, m1, m2, ..] = mag;
+        let (wf, mf) = if lv[0] == 2 { (w2, m2) } else { return Err(DecodeError::Sequence) };
+        let ((kaf, kbf, kwf), k1, k2) = (k[0], k[1], k[2]);
+        // S and C of a coarser level (not the DC level: a pair's coefficients are ±1, a quad's
+        // regrouped with its positive ½).
+        #[inline(always)]
+        fn coarse<A: Arith, P: Sample, const K: u8>(r: &[&[P; BLOCK]; 4], i: usize, a: A::Acc, (ka, kb, _): (A::Coef, A::Coef, A::Coef)) -> (A::Acc, A::Acc) {
+            let (v0, v1) = (A::input(r[0][i]), A::input(r[1][i]));
+            if K == KIND_PAIR_UNIT {
+                (A::in_minus_acc(v0, a), A::in_minus_acc(v1, a))
+            } else {
+                let (v2, v3) = (A::input(r[2][i]), A::input(r[3][i]));
+                (A::regrouped_product(ka, A::in_sub(v0, v2)), A::regrouped_product(kb, A::in_sub(v1, v3)))
+            }
+        }
+        for i in 0..BLOCK {
+            let (v0, v1, v2, v3) = (A::input(f[0][i]), A::input(f[1][i]), A::input(f[2][i]), A::input(f[3][i]));
+            let a = A::regrouped_product(kwf, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
+            dc[i] = a;
+            let f = (A::regrouped_product(kaf, A::in_sub(v0, v2)), A::regrouped_product(kbf, A::in_sub(v1, v3)));
+            let g = coarse::<A, P, K>(&c1, i, a, k1);
+            let h = coarse::<A, P, K>(&c2, i, a, k2);
+            let (pf, p1, p2) = A::polar_levels3(f, g, h, fmt);
+            (wf[i], mf[i], mo[i]) = pf;
+            (w0[i], m0[i]) = p1;
+            (w1[i], m1[i]) = p2;
+        }
+        Ok(())
     }
 
     /// Fold the samples of image `image` (set order) into the state (the first half of the
@@ -941,11 +1040,11 @@ impl<A: Arith> Decoder<A> {
         let (w, mag) = (&mut wrapped[l], &mut mag[l]);
         for i in 0..BLOCK {
             let (s, c) = A::level_sc(s[i], c[i], ad, bd, dc[i], fmt);
-            let (p, b2) = if FINE { A::polar(s, c) } else { A::polar_coarse(s, c) };
-            w[i] = p;
-            mag[i] = b2;
             if FINE {
-                mo[i] = A::mag_out(b2, fmt);
+                let (p, b2, b) = A::polar_fine(s, c, fmt);
+                (w[i], mag[i], mo[i]) = (p, b2, b);
+            } else {
+                (w[i], mag[i]) = A::polar_coarse(s, c);
             }
         }
     }
@@ -1027,9 +1126,9 @@ impl<A: Arith> Decoder<A> {
         let (ad, bd, fmt) = (self.a_dc[level], self.b_dc[level], &self.format);
         for i in 0..n {
             let (s, c) = A::level_sc(st.s[level][i], st.c[level][i], ad, bd, st.dc[i], fmt);
-            let (w, m) = A::polar(s, c);
+            let (w, _, b) = A::polar_fine(s, c, fmt);
             wrapped[i] = A::phase_out(w);
-            modulation[i] = A::mag_out(m, fmt);
+            modulation[i] = b;
         }
         Ok(())
     }
@@ -1115,6 +1214,32 @@ fn block<T>(row: &[T], range: core::ops::Range<usize>) -> Result<&[T; BLOCK], De
 #[inline(always)]
 fn block_mut<T>(row: &mut [T], range: core::ops::Range<usize>) -> Result<&mut [T; BLOCK], DecodeError> {
     row.get_mut(range).and_then(|r| r.try_into().ok()).ok_or(DecodeError::Length)
+}
+
+/// The largest sample of every pixel of the block at `start` of `N` image rows (the common set
+/// sizes, 8 and 12): every row read side by side, the running maximum in registers. A fold row
+/// by row stores and reloads the running maximum once per row. The maximum of integers does not
+/// depend on the order: the bits of the fold.
+#[inline(always)]
+fn peak_of<P: Sample, const N: usize>(rows: &[&[P]], start: usize) -> Result<[P; BLOCK], DecodeError> {
+    let r = start..start + BLOCK;
+    let first = block(rows.first().copied().unwrap_or(&[]), r.clone())?;
+    let mut b: [&[P; BLOCK]; N] = [first; N];
+    if rows.len() != N {
+        return Err(DecodeError::ImageCount);
+    }
+    for (slot, row) in b.iter_mut().zip(rows) {
+        *slot = block(row, r.clone())?;
+    }
+    let mut peak = *first;
+    for (i, p) in peak.iter_mut().enumerate() {
+        let mut m = b[0][i];
+        for row in &b[1..] {
+            m = row[i].max_of(m);
+        }
+        *p = m;
+    }
+    Ok(peak)
 }
 
 /// The coefficients of one image and the saturation threshold, for [`acc_loop`].

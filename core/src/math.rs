@@ -9,6 +9,8 @@
 pub const PI: f32 = core::f32::consts::PI;
 /// π/2 as f32.
 pub const FRAC_PI_2: f32 = core::f32::consts::FRAC_PI_2;
+/// π/4 as f32.
+pub const FRAC_PI_4: f32 = core::f32::consts::FRAC_PI_4;
 /// 2π as f32.
 pub const TAU: f32 = core::f32::consts::TAU;
 /// 1/(2π) as f32.
@@ -39,25 +41,102 @@ pub const ATAN_FAST_COEFFS: [f32; 5] = [9.998_663_295e-1, -3.303_047_855e-1, 1.8
 
 /// Branch-free four-quadrant arctangent, `atan2(y, x)` in `[-π, π]`.
 ///
-/// Reduces to `t = min(|x|,|y|) / max(|x|,|y|) ∈ [0, 1]`, evaluates [`ATAN_COEFFS`], and folds
-/// back by octant with selects (no data-dependent branches, so a loop over a row vectorizes).
-/// Maximum error against the exact atan2: about 5e-7 rad. `atan2(0, 0)` returns 0; a NaN input
+/// Reduces from the diagonal to `p = (|y| − |x|)/(|y| + |x|) ∈ [−1, 1]`, evaluates the odd
+/// [`ATAN_COEFFS`] there, and folds back with one sign flip: `atan2(|y|, x) = π/2 ± (atan p − π/4)`
+/// ([`unfold`]); no data-dependent branches, so a loop over a row vectorizes. Maximum absolute
+/// error against the exact atan2: 6.5e-7 rad (the unit tests measure it). The error is absolute,
+/// not relative: near 0 the result comes from `π/2 − (π/2 − θ)`. Odd in `y`, zeros included;
+/// `atan2(±0, +0) = ±0`, `atan2(±0, x < 0) = ±π`, `atan2(±0, −0) = ±π` as in IEEE; a NaN input
 /// gives NaN.
 #[inline(always)]
 pub fn atan2(y: f32, x: f32) -> f32 {
-    atan2_fold::<true>(y, x, atan_01)
+    let p = diagonal(y, x).0;
+    unfold::<true>(y, x, atan_11(p))
 }
 
 /// [`atan2`] for finite inputs (the decoder's S and C): the same bits, without the NaN guard.
 /// For a NaN input the result is unspecified (not necessarily NaN).
 #[inline(always)]
 pub fn atan2_finite(y: f32, x: f32) -> f32 {
-    atan2_fold::<false>(y, x, atan_01)
+    let p = diagonal(y, x).0;
+    unfold::<false>(y, x, atan_11(p))
 }
 
-/// [`ATAN_COEFFS`] by Estrin's scheme: `atan(t)` for `t ∈ [0, 1]`.
+/// [`atan2_finite`] and the magnitude `√(y² + x²)` of finite inputs, sharing the reduction: the
+/// decoder's finest level (phase and modulation B) without a square root.
+///
+/// With `p` and `s = |x| + |y|` from the diagonal reduction, `x² + y² = s²·(1 + p²)/2`, so the
+/// magnitude is `s·g(p²)` with `g(u) = √((1 + u)/2)`, a degree-7 polynomial ([`HYPOT_COEFFS`]).
+/// Relative error below 4e-7 (the unit tests measure it); `(0, 0)` gives `(0, 0)`.
 #[inline(always)]
-fn atan_01(t: f32) -> f32 {
+pub fn atan2_hypot_finite(y: f32, x: f32) -> (f32, f32) {
+    let (p, s) = diagonal(y, x);
+    (unfold::<false>(y, x, atan_11(p)), s * hypot_factor(p * p))
+}
+
+/// The decoder's three levels at once (the paper's 8-pattern and the 12-pattern sets): the
+/// finest level's [`atan2_hypot_finite`] and two coarser levels' [`atan2_coarse_finite`], with
+/// every step written for the three side by side.
+///
+/// The same operations on each input as the separate functions, so the same bits. Why: each
+/// arctangent is a long dependency chain (division, polynomial, folding); one after the other in
+/// program order, the chain of the first fills the out-of-order core's scheduler while the next
+/// has not yet been fetched. Side by side, the core always finds independent work.
+#[inline(always)]
+pub fn atan2_levels3_finite(fine: (f32, f32), c1: (f32, f32), c2: (f32, f32)) -> ((f32, f32), f32, f32) {
+    let (pf, sf) = diagonal(fine.0, fine.1);
+    let (p1, _) = diagonal(c1.0, c1.1);
+    let (p2, _) = diagonal(c2.0, c2.1);
+    let af = atan_11(pf);
+    let a1 = atan_coarse_11(p1);
+    let a2 = atan_coarse_11(p2);
+    let rf = unfold::<false>(fine.0, fine.1, af);
+    let r1 = unfold::<false>(c1.0, c1.1, a1);
+    let r2 = unfold::<false>(c2.0, c2.1, a2);
+    ((rf, sf * hypot_factor(pf * pf)), r1, r2)
+}
+
+/// [`ATAN_COARSE_COEFFS`] by Horner's rule, `p ∈ [−1, 1]`.
+#[inline(always)]
+fn atan_coarse_11(p: f32) -> f32 {
+    let s = p * p;
+    let c = &ATAN_COARSE_COEFFS;
+    ((c[2] * s + c[1]) * s + c[0]) * p
+}
+
+/// Coefficients (lowest first) of the minimax polynomial `g(u) ≈ √((1 + u)/2)` on `u ∈ [0, 1]`,
+/// degree 7, relative error ([`atan2_hypot_finite`]).
+///
+/// Fitted by a Remez exchange (`tools/fit_hypot.py`). Maximum relative error of the polynomial
+/// 2.0e-8; evaluated in f32 by Estrin's scheme 2.0e-7.
+#[allow(clippy::excessive_precision)] // the fit's digits, rounded to f32 by the compiler
+pub const HYPOT_COEFFS: [f32; 8] = [
+    7.071_067_956e-1,
+    3.535_512_998e-1,
+    -8.833_876_169e-2,
+    4.374_242_113e-2,
+    -2.554_466_971e-2,
+    1.383_619_586e-2,
+    -5.371_839_823e-3,
+    1.018_579_172e-3,
+];
+
+/// [`HYPOT_COEFFS`] by Estrin's scheme: `√((1 + u)/2)` for `u ∈ [0, 1]`.
+#[inline(always)]
+fn hypot_factor(u: f32) -> f32 {
+    let c = &HYPOT_COEFFS;
+    let u2 = u * u;
+    let u4 = u2 * u2;
+    let p01 = c[1] * u + c[0];
+    let p23 = c[3] * u + c[2];
+    let p45 = c[5] * u + c[4];
+    let p67 = c[7] * u + c[6];
+    (p23 * u2 + p01) + (p67 * u2 + p45) * u4
+}
+
+/// [`ATAN_COEFFS`] by Estrin's scheme: `atan(p)` for `p ∈ [−1, 1]` (the polynomial is odd).
+#[inline(always)]
+fn atan_11(t: f32) -> f32 {
     let s = t * t;
     let c = &ATAN_COEFFS;
     // Estrin's scheme: the same polynomial with a dependency chain of 4 multiply-adds instead of
@@ -76,18 +155,20 @@ fn atan_01(t: f32) -> f32 {
 /// multiply-adds fewer than [`atan2`]. Same special values as [`atan2`].
 #[inline(always)]
 pub fn atan2_fast(y: f32, x: f32) -> f32 {
-    atan2_fold::<true>(y, x, atan_fast_01)
+    let p = diagonal(y, x).0;
+    unfold::<true>(y, x, atan_fast_11(p))
 }
 
 /// [`atan2_fast`] for finite inputs: the same bits, without the NaN guard (see [`atan2_finite`]).
 #[inline(always)]
 pub fn atan2_fast_finite(y: f32, x: f32) -> f32 {
-    atan2_fold::<false>(y, x, atan_fast_01)
+    let p = diagonal(y, x).0;
+    unfold::<false>(y, x, atan_fast_11(p))
 }
 
-/// [`ATAN_FAST_COEFFS`] by Horner's rule.
+/// [`ATAN_FAST_COEFFS`] by Horner's rule, `p ∈ [−1, 1]`.
 #[inline(always)]
-fn atan_fast_01(t: f32) -> f32 {
+fn atan_fast_11(t: f32) -> f32 {
     let s = t * t;
     let c = &ATAN_FAST_COEFFS;
     let p = ((((c[4] * s + c[3]) * s + c[2]) * s + c[1]) * s) + c[0];
@@ -109,34 +190,43 @@ pub const ATAN_COARSE_COEFFS: [f32; 3] = [9.953_579_548e-1, -2.886_902_381e-1, 7
 /// 2π/3 and noise of 0.6 rad at B/σ = 14).
 #[inline(always)]
 pub fn atan2_coarse_finite(y: f32, x: f32) -> f32 {
-    atan2_fold::<false>(y, x, |t| {
-        let s = t * t;
-        let c = &ATAN_COARSE_COEFFS;
-        ((c[2] * s + c[1]) * s + c[0]) * t
-    })
+    let p = diagonal(y, x).0;
+    unfold::<false>(y, x, atan_coarse_11(p))
 }
 
-/// The octant reduction and folding shared by the arctangents: `atan_01(t)` approximates
-/// `atan(t)` for `t ∈ [0, 1]`; `NAN_GUARD` makes NaN inputs give NaN.
+/// The sign bit of an f32.
+const SIGN: u32 = 0x8000_0000;
+
+/// The reduction shared by the arctangents and [`atan2_hypot_finite`]: `p = (|y| − |x|)/(|y| +
+/// |x|) ∈ [−1, 1]` and `|y| + |x|`. One division; `|p| ≤ 1` holds after rounding too (rounding
+/// is monotonic and `||y| − |x|| ≤ |y| + |x|`). `p` is NaN only for 0/0 (both inputs zero, or a
+/// NaN input): the comparison takes `p = −1` then (one `max` instruction on x86), so that
+/// `atan2(±0, +0) = ±0` and `atan2(±0, −0) = ±π`.
 #[inline(always)]
-fn atan2_fold<const NAN_GUARD: bool>(y: f32, x: f32, atan_01: impl Fn(f32) -> f32) -> f32 {
-    let ax = fabs(x);
-    let ay = fabs(y);
-    let hi = if ax > ay { ax } else { ay };
-    let lo = if ax > ay { ay } else { ax };
-    // lo/hi is NaN only for 0/0 (both inputs zero; the NaN inputs are handled below): the
-    // comparison takes t = 0 then, and the result is 0. One `max` instruction on x86.
-    let q = lo / hi;
-    let t = if q > 0.0 { q } else { 0.0 };
-    let r = atan_01(t);
-    // (Written as masked sign flips plus masked constants, these two folds take fewer SSE2
-    // instructions but 5 % more time with AVX-512, whose selects are single instructions.)
-    let r = if ay > ax { FRAC_PI_2 - r } else { r };
-    let r = if x < 0.0 { PI - r } else { r };
-    // NaN inputs fail every comparison above; make sure they come out as NaN.
+fn diagonal(y: f32, x: f32) -> (f32, f32) {
+    let (ax, ay) = (fabs(x), fabs(y));
+    let sum = ay + ax;
+    let p = (ay - ax) / sum;
+    (if p > -1.0 { p } else { -1.0 }, sum)
+}
+
+/// The folding shared by the arctangents: `atan2(y, x)` from `a ≈ atan p` of the [`diagonal`].
+///
+/// `atan2(|y|, |x|) = π/4 + atan p`, and for `x < 0` (sign bit set) π minus that, so
+/// `atan2(|y|, x) = π/2 + (atan p − π/4)` with the sign of the bracket flipped by the sign of
+/// `x`: one exclusive or, no selects. The result is clamped to `[0, π]` (two `max`/`min`
+/// instructions): a polynomial's error at `p = ±1` could otherwise leave it an ulp outside, or
+/// give `−ε` instead of `+0` on the positive x axis. The sign of `y` is or-ed in last (that is
+/// `copysign`, the result being ≥ +0), which makes the function odd in `y`. `NAN_GUARD` makes NaN
+/// inputs give NaN.
+#[inline(always)]
+fn unfold<const NAN_GUARD: bool>(y: f32, x: f32, a: f32) -> f32 {
+    let u = a - FRAC_PI_4;
+    let r = FRAC_PI_2 + f32::from_bits(u.to_bits() ^ (x.to_bits() & SIGN));
+    let r = if r > 0.0 { r } else { 0.0 };
+    let r = if r < PI { r } else { PI };
     let r = if NAN_GUARD && (x.is_nan() || y.is_nan()) { f32::NAN } else { r };
-    // r ≥ +0 here (or NaN): or-ing in the sign of y is `copysign`.
-    f32::from_bits(r.to_bits() | (y.to_bits() & 0x8000_0000))
+    f32::from_bits(r.to_bits() | (y.to_bits() & SIGN))
 }
 
 /// Fast square root of a finite `x ≥ 0` (the [`crate::arith::F32Fast`] backend's modulation):
@@ -146,22 +236,6 @@ fn atan2_fold<const NAN_GUARD: bool>(y: f32, x: f32, atan_01: impl Fn(f32) -> f3
 pub fn sqrt_fast(x: f32) -> f32 {
     let y = f32::from_bits(0x5f37_5a86u32.wrapping_sub(x.to_bits() >> 1));
     let h = 0.5 * x;
-    let y = y * (1.5 - h * y * y);
-    let y = y * (1.5 - h * y * y);
-    x * y
-}
-
-/// Square root of a finite `x ≥ 0` to within 3 ulp (relative error below 4e-7), in plain f32
-/// `* -`: [`sqrt_fast`]'s estimate refined by three Newton steps instead of two. The default
-/// decoder's modulation output: it vectorizes in f32 lanes (a correctly rounded root either is a
-/// scalar instruction behind inline assembly, `libm::sqrtf` on x86, or needs f64 lanes,
-/// [`sqrt`], at three times the cost), and it is the same arithmetic on every target.
-/// `sqrt_newton(0) = 0`; +∞ and NaN give NaN.
-#[inline(always)]
-pub fn sqrt_newton(x: f32) -> f32 {
-    let y = f32::from_bits(0x5f37_5a86u32.wrapping_sub(x.to_bits() >> 1));
-    let h = 0.5 * x;
-    let y = y * (1.5 - h * y * y);
     let y = y * (1.5 - h * y * y);
     let y = y * (1.5 - h * y * y);
     x * y
@@ -270,6 +344,98 @@ mod tests {
         assert!(sqrt(f32::NAN).is_nan());
         assert_eq!(sqrt(4.0), 2.0);
         assert_eq!(sqrt(2.0), core::f32::consts::SQRT_2);
+    }
+
+    /// Inputs over every quadrant and many magnitudes: a grid of angles (the axes and diagonals
+    /// included) times radii from 1e-3 to 1e5, plus pseudo-random pairs.
+    fn atan2_inputs() -> impl Iterator<Item = (f32, f32)> {
+        let grid = (0..20_000).flat_map(|k| {
+            let th = -core::f64::consts::PI + core::f64::consts::TAU * k as f64 / 20_000.0;
+            [1e-3f64, 0.7, 1.0, 255.0, 1e5].into_iter().map(move |r| ((r * libm::sin(th)) as f32, (r * libm::cos(th)) as f32))
+        });
+        let mut z = 0x2545_f491_4f6c_dd1du64;
+        let random = (0..200_000).map(move |_| {
+            z ^= z << 13;
+            z ^= z >> 7;
+            z ^= z << 17;
+            let y = ((z & 0xffff) as f32 - 32768.0) / 64.0;
+            let x = (((z >> 16) & 0xffff) as f32 - 32768.0) / 64.0;
+            (y, x)
+        });
+        grid.chain(random)
+    }
+
+    /// The largest absolute error of `f` against the f64 `atan2` over [`atan2_inputs`].
+    fn atan2_error(f: impl Fn(f32, f32) -> f32) -> f64 {
+        atan2_inputs().map(|(y, x)| libm::fabs(f(y, x) as f64 - libm::atan2(y as f64, x as f64))).fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn arctangents_meet_their_error_bounds() {
+        for (name, f, bound) in [
+            ("atan2", atan2 as fn(f32, f32) -> f32, 6.5e-7),
+            ("atan2_finite", atan2_finite, 6.5e-7),
+            ("atan2_fast", atan2_fast, 1.3e-5),
+            ("atan2_coarse_finite", atan2_coarse_finite, 6.2e-4),
+        ] {
+            let e = atan2_error(f);
+            assert!(e < bound, "{name}: {e:e} rad");
+        }
+    }
+
+    #[test]
+    fn arctangents_special_values_and_symmetry() {
+        let fs: [fn(f32, f32) -> f32; 4] = [atan2, atan2_finite, atan2_fast, atan2_coarse_finite];
+        for f in fs {
+            // The axes exactly, and the signed zeros as IEEE atan2.
+            assert_eq!(f(0.0, 1.0).to_bits(), 0.0f32.to_bits());
+            assert_eq!(f(-0.0, 1.0).to_bits(), (-0.0f32).to_bits());
+            assert_eq!(f(0.0, 0.0).to_bits(), 0.0f32.to_bits());
+            assert_eq!(f(-0.0, 0.0).to_bits(), (-0.0f32).to_bits());
+            assert_eq!(f(0.0, -1.0), PI);
+            assert_eq!(f(-0.0, -1.0), -PI);
+            assert_eq!(f(0.0, -0.0), PI);
+            assert_eq!(f(-0.0, -0.0), -PI);
+            assert!(libm::fabsf(f(1.0, 0.0) - FRAC_PI_2) < 1e-3);
+            assert!(libm::fabsf(f(-1.0, -0.0) + FRAC_PI_2) < 1e-3);
+            // Odd in y, bit for bit, and never outside [−π, π].
+            for (y, x) in atan2_inputs().step_by(7) {
+                let (a, b) = (f(y, x), f(-y, x));
+                assert_eq!(a.to_bits(), (-b).to_bits(), "({y}, {x})");
+                assert!(fabs(a) <= PI, "({y}, {x}): {a}");
+            }
+        }
+        for (y, x) in [(f32::NAN, 1.0), (1.0, f32::NAN), (f32::NAN, f32::NAN)] {
+            assert!(atan2(y, x).is_nan());
+            assert!(atan2_fast(y, x).is_nan());
+        }
+    }
+
+    #[test]
+    fn hypot_of_the_reduction_meets_its_bound() {
+        let mut worst = 0.0f64;
+        for (y, x) in atan2_inputs() {
+            let (p, b) = atan2_hypot_finite(y, x);
+            assert_eq!(p.to_bits(), atan2_finite(y, x).to_bits());
+            let want = libm::hypot(y as f64, x as f64);
+            worst = worst.max(libm::fabs(b as f64 - want) / want);
+        }
+        assert!(worst < 4e-7, "relative error {worst:e}");
+        assert_eq!(atan2_hypot_finite(0.0, 0.0), (0.0, 0.0));
+        assert_eq!(atan2_hypot_finite(-0.0, -3.0).1, 3.0);
+    }
+
+    #[test]
+    fn three_levels_side_by_side_are_the_separate_functions() {
+        let mut w = [(1.0f32, 0.0f32); 3];
+        for next in atan2_inputs().step_by(3) {
+            w = [w[1], w[2], next];
+            let ((p, b), c1, c2) = atan2_levels3_finite(w[0], w[1], w[2]);
+            let (pw, bw) = atan2_hypot_finite(w[0].0, w[0].1);
+            assert_eq!((p.to_bits(), b.to_bits()), (pw.to_bits(), bw.to_bits()));
+            assert_eq!(c1.to_bits(), atan2_coarse_finite(w[1].0, w[1].1).to_bits());
+            assert_eq!(c2.to_bits(), atan2_coarse_finite(w[2].0, w[2].1).to_bits());
+        }
     }
 
     /// Every non-negative f32, +∞ and the positive NaNs (about 10 s optimised).

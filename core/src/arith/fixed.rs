@@ -308,8 +308,10 @@ impl Arith for Fixed {
     }
 
     #[inline(always)]
-    fn mag_out(m: u32, format: &FixedFormat) -> f32 {
-        m as f32 * format.inv_scale
+    fn polar_fine(s: i32, c: i32, format: &FixedFormat) -> (I8F24, u32, f32) {
+        let (p, m) = Self::polar(s, c);
+        // B in camera codes: one correctly rounded conversion, an exact power-of-two scale.
+        (p, m, m as f32 * format.inv_scale)
     }
 
     #[inline(always)]

@@ -6,13 +6,14 @@ use crate::decode::{DecodeError, Sample};
 use crate::math;
 use crate::unwrap::{consistent, unwrap_step};
 
-/// The default backend: f32 accumulators, [`math::atan2`] (degree-13 polynomial, 5e-7 rad) for
-/// the finest level, [`math::atan2_coarse_finite`] (degree 5, 6.1e-4 rad) for the coarser ones,
-/// whose phase only picks fringe orders, and [`math::sqrt_newton`] (≤ 3 ulp) for the modulation.
+/// The default backend: f32 accumulators, [`math::atan2`] (degree-13 polynomial, 6.5e-7 rad) for
+/// the finest level, [`math::atan2_coarse_finite`] (degree 5, 6.2e-4 rad) for the coarser ones,
+/// whose phase only picks fringe orders, and the modulation from the finest arctangent's
+/// reduction without a square root ([`math::atan2_hypot_finite`], 4e-7 relative).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct F32Accurate;
 
-/// Fast f32: [`math::atan2_fast`] (degree-9 polynomial, 1.2e-5 rad) and [`math::sqrt_fast`]
+/// Fast f32: [`math::atan2_fast`] (degree-9 polynomial, 1.3e-5 rad) and [`math::sqrt_fast`]
 /// (Newton reciprocal square root, no division, 5e-6 relative). Everything else as
 /// [`F32Accurate`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -39,8 +40,15 @@ pub trait FloatKernels: Sealed + Copy + core::fmt::Debug + PartialEq + Default +
     fn atan2_coarse(y: f32, x: f32) -> f32 {
         Self::atan2(y, x)
     }
-    /// Square root of a finite non-negative value.
-    fn sqrt(x: f32) -> f32;
+    /// [`Self::atan2`] and `√(y² + x²)` of finite inputs: the finest level's phase and
+    /// modulation B ([`Arith::polar_fine`]).
+    fn atan2_hypot(y: f32, x: f32) -> (f32, f32);
+    /// [`Self::atan2_hypot`] of `fine` and [`Self::atan2_coarse`] of `c1` and `c2`
+    /// ([`Arith::polar_levels3`]), side by side where a backend has written them so.
+    #[inline(always)]
+    fn atan2_levels3(fine: (f32, f32), c1: (f32, f32), c2: (f32, f32)) -> ((f32, f32), f32, f32) {
+        (Self::atan2_hypot(fine.0, fine.1), Self::atan2_coarse(c1.0, c1.1), Self::atan2_coarse(c2.0, c2.1))
+    }
 }
 
 impl Sealed for F32Accurate {}
@@ -60,8 +68,12 @@ impl FloatKernels for F32Accurate {
         math::atan2_coarse_finite(y, x)
     }
     #[inline(always)]
-    fn sqrt(x: f32) -> f32 {
-        math::sqrt_newton(x)
+    fn atan2_hypot(y: f32, x: f32) -> (f32, f32) {
+        math::atan2_hypot_finite(y, x)
+    }
+    #[inline(always)]
+    fn atan2_levels3(fine: (f32, f32), c1: (f32, f32), c2: (f32, f32)) -> ((f32, f32), f32, f32) {
+        math::atan2_levels3_finite(fine, c1, c2)
     }
 }
 
@@ -76,8 +88,8 @@ impl FloatKernels for F32Fast {
         math::atan2_coarse_finite(y, x)
     }
     #[inline(always)]
-    fn sqrt(x: f32) -> f32 {
-        math::sqrt_fast(x)
+    fn atan2_hypot(y: f32, x: f32) -> (f32, f32) {
+        (math::atan2_fast_finite(y, x), math::sqrt_fast(y * y + x * x))
     }
 }
 
@@ -89,8 +101,8 @@ impl FloatKernels for F32Micromath {
         micromath::F32::atan2(micromath::F32(y), micromath::F32(x)).0
     }
     #[inline(always)]
-    fn sqrt(x: f32) -> f32 {
-        micromath::F32::sqrt(micromath::F32(x)).0
+    fn atan2_hypot(y: f32, x: f32) -> (f32, f32) {
+        (Self::atan2(y, x), micromath::F32::sqrt(micromath::F32(y * y + x * x)).0)
     }
 }
 
@@ -197,6 +209,19 @@ impl<K: FloatKernels> Arith for K {
     }
 
     #[inline(always)]
+    fn polar_fine(s: f32, c: f32, _format: &()) -> (f32, f32, f32) {
+        let (p, b) = K::atan2_hypot(s, c);
+        (p, s * s + c * c, b)
+    }
+
+    #[inline(always)]
+    fn polar_levels3(fine: (f32, f32), c1: (f32, f32), c2: (f32, f32), _format: &()) -> ((f32, f32, f32), (f32, f32), (f32, f32)) {
+        let ((pf, b), p1, p2) = K::atan2_levels3(fine, c1, c2);
+        let m = |(s, c): (f32, f32)| s * s + c * c;
+        ((pf, m(fine), b), (p1, m(c1)), (p2, m(c2)))
+    }
+
+    #[inline(always)]
     fn min_mag(m: f32, current: f32) -> f32 {
         if m < current { m } else { current }
     }
@@ -231,10 +256,6 @@ impl<K: FloatKernels> Arith for K {
         p
     }
 
-    #[inline(always)]
-    fn mag_out(m: f32, _format: &()) -> f32 {
-        K::sqrt(m)
-    }
 
     #[inline(always)]
     fn dc_out(a: f32, _format: &()) -> f32 {

@@ -10,8 +10,8 @@
 //!
 //! | backend | accumulators | `atan2` | modulation | unwrapping | for |
 //! |---|---|---|---|---|---|
-//! | [`F32Accurate`] (default) | f32 | degree-13 polynomial ([`crate::math::atan2`], 5e-7 rad); coarser levels degree 5 ([`crate::math::atan2_coarse_finite`]) | [`crate::math::sqrt_newton`] (≤ 3 ulp, vectorizes) | radians, f32 | desktop, FPU heads |
-//! | [`F32Fast`] | f32 | degree-9 polynomial ([`crate::math::atan2_fast`], 1.2e-5 rad) | Newton `rsqrt` ([`crate::math::sqrt_fast`]) | radians, f32 | FPU heads short of time |
+//! | [`F32Accurate`] (default) | f32 | degree-13 polynomial ([`crate::math::atan2`], 6.5e-7 rad); coarser levels degree 5 ([`crate::math::atan2_coarse_finite`]) | from the arctangent's reduction, no square root ([`crate::math::atan2_hypot_finite`], 4e-7 relative) | radians, f32 | desktop, FPU heads |
+//! | [`F32Fast`] | f32 | degree-9 polynomial ([`crate::math::atan2_fast`], 1.3e-5 rad) | Newton `rsqrt` ([`crate::math::sqrt_fast`]) | radians, f32 | FPU heads short of time |
 //! | [`F32Micromath`] | f32 | `micromath` (2.8e-3 rad) | `micromath` (≈ 5 %) | radians, f32 | comparison only |
 //! | [`Fixed`] | i32, Q format per decoder | 24-step CORDIC ([`cordic_atan2`], 2.5e-7 rad) | CORDIC magnitude | turns, `I8F24` | FPU-less heads (Cortex-M0/M3), FPGA reference |
 //!
@@ -205,6 +205,23 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     fn polar_coarse(s: Self::Acc, c: Self::Acc) -> (Self::Phase, Self::Mag) {
         Self::polar(s, c)
     }
+    /// [`Self::polar`] for the finest level, whose modulation B is an output: the phase, the
+    /// measure and B in camera codes ([`F32Accurate`] computes B from the arctangent's reduction
+    /// without a square root, [`crate::math::atan2_hypot_finite`]).
+    fn polar_fine(s: Self::Acc, c: Self::Acc, format: &Self::Format) -> (Self::Phase, Self::Mag, f32);
+    /// [`Self::polar_fine`] of the finest level and [`Self::polar_coarse`] of two coarser ones,
+    /// for the row driver's fused pass over three levels; a backend may interleave the three
+    /// computations (the same bits as the separate calls).
+    #[inline(always)]
+    #[allow(clippy::type_complexity)]
+    fn polar_levels3(
+        fine: (Self::Acc, Self::Acc),
+        c1: (Self::Acc, Self::Acc),
+        c2: (Self::Acc, Self::Acc),
+        format: &Self::Format,
+    ) -> ((Self::Phase, Self::Mag, f32), (Self::Phase, Self::Mag), (Self::Phase, Self::Mag)) {
+        (Self::polar_fine(fine.0, fine.1, format), Self::polar_coarse(c1.0, c1.1), Self::polar_coarse(c2.0, c2.1))
+    }
     /// The smaller of two measures (the first if they are unordered).
     fn min_mag(m: Self::Mag, current: Self::Mag) -> Self::Mag;
     /// `lo ≤ w ≤ hi`.
@@ -222,8 +239,6 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
 
     /// A phase in radians.
     fn phase_out(p: Self::Phase) -> f32;
-    /// A modulation B in camera codes.
-    fn mag_out(m: Self::Mag, format: &Self::Format) -> f32;
     /// A DC term A in camera codes.
     fn dc_out(a: Self::Acc, format: &Self::Format) -> f32;
 }
