@@ -26,8 +26,9 @@
 //! order from +0 (a skipped zero product adds ±0, which changes no sum that is never −0), and the
 //! rest is the same code, so both give the same bits. For the two common three-level structures
 //! (the paper's 8-pattern set and the 12-pattern set) the row driver's pass 1 computes all three
-//! levels in one loop with their arctangents side by side ([`crate::math::atan2_levels3_finite`]),
-//! the same operations per pixel.
+//! levels in one loop with their arctangents side by side ([`crate::math::atan2_levels3_lanes`]),
+//! and pass 2 computes two or four pixels side by side ([`Decoder::decode_row_lanes`]): the
+//! same operations per pixel in another order.
 //!
 //! # Arithmetic
 //! The kernel is generic over an [`Arith`] backend ([`crate::arith`]): f32 with the accurate
@@ -342,6 +343,11 @@ pub struct Decoder<A: Arith = F32Accurate> {
     fused: u8,
 }
 
+/// Pixels side by side in [`Decoder::fused_rows`] (pass 1 of the paper's and the 12-pattern
+/// sets): pixel `j` of each of the block's `FUSED_LANES` parts per iteration. Four vectorize on
+/// SSE2, AVX2 and AVX-512 alike.
+const FUSED_LANES: usize = 4;
+
 /// [`Decoder`]'s `fused`: one loop per level.
 const FUSED_NONE: u8 = 0;
 /// [`Decoder`]'s `fused`: the paper's 8-pattern structure (4-step finest level, two 2-image levels).
@@ -590,6 +596,17 @@ impl<A: Arith> Decoder<A> {
     /// [`Self::finish`]) computes the same values in the same order: the same bits.
     #[inline(always)]
     pub fn decode_row_with<P: Sample>(&self, scratch: &mut DecodeScratch<A>, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
+        self.decode_row_lanes::<P, 2>(scratch, rows, out)
+    }
+
+    /// [`Self::decode_row_with`] with the finishing pass (pass 2) computing `N` pixels side by
+    /// side (`N` = 1, 2 or 4; [`Self::decode_row_with`] takes 2). The lane count only orders the
+    /// work: every `N` gives the same bits. It is a scheduling choice for the vector width the
+    /// caller is compiled for: with 16-byte vectors (SSE2) four independent unwrapping chains
+    /// per iteration run 8 % faster than two, while the AVX2 and AVX-512 builds of four lanes do
+    /// not vectorize (LLVM 20) and take 2-4× longer; the host's batch path picks per ISA.
+    #[inline(always)]
+    pub fn decode_row_lanes<P: Sample, const N: usize>(&self, scratch: &mut DecodeScratch<A>, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
         if rows.len() != self.n_images {
             return Err(DecodeError::ImageCount);
         }
@@ -601,7 +618,7 @@ impl<A: Arith> Decoder<A> {
             return Ok(());
         }
         if w < BLOCK {
-            return self.decode_short_row(scratch, rows, out);
+            return self.decode_short_row::<P, N>(scratch, rows, out);
         }
         let RowOut { phase, modulation, dc, validity } = out;
         let blk = &mut scratch.0;
@@ -617,7 +634,7 @@ impl<A: Arith> Decoder<A> {
                 dc: block_mut(dc, r.clone())?,
                 validity: block_mut(validity, r.clone())?,
             };
-            self.decode_block(blk, rows, start, out)?;
+            self.decode_block::<P, N>(blk, rows, start, out)?;
             if start + BLOCK == w {
                 return Ok(());
             }
@@ -627,7 +644,7 @@ impl<A: Arith> Decoder<A> {
 
     /// A row shorter than [`BLOCK`]: copied into a padded block (the padding decodes to values
     /// that are dropped).
-    fn decode_short_row<P: Sample>(&self, scratch: &mut DecodeScratch<A>, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
+    fn decode_short_row<P: Sample, const N: usize>(&self, scratch: &mut DecodeScratch<A>, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
         let n = out.phase.len();
         let first = rows.first().and_then(|r| r.first()).copied().ok_or(DecodeError::Length)?;
         let mut padded = [[first; BLOCK]; MAX_IMAGES];
@@ -639,7 +656,7 @@ impl<A: Arith> Decoder<A> {
         let (mut ph, mut mo, mut dc) = ([0.0f32; BLOCK], [0.0f32; BLOCK], [0.0f32; BLOCK]);
         let mut va = [0u8; BLOCK];
         let o = BlockOut { phase: &mut ph, modulation: &mut mo, dc: &mut dc, validity: &mut va };
-        self.decode_block(&mut scratch.0, &refs[..rows.len()], 0, o)?;
+        self.decode_block::<P, N>(&mut scratch.0, &refs[..rows.len()], 0, o)?;
         out.phase.copy_from_slice(&ph[..n]);
         out.modulation.copy_from_slice(&mo[..n]);
         out.dc.copy_from_slice(&dc[..n]);
@@ -654,7 +671,7 @@ impl<A: Arith> Decoder<A> {
     /// image rows ([`Self::level_from_rows`]); pass 2, the unwrapping and validity
     /// ([`Self::unwrap_block`]).
     #[inline(always)]
-    fn decode_block<P: Sample>(&self, blk: &mut Block<A>, rows: &[&[P]], start: usize, out: BlockOut<'_>) -> Result<(), DecodeError> {
+    fn decode_block<P: Sample, const N: usize>(&self, blk: &mut Block<A>, rows: &[&[P]], start: usize, out: BlockOut<'_>) -> Result<(), DecodeError> {
         let peak = match rows.len() {
             8 => peak_of::<P, 8>(rows, start)?,
             12 => peak_of::<P, 12>(rows, start)?,
@@ -682,7 +699,7 @@ impl<A: Arith> Decoder<A> {
             }
         }
         let sat = self.limits.saturation;
-        self.unwrap_block(blk, &peak, |p| A::saturated(A::input(p), sat), out);
+        self.unwrap_block::<P, N>(blk, &peak, |p| A::saturated(A::input(p), sat), out);
         Ok(())
     }
 
@@ -842,15 +859,17 @@ impl<A: Arith> Decoder<A> {
     /// 8-pattern set, or [`KIND_QUAD_EXACT`]: the 12-pattern set).
     ///
     /// Each pixel's operations are those of [`Self::level_rows_exact`] for each level, in the
-    /// same order: the same bits. What changes is that the three levels' arctangents are
-    /// independent chains in one loop body, which the core overlaps (per-level loops ran at the
-    /// latency of one chain), and A stays in a register for the coarser levels.
+    /// same order: the same bits. What changes is the order: each iteration takes pixel `j` of
+    /// each of the block's [`FUSED_LANES`] parts, and the arctangents of the three levels of
+    /// those pixels are written step by step side by side ([`Arith::polar_levels3_lanes`]).
+    /// An arctangent is a long dependency chain (division, polynomial, folding); one loop per
+    /// level ran at the latency of one chain, twelve independent chains keep the core busy.
     #[inline(always)]
     fn fused_rows<P: Sample, const K: u8>(&self, rows: &[&[P]], start: usize, blk: &mut Block<A>, mo: &mut [f32; BLOCK]) -> Result<(), DecodeError> {
         let range = start..start + BLOCK;
         let fmt = &self.format;
-        // Levels: [finest (DC), then the two coarser ones].
-        let lv = [self.n_levels - 1, 0, 1];
+        // Levels: the finest (the DC level, level 2 of the three), then the two coarser ones.
+        let lv = [2, 0, 1];
         let mut r = [[&[] as &[P]; 4]; 3];
         let mut k = [(A::COEF_ZERO, A::COEF_ZERO, A::COEF_ZERO); 3];
         for (slot, (kslot, &l)) in r.iter_mut().zip(k.iter_mut().zip(&lv)) {
@@ -869,7 +888,7 @@ impl<A: Arith> Decoder<A> {
         let Block { dc, wrapped, mag } = blk;
         let [w0, w1, w2, ..] = wrapped;
         let [m0, m1, m2, ..] = mag;
-        let (wf, mf) = if lv[0] == 2 { (w2, m2) } else { return Err(DecodeError::Sequence) };
+        let (wf, mf) = (w2, m2);
         let ((kaf, kbf, kwf), k1, k2) = (k[0], k[1], k[2]);
         // S and C of a coarser level (not the DC level: a pair's coefficients are ±1, a quad's
         // regrouped with its positive ½).
@@ -883,17 +902,27 @@ impl<A: Arith> Decoder<A> {
                 (A::regrouped_product(ka, A::in_sub(v0, v2)), A::regrouped_product(kb, A::in_sub(v1, v3)))
             }
         }
-        for i in 0..BLOCK {
-            let (v0, v1, v2, v3) = (A::input(f[0][i]), A::input(f[1][i]), A::input(f[2][i]), A::input(f[3][i]));
-            let a = A::regrouped_product(kwf, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
-            dc[i] = a;
-            let f = (A::regrouped_product(kaf, A::in_sub(v0, v2)), A::regrouped_product(kbf, A::in_sub(v1, v3)));
-            let g = coarse::<A, P, K>(&c1, i, a, k1);
-            let h = coarse::<A, P, K>(&c2, i, a, k2);
-            let (pf, p1, p2) = A::polar_levels3(f, g, h, fmt);
-            (wf[i], mf[i], mo[i]) = pf;
-            (w0[i], m0[i]) = p1;
-            (w1[i], m1[i]) = p2;
+        const NL: usize = FUSED_LANES;
+        for j in 0..BLOCK / NL {
+            let ix: [usize; NL] = core::array::from_fn(|k| j + k * (BLOCK / NL));
+            let (mut ff, mut g, mut h) = ([(A::ZERO, A::ZERO); NL], [(A::ZERO, A::ZERO); NL], [(A::ZERO, A::ZERO); NL]);
+            for k in 0..NL {
+                let i = ix[k];
+                let (v0, v1, v2, v3) = (A::input(f[0][i]), A::input(f[1][i]), A::input(f[2][i]), A::input(f[3][i]));
+                let a = A::regrouped_product(kwf, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
+                dc[i] = a;
+                ff[k] = (A::regrouped_product(kaf, A::in_sub(v0, v2)), A::regrouped_product(kbf, A::in_sub(v1, v3)));
+                g[k] = coarse::<A, P, K>(&c1, i, a, k1);
+                h[k] = coarse::<A, P, K>(&c2, i, a, k2);
+            }
+            let r = A::polar_levels3_lanes(ff, g, h, fmt);
+            for k in 0..NL {
+                let i = ix[k];
+                let (pf, p1, p2) = r[k];
+                (wf[i], mf[i], mo[i]) = pf;
+                (w0[i], m0[i]) = p1;
+                (w1[i], m1[i]) = p2;
+            }
         }
         Ok(())
     }
@@ -988,7 +1017,7 @@ impl<A: Arith> Decoder<A> {
             for l in 0..self.n_levels {
                 self.polar_into(l, &pad(st.s[l]), &pad(st.c[l]), &mut blk, &mut mo);
             }
-            self.unwrap_block(&blk, &sat_b, &saturated, BlockOut { phase: &mut ph, modulation: &mut mo, dc: &mut dc, validity: &mut va });
+            self.unwrap_block::<T, 2>(&blk, &sat_b, &saturated, BlockOut { phase: &mut ph, modulation: &mut mo, dc: &mut dc, validity: &mut va });
             out.phase.copy_from_slice(&ph[..n]);
             out.modulation.copy_from_slice(&mo[..n]);
             out.dc.copy_from_slice(&dc[..n]);
@@ -1010,7 +1039,7 @@ impl<A: Arith> Decoder<A> {
                 dc: block_mut(out.dc, r.clone())?,
                 validity: block_mut(out.validity, r.clone())?,
             };
-            self.unwrap_block(&blk, block(sat, r)?, &saturated, o);
+            self.unwrap_block::<T, 2>(&blk, block(sat, r)?, &saturated, o);
             if start + BLOCK == n {
                 return Ok(());
             }
@@ -1057,60 +1086,84 @@ impl<A: Arith> Decoder<A> {
     /// independent iterations an out-of-order core overlaps; one fused body (arctangents →
     /// unwrapping → validity, ~300 instructions per vector) ran at the latency of its chain.
     #[inline(always)]
-    fn unwrap_block<T: Copy>(&self, blk: &Block<A>, sat: &[T; BLOCK], saturated: impl Fn(T) -> bool, out: BlockOut<'_>) {
+    fn unwrap_block<T: Copy, const N: usize>(&self, blk: &Block<A>, sat: &[T; BLOCK], saturated: impl Fn(T) -> bool, out: BlockOut<'_>) {
         match self.n_levels {
-            1 => self.unwrap_levels::<1, T>(blk, sat, saturated, out),
-            2 => self.unwrap_levels::<2, T>(blk, sat, saturated, out),
-            3 => self.unwrap_levels::<3, T>(blk, sat, saturated, out),
-            4 => self.unwrap_levels::<4, T>(blk, sat, saturated, out),
-            5 => self.unwrap_levels::<5, T>(blk, sat, saturated, out),
-            _ => self.unwrap_levels::<6, T>(blk, sat, saturated, out),
+            1 => self.unwrap_levels::<1, T, N>(blk, sat, saturated, out),
+            2 => self.unwrap_levels::<2, T, N>(blk, sat, saturated, out),
+            3 => self.unwrap_levels::<3, T, N>(blk, sat, saturated, out),
+            4 => self.unwrap_levels::<4, T, N>(blk, sat, saturated, out),
+            5 => self.unwrap_levels::<5, T, N>(blk, sat, saturated, out),
+            _ => self.unwrap_levels::<6, T, N>(blk, sat, saturated, out),
         }
     }
 
-    /// [`Self::unwrap_block`] for `L` levels.
+    /// [`Self::unwrap_block`] for `L` levels, pixel `j` of each of the block's `N` parts side by
+    /// side ([`Self::finish_lanes`]).
     // Indices, not iterators, over the levels: the iterator form left this loop unvectorized
     // (5× slower with AVX-512).
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn unwrap_levels<const L: usize, T: Copy>(&self, blk: &Block<A>, sat: &[T; BLOCK], saturated: impl Fn(T) -> bool, out: BlockOut<'_>) {
-        let lim = &self.limits;
+    fn unwrap_levels<const L: usize, T: Copy, const N: usize>(&self, blk: &Block<A>, sat: &[T; BLOCK], saturated: impl Fn(T) -> bool, out: BlockOut<'_>) {
         let fmt = &self.format;
-        let (min_b2, lo, hi) = (lim.min_modulation, lim.coarse_lo, lim.coarse_hi);
-        let (tol, dark) = (lim.unwrap_tolerance, lim.dark);
         let (wrapped, mag, a) = (&blk.wrapped, &blk.mag, &blk.dc);
         let BlockOut { phase: po, dc: ao, validity: vo, .. } = out;
-        for i in 0..BLOCK {
-            let a = a[i];
-            let mut phi = wrapped[0][i];
-            let out_of_range = !A::in_range(phi, lo, hi);
-            let mut inconsistent = false;
-            for l in 1..L {
-                let (abs, res) = A::unwrap(phi, self.ratio[l], wrapped[l][i]);
-                inconsistent |= !A::consistent(res, tol);
-                phi = abs;
+        const { assert!(N > 0 && BLOCK.is_multiple_of(N)) };
+        for j in 0..BLOCK / N {
+            let ix: [usize; N] = core::array::from_fn(|k| j + k * (BLOCK / N));
+            let av: [A::Acc; N] = core::array::from_fn(|k| a[ix[k]]);
+            let w: [[A::Phase; L]; N] = core::array::from_fn(|k| core::array::from_fn(|l| wrapped[l][ix[k]]));
+            let m: [[A::Mag; L]; N] = core::array::from_fn(|k| core::array::from_fn(|l| mag[l][ix[k]]));
+            let st: [bool; N] = core::array::from_fn(|k| saturated(sat[ix[k]]));
+            let r = self.finish_lanes(&w, &m, &av, &st);
+            for k in 0..N {
+                (po[ix[k]], vo[ix[k]]) = r[k];
+                ao[ix[k]] = A::dc_out(av[k], fmt);
             }
-            let mut bm = A::MAG_MAX;
-            for m in mag.iter().take(L) {
-                bm = A::min_mag(m[i], bm);
-            }
-            // Priority (highest last): unwrap inconsistent, out of range, low modulation, dark,
-            // saturated. Masks, not branches or a chain of selects (which LLVM may fold into
-            // branches), so the loop vectorizes.
-            let pick = |cond: bool, code: Validity, v: u32| {
-                let m = (cond as u32).wrapping_neg();
-                (v & !m) | (code as u32 & m)
-            };
-            let mut v = Validity::Valid as u32;
-            v = pick(inconsistent, Validity::UnwrapInconsistent, v);
-            v = pick(out_of_range, Validity::PhaseOutOfRange, v);
-            v = pick(!A::mag_at_least(bm, min_b2), Validity::LowModulation, v);
-            v = pick(!A::dc_at_least(a, dark), Validity::Dark, v);
-            v = pick(saturated(sat[i]), Validity::Saturated, v);
-            vo[i] = v as u8;
-            po[i] = if v == 0 { A::phase_out(phi) } else { CANONICAL_NAN };
-            ao[i] = A::dc_out(a, fmt);
         }
+    }
+
+    /// Pass 2 of `N` pixels of `L` levels, every step written for the `N` side by side (each
+    /// pixel's operations are the same whatever `N`): both unwrapping steps (eqs 12-13) from the
+    /// wrapped phases `w` (coarsest first), the range test, the smallest modulation measure of
+    /// `m`, the dark test on `a` and the validity code (`saturated` given). Returns the phase
+    /// output and the code of each pixel.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn finish_lanes<const L: usize, const N: usize>(&self, w: &[[A::Phase; L]; N], m: &[[A::Mag; L]; N], a: &[A::Acc; N], saturated: &[bool; N]) -> [(f32, u8); N] {
+        use core::array::from_fn as lanes;
+        let lim = &self.limits;
+        let mut phi: [A::Phase; N] = lanes(|k| w[k][0]);
+        let out_of_range: [bool; N] = lanes(|k| !A::in_range(phi[k], lim.coarse_lo, lim.coarse_hi));
+        let mut inconsistent = [false; N];
+        for l in 1..L {
+            let st: [(A::Phase, A::Phase); N] = lanes(|k| A::unwrap(phi[k], self.ratio[l], w[k][l]));
+            for k in 0..N {
+                inconsistent[k] |= !A::consistent(st[k].1, lim.unwrap_tolerance);
+                phi[k] = st[k].0;
+            }
+        }
+        let mut bm = [A::MAG_MAX; N];
+        for l in 0..L {
+            for k in 0..N {
+                bm[k] = A::min_mag(m[k][l], bm[k]);
+            }
+        }
+        // Priority (highest last): unwrap inconsistent, out of range, low modulation, dark,
+        // saturated. Masks, not branches or a chain of selects (which LLVM may fold into
+        // branches), so the loop vectorizes.
+        let pick = |cond: bool, code: Validity, v: u32| {
+            let m = (cond as u32).wrapping_neg();
+            (v & !m) | (code as u32 & m)
+        };
+        lanes(|k| {
+            let mut v = Validity::Valid as u32;
+            v = pick(inconsistent[k], Validity::UnwrapInconsistent, v);
+            v = pick(out_of_range[k], Validity::PhaseOutOfRange, v);
+            v = pick(!A::mag_at_least(bm[k], lim.min_modulation), Validity::LowModulation, v);
+            v = pick(!A::dc_at_least(a[k], lim.dark), Validity::Dark, v);
+            v = pick(saturated[k], Validity::Saturated, v);
+            (if v == 0 { A::phase_out(phi[k]) } else { CANONICAL_NAN }, v as u8)
+        })
     }
 
     /// Wrapped phase φ^(k) ∈ [−π, π] (eqs 9, 11) and modulation B of one level from a complete

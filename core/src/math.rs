@@ -74,26 +74,27 @@ pub fn atan2_hypot_finite(y: f32, x: f32) -> (f32, f32) {
     (unfold::<false>(y, x, atan_11(p)), s * hypot_factor(p * p))
 }
 
-/// The decoder's three levels at once (the paper's 8-pattern and the 12-pattern sets): the
-/// finest level's [`atan2_hypot_finite`] and two coarser levels' [`atan2_coarse_finite`], with
-/// every step written for the three side by side.
+/// The decoder's three levels of `N` pixels at once (the paper's 8-pattern and the 12-pattern
+/// sets): the finest level's [`atan2_hypot_finite`] and two coarser levels'
+/// [`atan2_coarse_finite`], with every step written for the `3·N` inputs side by side.
 ///
 /// The same operations on each input as the separate functions, so the same bits. Why: each
 /// arctangent is a long dependency chain (division, polynomial, folding); one after the other in
 /// program order, the chain of the first fills the out-of-order core's scheduler while the next
 /// has not yet been fetched. Side by side, the core always finds independent work.
 #[inline(always)]
-pub fn atan2_levels3_finite(fine: (f32, f32), c1: (f32, f32), c2: (f32, f32)) -> ((f32, f32), f32, f32) {
-    let (pf, sf) = diagonal(fine.0, fine.1);
-    let (p1, _) = diagonal(c1.0, c1.1);
-    let (p2, _) = diagonal(c2.0, c2.1);
-    let af = atan_11(pf);
-    let a1 = atan_coarse_11(p1);
-    let a2 = atan_coarse_11(p2);
-    let rf = unfold::<false>(fine.0, fine.1, af);
-    let r1 = unfold::<false>(c1.0, c1.1, a1);
-    let r2 = unfold::<false>(c2.0, c2.1, a2);
-    ((rf, sf * hypot_factor(pf * pf)), r1, r2)
+pub fn atan2_levels3_lanes<const N: usize>(fine: [(f32, f32); N], c1: [(f32, f32); N], c2: [(f32, f32); N]) -> [((f32, f32), f32, f32); N] {
+    use core::array::from_fn as lanes;
+    let df: [(f32, f32); N] = lanes(|k| diagonal(fine[k].0, fine[k].1));
+    let p1: [f32; N] = lanes(|k| diagonal(c1[k].0, c1[k].1).0);
+    let p2: [f32; N] = lanes(|k| diagonal(c2[k].0, c2[k].1).0);
+    let af: [f32; N] = lanes(|k| atan_11(df[k].0));
+    let a1: [f32; N] = lanes(|k| atan_coarse_11(p1[k]));
+    let a2: [f32; N] = lanes(|k| atan_coarse_11(p2[k]));
+    let rf: [f32; N] = lanes(|k| unfold::<false>(fine[k].0, fine[k].1, af[k]));
+    let r1: [f32; N] = lanes(|k| unfold::<false>(c1[k].0, c1[k].1, a1[k]));
+    let r2: [f32; N] = lanes(|k| unfold::<false>(c2[k].0, c2[k].1, a2[k]));
+    lanes(|k| ((rf[k], df[k].1 * hypot_factor(df[k].0 * df[k].0)), r1[k], r2[k]))
 }
 
 /// [`ATAN_COARSE_COEFFS`] by Horner's rule, `p ∈ [−1, 1]`.
@@ -430,11 +431,20 @@ mod tests {
         let mut w = [(1.0f32, 0.0f32); 3];
         for next in atan2_inputs().step_by(3) {
             w = [w[1], w[2], next];
-            let ((p, b), c1, c2) = atan2_levels3_finite(w[0], w[1], w[2]);
-            let (pw, bw) = atan2_hypot_finite(w[0].0, w[0].1);
-            assert_eq!((p.to_bits(), b.to_bits()), (pw.to_bits(), bw.to_bits()));
-            assert_eq!(c1.to_bits(), atan2_coarse_finite(w[1].0, w[1].1).to_bits());
-            assert_eq!(c2.to_bits(), atan2_coarse_finite(w[2].0, w[2].1).to_bits());
+            // Lane k of four takes the inputs rotated by k, so that every lane sees every input.
+            let rot = |k: usize| [w[k % 3], w[(k + 1) % 3], w[(k + 2) % 3]];
+            let r = atan2_levels3_lanes(
+                core::array::from_fn::<_, 4, _>(|k| rot(k)[0]),
+                core::array::from_fn(|k| rot(k)[1]),
+                core::array::from_fn(|k| rot(k)[2]),
+            );
+            for (k, ((p, b), c1, c2)) in r.into_iter().enumerate() {
+                let x = rot(k);
+                let (pw, bw) = atan2_hypot_finite(x[0].0, x[0].1);
+                assert_eq!((p.to_bits(), b.to_bits()), (pw.to_bits(), bw.to_bits()));
+                assert_eq!(c1.to_bits(), atan2_coarse_finite(x[1].0, x[1].1).to_bits());
+                assert_eq!(c2.to_bits(), atan2_coarse_finite(x[2].0, x[2].1).to_bits());
+            }
         }
     }
 

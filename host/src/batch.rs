@@ -118,8 +118,11 @@ struct RowsOut<'a> {
     validity: &'a mut [u8],
 }
 
+/// The rows `y0..` of a frame, decoded row by row with the finishing pass computing `LANES`
+/// pixels side by side ([`Decoder::decode_row_lanes`]; the same bits for every `LANES`): 4 for
+/// the baseline (SSE2) build, 2 for the AVX2 and AVX-512 builds, where four do not vectorize.
 #[inline(always)]
-fn rows_generic<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
+fn rows_generic<P: Sample, const LANES: usize>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
     let n_rows = out.phase.len() / width;
     let mut rows: [&[P]; fringe3d_core::pattern::MAX_IMAGES] = [&[]; fringe3d_core::pattern::MAX_IMAGES];
     let k = frames.len().min(rows.len());
@@ -130,7 +133,7 @@ fn rows_generic<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize
             *slot = f.get(y * width..(y + 1) * width).ok_or(DecodeError::Length)?;
         }
         let s = r * width..(r + 1) * width;
-        d.decode_row_with(
+        d.decode_row_lanes::<P, LANES>(
             &mut scratch,
             &rows[..k],
             RowOut {
@@ -150,14 +153,14 @@ fn rows_generic<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn rows_avx2<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
-    rows_generic(d, frames, width, y0, out)
+    rows_generic::<P, 2>(d, frames, width, y0, out)
 }
 
 /// [`rows_avx2`] with AVX-512.
 #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
 #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
 fn rows_avx512<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
-    rows_generic(d, frames, width, y0, out)
+    rows_generic::<P, 2>(d, frames, width, y0, out)
 }
 
 fn rows_dispatch<P: Sample>(isa: Isa, d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
@@ -175,7 +178,7 @@ fn rows_dispatch<P: Sample>(isa: Isa, d: &Decoder, frames: &[&[P]], width: usize
             // function.
             unsafe { rows_avx2(d, frames, width, y0, out) }
         }
-        _ => rows_generic(d, frames, width, y0, out),
+        _ => rows_generic::<P, 4>(d, frames, width, y0, out),
     }
 }
 

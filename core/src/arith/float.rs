@@ -43,11 +43,11 @@ pub trait FloatKernels: Sealed + Copy + core::fmt::Debug + PartialEq + Default +
     /// [`Self::atan2`] and `√(y² + x²)` of finite inputs: the finest level's phase and
     /// modulation B ([`Arith::polar_fine`]).
     fn atan2_hypot(y: f32, x: f32) -> (f32, f32);
-    /// [`Self::atan2_hypot`] of `fine` and [`Self::atan2_coarse`] of `c1` and `c2`
-    /// ([`Arith::polar_levels3`]), side by side where a backend has written them so.
+    /// [`Self::atan2_hypot`] of `fine` and [`Self::atan2_coarse`] of `c1` and `c2`, for `N`
+    /// pixels ([`Arith::polar_levels3_lanes`]), side by side where a backend has written them so.
     #[inline(always)]
-    fn atan2_levels3(fine: (f32, f32), c1: (f32, f32), c2: (f32, f32)) -> ((f32, f32), f32, f32) {
-        (Self::atan2_hypot(fine.0, fine.1), Self::atan2_coarse(c1.0, c1.1), Self::atan2_coarse(c2.0, c2.1))
+    fn atan2_levels3_lanes<const N: usize>(fine: [(f32, f32); N], c1: [(f32, f32); N], c2: [(f32, f32); N]) -> [((f32, f32), f32, f32); N] {
+        core::array::from_fn(|k| (Self::atan2_hypot(fine[k].0, fine[k].1), Self::atan2_coarse(c1[k].0, c1[k].1), Self::atan2_coarse(c2[k].0, c2[k].1)))
     }
 }
 
@@ -72,8 +72,8 @@ impl FloatKernels for F32Accurate {
         math::atan2_hypot_finite(y, x)
     }
     #[inline(always)]
-    fn atan2_levels3(fine: (f32, f32), c1: (f32, f32), c2: (f32, f32)) -> ((f32, f32), f32, f32) {
-        math::atan2_levels3_finite(fine, c1, c2)
+    fn atan2_levels3_lanes<const N: usize>(fine: [(f32, f32); N], c1: [(f32, f32); N], c2: [(f32, f32); N]) -> [((f32, f32), f32, f32); N] {
+        math::atan2_levels3_lanes(fine, c1, c2)
     }
 }
 
@@ -215,10 +215,13 @@ impl<K: FloatKernels> Arith for K {
     }
 
     #[inline(always)]
-    fn polar_levels3(fine: (f32, f32), c1: (f32, f32), c2: (f32, f32), _format: &()) -> ((f32, f32, f32), (f32, f32), (f32, f32)) {
-        let ((pf, b), p1, p2) = K::atan2_levels3(fine, c1, c2);
+    fn polar_levels3_lanes<const N: usize>(fine: [(f32, f32); N], c1: [(f32, f32); N], c2: [(f32, f32); N], _format: &()) -> [((f32, f32, f32), (f32, f32), (f32, f32)); N] {
+        let r = K::atan2_levels3_lanes(fine, c1, c2);
         let m = |(s, c): (f32, f32)| s * s + c * c;
-        ((pf, m(fine), b), (p1, m(c1)), (p2, m(c2)))
+        core::array::from_fn(|k| {
+            let ((pf, b), p1, p2) = r[k];
+            ((pf, m(fine[k]), b), (p1, m(c1[k])), (p2, m(c2[k])))
+        })
     }
 
     #[inline(always)]

@@ -210,17 +210,18 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     /// without a square root, [`crate::math::atan2_hypot_finite`]).
     fn polar_fine(s: Self::Acc, c: Self::Acc, format: &Self::Format) -> (Self::Phase, Self::Mag, f32);
     /// [`Self::polar_fine`] of the finest level and [`Self::polar_coarse`] of two coarser ones,
-    /// for the row driver's fused pass over three levels; a backend may interleave the three
-    /// computations (the same bits as the separate calls).
+    /// for `N` pixels: the row driver's fused pass over three levels
+    /// ([`crate::decode::Decoder`] for the paper's 8-pattern and the 12-pattern sets). A backend
+    /// may write the `3·N` computations side by side; each gives the bits of the separate calls.
     #[inline(always)]
     #[allow(clippy::type_complexity)]
-    fn polar_levels3(
-        fine: (Self::Acc, Self::Acc),
-        c1: (Self::Acc, Self::Acc),
-        c2: (Self::Acc, Self::Acc),
+    fn polar_levels3_lanes<const N: usize>(
+        fine: [(Self::Acc, Self::Acc); N],
+        c1: [(Self::Acc, Self::Acc); N],
+        c2: [(Self::Acc, Self::Acc); N],
         format: &Self::Format,
-    ) -> ((Self::Phase, Self::Mag, f32), (Self::Phase, Self::Mag), (Self::Phase, Self::Mag)) {
-        (Self::polar_fine(fine.0, fine.1, format), Self::polar_coarse(c1.0, c1.1), Self::polar_coarse(c2.0, c2.1))
+    ) -> [((Self::Phase, Self::Mag, f32), (Self::Phase, Self::Mag), (Self::Phase, Self::Mag)); N] {
+        core::array::from_fn(|k| (Self::polar_fine(fine[k].0, fine[k].1, format), Self::polar_coarse(c1[k].0, c1[k].1), Self::polar_coarse(c2[k].0, c2[k].1)))
     }
     /// The smaller of two measures (the first if they are unordered).
     fn min_mag(m: Self::Mag, current: Self::Mag) -> Self::Mag;
