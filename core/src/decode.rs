@@ -909,6 +909,8 @@ impl<A: Arith> Decoder<A> {
         }
         if NL == 1 {
             // One pixel at a time (a scalar core): the levels' polar calls one after the other.
+            // Written out rather than through a closure shared with the lanes below: the closure
+            // cost the Cortex-M4F 33 instructions per pixel (385 against 352).
             for i in 0..BLOCK {
                 let (v0, v1, v2, v3) = (A::input(f[0][i]), A::input(f[1][i]), A::input(f[2][i]), A::input(f[3][i]));
                 let a = A::regrouped_product(kwf, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
