@@ -16,7 +16,12 @@ fn main() {
         .output()
         .ok()
         .and_then(|o| String::from_utf8(o.stdout).ok())
-        .and_then(|v| v.split_whitespace().nth(1).and_then(|ver| ver.split('.').nth(1)).and_then(|m| m.parse::<u32>().ok()));
+        .and_then(|v| {
+            v.split_whitespace()
+                .nth(1)
+                .and_then(|ver| ver.split('.').nth(1))
+                .and_then(|m| m.parse::<u32>().ok())
+        });
     if x86_64 && minor.is_some_and(|m| m >= 89) {
         println!("cargo::rustc-cfg=fringe3d_avx512");
     }

@@ -20,7 +20,8 @@ fn frames(set: &PatternSet) -> Vec<Vec<u8>> {
             let mut img = vec![0u8; W * H];
             let mut row = vec![0u16; 1024];
             for y in 0..H {
-                set.generate_row(i, (y * 768 / H) as u32, &mut row).unwrap_or(());
+                set.generate_row(i, (y * 768 / H) as u32, &mut row)
+                    .unwrap_or(());
                 for x in 0..W {
                     seed ^= seed << 13;
                     seed ^= seed >> 7;
@@ -45,7 +46,16 @@ struct Out {
 fn all_rows<A: Arith>(d: &Decoder<A>, imgs: &[Vec<u8>], o: &mut Out) {
     for y in 0..H {
         let rows: [&[u8]; 8] = core::array::from_fn(|i| &imgs[i][y * W..(y + 1) * W]);
-        d.decode_row(&rows, RowOut { phase: &mut o.phase, modulation: &mut o.b, dc: &mut o.a, validity: &mut o.v }).expect("decode");
+        d.decode_row(
+            &rows,
+            RowOut {
+                phase: &mut o.phase,
+                modulation: &mut o.b,
+                dc: &mut o.a,
+                validity: &mut o.v,
+            },
+        )
+        .expect("decode");
     }
 }
 
@@ -61,7 +71,12 @@ fn avx2<A: Arith>(d: &Decoder<A>, imgs: &[Vec<u8>], o: &mut Out) {
 
 fn backend<A: Arith>(c: &mut Criterion, set: &PatternSet, imgs: &[Vec<u8>]) {
     let d = Decoder::<A>::with_arith(set, DecodeConfig::for_bit_depth(8)).expect("decoder");
-    let mut o = Out { phase: vec![0.0; W], b: vec![0.0; W], a: vec![0.0; W], v: vec![0; W] };
+    let mut o = Out {
+        phase: vec![0.0; W],
+        b: vec![0.0; W],
+        a: vec![0.0; W],
+        v: vec![0; W],
+    };
     let mut g = c.benchmark_group("arith");
     g.throughput(Throughput::Elements((W * H) as u64));
     g.sample_size(20);
@@ -85,7 +100,12 @@ fn backend<A: Arith>(c: &mut Criterion, set: &PatternSet, imgs: &[Vec<u8>]) {
 }
 
 fn bench(c: &mut Criterion) {
-    let out = Output { width: 1024, height: 768, i_min: 0.0, i_max: 65535.0 };
+    let out = Output {
+        width: 1024,
+        height: 768,
+        i_min: 0.0,
+        i_max: 65535.0,
+    };
     let set = PatternSet::default_for(Axis::Xi, out).expect("default set");
     let imgs = frames(&set);
     backend::<F32Accurate>(c, &set, &imgs);

@@ -18,7 +18,8 @@ fn frames(set: &PatternSet) -> Vec<Vec<u8>> {
             let mut img = vec![0u8; W * H];
             let mut row = vec![0u16; 1024];
             for y in 0..H {
-                set.generate_row(i, (y * 768 / H) as u32, &mut row).unwrap_or(());
+                set.generate_row(i, (y * 768 / H) as u32, &mut row)
+                    .unwrap_or(());
                 for x in 0..W {
                     seed ^= seed << 13;
                     seed ^= seed >> 7;
@@ -33,7 +34,12 @@ fn frames(set: &PatternSet) -> Vec<Vec<u8>> {
 }
 
 fn bench(c: &mut Criterion) {
-    let out = Output { width: 1024, height: 768, i_min: 0.0, i_max: 65535.0 };
+    let out = Output {
+        width: 1024,
+        height: 768,
+        i_min: 0.0,
+        i_max: 65535.0,
+    };
     let set = PatternSet::default_for(Axis::Xi, out).expect("default set");
     let dec = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).expect("decoder");
     let imgs = frames(&set);
@@ -48,8 +54,16 @@ fn bench(c: &mut Criterion) {
         bch.iter(|| {
             for y in 0..H {
                 let rows: [&[u8]; 8] = core::array::from_fn(|i| &imgs[i][y * W..(y + 1) * W]);
-                dec.decode_row(&rows, RowOut { phase: &mut phase, modulation: &mut b, dc: &mut a, validity: &mut v })
-                    .expect("decode");
+                dec.decode_row(
+                    &rows,
+                    RowOut {
+                        phase: &mut phase,
+                        modulation: &mut b,
+                        dc: &mut a,
+                        validity: &mut v,
+                    },
+                )
+                .expect("decode");
             }
             black_box(&phase);
         })

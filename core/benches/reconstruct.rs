@@ -15,7 +15,6 @@ use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap, ReferenceRing};
 use std::hint::black_box;
 use support::*;
 
-
 /// The batch path, always inlined into the wide-ISA wrappers below (the kernel is
 /// `#[inline(always)]`, so it is vectorized 8- or 16-wide inside them), as a host would dispatch
 /// at run time. Same bits as the baseline build.
@@ -40,14 +39,28 @@ fn frame_rows(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn frame_avx2(recon: &Reconstructor, map: &ReferenceMap<'_>, phase: &[f32], validity: &[u8], xyz: &mut [f32], val: &mut [u8]) {
+fn frame_avx2(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    phase: &[f32],
+    validity: &[u8],
+    xyz: &mut [f32],
+    val: &mut [u8],
+) {
     frame_rows(recon, map, phase, validity, xyz, val)
 }
 
 /// AVX-512 (compilers ≥ 1.89: `cfg(fringe3d_avx512)` from `build.rs`).
 #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
 #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
-fn frame_avx512(recon: &Reconstructor, map: &ReferenceMap<'_>, phase: &[f32], validity: &[u8], xyz: &mut [f32], val: &mut [u8]) {
+fn frame_avx512(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    phase: &[f32],
+    validity: &[u8],
+    xyz: &mut [f32],
+    val: &mut [u8],
+) {
     frame_rows(recon, map, phase, validity, xyz, val)
 }
 
@@ -114,12 +127,34 @@ fn bench(c: &mut Criterion) {
             let mut xyz2 = vec![0f32; 3 * w * h];
             let mut val2 = vec![0u8; w * h];
             // SAFETY: `wide_variants` lists only variants whose features were detected at run time.
-            unsafe { f(&recon, &map, &object.phase, &object.validity, &mut xyz2, &mut val2) };
-            let same = val == val2 && xyz.iter().zip(&xyz2).all(|(a, b)| a.to_bits() == b.to_bits());
+            unsafe {
+                f(
+                    &recon,
+                    &map,
+                    &object.phase,
+                    &object.validity,
+                    &mut xyz2,
+                    &mut val2,
+                )
+            };
+            let same = val == val2
+                && xyz
+                    .iter()
+                    .zip(&xyz2)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
             assert!(same, "{isa} build differs from the baseline build");
             g.bench_function(format!("frame_1280x1024_batch_{isa}"), |b| {
                 // SAFETY: as above.
-                b.iter(|| unsafe { f(&recon, &map, black_box(&object.phase), &object.validity, &mut xyz2, &mut val2) })
+                b.iter(|| unsafe {
+                    f(
+                        &recon,
+                        &map,
+                        black_box(&object.phase),
+                        &object.validity,
+                        &mut xyz2,
+                        &mut val2,
+                    )
+                })
             });
         }
         let rows = recon.band().rows() as usize;

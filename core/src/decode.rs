@@ -59,7 +59,11 @@ pub trait Sample: Copy {
     /// saturation once, instead of once per image).
     #[inline(always)]
     fn max_of(self, other: Self) -> Self {
-        if self.to_f32() > other.to_f32() { self } else { other }
+        if self.to_f32() > other.to_f32() {
+            self
+        } else {
+            other
+        }
     }
 }
 
@@ -118,7 +122,11 @@ pub struct LevelEstimator {
 /// paper's 4-step level gets exactly `(½, 0, −½, 0)`.
 fn snap(x: f64) -> f32 {
     let q = libm::round(x * 4096.0) / 4096.0;
-    if libm::fabs(x - q) < 1e-12 { q as f32 } else { x as f32 }
+    if libm::fabs(x - q) < 1e-12 {
+        q as f32
+    } else {
+        x as f32
+    }
 }
 
 /// Compute the estimator of a level with effective shifts `shifts[n] + offset` (radians).
@@ -187,7 +195,8 @@ pub fn level_estimator(shifts: &[f64], offset: f64) -> Option<LevelEstimator> {
 
 #[allow(clippy::needless_range_loop)] // cofactor indices read best as indices
 fn invert3(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
-    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
     // DᵀD of n unit-norm-ish rows: a determinant this small means the shifts coincide mod 2π.
     if !(libm::fabs(det) > 1e-6) {
@@ -237,19 +246,33 @@ impl DecodeConfig {
     pub fn for_bit_depth(bits: u32) -> Self {
         let bits = bits.clamp(1, 16);
         let full = ((1u32 << bits) - 1) as f32;
-        let floor = if 12.0 < 0.05 * full { 12.0 } else { 0.05 * full };
+        let floor = if 12.0 < 0.05 * full {
+            12.0
+        } else {
+            0.05 * full
+        };
         let two_percent = 0.02 * full;
         DecodeConfig {
             dark_level: 0.02 * full,
             saturation_level: full,
-            min_modulation: if two_percent > floor { two_percent } else { floor },
+            min_modulation: if two_percent > floor {
+                two_percent
+            } else {
+                floor
+            },
             unwrap_tolerance: 2.0 * core::f32::consts::PI / 3.0,
             range_tolerance: 0.15,
         }
     }
 
     fn is_sane(&self) -> bool {
-        let all = [self.dark_level, self.saturation_level, self.min_modulation, self.unwrap_tolerance, self.range_tolerance];
+        let all = [
+            self.dark_level,
+            self.saturation_level,
+            self.min_modulation,
+            self.unwrap_tolerance,
+            self.range_tolerance,
+        ];
         all.iter().all(|v| v.is_finite() && *v >= 0.0)
             && self.unwrap_tolerance <= core::f32::consts::PI
             && self.saturation_level > 0.0
@@ -284,7 +307,9 @@ impl core::fmt::Display for DecodeError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::Degenerate(l) => write!(f, "level {l}: shifts cannot be decoded"),
-            Self::Config => f.write_str("decode thresholds must be finite and non-negative, unwrap tolerance <= pi"),
+            Self::Config => f.write_str(
+                "decode thresholds must be finite and non-negative, unwrap tolerance <= pi",
+            ),
             Self::ImageCount => f.write_str("number of image rows differs from the pattern set"),
             Self::Length => f.write_str("input and output rows differ in length"),
             Self::StateTooSmall => f.write_str("state buffer too small for this frame size"),
@@ -395,7 +420,10 @@ pub struct RowOut<'a> {
 
 impl RowOut<'_> {
     fn len_ok(&self, n: usize) -> bool {
-        self.phase.len() == n && self.modulation.len() == n && self.dc.len() == n && self.validity.len() == n
+        self.phase.len() == n
+            && self.modulation.len() == n
+            && self.dc.len() == n
+            && self.validity.len() == n
     }
 }
 
@@ -422,7 +450,14 @@ impl Decoder<F32Accurate> {
 }
 
 /// An all-zero estimator (a placeholder for unused levels).
-const NO_ESTIMATOR: LevelEstimator = LevelEstimator { n: 0, a: [0.0; MAX_SHIFTS], b: [0.0; MAX_SHIFTS], w: [0.0; MAX_SHIFTS], a_dc: 0.0, b_dc: 0.0 };
+const NO_ESTIMATOR: LevelEstimator = LevelEstimator {
+    n: 0,
+    a: [0.0; MAX_SHIFTS],
+    b: [0.0; MAX_SHIFTS],
+    w: [0.0; MAX_SHIFTS],
+    a_dc: 0.0,
+    b_dc: 0.0,
+};
 
 impl<A: Arith> Decoder<A> {
     /// Build the decoder of `set` with thresholds `config` in the arithmetic `A`, e.g.
@@ -454,9 +489,21 @@ impl<A: Arith> Decoder<A> {
             ratios[i] = levels[i].scale() / levels[i - 1].scale();
         }
         let n_levels = levels.len();
-        let plan = Plan { levels: &est[..n_levels], dc_level, ratios: &ratios[..n_levels], coarse_range: set.coarse_range(), config: &config };
+        let plan = Plan {
+            levels: &est[..n_levels],
+            dc_level,
+            ratios: &ratios[..n_levels],
+            coarse_range: set.coarse_range(),
+            config: &config,
+        };
         let format = A::format(&plan)?;
-        let zero = ImageCoef { level: 0, a: A::COEF_ZERO, b: A::COEF_ZERO, w: A::COEF_ZERO, mode: [SKIP; 3] };
+        let zero = ImageCoef {
+            level: 0,
+            a: A::COEF_ZERO,
+            b: A::COEF_ZERO,
+            w: A::COEF_ZERO,
+            mode: [SKIP; 3],
+        };
         let mut d = Decoder {
             n_levels,
             n_images: set.image_count(),
@@ -468,12 +515,18 @@ impl<A: Arith> Decoder<A> {
             format,
             config,
             untouched: [true; 1 + 2 * MAX_LEVELS],
-            level_images: [LevelImages { n: 0, idx: [0; MAX_SHIFTS], kind: KIND_GENERIC }; MAX_LEVELS],
+            level_images: [LevelImages {
+                n: 0,
+                idx: [0; MAX_SHIFTS],
+                kind: KIND_GENERIC,
+            }; MAX_LEVELS],
             level_order: [0; MAX_LEVELS],
             dc_level: dc_level.map(|l| l as u8),
             fused: FUSED_NONE,
         };
-        let order = dc_level.into_iter().chain((0..n_levels).filter(|&l| Some(l) != dc_level));
+        let order = dc_level
+            .into_iter()
+            .chain((0..n_levels).filter(|&l| Some(l) != dc_level));
         for (slot, l) in d.level_order.iter_mut().zip(order) {
             *slot = l as u8;
         }
@@ -491,15 +544,28 @@ impl<A: Arith> Decoder<A> {
             let l = id.level as usize;
             let s = id.shift as usize;
             let c = coefs[l].ok_or(DecodeError::Degenerate(id.level))?;
-            let w = if dc_level == Some(l) { c.w[s] } else { A::COEF_ZERO };
+            let w = if dc_level == Some(l) {
+                c.w[s]
+            } else {
+                A::COEF_ZERO
+            };
             let mut mode = [SKIP; 3];
-            for (m, (k, plane)) in mode.iter_mut().zip([(c.a[s], 1 + 2 * l), (c.b[s], 2 + 2 * l), (w, 0)]) {
+            for (m, (k, plane)) in
+                mode.iter_mut()
+                    .zip([(c.a[s], 1 + 2 * l), (c.b[s], 2 + 2 * l), (w, 0)])
+            {
                 if !A::is_zero(k) {
                     *m = if d.untouched[plane] { INIT } else { ACC };
                     d.untouched[plane] = false;
                 }
             }
-            d.images[k] = ImageCoef { level: id.level, a: c.a[s], b: c.b[s], w, mode };
+            d.images[k] = ImageCoef {
+                level: id.level,
+                a: c.a[s],
+                b: c.b[s],
+                w,
+                mode,
+            };
             let li = &mut d.level_images[l];
             if let Some(slot) = li.idx.get_mut(li.n as usize) {
                 *slot = k as u8;
@@ -511,7 +577,11 @@ impl<A: Arith> Decoder<A> {
         for l in 0..n_levels {
             d.level_images[l].kind = d.level_kind(l);
         }
-        let kinds = [d.level_images[0].kind, d.level_images[1].kind, d.level_images[2].kind];
+        let kinds = [
+            d.level_images[0].kind,
+            d.level_images[1].kind,
+            d.level_images[2].kind,
+        ];
         if n_levels == 3 && dc_level == Some(2) && kinds[2] == KIND_QUAD_EXACT {
             d.fused = match kinds[..2] {
                 [KIND_PAIR_UNIT, KIND_PAIR_UNIT] => FUSED_PAIRS,
@@ -530,11 +600,24 @@ impl<A: Arith> Decoder<A> {
         let coef = |j: usize| self.images[li.idx[j] as usize];
         let z = |k: A::Coef| A::is_zero(k);
         let kind = match li.n {
-            2 if !z(coef(0).a) && z(coef(1).a) && z(coef(0).b) && !z(coef(1).b) && (0..2).all(|j| z(coef(j).w)) => KIND_PAIR,
-            4 if (0..4).all(|j| (j % 2 == 0) != z(coef(j).a) && (j % 2 == 1) != z(coef(j).b)) && z(self.a_dc[l]) && z(self.b_dc[l]) => {
+            2 if !z(coef(0).a)
+                && z(coef(1).a)
+                && z(coef(0).b)
+                && !z(coef(1).b)
+                && (0..2).all(|j| z(coef(j).w)) =>
+            {
+                KIND_PAIR
+            }
+            4 if (0..4).all(|j| (j % 2 == 0) != z(coef(j).a) && (j % 2 == 1) != z(coef(j).b))
+                && z(self.a_dc[l])
+                && z(self.b_dc[l]) =>
+            {
                 let e = |k: A::Coef, v: f32| A::exact_coef(k, v);
                 // The weights of A only matter for the DC level (the others never compute it).
-                let exact = e(coef(0).a, 0.5) && e(coef(2).a, -0.5) && e(coef(1).b, 0.5) && e(coef(3).b, -0.5)
+                let exact = e(coef(0).a, 0.5)
+                    && e(coef(2).a, -0.5)
+                    && e(coef(1).b, 0.5)
+                    && e(coef(3).b, -0.5)
                     && (self.dc_level != Some(l as u8) || (0..4).all(|j| e(coef(j).w, 0.25)));
                 if exact { KIND_QUAD_EXACT } else { KIND_QUAD }
             }
@@ -595,7 +678,12 @@ impl<A: Arith> Decoder<A> {
     /// (`unwrap_block`). The frame-sequential path ([`Self::accumulate`] then
     /// [`Self::finish`]) computes the same values in the same order: the same bits.
     #[inline(always)]
-    pub fn decode_row_with<P: Sample>(&self, scratch: &mut DecodeScratch<A>, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
+    pub fn decode_row_with<P: Sample>(
+        &self,
+        scratch: &mut DecodeScratch<A>,
+        rows: &[&[P]],
+        out: RowOut<'_>,
+    ) -> Result<(), DecodeError> {
         self.decode_row_lanes::<P, 1>(scratch, rows, out)
     }
 
@@ -609,7 +697,12 @@ impl<A: Arith> Decoder<A> {
     /// of a four-lane pass 2 do not vectorize (LLVM 20) and take 2-4× longer, so they take 2.
     /// The host's batch path picks per ISA.
     #[inline(always)]
-    pub fn decode_row_lanes<P: Sample, const N: usize>(&self, scratch: &mut DecodeScratch<A>, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
+    pub fn decode_row_lanes<P: Sample, const N: usize>(
+        &self,
+        scratch: &mut DecodeScratch<A>,
+        rows: &[&[P]],
+        out: RowOut<'_>,
+    ) -> Result<(), DecodeError> {
         if rows.len() != self.n_images {
             return Err(DecodeError::ImageCount);
         }
@@ -623,7 +716,12 @@ impl<A: Arith> Decoder<A> {
         if w < BLOCK {
             return self.decode_short_row::<P, N>(scratch, rows, out);
         }
-        let RowOut { phase, modulation, dc, validity } = out;
+        let RowOut {
+            phase,
+            modulation,
+            dc,
+            validity,
+        } = out;
         let blk = &mut scratch.0;
         // Whole blocks only, so that every loop has the constant trip count BLOCK (no remainder
         // loops, whatever the vector width): the last block ends at the row's end and may overlap
@@ -641,15 +739,28 @@ impl<A: Arith> Decoder<A> {
             if start + BLOCK == w {
                 return Ok(());
             }
-            start = if w - (start + BLOCK) >= BLOCK { start + BLOCK } else { w - BLOCK };
+            start = if w - (start + BLOCK) >= BLOCK {
+                start + BLOCK
+            } else {
+                w - BLOCK
+            };
         }
     }
 
     /// A row shorter than [`BLOCK`]: copied into a padded block (the padding decodes to values
     /// that are dropped).
-    fn decode_short_row<P: Sample, const N: usize>(&self, scratch: &mut DecodeScratch<A>, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
+    fn decode_short_row<P: Sample, const N: usize>(
+        &self,
+        scratch: &mut DecodeScratch<A>,
+        rows: &[&[P]],
+        out: RowOut<'_>,
+    ) -> Result<(), DecodeError> {
         let n = out.phase.len();
-        let first = rows.first().and_then(|r| r.first()).copied().ok_or(DecodeError::Length)?;
+        let first = rows
+            .first()
+            .and_then(|r| r.first())
+            .copied()
+            .ok_or(DecodeError::Length)?;
         let mut padded = [[first; BLOCK]; MAX_IMAGES];
         let mut refs: [&[P]; MAX_IMAGES] = [&[]; MAX_IMAGES];
         for ((p, r), slot) in padded.iter_mut().zip(rows).zip(refs.iter_mut()) {
@@ -658,7 +769,12 @@ impl<A: Arith> Decoder<A> {
         }
         let (mut ph, mut mo, mut dc) = ([0.0f32; BLOCK], [0.0f32; BLOCK], [0.0f32; BLOCK]);
         let mut va = [0u8; BLOCK];
-        let o = BlockOut { phase: &mut ph, modulation: &mut mo, dc: &mut dc, validity: &mut va };
+        let o = BlockOut {
+            phase: &mut ph,
+            modulation: &mut mo,
+            dc: &mut dc,
+            validity: &mut va,
+        };
         self.decode_block::<P, N>(&mut scratch.0, &refs[..rows.len()], 0, o)?;
         out.phase.copy_from_slice(&ph[..n]);
         out.modulation.copy_from_slice(&mo[..n]);
@@ -674,7 +790,13 @@ impl<A: Arith> Decoder<A> {
     /// image rows ([`Self::level_from_rows`]); pass 2, the unwrapping and validity
     /// ([`Self::unwrap_block`]).
     #[inline(always)]
-    fn decode_block<P: Sample, const N: usize>(&self, blk: &mut Block<A>, rows: &[&[P]], start: usize, out: BlockOut<'_>) -> Result<(), DecodeError> {
+    fn decode_block<P: Sample, const N: usize>(
+        &self,
+        blk: &mut Block<A>,
+        rows: &[&[P]],
+        start: usize,
+        out: BlockOut<'_>,
+    ) -> Result<(), DecodeError> {
         let peak = match rows.len() {
             8 => peak_of::<P, 8>(rows, start)?,
             12 => peak_of::<P, 12>(rows, start)?,
@@ -691,10 +813,21 @@ impl<A: Arith> Decoder<A> {
             }
         };
         match self.fused {
-            FUSED_PAIRS if N == 1 => self.fused_rows::<P, KIND_PAIR_UNIT, 1>(rows, start, blk, out.modulation)?,
-            FUSED_QUADS if N == 1 => self.fused_rows::<P, KIND_QUAD_EXACT, 1>(rows, start, blk, out.modulation)?,
-            FUSED_PAIRS => self.fused_rows::<P, KIND_PAIR_UNIT, FUSED_LANES>(rows, start, blk, out.modulation)?,
-            FUSED_QUADS => self.fused_rows::<P, KIND_QUAD_EXACT, FUSED_LANES>(rows, start, blk, out.modulation)?,
+            FUSED_PAIRS if N == 1 => {
+                self.fused_rows::<P, KIND_PAIR_UNIT, 1>(rows, start, blk, out.modulation)?
+            }
+            FUSED_QUADS if N == 1 => {
+                self.fused_rows::<P, KIND_QUAD_EXACT, 1>(rows, start, blk, out.modulation)?
+            }
+            FUSED_PAIRS => {
+                self.fused_rows::<P, KIND_PAIR_UNIT, FUSED_LANES>(rows, start, blk, out.modulation)?
+            }
+            FUSED_QUADS => self.fused_rows::<P, KIND_QUAD_EXACT, FUSED_LANES>(
+                rows,
+                start,
+                blk,
+                out.modulation,
+            )?,
             _ => {
                 blk.dc = [A::ZERO; BLOCK];
                 for k in 0..self.n_levels {
@@ -716,12 +849,23 @@ impl<A: Arith> Decoder<A> {
     /// (image) order from +0, where a zero coefficient adds ±0, which leaves a sum that is never
     /// −0 unchanged (the accumulate path skips those products).
     #[inline(always)]
-    fn level_from_rows<P: Sample>(&self, l: usize, rows: &[&[P]], start: usize, blk: &mut Block<A>, modulation: &mut [f32; BLOCK]) -> Result<(), DecodeError> {
+    fn level_from_rows<P: Sample>(
+        &self,
+        l: usize,
+        rows: &[&[P]],
+        start: usize,
+        blk: &mut Block<A>,
+        modulation: &mut [f32; BLOCK],
+    ) -> Result<(), DecodeError> {
         let li = self.level_images.get(l).ok_or(DecodeError::Sequence)?;
         let is_dc = self.dc_level == Some(l as u8);
         let fine = l + 1 == self.n_levels;
         let range = start..start + BLOCK;
-        let row_of = |k: u8| rows.get(k as usize).ok_or(DecodeError::ImageCount).and_then(|row| block(row, range.clone()));
+        let row_of = |k: u8| {
+            rows.get(k as usize)
+                .ok_or(DecodeError::ImageCount)
+                .and_then(|row| block(row, range.clone()))
+        };
         macro_rules! fixed_n {
             ($n:literal, $k:expr) => {{
                 let mut r: [&[P; BLOCK]; $n] = [row_of(li.idx[0])?; $n];
@@ -729,10 +873,18 @@ impl<A: Arith> Decoder<A> {
                     *slot = row_of(k)?;
                 }
                 match (is_dc, fine) {
-                    (false, false) => self.level_rows::<P, $n, $k, false, false>(l, &r, blk, modulation),
-                    (false, true) => self.level_rows::<P, $n, $k, false, true>(l, &r, blk, modulation),
-                    (true, false) => self.level_rows::<P, $n, $k, true, false>(l, &r, blk, modulation),
-                    (true, true) => self.level_rows::<P, $n, $k, true, true>(l, &r, blk, modulation),
+                    (false, false) => {
+                        self.level_rows::<P, $n, $k, false, false>(l, &r, blk, modulation)
+                    }
+                    (false, true) => {
+                        self.level_rows::<P, $n, $k, false, true>(l, &r, blk, modulation)
+                    }
+                    (true, false) => {
+                        self.level_rows::<P, $n, $k, true, false>(l, &r, blk, modulation)
+                    }
+                    (true, true) => {
+                        self.level_rows::<P, $n, $k, true, true>(l, &r, blk, modulation)
+                    }
                 }
             }};
         }
@@ -786,7 +938,13 @@ impl<A: Arith> Decoder<A> {
         }
         let (ad, bd, fmt) = (self.a_dc[l], self.b_dc[l], &self.format);
         if KIND == KIND_PAIR_UNIT || KIND == KIND_QUAD_EXACT {
-            return self.level_rows_exact::<P, N, KIND, DC, FINE>(l, rows, (ka[0], kb[1 % N], kw[0]), blk, mo);
+            return self.level_rows_exact::<P, N, KIND, DC, FINE>(
+                l,
+                rows,
+                (ka[0], kb[1 % N], kw[0]),
+                blk,
+                mo,
+            );
         }
         let Block { dc, wrapped, mag } = blk;
         let (w, mag) = (&mut wrapped[l], &mut mag[l]);
@@ -795,7 +953,11 @@ impl<A: Arith> Decoder<A> {
             for j in 0..N {
                 let v = A::input(rows[j][i]);
                 // The kinds' zero products are skipped (known at compile time).
-                let (sj, cj) = if KIND == KIND_GENERIC { (true, true) } else { (j % 2 == 0, j % 2 == 1) };
+                let (sj, cj) = if KIND == KIND_GENERIC {
+                    (true, true)
+                } else {
+                    (j % 2 == 0, j % 2 == 1)
+                };
                 if sj {
                     s = A::mac(s, ka[j], v);
                 }
@@ -811,7 +973,11 @@ impl<A: Arith> Decoder<A> {
             } else {
                 a = dc[i];
             }
-            let (s, c) = if KIND == KIND_QUAD { (s, c) } else { A::level_sc(s, c, ad, bd, a, fmt) };
+            let (s, c) = if KIND == KIND_QUAD {
+                (s, c)
+            } else {
+                A::level_sc(s, c, ad, bd, a, fmt)
+            };
             if FINE {
                 let (p, b2, b) = A::polar_fine(s, c, fmt);
                 (w[i], mag[i], mo[i]) = (p, b2, b);
@@ -824,7 +990,13 @@ impl<A: Arith> Decoder<A> {
     /// [`Self::level_rows`] for the regrouped kinds [`KIND_PAIR_UNIT`] and [`KIND_QUAD_EXACT`]
     /// (`k` = a₀, b₁, w₀): the same bits with fewer operations.
     #[inline(always)]
-    fn level_rows_exact<P: Sample, const N: usize, const KIND: u8, const DC: bool, const FINE: bool>(
+    fn level_rows_exact<
+        P: Sample,
+        const N: usize,
+        const KIND: u8,
+        const DC: bool,
+        const FINE: bool,
+    >(
         &self,
         l: usize,
         rows: &[&[P; BLOCK]; N],
@@ -845,9 +1017,13 @@ impl<A: Arith> Decoder<A> {
                 let (v2, v3) = (A::input(r2[i]), A::input(r3[i]));
                 // k = 0.25, 0.5, 0.5 (`level_kind`): positive.
                 if DC {
-                    dc[i] = A::regrouped_product(kw, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
+                    dc[i] =
+                        A::regrouped_product(kw, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
                 }
-                (A::regrouped_product(ka, A::in_sub(v0, v2)), A::regrouped_product(kb, A::in_sub(v1, v3)))
+                (
+                    A::regrouped_product(ka, A::in_sub(v0, v2)),
+                    A::regrouped_product(kb, A::in_sub(v1, v3)),
+                )
             };
             if FINE {
                 let (p, b2, b) = A::polar_fine(s, c, fmt);
@@ -870,7 +1046,13 @@ impl<A: Arith> Decoder<A> {
     /// An arctangent is a long dependency chain (division, polynomial, folding); one loop per
     /// level ran at the latency of one chain, twelve independent chains keep the core busy.
     #[inline(always)]
-    fn fused_rows<P: Sample, const K: u8, const NL: usize>(&self, rows: &[&[P]], start: usize, blk: &mut Block<A>, mo: &mut [f32; BLOCK]) -> Result<(), DecodeError> {
+    fn fused_rows<P: Sample, const K: u8, const NL: usize>(
+        &self,
+        rows: &[&[P]],
+        start: usize,
+        blk: &mut Block<A>,
+        mo: &mut [f32; BLOCK],
+    ) -> Result<(), DecodeError> {
         let range = start..start + BLOCK;
         let fmt = &self.format;
         // Levels: the finest (the DC level, level 2 of the three), then the two coarser ones.
@@ -881,12 +1063,22 @@ impl<A: Arith> Decoder<A> {
             let li = self.level_images.get(l).ok_or(DecodeError::Sequence)?;
             for (j, row) in slot.iter_mut().enumerate() {
                 let img = li.idx[j % li.n.max(1) as usize] as usize;
-                *row = rows.get(img).ok_or(DecodeError::ImageCount)?.get(range.clone()).ok_or(DecodeError::Length)?;
+                *row = rows
+                    .get(img)
+                    .ok_or(DecodeError::ImageCount)?
+                    .get(range.clone())
+                    .ok_or(DecodeError::Length)?;
             }
-            let coef = |j: usize| self.images.get(li.idx[j] as usize).ok_or(DecodeError::Sequence);
+            let coef = |j: usize| {
+                self.images
+                    .get(li.idx[j] as usize)
+                    .ok_or(DecodeError::Sequence)
+            };
             *kslot = (coef(0)?.a, coef(1)?.b, coef(0)?.w);
         }
-        let rb = |l: usize, j: usize| -> Result<&[P; BLOCK], DecodeError> { r[l][j].try_into().map_err(|_| DecodeError::Length) };
+        let rb = |l: usize, j: usize| -> Result<&[P; BLOCK], DecodeError> {
+            r[l][j].try_into().map_err(|_| DecodeError::Length)
+        };
         let f = [rb(0, 0)?, rb(0, 1)?, rb(0, 2)?, rb(0, 3)?];
         let c1 = [rb(1, 0)?, rb(1, 1)?, rb(1, 2)?, rb(1, 3)?];
         let c2 = [rb(2, 0)?, rb(2, 1)?, rb(2, 2)?, rb(2, 3)?];
@@ -898,13 +1090,21 @@ impl<A: Arith> Decoder<A> {
         // S and C of a coarser level (not the DC level: a pair's coefficients are ±1, a quad's
         // regrouped with its positive ½).
         #[inline(always)]
-        fn coarse<A: Arith, P: Sample, const K: u8>(r: &[&[P; BLOCK]; 4], i: usize, a: A::Acc, (ka, kb, _): (A::Coef, A::Coef, A::Coef)) -> (A::Acc, A::Acc) {
+        fn coarse<A: Arith, P: Sample, const K: u8>(
+            r: &[&[P; BLOCK]; 4],
+            i: usize,
+            a: A::Acc,
+            (ka, kb, _): (A::Coef, A::Coef, A::Coef),
+        ) -> (A::Acc, A::Acc) {
             let (v0, v1) = (A::input(r[0][i]), A::input(r[1][i]));
             if K == KIND_PAIR_UNIT {
                 (A::in_minus_acc(v0, a), A::in_minus_acc(v1, a))
             } else {
                 let (v2, v3) = (A::input(r[2][i]), A::input(r[3][i]));
-                (A::regrouped_product(ka, A::in_sub(v0, v2)), A::regrouped_product(kb, A::in_sub(v1, v3)))
+                (
+                    A::regrouped_product(ka, A::in_sub(v0, v2)),
+                    A::regrouped_product(kb, A::in_sub(v1, v3)),
+                )
             }
         }
         if NL == 1 {
@@ -912,10 +1112,18 @@ impl<A: Arith> Decoder<A> {
             // Written out rather than through a closure shared with the lanes below: the closure
             // cost the Cortex-M4F 33 instructions per pixel (385 against 352).
             for i in 0..BLOCK {
-                let (v0, v1, v2, v3) = (A::input(f[0][i]), A::input(f[1][i]), A::input(f[2][i]), A::input(f[3][i]));
+                let (v0, v1, v2, v3) = (
+                    A::input(f[0][i]),
+                    A::input(f[1][i]),
+                    A::input(f[2][i]),
+                    A::input(f[3][i]),
+                );
                 let a = A::regrouped_product(kwf, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
                 dc[i] = a;
-                let (s, c) = (A::regrouped_product(kaf, A::in_sub(v0, v2)), A::regrouped_product(kbf, A::in_sub(v1, v3)));
+                let (s, c) = (
+                    A::regrouped_product(kaf, A::in_sub(v0, v2)),
+                    A::regrouped_product(kbf, A::in_sub(v1, v3)),
+                );
                 (wf[i], mf[i], mo[i]) = A::polar_fine(s, c, fmt);
                 let (s, c) = coarse::<A, P, K>(&c1, i, a, k1);
                 (w0[i], m0[i]) = A::polar_coarse(s, c);
@@ -926,13 +1134,25 @@ impl<A: Arith> Decoder<A> {
         }
         for j in 0..BLOCK / NL {
             let ix: [usize; NL] = core::array::from_fn(|k| j + k * (BLOCK / NL));
-            let (mut ff, mut g, mut h) = ([(A::ZERO, A::ZERO); NL], [(A::ZERO, A::ZERO); NL], [(A::ZERO, A::ZERO); NL]);
+            let (mut ff, mut g, mut h) = (
+                [(A::ZERO, A::ZERO); NL],
+                [(A::ZERO, A::ZERO); NL],
+                [(A::ZERO, A::ZERO); NL],
+            );
             for k in 0..NL {
                 let i = ix[k];
-                let (v0, v1, v2, v3) = (A::input(f[0][i]), A::input(f[1][i]), A::input(f[2][i]), A::input(f[3][i]));
+                let (v0, v1, v2, v3) = (
+                    A::input(f[0][i]),
+                    A::input(f[1][i]),
+                    A::input(f[2][i]),
+                    A::input(f[3][i]),
+                );
                 let a = A::regrouped_product(kwf, A::in_add(A::in_add(A::in_add(v0, v1), v2), v3));
                 dc[i] = a;
-                ff[k] = (A::regrouped_product(kaf, A::in_sub(v0, v2)), A::regrouped_product(kbf, A::in_sub(v1, v3)));
+                ff[k] = (
+                    A::regrouped_product(kaf, A::in_sub(v0, v2)),
+                    A::regrouped_product(kbf, A::in_sub(v1, v3)),
+                );
                 g[k] = coarse::<A, P, K>(&c1, i, a, k1);
                 h[k] = coarse::<A, P, K>(&c2, i, a, k2);
             }
@@ -951,7 +1171,12 @@ impl<A: Arith> Decoder<A> {
     /// Fold the samples of image `image` (set order) into the state (the first half of the
     /// kernel). The state must have been zeroed before the first image.
     #[inline(always)]
-    pub fn accumulate<P: Sample>(&self, image: usize, row: &[P], st: &mut State<'_, A::Acc>) -> Result<(), DecodeError> {
+    pub fn accumulate<P: Sample>(
+        &self,
+        image: usize,
+        row: &[P],
+        st: &mut State<'_, A::Acc>,
+    ) -> Result<(), DecodeError> {
         self.accumulate_modes::<P, true, true>(image, row, st)
     }
 
@@ -965,7 +1190,11 @@ impl<A: Arith> Decoder<A> {
         row: &[P],
         st: &mut State<'_, A::Acc>,
     ) -> Result<(), DecodeError> {
-        let coef = *self.images.get(image).filter(|_| image < self.n_images).ok_or(DecodeError::Sequence)?;
+        let coef = *self
+            .images
+            .get(image)
+            .filter(|_| image < self.n_images)
+            .ok_or(DecodeError::Sequence)?;
         let n = row.len();
         let l = coef.level as usize;
         let (dc, flags) = (&mut st.dc[..], &mut st.flags[..]);
@@ -976,7 +1205,12 @@ impl<A: Arith> Decoder<A> {
         if dc.len() != n || s.len() != n || c.len() != n || (FLAGS && flags.len() != n) {
             return Err(DecodeError::Length);
         }
-        let k = Coefs { a: coef.a, b: coef.b, w: coef.w, sat: self.limits.saturation };
+        let k = Coefs {
+            a: coef.a,
+            b: coef.b,
+            w: coef.w,
+            sat: self.limits.saturation,
+        };
         let m = |x: u8| if ZEROED && x == INIT { ACC } else { x };
         let [ms, mc, mw] = coef.mode;
         // One loop per combination of plane modes (chosen per image by the plan, never by the
@@ -1014,9 +1248,18 @@ impl<A: Arith> Decoder<A> {
     /// [`Self::finish`] with the saturation test of pixel `i` given by `saturated(sat[i])`,
     /// compiled once per level count.
     #[inline(always)]
-    fn finish_levels<T: Copy>(&self, st: &State<'_, A::Acc>, sat: &[T], saturated: impl Fn(T) -> bool, out: RowOut<'_>) -> Result<(), DecodeError> {
+    fn finish_levels<T: Copy>(
+        &self,
+        st: &State<'_, A::Acc>,
+        sat: &[T],
+        saturated: impl Fn(T) -> bool,
+        out: RowOut<'_>,
+    ) -> Result<(), DecodeError> {
         let n = st.dc.len();
-        if !out.len_ok(n) || sat.len() != n || (0..self.n_levels).any(|l| st.s[l].len() != n || st.c[l].len() != n) {
+        if !out.len_ok(n)
+            || sat.len() != n
+            || (0..self.n_levels).any(|l| st.s[l].len() != n || st.c[l].len() != n)
+        {
             return Err(DecodeError::Length);
         }
         if n == 0 {
@@ -1038,7 +1281,17 @@ impl<A: Arith> Decoder<A> {
             for l in 0..self.n_levels {
                 self.polar_into(l, &pad(st.s[l]), &pad(st.c[l]), &mut blk, &mut mo);
             }
-            self.unwrap_block::<T, 1>(&blk, &sat_b, &saturated, BlockOut { phase: &mut ph, modulation: &mut mo, dc: &mut dc, validity: &mut va });
+            self.unwrap_block::<T, 1>(
+                &blk,
+                &sat_b,
+                &saturated,
+                BlockOut {
+                    phase: &mut ph,
+                    modulation: &mut mo,
+                    dc: &mut dc,
+                    validity: &mut va,
+                },
+            );
             out.phase.copy_from_slice(&ph[..n]);
             out.modulation.copy_from_slice(&mo[..n]);
             out.dc.copy_from_slice(&dc[..n]);
@@ -1052,7 +1305,13 @@ impl<A: Arith> Decoder<A> {
             blk.dc = *block(st.dc, r.clone())?;
             let mo = block_mut(out.modulation, r.clone())?;
             for l in 0..self.n_levels {
-                self.polar_into(l, block(st.s[l], r.clone())?, block(st.c[l], r.clone())?, &mut blk, mo);
+                self.polar_into(
+                    l,
+                    block(st.s[l], r.clone())?,
+                    block(st.c[l], r.clone())?,
+                    &mut blk,
+                    mo,
+                );
             }
             let o = BlockOut {
                 phase: block_mut(out.phase, r.clone())?,
@@ -1064,7 +1323,11 @@ impl<A: Arith> Decoder<A> {
             if start + BLOCK == n {
                 return Ok(());
             }
-            start = if n - (start + BLOCK) >= BLOCK { start + BLOCK } else { n - BLOCK };
+            start = if n - (start + BLOCK) >= BLOCK {
+                start + BLOCK
+            } else {
+                n - BLOCK
+            };
         }
     }
 
@@ -1074,7 +1337,14 @@ impl<A: Arith> Decoder<A> {
     /// ([`Arith::polar_coarse`]); the finest level, whose phase is the output, the accurate one,
     /// and it writes B into `modulation`.
     #[inline(always)]
-    fn polar_into(&self, l: usize, s: &[A::Acc; BLOCK], c: &[A::Acc; BLOCK], blk: &mut Block<A>, modulation: &mut [f32; BLOCK]) {
+    fn polar_into(
+        &self,
+        l: usize,
+        s: &[A::Acc; BLOCK],
+        c: &[A::Acc; BLOCK],
+        blk: &mut Block<A>,
+        modulation: &mut [f32; BLOCK],
+    ) {
         if l + 1 < self.n_levels {
             self.polar_from_planes::<false>(l, s, c, blk, modulation);
         } else {
@@ -1084,7 +1354,14 @@ impl<A: Arith> Decoder<A> {
 
     /// [`Self::polar_into`] for a coarser (`FINE = false`) or the finest level.
     #[inline(always)]
-    fn polar_from_planes<const FINE: bool>(&self, l: usize, s: &[A::Acc; BLOCK], c: &[A::Acc; BLOCK], blk: &mut Block<A>, mo: &mut [f32; BLOCK]) {
+    fn polar_from_planes<const FINE: bool>(
+        &self,
+        l: usize,
+        s: &[A::Acc; BLOCK],
+        c: &[A::Acc; BLOCK],
+        blk: &mut Block<A>,
+        mo: &mut [f32; BLOCK],
+    ) {
         let (ad, bd, fmt) = (self.a_dc[l], self.b_dc[l], &self.format);
         let Block { dc, wrapped, mag } = blk;
         let (w, mag) = (&mut wrapped[l], &mut mag[l]);
@@ -1107,7 +1384,13 @@ impl<A: Arith> Decoder<A> {
     /// independent iterations an out-of-order core overlaps; one fused body (arctangents →
     /// unwrapping → validity, ~300 instructions per vector) ran at the latency of its chain.
     #[inline(always)]
-    fn unwrap_block<T: Copy, const N: usize>(&self, blk: &Block<A>, sat: &[T; BLOCK], saturated: impl Fn(T) -> bool, out: BlockOut<'_>) {
+    fn unwrap_block<T: Copy, const N: usize>(
+        &self,
+        blk: &Block<A>,
+        sat: &[T; BLOCK],
+        saturated: impl Fn(T) -> bool,
+        out: BlockOut<'_>,
+    ) {
         match self.n_levels {
             1 => self.unwrap_levels::<1, T, N>(blk, sat, saturated, out),
             2 => self.unwrap_levels::<2, T, N>(blk, sat, saturated, out),
@@ -1124,16 +1407,29 @@ impl<A: Arith> Decoder<A> {
     // (5× slower with AVX-512).
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn unwrap_levels<const L: usize, T: Copy, const N: usize>(&self, blk: &Block<A>, sat: &[T; BLOCK], saturated: impl Fn(T) -> bool, out: BlockOut<'_>) {
+    fn unwrap_levels<const L: usize, T: Copy, const N: usize>(
+        &self,
+        blk: &Block<A>,
+        sat: &[T; BLOCK],
+        saturated: impl Fn(T) -> bool,
+        out: BlockOut<'_>,
+    ) {
         let fmt = &self.format;
         let (wrapped, mag, a) = (&blk.wrapped, &blk.mag, &blk.dc);
-        let BlockOut { phase: po, dc: ao, validity: vo, .. } = out;
+        let BlockOut {
+            phase: po,
+            dc: ao,
+            validity: vo,
+            ..
+        } = out;
         const { assert!(N > 0 && BLOCK.is_multiple_of(N)) };
         for j in 0..BLOCK / N {
             let ix: [usize; N] = core::array::from_fn(|k| j + k * (BLOCK / N));
             let av: [A::Acc; N] = core::array::from_fn(|k| a[ix[k]]);
-            let w: [[A::Phase; L]; N] = core::array::from_fn(|k| core::array::from_fn(|l| wrapped[l][ix[k]]));
-            let m: [[A::Mag; L]; N] = core::array::from_fn(|k| core::array::from_fn(|l| mag[l][ix[k]]));
+            let w: [[A::Phase; L]; N] =
+                core::array::from_fn(|k| core::array::from_fn(|l| wrapped[l][ix[k]]));
+            let m: [[A::Mag; L]; N] =
+                core::array::from_fn(|k| core::array::from_fn(|l| mag[l][ix[k]]));
             let st: [bool; N] = core::array::from_fn(|k| saturated(sat[ix[k]]));
             let r = self.finish_lanes(&w, &m, &av, &st);
             for k in 0..N {
@@ -1150,14 +1446,21 @@ impl<A: Arith> Decoder<A> {
     /// output and the code of each pixel.
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn finish_lanes<const L: usize, const N: usize>(&self, w: &[[A::Phase; L]; N], m: &[[A::Mag; L]; N], a: &[A::Acc; N], saturated: &[bool; N]) -> [(f32, u8); N] {
+    fn finish_lanes<const L: usize, const N: usize>(
+        &self,
+        w: &[[A::Phase; L]; N],
+        m: &[[A::Mag; L]; N],
+        a: &[A::Acc; N],
+        saturated: &[bool; N],
+    ) -> [(f32, u8); N] {
         use core::array::from_fn as lanes;
         let lim = &self.limits;
         let mut phi: [A::Phase; N] = lanes(|k| w[k][0]);
         let out_of_range: [bool; N] = lanes(|k| !A::in_range(phi[k], lim.coarse_lo, lim.coarse_hi));
         let mut inconsistent = [false; N];
         for l in 1..L {
-            let st: [(A::Phase, A::Phase); N] = lanes(|k| A::unwrap(phi[k], self.ratio[l], w[k][l]));
+            let st: [(A::Phase, A::Phase); N] =
+                lanes(|k| A::unwrap(phi[k], self.ratio[l], w[k][l]));
             for k in 0..N {
                 inconsistent[k] |= !A::consistent(st[k].1, lim.unwrap_tolerance);
                 phi[k] = st[k].0;
@@ -1180,21 +1483,42 @@ impl<A: Arith> Decoder<A> {
             let mut v = Validity::Valid as u32;
             v = pick(inconsistent[k], Validity::UnwrapInconsistent, v);
             v = pick(out_of_range[k], Validity::PhaseOutOfRange, v);
-            v = pick(!A::mag_at_least(bm[k], lim.min_modulation), Validity::LowModulation, v);
+            v = pick(
+                !A::mag_at_least(bm[k], lim.min_modulation),
+                Validity::LowModulation,
+                v,
+            );
             v = pick(!A::dc_at_least(a[k], lim.dark), Validity::Dark, v);
             v = pick(saturated[k], Validity::Saturated, v);
-            (if v == 0 { A::phase_out(phi[k]) } else { CANONICAL_NAN }, v as u8)
+            (
+                if v == 0 {
+                    A::phase_out(phi[k])
+                } else {
+                    CANONICAL_NAN
+                },
+                v as u8,
+            )
         })
     }
 
     /// Wrapped phase φ^(k) ∈ [−π, π] (eqs 9, 11) and modulation B of one level from a complete
     /// state, for diagnostics, golden vectors and noise studies. Same operations as [`Self::finish`].
-    pub fn finish_level(&self, st: &State<'_, A::Acc>, level: usize, wrapped: &mut [f32], modulation: &mut [f32]) -> Result<(), DecodeError> {
+    pub fn finish_level(
+        &self,
+        st: &State<'_, A::Acc>,
+        level: usize,
+        wrapped: &mut [f32],
+        modulation: &mut [f32],
+    ) -> Result<(), DecodeError> {
         let n = st.dc.len();
         if level >= self.n_levels {
             return Err(DecodeError::Sequence);
         }
-        if wrapped.len() != n || modulation.len() != n || st.s[level].len() != n || st.c[level].len() != n {
+        if wrapped.len() != n
+            || modulation.len() != n
+            || st.s[level].len() != n
+            || st.c[level].len() != n
+        {
             return Err(DecodeError::Length);
         }
         let (ad, bd, fmt) = (self.a_dc[level], self.b_dc[level], &self.format);
@@ -1209,7 +1533,13 @@ impl<A: Arith> Decoder<A> {
 
     /// Row API for one level: wrapped phase and modulation of `level` from the rows of every image
     /// (set order). See [`Self::finish_level`].
-    pub fn decode_row_level<P: Sample>(&self, rows: &[&[P]], level: usize, wrapped: &mut [f32], modulation: &mut [f32]) -> Result<(), DecodeError> {
+    pub fn decode_row_level<P: Sample>(
+        &self,
+        rows: &[&[P]],
+        level: usize,
+        wrapped: &mut [f32],
+        modulation: &mut [f32],
+    ) -> Result<(), DecodeError> {
         if rows.len() != self.n_images {
             return Err(DecodeError::ImageCount);
         }
@@ -1229,7 +1559,12 @@ impl<A: Arith> Decoder<A> {
             for (i, r) in rows.iter().enumerate() {
                 self.accumulate(i, &r[start..end], &mut st)?;
             }
-            self.finish_level(&st, level, &mut wrapped[start..end], &mut modulation[start..end])?;
+            self.finish_level(
+                &st,
+                level,
+                &mut wrapped[start..end],
+                &mut modulation[start..end],
+            )?;
             start = end;
         }
         Ok(())
@@ -1266,7 +1601,11 @@ struct Block<A: Arith> {
 
 impl<A: Arith> Block<A> {
     fn new() -> Self {
-        Block { dc: [A::ZERO; BLOCK], wrapped: [[A::Phase::default(); BLOCK]; MAX_LEVELS], mag: [[A::Mag::default(); BLOCK]; MAX_LEVELS] }
+        Block {
+            dc: [A::ZERO; BLOCK],
+            wrapped: [[A::Phase::default(); BLOCK]; MAX_LEVELS],
+            mag: [[A::Mag::default(); BLOCK]; MAX_LEVELS],
+        }
     }
 }
 
@@ -1281,13 +1620,20 @@ struct BlockOut<'a> {
 /// The block `range` (of length [`BLOCK`]) of a row, as an array.
 #[inline(always)]
 fn block<T>(row: &[T], range: core::ops::Range<usize>) -> Result<&[T; BLOCK], DecodeError> {
-    row.get(range).and_then(|r| r.try_into().ok()).ok_or(DecodeError::Length)
+    row.get(range)
+        .and_then(|r| r.try_into().ok())
+        .ok_or(DecodeError::Length)
 }
 
 /// [`block`], mutable.
 #[inline(always)]
-fn block_mut<T>(row: &mut [T], range: core::ops::Range<usize>) -> Result<&mut [T; BLOCK], DecodeError> {
-    row.get_mut(range).and_then(|r| r.try_into().ok()).ok_or(DecodeError::Length)
+fn block_mut<T>(
+    row: &mut [T],
+    range: core::ops::Range<usize>,
+) -> Result<&mut [T; BLOCK], DecodeError> {
+    row.get_mut(range)
+        .and_then(|r| r.try_into().ok())
+        .ok_or(DecodeError::Length)
 }
 
 /// The largest sample of every pixel of the block at `start` of `N` image rows (the common set
@@ -1295,7 +1641,10 @@ fn block_mut<T>(row: &mut [T], range: core::ops::Range<usize>) -> Result<&mut [T
 /// by row stores and reloads the running maximum once per row. The maximum of integers does not
 /// depend on the order: the bits of the fold.
 #[inline(always)]
-fn peak_of<P: Sample, const N: usize>(rows: &[&[P]], start: usize) -> Result<[P; BLOCK], DecodeError> {
+fn peak_of<P: Sample, const N: usize>(
+    rows: &[&[P]],
+    start: usize,
+) -> Result<[P; BLOCK], DecodeError> {
     let r = start..start + BLOCK;
     let first = block(rows.first().copied().unwrap_or(&[]), r.clone())?;
     let mut b: [&[P; BLOCK]; N] = [first; N];
@@ -1376,8 +1725,22 @@ fn block_state<'a, T>(
     let [c0, c1, c2, c3, c4, c5] = c;
     State {
         dc: &mut dc[..n],
-        s: [&mut s0[..n], &mut s1[..n], &mut s2[..n], &mut s3[..n], &mut s4[..n], &mut s5[..n]],
-        c: [&mut c0[..n], &mut c1[..n], &mut c2[..n], &mut c3[..n], &mut c4[..n], &mut c5[..n]],
+        s: [
+            &mut s0[..n],
+            &mut s1[..n],
+            &mut s2[..n],
+            &mut s3[..n],
+            &mut s4[..n],
+            &mut s5[..n],
+        ],
+        c: [
+            &mut c0[..n],
+            &mut c1[..n],
+            &mut c2[..n],
+            &mut c3[..n],
+            &mut c4[..n],
+            &mut c5[..n],
+        ],
         flags: {
             let k = n.min(flags.len());
             &mut flags[..k]

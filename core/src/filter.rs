@@ -36,11 +36,14 @@ impl EdgeFilter {
     /// pixel footprints). Returns `None` for non-finite or non-positive parameters or an angle
     /// of 90° or more.
     pub fn new(focal_px: f64, max_angle_deg: f64) -> Option<Self> {
-        if !(focal_px.is_finite() && focal_px > 0.0 && max_angle_deg > 0.0 && max_angle_deg < 90.0) {
+        if !(focal_px.is_finite() && focal_px > 0.0 && max_angle_deg > 0.0 && max_angle_deg < 90.0)
+        {
             return None;
         }
         let slope = libm::tan(max_angle_deg.to_radians());
-        Some(EdgeFilter { step: (slope / focal_px) as f32 })
+        Some(EdgeFilter {
+            step: (slope / focal_px) as f32,
+        })
     }
 
     /// Filter row `cur` (points `3·w` floats, validity `w` codes) given the rows above and below

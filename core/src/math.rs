@@ -37,7 +37,13 @@ pub const ATAN_COEFFS: [f32; 7] = [
 /// Fitted by the same Remez exchange as [`ATAN_COEFFS`] (`tools/fit_atan.py` with 5 terms).
 /// Maximum error of the polynomial 1.14e-5 rad; evaluated in f32 by Horner's rule 1.15e-5 rad.
 #[allow(clippy::excessive_precision)] // the fit's digits, rounded to f32 by the compiler
-pub const ATAN_FAST_COEFFS: [f32; 5] = [9.998_663_295e-1, -3.303_047_855e-1, 1.801_592_946e-1, -8.515_635_084e-2, 2.084_511_418e-2];
+pub const ATAN_FAST_COEFFS: [f32; 5] = [
+    9.998_663_295e-1,
+    -3.303_047_855e-1,
+    1.801_592_946e-1,
+    -8.515_635_084e-2,
+    2.084_511_418e-2,
+];
 
 /// Branch-free four-quadrant arctangent, `atan2(y, x)` in `[-π, π]`.
 ///
@@ -83,7 +89,11 @@ pub fn atan2_hypot_finite(y: f32, x: f32) -> (f32, f32) {
 /// program order, the chain of the first fills the out-of-order core's scheduler while the next
 /// has not yet been fetched. Side by side, the core always finds independent work.
 #[inline(always)]
-pub fn atan2_levels3_lanes<const N: usize>(fine: [(f32, f32); N], c1: [(f32, f32); N], c2: [(f32, f32); N]) -> [((f32, f32), f32, f32); N] {
+pub fn atan2_levels3_lanes<const N: usize>(
+    fine: [(f32, f32); N],
+    c1: [(f32, f32); N],
+    c2: [(f32, f32); N],
+) -> [((f32, f32), f32, f32); N] {
     use core::array::from_fn as lanes;
     let df: [(f32, f32); N] = lanes(|k| diagonal(fine[k].0, fine[k].1));
     let p1: [f32; N] = lanes(|k| diagonal(c1[k].0, c1[k].1).0);
@@ -94,7 +104,13 @@ pub fn atan2_levels3_lanes<const N: usize>(fine: [(f32, f32); N], c1: [(f32, f32
     let rf: [f32; N] = lanes(|k| unfold::<false>(fine[k].0, fine[k].1, af[k]));
     let r1: [f32; N] = lanes(|k| unfold::<false>(c1[k].0, c1[k].1, a1[k]));
     let r2: [f32; N] = lanes(|k| unfold::<false>(c2[k].0, c2[k].1, a2[k]));
-    lanes(|k| ((rf[k], df[k].1 * hypot_factor(df[k].0 * df[k].0)), r1[k], r2[k]))
+    lanes(|k| {
+        (
+            (rf[k], df[k].1 * hypot_factor(df[k].0 * df[k].0)),
+            r1[k],
+            r2[k],
+        )
+    })
 }
 
 /// [`ATAN_COARSE_COEFFS`] by Horner's rule, `p ∈ [−1, 1]`.
@@ -226,7 +242,11 @@ fn unfold<const NAN_GUARD: bool>(y: f32, x: f32, a: f32) -> f32 {
     let r = FRAC_PI_2 + f32::from_bits(u.to_bits() ^ (x.to_bits() & SIGN));
     let r = if r > 0.0 { r } else { 0.0 };
     let r = if r < PI { r } else { PI };
-    let r = if NAN_GUARD && (x.is_nan() || y.is_nan()) { f32::NAN } else { r };
+    let r = if NAN_GUARD && (x.is_nan() || y.is_nan()) {
+        f32::NAN
+    } else {
+        r
+    };
     f32::from_bits(r.to_bits() | (y.to_bits() & SIGN))
 }
 
@@ -337,7 +357,11 @@ mod tests {
         assert_eq!(check_range(0, 0x7f80_0001, 97), 0);
         for e in 0..255u32 {
             let b = e << 23;
-            assert_eq!(check_range(b.saturating_sub(300), b + 300, 1), 0, "binade {e}");
+            assert_eq!(
+                check_range(b.saturating_sub(300), b + 300, 1),
+                0,
+                "binade {e}"
+            );
         }
         assert_eq!(sqrt(0.0).to_bits(), 0);
         assert_eq!(sqrt(-0.0).to_bits(), (-0.0f32).to_bits());
@@ -352,7 +376,9 @@ mod tests {
     fn atan2_inputs() -> impl Iterator<Item = (f32, f32)> {
         let grid = (0..20_000).flat_map(|k| {
             let th = -core::f64::consts::PI + core::f64::consts::TAU * k as f64 / 20_000.0;
-            [1e-3f64, 0.7, 1.0, 255.0, 1e5].into_iter().map(move |r| ((r * libm::sin(th)) as f32, (r * libm::cos(th)) as f32))
+            [1e-3f64, 0.7, 1.0, 255.0, 1e5]
+                .into_iter()
+                .map(move |r| ((r * libm::sin(th)) as f32, (r * libm::cos(th)) as f32))
         });
         let mut z = 0x2545_f491_4f6c_dd1du64;
         let random = (0..200_000).map(move |_| {
@@ -368,7 +394,9 @@ mod tests {
 
     /// The largest absolute error of `f` against the f64 `atan2` over [`atan2_inputs`].
     fn atan2_error(f: impl Fn(f32, f32) -> f32) -> f64 {
-        atan2_inputs().map(|(y, x)| libm::fabs(f(y, x) as f64 - libm::atan2(y as f64, x as f64))).fold(0.0, f64::max)
+        atan2_inputs()
+            .map(|(y, x)| libm::fabs(f(y, x) as f64 - libm::atan2(y as f64, x as f64)))
+            .fold(0.0, f64::max)
     }
 
     #[test]

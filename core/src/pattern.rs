@@ -106,7 +106,10 @@ impl core::fmt::Display for PatternError {
             Self::ShiftCount(l, n) => {
                 write!(f, "level {l} has {n} phase shifts; need 2 to {MAX_SHIFTS}")
             }
-            Self::Scale(l) => write!(f, "level {l}: scale coefficient must be finite and positive"),
+            Self::Scale(l) => write!(
+                f,
+                "level {l}: scale coefficient must be finite and positive"
+            ),
             Self::ScalesNotIncreasing(l) => write!(
                 f,
                 "level {l}: scale coefficients must strictly increase from the coarsest level to the finest"
@@ -148,7 +151,11 @@ impl Level {
         let n = shifts.len().min(MAX_SHIFTS);
         s[..n].copy_from_slice(&shifts[..n]);
         // An over-long list is kept as an invalid count so that validation reports it.
-        Level { scale, n: shifts.len(), shifts: s }
+        Level {
+            scale,
+            n: shifts.len(),
+            shifts: s,
+        }
     }
 
     /// The generic N-step level of eq 14: shifts `2π(n−1)/N`, n = 1..N.
@@ -157,7 +164,11 @@ impl Level {
         for (i, v) in s.iter_mut().enumerate().take(n_steps.min(MAX_SHIFTS)) {
             *v = core::f64::consts::TAU * i as f64 / n_steps as f64;
         }
-        Level { scale, n: n_steps, shifts: s }
+        Level {
+            scale,
+            n: n_steps,
+            shifts: s,
+        }
     }
 
     /// The paper's 2-image level (eq 7 with n = 1, 2): shifts 0 and π/2; it needs the DC term A of
@@ -234,7 +245,11 @@ impl PatternSet {
     /// Images are ordered with the DC-bearing levels first (finest first among them), then the
     /// remaining levels from coarse to fine, each level's shifts in order. Use
     /// [`PatternSet::with_order`] for captured data in another order.
-    pub fn new(function: PhaseFunction, levels: &[Level], output: Output) -> Result<Self, PatternError> {
+    pub fn new(
+        function: PhaseFunction,
+        levels: &[Level],
+        output: Output,
+    ) -> Result<Self, PatternError> {
         if levels.is_empty() || levels.len() > MAX_LEVELS {
             return Err(PatternError::LevelCount(levels.len()));
         }
@@ -262,7 +277,10 @@ impl PatternSet {
             for &li in &idx[..m] {
                 for s in 0..levels[li].n.min(MAX_SHIFTS) {
                     if k < MAX_IMAGES {
-                        order[k] = ImageId { level: li as u8, shift: s as u8 };
+                        order[k] = ImageId {
+                            level: li as u8,
+                            shift: s as u8,
+                        };
                         k += 1;
                     }
                 }
@@ -285,19 +303,35 @@ impl PatternSet {
 
     /// The paper's 8-pattern, 3-level set (eq 7): level 0 and 1 with 2 images (shifts 0, π/2),
     /// level 2 with 4 (shifts 0, π/2, π, 3π/2), scale coefficients `1 : ratio : ratio²`.
-    pub fn paper_eight(function: PhaseFunction, ratio: f64, output: Output) -> Result<Self, PatternError> {
+    pub fn paper_eight(
+        function: PhaseFunction,
+        ratio: f64,
+        output: Output,
+    ) -> Result<Self, PatternError> {
         Self::new(
             function,
-            &[Level::two_step(1.0), Level::two_step(ratio), Level::n_step(ratio * ratio, 4)],
+            &[
+                Level::two_step(1.0),
+                Level::two_step(ratio),
+                Level::n_step(ratio * ratio, 4),
+            ],
             output,
         )
     }
 
     /// The conventional 12-pattern set: three 4-step levels, scales `1 : ratio : ratio²`.
-    pub fn twelve_pattern(function: PhaseFunction, ratio: f64, output: Output) -> Result<Self, PatternError> {
+    pub fn twelve_pattern(
+        function: PhaseFunction,
+        ratio: f64,
+        output: Output,
+    ) -> Result<Self, PatternError> {
         Self::new(
             function,
-            &[Level::n_step(1.0, 4), Level::n_step(ratio, 4), Level::n_step(ratio * ratio, 4)],
+            &[
+                Level::n_step(1.0, 4),
+                Level::n_step(ratio, 4),
+                Level::n_step(ratio * ratio, 4),
+            ],
             output,
         )
     }
@@ -384,7 +418,9 @@ impl PatternSet {
         }
         let c_min = self.levels[0].scale;
         let c_max = self.levels[self.n_levels - 1].scale;
-        self.coarse_range = self.function.check(o.width, o.height, c_min, c_max, COARSE_MARGIN)?;
+        self.coarse_range = self
+            .function
+            .check(o.width, o.height, c_min, c_max, COARSE_MARGIN)?;
         Ok(())
     }
 
@@ -410,7 +446,11 @@ impl PatternSet {
 
     /// Level and shift of image `i` (in projection/capture order), or `None` past the end.
     pub fn image(&self, i: usize) -> Option<ImageId> {
-        if i < self.n_images { Some(self.order[i]) } else { None }
+        if i < self.n_images {
+            Some(self.order[i])
+        } else {
+            None
+        }
     }
 
     /// The image order.
@@ -467,7 +507,12 @@ impl PatternSet {
     ///
     /// Generic over the output sample type: `u8` for 8-bit projectors, `u16` for 16-bit ones.
     /// Returns an error if the image or row index is out of range or `out` has the wrong length.
-    pub fn generate_row<T: PatternSample>(&self, image: usize, eta: u32, out: &mut [T]) -> Result<(), RowError> {
+    pub fn generate_row<T: PatternSample>(
+        &self,
+        image: usize,
+        eta: u32,
+        out: &mut [T],
+    ) -> Result<(), RowError> {
         if image >= self.n_images {
             return Err(RowError::Image);
         }
@@ -531,7 +576,13 @@ impl PatternSample for u8 {
     const MAX: f64 = 255.0;
     fn quantize(v: f64) -> Self {
         let r = libm::round(v);
-        if r >= 255.0 { 255 } else if r > 0.0 { r as u8 } else { 0 }
+        if r >= 255.0 {
+            255
+        } else if r > 0.0 {
+            r as u8
+        } else {
+            0
+        }
     }
 }
 
@@ -539,6 +590,12 @@ impl PatternSample for u16 {
     const MAX: f64 = 65535.0;
     fn quantize(v: f64) -> Self {
         let r = libm::round(v);
-        if r >= 65535.0 { 65535 } else if r > 0.0 { r as u16 } else { 0 }
+        if r >= 65535.0 {
+            65535
+        } else if r > 0.0 {
+            r as u16
+        } else {
+            0
+        }
     }
 }

@@ -151,9 +151,16 @@ impl KnotProfile {
     pub fn new(s: &[f64], phi: &[f64], slope: &[f64]) -> Result<Self, PhaseFunctionError> {
         let n = s.len();
         if !(2..=MAX_KNOTS).contains(&n) || phi.len() != n || slope.len() != n {
-            return Err(PhaseFunctionError::KnotCount(n.max(phi.len()).max(slope.len())));
+            return Err(PhaseFunctionError::KnotCount(
+                n.max(phi.len()).max(slope.len()),
+            ));
         }
-        let mut k = KnotProfile { n, s: [0.0; MAX_KNOTS], phi: [0.0; MAX_KNOTS], slope: [0.0; MAX_KNOTS] };
+        let mut k = KnotProfile {
+            n,
+            s: [0.0; MAX_KNOTS],
+            phi: [0.0; MAX_KNOTS],
+            slope: [0.0; MAX_KNOTS],
+        };
         for i in 0..n {
             if !(s[i].is_finite() && phi[i].is_finite() && slope[i].is_finite()) {
                 return Err(PhaseFunctionError::NotFinite);
@@ -246,7 +253,10 @@ impl KnotProfile {
         let h10 = t3 - 2.0 * t2 + t;
         let h01 = -2.0 * t3 + 3.0 * t2;
         let h11 = t3 - t2;
-        h00 * self.phi[i] + h10 * h * self.slope[i] + h01 * self.phi[i + 1] + h11 * h * self.slope[i + 1]
+        h00 * self.phi[i]
+            + h10 * h * self.slope[i]
+            + h01 * self.phi[i + 1]
+            + h11 * h * self.slope[i + 1]
     }
 }
 
@@ -296,7 +306,12 @@ impl PhaseFunction {
         if slope <= 0.0 {
             return Err(PhaseFunctionError::NonPositiveSlope);
         }
-        Ok(Self { axis, profile: Profile::Linear { origin, slope }, curvature: 0.0, bend_center: 0.0 })
+        Ok(Self {
+            axis,
+            profile: Profile::Linear { origin, slope },
+            curvature: 0.0,
+            bend_center: 0.0,
+        })
     }
 
     /// The linear function that spans `(−span/2, span/2)` radians across a projector `size`
@@ -312,7 +327,12 @@ impl PhaseFunction {
         if let Profile::Linear { origin, slope } = profile {
             return Self::linear(axis, origin, slope);
         }
-        Ok(Self { axis, profile, curvature: 0.0, bend_center: 0.0 })
+        Ok(Self {
+            axis,
+            profile,
+            curvature: 0.0,
+            bend_center: 0.0,
+        })
     }
 
     /// Bend the fringes: `Φ = g(t + a·(w − w₀)²)` with `a = curvature` (1/pixel) and
@@ -383,7 +403,11 @@ impl PhaseFunction {
         };
         // Straight fringes (no curvature): every line across is the same function of the
         // coordinate along, so the first line decides (same values, same first error).
-        let n_across = if self.curvature == 0.0 { n_across.min(1) } else { n_across };
+        let n_across = if self.curvature == 0.0 {
+            n_across.min(1)
+        } else {
+            n_across
+        };
         let mut lo = f64::INFINITY;
         let mut hi = f64::NEG_INFINITY;
         for across in 0..n_across {
@@ -414,7 +438,10 @@ impl PhaseFunction {
         let (lo, hi) = (lo * c_min, hi * c_min);
         let limit = core::f64::consts::PI - margin;
         if !(lo > -limit && hi < limit) {
-            return Err(PhaseFunctionError::CoarseRangeExceeded { min: lo as f32, max: hi as f32 });
+            return Err(PhaseFunctionError::CoarseRangeExceeded {
+                min: lo as f32,
+                max: hi as f32,
+            });
         }
         Ok((lo, hi))
     }

@@ -62,7 +62,9 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
         state: &'s mut [A::Acc],
         flags: &'s mut [u8],
     ) -> Result<Self, DecodeError> {
-        let plane = width.checked_mul(height).ok_or(DecodeError::StateTooSmall)?;
+        let plane = width
+            .checked_mul(height)
+            .ok_or(DecodeError::StateTooSmall)?;
         let levels = decoder.level_count();
         if state.len() < (1 + 2 * levels) * plane || flags.len() < plane || levels > MAX_LEVELS {
             return Err(DecodeError::StateTooSmall);
@@ -80,7 +82,14 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
             c[l] = b;
             rest = r;
         }
-        Ok(FrameDecoder { decoder, width, height, st: State { dc, s, c, flags }, image: 0, row: 0 })
+        Ok(FrameDecoder {
+            decoder,
+            width,
+            height,
+            st: State { dc, s, c, flags },
+            image: 0,
+            row: 0,
+        })
     }
 
     fn view(&mut self, y: usize) -> State<'_, A::Acc> {
@@ -89,8 +98,22 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
         let [c0, c1, c2, c3, c4, c5] = &mut self.st.c;
         State {
             dc: sub(self.st.dc, o, w),
-            s: [sub(s0, o, w), sub(s1, o, w), sub(s2, o, w), sub(s3, o, w), sub(s4, o, w), sub(s5, o, w)],
-            c: [sub(c0, o, w), sub(c1, o, w), sub(c2, o, w), sub(c3, o, w), sub(c4, o, w), sub(c5, o, w)],
+            s: [
+                sub(s0, o, w),
+                sub(s1, o, w),
+                sub(s2, o, w),
+                sub(s3, o, w),
+                sub(s4, o, w),
+                sub(s5, o, w),
+            ],
+            c: [
+                sub(c0, o, w),
+                sub(c1, o, w),
+                sub(c2, o, w),
+                sub(c3, o, w),
+                sub(c4, o, w),
+                sub(c5, o, w),
+            ],
             flags: match self.st.flags.get_mut(o..o + w) {
                 Some(x) => x,
                 None => &mut [],

@@ -18,7 +18,12 @@ use fringe3d_core::sequential::FrameDecoder;
 use fringe3d_core::validity::Validity;
 
 fn out(i_max: f64) -> Output {
-    Output { width: 1024, height: 768, i_min: 0.0, i_max }
+    Output {
+        width: 1024,
+        height: 768,
+        i_min: 0.0,
+        i_max,
+    }
 }
 
 struct Decoded {
@@ -30,9 +35,23 @@ struct Decoded {
 
 fn decode<P: Sample>(d: &AnyDecoder, imgs: &[Vec<P>]) -> Decoded {
     let w = imgs[0].len();
-    let mut o = Decoded { phase: vec![0.0; w], b: vec![0.0; w], a: vec![0.0; w], v: vec![0; w] };
+    let mut o = Decoded {
+        phase: vec![0.0; w],
+        b: vec![0.0; w],
+        a: vec![0.0; w],
+        v: vec![0; w],
+    };
     let rows: Vec<&[P]> = imgs.iter().map(|r| r.as_slice()).collect();
-    d.decode_row(&rows, RowOut { phase: &mut o.phase, modulation: &mut o.b, dc: &mut o.a, validity: &mut o.v }).unwrap();
+    d.decode_row(
+        &rows,
+        RowOut {
+            phase: &mut o.phase,
+            modulation: &mut o.b,
+            dc: &mut o.a,
+            validity: &mut o.v,
+        },
+    )
+    .unwrap();
     o
 }
 
@@ -45,7 +64,11 @@ fn random_pixels(set: &PatternSet, n: usize, full: f64, rng: &mut Rng) -> Vec<Pi
         .map(|_| {
             let a = full * (0.3 + 0.3 * rng.uniform());
             let b = full * (0.1 + 0.18 * rng.uniform());
-            Pixel { a, b, phi_p: (lo + (hi - lo) * (0.02 + 0.96 * rng.uniform())) / c0 }
+            Pixel {
+                a,
+                b,
+                phi_p: (lo + (hi - lo) * (0.02 + 0.96 * rng.uniform())) / c0,
+            }
         })
         .collect()
 }
@@ -54,7 +77,12 @@ fn random_pixels(set: &PatternSet, n: usize, full: f64, rng: &mut Rng) -> Vec<Pi
 /// pixels valid in the backend's decode (asserts all are valid): (max, RMS) of the finest absolute
 /// phase, and (max, RMS) of the finest level's wrapped phase (`decode_row_level`, the `atan2`
 /// alone, without the f32 rounding of a large absolute phase).
-fn phase_error(backend: Backend, set: &PatternSet, bits: u32, n: usize) -> ((f64, f64), (f64, f64)) {
+fn phase_error(
+    backend: Backend,
+    set: &PatternSet,
+    bits: u32,
+    n: usize,
+) -> ((f64, f64), (f64, f64)) {
     let full = ((1u32 << bits) - 1) as f64;
     let d = AnyDecoder::new(set, DecodeConfig::for_bit_depth(bits), backend).unwrap();
     let mut rng = Rng(11 + bits as u64);
@@ -75,7 +103,12 @@ fn phase_error(backend: Backend, set: &PatternSet, bits: u32, n: usize) -> ((f64
     };
     let (mut worst, mut sum2, mut wworst, mut wsum2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for i in 0..n {
-        assert_eq!(o.v[i], 0, "{backend} {bits}-bit: pixel {i} invalid ({:?})", Validity::from_u8(o.v[i]));
+        assert_eq!(
+            o.v[i],
+            0,
+            "{backend} {bits}-bit: pixel {i} invalid ({:?})",
+            Validity::from_u8(o.v[i])
+        );
         let samples: Vec<f64> = imgs.iter().map(|r| r[i] as f64).collect();
         let (phi, w, _) = reference_decode(set, &samples);
         let e = o.phase[i] as f64 - phi;
@@ -85,7 +118,10 @@ fn phase_error(backend: Backend, set: &PatternSet, bits: u32, n: usize) -> ((f64
         wworst = wworst.max(ew.abs());
         wsum2 += ew * ew;
     }
-    ((worst, (sum2 / n as f64).sqrt()), (wworst, (wsum2 / n as f64).sqrt()))
+    (
+        (worst, (sum2 / n as f64).sqrt()),
+        (wworst, (wsum2 / n as f64).sqrt()),
+    )
 }
 
 fn paper(bits: u32) -> PatternSet {
@@ -94,7 +130,16 @@ fn paper(bits: u32) -> PatternSet {
 
 fn steps357(bits: u32) -> PatternSet {
     let f = PhaseFunction::centered(Axis::Eta, 768, 0.9 * std::f64::consts::TAU).unwrap();
-    PatternSet::new(f, &[Level::n_step(1.0, 3), Level::n_step(6.0, 5), Level::n_step(36.0, 7)], out(((1u32 << bits) - 1) as f64)).unwrap()
+    PatternSet::new(
+        f,
+        &[
+            Level::n_step(1.0, 3),
+            Level::n_step(6.0, 5),
+            Level::n_step(36.0, 7),
+        ],
+        out(((1u32 << bits) - 1) as f64),
+    )
+    .unwrap()
 }
 
 /// Largest errors each backend may have against the f64 reference: finest absolute phase (the
@@ -112,13 +157,20 @@ fn bounds(b: Backend) -> (f64, f64) {
 #[test]
 fn phase_error_against_f64_reference() {
     for backend in Backend::ALL {
-        for (name, set, bits) in [("paper8", paper(8), 8), ("paper8", paper(16), 16), ("3/5/7", steps357(12), 12)] {
+        for (name, set, bits) in [
+            ("paper8", paper(8), 8),
+            ("paper8", paper(16), 16),
+            ("3/5/7", steps357(12), 12),
+        ] {
             let ((max, rms), (wmax, wrms)) = phase_error(backend, &set, bits, 100_000);
             println!(
                 "phase error | {backend} | {name} {bits}-bit | finest max {max:.2e} RMS {rms:.2e} rad | wrapped max {wmax:.2e} RMS {wrms:.2e} rad"
             );
             let (b, wb) = bounds(backend);
-            assert!(max <= b && wmax <= wb, "{backend} {name} {bits}-bit: max error {max:e} rad, wrapped {wmax:e} rad");
+            assert!(
+                max <= b && wmax <= wb,
+                "{backend} {name} {bits}-bit: max error {max:e} rad, wrapped {wmax:e} rad"
+            );
         }
     }
 }
@@ -131,7 +183,13 @@ fn unwrap_failures(backend: Backend, b_over_sigma: f64, n: usize) -> (f64, f64, 
     let px = {
         let (lo, hi) = set.coarse_range();
         let c0 = set.levels()[0].scale();
-        (0..n).map(|i| Pixel { a, b, phi_p: (lo + (hi - lo) * (i as f64 + 0.5) / n as f64) / c0 }).collect::<Vec<_>>()
+        (0..n)
+            .map(|i| Pixel {
+                a,
+                b,
+                phi_p: (lo + (hi - lo) * (i as f64 + 0.5) / n as f64) / c0,
+            })
+            .collect::<Vec<_>>()
     };
     let imgs = to_u8(&images(&set, &px, b / b_over_sigma, 255.0, &mut Rng(3)));
     let o = decode(&d, &imgs);
@@ -147,7 +205,11 @@ fn unwrap_failures(backend: Backend, b_over_sigma: f64, n: usize) -> (f64, f64, 
             refused += 1;
         }
     }
-    (order as f64 / n as f64, refused as f64 / n as f64, valid as f64 / n as f64)
+    (
+        order as f64 / n as f64,
+        refused as f64 / n as f64,
+        valid as f64 / n as f64,
+    )
 }
 
 #[test]
@@ -156,8 +218,13 @@ fn unwrapping_failures_at_b_over_sigma_14_and_20() {
     for backend in Backend::ALL {
         for bs in [14.0, 20.0] {
             let (order, refused, valid) = unwrap_failures(backend, bs, n);
-            println!("unwrapping | {backend} | B/σ = {bs} | order errors {order:.1e} | refused {refused:.2e} | valid {valid:.4}");
-            assert_eq!(order, 0.0, "{backend}, B/σ = {bs}: fringe-order errors on valid pixels");
+            println!(
+                "unwrapping | {backend} | B/σ = {bs} | order errors {order:.1e} | refused {refused:.2e} | valid {valid:.4}"
+            );
+            assert_eq!(
+                order, 0.0,
+                "{backend}, B/σ = {bs}: fringe-order errors on valid pixels"
+            );
             assert!(valid > 0.99, "{backend}, B/σ = {bs}: only {valid} valid");
         }
     }
@@ -173,18 +240,32 @@ fn drivers_agree<A: Arith>(set: &PatternSet, bits: u32) {
     let px: Vec<Pixel> = (0..w * h)
         .map(|_| {
             let a = full * (0.02 + 0.8 * rng.uniform());
-            Pixel { a, b: a * rng.uniform(), phi_p: (lo - 0.3 + (hi - lo + 0.6) * rng.uniform()) / set.levels()[0].scale() }
+            Pixel {
+                a,
+                b: a * rng.uniform(),
+                phi_p: (lo - 0.3 + (hi - lo + 0.6) * rng.uniform()) / set.levels()[0].scale(),
+            }
         })
         .collect();
     let frames = images(set, &px, 0.02 * full, full, &mut rng);
     let n = w * h;
-    let mut row = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n], vec![0u8; n]);
+    let mut row = (
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+        vec![0u8; n],
+    );
     for y in 0..h {
         let rows: Vec<&[u16]> = frames.iter().map(|f| &f[y * w..(y + 1) * w]).collect();
         let r = y * w..(y + 1) * w;
         d.decode_row(
             &rows,
-            RowOut { phase: &mut row.0[r.clone()], modulation: &mut row.1[r.clone()], dc: &mut row.2[r.clone()], validity: &mut row.3[r] },
+            RowOut {
+                phase: &mut row.0[r.clone()],
+                modulation: &mut row.1[r.clone()],
+                dc: &mut row.2[r.clone()],
+                validity: &mut row.3[r],
+            },
         )
         .unwrap();
     }
@@ -194,21 +275,39 @@ fn drivers_agree<A: Arith>(set: &PatternSet, bits: u32) {
     for f in &frames {
         fd.push_frame(f).unwrap();
     }
-    let mut seq = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n], vec![0u8; n]);
+    let mut seq = (
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+        vec![0u8; n],
+    );
     for y in (0..h).rev() {
         let r = y * w..(y + 1) * w;
         fd.finish_row(
             y,
-            RowOut { phase: &mut seq.0[r.clone()], modulation: &mut seq.1[r.clone()], dc: &mut seq.2[r.clone()], validity: &mut seq.3[r] },
+            RowOut {
+                phase: &mut seq.0[r.clone()],
+                modulation: &mut seq.1[r.clone()],
+                dc: &mut seq.2[r.clone()],
+                validity: &mut seq.3[r],
+            },
         )
         .unwrap();
     }
-    let bits_of = |v: &[f32]| v.iter().map(|x| canonical(*x).to_bits()).collect::<Vec<_>>();
+    let bits_of = |v: &[f32]| {
+        v.iter()
+            .map(|x| canonical(*x).to_bits())
+            .collect::<Vec<_>>()
+    };
     assert_eq!(bits_of(&row.0), bits_of(&seq.0), "{}: phase", A::NAME);
     assert_eq!(bits_of(&row.1), bits_of(&seq.1), "{}: modulation", A::NAME);
     assert_eq!(bits_of(&row.2), bits_of(&seq.2), "{}: dc", A::NAME);
     assert_eq!(row.3, seq.3, "{}: validity", A::NAME);
-    assert!(row.3.contains(&0) && row.3.iter().any(|v| *v != 0), "{}: want valid and invalid pixels", A::NAME);
+    assert!(
+        row.3.contains(&0) && row.3.iter().any(|v| *v != 0),
+        "{}: want valid and invalid pixels",
+        A::NAME
+    );
 }
 
 #[test]
@@ -226,14 +325,33 @@ fn each_failure_gets_its_own_code_in_every_backend() {
     let set = paper(8);
     let (lo, hi) = set.coarse_range();
     let mid = 0.5 * (lo + hi) / set.levels()[0].scale();
-    let good = Pixel { a: 120.0, b: 80.0, phi_p: mid };
+    let good = Pixel {
+        a: 120.0,
+        b: 80.0,
+        phi_p: mid,
+    };
     let px = vec![
         good,
-        Pixel { a: 200.0, b: 80.0, ..good },                            // clipped at 255: saturated
-        Pixel { a: 2.0, b: 1.0, ..good },                               // dark
-        Pixel { a: 120.0, b: 2.0, ..good },                             // low modulation
-        good,                                                           // level 1 shifted by π below: unwrap inconsistent
-        Pixel { phi_p: (hi + 0.25) / set.levels()[0].scale(), ..good }, // out of range
+        Pixel {
+            a: 200.0,
+            b: 80.0,
+            ..good
+        }, // clipped at 255: saturated
+        Pixel {
+            a: 2.0,
+            b: 1.0,
+            ..good
+        }, // dark
+        Pixel {
+            a: 120.0,
+            b: 2.0,
+            ..good
+        }, // low modulation
+        good, // level 1 shifted by π below: unwrap inconsistent
+        Pixel {
+            phi_p: (hi + 0.25) / set.levels()[0].scale(),
+            ..good
+        }, // out of range
     ];
     let mut imgs = images(&set, &px, 0.0, 255.0, &mut Rng(9));
     for (i, row) in imgs.iter_mut().enumerate() {
@@ -241,11 +359,23 @@ fn each_failure_gets_its_own_code_in_every_backend() {
         if id.level == 1 {
             let lv = &set.levels()[1];
             let p = &px[4];
-            row[4] = (p.a + p.b * (lv.scale() * p.phi_p + lv.shifts()[id.shift as usize] + std::f64::consts::PI).sin()).round() as u16;
+            row[4] = (p.a
+                + p.b
+                    * (lv.scale() * p.phi_p
+                        + lv.shifts()[id.shift as usize]
+                        + std::f64::consts::PI)
+                        .sin())
+            .round() as u16;
         }
     }
-    let want =
-        [Validity::Valid, Validity::Saturated, Validity::Dark, Validity::LowModulation, Validity::UnwrapInconsistent, Validity::PhaseOutOfRange];
+    let want = [
+        Validity::Valid,
+        Validity::Saturated,
+        Validity::Dark,
+        Validity::LowModulation,
+        Validity::UnwrapInconsistent,
+        Validity::PhaseOutOfRange,
+    ];
     for backend in Backend::ALL {
         let d = AnyDecoder::new(&set, DecodeConfig::for_bit_depth(8), backend).unwrap();
         let o = decode(&d, &to_u8(&imgs));
@@ -254,7 +384,12 @@ fn each_failure_gets_its_own_code_in_every_backend() {
             assert_eq!(o.phase[i].is_nan(), !w.is_valid());
         }
         // DC and modulation of the good pixel, in camera codes
-        assert!((o.a[0] - 120.0).abs() < 0.5 && (o.b[0] - 80.0).abs() < 0.1 * 80.0, "{backend}: A {} B {}", o.a[0], o.b[0]);
+        assert!(
+            (o.a[0] - 120.0).abs() < 0.5 && (o.b[0] - 80.0).abs() < 0.1 * 80.0,
+            "{backend}: A {} B {}",
+            o.a[0],
+            o.b[0]
+        );
     }
 }
 
@@ -262,13 +397,26 @@ fn each_failure_gets_its_own_code_in_every_backend() {
 fn fixed_formats_follow_bit_depth_and_ratios() {
     // F: the largest with G·V·2^F ≤ 2^30 (G = 2 for the paper set).
     for (bits, want) in [(8u32, 21u32), (12, 17), (16, 13)] {
-        let d = Decoder::<Fixed>::with_arith(&paper(bits), DecodeConfig::for_bit_depth(bits)).unwrap();
+        let d =
+            Decoder::<Fixed>::with_arith(&paper(bits), DecodeConfig::for_bit_depth(bits)).unwrap();
         assert_eq!(d.format().frac, want, "{bits}-bit");
         assert!((d.format().max_turns - (8.0 * (8.0 * 0.5 + 0.5) + 0.5)).abs() < 1e-12);
     }
     // A set whose finest phase could pass ±120 turns is refused by the fixed backend only.
     let f = PhaseFunction::centered(Axis::Xi, 1024, 5.6).unwrap();
-    let steep = PatternSet::new(f, &[Level::n_step(1.0, 4), Level::two_step(16.0), Level::two_step(256.0)], out(255.0)).unwrap();
+    let steep = PatternSet::new(
+        f,
+        &[
+            Level::n_step(1.0, 4),
+            Level::two_step(16.0),
+            Level::two_step(256.0),
+        ],
+        out(255.0),
+    )
+    .unwrap();
     assert!(Decoder::new(&steep, DecodeConfig::for_bit_depth(8)).is_ok());
-    assert_eq!(Decoder::<Fixed>::with_arith(&steep, DecodeConfig::for_bit_depth(8)).err(), Some(fringe3d_core::decode::DecodeError::Degenerate(2)));
+    assert_eq!(
+        Decoder::<Fixed>::with_arith(&steep, DecodeConfig::for_bit_depth(8)).err(),
+        Some(fringe3d_core::decode::DecodeError::Degenerate(2))
+    );
 }

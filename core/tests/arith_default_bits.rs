@@ -43,16 +43,63 @@ impl Rng {
 }
 
 fn sets(i_max: f64) -> Vec<(&'static str, PatternSet)> {
-    let out = Output { width: 640, height: 480, i_min: 0.0, i_max };
+    let out = Output {
+        width: 640,
+        height: 480,
+        i_min: 0.0,
+        i_max,
+    };
     let fx = PhaseFunction::centered(Axis::Xi, 640, 5.6).unwrap();
     let fe = PhaseFunction::centered(Axis::Eta, 480, 0.9 * core::f64::consts::TAU).unwrap();
     vec![
         ("paper8", PatternSet::default_for(Axis::Xi, out).unwrap()),
         ("twelve", PatternSet::twelve_pattern(fx, 6.0, out).unwrap()),
-        ("2/3/2", PatternSet::new(fx, &[Level::two_step(1.0), Level::n_step(5.0, 3), Level::two_step(25.0)], out).unwrap()),
-        ("3/5/7", PatternSet::new(fe, &[Level::n_step(1.0, 3), Level::n_step(6.0, 5), Level::n_step(36.0, 7)], out).unwrap()),
-        ("measured", PatternSet::new(fe, &[Level::two_step(1.0), Level::with_shifts(7.0, &[0.0, 1.1, 2.0, 3.5, 5.2])], out).unwrap()),
-        ("cosine+offset", PatternSet::twelve_pattern(fe, 8.0, out).unwrap().with_convention(Convention::Cosine).with_phase_offset(0.37).unwrap()),
+        (
+            "2/3/2",
+            PatternSet::new(
+                fx,
+                &[
+                    Level::two_step(1.0),
+                    Level::n_step(5.0, 3),
+                    Level::two_step(25.0),
+                ],
+                out,
+            )
+            .unwrap(),
+        ),
+        (
+            "3/5/7",
+            PatternSet::new(
+                fe,
+                &[
+                    Level::n_step(1.0, 3),
+                    Level::n_step(6.0, 5),
+                    Level::n_step(36.0, 7),
+                ],
+                out,
+            )
+            .unwrap(),
+        ),
+        (
+            "measured",
+            PatternSet::new(
+                fe,
+                &[
+                    Level::two_step(1.0),
+                    Level::with_shifts(7.0, &[0.0, 1.1, 2.0, 3.5, 5.2]),
+                ],
+                out,
+            )
+            .unwrap(),
+        ),
+        (
+            "cosine+offset",
+            PatternSet::twelve_pattern(fe, 8.0, out)
+                .unwrap()
+                .with_convention(Convention::Cosine)
+                .with_phase_offset(0.37)
+                .unwrap(),
+        ),
     ]
 }
 
@@ -110,11 +157,25 @@ impl Fnv {
 fn digest<P: Sample>(d: &Decoder, frames: &[Vec<P>], w: usize, h: usize) -> (u64, usize) {
     let mut hash = Fnv::new();
     let n = w * h;
-    let (mut p, mut m, mut a, mut v) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n], vec![0u8; n]);
+    let (mut p, mut m, mut a, mut v) = (
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+        vec![0u8; n],
+    );
     for y in 0..h {
         let rows: Vec<&[P]> = frames.iter().map(|f| &f[y * w..(y + 1) * w]).collect();
         let r = y * w..(y + 1) * w;
-        d.decode_row(&rows, RowOut { phase: &mut p[r.clone()], modulation: &mut m[r.clone()], dc: &mut a[r.clone()], validity: &mut v[r] }).unwrap();
+        d.decode_row(
+            &rows,
+            RowOut {
+                phase: &mut p[r.clone()],
+                modulation: &mut m[r.clone()],
+                dc: &mut a[r.clone()],
+                validity: &mut v[r],
+            },
+        )
+        .unwrap();
     }
     hash.f32s(&p);
     hash.f32s(&m);
@@ -126,7 +187,8 @@ fn digest<P: Sample>(d: &Decoder, frames: &[Vec<P>], w: usize, h: usize) -> (u64
         for y in 0..h {
             let rows: Vec<&[P]> = frames.iter().map(|f| &f[y * w..(y + 1) * w]).collect();
             let r = y * w..(y + 1) * w;
-            d.decode_row_level(&rows, level, &mut wr[r.clone()], &mut mo[r]).unwrap();
+            d.decode_row_level(&rows, level, &mut wr[r.clone()], &mut mo[r])
+                .unwrap();
         }
         hash.f32s(&wr);
         hash.f32s(&mo);
@@ -138,13 +200,35 @@ fn digest<P: Sample>(d: &Decoder, frames: &[Vec<P>], w: usize, h: usize) -> (u64
     for f in frames {
         fd.push_frame(f).unwrap();
     }
-    let (mut p2, mut m2, mut a2, mut v2) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n], vec![0u8; n]);
+    let (mut p2, mut m2, mut a2, mut v2) = (
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+        vec![0u8; n],
+    );
     for y in 0..h {
         let r = y * w..(y + 1) * w;
-        fd.finish_row(y, RowOut { phase: &mut p2[r.clone()], modulation: &mut m2[r.clone()], dc: &mut a2[r.clone()], validity: &mut v2[r] }).unwrap();
+        fd.finish_row(
+            y,
+            RowOut {
+                phase: &mut p2[r.clone()],
+                modulation: &mut m2[r.clone()],
+                dc: &mut a2[r.clone()],
+                validity: &mut v2[r],
+            },
+        )
+        .unwrap();
     }
-    let bits = |x: &[f32]| x.iter().map(|v| canonical(*v).to_bits()).collect::<Vec<_>>();
-    assert_eq!((bits(&p), bits(&m), bits(&a), &v), (bits(&p2), bits(&m2), bits(&a2), &v2), "frame-sequential differs from the row API");
+    let bits = |x: &[f32]| {
+        x.iter()
+            .map(|v| canonical(*v).to_bits())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        (bits(&p), bits(&m), bits(&a), &v),
+        (bits(&p2), bits(&m2), bits(&a2), &v2),
+        "frame-sequential differs from the row API"
+    );
     (hash.0, valid)
 }
 
@@ -156,11 +240,17 @@ fn all_digests() -> Vec<(String, u64, usize)> {
         for (k, (name, set)) in sets(full).into_iter().enumerate() {
             // The thresholds as they were at 0111e73 (the 8-bit modulation floor of 12 codes came
             // later): this test is about the arithmetic's bits, not the thresholds.
-            let cfg = DecodeConfig { min_modulation: 0.02 * full as f32, ..DecodeConfig::for_bit_depth(bits) };
+            let cfg = DecodeConfig {
+                min_modulation: 0.02 * full as f32,
+                ..DecodeConfig::for_bit_depth(bits)
+            };
             let d = Decoder::new(&set, cfg).unwrap();
             let frames = synth(&set, w, h, full, 1000 * bits as u64 + k as u64);
             let (hash, valid) = if bits == 8 {
-                let f8: Vec<Vec<u8>> = frames.iter().map(|r| r.iter().map(|&v| v as u8).collect()).collect();
+                let f8: Vec<Vec<u8>> = frames
+                    .iter()
+                    .map(|r| r.iter().map(|&v| v as u8).collect())
+                    .collect();
                 digest(&d, &f8, w, h)
             } else {
                 digest(&d, &frames, w, h)
@@ -204,7 +294,10 @@ fn default_backend_bits_are_the_recorded_ones() {
     }
     for ((name, hash, valid), (rname, rhash)) in got.iter().zip(RECORDED.iter()) {
         assert_eq!(name, rname);
-        assert!(*valid > 0 && *valid < 800, "{name}: the case must mix valid and invalid pixels ({valid} valid)");
+        assert!(
+            *valid > 0 && *valid < 800,
+            "{name}: the case must mix valid and invalid pixels ({valid} valid)"
+        );
         assert_eq!(*hash, *rhash, "{name}: the default backend's bits changed");
     }
     assert_eq!(got.len(), RECORDED.len());

@@ -7,17 +7,55 @@ use fringe3d_core::arith::{Backend, parity};
 
 /// `backend → digest per case` (cases: [`parity::CASE_NAMES`]).
 const GOLDEN: [(&str, [u64; parity::CASES]); 4] = [
-    ("f32", [0x284ca7e3234232fc, 0xd78d13a835725a5b, 0xa88e87c14166b239, 0xc72cb6842c925c37, 0x4713ae2e46213551]),
-    ("f32-fast", [0xbb549402bc8dd97d, 0x5722b9910192e760, 0x35294c698affbc4a, 0x3d576938e792a289, 0xa85a07187c927aab]),
-    ("f32-micromath", [0xa6404b2c96c8b455, 0x448db36a41be827b, 0x53a42920faed9f8a, 0x4e24ff59a6ef4c4d, 0xff06000959f93034]),
-    ("fixed", [0x9c0a7182af9da10c, 0x62065a3c85a004cb, 0x6e89d400f6f0c146, 0x57acd6561fb75752, 0x93e63ad5c6faffa2]),
+    (
+        "f32",
+        [
+            0x284ca7e3234232fc,
+            0xd78d13a835725a5b,
+            0xa88e87c14166b239,
+            0xc72cb6842c925c37,
+            0x4713ae2e46213551,
+        ],
+    ),
+    (
+        "f32-fast",
+        [
+            0xbb549402bc8dd97d,
+            0x5722b9910192e760,
+            0x35294c698affbc4a,
+            0x3d576938e792a289,
+            0xa85a07187c927aab,
+        ],
+    ),
+    (
+        "f32-micromath",
+        [
+            0xa6404b2c96c8b455,
+            0x448db36a41be827b,
+            0x53a42920faed9f8a,
+            0x4e24ff59a6ef4c4d,
+            0xff06000959f93034,
+        ],
+    ),
+    (
+        "fixed",
+        [
+            0x9c0a7182af9da10c,
+            0x62065a3c85a004cb,
+            0x6e89d400f6f0c146,
+            0x57acd6561fb75752,
+            0x93e63ad5c6faffa2,
+        ],
+    ),
 ];
 
 #[test]
 fn parity_digests_are_the_golden_ones() {
     if std::env::var_os("FRINGE3D_PRINT_DIGESTS").is_some() {
         for b in Backend::ALL {
-            let d: Vec<String> = (0..parity::CASES).map(|c| format!("0x{:016x}", parity::digest(b, c).unwrap())).collect();
+            let d: Vec<String> = (0..parity::CASES)
+                .map(|c| format!("0x{:016x}", parity::digest(b, c).unwrap()))
+                .collect();
             println!("    (\"{}\", [{}]),", b.name(), d.join(", "));
         }
     }
@@ -25,7 +63,12 @@ fn parity_digests_are_the_golden_ones() {
         assert_eq!(b.name(), name);
         for (case, w) in want.iter().enumerate() {
             let got = parity::digest(b, case).unwrap();
-            assert_eq!(got, *w, "{b}, case {case} ({}): 0x{got:016x}", parity::CASE_NAMES[case]);
+            assert_eq!(
+                got,
+                *w,
+                "{b}, case {case} ({}): 0x{got:016x}",
+                parity::CASE_NAMES[case]
+            );
         }
     }
 }
@@ -42,9 +85,26 @@ fn the_workload_exercises_every_validity_code_it_should() {
         let mut rows = [[0u16; parity::WIDTH]; MAX_IMAGES];
         let n = parity::samples(case, &mut rows).unwrap();
         let refs: Vec<&[u16]> = rows[..n].iter().map(|r| &r[..]).collect();
-        let (mut p, mut m, mut a, mut v) = ([0.0f32; parity::WIDTH], [0.0f32; parity::WIDTH], [0.0f32; parity::WIDTH], [0u8; parity::WIDTH]);
-        d.decode_row(&refs, RowOut { phase: &mut p, modulation: &mut m, dc: &mut a, validity: &mut v }).unwrap();
+        let (mut p, mut m, mut a, mut v) = (
+            [0.0f32; parity::WIDTH],
+            [0.0f32; parity::WIDTH],
+            [0.0f32; parity::WIDTH],
+            [0u8; parity::WIDTH],
+        );
+        d.decode_row(
+            &refs,
+            RowOut {
+                phase: &mut p,
+                modulation: &mut m,
+                dc: &mut a,
+                validity: &mut v,
+            },
+        )
+        .unwrap();
         let valid = v.iter().filter(|x| **x == 0).count();
-        assert!(valid > parity::WIDTH / 2 && valid < parity::WIDTH, "case {case}: {valid} valid");
+        assert!(
+            valid > parity::WIDTH / 2 && valid < parity::WIDTH,
+            "case {case}: {valid} valid"
+        );
     }
 }

@@ -40,19 +40,40 @@ fn build(target: &str) -> Result<PathBuf, String> {
         .map_err(|e| format!("cannot run cargo: {e}"))?;
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
-        if err.contains("target may not be installed") || err.contains("can't find crate for `core`") {
-            return Err(format!("the {target} target is not installed (rustup target add {target})"));
+        if err.contains("target may not be installed")
+            || err.contains("can't find crate for `core`")
+        {
+            return Err(format!(
+                "the {target} target is not installed (rustup target add {target})"
+            ));
         }
         panic!("building core/arith-bench for {target} failed:\n{err}");
     }
-    Ok(target_dir.join(target).join("release").join("fringe3d-arith-bench"))
+    Ok(target_dir
+        .join(target)
+        .join("release")
+        .join("fringe3d-arith-bench"))
 }
 
 /// Run the bench's `parity` command; its stdout.
 fn run(machine: &str, cpu: &str, elf: &Path) -> String {
     let mut child = Command::new("qemu-system-arm")
-        .args(["-machine", machine, "-cpu", cpu, "-nographic", "-monitor", "none", "-serial", "none"])
-        .args(["-semihosting-config", "enable=on,target=native,arg=bench,arg=parity", "-kernel"])
+        .args([
+            "-machine",
+            machine,
+            "-cpu",
+            cpu,
+            "-nographic",
+            "-monitor",
+            "none",
+            "-serial",
+            "none",
+        ])
+        .args([
+            "-semihosting-config",
+            "enable=on,target=native,arg=bench,arg=parity",
+            "-kernel",
+        ])
         .arg(elf)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
@@ -64,7 +85,11 @@ fn run(machine: &str, cpu: &str, elf: &Path) -> String {
         if let Some(status) = child.try_wait().expect("wait for qemu") {
             let out = child.wait_with_output().expect("qemu output");
             let text = String::from_utf8_lossy(&out.stdout).into_owned();
-            assert!(status.success(), "{machine}: the bench failed ({status}):\n{text}\n{}", String::from_utf8_lossy(&out.stderr));
+            assert!(
+                status.success(),
+                "{machine}: the bench failed ({status}):\n{text}\n{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
             return text;
         }
         if start.elapsed() > Duration::from_secs(600) {
@@ -80,18 +105,30 @@ fn every_backend_gives_the_same_bits_on_cortex_m3_and_m4f() {
     if std::env::var_os("FRINGE3D_SKIP_QEMU").is_some() {
         return skip("FRINGE3D_SKIP_QEMU is set");
     }
-    if Command::new("qemu-system-arm").arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_err() {
+    if Command::new("qemu-system-arm")
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_err()
+    {
         return skip("qemu-system-arm is not installed (apt-get install qemu-system-arm)");
     }
     let mut want = Vec::new();
     for b in Backend::ALL {
         for case in 0..parity::CASES {
-            want.push(format!("parity {} {} {:016x}", b.name(), case, parity::digest(b, case).unwrap()));
+            want.push(format!(
+                "parity {} {} {:016x}",
+                b.name(),
+                case,
+                parity::digest(b, case).unwrap()
+            ));
         }
     }
-    for (target, machine, cpu, default) in
-        [("thumbv7m-none-eabi", "mps2-an385", "cortex-m3", "fixed"), ("thumbv7em-none-eabihf", "mps2-an386", "cortex-m4", "f32")]
-    {
+    for (target, machine, cpu, default) in [
+        ("thumbv7m-none-eabi", "mps2-an385", "cortex-m3", "fixed"),
+        ("thumbv7em-none-eabihf", "mps2-an386", "cortex-m4", "f32"),
+    ] {
         let elf = match build(target) {
             Ok(e) => e,
             Err(why) => {
@@ -100,12 +137,28 @@ fn every_backend_gives_the_same_bits_on_cortex_m3_and_m4f() {
             }
         };
         let out = run(machine, cpu, &elf);
-        let got: Vec<&str> = out.lines().map(str::trim).filter(|l| l.starts_with("parity ")).collect();
-        assert_eq!(got.len(), want.len(), "{target}: expected {} digests, got:\n{out}", want.len());
+        let got: Vec<&str> = out
+            .lines()
+            .map(str::trim)
+            .filter(|l| l.starts_with("parity "))
+            .collect();
+        assert_eq!(
+            got.len(),
+            want.len(),
+            "{target}: expected {} digests, got:\n{out}",
+            want.len()
+        );
         for (g, w) in got.iter().zip(&want) {
             assert_eq!(g, w, "{target} ({machine}) differs from x86-64");
         }
-        assert!(out.lines().any(|l| l.trim() == format!("default {default}")), "{target}: TargetDefault should be {default}:\n{out}");
-        eprintln!("{target} on {machine}: {} digests equal to x86-64's", got.len());
+        assert!(
+            out.lines()
+                .any(|l| l.trim() == format!("default {default}")),
+            "{target}: TargetDefault should be {default}:\n{out}"
+        );
+        eprintln!(
+            "{target} on {machine}: {} digests equal to x86-64's",
+            got.len()
+        );
     }
 }

@@ -10,7 +10,12 @@ use fringe3d_core::phase_function::{Axis, PhaseFunction};
 use fringe3d_core::validity::Validity;
 
 fn out16() -> Output {
-    Output { width: 1024, height: 768, i_min: 0.0, i_max: 65535.0 }
+    Output {
+        width: 1024,
+        height: 768,
+        i_min: 0.0,
+        i_max: 65535.0,
+    }
 }
 
 struct Decoded {
@@ -22,10 +27,23 @@ struct Decoded {
 
 fn decode<P: fringe3d_core::decode::Sample>(d: &Decoder, imgs: &[Vec<P>]) -> Decoded {
     let w = imgs[0].len();
-    let mut o = Decoded { phase: vec![0.0; w], b: vec![0.0; w], a: vec![0.0; w], v: vec![0; w] };
+    let mut o = Decoded {
+        phase: vec![0.0; w],
+        b: vec![0.0; w],
+        a: vec![0.0; w],
+        v: vec![0; w],
+    };
     let rows: Vec<&[P]> = imgs.iter().map(|r| r.as_slice()).collect();
-    d.decode_row(&rows, RowOut { phase: &mut o.phase, modulation: &mut o.b, dc: &mut o.a, validity: &mut o.v })
-        .unwrap();
+    d.decode_row(
+        &rows,
+        RowOut {
+            phase: &mut o.phase,
+            modulation: &mut o.b,
+            dc: &mut o.a,
+            validity: &mut o.v,
+        },
+    )
+    .unwrap();
     o
 }
 
@@ -34,7 +52,11 @@ fn ramp(set: &PatternSet, n: usize, a: f64, b: f64) -> Vec<Pixel> {
     let (lo, hi) = set.coarse_range();
     let c0 = set.levels()[0].scale();
     (0..n)
-        .map(|i| Pixel { a, b, phi_p: (lo + (hi - lo) * (i as f64 + 0.5) / n as f64) / c0 })
+        .map(|i| Pixel {
+            a,
+            b,
+            phi_p: (lo + (hi - lo) * (i as f64 + 0.5) / n as f64) / c0,
+        })
         .collect()
 }
 
@@ -54,7 +76,10 @@ fn paper_set_matches_f64_reference_within_2e5_rad() {
         worst = worst.max((o.phase[i] as f64 - phi).abs());
         assert!((o.a[i] as f64 - a).abs() < 1e-2);
     }
-    assert!(worst <= 2e-5, "max phase error against the f64 reference: {worst:e} rad");
+    assert!(
+        worst <= 2e-5,
+        "max phase error against the f64 reference: {worst:e} rad"
+    );
 }
 
 #[test]
@@ -78,14 +103,23 @@ fn noise_free_phase_equals_truth() {
     assert!(rms < 3e-5, "rms {rms:e}");
 }
 
-fn std_of_errors(d: &Decoder, set: &PatternSet, level: usize, px: &[Pixel], imgs: &[Vec<u16>]) -> f64 {
+fn std_of_errors(
+    d: &Decoder,
+    set: &PatternSet,
+    level: usize,
+    px: &[Pixel],
+    imgs: &[Vec<u16>],
+) -> f64 {
     let w = px.len();
     let rows: Vec<&[u16]> = imgs.iter().map(|r| r.as_slice()).collect();
     let mut wrapped = vec![0.0f32; w];
     let mut b = vec![0.0f32; w];
-    d.decode_row_level(&rows, level, &mut wrapped, &mut b).unwrap();
+    d.decode_row_level(&rows, level, &mut wrapped, &mut b)
+        .unwrap();
     let c = set.levels()[level].scale();
-    let errs: Vec<f64> = (0..w).map(|i| wrap(wrapped[i] as f64 - c * px[i].phi_p)).collect();
+    let errs: Vec<f64> = (0..w)
+        .map(|i| wrap(wrapped[i] as f64 - c * px[i].phi_p))
+        .collect();
     let mean = errs.iter().sum::<f64>() / w as f64;
     (errs.iter().map(|e| (e - mean) * (e - mean)).sum::<f64>() / w as f64).sqrt()
 }
@@ -103,13 +137,23 @@ fn phase_noise_follows_theory_within_10_percent() {
     let want2 = 1.25f64.sqrt() * sigma / b;
     for (level, want) in [(2usize, want4), (1, want2), (0, want2)] {
         let got = std_of_errors(&d, &set, level, &px, &imgs);
-        assert!((got / want - 1.0).abs() < 0.10, "level {level}: σφ = {got:.5}, theory {want:.5}");
+        assert!(
+            (got / want - 1.0).abs() < 0.10,
+            "level {level}: σφ = {got:.5}, theory {want:.5}"
+        );
     }
 }
 
 #[test]
 fn no_unwrapping_error_on_valid_pixels_at_b_over_sigma_14_u8() {
-    let set = PatternSet::default_for(Axis::Xi, Output { i_max: 255.0, ..out16() }).unwrap();
+    let set = PatternSet::default_for(
+        Axis::Xi,
+        Output {
+            i_max: 255.0,
+            ..out16()
+        },
+    )
+    .unwrap();
     let d = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).unwrap();
     let (a, b, sigma) = (127.0, 70.0, 5.0);
     let px = ramp(&set, 300_000, a, b);
@@ -121,7 +165,10 @@ fn no_unwrapping_error_on_valid_pixels_at_b_over_sigma_14_u8() {
         if o.v[i] == Validity::Valid as u8 {
             valid += 1;
             let e = o.phase[i] as f64 - ck * p.phi_p;
-            assert!(e.abs() < std::f64::consts::PI, "pixel {i}: fringe-order error (e = {e:.3} rad) on a valid pixel");
+            assert!(
+                e.abs() < std::f64::consts::PI,
+                "pixel {i}: fringe-order error (e = {e:.3} rad) on a valid pixel"
+            );
         } else {
             assert!(o.phase[i].is_nan());
         }
@@ -131,7 +178,14 @@ fn no_unwrapping_error_on_valid_pixels_at_b_over_sigma_14_u8() {
 }
 
 /// Valid pixels whose absolute phase is a whole fringe (or more) off the truth.
-fn order_errors(set: &PatternSet, cfg: DecodeConfig, b: f64, sigma: f64, n: usize, seed: u64) -> (usize, usize) {
+fn order_errors(
+    set: &PatternSet,
+    cfg: DecodeConfig,
+    b: f64,
+    sigma: f64,
+    n: usize,
+    seed: u64,
+) -> (usize, usize) {
     let d = Decoder::new(set, cfg).unwrap();
     let px = ramp(set, n, 60.0, b);
     let imgs = to_u8(&images(set, &px, sigma, 255.0, &mut Rng(seed)));
@@ -155,22 +209,51 @@ fn weak_8bit_fringes_are_refused_rather_than_unwrapped_to_a_wrong_order() {
     // Dim, weakly modulated 8-bit pixels (B = 6 to 9 codes, σ = 1 code, as on a dark or steep
     // surface): with a modulation floor of 2 % of full scale (5.1 codes) some pass every test and
     // come out whole fringes off; the default floor (12 codes at 8 bits) refuses them.
-    let set = PatternSet::default_for(Axis::Xi, Output { i_max: 255.0, ..out16() }).unwrap();
-    let old = DecodeConfig { min_modulation: 0.02 * 255.0, ..DecodeConfig::for_bit_depth(8) };
+    let set = PatternSet::default_for(
+        Axis::Xi,
+        Output {
+            i_max: 255.0,
+            ..out16()
+        },
+    )
+    .unwrap();
+    let old = DecodeConfig {
+        min_modulation: 0.02 * 255.0,
+        ..DecodeConfig::for_bit_depth(8)
+    };
     let mut silent_old = 0;
     for (k, b) in [6.0, 7.5, 9.0].into_iter().enumerate() {
         let (wrong, valid) = order_errors(&set, old, b, 1.0, 100_000, 40 + k as u64);
-        assert!(valid > 20_000, "B = {b}: the old floor should accept many pixels ({valid})");
+        assert!(
+            valid > 20_000,
+            "B = {b}: the old floor should accept many pixels ({valid})"
+        );
         eprintln!("B = {b}, σ = 1, floor 5.1 codes: {valid} valid, {wrong} a whole fringe off");
         silent_old += wrong;
-        let (wrong, _) = order_errors(&set, DecodeConfig::for_bit_depth(8), b, 1.0, 100_000, 40 + k as u64);
-        assert_eq!(wrong, 0, "B = {b}: valid pixels with a wrong fringe order under the default config");
+        let (wrong, _) = order_errors(
+            &set,
+            DecodeConfig::for_bit_depth(8),
+            b,
+            1.0,
+            100_000,
+            40 + k as u64,
+        );
+        assert_eq!(
+            wrong, 0,
+            "B = {b}: valid pixels with a wrong fringe order under the default config"
+        );
     }
-    assert!(silent_old > 10, "the weak-fringe case should show silent order errors at the old floor ({silent_old})");
+    assert!(
+        silent_old > 10,
+        "the weak-fringe case should show silent order errors at the old floor ({silent_old})"
+    );
     // Pixels of healthy modulation at 8 bits stay valid under the default config.
     let (wrong, valid) = order_errors(&set, DecodeConfig::for_bit_depth(8), 20.0, 1.0, 100_000, 7);
     assert_eq!(wrong, 0);
-    assert!(valid > 99_000, "B = 20, σ = 1: only {valid} of 100 000 valid");
+    assert!(
+        valid > 99_000,
+        "B = 20, σ = 1: only {valid} of 100 000 valid"
+    );
 }
 
 #[test]
@@ -179,10 +262,45 @@ fn generic_n_step_arbitrary_shifts_cosine_and_offset() {
     // and an extra offset: the decoder must recover the synthetic phase.
     let f = PhaseFunction::centered(Axis::Eta, 768, 0.9 * std::f64::consts::TAU).unwrap();
     let cases: Vec<(PatternSet, &str)> = vec![
-        (PatternSet::new(f, &[Level::n_step(1.0, 3), Level::n_step(6.0, 5), Level::n_step(36.0, 7)], out16()).unwrap(), "3/5/7-step"),
-        (PatternSet::new(f, &[Level::two_step(1.0), Level::with_shifts(7.0, &[0.0, 1.1, 2.0, 3.5, 5.2])], out16()).unwrap(), "measured shifts"),
-        (PatternSet::twelve_pattern(f, 8.0, out16()).unwrap().with_convention(Convention::Cosine).with_phase_offset(0.37).unwrap(), "cosine+offset"),
-        (PatternSet::paper_eight(f, 8.0, out16()).unwrap().with_convention(Convention::Cosine), "paper8 cosine"),
+        (
+            PatternSet::new(
+                f,
+                &[
+                    Level::n_step(1.0, 3),
+                    Level::n_step(6.0, 5),
+                    Level::n_step(36.0, 7),
+                ],
+                out16(),
+            )
+            .unwrap(),
+            "3/5/7-step",
+        ),
+        (
+            PatternSet::new(
+                f,
+                &[
+                    Level::two_step(1.0),
+                    Level::with_shifts(7.0, &[0.0, 1.1, 2.0, 3.5, 5.2]),
+                ],
+                out16(),
+            )
+            .unwrap(),
+            "measured shifts",
+        ),
+        (
+            PatternSet::twelve_pattern(f, 8.0, out16())
+                .unwrap()
+                .with_convention(Convention::Cosine)
+                .with_phase_offset(0.37)
+                .unwrap(),
+            "cosine+offset",
+        ),
+        (
+            PatternSet::paper_eight(f, 8.0, out16())
+                .unwrap()
+                .with_convention(Convention::Cosine),
+            "paper8 cosine",
+        ),
     ];
     for (set, name) in cases {
         let d = Decoder::new(&set, DecodeConfig::for_bit_depth(16)).unwrap();
@@ -191,7 +309,12 @@ fn generic_n_step_arbitrary_shifts_cosine_and_offset() {
         let o = decode(&d, &imgs);
         let ck = set.levels().last().unwrap().scale();
         for (i, p) in px.iter().enumerate() {
-            assert_eq!(o.v[i], 0, "{name}: pixel {i} invalid ({})", Validity::from_u8(o.v[i]).unwrap().name());
+            assert_eq!(
+                o.v[i],
+                0,
+                "{name}: pixel {i} invalid ({})",
+                Validity::from_u8(o.v[i]).unwrap().name()
+            );
             let e = o.phase[i] as f64 - ck * p.phi_p;
             assert!(e.abs() < 2e-4, "{name}: pixel {i} error {e:e}");
         }
@@ -200,21 +323,50 @@ fn generic_n_step_arbitrary_shifts_cosine_and_offset() {
 
 #[test]
 fn each_failure_gets_its_own_code() {
-    let set = PatternSet::default_for(Axis::Xi, Output { i_max: 255.0, ..out16() }).unwrap();
+    let set = PatternSet::default_for(
+        Axis::Xi,
+        Output {
+            i_max: 255.0,
+            ..out16()
+        },
+    )
+    .unwrap();
     let d = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).unwrap();
     let (lo, hi) = set.coarse_range();
     let mid = 0.5 * (lo + hi);
-    let good = Pixel { a: 120.0, b: 80.0, phi_p: mid };
+    let good = Pixel {
+        a: 120.0,
+        b: 80.0,
+        phi_p: mid,
+    };
     let px = vec![
         good,
-        Pixel { a: 200.0, b: 80.0, ..good },   // clipped at 255: saturated
-        Pixel { a: 2.0, b: 1.0, ..good },      // dark
-        Pixel { a: 120.0, b: 2.0, ..good },    // low modulation
+        Pixel {
+            a: 200.0,
+            b: 80.0,
+            ..good
+        }, // clipped at 255: saturated
+        Pixel {
+            a: 2.0,
+            b: 1.0,
+            ..good
+        }, // dark
+        Pixel {
+            a: 120.0,
+            b: 2.0,
+            ..good
+        }, // low modulation
     ];
     let mut imgs = images(&set, &px, 0.0, 255.0, &mut Rng(9));
     // Pixel 4: level 1 inconsistent with level 0 (its phase shifted by π: predicted vs measured differ by π).
     // Pixel 5: coarse phase outside the projected range (beyond the 0.15 rad tolerance).
-    let mut extra = vec![good, Pixel { phi_p: hi + 0.25, ..good }];
+    let mut extra = vec![
+        good,
+        Pixel {
+            phi_p: hi + 0.25,
+            ..good
+        },
+    ];
     extra[0].phi_p = mid;
     let mut e_imgs = images(&set, &extra, 0.0, 255.0, &mut Rng(9));
     for (i, row) in e_imgs.iter_mut().enumerate() {
@@ -222,7 +374,13 @@ fn each_failure_gets_its_own_code() {
         if id.level == 1 {
             let lv = &set.levels()[1];
             let p = &extra[0];
-            row[0] = (p.a + p.b * (lv.scale() * p.phi_p + lv.shifts()[id.shift as usize] + std::f64::consts::PI).sin()).round() as u16;
+            row[0] = (p.a
+                + p.b
+                    * (lv.scale() * p.phi_p
+                        + lv.shifts()[id.shift as usize]
+                        + std::f64::consts::PI)
+                        .sin())
+            .round() as u16;
         }
     }
     for (r, e) in imgs.iter_mut().zip(e_imgs) {

@@ -16,12 +16,25 @@ use proptest::prelude::*;
 type Planes = (Vec<f32>, Vec<f32>, Vec<f32>, Vec<u8>);
 
 fn row_api<P: Sample>(d: &Decoder, frames: &[Vec<P>], w: usize, h: usize) -> Planes {
-    let mut o = (vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h], vec![0u8; w * h]);
+    let mut o = (
+        vec![0.0; w * h],
+        vec![0.0; w * h],
+        vec![0.0; w * h],
+        vec![0u8; w * h],
+    );
     for y in 0..h {
         let rows: Vec<&[P]> = frames.iter().map(|f| &f[y * w..(y + 1) * w]).collect();
         let r = y * w..(y + 1) * w;
-        d.decode_row(&rows, RowOut { phase: &mut o.0[r.clone()], modulation: &mut o.1[r.clone()], dc: &mut o.2[r.clone()], validity: &mut o.3[r] })
-            .unwrap();
+        d.decode_row(
+            &rows,
+            RowOut {
+                phase: &mut o.0[r.clone()],
+                modulation: &mut o.1[r.clone()],
+                dc: &mut o.2[r.clone()],
+                validity: &mut o.3[r],
+            },
+        )
+        .unwrap();
     }
     o
 }
@@ -35,12 +48,25 @@ fn frame_api<P: Sample>(d: &Decoder, frames: &[Vec<P>], w: usize, h: usize) -> P
         fd.push_frame(f).unwrap();
     }
     assert!(fd.is_complete());
-    let mut o = (vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h], vec![0u8; w * h]);
+    let mut o = (
+        vec![0.0; w * h],
+        vec![0.0; w * h],
+        vec![0.0; w * h],
+        vec![0u8; w * h],
+    );
     // Rows finished in reverse order: finishing must not depend on order.
     for y in (0..h).rev() {
         let r = y * w..(y + 1) * w;
-        fd.finish_row(y, RowOut { phase: &mut o.0[r.clone()], modulation: &mut o.1[r.clone()], dc: &mut o.2[r.clone()], validity: &mut o.3[r] })
-            .unwrap();
+        fd.finish_row(
+            y,
+            RowOut {
+                phase: &mut o.0[r.clone()],
+                modulation: &mut o.1[r.clone()],
+                dc: &mut o.2[r.clone()],
+                validity: &mut o.3[r],
+            },
+        )
+        .unwrap();
     }
     o
 }
@@ -50,7 +76,9 @@ fn random_rows(set_idx: usize, w: usize, seed: u64) -> (Decoder, Vec<Vec<u8>>) {
     let set = &sets(255.0)[set_idx];
     let d = Decoder::new(set, DecodeConfig::for_bit_depth(8)).unwrap();
     let mut rng = Rng(seed);
-    let frames = (0..set.image_count()).map(|_| (0..w).map(|_| (rng.next_u64() & 0xff) as u8).collect()).collect();
+    let frames = (0..set.image_count())
+        .map(|_| (0..w).map(|_| (rng.next_u64() & 0xff) as u8).collect())
+        .collect();
     (d, frames)
 }
 
@@ -59,12 +87,26 @@ fn bits(v: &[f32]) -> Vec<u32> {
 }
 
 fn sets(max: f64) -> Vec<PatternSet> {
-    let out = Output { width: 640, height: 480, i_min: 0.0, i_max: max };
+    let out = Output {
+        width: 640,
+        height: 480,
+        i_min: 0.0,
+        i_max: max,
+    };
     let f = PhaseFunction::centered(Axis::Xi, 640, 5.6).unwrap();
     vec![
         PatternSet::default_for(Axis::Xi, out).unwrap(),
         PatternSet::twelve_pattern(f, 6.0, out).unwrap(),
-        PatternSet::new(f, &[Level::two_step(1.0), Level::n_step(5.0, 3), Level::two_step(25.0)], out).unwrap(),
+        PatternSet::new(
+            f,
+            &[
+                Level::two_step(1.0),
+                Level::n_step(5.0, 3),
+                Level::two_step(25.0),
+            ],
+            out,
+        )
+        .unwrap(),
     ]
 }
 
@@ -76,7 +118,11 @@ fn synth(set: &PatternSet, w: usize, h: usize, sigma: f64, max: f64, seed: u64) 
             let x = (i % w) as f64 / w as f64;
             // some pixels dark, saturated or flat, so every code path runs
             let a = 0.5 * max * (0.2 + 1.2 * rng.uniform());
-            Pixel { a, b: a * rng.uniform(), phi_p: (lo + (hi - lo) * x) / set.levels()[0].scale() }
+            Pixel {
+                a,
+                b: a * rng.uniform(),
+                phi_p: (lo + (hi - lo) * x) / set.levels()[0].scale(),
+            }
         })
         .collect();
     images(set, &px, sigma, max, &mut rng)
@@ -94,7 +140,10 @@ fn row_and_frame_sequential_are_bit_identical_u16_and_u8() {
         assert_eq!(bits(&a.1), bits(&b.1), "set {k}: modulation");
         assert_eq!(bits(&a.2), bits(&b.2), "set {k}: dc");
         assert_eq!(a.3, b.3, "set {k}: validity");
-        assert!(a.3.contains(&0) && a.3.iter().any(|&v| v != 0), "set {k}: want both valid and invalid pixels");
+        assert!(
+            a.3.contains(&0) && a.3.iter().any(|&v| v != 0),
+            "set {k}: want both valid and invalid pixels"
+        );
     }
     for (k, set) in sets(255.0).iter().enumerate() {
         let d = Decoder::new(set, DecodeConfig::for_bit_depth(8)).unwrap();
@@ -118,11 +167,25 @@ fn frame_decoder_refuses_misuse() {
     assert!(fd.push_row(&[0u8; 9]).is_err());
     let mut o = [0.0f32; 10];
     let (mut m, mut a, mut v) = ([0.0f32; 10], [0.0f32; 10], [0u8; 10]);
-    assert!(fd.finish_row(0, RowOut { phase: &mut o, modulation: &mut m, dc: &mut a, validity: &mut v }).is_err());
+    assert!(
+        fd.finish_row(
+            0,
+            RowOut {
+                phase: &mut o,
+                modulation: &mut m,
+                dc: &mut a,
+                validity: &mut v
+            }
+        )
+        .is_err()
+    );
     for _ in 0..set.image_count() {
         fd.push_frame(&[100u8; 100]).unwrap();
     }
-    assert!(fd.push_row(&[0u8; 10]).is_err(), "pushing past the last frame");
+    assert!(
+        fd.push_row(&[0u8; 10]).is_err(),
+        "pushing past the last frame"
+    );
 }
 
 proptest! {

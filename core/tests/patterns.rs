@@ -4,11 +4,18 @@
 #![allow(clippy::disallowed_methods)]
 
 use fringe3d_core::pattern::{Convention, Level, Output, PatternError, PatternSet};
-use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, PhaseFunctionErrorKind, Profile};
+use fringe3d_core::phase_function::{
+    Axis, KnotProfile, PhaseFunction, PhaseFunctionErrorKind, Profile,
+};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 fn out(max: f64) -> Output {
-    Output { width: 320, height: 200, i_min: 0.0, i_max: max }
+    Output {
+        width: 320,
+        height: 200,
+        i_min: 0.0,
+        i_max: max,
+    }
 }
 
 #[test]
@@ -28,8 +35,14 @@ fn paper_set_rows_follow_eq_7() {
         for (xi, (&v, &v16)) in row.iter().zip(&row16).enumerate() {
             let phi = 0.9 * TAU / 320.0 * (xi as f64 - 159.5);
             let s = 1.0 + (c[id.level as usize] * phi + n * FRAC_PI_2).sin();
-            assert!((v as f64 - 127.5 * s).abs() <= 0.5 + 1e-9, "image {i} ξ {xi}");
-            assert!((v16 as f64 - 32767.5 * s).abs() <= 0.5 + 1e-6, "16-bit image {i} ξ {xi}");
+            assert!(
+                (v as f64 - 127.5 * s).abs() <= 0.5 + 1e-9,
+                "image {i} ξ {xi}"
+            );
+            assert!(
+                (v16 as f64 - 32767.5 * s).abs() <= 0.5 + 1e-6,
+                "16-bit image {i} ξ {xi}"
+            );
         }
     }
     // The DC level (4 images) comes first, then levels 0 and 1.
@@ -39,8 +52,13 @@ fn paper_set_rows_follow_eq_7() {
 
 #[test]
 fn horizontal_curved_and_cosine_patterns() {
-    let f = PhaseFunction::centered(Axis::Eta, 200, 5.0).unwrap().curved(1e-4, 160.0).unwrap();
-    let set = PatternSet::twelve_pattern(f, 4.0, out(255.0)).unwrap().with_convention(Convention::Cosine);
+    let f = PhaseFunction::centered(Axis::Eta, 200, 5.0)
+        .unwrap()
+        .curved(1e-4, 160.0)
+        .unwrap();
+    let set = PatternSet::twelve_pattern(f, 4.0, out(255.0))
+        .unwrap()
+        .with_convention(Convention::Cosine);
     let mut row = vec![0u8; 320];
     for eta in [0u32, 99, 199] {
         set.generate_row(5, eta, &mut row).unwrap();
@@ -57,7 +75,12 @@ fn horizontal_curved_and_cosine_patterns() {
 
 #[test]
 fn variable_width_knots_are_monotonic_and_continuous() {
-    let k = KnotProfile::from_slopes(&[0.0, 100.0, 220.0, 319.0], &[0.01, 0.02, 0.016, 0.008], -2.4).unwrap();
+    let k = KnotProfile::from_slopes(
+        &[0.0, 100.0, 220.0, 319.0],
+        &[0.01, 0.02, 0.016, 0.008],
+        -2.4,
+    )
+    .unwrap();
     let f = PhaseFunction::with_profile(Axis::Xi, Profile::Knots(k)).unwrap();
     let set = PatternSet::paper_eight(f, 6.0, out(255.0)).unwrap();
     let mut prev = f64::NEG_INFINITY;
@@ -80,11 +103,17 @@ fn bad_functions_are_refused() {
     // slope so high that level 0 wraps
     let f = PhaseFunction::centered(Axis::Xi, 320, 1.1 * TAU).unwrap();
     let e = PatternSet::paper_eight(f, 8.0, out(255.0)).unwrap_err();
-    assert!(matches!(e, PatternError::Function(x) if x.kind() == PhaseFunctionErrorKind::Range), "{e}");
+    assert!(
+        matches!(e, PatternError::Function(x) if x.kind() == PhaseFunctionErrorKind::Range),
+        "{e}"
+    );
     // finest level too fine for the projector: fewer than 4 pixels per period
     let f = PhaseFunction::centered(Axis::Xi, 320, 0.9 * TAU).unwrap();
     let e = PatternSet::paper_eight(f, 12.0, out(255.0)).unwrap_err();
-    assert!(matches!(e, PatternError::Function(x) if x.kind() == PhaseFunctionErrorKind::Discontinuous), "{e}");
+    assert!(
+        matches!(e, PatternError::Function(x) if x.kind() == PhaseFunctionErrorKind::Discontinuous),
+        "{e}"
+    );
     // non-monotonic: a knot segment whose slopes overshoot (Fritsch-Carlson)
     assert!(KnotProfile::new(&[0.0, 10.0, 20.0], &[0.0, 0.1, 0.2], &[0.01, 0.2, 0.01]).is_err());
     // decreasing knots, zero slope
@@ -92,7 +121,10 @@ fn bad_functions_are_refused() {
     assert!(PhaseFunction::linear(Axis::Xi, 0.0, 0.0).is_err());
     // curvature so strong that the fringe bends back: still monotonic in ξ by construction, but
     // the coarse range overflows on the outer rows
-    let f = PhaseFunction::centered(Axis::Xi, 320, 5.0).unwrap().curved(0.05, 100.0).unwrap();
+    let f = PhaseFunction::centered(Axis::Xi, 320, 5.0)
+        .unwrap()
+        .curved(0.05, 100.0)
+        .unwrap();
     assert!(PatternSet::paper_eight(f, 4.0, out(255.0)).is_err());
     // NaN parameters
     assert!(PhaseFunction::linear(Axis::Xi, f64::NAN, 1.0).is_err());
@@ -102,18 +134,55 @@ fn bad_functions_are_refused() {
 fn bad_level_structures_are_refused() {
     let f = PhaseFunction::centered(Axis::Xi, 320, 5.0).unwrap();
     let o = out(255.0);
-    assert!(matches!(PatternSet::new(f, &[Level::two_step(1.0), Level::two_step(4.0)], o), Err(PatternError::NoDcLevel)));
-    assert!(matches!(PatternSet::new(f, &[Level::n_step(4.0, 4), Level::n_step(1.0, 4)], o), Err(PatternError::ScalesNotIncreasing(1))));
-    assert!(matches!(PatternSet::new(f, &[Level::with_shifts(1.0, &[0.0])], o), Err(PatternError::ShiftCount(0, 1))));
-    assert!(matches!(PatternSet::new(f, &[Level::with_shifts(1.0, &[0.0, PI, TAU])], o), Err(PatternError::DegenerateShifts(0))));
-    assert!(matches!(PatternSet::new(f, &[Level::n_step(1.0, 4), Level::with_shifts(2.0, &[0.3, 0.3 + PI])], o), Err(PatternError::DegenerateShifts(1))));
-    assert!(matches!(PatternSet::new(f, &[], o), Err(PatternError::LevelCount(0))));
+    assert!(matches!(
+        PatternSet::new(f, &[Level::two_step(1.0), Level::two_step(4.0)], o),
+        Err(PatternError::NoDcLevel)
+    ));
+    assert!(matches!(
+        PatternSet::new(f, &[Level::n_step(4.0, 4), Level::n_step(1.0, 4)], o),
+        Err(PatternError::ScalesNotIncreasing(1))
+    ));
+    assert!(matches!(
+        PatternSet::new(f, &[Level::with_shifts(1.0, &[0.0])], o),
+        Err(PatternError::ShiftCount(0, 1))
+    ));
+    assert!(matches!(
+        PatternSet::new(f, &[Level::with_shifts(1.0, &[0.0, PI, TAU])], o),
+        Err(PatternError::DegenerateShifts(0))
+    ));
+    assert!(matches!(
+        PatternSet::new(
+            f,
+            &[
+                Level::n_step(1.0, 4),
+                Level::with_shifts(2.0, &[0.3, 0.3 + PI])
+            ],
+            o
+        ),
+        Err(PatternError::DegenerateShifts(1))
+    ));
+    assert!(matches!(
+        PatternSet::new(f, &[], o),
+        Err(PatternError::LevelCount(0))
+    ));
     assert!(PatternSet::new(f, &[Level::n_step(1.0, 4)], Output { i_max: 300.0, ..o }).is_ok());
     let set = PatternSet::new(f, &[Level::n_step(1.0, 4)], Output { i_max: 300.0, ..o }).unwrap();
-    assert!(set.generate_row(0, 0, &mut [0u8; 320]).is_err(), "I_max beyond u8");
-    assert!(set.generate_row(0, 200, &mut [0u16; 320]).is_err(), "row out of range");
-    assert!(set.generate_row(4, 0, &mut [0u16; 320]).is_err(), "image out of range");
-    assert!(set.generate_row(0, 0, &mut [0u16; 319]).is_err(), "wrong length");
+    assert!(
+        set.generate_row(0, 0, &mut [0u8; 320]).is_err(),
+        "I_max beyond u8"
+    );
+    assert!(
+        set.generate_row(0, 200, &mut [0u16; 320]).is_err(),
+        "row out of range"
+    );
+    assert!(
+        set.generate_row(4, 0, &mut [0u16; 320]).is_err(),
+        "image out of range"
+    );
+    assert!(
+        set.generate_row(0, 0, &mut [0u16; 319]).is_err(),
+        "wrong length"
+    );
 }
 
 #[test]
@@ -121,10 +190,19 @@ fn explicit_image_order_is_checked() {
     use fringe3d_core::pattern::ImageId;
     let f = PhaseFunction::centered(Axis::Xi, 320, 5.0).unwrap();
     let set = PatternSet::paper_eight(f, 4.0, out(255.0)).unwrap();
-    let paper_order: Vec<ImageId> = [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1), (2, 2), (2, 3)]
-        .iter()
-        .map(|&(l, s)| ImageId { level: l, shift: s })
-        .collect();
+    let paper_order: Vec<ImageId> = [
+        (0, 0),
+        (0, 1),
+        (1, 0),
+        (1, 1),
+        (2, 0),
+        (2, 1),
+        (2, 2),
+        (2, 3),
+    ]
+    .iter()
+    .map(|&(l, s)| ImageId { level: l, shift: s })
+    .collect();
     let s2 = set.with_order(&paper_order).unwrap();
     assert_eq!(s2.image(0), Some(ImageId { level: 0, shift: 0 }));
     let mut dup = paper_order.clone();

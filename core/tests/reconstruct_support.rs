@@ -467,8 +467,20 @@ pub fn bench_scene(noise: f64) -> (Rig, PhaseMap, PhaseMap) {
 /// range and a sphere in front of it, within the rig's depth range.
 pub fn bench_surfaces(rig: &Rig) -> (Vec<Surface>, Bounds) {
     let surfaces = vec![
-        Surface::Sphere { c: [-35.0, 25.0, 640.0], r: 55.0 },
-        Surface::Plane { p: [0.0, 0.0, 700.0], n: unit([0.25, 0.15, -1.0]) },
+        Surface::Sphere {
+            c: [-35.0, 25.0, 640.0],
+            r: 55.0,
+        },
+        Surface::Plane {
+            p: [0.0, 0.0, 700.0],
+            n: unit([0.25, 0.15, -1.0]),
+        },
     ];
-    (surfaces, Bounds { min: [-1e9, -1e9, rig.z_range[0]], max: [1e9, 1e9, rig.z_range[1]] })
+    (
+        surfaces,
+        Bounds {
+            min: [-1e9, -1e9, rig.z_range[0]],
+            max: [1e9, 1e9, rig.z_range[1]],
+        },
+    )
 }

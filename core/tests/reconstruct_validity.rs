@@ -298,17 +298,35 @@ fn every_pixel_reconstructs_as_it_does_alone() {
     let m = ReferenceMap::prepare(&mut prep, &reference.validity, W, H).unwrap();
     let mut checked = 0;
     for &v in &rows {
-        let (p, val) = (&obj.phase[v * W..(v + 1) * W], &obj.validity[v * W..(v + 1) * W]);
+        let (p, val) = (
+            &obj.phase[v * W..(v + 1) * W],
+            &obj.validity[v * W..(v + 1) * W],
+        );
         let (xyz, codes) = row_of(&f.recon, &m, v, p, val);
         for j in 0..LANES {
             // Only columns j, j + LANES, … keep their input code: one pixel per chunk.
             let alone: Vec<u8> = (0..W)
-                .map(|u| if u % LANES == j { val[u] } else { Validity::Dark as u8 })
+                .map(|u| {
+                    if u % LANES == j {
+                        val[u]
+                    } else {
+                        Validity::Dark as u8
+                    }
+                })
                 .collect();
             let (xyz1, codes1) = row_of(&f.recon, &m, v, p, &alone);
             for u in (j..W).step_by(LANES) {
-                let bits = |x: &[f32]| x[3 * u..3 * u + 3].iter().map(|c| c.to_bits()).collect::<Vec<_>>();
-                assert_eq!((codes1[u], bits(&xyz1)), (codes[u], bits(&xyz)), "row {v}, column {u}");
+                let bits = |x: &[f32]| {
+                    x[3 * u..3 * u + 3]
+                        .iter()
+                        .map(|c| c.to_bits())
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(
+                    (codes1[u], bits(&xyz1)),
+                    (codes[u], bits(&xyz)),
+                    "row {v}, column {u}"
+                );
                 checked += (codes[u] == Validity::Valid as u8) as usize;
             }
         }

@@ -25,14 +25,32 @@ use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// Whole-frame decode with one backend (rows in parallel): phase and validity.
-fn decode<P: Sample + Sync>(d: &AnyDecoder, frames: &[&[P]], w: usize, h: usize) -> (Vec<f32>, Vec<u8>) {
+fn decode<P: Sample + Sync>(
+    d: &AnyDecoder,
+    frames: &[&[P]],
+    w: usize,
+    h: usize,
+) -> (Vec<f32>, Vec<u8>) {
     let mut phase = vec![0.0f32; w * h];
     let mut validity = vec![0u8; w * h];
-    phase.par_chunks_mut(w).zip(validity.par_chunks_mut(w)).enumerate().for_each(|(y, (p, v))| {
-        let rows: Vec<&[P]> = frames.iter().map(|f| &f[y * w..(y + 1) * w]).collect();
-        let (mut m, mut a) = (vec![0.0f32; w], vec![0.0f32; w]);
-        d.decode_row(&rows, RowOut { phase: p, modulation: &mut m, dc: &mut a, validity: v }).expect("decode");
-    });
+    phase
+        .par_chunks_mut(w)
+        .zip(validity.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(y, (p, v))| {
+            let rows: Vec<&[P]> = frames.iter().map(|f| &f[y * w..(y + 1) * w]).collect();
+            let (mut m, mut a) = (vec![0.0f32; w], vec![0.0f32; w]);
+            d.decode_row(
+                &rows,
+                RowOut {
+                    phase: p,
+                    modulation: &mut m,
+                    dc: &mut a,
+                    validity: v,
+                },
+            )
+            .expect("decode");
+        });
     (phase, validity)
 }
 
@@ -51,11 +69,27 @@ impl Drop for TmpDir {
 #[ignore = "renders two scans; run explicitly (see the file's documentation)"]
 fn depth_error_per_backend_on_a_rendered_sphere() {
     let conditions = [
-        ("16-bit, noise-free", Overrides { bits: Some(16), ..Overrides::default() }),
-        ("8-bit, sigma 1", Overrides { noise: Some(1.0), bits: Some(8), seed: Some(11), ..Overrides::default() }),
+        (
+            "16-bit, noise-free",
+            Overrides {
+                bits: Some(16),
+                ..Overrides::default()
+            },
+        ),
+        (
+            "8-bit, sigma 1",
+            Overrides {
+                noise: Some(1.0),
+                bits: Some(8),
+                seed: Some(11),
+                ..Overrides::default()
+            },
+        ),
     ];
     for (name, o) in conditions {
-        let tmp = TmpDir(std::env::temp_dir().join(format!("fringe3d-arith-depth-{}", std::process::id())));
+        let tmp = TmpDir(
+            std::env::temp_dir().join(format!("fringe3d-arith-depth-{}", std::process::id())),
+        );
         let _ = std::fs::remove_dir_all(&tmp.0);
         let ds = tmp.0.join("dataset");
         let scene = Scene::builtin("sphere", &o).expect("scene");
@@ -63,7 +97,9 @@ fn depth_error_per_backend_on_a_rendered_sphere() {
         let ls = common::load_set(&ds.join("patterns.toml")).expect("pattern set");
         let imgs = common::load_images(&ls, &[], true).expect("images");
         let truth = accuracy::load_truth(&ds).expect("truth");
-        let (rf, _) = scene.render_reference(RenderOptions::default()).expect("reference render");
+        let (rf, _) = scene
+            .render_reference(RenderOptions::default())
+            .expect("reference render");
         let (w, h) = (imgs.width as usize, imgs.height as usize);
         let (rw, rh) = (rf.width as usize, rf.height as usize);
         let rframes: Vec<&[u16]> = rf.images.iter().map(|v| v.as_slice()).collect();
@@ -73,19 +109,43 @@ fn depth_error_per_backend_on_a_rendered_sphere() {
             let (ref_phase, _) = decode(&any(&ls.set, rf.bits as u32, b), &rframes, rw, rh);
             if b == Backend::F32Accurate {
                 // The same reference map as the dataset's (decoded by the default decoder).
-                let (img, _) = fringe3d::io::image::read_gray(&ds.join("reference_phase.tif")).expect("reference map");
-                let fringe3d::io::image::Pixels::F32(file) = img.pixels else { panic!("reference map format") };
-                let same = file.iter().zip(&ref_phase).all(|(a, b)| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()));
+                let (img, _) = fringe3d::io::image::read_gray(&ds.join("reference_phase.tif"))
+                    .expect("reference map");
+                let fringe3d::io::image::Pixels::F32(file) = img.pixels else {
+                    panic!("reference map format")
+                };
+                let same = file
+                    .iter()
+                    .zip(&ref_phase)
+                    .all(|(a, b)| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()));
                 assert!(same, "the re-decoded reference differs from the dataset's");
             }
             let cal = Calibration::load(&ds.join("calibration.toml")).expect("calibration");
-            let scal = ScanCalibration::from_parts(cal, ref_phase, ls.set.axis(), &ds.join("calibration.toml")).expect("scan calibration");
+            let scal = ScanCalibration::from_parts(
+                cal,
+                ref_phase,
+                ls.set.axis(),
+                &ds.join("calibration.toml"),
+            )
+            .expect("scan calibration");
             let d = any(&ls.set, imgs.bits as u32, b);
             let (phase, validity) = match &imgs.frames {
-                Frames::U8(f) => decode(&d, &f.iter().map(|v| v.as_slice()).collect::<Vec<_>>(), w, h),
-                Frames::U16(f) => decode(&d, &f.iter().map(|v| v.as_slice()).collect::<Vec<_>>(), w, h),
+                Frames::U8(f) => decode(
+                    &d,
+                    &f.iter().map(|v| v.as_slice()).collect::<Vec<_>>(),
+                    w,
+                    h,
+                ),
+                Frames::U16(f) => decode(
+                    &d,
+                    &f.iter().map(|v| v.as_slice()).collect::<Vec<_>>(),
+                    w,
+                    h,
+                ),
             };
-            let mut cloud = scal.reconstruct(&phase, &validity, true).expect("reconstruct");
+            let mut cloud = scal
+                .reconstruct(&phase, &validity, true)
+                .expect("reconstruct");
             filter_edges(&mut cloud, &scal.edge_filter(80.0).expect("filter"));
             let acc = accuracy::evaluate(&cloud, &truth).expect("evaluate");
             let sp = acc.spheres.first().expect("the scene's sphere");
@@ -116,7 +176,11 @@ fn depth_error_per_backend_on_a_rendered_sphere() {
                 default_valid = acc.valid_pixels;
             }
             let ratio = acc.valid_pixels as f64 / default_valid as f64;
-            assert!((ratio - 1.0).abs() < 0.01, "{b} {name}: {} valid points, the default has {default_valid}", acc.valid_pixels);
+            assert!(
+                (ratio - 1.0).abs() < 0.01,
+                "{b} {name}: {} valid points, the default has {default_valid}",
+                acc.valid_pixels
+            );
         }
     }
 }

@@ -27,7 +27,9 @@ fn bench(c: &mut Criterion) {
         let mut prep = reference.phase.clone();
         let map = ReferenceMap::prepare(&mut prep, &reference.validity, w, h).expect("map");
         let (mut xyz, mut val) = (vec![0f32; 3 * w * h], vec![0u8; w * h]);
-        recon.reconstruct_frame(&map, &object.phase, &object.validity, &mut xyz, &mut val).expect("portable");
+        recon
+            .reconstruct_frame(&map, &object.phase, &object.validity, &mut xyz, &mut val)
+            .expect("portable");
         let mut g = c.benchmark_group(format!("reconstruct_batch_{name}"));
         g.throughput(Throughput::Elements((w * h) as u64));
         g.sample_size(20);
@@ -38,14 +40,40 @@ fn bench(c: &mut Criterion) {
             ("dispatched_all_cores", Isa::detect(), true),
         ] {
             let (mut xyz2, mut val2) = (vec![0f32; 3 * w * h], vec![0u8; w * h]);
-            reconstruct_frame(&recon, &map, &object.phase, &object.validity, PointsOut { xyz: &mut xyz2, validity: &mut val2 }, isa, par)
-                .expect("batch");
-            let same = val == val2 && xyz.iter().zip(&xyz2).all(|(a, b)| a.to_bits() == b.to_bits());
+            reconstruct_frame(
+                &recon,
+                &map,
+                &object.phase,
+                &object.validity,
+                PointsOut {
+                    xyz: &mut xyz2,
+                    validity: &mut val2,
+                },
+                isa,
+                par,
+            )
+            .expect("batch");
+            let same = val == val2
+                && xyz
+                    .iter()
+                    .zip(&xyz2)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
             assert!(same, "{label} differs from the portable reconstruction");
             g.bench_function(label, |b| {
                 b.iter(|| {
-                    reconstruct_frame(&recon, &map, black_box(&object.phase), &object.validity, PointsOut { xyz: &mut xyz2, validity: &mut val2 }, isa, par)
-                        .expect("batch")
+                    reconstruct_frame(
+                        &recon,
+                        &map,
+                        black_box(&object.phase),
+                        &object.validity,
+                        PointsOut {
+                            xyz: &mut xyz2,
+                            validity: &mut val2,
+                        },
+                        isa,
+                        par,
+                    )
+                    .expect("batch")
                 })
             });
         }

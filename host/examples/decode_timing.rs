@@ -12,9 +12,20 @@ use std::time::Instant;
 
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
-    let patterns = PathBuf::from(args.next().context("usage: decode_timing PATTERNS.toml DATASET_DIR [REPEAT]")?);
-    let dir = PathBuf::from(args.next().context("usage: decode_timing PATTERNS.toml DATASET_DIR [REPEAT]")?);
-    let repeat: usize = args.next().map(|r| r.parse()).transpose().context("REPEAT must be a count")?.unwrap_or(5);
+    let patterns = PathBuf::from(
+        args.next()
+            .context("usage: decode_timing PATTERNS.toml DATASET_DIR [REPEAT]")?,
+    );
+    let dir = PathBuf::from(
+        args.next()
+            .context("usage: decode_timing PATTERNS.toml DATASET_DIR [REPEAT]")?,
+    );
+    let repeat: usize = args
+        .next()
+        .map(|r| r.parse())
+        .transpose()
+        .context("REPEAT must be a count")?
+        .unwrap_or(5);
     let set = common::load_set(&patterns)?;
     let imgs = common::load_images(&set, &[dir], true)?;
     let cfg = common::decode_config(&imgs);

@@ -38,9 +38,17 @@ pub struct Truth {
 /// Load `truth/points.npy`, `truth/object_id.png` and the spheres of `manifest.json`.
 pub fn load_truth(dataset: &Path) -> Result<Truth> {
     let pts_path = dataset.join("truth/points.npy");
-    let bytes = std::fs::read(&pts_path).with_context(|| format!("{}: cannot read", pts_path.display()))?;
-    let (shape, points) = crate::render::npy::decode_f64(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", pts_path.display()))?;
-    let [h, w, 3] = shape[..] else { bail!("{}: expected an H x W x 3 array, got {:?}", pts_path.display(), shape) };
+    let bytes =
+        std::fs::read(&pts_path).with_context(|| format!("{}: cannot read", pts_path.display()))?;
+    let (shape, points) = crate::render::npy::decode_f64(&bytes)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", pts_path.display()))?;
+    let [h, w, 3] = shape[..] else {
+        bail!(
+            "{}: expected an H x W x 3 array, got {:?}",
+            pts_path.display(),
+            shape
+        )
+    };
     let id_path = dataset.join("truth/object_id.png");
     let (img, _) = read_gray(&id_path)?;
     let object_id = match img.pixels {
@@ -49,8 +57,11 @@ pub fn load_truth(dataset: &Path) -> Result<Truth> {
         _ => bail!("{}: expected a {w}x{h} integer image", id_path.display()),
     };
     let man_path = dataset.join("manifest.json");
-    let man: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&man_path).with_context(|| format!("{}: cannot read", man_path.display()))?)
-        .with_context(|| format!("{}: not valid JSON", man_path.display()))?;
+    let man: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(&man_path)
+            .with_context(|| format!("{}: cannot read", man_path.display()))?,
+    )
+    .with_context(|| format!("{}: not valid JSON", man_path.display()))?;
     let mut spheres = Vec::new();
     for p in man["extra"]["primitives"].as_array().into_iter().flatten() {
         let s = &p["geometry"]["sphere"];
@@ -59,13 +70,23 @@ pub fn load_truth(dataset: &Path) -> Result<Truth> {
             spheres.push(TrueSphere {
                 id: p["id"].as_u64().unwrap_or(0) as u16,
                 object: p["object"].as_u64().unwrap_or(0),
-                name: format!("{}/{}", p["name"].as_str().unwrap_or("?"), p["part"].as_str().unwrap_or("?")),
+                name: format!(
+                    "{}/{}",
+                    p["name"].as_str().unwrap_or("?"),
+                    p["part"].as_str().unwrap_or("?")
+                ),
                 center: [c(0), c(1), c(2)],
                 radius: s["radius"].as_f64().unwrap_or(f64::NAN),
             });
         }
     }
-    Ok(Truth { width: w, height: h, points, object_id, spheres })
+    Ok(Truth {
+        width: w,
+        height: h,
+        points,
+        object_id,
+        spheres,
+    })
 }
 
 /// Error statistics over a set of pixels, mm.
@@ -158,7 +179,11 @@ pub struct Accuracy {
 pub fn evaluate(cloud: &PointCloud, truth: &Truth) -> Result<Accuracy> {
     let (w, h) = (truth.width, truth.height);
     if (cloud.width, cloud.height) != (w, h) {
-        bail!("the cloud is {}x{} but the truth is {w}x{h}", cloud.width, cloud.height);
+        bail!(
+            "the cloud is {}x{} but the truth is {w}x{h}",
+            cloud.width,
+            cloud.height
+        );
     }
     let interior = |i: usize| -> bool {
         let (x, y) = (i % w, i / w);
@@ -166,7 +191,12 @@ pub fn evaluate(cloud: &PointCloud, truth: &Truth) -> Result<Accuracy> {
             return false;
         }
         let id = truth.object_id[i];
-        (0..3).all(|dy| (0..3).all(|dx| truth.object_id[(y + dy - 1) * w + x + dx - 1] == id && truth.points[3 * ((y + dy - 1) * w + x + dx - 1)].is_finite()))
+        (0..3).all(|dy| {
+            (0..3).all(|dx| {
+                truth.object_id[(y + dy - 1) * w + x + dx - 1] == id
+                    && truth.points[3 * ((y + dy - 1) * w + x + dx - 1)].is_finite()
+            })
+        })
     };
     let (mut all, mut inner) = (Vec::new(), Vec::new());
     let (mut truth_px, mut valid, mut spurious) = (0, 0, 0);
@@ -174,7 +204,12 @@ pub fn evaluate(cloud: &PointCloud, truth: &Truth) -> Result<Accuracy> {
         let t = &truth.points[3 * i..3 * i + 3];
         let ok = cloud.validity[i] == 0;
         let p = &cloud.xyz[3 * i..3 * i + 3];
-        let dist = |t: &[f64]| ((p[0] as f64 - t[0]).powi(2) + (p[1] as f64 - t[1]).powi(2) + (p[2] as f64 - t[2]).powi(2)).sqrt();
+        let dist = |t: &[f64]| {
+            ((p[0] as f64 - t[0]).powi(2)
+                + (p[1] as f64 - t[1]).powi(2)
+                + (p[2] as f64 - t[2]).powi(2))
+            .sqrt()
+        };
         // Distance to the nearest true point of the pixel's 3×3 neighbourhood, if any.
         let (x, y) = (i % w, i / w);
         let mut near: Option<f64> = None;
@@ -212,10 +247,19 @@ pub fn evaluate(cloud: &PointCloud, truth: &Truth) -> Result<Accuracy> {
     for s in &truth.spheres {
         let pts: Vec<[f64; 3]> = (0..w * h)
             .filter(|&i| truth.object_id[i] == s.id && cloud.validity[i] == 0 && interior(i))
-            .map(|i| [cloud.xyz[3 * i] as f64, cloud.xyz[3 * i + 1] as f64, cloud.xyz[3 * i + 2] as f64])
+            .map(|i| {
+                [
+                    cloud.xyz[3 * i] as f64,
+                    cloud.xyz[3 * i + 1] as f64,
+                    cloud.xyz[3 * i + 2] as f64,
+                ]
+            })
             .collect();
         if let Some((c, r, form)) = fit_sphere(&pts) {
-            let ce = ((c[0] - s.center[0]).powi(2) + (c[1] - s.center[1]).powi(2) + (c[2] - s.center[2]).powi(2)).sqrt();
+            let ce = ((c[0] - s.center[0]).powi(2)
+                + (c[1] - s.center[1]).powi(2)
+                + (c[2] - s.center[2]).powi(2))
+            .sqrt();
             spheres.push(SphereReport {
                 name: s.name.clone(),
                 points: pts.len(),
@@ -230,16 +274,40 @@ pub fn evaluate(cloud: &PointCloud, truth: &Truth) -> Result<Accuracy> {
     }
     let mut ball_bars = Vec::new();
     for (i, a) in truth.spheres.iter().enumerate() {
-        for b in truth.spheres.iter().skip(i + 1).filter(|b| b.object == a.object) {
-            let find = |s: &TrueSphere| spheres.iter().find(|r| r.name == s.name).map(|r| r.fitted_center);
+        for b in truth
+            .spheres
+            .iter()
+            .skip(i + 1)
+            .filter(|b| b.object == a.object)
+        {
+            let find = |s: &TrueSphere| {
+                spheres
+                    .iter()
+                    .find(|r| r.name == s.name)
+                    .map(|r| r.fitted_center)
+            };
             if let (Some(ca), Some(cb)) = (find(a), find(b)) {
-                let dist = |p: [f64; 3], q: [f64; 3]| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt();
+                let dist = |p: [f64; 3], q: [f64; 3]| {
+                    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+                };
                 let (t, m) = (dist(a.center, b.center), dist(ca, cb));
-                ball_bars.push(BallBarReport { true_length: t, measured_length: m, length_error: m - t });
+                ball_bars.push(BallBarReport {
+                    true_length: t,
+                    measured_length: m,
+                    length_error: m - t,
+                });
             }
         }
     }
-    Ok(Accuracy { truth_pixels: truth_px, valid_pixels: valid, spurious_points: spurious, all: stats(all), interior: stats(inner), spheres, ball_bars })
+    Ok(Accuracy {
+        truth_pixels: truth_px,
+        valid_pixels: valid,
+        spurious_points: spurious,
+        all: stats(all),
+        interior: stats(inner),
+        spheres,
+        ball_bars,
+    })
 }
 
 /// Least-squares sphere: algebraic fit, then 10 Gauss-Newton steps on the geometric distance.
@@ -338,7 +406,11 @@ mod tests {
                 let th = 0.1 + 1.2 * i as f64 / 40.0;
                 let ph = std::f64::consts::TAU * j as f64 / 40.0;
                 let rr = r + 0.005 * ((i * 7 + j * 3) % 3) as f64 - 0.005;
-                pts.push([c[0] + rr * th.sin() * ph.cos(), c[1] + rr * th.sin() * ph.sin(), c[2] - rr * th.cos()]);
+                pts.push([
+                    c[0] + rr * th.sin() * ph.cos(),
+                    c[1] + rr * th.sin() * ph.sin(),
+                    c[2] - rr * th.cos(),
+                ]);
             }
         }
         let (fc, fr, form) = fit_sphere(&pts).unwrap();

@@ -13,7 +13,9 @@ use crate::gather::Avx2Pairs;
 #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
 use crate::gather::Avx512Pairs;
 use fringe3d_core::decode::{DecodeError, DecodeScratch, Decoder, RowOut, Sample};
-use fringe3d_core::reconstruct::{CellGather, ReconstructError, Reconstructor, ReferenceMap, ScalarGather};
+use fringe3d_core::reconstruct::{
+    CellGather, ReconstructError, Reconstructor, ReferenceMap, ScalarGather,
+};
 use rayon::prelude::*;
 
 /// Which compiled variant of the kernel runs.
@@ -122,15 +124,24 @@ struct RowsOut<'a> {
 /// pixels side by side ([`Decoder::decode_row_lanes`]; the same bits for every `LANES`): 4 for
 /// the baseline (SSE2) build, 2 for the AVX2 and AVX-512 builds, where four do not vectorize.
 #[inline(always)]
-fn rows_generic<P: Sample, const LANES: usize>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
+fn rows_generic<P: Sample, const LANES: usize>(
+    d: &Decoder,
+    frames: &[&[P]],
+    width: usize,
+    y0: usize,
+    out: RowsOut<'_>,
+) -> Result<(), DecodeError> {
     let n_rows = out.phase.len() / width;
-    let mut rows: [&[P]; fringe3d_core::pattern::MAX_IMAGES] = [&[]; fringe3d_core::pattern::MAX_IMAGES];
+    let mut rows: [&[P]; fringe3d_core::pattern::MAX_IMAGES] =
+        [&[]; fringe3d_core::pattern::MAX_IMAGES];
     let k = frames.len().min(rows.len());
     let mut scratch = DecodeScratch::new();
     for r in 0..n_rows {
         let y = y0 + r;
         for (slot, f) in rows.iter_mut().zip(frames) {
-            *slot = f.get(y * width..(y + 1) * width).ok_or(DecodeError::Length)?;
+            *slot = f
+                .get(y * width..(y + 1) * width)
+                .ok_or(DecodeError::Length)?;
         }
         let s = r * width..(r + 1) * width;
         d.decode_row_lanes::<P, LANES>(
@@ -152,18 +163,37 @@ fn rows_generic<P: Sample, const LANES: usize>(d: &Decoder, frames: &[&[P]], wid
 /// [`dispatch`] is not always inlined into its AVX2 wrapper, and then runs the baseline code.)
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn rows_avx2<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
+fn rows_avx2<P: Sample>(
+    d: &Decoder,
+    frames: &[&[P]],
+    width: usize,
+    y0: usize,
+    out: RowsOut<'_>,
+) -> Result<(), DecodeError> {
     rows_generic::<P, 2>(d, frames, width, y0, out)
 }
 
 /// [`rows_avx2`] with AVX-512.
 #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
 #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
-fn rows_avx512<P: Sample>(d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
+fn rows_avx512<P: Sample>(
+    d: &Decoder,
+    frames: &[&[P]],
+    width: usize,
+    y0: usize,
+    out: RowsOut<'_>,
+) -> Result<(), DecodeError> {
     rows_generic::<P, 2>(d, frames, width, y0, out)
 }
 
-fn rows_dispatch<P: Sample>(isa: Isa, d: &Decoder, frames: &[&[P]], width: usize, y0: usize, out: RowsOut<'_>) -> Result<(), DecodeError> {
+fn rows_dispatch<P: Sample>(
+    isa: Isa,
+    d: &Decoder,
+    frames: &[&[P]],
+    width: usize,
+    y0: usize,
+    out: RowsOut<'_>,
+) -> Result<(), DecodeError> {
     match isa.effective() {
         #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
         Isa::Avx512 => {
@@ -219,8 +249,23 @@ pub fn decode_frames<P: Sample + Sync>(
         .zip(out.dc.chunks_mut(chunk))
         .zip(out.validity.chunks_mut(chunk))
         .enumerate();
-    let run = |(i, (((phase, modulation), dc), validity)): (usize, (((&mut [f32], &mut [f32]), &mut [f32]), &mut [u8]))| {
-        rows_dispatch(isa, d, frames, width, i * ROWS_PER_TASK, RowsOut { phase, modulation, dc, validity })
+    let run = |(i, (((phase, modulation), dc), validity)): (
+        usize,
+        (((&mut [f32], &mut [f32]), &mut [f32]), &mut [u8]),
+    )| {
+        rows_dispatch(
+            isa,
+            d,
+            frames,
+            width,
+            i * ROWS_PER_TASK,
+            RowsOut {
+                phase,
+                modulation,
+                dc,
+                validity,
+            },
+        )
     };
     if parallel {
         tasks.par_bridge().try_for_each(run)
@@ -239,7 +284,16 @@ mod tests {
     #[test]
     fn every_variant_gives_the_same_bits() {
         let (w, h) = (333, 50);
-        let set = PatternSet::default_for(Axis::Xi, Output { width: 640, height: 480, i_min: 0.0, i_max: 255.0 }).unwrap();
+        let set = PatternSet::default_for(
+            Axis::Xi,
+            Output {
+                width: 640,
+                height: 480,
+                i_min: 0.0,
+                i_max: 255.0,
+            },
+        )
+        .unwrap();
         let d = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).unwrap();
         let mut seed = 99u64;
         let imgs: Vec<Vec<u8>> = (0..8)
@@ -248,25 +302,63 @@ mod tests {
                 (0..w * h)
                     .map(|p| {
                         if p % w == 0 {
-                            set.generate_row(i, ((p / w) % 480) as u32, &mut row).unwrap();
+                            set.generate_row(i, ((p / w) % 480) as u32, &mut row)
+                                .unwrap();
                         }
-                        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                        (row[(p % w) * 640 / w] as u32 * 3 / 4 + 10 + (seed >> 60) as u32).min(255) as u8
+                        seed = seed
+                            .wrapping_mul(6364136223846793005)
+                            .wrapping_add(1442695040888963407);
+                        (row[(p % w) * 640 / w] as u32 * 3 / 4 + 10 + (seed >> 60) as u32).min(255)
+                            as u8
                     })
                     .collect()
             })
             .collect();
         let frames: Vec<&[u8]> = imgs.iter().map(|v| v.as_slice()).collect();
         let mut results = Vec::new();
-        for (isa, par) in [(Isa::Baseline, false), (Isa::Avx2, false), (Isa::Avx2, true), (Isa::Avx512, false), (Isa::Avx512, true), (Isa::Baseline, true)] {
-            let (mut p, mut m, mut a, mut v) = (vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0u8; w * h]);
-            decode_frames(&d, &frames, w, h, FrameOut { phase: &mut p, modulation: &mut m, dc: &mut a, validity: &mut v }, isa, par).unwrap();
-            let bits: Vec<u32> = p.iter().chain(&m).chain(&a).map(|x| fringe3d_core::math::canonical(*x).to_bits()).collect();
+        for (isa, par) in [
+            (Isa::Baseline, false),
+            (Isa::Avx2, false),
+            (Isa::Avx2, true),
+            (Isa::Avx512, false),
+            (Isa::Avx512, true),
+            (Isa::Baseline, true),
+        ] {
+            let (mut p, mut m, mut a, mut v) = (
+                vec![0.0f32; w * h],
+                vec![0.0f32; w * h],
+                vec![0.0f32; w * h],
+                vec![0u8; w * h],
+            );
+            decode_frames(
+                &d,
+                &frames,
+                w,
+                h,
+                FrameOut {
+                    phase: &mut p,
+                    modulation: &mut m,
+                    dc: &mut a,
+                    validity: &mut v,
+                },
+                isa,
+                par,
+            )
+            .unwrap();
+            let bits: Vec<u32> = p
+                .iter()
+                .chain(&m)
+                .chain(&a)
+                .map(|x| fringe3d_core::math::canonical(*x).to_bits())
+                .collect();
             results.push((bits, v));
         }
         for isa in [Isa::Avx2, Isa::Avx512] {
             if !isa.available() {
-                eprintln!("note: no {isa:?} on this CPU or in this build; that variant fell back to {:?}", isa.effective());
+                eprintln!(
+                    "note: no {isa:?} on this CPU or in this build; that variant fell back to {:?}",
+                    isa.effective()
+                );
             }
         }
         for r in &results[1..] {
@@ -308,24 +400,54 @@ pub fn reconstruct_frame(
 ) -> Result<(), ReconstructError> {
     let w = recon.width();
     let n = w * recon.height();
-    if phase.len() != n || validity.len() != n || out.xyz.len() != 3 * n || out.validity.len() != n {
+    if phase.len() != n || validity.len() != n || out.xyz.len() != 3 * n || out.validity.len() != n
+    {
         return Err(ReconstructError::Length);
     }
-    let f = ReconFrame { recon, map, phase, validity };
-    let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| recon_rows_dispatch(isa, &f, k * ROWS_PER_TASK, o, ov);
-    let mut rows = out.xyz.chunks_mut(3 * w * ROWS_PER_TASK).zip(out.validity.chunks_mut(w * ROWS_PER_TASK)).enumerate();
-    if parallel { rows.par_bridge().try_for_each(job) } else { rows.try_for_each(job) }
+    let f = ReconFrame {
+        recon,
+        map,
+        phase,
+        validity,
+    };
+    let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| {
+        recon_rows_dispatch(isa, &f, k * ROWS_PER_TASK, o, ov)
+    };
+    let mut rows = out
+        .xyz
+        .chunks_mut(3 * w * ROWS_PER_TASK)
+        .zip(out.validity.chunks_mut(w * ROWS_PER_TASK))
+        .enumerate();
+    if parallel {
+        rows.par_bridge().try_for_each(job)
+    } else {
+        rows.try_for_each(job)
+    }
 }
 
 /// Reconstruct the rows `v0..` whose outputs are `xyz` (3 × width per row) and `codes` (width
 /// per row); `g` fetches the reference samples (the same values, and bits, whichever it is).
 #[inline(always)]
-fn recon_rows<G: CellGather>(g: G, f: &ReconFrame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), ReconstructError> {
+fn recon_rows<G: CellGather>(
+    g: G,
+    f: &ReconFrame<'_>,
+    v0: usize,
+    xyz: &mut [f32],
+    codes: &mut [u8],
+) -> Result<(), ReconstructError> {
     let w = f.recon.width();
     for (j, (o, ov)) in xyz.chunks_mut(3 * w).zip(codes.chunks_mut(w)).enumerate() {
         let v = v0 + j;
         let r = v * w..(v + 1) * w;
-        f.recon.reconstruct_row_gather(g, f.map, v as u32, &f.phase[r.clone()], &f.validity[r], o, ov)?;
+        f.recon.reconstruct_row_gather(
+            g,
+            f.map,
+            v as u32,
+            &f.phase[r.clone()],
+            &f.validity[r],
+            o,
+            ov,
+        )?;
     }
     Ok(())
 }
@@ -334,18 +456,36 @@ fn recon_rows<G: CellGather>(g: G, f: &ReconFrame<'_>, v0: usize, xyz: &mut [f32
 /// here with AVX2 enabled).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn recon_rows_avx2(g: Avx2Pairs, f: &ReconFrame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), ReconstructError> {
+fn recon_rows_avx2(
+    g: Avx2Pairs,
+    f: &ReconFrame<'_>,
+    v0: usize,
+    xyz: &mut [f32],
+    codes: &mut [u8],
+) -> Result<(), ReconstructError> {
     recon_rows(g, f, v0, xyz, codes)
 }
 
 /// [`recon_rows`] compiled with AVX-512.
 #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
 #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
-fn recon_rows_avx512(g: Avx512Pairs, f: &ReconFrame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), ReconstructError> {
+fn recon_rows_avx512(
+    g: Avx512Pairs,
+    f: &ReconFrame<'_>,
+    v0: usize,
+    xyz: &mut [f32],
+    codes: &mut [u8],
+) -> Result<(), ReconstructError> {
     recon_rows(g, f, v0, xyz, codes)
 }
 
-fn recon_rows_dispatch(isa: Isa, f: &ReconFrame<'_>, v0: usize, xyz: &mut [f32], codes: &mut [u8]) -> Result<(), ReconstructError> {
+fn recon_rows_dispatch(
+    isa: Isa,
+    f: &ReconFrame<'_>,
+    v0: usize,
+    xyz: &mut [f32],
+    codes: &mut [u8],
+) -> Result<(), ReconstructError> {
     match isa.effective() {
         #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
         Isa::Avx512 => match Avx512Pairs::detect() {

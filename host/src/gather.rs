@@ -53,7 +53,9 @@ impl Avx512Pairs {
     /// The token, if this CPU has AVX-512F and AVX-512DQ and this build has the AVX-512 kernels.
     pub fn detect() -> Option<Self> {
         #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
-        if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512dq") {
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512dq")
+        {
             return Some(Avx512Pairs(()));
         }
         None
@@ -87,7 +89,12 @@ mod x86 {
     /// The CPU has AVX2; `2 ≤ data.len()` and `data.len() − 2 ≤ i32::MAX`.
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub(super) unsafe fn pairs_avx2(data: &[f32], ia: &[u32; LANES], ib: &[u32; LANES], q: [&mut [f32; LANES]; 4]) {
+    pub(super) unsafe fn pairs_avx2(
+        data: &[f32],
+        ia: &[u32; LANES],
+        ib: &[u32; LANES],
+        q: [&mut [f32; LANES]; 4],
+    ) {
         let [qa, qb, qc, qd] = q;
         let last = _mm256_set1_epi32((data.len() - 2) as i32);
         let base = data.as_ptr() as *const i64;
@@ -98,7 +105,9 @@ mod x86 {
             // 64-bit permute puts the halves in lane order.
             let first = _mm256_shuffle_ps::<0b10_00_10_00>(lo, hi);
             let second = _mm256_shuffle_ps::<0b11_01_11_01>(lo, hi);
-            let fix = |v: __m256| _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(v)));
+            let fix = |v: __m256| {
+                _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(v)))
+            };
             (fix(first), fix(second))
         };
         for j in (0..LANES).step_by(8) {
@@ -106,8 +115,14 @@ mod x86 {
             // the clamped indices are ≤ data.len() − 2 and non-negative as i32, so each gathered
             // 8 bytes are samples `i` and `i + 1` of `data`.
             unsafe {
-                let xa = _mm256_min_epu32(_mm256_loadu_si256(ia.as_ptr().add(j) as *const __m256i), last);
-                let xb = _mm256_min_epu32(_mm256_loadu_si256(ib.as_ptr().add(j) as *const __m256i), last);
+                let xa = _mm256_min_epu32(
+                    _mm256_loadu_si256(ia.as_ptr().add(j) as *const __m256i),
+                    last,
+                );
+                let xb = _mm256_min_epu32(
+                    _mm256_loadu_si256(ib.as_ptr().add(j) as *const __m256i),
+                    last,
+                );
                 let ga0 = _mm256_i32gather_epi64::<4>(base, _mm256_castsi256_si128(xa));
                 let ga1 = _mm256_i32gather_epi64::<4>(base, _mm256_extracti128_si256::<1>(xa));
                 let gb0 = _mm256_i32gather_epi64::<4>(base, _mm256_castsi256_si128(xb));
@@ -131,7 +146,12 @@ mod x86 {
     #[clippy::msrv = "1.89"] // compiled only by rustc ≥ 1.89 (`fringe3d_avx512`)
     #[target_feature(enable = "avx512f,avx512dq,avx2")]
     #[inline]
-    pub(super) unsafe fn pairs_avx512(data: &[f32], ia: &[u32; LANES], ib: &[u32; LANES], q: [&mut [f32; LANES]; 4]) {
+    pub(super) unsafe fn pairs_avx512(
+        data: &[f32],
+        ia: &[u32; LANES],
+        ib: &[u32; LANES],
+        q: [&mut [f32; LANES]; 4],
+    ) {
         let [qa, qb, qc, qd] = q;
         let last = _mm256_set1_epi32((data.len() - 2) as i32);
         let perm = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 1, 3, 5, 7, 9, 11, 13, 15);
@@ -139,10 +159,22 @@ mod x86 {
         for j in (0..LANES).step_by(8) {
             // SAFETY: as in `pairs_avx2`.
             unsafe {
-                let xa = _mm256_min_epu32(_mm256_loadu_si256(ia.as_ptr().add(j) as *const __m256i), last);
-                let xb = _mm256_min_epu32(_mm256_loadu_si256(ib.as_ptr().add(j) as *const __m256i), last);
-                let pa = _mm512_permutexvar_ps(perm, _mm512_castsi512_ps(_mm512_i32gather_epi64::<4>(xa, base)));
-                let pb = _mm512_permutexvar_ps(perm, _mm512_castsi512_ps(_mm512_i32gather_epi64::<4>(xb, base)));
+                let xa = _mm256_min_epu32(
+                    _mm256_loadu_si256(ia.as_ptr().add(j) as *const __m256i),
+                    last,
+                );
+                let xb = _mm256_min_epu32(
+                    _mm256_loadu_si256(ib.as_ptr().add(j) as *const __m256i),
+                    last,
+                );
+                let pa = _mm512_permutexvar_ps(
+                    perm,
+                    _mm512_castsi512_ps(_mm512_i32gather_epi64::<4>(xa, base)),
+                );
+                let pb = _mm512_permutexvar_ps(
+                    perm,
+                    _mm512_castsi512_ps(_mm512_i32gather_epi64::<4>(xb, base)),
+                );
                 _mm256_storeu_ps(qa.as_mut_ptr().add(j), _mm512_castps512_ps256(pa));
                 _mm256_storeu_ps(qb.as_mut_ptr().add(j), _mm512_extractf32x8_ps::<1>(pa));
                 _mm256_storeu_ps(qc.as_mut_ptr().add(j), _mm512_castps512_ps256(pb));
@@ -184,8 +216,14 @@ mod tests {
                 ScalarGather.gather(&data, &ia, &ib, [w0, w1, w2, w3]);
                 let [g0, g1, g2, g3] = &mut got;
                 g.gather(&data, &ia, &ib, [g0, g1, g2, g3]);
-                let bits = |q: &[[f32; LANES]; 4]| q.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(&got), bits(&want), "storage of {len} samples, round {round}");
+                let bits = |q: &[[f32; LANES]; 4]| {
+                    q.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>()
+                };
+                assert_eq!(
+                    bits(&got),
+                    bits(&want),
+                    "storage of {len} samples, round {round}"
+                );
             }
         }
     }

@@ -12,7 +12,7 @@ use fringe3d_core::camera::{CameraModel, Distortion, Intrinsics};
 use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::geometry::Vec3;
 use fringe3d_core::phase_function::Axis;
-use fringe3d_core::reconstruct::{ReferenceMap, Reconstructor, Setup};
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap, Setup};
 use fringe3d_core::validity::Validity;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -53,7 +53,15 @@ pub enum ScanError {
 /// The core camera model of a calibration file's camera section.
 pub fn core_camera(c: &CameraFile) -> Result<CameraModel, String> {
     CameraModel::new(
-        Intrinsics { fx: c.fx, fy: c.fy, skew: c.skew, u0: c.cx, v0: c.cy, width: c.width, height: c.height },
+        Intrinsics {
+            fx: c.fx,
+            fy: c.fy,
+            skew: c.skew,
+            u0: c.cx,
+            v0: c.cy,
+            width: c.width,
+            height: c.height,
+        },
         Distortion::from_array(c.distortion),
     )
     .map_err(|e| format!("camera model: {e}"))
@@ -76,29 +84,67 @@ pub struct ScanCalibration {
 impl ScanCalibration {
     /// Build from a calibration and its reference phase map (NaN = invalid), for phases monotonic
     /// along `axis`.
-    pub fn from_parts(calibration: Calibration, mut reference_phase: Vec<f32>, axis: Axis, source: &Path) -> Result<Self, ScanError> {
-        let invalid = |m: String| ScanError::Invalid { path: source.to_path_buf(), message: m };
+    pub fn from_parts(
+        calibration: Calibration,
+        mut reference_phase: Vec<f32>,
+        axis: Axis,
+        source: &Path,
+    ) -> Result<Self, ScanError> {
+        let invalid = |m: String| ScanError::Invalid {
+            path: source.to_path_buf(),
+            message: m,
+        };
         calibration.validate().map_err(invalid)?;
         let cam = core_camera(&calibration.camera).map_err(invalid)?;
-        let r = calibration.reference.as_ref().ok_or_else(|| invalid("no [reference] section: a scan needs the reference plane and its phase map".into()))?;
+        let r = calibration.reference.as_ref().ok_or_else(|| {
+            invalid(
+                "no [reference] section: a scan needs the reference plane and its phase map".into(),
+            )
+        })?;
         let setup = Setup {
-            projector_centre: Vec3::new(calibration.projector_center[0], calibration.projector_center[1], calibration.projector_center[2]),
+            projector_centre: Vec3::new(
+                calibration.projector_center[0],
+                calibration.projector_center[1],
+                calibration.projector_center[2],
+            ),
             reference_point: Vec3::new(r.point[0], r.point[1], r.point[2]),
             reference_normal: Vec3::new(r.normal[0], r.normal[1], r.normal[2]),
             axis,
             z_min: calibration.depth_range[0],
             z_max: calibration.depth_range[1],
         };
-        let recon = Reconstructor::new(&cam, &setup).map_err(|e| invalid(format!("reconstruction set-up: {e}")))?;
+        let recon = Reconstructor::new(&cam, &setup)
+            .map_err(|e| invalid(format!("reconstruction set-up: {e}")))?;
         let (w, h) = (recon.width(), recon.height());
         if reference_phase.len() != w * h {
-            return Err(ScanError::Size { what: "reference phase map".into(), got_w: reference_phase.len() / h.max(1), got_h: h, w, h });
+            return Err(ScanError::Size {
+                what: "reference phase map".into(),
+                got_w: reference_phase.len() / h.max(1),
+                got_h: h,
+                w,
+                h,
+            });
         }
-        let reference_validity: Vec<u8> =
-            reference_phase.iter().map(|p| if p.is_finite() { Validity::Valid as u8 } else { Validity::ReferenceInvalid as u8 }).collect();
+        let reference_validity: Vec<u8> = reference_phase
+            .iter()
+            .map(|p| {
+                if p.is_finite() {
+                    Validity::Valid as u8
+                } else {
+                    Validity::ReferenceInvalid as u8
+                }
+            })
+            .collect();
         // Prepare once here so that a bad map is reported at set-up, not at the first scan.
-        ReferenceMap::prepare(&mut reference_phase, &reference_validity, w, h).map_err(|e| invalid(format!("reference map: {e}")))?;
-        Ok(ScanCalibration { calibration, recon, reference_phase, reference_validity, source: source.to_path_buf() })
+        ReferenceMap::prepare(&mut reference_phase, &reference_validity, w, h)
+            .map_err(|e| invalid(format!("reference map: {e}")))?;
+        Ok(ScanCalibration {
+            calibration,
+            recon,
+            reference_phase,
+            reference_validity,
+            source: source.to_path_buf(),
+        })
     }
 
     /// Load a calibration file and the reference map it names.
@@ -106,14 +152,26 @@ impl ScanCalibration {
         let cal = Calibration::load(path)?;
         let map_path = cal
             .reference_map_path(path)
-            .ok_or_else(|| ScanError::Invalid { path: path.to_path_buf(), message: "no [reference] section with a phase_map".into() })?;
+            .ok_or_else(|| ScanError::Invalid {
+                path: path.to_path_buf(),
+                message: "no [reference] section with a phase_map".into(),
+            })?;
         let (img, _) = read_gray(&map_path)?;
         let Pixels::F32(phase) = img.pixels else {
-            return Err(ScanError::Invalid { path: map_path, message: "the reference phase map must be a 32-bit float TIFF".into() });
+            return Err(ScanError::Invalid {
+                path: map_path,
+                message: "the reference phase map must be a 32-bit float TIFF".into(),
+            });
         };
         let (w, h) = (cal.camera.width as usize, cal.camera.height as usize);
         if (img.width as usize, img.height as usize) != (w, h) {
-            return Err(ScanError::Size { what: map_path.display().to_string(), got_w: img.width as usize, got_h: img.height as usize, w, h });
+            return Err(ScanError::Size {
+                what: map_path.display().to_string(),
+                got_w: img.width as usize,
+                got_h: img.height as usize,
+                w,
+                h,
+            });
         }
         Self::from_parts(cal, phase, axis, path)
     }
@@ -130,27 +188,68 @@ impl ScanCalibration {
 
     /// Reconstruct a whole phase map (`width × height`, with its validity codes), rows in
     /// parallel when `parallel`, with the best kernel variant of this CPU. Bit-identical either way.
-    pub fn reconstruct(&self, phase: &[f32], validity: &[u8], parallel: bool) -> Result<PointCloud, ScanError> {
+    pub fn reconstruct(
+        &self,
+        phase: &[f32],
+        validity: &[u8],
+        parallel: bool,
+    ) -> Result<PointCloud, ScanError> {
         self.reconstruct_with(phase, validity, parallel, Isa::detect())
     }
 
     /// [`ScanCalibration::reconstruct`] with a chosen kernel variant (for benchmarks and parity
     /// tests).
-    pub fn reconstruct_with(&self, phase: &[f32], validity: &[u8], parallel: bool, isa: Isa) -> Result<PointCloud, ScanError> {
+    pub fn reconstruct_with(
+        &self,
+        phase: &[f32],
+        validity: &[u8],
+        parallel: bool,
+        isa: Isa,
+    ) -> Result<PointCloud, ScanError> {
         let (w, h) = (self.width(), self.height());
         if phase.len() != w * h || validity.len() != w * h {
-            return Err(ScanError::Size { what: "phase map".into(), got_w: phase.len() / h.max(1), got_h: h, w, h });
+            return Err(ScanError::Size {
+                what: "phase map".into(),
+                got_w: phase.len() / h.max(1),
+                got_h: h,
+                w,
+                h,
+            });
         }
         // The core's map view takes its samples mutably (it prepares them in place); a copy keeps
         // this calibration reusable and shareable between threads.
         let mut prepared = self.reference_phase.clone();
-        let map = ReferenceMap::prepare(&mut prepared, &self.reference_validity, w, h)
-            .map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reference map: {e}") })?;
+        let map =
+            ReferenceMap::prepare(&mut prepared, &self.reference_validity, w, h).map_err(|e| {
+                ScanError::Invalid {
+                    path: self.source.clone(),
+                    message: format!("reference map: {e}"),
+                }
+            })?;
         let mut xyz = vec![0.0f32; 3 * w * h];
         let mut out_v = vec![0u8; w * h];
-        crate::batch::reconstruct_frame(&self.recon, &map, phase, validity, BatchOut { xyz: &mut xyz, validity: &mut out_v }, isa, parallel)
-            .map_err(|e| ScanError::Invalid { path: self.source.clone(), message: format!("reconstruction: {e}") })?;
-        Ok(PointCloud { width: w, height: h, xyz, validity: out_v })
+        crate::batch::reconstruct_frame(
+            &self.recon,
+            &map,
+            phase,
+            validity,
+            BatchOut {
+                xyz: &mut xyz,
+                validity: &mut out_v,
+            },
+            isa,
+            parallel,
+        )
+        .map_err(|e| ScanError::Invalid {
+            path: self.source.clone(),
+            message: format!("reconstruction: {e}"),
+        })?;
+        Ok(PointCloud {
+            width: w,
+            height: h,
+            xyz,
+            validity: out_v,
+        })
     }
 
     /// The depth-edge filter for this camera, accepting surfaces up to `max_angle_deg` from facing
@@ -159,7 +258,9 @@ impl ScanCalibration {
         let fx = self.calibration.camera.fx.min(self.calibration.camera.fy);
         EdgeFilter::new(fx, max_angle_deg).ok_or_else(|| ScanError::Invalid {
             path: self.source.clone(),
-            message: format!("edge filter: the angle must be in (0, 90) degrees, got {max_angle_deg}"),
+            message: format!(
+                "edge filter: the angle must be in (0, 90) degrees, got {max_angle_deg}"
+            ),
         })
     }
 }

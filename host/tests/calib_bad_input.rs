@@ -7,9 +7,9 @@
 //! Small renders (320 × 256, same field of view) keep this quick.
 
 use fringe3d::io::image::{GrayImage, Pixels, read_gray, write_png_u8, write_png_u16};
+use fringe3d::render::Scene;
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::scene::{Overrides, SceneSpec};
-use fringe3d::render::Scene;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -18,7 +18,8 @@ const SIZE: (u32, u32) = (320, 256);
 struct Tmp(PathBuf);
 impl Tmp {
     fn new(tag: &str) -> Tmp {
-        let p = std::env::temp_dir().join(format!("fringe3d-calib-bad-{tag}-{}", std::process::id()));
+        let p =
+            std::env::temp_dir().join(format!("fringe3d-calib-bad-{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&p);
         std::fs::create_dir_all(&p).unwrap();
         Tmp(p)
@@ -31,7 +32,10 @@ impl Drop for Tmp {
 }
 
 fn fringe3d(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fringe3d")).args(args).output().unwrap()
+    Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+        .args(args)
+        .output()
+        .unwrap()
 }
 
 fn s(p: &Path) -> &str {
@@ -41,7 +45,11 @@ fn s(p: &Path) -> &str {
 /// Run and expect success.
 fn ok(args: &[&str]) -> String {
     let o = fringe3d(args);
-    assert!(o.status.success(), "{args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "{args:?} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
@@ -49,10 +57,17 @@ fn ok(args: &[&str]) -> String {
 fn fails(args: &[&str], must: &[&str]) -> String {
     let o = fringe3d(args);
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(!o.status.success(), "{args:?} should fail; stdout: {}", String::from_utf8_lossy(&o.stdout));
+    assert!(
+        !o.status.success(),
+        "{args:?} should fail; stdout: {}",
+        String::from_utf8_lossy(&o.stdout)
+    );
     assert_ne!(o.status.code(), Some(0));
     for m in must {
-        assert!(err.contains(m), "{args:?}: the error should mention {m:?}: {err}");
+        assert!(
+            err.contains(m),
+            "{args:?}: the error should mention {m:?}: {err}"
+        );
     }
     assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
     err
@@ -60,14 +75,33 @@ fn fails(args: &[&str], must: &[&str]) -> String {
 
 fn render(name: &str, dir: &Path, edit: impl FnOnce(&mut SceneSpec)) {
     let mut spec = SceneSpec::builtin(name).unwrap();
-    spec.apply(&Overrides { size: Some(SIZE), noise: Some(1.0), bits: Some(8), ..Overrides::default() });
+    spec.apply(&Overrides {
+        size: Some(SIZE),
+        noise: Some(1.0),
+        bits: Some(8),
+        ..Overrides::default()
+    });
     edit(&mut spec);
     let scene = Scene::new(spec, None).unwrap();
-    write_dataset(&scene, dir, DatasetOptions { overwrite: true, progress: None }).unwrap();
+    write_dataset(
+        &scene,
+        dir,
+        DatasetOptions {
+            overwrite: true,
+            progress: None,
+        },
+    )
+    .unwrap();
 }
 
 fn blank_png(path: &Path, level: u8) {
-    write_png_u8(path, SIZE.0, SIZE.1, &vec![level; (SIZE.0 * SIZE.1) as usize]).unwrap();
+    write_png_u8(
+        path,
+        SIZE.0,
+        SIZE.1,
+        &vec![level; (SIZE.0 * SIZE.1) as usize],
+    )
+    .unwrap();
 }
 
 /// Set the columns of an image for which `keep(x)` is false to a constant gray.
@@ -113,8 +147,13 @@ fn copy_dir(from: &Path, to: &Path) {
 }
 
 fn no_files(dir: &Path, what: &str) {
-    let left: Vec<_> = std::fs::read_dir(dir).map(|r| r.filter_map(|e| e.ok()).map(|e| e.path()).collect()).unwrap_or_default();
-    assert!(left.is_empty(), "{what}: partial output left behind: {left:?}");
+    let left: Vec<_> = std::fs::read_dir(dir)
+        .map(|r| r.filter_map(|e| e.ok()).map(|e| e.path()).collect())
+        .unwrap_or_default();
+    assert!(
+        left.is_empty(),
+        "{what}: partial output left behind: {left:?}"
+    );
 }
 
 #[test]
@@ -126,7 +165,12 @@ fn camera_too_few_views_and_boards_not_found() {
     let yml = out.join("camera.yml");
     let board = ["--board", "11x8", "--square", "25"];
     // Positive control: the three views calibrate.
-    let good = ok(&[&["calibrate", "camera", "-q", s(&cb)][..], &board, &["-o", s(&t.0.join("good.yml"))]].concat());
+    let good = ok(&[
+        &["calibrate", "camera", "-q", s(&cb)][..],
+        &board,
+        &["-o", s(&t.0.join("good.yml"))],
+    ]
+    .concat());
     assert!(good.is_empty());
     assert!(t.0.join("good.yml").is_file());
 
@@ -136,21 +180,57 @@ fn camera_too_few_views_and_boards_not_found() {
     blank_png(&blank, 120);
     let (a, b) = (cb.join("board_00.png"), cb.join("board_01.png"));
     let err = fails(
-        &[&["calibrate", "camera", s(&a), s(&b), s(&blank)][..], &board, &["-o", s(&yml)]].concat(),
-        &["too few usable views: 2", "board_00.png", "board_01.png", "blank.png"],
+        &[
+            &["calibrate", "camera", s(&a), s(&b), s(&blank)][..],
+            &board,
+            &["-o", s(&yml)],
+        ]
+        .concat(),
+        &[
+            "too few usable views: 2",
+            "board_00.png",
+            "board_01.png",
+            "blank.png",
+        ],
     );
     assert!(err.contains("left out"), "{err}");
     no_files(&out, "too few views");
 
     // The wrong board: no image shows it; every image is named.
-    let err = fails(&["calibrate", "camera", s(&cb), "--board", "9x7", "--square", "30", "-o", s(&yml)], &["too few usable views: 0", "board_00.png", "board_01.png", "board_02.png"]);
+    let err = fails(
+        &[
+            "calibrate",
+            "camera",
+            s(&cb),
+            "--board",
+            "9x7",
+            "--square",
+            "30",
+            "-o",
+            s(&yml),
+        ],
+        &[
+            "too few usable views: 0",
+            "board_00.png",
+            "board_01.png",
+            "board_02.png",
+        ],
+    );
     assert!(err.contains("left out"), "{err}");
     no_files(&out, "wrong board");
 
     // Images of two sizes.
     let small = t.0.join("small.png");
     write_png_u8(&small, 160, 128, &vec![0; 160 * 128]).unwrap();
-    fails(&[&["calibrate", "camera", s(&a), s(&b), s(&small)][..], &board, &["-o", s(&yml)]].concat(), &["small.png", "160x128"]);
+    fails(
+        &[
+            &["calibrate", "camera", s(&a), s(&b), s(&small)][..],
+            &board,
+            &["-o", s(&yml)],
+        ]
+        .concat(),
+        &["small.png", "160x128"],
+    );
     no_files(&out, "mixed sizes");
 }
 
@@ -168,12 +248,33 @@ fn plates_not_parallel() {
     let cal = out.join("calibration.toml");
     let (p0, p1) = (pl.join("plate_00"), pl.join("plate_01"));
     let err = fails(
-        &["calibrate", "projector", s(&p0), s(&p1), "--camera-from", s(&pl.join("calibration.toml")), "--board", "9x7", "--square", "30", "-o", s(&cal)],
+        &[
+            "calibrate",
+            "projector",
+            s(&p0),
+            s(&p1),
+            "--camera-from",
+            s(&pl.join("calibration.toml")),
+            "--board",
+            "9x7",
+            "--square",
+            "30",
+            "-o",
+            s(&cal),
+        ],
         &["not parallel", "plate_00", "plate_01", "degrees"],
     );
     // The angle reported is the one rendered (6 degrees, to the board-pose accuracy).
-    let ang: f64 = err.split("differ by ").nth(1).and_then(|r| r.split(' ').next()).and_then(|x| x.parse().ok()).unwrap_or_else(|| panic!("no angle in {err}"));
-    assert!((ang - 6.0).abs() < 0.3, "angle {ang} (rendered 6 degrees): {err}");
+    let ang: f64 = err
+        .split("differ by ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("no angle in {err}"));
+    assert!(
+        (ang - 6.0).abs() < 0.3,
+        "angle {ang} (rendered 6 degrees): {err}"
+    );
     no_files(&out, "not parallel");
 }
 
@@ -188,20 +289,45 @@ fn plate_and_reference_errors() {
     let cal = out.join("calibration.toml");
     let plates: Vec<PathBuf> = (0..3).map(|k| pl.join(format!("plate_{k:02}"))).collect();
     let proj = |dirs: &[&Path], camera: &Path, cal: &Path| -> Vec<String> {
-        let mut a: Vec<String> = ["calibrate", "projector", "-q"].iter().map(|x| x.to_string()).collect();
+        let mut a: Vec<String> = ["calibrate", "projector", "-q"]
+            .iter()
+            .map(|x| x.to_string())
+            .collect();
         a.extend(dirs.iter().map(|d| s(d).to_string()));
         a.extend(["--camera-from", s(camera)].iter().map(|x| x.to_string()));
         a.extend(board.iter().map(|x| x.to_string()));
-        a.extend(["--patterns-v", s(&pl.join("patterns_v.toml")), "--patterns-h", s(&pl.join("patterns_h.toml")), "-o", s(cal)].iter().map(|x| x.to_string()));
+        a.extend(
+            [
+                "--patterns-v",
+                s(&pl.join("patterns_v.toml")),
+                "--patterns-h",
+                s(&pl.join("patterns_h.toml")),
+                "-o",
+                s(cal),
+            ]
+            .iter()
+            .map(|x| x.to_string()),
+        );
         a
     };
 
     // Positive control: the three plates give P (to within 1 mm at this small size).
     let good = t.0.join("good").join("calibration.toml");
-    ok(&refs(&proj(&[&plates[0], &plates[1], &plates[2]], &cam, &good)));
-    let got = fringe3d::io::calibration::Calibration::load(&good).unwrap().projector_center;
-    let truth = fringe3d::render::Scene::new(SceneSpec::builtin("plates").unwrap(), None).unwrap().rig.translation;
-    let d = ((got[0] - truth[0]).powi(2) + (got[1] - truth[1]).powi(2) + (got[2] - truth[2]).powi(2)).sqrt();
+    ok(&refs(&proj(
+        &[&plates[0], &plates[1], &plates[2]],
+        &cam,
+        &good,
+    )));
+    let got = fringe3d::io::calibration::Calibration::load(&good)
+        .unwrap()
+        .projector_center;
+    let truth = fringe3d::render::Scene::new(SceneSpec::builtin("plates").unwrap(), None)
+        .unwrap()
+        .rig
+        .translation;
+    let d =
+        ((got[0] - truth[0]).powi(2) + (got[1] - truth[1]).powi(2) + (got[2] - truth[2]).powi(2))
+            .sqrt();
     assert!(d < 1.0, "control: P {got:?} vs true {truth:?}");
 
     // One plate position.
@@ -215,19 +341,28 @@ fn plate_and_reference_errors() {
         "%YAML:1.0\n---\nimage_width: 640\nimage_height: 512\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 775., 0., 320.6, 0., 775., 254.1, 0., 0., 1. ]\ndistortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n   data: [ -0.085, 0.11, 0.0004, -0.0003, 0. ]\n",
     )
     .unwrap();
-    fails(&refs(&proj(&[&plates[0], &plates[1]], &other, &cal)), &["other.yml", "640x512", "320x256"]);
+    fails(
+        &refs(&proj(&[&plates[0], &plates[1]], &other, &cal)),
+        &["other.yml", "640x512", "320x256"],
+    );
     no_files(&out, "camera size");
 
     // A plate whose board image shows no board.
     let nb = t.0.join("noboard");
     copy_dir(&plates[1], &nb);
     blank_png(&nb.join("board.png"), 90);
-    fails(&refs(&proj(&[&plates[0], &nb], &cam, &cal)), &["noboard/board.png"]);
+    fails(
+        &refs(&proj(&[&plates[0], &nb], &cam, &cal)),
+        &["noboard/board.png"],
+    );
     no_files(&out, "no board");
 
     // A plate folder without its board image.
     std::fs::remove_file(nb.join("board.png")).unwrap();
-    fails(&refs(&proj(&[&plates[0], &nb], &cam, &cal)), &["noboard", "board.png"]);
+    fails(
+        &refs(&proj(&[&plates[0], &nb], &cam, &cal)),
+        &["noboard", "board.png"],
+    );
     no_files(&out, "missing board image");
 
     // Phase maps that do not overlap: the far plate (710 mm) decodes only on the left 30 % of the
@@ -237,27 +372,57 @@ fn plate_and_reference_errors() {
     copy_dir(&plates[0], &left);
     copy_dir(&plates[2], &right);
     let w = SIZE.0;
-    for (dir, keep) in [(&left, Box::new(move |x: u32| x < 3 * w / 10) as Box<dyn Fn(u32) -> bool>), (&right, Box::new(move |x: u32| x >= 7 * w / 10))] {
+    for (dir, keep) in [
+        (
+            &left,
+            Box::new(move |x: u32| x < 3 * w / 10) as Box<dyn Fn(u32) -> bool>,
+        ),
+        (&right, Box::new(move |x: u32| x >= 7 * w / 10)),
+    ] {
         for sub in ["v", "h"] {
             for e in std::fs::read_dir(dir.join(sub)).unwrap() {
                 mask_columns(&e.unwrap().path(), &keep);
             }
         }
     }
-    fails(&refs(&proj(&[&left, &right], &cam, &cal)), &["do not overlap", "left", "right"]);
+    fails(
+        &refs(&proj(&[&left, &right], &cam, &cal)),
+        &["do not overlap", "left", "right"],
+    );
     no_files(&out, "no overlap");
     // Control: the same masked folders with their partner unmasked do overlap.
-    ok(&refs(&proj(&[&left, &plates[2]], &cam, &t.0.join("good2").join("calibration.toml"))));
+    ok(&refs(&proj(
+        &[&left, &plates[2]],
+        &cam,
+        &t.0.join("good2").join("calibration.toml"),
+    )));
 
     // `calibrate reference` (the near plate's vertical set as a "reference plane"): a board image
     // without a board, fringe images that do not decode, no pose, a mix of pose sources.
     let rcal = out.join("ref.toml");
     let set_v = pl.join("patterns_v.toml");
     let rargs = |imgs: &Path, board_img: &Path| -> Vec<String> {
-        ["calibrate", "reference", "-q", s(imgs), "--patterns", s(&set_v), "--calibration", s(&good), "-o", s(&rcal), "--board-image", s(board_img), "--board", "9x7", "--square", "30"]
-            .iter()
-            .map(|x| x.to_string())
-            .collect()
+        [
+            "calibrate",
+            "reference",
+            "-q",
+            s(imgs),
+            "--patterns",
+            s(&set_v),
+            "--calibration",
+            s(&good),
+            "-o",
+            s(&rcal),
+            "--board-image",
+            s(board_img),
+            "--board",
+            "9x7",
+            "--square",
+            "30",
+        ]
+        .iter()
+        .map(|x| x.to_string())
+        .collect()
     };
     // Positive control into its own folder.
     let good_ref = t.0.join("goodref");
@@ -277,11 +442,41 @@ fn plate_and_reference_errors() {
     for k in 0..8 {
         blank_png(&dark.join(format!("img_{k:02}.png")), 60);
     }
-    fails(&refs(&rargs(&dark, &plates[0].join("board.png"))), &["dark", "valid phase"]);
-    no_files(&out, "reference: no phase");
-    fails(&["calibrate", "reference", s(&plates[0].join("v")), "--patterns", s(&set_v), "--calibration", s(&good), "-o", s(&rcal)], &["--board-image", "--plane-point"]);
     fails(
-        &["calibrate", "reference", s(&plates[0].join("v")), "--patterns", s(&set_v), "--calibration", s(&good), "-o", s(&rcal), "--board-image", s(&blank), "--plane-point", "0,0,700"],
+        &refs(&rargs(&dark, &plates[0].join("board.png"))),
+        &["dark", "valid phase"],
+    );
+    no_files(&out, "reference: no phase");
+    fails(
+        &[
+            "calibrate",
+            "reference",
+            s(&plates[0].join("v")),
+            "--patterns",
+            s(&set_v),
+            "--calibration",
+            s(&good),
+            "-o",
+            s(&rcal),
+        ],
+        &["--board-image", "--plane-point"],
+    );
+    fails(
+        &[
+            "calibrate",
+            "reference",
+            s(&plates[0].join("v")),
+            "--patterns",
+            s(&set_v),
+            "--calibration",
+            s(&good),
+            "-o",
+            s(&rcal),
+            "--board-image",
+            s(&blank),
+            "--plane-point",
+            "0,0,700",
+        ],
         &["not a mix"],
     );
     no_files(&out, "reference: pose arguments");

@@ -16,9 +16,9 @@ use fringe3d::calib::demo::{DemoOptions, render_calibration_data, scan_cloud};
 use fringe3d::calib::files;
 use fringe3d::io::calibration::{Calibration, CameraModel};
 use fringe3d::io::image::{Pixels, read_gray};
+use fringe3d::render::Scene;
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::scene::{Overrides, SceneSpec};
-use fringe3d::render::Scene;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -35,8 +35,15 @@ fn s(p: &Path) -> &str {
 }
 
 fn run(args: &[&str]) -> String {
-    let o = Command::new(env!("CARGO_BIN_EXE_fringe3d")).args(args).output().unwrap();
-    assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    let o = Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
@@ -54,18 +61,34 @@ fn read_f32(path: &Path) -> Vec<f32> {
 /// Detected corners against the renderer's (truth/corners.json), per corner, under the labelling
 /// (as is or turned by half a turn) that fits.
 fn corner_errors(dataset: &Path, images: &[PathBuf], corners: &[Vec<[f64; 2]>]) -> Vec<f64> {
-    let j: Value = serde_json::from_str(&std::fs::read_to_string(dataset.join("truth/corners.json")).unwrap()).unwrap();
+    let j: Value =
+        serde_json::from_str(&std::fs::read_to_string(dataset.join("truth/corners.json")).unwrap())
+            .unwrap();
     let mut out = Vec::new();
     for pose in j["poses"].as_array().unwrap() {
         let name = pose["image"].as_str().unwrap();
-        let Some(k) = images.iter().position(|p| p.file_name().and_then(|n| n.to_str()) == Some(name)) else { continue };
-        let t: Vec<[f64; 2]> = pose["corners_px"].as_array().unwrap().iter().map(|c| [c[0].as_f64().unwrap(), c[1].as_f64().unwrap()]).collect();
+        let Some(k) = images
+            .iter()
+            .position(|p| p.file_name().and_then(|n| n.to_str()) == Some(name))
+        else {
+            continue;
+        };
+        let t: Vec<[f64; 2]> = pose["corners_px"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| [c[0].as_f64().unwrap(), c[1].as_f64().unwrap()])
+            .collect();
         let d = &corners[k];
         assert_eq!(d.len(), t.len(), "{name}: corner count");
         let e = |a: &[f64; 2], b: &[f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
         let same: Vec<f64> = d.iter().zip(&t).map(|(a, b)| e(a, b)).collect();
         let turned: Vec<f64> = d.iter().zip(t.iter().rev()).map(|(a, b)| e(a, b)).collect();
-        out.extend(if same.iter().sum::<f64>() <= turned.iter().sum::<f64>() { same } else { turned });
+        out.extend(if same.iter().sum::<f64>() <= turned.iter().sum::<f64>() {
+            same
+        } else {
+            turned
+        });
     }
     out
 }
@@ -79,7 +102,12 @@ fn rms(v: &[f64]) -> f64 {
 fn write_foreign_cameras(dir: &Path, c: &CameraModel) -> [PathBuf; 3] {
     let d = c.distortion;
     let k = [c.fx, c.skew * c.fx, c.cx, 0.0, c.fy, c.cy, 0.0, 0.0, 1.0];
-    let join = |v: &[f64], sep: &str| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(sep);
+    let join = |v: &[f64], sep: &str| {
+        v.iter()
+            .map(|x| format!("{x:e}"))
+            .collect::<Vec<_>>()
+            .join(sep)
+    };
     let xml = dir.join("camera.xml");
     std::fs::write(
         &xml,
@@ -128,7 +156,10 @@ fn write_foreign_cameras(dir: &Path, c: &CameraModel) -> [PathBuf; 3] {
 }
 
 fn scene_errors(acc: &Accuracy) -> (Vec<f64>, Vec<f64>) {
-    (acc.spheres.iter().map(|s| s.diameter_error).collect(), acc.ball_bars.iter().map(|b| b.length_error).collect())
+    (
+        acc.spheres.iter().map(|s| s.diameter_error).collect(),
+        acc.ball_bars.iter().map(|b| b.length_error).collect(),
+    )
 }
 
 #[test]
@@ -137,14 +168,32 @@ fn calibrate_from_rendered_files_noisy_8bit() {
     let _ = std::fs::remove_dir_all(&t.0);
     let size = (640u32, 512u32);
     // The demo's defaults otherwise: 15 views, the scenes' own seeds (board poses and noise).
-    let o = DemoOptions { size: Some(size), noise: Some(1.0), bits: Some(8), quiet: true, ..DemoOptions::default() };
+    let o = DemoOptions {
+        size: Some(size),
+        noise: Some(1.0),
+        bits: Some(8),
+        quiet: true,
+        ..DemoOptions::default()
+    };
     let data = render_calibration_data(&t.0, &o).unwrap();
     let truth_cam = data.rig.camera_model();
     let cal_dir = t.0.join("cal");
 
     // 1. Camera, through the binary.
     let yml = cal_dir.join("camera.yml");
-    let j: Value = serde_json::from_str(&run(&["--json", "calibrate", "camera", s(&data.checkerboard), "--board", "11x8", "--square", "25", "-o", s(&yml)])).unwrap();
+    let j: Value = serde_json::from_str(&run(&[
+        "--json",
+        "calibrate",
+        "camera",
+        s(&data.checkerboard),
+        "--board",
+        "11x8",
+        "--square",
+        "25",
+        "-o",
+        s(&yml),
+    ]))
+    .unwrap();
     let cam = files::load_camera(&yml, Some(size)).unwrap();
     let intr = &j["intrinsics"];
     let std_of = |n: &str| intr[n]["std"].as_f64().unwrap();
@@ -155,7 +204,13 @@ fn calibrate_from_rendered_files_noisy_8bit() {
     let reproj = j["rms_px"].as_f64().unwrap();
     // Corners against the truth, with the library's detector on the same files.
     let imgs = files::image_list(std::slice::from_ref(&data.checkerboard)).unwrap();
-    let dv = files::detect_views(&imgs, &data.checkerboard_board, &Default::default(), &|_| {}).unwrap();
+    let dv = files::detect_views(
+        &imgs,
+        &data.checkerboard_board,
+        &Default::default(),
+        &|_| {},
+    )
+    .unwrap();
     let corners: Vec<Vec<[f64; 2]>> = dv.views.iter().map(|v| v.corners.clone()).collect();
     let ce = corner_errors(&data.checkerboard, &dv.images, &corners);
     let corner_rms = rms(&ce);
@@ -168,38 +223,100 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         100.0 * fy_rel,
         100.0 * std_of("fx") / truth_cam.fx
     );
-    assert_eq!(ce.len(), imgs.len() * 70, "every view's 10 x 7 corners found and compared");
-    assert!(corner_rms <= 0.05, "corner RMS {corner_rms} px at σ = 1 gray level");
-    assert!(fx_rel.abs() <= 1e-3 && fy_rel.abs() <= 1e-3, "focal lengths {} {} vs {} {}", cam.fx, cam.fy, truth_cam.fx, truth_cam.fy);
-    assert!(pp <= 0.5, "principal point ({}, {}) vs ({}, {})", cam.cx, cam.cy, truth_cam.cx, truth_cam.cy);
+    assert_eq!(
+        ce.len(),
+        imgs.len() * 70,
+        "every view's 10 x 7 corners found and compared"
+    );
+    assert!(
+        corner_rms <= 0.05,
+        "corner RMS {corner_rms} px at σ = 1 gray level"
+    );
+    assert!(
+        fx_rel.abs() <= 1e-3 && fy_rel.abs() <= 1e-3,
+        "focal lengths {} {} vs {} {}",
+        cam.fx,
+        cam.fy,
+        truth_cam.fx,
+        truth_cam.fy
+    );
+    assert!(
+        pp <= 0.5,
+        "principal point ({}, {}) vs ({}, {})",
+        cam.cx,
+        cam.cy,
+        truth_cam.cx,
+        truth_cam.cy
+    );
     // The reprojection RMS is what the corner noise predicts (residuals of a fit with 2N
     // observations and p parameters: RMS ≈ σ·sqrt(1 − p/2N), slightly below the corner error).
-    assert!(reproj > 0.6 * corner_rms && reproj < 1.2 * corner_rms, "reprojection RMS {reproj} px vs corner error RMS {corner_rms} px");
+    assert!(
+        reproj > 0.6 * corner_rms && reproj < 1.2 * corner_rms,
+        "reprojection RMS {reproj} px vs corner error RMS {corner_rms} px"
+    );
     // The stated standard deviations cover the actual errors.
-    for (n, e) in [("fx", cam.fx - truth_cam.fx), ("fy", cam.fy - truth_cam.fy), ("cx", cam.cx - truth_cam.cx), ("cy", cam.cy - truth_cam.cy)] {
-        assert!(e.abs() <= 5.0 * std_of(n) + 1e-3, "{n}: error {e} vs stated σ {}", std_of(n));
+    for (n, e) in [
+        ("fx", cam.fx - truth_cam.fx),
+        ("fy", cam.fy - truth_cam.fy),
+        ("cx", cam.cx - truth_cam.cx),
+        ("cy", cam.cy - truth_cam.cy),
+    ] {
+        assert!(
+            e.abs() <= 5.0 * std_of(n) + 1e-3,
+            "{n}: error {e} vs stated σ {}",
+            std_of(n)
+        );
     }
-    assert!((cam.skew - truth_cam.skew).abs() < 1e-3, "skew {}", cam.skew);
+    assert!(
+        (cam.skew - truth_cam.skew).abs() < 1e-3,
+        "skew {}",
+        cam.skew
+    );
     // One residual picture per used view, of the image's size, and report.json.
     let rep = cal_dir.join("camera_report");
-    let pics: Vec<PathBuf> = std::fs::read_dir(&rep).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "png")).collect();
+    let pics: Vec<PathBuf> = std::fs::read_dir(&rep)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .collect();
     assert_eq!(pics.len(), views_used, "{pics:?}");
     for p in &pics {
         let (g, _) = read_gray(p).unwrap();
         assert_eq!((g.width, g.height), size, "{}", p.display());
     }
     for v in j["views"].as_array().unwrap() {
-        let stem = Path::new(v["name"].as_str().unwrap()).file_stem().unwrap().to_str().unwrap().to_string();
-        assert!(rep.join(format!("view_{stem}.png")).is_file(), "no picture for {stem}");
+        let stem = Path::new(v["name"].as_str().unwrap())
+            .file_stem()
+            .unwrap()
+            .to_str()
+            .unwrap()
+            .to_string();
+        assert!(
+            rep.join(format!("view_{stem}.png")).is_file(),
+            "no picture for {stem}"
+        );
     }
     assert!(rep.join("report.json").is_file());
 
     // 2. Projector centre with the calibrated camera (the measurement volume's depth range, as
     // the user states it).
     let cal = cal_dir.join("calibration.toml");
-    let mut args: Vec<String> = ["calibrate", "projector", "-q"].iter().map(|x| x.to_string()).collect();
+    let mut args: Vec<String> = ["calibrate", "projector", "-q"]
+        .iter()
+        .map(|x| x.to_string())
+        .collect();
     args.extend(data.plate_dirs.iter().map(|p| s(p).to_string()));
-    let tail = ["--camera-from", s(&yml), "--board", "9x7", "--square", "30", "--depth-range", "450,750", "-o"];
+    let tail = [
+        "--camera-from",
+        s(&yml),
+        "--board",
+        "9x7",
+        "--square",
+        "30",
+        "--depth-range",
+        "450,750",
+        "-o",
+    ];
     let projector = |camera: &Path, out: &Path| -> [f64; 3] {
         let mut a = args.clone();
         a.extend(tail.iter().map(|x| x.to_string()));
@@ -211,56 +328,133 @@ fn calibrate_from_rendered_files_noisy_8bit() {
     };
     let p = projector(&yml, &cal);
     let p_err = dist(p, data.rig.translation);
-    println!("projector centre: {p:?}, {p_err:.4} mm from the truth {:?}", data.rig.translation);
+    println!(
+        "projector centre: {p:?}, {p_err:.4} mm from the truth {:?}",
+        data.rig.translation
+    );
     assert!(p_err <= 0.2, "projector centre {p_err} mm off");
-    let pj: Value = serde_json::from_str(&std::fs::read_to_string(cal_dir.join("calibration_projector.json")).unwrap()).unwrap();
-    let pstd: Vec<f64> = pj["estimate"]["std"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
-    assert!(pstd.iter().all(|&x| x > 0.0 && x < 0.2), "P's stated uncertainty {pstd:?}");
+    let pj: Value = serde_json::from_str(
+        &std::fs::read_to_string(cal_dir.join("calibration_projector.json")).unwrap(),
+    )
+    .unwrap();
+    let pstd: Vec<f64> = pj["estimate"]["std"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(
+        pstd.iter().all(|&x| x > 0.0 && x < 0.2),
+        "P's stated uncertainty {pstd:?}"
+    );
 
     // 3. Reference plane, from three board images lying on it.
-    let mut a: Vec<String> = ["calibrate", "reference", "-q", s(&data.reference), "--patterns", s(&data.reference.join("patterns.toml")), "--calibration", s(&cal), "--board", "11x8", "--square", "25"]
-        .iter()
-        .map(|x| x.to_string())
-        .collect();
+    let mut a: Vec<String> = [
+        "calibrate",
+        "reference",
+        "-q",
+        s(&data.reference),
+        "--patterns",
+        s(&data.reference.join("patterns.toml")),
+        "--calibration",
+        s(&cal),
+        "--board",
+        "11x8",
+        "--square",
+        "25",
+    ]
+    .iter()
+    .map(|x| x.to_string())
+    .collect();
     for b in &data.reference_boards {
         a.push("--board-image".into());
         a.push(s(b).to_string());
     }
     run(&a.iter().map(String::as_str).collect::<Vec<_>>());
     let c = Calibration::load(&cal).unwrap();
-    let r = c.reference.as_ref().expect("calibrate reference writes [reference]");
+    let r = c
+        .reference
+        .as_ref()
+        .expect("calibrate reference writes [reference]");
     let n = data.rig.reference_normal;
-    let off = (0..3).map(|k| n[k] * (r.point[k] - data.rig.reference_point[k])).sum::<f64>();
-    let ang = (0..3).map(|k| n[k] * r.normal[k]).sum::<f64>().clamp(-1.0, 1.0).acos().to_degrees();
+    let off = (0..3)
+        .map(|k| n[k] * (r.point[k] - data.rig.reference_point[k]))
+        .sum::<f64>();
+    let ang = (0..3)
+        .map(|k| n[k] * r.normal[k])
+        .sum::<f64>()
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees();
     println!("reference plane: {off:+.4} mm along the normal, normal {ang:.4} degrees off");
-    assert!(off.abs() <= 0.1 && ang <= 0.02, "reference plane {off} mm, {ang} degrees");
+    assert!(
+        off.abs() <= 0.1 && ang <= 0.02,
+        "reference plane {off} mm, {ang} degrees"
+    );
     // Its phase map: against the exact phase of the plane, no unwrapping error anywhere.
     let map = read_f32(&cal_dir.join("reference_phase.tif"));
     let true_map = read_f32(&data.reference.join("truth/reference_phase_true.tif"));
-    let d: Vec<f64> = map.iter().zip(&true_map).filter(|(a, b)| a.is_finite() && b.is_finite()).map(|(a, b)| (a - b) as f64).collect();
+    let d: Vec<f64> = map
+        .iter()
+        .zip(&true_map)
+        .filter(|(a, b)| a.is_finite() && b.is_finite())
+        .map(|(a, b)| (a - b) as f64)
+        .collect();
     let worst = d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    println!("reference phase map: {} valid pixels, RMS {:.4} rad, max {worst:.3} rad from the exact phase", d.len(), rms(&d));
+    println!(
+        "reference phase map: {} valid pixels, RMS {:.4} rad, max {worst:.3} rad from the exact phase",
+        d.len(),
+        rms(&d)
+    );
     assert!(d.len() > map.len() / 2);
-    assert!(worst < 1.0, "a reference-map pixel is {worst} rad off (an unwrapping error)");
+    assert!(
+        worst < 1.0,
+        "a reference-map pixel is {worst} rad off (an unwrapping error)"
+    );
 
     // 4. Scans with the true and with the self-calibrated file.
-    let ov = Overrides { size: Some(size), noise: Some(1.0), bits: Some(8), seed: Some(5), ..Overrides::default() };
+    let ov = Overrides {
+        size: Some(size),
+        noise: Some(1.0),
+        bits: Some(8),
+        seed: Some(5),
+        ..Overrides::default()
+    };
     for name in ["sphere", "ballbar"] {
         let mut spec = SceneSpec::builtin(name).unwrap();
         spec.apply(&ov);
         let dir = t.0.join(name);
-        write_dataset(&Scene::new(spec, None).unwrap(), &dir, DatasetOptions { overwrite: true, progress: None }).unwrap();
+        write_dataset(
+            &Scene::new(spec, None).unwrap(),
+            &dir,
+            DatasetOptions {
+                overwrite: true,
+                progress: None,
+            },
+        )
+        .unwrap();
         let truth = accuracy::load_truth(&dir).unwrap();
-        let a_true = accuracy::evaluate(&scan_cloud(&dir, &dir.join("calibration.toml")).unwrap(), &truth).unwrap();
+        let a_true = accuracy::evaluate(
+            &scan_cloud(&dir, &dir.join("calibration.toml")).unwrap(),
+            &truth,
+        )
+        .unwrap();
         let c_self = scan_cloud(&dir, &cal).unwrap();
         let a_self = accuracy::evaluate(&c_self, &truth).unwrap();
         // For the record: after the rigid motion that best aligns the self-calibrated cloud with
         // the truth (what remains when the small pose error of the whole cloud is removed).
-        let al = fringe3d::calib::demo::aligned_error(&c_self, &truth).map(|a| a.0).unwrap_or(f64::NAN);
+        let al = fringe3d::calib::demo::aligned_error(&c_self, &truth)
+            .map(|a| a.0)
+            .unwrap_or(f64::NAN);
         let ratio = a_self.interior.rms / a_true.interior.rms;
         let (sd_t, bb_t) = scene_errors(&a_true);
         let (sd_s, bb_s) = scene_errors(&a_self);
-        let um = |v: &[f64]| v.iter().map(|x| format!("{:+.1}", 1e3 * x)).collect::<Vec<_>>().join(", ");
+        let um = |v: &[f64]| {
+            v.iter()
+                .map(|x| format!("{:+.1}", 1e3 * x))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         println!(
             "{name}: interior RMS {:.1} µm true calibration, {:.1} µm self-calibrated (ratio {ratio:.3}; {:.1} µm after a rigid alignment); max {:.2} / {:.2} mm; \
              sphere diameter errors [{}] / [{}] µm; ball-bar length errors [{}] / [{}] µm",
@@ -274,9 +468,20 @@ fn calibrate_from_rendered_files_noisy_8bit() {
             um(&bb_t),
             um(&bb_s)
         );
-        assert!(ratio <= 1.5, "{name}: self-calibrated RMS {} vs true {}", a_self.interior.rms, a_true.interior.rms);
-        assert!(!sd_s.is_empty() && sd_s.iter().all(|e| e.abs() < 0.1), "{name}: sphere diameter errors {sd_s:?} mm");
-        assert!(bb_s.iter().all(|e| e.abs() < 0.1), "{name}: ball-bar length errors {bb_s:?} mm");
+        assert!(
+            ratio <= 1.5,
+            "{name}: self-calibrated RMS {} vs true {}",
+            a_self.interior.rms,
+            a_true.interior.rms
+        );
+        assert!(
+            !sd_s.is_empty() && sd_s.iter().all(|e| e.abs() < 0.1),
+            "{name}: sphere diameter errors {sd_s:?} mm"
+        );
+        assert!(
+            bb_s.iter().all(|e| e.abs() < 0.1),
+            "{name}: ball-bar length errors {bb_s:?} mm"
+        );
         if name == "ballbar" {
             assert_eq!(bb_s.len(), 1);
         }
@@ -289,33 +494,70 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         let m = files::load_camera(f, Some(size)).unwrap();
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
         assert!(
-            close(m.fx, truth_cam.fx) && close(m.fy, truth_cam.fy) && close(m.cx, truth_cam.cx) && close(m.cy, truth_cam.cy) && close(m.skew, truth_cam.skew),
+            close(m.fx, truth_cam.fx)
+                && close(m.fy, truth_cam.fy)
+                && close(m.cx, truth_cam.cx)
+                && close(m.cy, truth_cam.cy)
+                && close(m.skew, truth_cam.skew),
             "{}: {m:?}",
             f.display()
         );
-        assert!(m.distortion.iter().zip(truth_cam.distortion).all(|(a, b)| close(*a, b)), "{}", f.display());
+        assert!(
+            m.distortion
+                .iter()
+                .zip(truth_cam.distortion)
+                .all(|(a, b)| close(*a, b)),
+            "{}",
+            f.display()
+        );
     }
     for f in [&foreign[0], &foreign[2]] {
-        let out = t.0.join(format!("imported_{}", f.extension().unwrap().to_str().unwrap())).join("calibration.toml");
+        let out =
+            t.0.join(format!(
+                "imported_{}",
+                f.extension().unwrap().to_str().unwrap()
+            ))
+            .join("calibration.toml");
         let p = projector(f, &out);
         let e = dist(p, data.rig.translation);
-        println!("projector centre with the camera from {}: {e:.4} mm off", f.display());
+        println!(
+            "projector centre with the camera from {}: {e:.4} mm off",
+            f.display()
+        );
         assert!(e <= 0.2, "{}: P {e} mm off", f.display());
         assert_eq!(Calibration::load(&out).unwrap().camera.fx, truth_cam.fx);
     }
     // `calibrate reference` on the calibration made with the imported (XML) camera.
     let out = t.0.join("imported_xml").join("calibration.toml");
-    let mut a: Vec<String> = ["calibrate", "reference", "-q", s(&data.reference), "--patterns", s(&data.reference.join("patterns.toml")), "--calibration", s(&out), "--board", "11x8", "--square", "25"]
-        .iter()
-        .map(|x| x.to_string())
-        .collect();
+    let mut a: Vec<String> = [
+        "calibrate",
+        "reference",
+        "-q",
+        s(&data.reference),
+        "--patterns",
+        s(&data.reference.join("patterns.toml")),
+        "--calibration",
+        s(&out),
+        "--board",
+        "11x8",
+        "--square",
+        "25",
+    ]
+    .iter()
+    .map(|x| x.to_string())
+    .collect();
     for b in &data.reference_boards {
         a.push("--board-image".into());
         a.push(s(b).to_string());
     }
     run(&a.iter().map(String::as_str).collect::<Vec<_>>());
     let r = Calibration::load(&out).unwrap().reference.unwrap();
-    let off = (0..3).map(|k| n[k] * (r.point[k] - data.rig.reference_point[k])).sum::<f64>();
-    assert!(off.abs() <= 0.1, "reference with the imported camera: {off} mm");
+    let off = (0..3)
+        .map(|k| n[k] * (r.point[k] - data.rig.reference_point[k]))
+        .sum::<f64>();
+    assert!(
+        off.abs() <= 0.1,
+        "reference with the imported camera: {off} mm"
+    );
     assert!(out.with_file_name("reference_phase.tif").is_file());
 }

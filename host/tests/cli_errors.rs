@@ -11,7 +11,8 @@ fn bin() -> Command {
 struct Tmp(PathBuf);
 impl Tmp {
     fn new(name: &str) -> Tmp {
-        let p = std::env::temp_dir().join(format!("fringe3d-cli-errors-{}-{name}", std::process::id()));
+        let p =
+            std::env::temp_dir().join(format!("fringe3d-cli-errors-{}-{name}", std::process::id()));
         let _ = std::fs::remove_dir_all(&p);
         std::fs::create_dir_all(&p).unwrap();
         Tmp(p)
@@ -30,7 +31,10 @@ impl Drop for Tmp {
 fn fails(args: &[&str]) -> String {
     let out = bin().args(args).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(!out.status.success(), "expected failure for {args:?}; stderr: {err}");
+    assert!(
+        !out.status.success(),
+        "expected failure for {args:?}; stderr: {err}"
+    );
     assert!(!err.contains("panicked"), "panic for {args:?}: {err}");
     err
 }
@@ -55,22 +59,50 @@ fn pattern_set(t: &Tmp) -> PathBuf {
         "version = 1\npreset = \"paper8\"\nratio = 4.0\n[projector]\nwidth = 320\nheight = 200\nbit_depth = 8\ni_max = 230\n[phase]\naxis = \"xi\"\nkind = \"centered\"\n",
     )
     .unwrap();
-    let st = bin().args(["patterns", "-q", "--patterns"]).arg(&set).arg("--out").arg(t.join("pat")).status().unwrap();
+    let st = bin()
+        .args(["patterns", "-q", "--patterns"])
+        .arg(&set)
+        .arg("--out")
+        .arg(t.join("pat"))
+        .status()
+        .unwrap();
     assert!(st.success());
     t.join("pat")
 }
 
 fn imgs(pat: &Path) -> Vec<String> {
-    (0..8).map(|i| pat.join(format!("pattern_{i:02}.png")).display().to_string()).collect()
+    (0..8)
+        .map(|i| {
+            pat.join(format!("pattern_{i:02}.png"))
+                .display()
+                .to_string()
+        })
+        .collect()
 }
 
 #[test]
 fn decode_succeeds_on_good_input() {
     let t = Tmp::new("good");
     let pat = pattern_set(&t);
-    let out = bin().args(["decode", "-q", "--patterns"]).arg(pat.join("patterns.toml")).arg("--out").arg(t.join("dec")).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    for f in ["phase.tif", "modulation.tif", "dc.tif", "validity.png", "preview.png"] {
+    let out = bin()
+        .args(["decode", "-q", "--patterns"])
+        .arg(pat.join("patterns.toml"))
+        .arg("--out")
+        .arg(t.join("dec"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in [
+        "phase.tif",
+        "modulation.tif",
+        "dc.tif",
+        "validity.png",
+        "preview.png",
+    ] {
         assert!(t.join("dec").join(f).is_file(), "{f}");
     }
 }
@@ -80,12 +112,21 @@ fn wrong_image_count() {
     let t = Tmp::new("count");
     let pat = pattern_set(&t);
     let set = pat.join("patterns.toml");
-    let mut args: Vec<String> = vec!["decode".into(), "--patterns".into(), set.display().to_string(), "--out".into(), t.join("out").display().to_string()];
+    let mut args: Vec<String> = vec![
+        "decode".into(),
+        "--patterns".into(),
+        set.display().to_string(),
+        "--out".into(),
+        t.join("out").display().to_string(),
+    ];
     args.extend(imgs(&pat).into_iter().take(7));
     let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
     let err = fails(&a);
     assert!(err.contains("8 images") && err.contains("7"), "{err}");
-    assert!(err.contains("patterns.toml"), "names the pattern file: {err}");
+    assert!(
+        err.contains("patterns.toml"),
+        "names the pattern file: {err}"
+    );
     no_output(&t.0, "out");
 }
 
@@ -144,13 +185,28 @@ fn non_monotonic_pattern_definition() {
         "version = 1\npreset = \"paper8\"\n[projector]\nwidth = 320\nheight = 200\n[phase]\naxis = \"xi\"\nkind = \"knots\"\npositions = [0.0, 100.0, 319.0]\nslopes = [0.01, 0.01, 0.01]\nphases = [0.0, -1.0, 2.0]\n",
     )
     .unwrap();
-    let err = fails(&["patterns", "--patterns", set.to_str().unwrap(), "--out", t.join("out").to_str().unwrap()]);
+    let err = fails(&[
+        "patterns",
+        "--patterns",
+        set.to_str().unwrap(),
+        "--out",
+        t.join("out").to_str().unwrap(),
+    ]);
     assert!(err.contains("bad.toml"), "{err}");
-    assert!(err.to_lowercase().contains("increase") || err.to_lowercase().contains("monoton"), "{err}");
+    assert!(
+        err.to_lowercase().contains("increase") || err.to_lowercase().contains("monoton"),
+        "{err}"
+    );
     no_output(&t.0, "out");
     // a coarse level that would wrap
     std::fs::write(&set, "version = 1\npreset = \"paper8\"\n[projector]\nwidth = 320\nheight = 200\n[phase]\naxis = \"xi\"\nkind = \"centered\"\nspan = 7.0\n").unwrap();
-    let err = fails(&["patterns", "--patterns", set.to_str().unwrap(), "--out", t.join("out").to_str().unwrap()]);
+    let err = fails(&[
+        "patterns",
+        "--patterns",
+        set.to_str().unwrap(),
+        "--out",
+        t.join("out").to_str().unwrap(),
+    ]);
     assert!(err.contains("bad.toml") && err.contains("pi"), "{err}");
 }
 
@@ -172,7 +228,15 @@ fn calibration_problems() {
     let cfile = t.join("cal.toml");
     let out = t.join("out.ply").display().to_string();
     std::fs::write(&cfile, cal("400.0")).unwrap();
-    let mut a = vec!["scan", "--patterns", &set, "--calibration", cfile.to_str().unwrap(), "-o", &out];
+    let mut a = vec![
+        "scan",
+        "--patterns",
+        &set,
+        "--calibration",
+        cfile.to_str().unwrap(),
+        "-o",
+        &out,
+    ];
     let list = imgs(&pat);
     a.extend(list.iter().map(|s| s.as_str()));
     let err = fails(&a);
@@ -182,7 +246,10 @@ fn calibration_problems() {
     for bad in ["nan", "-5.0", "0.0"] {
         std::fs::write(&cfile, cal(bad)).unwrap();
         let err = fails(&a);
-        assert!(err.contains("cal.toml") && err.contains("fx"), "fx = {bad}: {err}");
+        assert!(
+            err.contains("cal.toml") && err.contains("fx"),
+            "fx = {bad}: {err}"
+        );
         no_output(&t.0, "out.ply");
     }
 }
@@ -193,7 +260,13 @@ fn output_folder_is_not_clobbered() {
     let pat = pattern_set(&t);
     std::fs::create_dir_all(t.join("busy")).unwrap();
     std::fs::write(t.join("busy/keep.txt"), b"mine").unwrap();
-    let err = fails(&["decode", "--patterns", pat.join("patterns.toml").to_str().unwrap(), "--out", t.join("busy").to_str().unwrap()]);
+    let err = fails(&[
+        "decode",
+        "--patterns",
+        pat.join("patterns.toml").to_str().unwrap(),
+        "--out",
+        t.join("busy").to_str().unwrap(),
+    ]);
     assert!(err.contains("busy"), "{err}");
     assert_eq!(std::fs::read(t.join("busy/keep.txt")).unwrap(), b"mine");
 }

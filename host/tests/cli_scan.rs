@@ -18,8 +18,15 @@ impl Drop for Tmp {
 }
 
 fn run(args: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_fringe3d")).args(args).output().unwrap();
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]
@@ -28,37 +35,102 @@ fn single_and_multi_threaded_scans_are_identical() {
     let _ = std::fs::remove_dir_all(&t.0);
     let ds = t.0.join("ds");
     let ds_s = ds.to_str().unwrap();
-    run(&["render", "-q", "--scene", "ballbar", "--size", "320x256", "--noise", "1", "--bits", "8", "--out", ds_s]);
+    run(&[
+        "render", "-q", "--scene", "ballbar", "--size", "320x256", "--noise", "1", "--bits", "8",
+        "--out", ds_s,
+    ]);
     let set = ds.join("patterns.toml");
     let cal = ds.join("calibration.toml");
     let mut plys = Vec::new();
-    for (j, extra) in [("1", "--organized"), ("2", "--organized"), ("1", "--ascii"), ("2", "--ascii")] {
+    for (j, extra) in [
+        ("1", "--organized"),
+        ("2", "--organized"),
+        ("1", "--ascii"),
+        ("2", "--ascii"),
+    ] {
         let out = t.0.join(format!("cloud-{j}{extra}.ply"));
-        run(&["scan", "-q", "-j", j, extra, "--patterns", set.to_str().unwrap(), "--calibration", cal.to_str().unwrap(), ds_s, "-o", out.to_str().unwrap()]);
+        run(&[
+            "scan",
+            "-q",
+            "-j",
+            j,
+            extra,
+            "--patterns",
+            set.to_str().unwrap(),
+            "--calibration",
+            cal.to_str().unwrap(),
+            ds_s,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
         plys.push(std::fs::read(&out).unwrap());
     }
-    assert!(plys[0].len() > 320 * 256 * 12, "organized cloud holds every pixel");
-    assert_eq!(plys[0], plys[1], "organized PLY differs between 1 and 2 threads");
-    assert_eq!(plys[2], plys[3], "ASCII PLY differs between 1 and 2 threads");
+    assert!(
+        plys[0].len() > 320 * 256 * 12,
+        "organized cloud holds every pixel"
+    );
+    assert_eq!(
+        plys[0], plys[1],
+        "organized PLY differs between 1 and 2 threads"
+    );
+    assert_eq!(
+        plys[2], plys[3],
+        "ASCII PLY differs between 1 and 2 threads"
+    );
 
     // Library: every decode and reconstruction variant gives the same bits.
     let ls = common::load_set(&set).unwrap();
     let sc = ScanCalibration::load(&cal, ls.set.axis()).unwrap();
     let imgs = common::load_images(&ls, &[], true).unwrap();
     let d = Decoder::new(&ls.set, common::decode_config(&imgs)).unwrap();
-    let Frames::U8(f) = &imgs.frames else { panic!("8-bit set expected") };
+    let Frames::U8(f) = &imgs.frames else {
+        panic!("8-bit set expected")
+    };
     let fr: Vec<&[u8]> = f.iter().map(|v| v.as_slice()).collect();
     let (w, h) = (imgs.width as usize, imgs.height as usize);
     let mut results = Vec::new();
-    for (isa, par) in [(Isa::Baseline, false), (Isa::Avx2, true), (Isa::Avx2, false), (Isa::Avx512, false), (Isa::Avx512, true), (Isa::Baseline, true)] {
-        let (mut p, mut m, mut a, mut v) = (vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0u8; w * h]);
-        decode_frames(&d, &fr, w, h, FrameOut { phase: &mut p, modulation: &mut m, dc: &mut a, validity: &mut v }, isa, par).unwrap();
+    for (isa, par) in [
+        (Isa::Baseline, false),
+        (Isa::Avx2, true),
+        (Isa::Avx2, false),
+        (Isa::Avx512, false),
+        (Isa::Avx512, true),
+        (Isa::Baseline, true),
+    ] {
+        let (mut p, mut m, mut a, mut v) = (
+            vec![0.0f32; w * h],
+            vec![0.0f32; w * h],
+            vec![0.0f32; w * h],
+            vec![0u8; w * h],
+        );
+        decode_frames(
+            &d,
+            &fr,
+            w,
+            h,
+            FrameOut {
+                phase: &mut p,
+                modulation: &mut m,
+                dc: &mut a,
+                validity: &mut v,
+            },
+            isa,
+            par,
+        )
+        .unwrap();
         let cloud = sc.reconstruct_with(&p, &v, par, isa).unwrap();
-        let bits: Vec<u32> = p.iter().chain(&cloud.xyz).map(|x| fringe3d_core::math::canonical(*x).to_bits()).collect();
+        let bits: Vec<u32> = p
+            .iter()
+            .chain(&cloud.xyz)
+            .map(|x| fringe3d_core::math::canonical(*x).to_bits())
+            .collect();
         results.push((bits, cloud.validity));
     }
     assert!(results[0].1.contains(&0), "some valid points");
     for r in &results[1..] {
-        assert!(r.0 == results[0].0 && r.1 == results[0].1, "variants differ");
+        assert!(
+            r.0 == results[0].0 && r.1 == results[0].1,
+            "variants differ"
+        );
     }
 }

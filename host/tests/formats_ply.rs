@@ -262,7 +262,11 @@ fn unorganized_with_the_count_announced_is_the_same_file() {
         let b = d.join("b.ply");
         let n = write_unorganized(&a, enc);
         let s = scan();
-        let opts = PlyOptions { encoding: enc, comments: vec!["scan 7\nsecond line".into()], ..Default::default() };
+        let opts = PlyOptions {
+            encoding: enc,
+            comments: vec!["scan 7\nsecond line".into()],
+            ..Default::default()
+        };
         let mut w = PlyWriter::create_with_count(&b, n, opts.clone()).unwrap();
         for v in [2, 0, 1] {
             w.write_row(&row(&s, v)).unwrap();
@@ -276,7 +280,10 @@ fn unorganized_with_the_count_announced_is_the_same_file() {
             w.write_row(&row(&s, v)).unwrap();
         }
         let e = w.finish().unwrap_err();
-        assert!(e.to_string().contains("c.ply") && e.to_string().contains("announced"), "{e}");
+        assert!(
+            e.to_string().contains("c.ply") && e.to_string().contains("announced"),
+            "{e}"
+        );
         assert!(!c.exists());
         fs::remove_file(&a).unwrap();
         fs::remove_file(&b).unwrap();

@@ -49,7 +49,9 @@ pub fn missing_tools() -> Option<String> {
 /// variable `FRINGE3D_REQUIRE_QEMU` is set (CI sets it: there a skip would hide a failure).
 /// Returns `true` when the test should return early.
 pub fn skip_without_tools(test: &str) -> bool {
-    let Some(why) = missing_tools() else { return false };
+    let Some(why) = missing_tools() else {
+        return false;
+    };
     assert!(
         std::env::var_os("FRINGE3D_REQUIRE_QEMU").is_none(),
         "FRINGE3D_REQUIRE_QEMU is set but {why}"

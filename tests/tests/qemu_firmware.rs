@@ -15,11 +15,6 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-
-
-
-
-
 /// Run the firmware on the vectors in `dir`; returns (UART bytes, console text).
 fn run_qemu(elf: &Path, dir: &Path) -> (Vec<u8>, String) {
     let uart = dir.join("uart.bin");

@@ -21,7 +21,6 @@ use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 use fringe3d::cli::common;
-use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use fringe3d::io::image::{Pixels, read_gray};
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::{Overrides, SceneSpec};
@@ -29,6 +28,7 @@ use fringe3d::scan::ScanCalibration;
 use fringe3d_core::math::canonical;
 use fringe3d_firmware_sim::desktop::Replay;
 use fringe3d_firmware_sim::sim::FrameSource;
+use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 
 const BIN: &str = "fringe3d-board-mps2-head";
 /// The camera: small, because QEMU moves PTY input into the emulated UART one byte per
@@ -36,10 +36,6 @@ const BIN: &str = "fringe3d-board-mps2-head";
 const CAM: (u32, u32) = (160, 120);
 /// The projector of the pattern set (its 8 images are uploaded through the emulated UART).
 const PROJ: (u32, u32) = (128, 96);
-
-
-
-
 
 /// QEMU running the head; killed when dropped, on every path out of the test.
 struct Qemu {

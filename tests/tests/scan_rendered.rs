@@ -30,8 +30,16 @@ impl Drop for Tmp {
 /// Three blocks tilted by 15-25° at the near, middle and far end of the 280×220×250 mm volume
 /// (z from 475 to 725 mm), on the default rig, with a background plane.
 fn volume_scene(o: &Overrides) -> Scene {
-    let base = Scene::builtin("sphere", o).expect("builtin scene").spec.to_toml().expect("toml");
-    let head = base.split("[[objects]]").next().expect("scene head").replace("name = \"sphere\"", "name = \"volume\"");
+    let base = Scene::builtin("sphere", o)
+        .expect("builtin scene")
+        .spec
+        .to_toml()
+        .expect("toml");
+    let head = base
+        .split("[[objects]]")
+        .next()
+        .expect("scene head")
+        .replace("name = \"sphere\"", "name = \"volume\"");
     let blocks = r#"
 [[objects]]
 name = "near"
@@ -58,7 +66,8 @@ center = [110.0, 0.0, 700.0]
 size = [90.0, 210.0, 20.0]
 euler_deg = [20.0, 15.0, 0.0]
 "#;
-    let spec = SceneSpec::parse(&format!("{head}{blocks}"), Path::new("volume.toml")).expect("scene parses");
+    let spec = SceneSpec::parse(&format!("{head}{blocks}"), Path::new("volume.toml"))
+        .expect("scene parses");
     Scene::new(spec, None).expect("scene is valid")
 }
 
@@ -75,29 +84,60 @@ fn scan(scene: &Scene, dir: &Path) -> Scanned {
     let ds = dir.join("dataset");
     write_dataset(scene, &ds, DatasetOptions::default()).expect("render");
     let ls = common::load_set(&ds.join("patterns.toml")).expect("pattern set");
-    let cal = ScanCalibration::load(&ds.join("calibration.toml"), ls.set.axis()).expect("calibration");
+    let cal =
+        ScanCalibration::load(&ds.join("calibration.toml"), ls.set.axis()).expect("calibration");
     let imgs = common::load_images(&ls, &[], true).expect("images");
     let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).expect("decode");
-    let mut cloud = cal.reconstruct(&d.phase, &d.validity, true).expect("reconstruct");
+    let mut cloud = cal
+        .reconstruct(&d.phase, &d.validity, true)
+        .expect("reconstruct");
     filter_edges(&mut cloud, &cal.edge_filter(80.0).expect("filter"));
     let truth = accuracy::load_truth(&ds).expect("truth");
     let acc = accuracy::evaluate(&cloud, &truth).expect("evaluate");
-    Scanned { cloud, modulation: d.modulation, acc, dataset: ds, cal, set: ls.set }
+    Scanned {
+        cloud,
+        modulation: d.modulation,
+        acc,
+        dataset: ds,
+        cal,
+        set: ls.set,
+    }
 }
 
 /// Per-pixel truth and the angle between the surface normal and the viewing ray (degrees), the
 /// normal from central differences of the true points (NaN near holes and borders).
 fn truth_and_angles(ds: &Path, w: usize, h: usize) -> (Vec<f64>, Vec<f64>) {
-    let p = fringe3d::render::npy::decode_f64(&std::fs::read(ds.join("truth/points.npy")).unwrap()).unwrap().1;
-    let at = |x: usize, y: usize| [p[3 * (y * w + x)], p[3 * (y * w + x) + 1], p[3 * (y * w + x) + 2]];
+    let p = fringe3d::render::npy::decode_f64(&std::fs::read(ds.join("truth/points.npy")).unwrap())
+        .unwrap()
+        .1;
+    let at = |x: usize, y: usize| {
+        [
+            p[3 * (y * w + x)],
+            p[3 * (y * w + x) + 1],
+            p[3 * (y * w + x) + 2],
+        ]
+    };
     let mut ang = vec![f64::NAN; w * h];
     for y in 1..h - 1 {
         for x in 1..w - 1 {
-            let (a, b, c, d, m) = (at(x + 1, y), at(x - 1, y), at(x, y + 1), at(x, y - 1), at(x, y));
+            let (a, b, c, d, m) = (
+                at(x + 1, y),
+                at(x - 1, y),
+                at(x, y + 1),
+                at(x, y - 1),
+                at(x, y),
+            );
             let du = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
             let dv = [c[0] - d[0], c[1] - d[1], c[2] - d[2]];
-            let n = [du[1] * dv[2] - du[2] * dv[1], du[2] * dv[0] - du[0] * dv[2], du[0] * dv[1] - du[1] * dv[0]];
-            let (ln, lm) = ((n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt(), (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt());
+            let n = [
+                du[1] * dv[2] - du[2] * dv[1],
+                du[2] * dv[0] - du[0] * dv[2],
+                du[0] * dv[1] - du[1] * dv[0],
+            ];
+            let (ln, lm) = (
+                (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt(),
+                (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt(),
+            );
             let c = ((n[0] * m[0] + n[1] * m[1] + n[2] * m[2]) / (ln * lm)).abs();
             ang[y * w + x] = c.clamp(0.0, 1.0).acos().to_degrees();
         }
@@ -109,7 +149,8 @@ fn truth_and_angles(ds: &Path, w: usize, h: usize) -> (Vec<f64>, Vec<f64>) {
 fn errors_within(s: &Scanned, max_deg: f64) -> (Vec<f64>, Vec<usize>) {
     let (truth, ang) = truth_and_angles(&s.dataset, s.cloud.width, s.cloud.height);
     let ids = {
-        let (img, _) = fringe3d::io::image::read_gray(&s.dataset.join("truth/object_id.png")).unwrap();
+        let (img, _) =
+            fringe3d::io::image::read_gray(&s.dataset.join("truth/object_id.png")).unwrap();
         match img.pixels {
             fringe3d::io::image::Pixels::U16(v) => v,
             _ => panic!("object ids"),
@@ -128,7 +169,12 @@ fn errors_within(s: &Scanned, max_deg: f64) -> (Vec<f64>, Vec<usize>) {
                 continue;
             }
             let (p, t) = (&s.cloud.xyz[3 * i..3 * i + 3], &truth[3 * i..3 * i + 3]);
-            e.push(((p[0] as f64 - t[0]).powi(2) + (p[1] as f64 - t[1]).powi(2) + (p[2] as f64 - t[2]).powi(2)).sqrt());
+            e.push(
+                ((p[0] as f64 - t[0]).powi(2)
+                    + (p[1] as f64 - t[1]).powi(2)
+                    + (p[2] as f64 - t[2]).powi(2))
+                .sqrt(),
+            );
             idx.push(i);
         }
     }
@@ -145,29 +191,67 @@ fn noise_free_16bit_scan_is_within_2um_rms_over_the_volume() {
     let s = scan(&volume_scene(&Overrides::default()), &t.0);
     let (e, idx) = errors_within(&s, 45.0);
     let zs: Vec<f32> = idx.iter().map(|&i| s.cloud.xyz[3 * i + 2]).collect();
-    let (zmin, zmax) = zs.iter().fold((f32::MAX, f32::MIN), |(a, b), z| (a.min(*z), b.max(*z)));
+    let (zmin, zmax) = zs
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(a, b), z| (a.min(*z), b.max(*z)));
     let r = rms(&e);
-    eprintln!("{} points, z {zmin:.0}..{zmax:.0} mm, RMS {:.3} µm, max {:.1} µm", e.len(), r * 1e3, e.iter().cloned().fold(0.0, f64::max) * 1e3);
+    eprintln!(
+        "{} points, z {zmin:.0}..{zmax:.0} mm, RMS {:.3} µm, max {:.1} µm",
+        e.len(),
+        r * 1e3,
+        e.iter().cloned().fold(0.0, f64::max) * 1e3
+    );
     assert!(e.len() > 200_000, "too few points compared: {}", e.len());
-    assert!(zmax - zmin > 200.0, "points must span the volume's depth: {zmin}..{zmax}");
+    assert!(
+        zmax - zmin > 200.0,
+        "points must span the volume's depth: {zmin}..{zmax}"
+    );
     assert!(r <= 0.002, "RMS error {:.3} µm exceeds 2 µm", r * 1e3);
-    assert_eq!(s.acc.spurious_points, 0, "valid points far from any true surface");
-    assert!(s.acc.all.max < 2.0, "a valid point {} mm from every surface near its pixel", s.acc.all.max);
+    assert_eq!(
+        s.acc.spurious_points, 0,
+        "valid points far from any true surface"
+    );
+    assert!(
+        s.acc.all.max < 2.0,
+        "a valid point {} mm from every surface near its pixel",
+        s.acc.all.max
+    );
 }
 
 #[test]
 fn ball_bar_and_spheres_noise_free() {
     let t = Tmp::new("ballbar");
-    let s = scan(&Scene::builtin("ballbar", &Overrides::default()).unwrap(), &t.0);
+    let s = scan(
+        &Scene::builtin("ballbar", &Overrides::default()).unwrap(),
+        &t.0,
+    );
     assert_eq!(s.acc.spheres.len(), 2);
     for sp in &s.acc.spheres {
-        eprintln!("{}: diameter error {:.2} µm, form {:.2} µm", sp.name, sp.diameter_error * 1e3, sp.form_rms * 1e3);
-        assert!(sp.diameter_error.abs() < 0.005, "{}: diameter error {} mm", sp.name, sp.diameter_error);
+        eprintln!(
+            "{}: diameter error {:.2} µm, form {:.2} µm",
+            sp.name,
+            sp.diameter_error * 1e3,
+            sp.form_rms * 1e3
+        );
+        assert!(
+            sp.diameter_error.abs() < 0.005,
+            "{}: diameter error {} mm",
+            sp.name,
+            sp.diameter_error
+        );
     }
     let bb = &s.acc.ball_bars[0];
-    assert!(bb.length_error.abs() < 0.005, "ball-bar length error {} mm", bb.length_error);
+    assert!(
+        bb.length_error.abs() < 0.005,
+        "ball-bar length error {} mm",
+        bb.length_error
+    );
     // flying pixels are gone: every valid point is near a surface its pixel sees
-    assert!(s.acc.all.max < 2.0, "a valid point {} mm from every surface near its pixel", s.acc.all.max);
+    assert!(
+        s.acc.all.max < 2.0,
+        "a valid point {} mm from every surface near its pixel",
+        s.acc.all.max
+    );
 }
 
 #[test]
@@ -177,7 +261,12 @@ fn noise_8bit_sigma1_matches_the_phase_noise_prediction() {
     // quantization) and dΦ/ds the change of the projected finest phase per mm along the camera
     // ray, from the true projector model. Measured RMS must be within 1.2× the predicted RMS.
     let t = Tmp::new("noise");
-    let o = Overrides { noise: Some(1.0), bits: Some(8), seed: Some(11), ..Overrides::default() };
+    let o = Overrides {
+        noise: Some(1.0),
+        bits: Some(8),
+        seed: Some(11),
+        ..Overrides::default()
+    };
     let scene = volume_scene(&o);
     let s = scan(&scene, &t.0);
     let (e, idx) = errors_within(&s, 45.0);
@@ -190,9 +279,15 @@ fn noise_8bit_sigma1_matches_the_phase_noise_prediction() {
         let p = [truth[3 * i], truth[3 * i + 1], truth[3 * i + 2]];
         let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
         let d = 0.01; // mm along the ray
-        let q = [p[0] * (1.0 + d / l), p[1] * (1.0 + d / l), p[2] * (1.0 + d / l)];
+        let q = [
+            p[0] * (1.0 + d / l),
+            p[1] * (1.0 + d / l),
+            p[2] * (1.0 + d / l),
+        ];
         let v3 = |a: [f64; 3]| fringe3d::render::math::Vec3::new(a[0], a[1], a[2]);
-        let (Some(a), Some(b)) = (rig.projector_pixel(v3(p)), rig.projector_pixel(v3(q))) else { continue };
+        let (Some(a), Some(b)) = (rig.projector_pixel(v3(p)), rig.projector_pixel(v3(q))) else {
+            continue;
+        };
         let dphi = (s.set.finest_phase(b.0, b.1) - s.set.finest_phase(a.0, a.1)).abs() / d;
         let sigma_phi = (2.0f64 / 4.0).sqrt() * sigma_i / s.modulation[i] as f64;
         pred2 += (sigma_phi / dphi).powi(2);
@@ -200,8 +295,19 @@ fn noise_8bit_sigma1_matches_the_phase_noise_prediction() {
     }
     let predicted = (pred2 / n as f64).sqrt();
     let measured = rms(&e);
-    eprintln!("measured RMS {:.2} µm, predicted {:.2} µm ({} points)", measured * 1e3, predicted * 1e3, e.len());
-    assert!(measured <= 1.2 * predicted, "measured {measured} mm vs predicted {predicted} mm");
-    assert!(measured >= 0.8 * predicted, "suspiciously below the prediction: {measured} vs {predicted}");
+    eprintln!(
+        "measured RMS {:.2} µm, predicted {:.2} µm ({} points)",
+        measured * 1e3,
+        predicted * 1e3,
+        e.len()
+    );
+    assert!(
+        measured <= 1.2 * predicted,
+        "measured {measured} mm vs predicted {predicted} mm"
+    );
+    assert!(
+        measured >= 0.8 * predicted,
+        "suspiciously below the prediction: {measured} vs {predicted}"
+    );
     let _ = &s.cal;
 }

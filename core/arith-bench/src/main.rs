@@ -42,9 +42,19 @@ fn run(out: &mut hio::HostStream, args: &str) -> Result<(), &'static str> {
             Ok(())
         }
         Some("count") => {
-            let b = w.next().and_then(Backend::from_name).ok_or("count: unknown backend")?;
-            let case: usize = w.next().and_then(|s| s.parse().ok()).filter(|c| *c < parity::CASES).ok_or("count: bad case")?;
-            let reps: u32 = w.next().and_then(|s| s.parse().ok()).ok_or("count: bad repetitions")?;
+            let b = w
+                .next()
+                .and_then(Backend::from_name)
+                .ok_or("count: unknown backend")?;
+            let case: usize = w
+                .next()
+                .and_then(|s| s.parse().ok())
+                .filter(|c| *c < parity::CASES)
+                .ok_or("count: bad case")?;
+            let reps: u32 = w
+                .next()
+                .and_then(|s| s.parse().ok())
+                .ok_or("count: bad repetitions")?;
             let d = parity::run(b, case, reps, false).map_err(|_| "decoder refused the case")?;
             let _ = writeln!(out, "count {} {} {} {:016x}", b.name(), case, reps, d);
             Ok(())

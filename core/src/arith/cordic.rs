@@ -81,10 +81,22 @@ pub fn cordic_atan2(y: i32, x: i32) -> (I0F32, u32) {
     // Into the right half-plane: (x, y) → (y, −x) adds ¼ turn back, (−y, x) subtracts it.
     let left = x0 < 0;
     let up = y0 >= 0;
-    let mut xi = if left { if up { y0 } else { y0.wrapping_neg() } } else { x0 };
-    let mut yi = if left { if up { x0.wrapping_neg() } else { x0 } } else { y0 };
+    let mut xi = if left {
+        if up { y0 } else { y0.wrapping_neg() }
+    } else {
+        x0
+    };
+    let mut yi = if left {
+        if up { x0.wrapping_neg() } else { x0 }
+    } else {
+        y0
+    };
     let quarter = 1i32 << 30;
-    let mut z: i32 = if left { if up { quarter } else { quarter.wrapping_neg() } } else { 0 };
+    let mut z: i32 = if left {
+        if up { quarter } else { quarter.wrapping_neg() }
+    } else {
+        0
+    };
     // Unrolled with constant shift amounts (Thumb-2 folds `v >> i` into the add/sub operand).
     macro_rules! steps {
         ($($i:literal)*) => { $( (xi, yi, z) = step::<$i>(xi, yi, z); )* };
@@ -116,7 +128,14 @@ mod tests {
         }
         let r = libm::hypot(y as f64, x as f64);
         // magnitude error beyond the final truncation to an integer, relative
-        (libm::fabs(e), if r > 0.0 { (libm::fabs(m as f64 - r) - 1.0).max(0.0) / r } else { m as f64 })
+        (
+            libm::fabs(e),
+            if r > 0.0 {
+                (libm::fabs(m as f64 - r) - 1.0).max(0.0) / r
+            } else {
+                m as f64
+            },
+        )
     }
 
     #[test]
@@ -124,7 +143,9 @@ mod tests {
         let mut worst = (0.0f64, 0.0f64);
         let mut seed = 0x1234_5678u64;
         for k in 0..20000 {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             // magnitudes from 2^4 to 2^31, every direction
             let scale = 4 + (k % 27) as u32;
             let y = ((seed >> 32) as i32) >> (31 - scale.min(30));
@@ -143,7 +164,13 @@ mod tests {
             let (ea, _) = check(y, x);
             assert!(ea < 3e-7, "({y}, {x}): {ea:e}");
         }
-        for (y, x) in [(i32::MAX, i32::MAX), (i32::MIN, i32::MIN), (i32::MIN, 0), (0, i32::MIN), (i32::MAX, i32::MIN)] {
+        for (y, x) in [
+            (i32::MAX, i32::MAX),
+            (i32::MIN, i32::MIN),
+            (i32::MIN, 0),
+            (0, i32::MIN),
+            (i32::MAX, i32::MIN),
+        ] {
             let (ea, em) = check(y, x);
             assert!(ea < 3e-7 && em < 1e-7, "({y}, {x}): {ea:e} {em:e}");
         }

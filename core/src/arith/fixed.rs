@@ -144,15 +144,26 @@ impl Arith for Fixed {
         let w1 = match plan.dc_level {
             Some(d) => {
                 let e = &plan.levels[d];
-                e.w[..e.n].iter().map(|x| libm::fabs(*x as f64)).sum::<f64>()
+                e.w[..e.n]
+                    .iter()
+                    .map(|x| libm::fabs(*x as f64))
+                    .sum::<f64>()
             }
             None => 0.0,
         };
         let mut g = w1;
         let mut worst = 0usize;
         for (l, e) in plan.levels.iter().enumerate() {
-            let la = e.a[..e.n].iter().map(|x| libm::fabs(*x as f64)).sum::<f64>() + libm::fabs(e.a_dc as f64) * w1;
-            let lb = e.b[..e.n].iter().map(|x| libm::fabs(*x as f64)).sum::<f64>() + libm::fabs(e.b_dc as f64) * w1;
+            let la = e.a[..e.n]
+                .iter()
+                .map(|x| libm::fabs(*x as f64))
+                .sum::<f64>()
+                + libm::fabs(e.a_dc as f64) * w1;
+            let lb = e.b[..e.n]
+                .iter()
+                .map(|x| libm::fabs(*x as f64))
+                .sum::<f64>()
+                + libm::fabs(e.b_dc as f64) * w1;
             let m = if la > lb { la } else { lb };
             if m > g {
                 g = m;
@@ -175,14 +186,26 @@ impl Arith for Fixed {
                 return Err(DecodeError::Degenerate(k as u8));
             }
         }
-        Ok(FixedFormat { frac, inv_scale: 1.0 / (1u64 << frac) as f32, max_sample: v as u32, l1: g, max_turns: turns })
+        Ok(FixedFormat {
+            frac,
+            inv_scale: 1.0 / (1u64 << frac) as f32,
+            max_sample: v as u32,
+            l1: g,
+            max_turns: turns,
+        })
     }
 
     fn level_coefs(plan: &Plan<'_>, level: usize, format: &FixedFormat) -> LevelCoefs<i32> {
         let e = &plan.levels[level];
         let f = format.frac;
         let n = e.n;
-        let mut c = LevelCoefs { a: [0; MAX_SHIFTS], b: [0; MAX_SHIFTS], w: [0; MAX_SHIFTS], a_dc: 0, b_dc: 0 };
+        let mut c = LevelCoefs {
+            a: [0; MAX_SHIFTS],
+            b: [0; MAX_SHIFTS],
+            w: [0; MAX_SHIFTS],
+            a_dc: 0,
+            b_dc: 0,
+        };
         if n >= 3 {
             c.a = quantize(&e.a[..n], f);
             c.b = quantize(&e.b[..n], f);
@@ -218,7 +241,9 @@ impl Arith for Fixed {
             min_modulation: ceil_to(cfg.min_modulation as f64 * scale, u32::MAX as f64) as u32,
             coarse_lo: I8F24::from_bits(libm::ceil(lo * lsb) as i32),
             coarse_hi: I8F24::from_bits(libm::floor(hi * lsb) as i32),
-            unwrap_tolerance: U8F24::from_bits(libm::floor(turns(cfg.unwrap_tolerance as f64) * lsb) as u32),
+            unwrap_tolerance: U8F24::from_bits(
+                libm::floor(turns(cfg.unwrap_tolerance as f64) * lsb) as u32,
+            ),
         }
     }
 
@@ -260,14 +285,20 @@ impl Arith for Fixed {
 
     #[inline(always)]
     fn level_sc(s: i32, c: i32, a_dc: i32, b_dc: i32, dc: i32, format: &FixedFormat) -> (i32, i32) {
-        (s.wrapping_add(mul_q(a_dc, dc, format.frac)), c.wrapping_add(mul_q(b_dc, dc, format.frac)))
+        (
+            s.wrapping_add(mul_q(a_dc, dc, format.frac)),
+            c.wrapping_add(mul_q(b_dc, dc, format.frac)),
+        )
     }
 
     #[inline(always)]
     fn polar(s: i32, c: i32) -> (I8F24, u32) {
         let (angle, mag) = cordic_atan2(s, c);
         // 32 → 24 fraction bits, rounded half up; +½ turn wraps to −½, the same angle.
-        (I8F24::from_bits(angle.to_bits().wrapping_add(1 << 7) >> 8), mag)
+        (
+            I8F24::from_bits(angle.to_bits().wrapping_add(1 << 7) >> 8),
+            mag,
+        )
     }
 
     #[inline(always)]
@@ -333,7 +364,10 @@ mod tests {
             let w = quantize(&[1.0 / 3.0; 3], f);
             assert_eq!(w[..3].iter().sum::<i32>(), 1 << f, "F = {f}");
         }
-        assert_eq!(&quantize(&[0.5, 0.0, -0.5, 0.0], 13)[..4], &[4096, 0, -4096, 0]);
+        assert_eq!(
+            &quantize(&[0.5, 0.0, -0.5, 0.0], 13)[..4],
+            &[4096, 0, -4096, 0]
+        );
     }
 
     #[test]

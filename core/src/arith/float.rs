@@ -29,7 +29,9 @@ pub struct F32Fast;
 pub struct F32Micromath;
 
 /// What distinguishes the f32 backends.
-pub trait FloatKernels: Sealed + Copy + core::fmt::Debug + PartialEq + Default + Send + Sync + 'static {
+pub trait FloatKernels:
+    Sealed + Copy + core::fmt::Debug + PartialEq + Default + Send + Sync + 'static
+{
     /// [`Arith::NAME`].
     const NAME: &'static str;
     /// Four-quadrant arctangent, radians.
@@ -46,8 +48,18 @@ pub trait FloatKernels: Sealed + Copy + core::fmt::Debug + PartialEq + Default +
     /// [`Self::atan2_hypot`] of `fine` and [`Self::atan2_coarse`] of `c1` and `c2`, for `N`
     /// pixels ([`Arith::polar_levels3_lanes`]), side by side where a backend has written them so.
     #[inline(always)]
-    fn atan2_levels3_lanes<const N: usize>(fine: [(f32, f32); N], c1: [(f32, f32); N], c2: [(f32, f32); N]) -> [((f32, f32), f32, f32); N] {
-        core::array::from_fn(|k| (Self::atan2_hypot(fine[k].0, fine[k].1), Self::atan2_coarse(c1[k].0, c1[k].1), Self::atan2_coarse(c2[k].0, c2[k].1)))
+    fn atan2_levels3_lanes<const N: usize>(
+        fine: [(f32, f32); N],
+        c1: [(f32, f32); N],
+        c2: [(f32, f32); N],
+    ) -> [((f32, f32), f32, f32); N] {
+        core::array::from_fn(|k| {
+            (
+                Self::atan2_hypot(fine[k].0, fine[k].1),
+                Self::atan2_coarse(c1[k].0, c1[k].1),
+                Self::atan2_coarse(c2[k].0, c2[k].1),
+            )
+        })
     }
 }
 
@@ -72,7 +84,11 @@ impl FloatKernels for F32Accurate {
         math::atan2_hypot_finite(y, x)
     }
     #[inline(always)]
-    fn atan2_levels3_lanes<const N: usize>(fine: [(f32, f32); N], c1: [(f32, f32); N], c2: [(f32, f32); N]) -> [((f32, f32), f32, f32); N] {
+    fn atan2_levels3_lanes<const N: usize>(
+        fine: [(f32, f32); N],
+        c1: [(f32, f32); N],
+        c2: [(f32, f32); N],
+    ) -> [((f32, f32), f32, f32); N] {
         math::atan2_levels3_lanes(fine, c1, c2)
     }
 }
@@ -89,7 +105,10 @@ impl FloatKernels for F32Fast {
     }
     #[inline(always)]
     fn atan2_hypot(y: f32, x: f32) -> (f32, f32) {
-        (math::atan2_fast_finite(y, x), math::sqrt_fast(y * y + x * x))
+        (
+            math::atan2_fast_finite(y, x),
+            math::sqrt_fast(y * y + x * x),
+        )
     }
 }
 
@@ -102,7 +121,10 @@ impl FloatKernels for F32Micromath {
     }
     #[inline(always)]
     fn atan2_hypot(y: f32, x: f32) -> (f32, f32) {
-        (Self::atan2(y, x), micromath::F32::sqrt(micromath::F32(y * y + x * x)).0)
+        (
+            Self::atan2(y, x),
+            micromath::F32::sqrt(micromath::F32(y * y + x * x)).0,
+        )
     }
 }
 
@@ -127,7 +149,13 @@ impl<K: FloatKernels> Arith for K {
 
     fn level_coefs(plan: &Plan<'_>, level: usize, _format: &()) -> LevelCoefs<f32> {
         let e = &plan.levels[level];
-        LevelCoefs { a: e.a, b: e.b, w: e.w, a_dc: e.a_dc, b_dc: e.b_dc }
+        LevelCoefs {
+            a: e.a,
+            b: e.b,
+            w: e.w,
+            a_dc: e.a_dc,
+            b_dc: e.b_dc,
+        }
     }
 
     fn ratio(r: f64, _format: &()) -> f32 {
@@ -215,7 +243,12 @@ impl<K: FloatKernels> Arith for K {
     }
 
     #[inline(always)]
-    fn polar_levels3_lanes<const N: usize>(fine: [(f32, f32); N], c1: [(f32, f32); N], c2: [(f32, f32); N], _format: &()) -> [((f32, f32, f32), (f32, f32), (f32, f32)); N] {
+    fn polar_levels3_lanes<const N: usize>(
+        fine: [(f32, f32); N],
+        c1: [(f32, f32); N],
+        c2: [(f32, f32); N],
+        _format: &(),
+    ) -> [((f32, f32, f32), (f32, f32), (f32, f32)); N] {
         let r = K::atan2_levels3_lanes(fine, c1, c2);
         let m = |(s, c): (f32, f32)| s * s + c * c;
         core::array::from_fn(|k| {
@@ -258,7 +291,6 @@ impl<K: FloatKernels> Arith for K {
     fn phase_out(p: f32) -> f32 {
         p
     }
-
 
     #[inline(always)]
     fn dc_out(a: f32, _format: &()) -> f32 {

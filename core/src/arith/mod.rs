@@ -195,7 +195,14 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
 
     /// S and C of a level from its accumulators and the DC accumulator: `S = s + a_dc·A`,
     /// `C = c + b_dc·A`.
-    fn level_sc(s: Self::Acc, c: Self::Acc, a_dc: Self::Coef, b_dc: Self::Coef, dc: Self::Acc, format: &Self::Format) -> (Self::Acc, Self::Acc);
+    fn level_sc(
+        s: Self::Acc,
+        c: Self::Acc,
+        a_dc: Self::Coef,
+        b_dc: Self::Coef,
+        dc: Self::Acc,
+        format: &Self::Format,
+    ) -> (Self::Acc, Self::Acc);
     /// Wrapped phase `atan2(S, C)` and the modulation measure of (S, C).
     fn polar(s: Self::Acc, c: Self::Acc) -> (Self::Phase, Self::Mag);
     /// [`Self::polar`] for the coarser levels, whose phase only chooses the next level's fringe
@@ -208,7 +215,11 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     /// [`Self::polar`] for the finest level, whose modulation B is an output: the phase, the
     /// measure and B in camera codes ([`F32Accurate`] computes B from the arctangent's reduction
     /// without a square root, [`crate::math::atan2_hypot_finite`]).
-    fn polar_fine(s: Self::Acc, c: Self::Acc, format: &Self::Format) -> (Self::Phase, Self::Mag, f32);
+    fn polar_fine(
+        s: Self::Acc,
+        c: Self::Acc,
+        format: &Self::Format,
+    ) -> (Self::Phase, Self::Mag, f32);
     /// [`Self::polar_fine`] of the finest level and [`Self::polar_coarse`] of two coarser ones,
     /// for `N` pixels: the row driver's fused pass over three levels
     /// ([`crate::decode::Decoder`] for the paper's 8-pattern and the 12-pattern sets). A backend
@@ -220,15 +231,29 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
         c1: [(Self::Acc, Self::Acc); N],
         c2: [(Self::Acc, Self::Acc); N],
         format: &Self::Format,
-    ) -> [((Self::Phase, Self::Mag, f32), (Self::Phase, Self::Mag), (Self::Phase, Self::Mag)); N] {
-        core::array::from_fn(|k| (Self::polar_fine(fine[k].0, fine[k].1, format), Self::polar_coarse(c1[k].0, c1[k].1), Self::polar_coarse(c2[k].0, c2[k].1)))
+    ) -> [(
+        (Self::Phase, Self::Mag, f32),
+        (Self::Phase, Self::Mag),
+        (Self::Phase, Self::Mag),
+    ); N] {
+        core::array::from_fn(|k| {
+            (
+                Self::polar_fine(fine[k].0, fine[k].1, format),
+                Self::polar_coarse(c1[k].0, c1[k].1),
+                Self::polar_coarse(c2[k].0, c2[k].1),
+            )
+        })
     }
     /// The smaller of two measures (the first if they are unordered).
     fn min_mag(m: Self::Mag, current: Self::Mag) -> Self::Mag;
     /// `lo ≤ w ≤ hi`.
     fn in_range(w: Self::Phase, lo: Self::Phase, hi: Self::Phase) -> bool;
     /// One unwrapping step: absolute phase and residual (see [`crate::unwrap`]).
-    fn unwrap(coarse: Self::Phase, ratio: Self::Ratio, wrapped: Self::Phase) -> (Self::Phase, Self::Phase);
+    fn unwrap(
+        coarse: Self::Phase,
+        ratio: Self::Ratio,
+        wrapped: Self::Phase,
+    ) -> (Self::Phase, Self::Phase);
     /// `|residual| ≤ tolerance`.
     fn consistent(residual: Self::Phase, tolerance: Self::Tolerance) -> bool;
     /// `m ≥ threshold` (false for NaN).

@@ -21,7 +21,13 @@ pub const WIDTH: usize = 256;
 pub const CASES: usize = 5;
 
 /// Names of the cases: the set and the sample depth.
-pub const CASE_NAMES: [&str; CASES] = ["paper8-u8", "paper8-u12", "paper8-u16", "3/5/7-u12", "measured-u8"];
+pub const CASE_NAMES: [&str; CASES] = [
+    "paper8-u8",
+    "paper8-u12",
+    "paper8-u16",
+    "3/5/7-u12",
+    "measured-u8",
+];
 
 /// Sample depth (bits) of a case.
 fn bits(case: usize) -> u32 {
@@ -31,12 +37,33 @@ fn bits(case: usize) -> u32 {
 /// The pattern set of a case.
 pub fn set(case: usize) -> Result<PatternSet, DecodeError> {
     let full = ((1u32 << bits(case)) - 1) as f64;
-    let out = Output { width: 640, height: 480, i_min: 0.0, i_max: full };
-    let fe = PhaseFunction::centered(Axis::Eta, 480, 0.9 * core::f64::consts::TAU).map_err(|_| DecodeError::Config)?;
+    let out = Output {
+        width: 640,
+        height: 480,
+        i_min: 0.0,
+        i_max: full,
+    };
+    let fe = PhaseFunction::centered(Axis::Eta, 480, 0.9 * core::f64::consts::TAU)
+        .map_err(|_| DecodeError::Config)?;
     let set = match case {
         0..=2 => PatternSet::default_for(Axis::Xi, out),
-        3 => PatternSet::new(fe, &[Level::n_step(1.0, 3), Level::n_step(6.0, 5), Level::n_step(36.0, 7)], out),
-        _ => PatternSet::new(fe, &[Level::two_step(1.0), Level::with_shifts(7.0, &[0.0, 1.1, 2.0, 3.5, 5.2])], out),
+        3 => PatternSet::new(
+            fe,
+            &[
+                Level::n_step(1.0, 3),
+                Level::n_step(6.0, 5),
+                Level::n_step(36.0, 7),
+            ],
+            out,
+        ),
+        _ => PatternSet::new(
+            fe,
+            &[
+                Level::two_step(1.0),
+                Level::with_shifts(7.0, &[0.0, 1.1, 2.0, 3.5, 5.2]),
+            ],
+            out,
+        ),
     };
     set.map_err(|_| DecodeError::Config)
 }
@@ -47,7 +74,10 @@ pub fn set(case: usize) -> Result<PatternSet, DecodeError> {
 pub fn config(case: usize) -> DecodeConfig {
     let bits = bits(case);
     let full = ((1u32 << bits) - 1) as f32;
-    DecodeConfig { min_modulation: 0.02 * full, ..DecodeConfig::for_bit_depth(bits) }
+    DecodeConfig {
+        min_modulation: 0.02 * full,
+        ..DecodeConfig::for_bit_depth(bits)
+    }
 }
 
 struct SplitMix(u64);
@@ -146,7 +176,15 @@ pub fn run(backend: Backend, case: usize, reps: u32, levels: bool) -> Result<u64
         }
         let refs: [&[u8]; MAX_IMAGES] = core::array::from_fn(|i| &rows8[i][..]);
         for _ in 0..reps {
-            d.decode_row(&refs[..n], RowOut { phase: &mut phase, modulation: &mut modulation, dc: &mut dc, validity: &mut validity })?;
+            d.decode_row(
+                &refs[..n],
+                RowOut {
+                    phase: &mut phase,
+                    modulation: &mut modulation,
+                    dc: &mut dc,
+                    validity: &mut validity,
+                },
+            )?;
         }
         if levels {
             for l in 0..d.level_count() {
@@ -159,7 +197,15 @@ pub fn run(backend: Backend, case: usize, reps: u32, levels: bool) -> Result<u64
     } else {
         let refs: [&[u16]; MAX_IMAGES] = core::array::from_fn(|i| &rows[i][..]);
         for _ in 0..reps {
-            d.decode_row(&refs[..n], RowOut { phase: &mut phase, modulation: &mut modulation, dc: &mut dc, validity: &mut validity })?;
+            d.decode_row(
+                &refs[..n],
+                RowOut {
+                    phase: &mut phase,
+                    modulation: &mut modulation,
+                    dc: &mut dc,
+                    validity: &mut validity,
+                },
+            )?;
         }
         if levels {
             for l in 0..d.level_count() {

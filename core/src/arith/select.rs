@@ -22,7 +22,12 @@ pub enum Backend {
 
 impl Backend {
     /// Every backend, default first.
-    pub const ALL: [Backend; 4] = [Backend::F32Accurate, Backend::F32Fast, Backend::F32Micromath, Backend::Fixed];
+    pub const ALL: [Backend; 4] = [
+        Backend::F32Accurate,
+        Backend::F32Fast,
+        Backend::F32Micromath,
+        Backend::Fixed,
+    ];
 
     /// Its name: `f32`, `f32-fast`, `f32-micromath` or `fixed` ([`Arith::NAME`]).
     pub fn name(self) -> &'static str {
@@ -73,7 +78,11 @@ macro_rules! dispatch {
 
 impl AnyDecoder {
     /// Build the decoder of `set` in `backend` ([`Decoder::with_arith`]).
-    pub fn new(set: &PatternSet, config: DecodeConfig, backend: Backend) -> Result<Self, DecodeError> {
+    pub fn new(
+        set: &PatternSet,
+        config: DecodeConfig,
+        backend: Backend,
+    ) -> Result<Self, DecodeError> {
         Ok(match backend {
             Backend::F32Accurate => AnyDecoder::F32Accurate(Decoder::with_arith(set, config)?),
             Backend::F32Fast => AnyDecoder::F32Fast(Decoder::with_arith(set, config)?),
@@ -121,7 +130,13 @@ impl AnyDecoder {
     }
 
     /// [`Decoder::decode_row_level`] in this backend.
-    pub fn decode_row_level<P: Sample>(&self, rows: &[&[P]], level: usize, wrapped: &mut [f32], modulation: &mut [f32]) -> Result<(), DecodeError> {
+    pub fn decode_row_level<P: Sample>(
+        &self,
+        rows: &[&[P]],
+        level: usize,
+        wrapped: &mut [f32],
+        modulation: &mut [f32],
+    ) -> Result<(), DecodeError> {
         dispatch!(self, d => d.decode_row_level(rows, level, wrapped, modulation))
     }
 }

@@ -415,7 +415,20 @@ impl Lanes {
     #[inline(always)]
     fn zeroed() -> Self {
         const Z: [f32; LANES] = [0.0; LANES];
-        Lanes { q1: Z, q2: Z, a: Z, b: Z, u1: Z, u2: Z, ux: Z, ue: Z, v1: Z, v2: Z, vy: Z, ve: Z }
+        Lanes {
+            q1: Z,
+            q2: Z,
+            a: Z,
+            b: Z,
+            u1: Z,
+            u2: Z,
+            ux: Z,
+            ue: Z,
+            v1: Z,
+            v2: Z,
+            vy: Z,
+            ve: Z,
+        }
     }
 
     #[inline(always)]
@@ -762,7 +775,18 @@ fn chunk<G: CellGather>(
     let mut t2 = [0f32; LANES];
     let mut t3 = [0f32; LANES];
     pass_cells(
-        &c, lane, &t1, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
+        &c,
+        lane,
+        &t1,
+        u0,
+        vf,
+        &gr,
+        rr,
+        &active,
+        &mut ia,
+        &mut ib,
+        &mut fu,
+        &mut fv,
         (&mut ru, &mut rv),
     );
     g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
@@ -778,7 +802,18 @@ fn chunk<G: CellGather>(
         &mut t2,
     );
     pass_cells(
-        &c, lane, &t2, u0, vf, &gr, rr, &active, &mut ia, &mut ib, &mut fu, &mut fv,
+        &c,
+        lane,
+        &t2,
+        u0,
+        vf,
+        &gr,
+        rr,
+        &active,
+        &mut ia,
+        &mut ib,
+        &mut fu,
+        &mut fv,
         (&mut ru, &mut rv),
     );
     g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
@@ -822,7 +857,18 @@ fn chunk<G: CellGather>(
         let mut g3 = [0f32; LANES];
         let mut t4 = [0f32; LANES];
         pass_cells(
-            &c, lane, &t3, u0, vf, &gr, rr, &st2, &mut ia, &mut ib, &mut fu, &mut fv,
+            &c,
+            lane,
+            &t3,
+            u0,
+            vf,
+            &gr,
+            rr,
+            &st2,
+            &mut ia,
+            &mut ib,
+            &mut fu,
+            &mut fv,
             (&mut ru, &mut rv),
         );
         g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
@@ -860,7 +906,18 @@ fn chunk<G: CellGather>(
     if vector_ends {
         for (tt, gg) in [(&tlo, &mut g_lo), (&thi, &mut g_hi)] {
             pass_cells(
-                &c, lane, tt, u0, vf, &gr, rr, &fb, &mut ia, &mut ib, &mut fu, &mut fv,
+                &c,
+                lane,
+                tt,
+                u0,
+                vf,
+                &gr,
+                rr,
+                &fb,
+                &mut ia,
+                &mut ib,
+                &mut fu,
+                &mut fv,
                 (&mut ru, &mut rv),
             );
             g.gather(rr.data, &ia, &ib, [&mut qa, &mut qb, &mut qc, &mut qd]);
@@ -1072,7 +1129,10 @@ mod tests {
             let rad = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2;
             let xd = x * rad + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
             let yd = y * rad + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
-            (f64::from(c.fx) * xd + f64::from(c.sfx) * yd, f64::from(c.fy) * yd)
+            (
+                f64::from(c.fx) * xd + f64::from(c.sfx) * yd,
+                f64::from(c.fy) * yd,
+            )
         };
         let (u0, v0) = d(x, y);
         let (u1, v1) = d(x + t * ex, y + t * ey);
@@ -1109,7 +1169,10 @@ mod tests {
                     let t = 0.02 * f64::from(i);
                     let (_, (ru, rv)) = offset(&c, l, t as f32);
                     let h = 1e-6;
-                    let (a, b) = (brown_offset(&c, (x, y), (ex, ey), t + h), brown_offset(&c, (x, y), (ex, ey), t - h));
+                    let (a, b) = (
+                        brown_offset(&c, (x, y), (ex, ey), t + h),
+                        brown_offset(&c, (x, y), (ex, ey), t - h),
+                    );
                     let (wu, wv) = ((a.0 - b.0) / (2.0 * h), (a.1 - b.1) / (2.0 * h));
                     let scale = libm::hypot(wu, wv);
                     worst = worst.max(libm::hypot(f64::from(ru) - wu, f64::from(rv) - wv) / scale);
@@ -1135,12 +1198,26 @@ mod tests {
             let (ru, rv) = (200.0 * next() - 100.0, 200.0 * next() - 100.0);
             // The bilinear interpolant, written as the usual weighted sum, differentiated
             // numerically along (ru, rv).
-            let bil = |u: f64, v: f64| q[0] * (1.0 - u) * (1.0 - v) + q[1] * u * (1.0 - v) + q[2] * (1.0 - u) * v + q[3] * u * v;
+            let bil = |u: f64, v: f64| {
+                q[0] * (1.0 - u) * (1.0 - v)
+                    + q[1] * u * (1.0 - v)
+                    + q[2] * (1.0 - u) * v
+                    + q[3] * u * v
+            };
             let h = 1e-7;
             let want = (bil(fu + ru * h, fv + rv * h) - bil(fu - ru * h, fv - rv * h)) / (2.0 * h);
-            let got = cell_slope(q.map(|v| v as f32), fu as f32, fv as f32, ru as f32, rv as f32);
+            let got = cell_slope(
+                q.map(|v| v as f32),
+                fu as f32,
+                fv as f32,
+                ru as f32,
+                rv as f32,
+            );
             let tol = 1e-5 * (ru.abs() + rv.abs()) * 4.0;
-            assert!((f64::from(got) - want).abs() <= tol, "slope {got} vs {want}");
+            assert!(
+                (f64::from(got) - want).abs() <= tol,
+                "slope {got} vs {want}"
+            );
         }
         // A flat cell or a NaN sample has no slope, and the step it gives is never accepted, however
         // small the sample's distance from the phase.

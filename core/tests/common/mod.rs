@@ -45,7 +45,13 @@ pub fn intensity(set: &PatternSet, i: usize, px: &Pixel) -> f64 {
 
 /// Images (set order) for a row of pixels, with Gaussian noise of `sigma` codes, quantized to
 /// the nearest code and clipped to `[0, max]`.
-pub fn images(set: &PatternSet, pixels: &[Pixel], sigma: f64, max: f64, rng: &mut Rng) -> Vec<Vec<u16>> {
+pub fn images(
+    set: &PatternSet,
+    pixels: &[Pixel],
+    sigma: f64,
+    max: f64,
+    rng: &mut Rng,
+) -> Vec<Vec<u16>> {
     (0..set.image_count())
         .map(|i| {
             pixels
@@ -60,7 +66,9 @@ pub fn images(set: &PatternSet, pixels: &[Pixel], sigma: f64, max: f64, rng: &mu
 }
 
 pub fn to_u8(imgs: &[Vec<u16>]) -> Vec<Vec<u8>> {
-    imgs.iter().map(|r| r.iter().map(|&v| v.min(255) as u8).collect()).collect()
+    imgs.iter()
+        .map(|r| r.iter().map(|&v| v.min(255) as u8).collect())
+        .collect()
 }
 
 /// Independent f64 reference decoder for sets whose DC level has uniform N-step shifts and whose
@@ -75,7 +83,10 @@ pub fn reference_decode(set: &PatternSet, samples: &[f64]) -> (f64, Vec<f64>, f6
         per_level[id.level as usize].push(v);
     }
     // eq 15: A from the DC level (most shifts, finest on ties)
-    let dc = (0..levels.len()).filter(|&l| levels[l].len() >= 3).max_by_key(|&l| (levels[l].len(), l)).unwrap();
+    let dc = (0..levels.len())
+        .filter(|&l| levels[l].len() >= 3)
+        .max_by_key(|&l| (levels[l].len(), l))
+        .unwrap();
     let a = per_level[dc].iter().sum::<f64>() / per_level[dc].len() as f64;
     let mut wrapped = Vec::new();
     for (l, lv) in levels.iter().enumerate() {

@@ -3,12 +3,12 @@
 //! k1, k2, p1, p2, k3) and all poses, minimising the pixel reprojection error of every corner.
 //! Views whose RMS error stands out (a mis-detected board) are rejected one at a time.
 
+use super::CalibError;
 use super::corners::Board;
 use super::lens::{Lens, N_INTRINSICS, PARAM_NAMES};
 use super::linalg::{M3, V3, add, mm, mv, rodrigues, skew};
 use super::lm::{self, Eval};
 use super::zhang;
-use super::CalibError;
 
 /// The corners observed in one view.
 #[derive(Clone, Debug)]
@@ -36,7 +36,13 @@ pub struct CameraOptions {
 
 impl Default for CameraOptions {
     fn default() -> Self {
-        CameraOptions { fix_skew: false, fix_k3: false, fix_tangential: false, outlier_factor: 5.0, min_views: 3 }
+        CameraOptions {
+            fix_skew: false,
+            fix_k3: false,
+            fix_tangential: false,
+            outlier_factor: 5.0,
+            min_views: 3,
+        }
     }
 }
 
@@ -101,7 +107,10 @@ impl CameraCalibration {
     pub fn to_json(&self) -> serde_json::Value {
         let mut intr = serde_json::Map::new();
         for (k, name) in PARAM_NAMES.iter().enumerate() {
-            intr.insert(name.to_string(), serde_json::json!({"value": self.lens.p[k], "std": self.std[k]}));
+            intr.insert(
+                name.to_string(),
+                serde_json::json!({"value": self.lens.p[k], "std": self.std[k]}),
+            );
         }
         serde_json::json!({
             "width": self.lens.width, "height": self.lens.height,
@@ -124,7 +133,11 @@ struct State {
 
 fn free_intrinsics(o: &CameraOptions) -> Vec<usize> {
     (0..N_INTRINSICS)
-        .filter(|&k| !(o.fix_skew && k == 2) && !(o.fix_k3 && k == 9) && !(o.fix_tangential && (k == 7 || k == 8)))
+        .filter(|&k| {
+            !(o.fix_skew && k == 2)
+                && !(o.fix_k3 && k == 9)
+                && !(o.fix_tangential && (k == 7 || k == 8))
+        })
         .collect()
 }
 
@@ -142,12 +155,20 @@ pub(crate) fn d_point(d_xy: &[[f64; 2]; 2], xc: V3) -> [[f64; 3]; 2] {
     o
 }
 
-fn bundle(board: &Board, views: &[View], start: State, free: &[usize]) -> Option<lm::Solution<State>> {
+fn bundle(
+    board: &Board,
+    views: &[View],
+    start: State,
+    free: &[usize],
+) -> Option<lm::Solution<State>> {
     let obj = board.object_points();
     let nf = free.len();
     let n = nf + 6 * views.len();
     let eval = |s: &State, _j: bool| -> Option<Eval> {
-        let mut e = Eval { width: nf + 6, ..Default::default() };
+        let mut e = Eval {
+            width: nf + 6,
+            ..Default::default()
+        };
         let m = 2 * obj.len() * views.len();
         e.r.reserve(m);
         e.cols.reserve(m * e.width);
@@ -204,7 +225,13 @@ fn bundle(board: &Board, views: &[View], start: State, free: &[usize]) -> Option
 
 /// Calibrate from views of `board`. Views that cannot be used (too few corners, degenerate) or
 /// whose error stands out are listed in [`CameraCalibration::rejected`] with the reason.
-pub fn calibrate(board: &Board, views: &[View], width: u32, height: u32, opts: &CameraOptions) -> Result<CameraCalibration, CalibError> {
+pub fn calibrate(
+    board: &Board,
+    views: &[View],
+    width: u32,
+    height: u32,
+    opts: &CameraOptions,
+) -> Result<CameraCalibration, CalibError> {
     let obj = board.object_points();
     let min_views = opts.min_views.max(3);
     let mut rejected = Vec::new();
@@ -212,7 +239,10 @@ pub fn calibrate(board: &Board, views: &[View], width: u32, height: u32, opts: &
     let mut hs = Vec::new();
     for v in views {
         if v.corners.len() != obj.len() {
-            rejected.push(Rejected { name: v.name.clone(), reason: format!("{} corners, the board has {}", v.corners.len(), obj.len()) });
+            rejected.push(Rejected {
+                name: v.name.clone(),
+                reason: format!("{} corners, the board has {}", v.corners.len(), obj.len()),
+            });
             continue;
         }
         match zhang::homography(&obj, &v.corners) {
@@ -220,14 +250,20 @@ pub fn calibrate(board: &Board, views: &[View], width: u32, height: u32, opts: &
                 hs.push(h);
                 used.push(v.clone());
             }
-            None => rejected.push(Rejected { name: v.name.clone(), reason: "degenerate corner layout (no homography)".into() }),
+            None => rejected.push(Rejected {
+                name: v.name.clone(),
+                reason: "degenerate corner layout (no homography)".into(),
+            }),
         }
     }
     let too_few = |used: &[View], rejected: &[Rejected]| CalibError::TooFewViews {
         usable: used.len(),
         needed: min_views,
         used: used.iter().map(|v| v.name.clone()).collect(),
-        rejected: rejected.iter().map(|r| format!("{}: {}", r.name, r.reason)).collect(),
+        rejected: rejected
+            .iter()
+            .map(|r| format!("{}: {}", r.name, r.reason))
+            .collect(),
     };
     if used.len() < min_views {
         return Err(too_few(&used, &rejected));
@@ -239,7 +275,11 @@ pub fn calibrate(board: &Board, views: &[View], width: u32, height: u32, opts: &
         let k0 = zhang::intrinsics(&hs, opts.fix_skew, centre, half).ok_or_else(|| CalibError::Degenerate {
             what: "the closed-form intrinsics: the views lack perspective (tilt the board more between views)".into(),
         })?;
-        let mut lens = Lens { width, height, p: [0.0; N_INTRINSICS] };
+        let mut lens = Lens {
+            width,
+            height,
+            p: [0.0; N_INTRINSICS],
+        };
         lens.p[0] = k0[0];
         lens.p[1] = k0[1];
         lens.p[2] = if opts.fix_skew { 0.0 } else { k0[2] / k0[0] };
@@ -247,23 +287,44 @@ pub fn calibrate(board: &Board, views: &[View], width: u32, height: u32, opts: &
         lens.p[4] = k0[4];
         let mut rot = Vec::new();
         let mut t = Vec::new();
-        let kk = [k0[0], k0[1], if opts.fix_skew { 0.0 } else { k0[2] }, k0[3], k0[4]];
+        let kk = [
+            k0[0],
+            k0[1],
+            if opts.fix_skew { 0.0 } else { k0[2] },
+            k0[3],
+            k0[4],
+        ];
         for (h, v) in hs.iter().zip(&used) {
             let (r, tt) = zhang::normalize_homography(h, kk)
                 .and_then(|hn| zhang::pose_from_homography(&hn))
-                .ok_or_else(|| CalibError::Degenerate { what: format!("{}: no pose from the homography", v.name) })?;
+                .ok_or_else(|| CalibError::Degenerate {
+                    what: format!("{}: no pose from the homography", v.name),
+                })?;
             rot.push(r);
             t.push(tt);
         }
-        let sol = bundle(board, &used, State { lens, rot, t }, &free)
-            .ok_or_else(|| CalibError::Degenerate { what: "bundle adjustment: a board ends up behind the camera".into() })?;
+        let sol = bundle(board, &used, State { lens, rot, t }, &free).ok_or_else(|| {
+            CalibError::Degenerate {
+                what: "bundle adjustment: a board ends up behind the camera".into(),
+            }
+        })?;
         // Per-view errors.
         let per = obj.len();
         let mut vr = Vec::new();
         for (vi, v) in used.iter().enumerate() {
-            let res: Vec<[f64; 2]> = (0..per).map(|k| [sol.residuals[2 * (vi * per + k)], sol.residuals[2 * (vi * per + k) + 1]]).collect();
+            let res: Vec<[f64; 2]> = (0..per)
+                .map(|k| {
+                    [
+                        sol.residuals[2 * (vi * per + k)],
+                        sol.residuals[2 * (vi * per + k) + 1],
+                    ]
+                })
+                .collect();
             let ss: f64 = res.iter().map(|r| r[0] * r[0] + r[1] * r[1]).sum();
-            let max = res.iter().map(|r| (r[0] * r[0] + r[1] * r[1]).sqrt()).fold(0.0, f64::max);
+            let max = res
+                .iter()
+                .map(|r| (r[0] * r[0] + r[1] * r[1]).sqrt())
+                .fold(0.0, f64::max);
             vr.push(ViewResult {
                 name: v.name.clone(),
                 rms: (ss / per as f64).sqrt(),
@@ -282,7 +343,10 @@ pub fn calibrate(board: &Board, views: &[View], width: u32, height: u32, opts: &
         if let Some(w) = worst.filter(|&w| vr[w].rms > limit) {
             rejected.push(Rejected {
                 name: vr[w].name.clone(),
-                reason: format!("reprojection RMS {:.3} px, above {:.1} x the median view ({:.3} px)", vr[w].rms, opts.outlier_factor, median),
+                reason: format!(
+                    "reprojection RMS {:.3} px, above {:.1} x the median view ({:.3} px)",
+                    vr[w].rms, opts.outlier_factor, median
+                ),
             });
             used.remove(w);
             hs.remove(w);
@@ -307,7 +371,11 @@ pub fn calibrate(board: &Board, views: &[View], width: u32, height: u32, opts: &
             views: vr,
             rejected,
             rms: (ss / (m / 2) as f64).sqrt(),
-            sigma: if m > n { (ss / (m - n) as f64).sqrt() } else { f64::NAN },
+            sigma: if m > n {
+                (ss / (m - n) as f64).sqrt()
+            } else {
+                f64::NAN
+            },
             corners: m / 2,
             parameters: n,
             iterations: sol.iterations,

@@ -39,22 +39,34 @@ impl Board {
     /// A board of `cols × rows` squares of `square` mm; at least 3 × 3 squares.
     pub fn new(cols: u32, rows: u32, square: f64) -> Result<Board, String> {
         if cols < 3 || rows < 3 {
-            return Err(format!("a board needs at least 3 x 3 squares (2 x 2 inner corners), got {cols} x {rows}"));
+            return Err(format!(
+                "a board needs at least 3 x 3 squares (2 x 2 inner corners), got {cols} x {rows}"
+            ));
         }
         if cols > 200 || rows > 200 {
             return Err(format!("{cols} x {rows} squares is not a plausible board"));
         }
         if !(square.is_finite() && square > 0.0) {
-            return Err(format!("the square size must be a positive number of mm, got {square}"));
+            return Err(format!(
+                "the square size must be a positive number of mm, got {square}"
+            ));
         }
         Ok(Board { cols, rows, square })
     }
 
     /// Parse `COLSxROWS` (squares) with the square size.
     pub fn parse(spec: &str, square: f64) -> Result<Board, String> {
-        let (c, r) = spec.split_once(['x', 'X']).ok_or_else(|| format!("board {spec:?}: expected COLSxROWS (squares), e.g. 11x8"))?;
-        let c = c.trim().parse::<u32>().map_err(|_| format!("board {spec:?}: bad column count"))?;
-        let r = r.trim().parse::<u32>().map_err(|_| format!("board {spec:?}: bad row count"))?;
+        let (c, r) = spec
+            .split_once(['x', 'X'])
+            .ok_or_else(|| format!("board {spec:?}: expected COLSxROWS (squares), e.g. 11x8"))?;
+        let c = c
+            .trim()
+            .parse::<u32>()
+            .map_err(|_| format!("board {spec:?}: bad column count"))?;
+        let r = r
+            .trim()
+            .parse::<u32>()
+            .map_err(|_| format!("board {spec:?}: bad row count"))?;
         Board::new(c, r, square)
     }
 
@@ -73,11 +85,17 @@ impl Board {
     /// order). The origin is the centre of the squared area; x along the columns, y along the
     /// rows; the square at (x min, y min) is dark.
     pub fn object_points(&self) -> Vec<[f64; 2]> {
-        let (w, h) = (self.cols as f64 * self.square, self.rows as f64 * self.square);
+        let (w, h) = (
+            self.cols as f64 * self.square,
+            self.rows as f64 * self.square,
+        );
         let mut v = Vec::with_capacity(self.corner_count());
         for j in 1..self.rows {
             for i in 1..self.cols {
-                v.push([i as f64 * self.square - 0.5 * w, j as f64 * self.square - 0.5 * h]);
+                v.push([
+                    i as f64 * self.square - 0.5 * w,
+                    j as f64 * self.square - 0.5 * h,
+                ]);
             }
         }
         v
@@ -104,7 +122,11 @@ impl Image {
             Pixels::U16(v) => v.iter().map(|&x| x as f32).collect(),
             Pixels::F32(v) => v.clone(),
         };
-        Image { width: g.width as usize, height: g.height as usize, data }
+        Image {
+            width: g.width as usize,
+            height: g.height as usize,
+            data,
+        }
     }
 
     #[inline]
@@ -129,7 +151,9 @@ impl Image {
 /// Separable Gaussian blur with replicated edges.
 pub fn gaussian_blur(img: &Image, sigma: f64) -> Image {
     let r = (3.0 * sigma).ceil().max(1.0) as isize;
-    let k: Vec<f32> = (-r..=r).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
+    let k: Vec<f32> = (-r..=r)
+        .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32)
+        .collect();
     let s: f32 = k.iter().sum();
     let k: Vec<f32> = k.iter().map(|x| x / s).collect();
     let (w, h) = (img.width, img.height);
@@ -156,7 +180,11 @@ pub fn gaussian_blur(img: &Image, sigma: f64) -> Image {
             out[y * w + x] = acc;
         }
     }
-    Image { width: w, height: h, data: out }
+    Image {
+        width: w,
+        height: h,
+        data: out,
+    }
 }
 
 /// Why no board was found in an image.
@@ -171,7 +199,9 @@ pub enum DetectFailure {
         need: usize,
     },
     /// The corners found do not form the board's grid.
-    #[error("board not found: the corners form a {found_i} x {found_j} grid, expected {want_i} x {want_j} inner corners (whole board in view?)")]
+    #[error(
+        "board not found: the corners form a {found_i} x {found_j} grid, expected {want_i} x {want_j} inner corners (whole board in view?)"
+    )]
     Grid {
         /// Grid found, i extent.
         found_i: usize,
@@ -183,7 +213,9 @@ pub enum DetectFailure {
         want_j: usize,
     },
     /// Sub-pixel refinement failed at a corner.
-    #[error("corner ({i}, {j}) at ({u:.1}, {v:.1}) px could not be refined to a saddle point ({why})")]
+    #[error(
+        "corner ({i}, {j}) at ({u:.1}, {v:.1}) px could not be refined to a saddle point ({why})"
+    )]
     Refine {
         /// Corner column index.
         i: usize,
@@ -236,7 +268,12 @@ pub struct DetectOptions {
 
 impl Default for DetectOptions {
     fn default() -> Self {
-        DetectOptions { refine_sigma_ratio: 0.08, refine_sigma_range: (1.0, 4.0), window_ratio: 0.45, method: Refinement::Model }
+        DetectOptions {
+            refine_sigma_ratio: 0.08,
+            refine_sigma_range: (1.0, 4.0),
+            window_ratio: 0.45,
+            method: Refinement::Model,
+        }
     }
 }
 
@@ -258,7 +295,9 @@ fn response_maxima(b: &Image) -> Vec<([usize; 2], f32)> {
             let c = b.at(x, y);
             let ixx = b.at(x + 1, y) - 2.0 * c + b.at(x - 1, y);
             let iyy = b.at(x, y + 1) - 2.0 * c + b.at(x, y - 1);
-            let ixy = 0.25 * (b.at(x + 1, y + 1) - b.at(x + 1, y - 1) - b.at(x - 1, y + 1) + b.at(x - 1, y - 1));
+            let ixy = 0.25
+                * (b.at(x + 1, y + 1) - b.at(x + 1, y - 1) - b.at(x - 1, y + 1)
+                    + b.at(x - 1, y - 1));
             r[y * w + x] = (ixy * ixy - ixx * iyy).max(0.0);
         }
     }
@@ -331,18 +370,30 @@ fn candidates(img: &Image, sigma: f64) -> (Image, Vec<Cand>) {
     // Global contrast scale: 2nd to 98th percentile of a subsample.
     let mut sub: Vec<f32> = b.data.iter().step_by(7).cloned().collect();
     sub.sort_by(f32::total_cmp);
-    let q = |p: f64| sub.get(((sub.len().max(1) - 1) as f64 * p) as usize).cloned().unwrap_or(0.0) as f64;
+    let q = |p: f64| {
+        sub.get(((sub.len().max(1) - 1) as f64 * p) as usize)
+            .cloned()
+            .unwrap_or(0.0) as f64
+    };
     let range = q(0.98) - q(0.02);
     let radius = (2.5 * sigma + 1.5).max(3.0);
     let mut out: Vec<Cand> = Vec::new();
     for ([x, y], resp) in response_maxima(&b) {
         let p = [x as f64, y as f64];
-        if p[0] < radius + 1.0 || p[1] < radius + 1.0 || p[0] > (b.width as f64) - radius - 2.0 || p[1] > (b.height as f64) - radius - 2.0 {
+        if p[0] < radius + 1.0
+            || p[1] < radius + 1.0
+            || p[0] > (b.width as f64) - radius - 2.0
+            || p[1] > (b.height as f64) - radius - 2.0
+        {
             continue;
         }
         if let Some(c) = ring_contrast(&b, p, radius, 0.1 * range) {
             // Local quadratic peak of the response would not help much; the refinement does the rest.
-            out.push(Cand { p, response: resp, contrast: c });
+            out.push(Cand {
+                p,
+                response: resp,
+                contrast: c,
+            });
         }
     }
     (b, out)
@@ -398,7 +449,11 @@ fn grow(b: &Image, c: &[Cand], seed: usize, e1: usize, e2: usize, limit: usize) 
                 [2.0 * pc[0] - pb[0], 2.0 * pc[1] - pb[1]]
             } else {
                 // A parallel step in a neighbouring row/column.
-                let side = if d.0 != 0 { [(0, 1), (0, -1)] } else { [(1, 0), (-1, 0)] };
+                let side = if d.0 != 0 {
+                    [(0, 1), (0, -1)]
+                } else {
+                    [(1, 0), (-1, 0)]
+                };
                 let mut step = None;
                 for s in side {
                     let a = (cur.0 + s.0, cur.1 + s.1);
@@ -446,10 +501,17 @@ fn find_grid(b: &Image, c: &[Cand], want: (usize, usize)) -> Result<Vec<[f64; 2]
     let mut order: Vec<usize> = (0..c.len()).collect();
     order.sort_by(|&a, &b2| c[b2].response.total_cmp(&c[a].response));
     for &seed in order.iter().take(40) {
-        let mut nb: Vec<(usize, f64)> = (0..c.len()).filter(|&k| k != seed).map(|k| (k, dist(c[k].p, c[seed].p))).collect();
+        let mut nb: Vec<(usize, f64)> = (0..c.len())
+            .filter(|&k| k != seed)
+            .map(|k| (k, dist(c[k].p, c[seed].p)))
+            .collect();
         nb.sort_by(|a, b2| a.1.total_cmp(&b2.1));
         nb.truncate(10);
-        let axis: Vec<usize> = nb.iter().filter(|(k, _)| edge_test(b, &c[seed], &c[*k])).map(|x| x.0).collect();
+        let axis: Vec<usize> = nb
+            .iter()
+            .filter(|(k, _)| edge_test(b, &c[seed], &c[*k]))
+            .map(|x| x.0)
+            .collect();
         let Some(&e1) = axis.first() else { continue };
         let d1 = [c[e1].p[0] - c[seed].p[0], c[e1].p[1] - c[seed].p[1]];
         let l1 = (d1[0] * d1[0] + d1[1] * d1[1]).sqrt();
@@ -461,8 +523,14 @@ fn find_grid(b: &Image, c: &[Cand], want: (usize, usize)) -> Result<Vec<[f64; 2]
         });
         let Some(&e2) = e2 else { continue };
         let g = grow(b, c, seed, e1, e2, limit);
-        let (imin, imax) = (g.keys().map(|k| k.0).min().unwrap_or(0), g.keys().map(|k| k.0).max().unwrap_or(0));
-        let (jmin, jmax) = (g.keys().map(|k| k.1).min().unwrap_or(0), g.keys().map(|k| k.1).max().unwrap_or(0));
+        let (imin, imax) = (
+            g.keys().map(|k| k.0).min().unwrap_or(0),
+            g.keys().map(|k| k.0).max().unwrap_or(0),
+        );
+        let (jmin, jmax) = (
+            g.keys().map(|k| k.1).min().unwrap_or(0),
+            g.keys().map(|k| k.1).max().unwrap_or(0),
+        );
         let (ni, nj) = ((imax - imin + 1) as usize, (jmax - jmin + 1) as usize);
         let complete = g.len() == ni * nj;
         if complete && ((ni, nj) == want || (nj, ni) == want) {
@@ -485,7 +553,12 @@ fn find_grid(b: &Image, c: &[Cand], want: (usize, usize)) -> Result<Vec<[f64; 2]
         }
     }
     let (_, ni, nj) = best.unwrap_or((0, 0, 0));
-    Err(DetectFailure::Grid { found_i: ni, found_j: nj, want_i: want.0, want_j: want.1 })
+    Err(DetectFailure::Grid {
+        found_i: ni,
+        found_j: nj,
+        want_i: want.0,
+        want_j: want.1,
+    })
 }
 
 /// Saddle point of `Σ_k G_σ(q − k) I(k)` near `q0` by Newton's method.
@@ -495,7 +568,8 @@ pub fn refine_saddle(img: &Image, q0: [f64; 2], sigma: f64) -> Result<[f64; 2], 
     let mut q = q0;
     for _ in 0..40 {
         let (cx, cy) = (q[0].round() as isize, q[1].round() as isize);
-        if cx - r < 0 || cy - r < 0 || cx + r >= img.width as isize || cy + r >= img.height as isize {
+        if cx - r < 0 || cy - r < 0 || cx + r >= img.width as isize || cy + r >= img.height as isize
+        {
             return Err("too close to the image border");
         }
         let mut mean = 0.0;
@@ -596,14 +670,20 @@ fn edge_angles(h: [f64; 3]) -> Option<(f64, f64)> {
 /// multiplicative projector light), which otherwise shifts a saddle-point estimate by ~σ²·|∇L|/L.
 /// Model errors (edge profile, non-orthogonal blur) are point-symmetric about q and do not bias it.
 /// Levenberg–Marquardt over the 11 parameters; the window is re-centred once on the result.
-pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) -> Result<[f64; 2], &'static str> {
+pub fn refine_model(
+    img: &Image,
+    q0: [f64; 2],
+    radius: f64,
+    angles: (f64, f64),
+) -> Result<[f64; 2], &'static str> {
     let taper = 3.0f64.min(0.5 * radius);
     // Pixels within `radius` of `c` with a cosine taper over the outer `taper` pixels (so that
     // the estimate does not jump when a rim pixel enters or leaves the window).
     let window = |c: [f64; 2]| -> Result<Vec<(f64, f64, f64, f64)>, &'static str> {
         let r = radius.ceil() as isize;
         let (cx, cy) = (c[0].round() as isize, c[1].round() as isize);
-        if cx - r < 0 || cy - r < 0 || cx + r >= img.width as isize || cy + r >= img.height as isize {
+        if cx - r < 0 || cy - r < 0 || cx + r >= img.width as isize || cy + r >= img.height as isize
+        {
             return Err("too close to the image border");
         }
         let mut px = Vec::with_capacity(((2 * r + 1) * (2 * r + 1)) as usize);
@@ -613,8 +693,17 @@ pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) 
                 let d = (dx * dx + dy * dy).sqrt();
                 if d < radius {
                     let t = ((d - (radius - taper)) / taper).max(0.0);
-                    let w = if t > 0.0 { 0.5 * (1.0 + (std::f64::consts::PI * t).cos()) } else { 1.0 };
-                    px.push((x as f64, y as f64, img.at(x as usize, y as usize) as f64, w.sqrt()));
+                    let w = if t > 0.0 {
+                        0.5 * (1.0 + (std::f64::consts::PI * t).cos())
+                    } else {
+                        1.0
+                    };
+                    px.push((
+                        x as f64,
+                        y as f64,
+                        img.at(x as usize, y as usize) as f64,
+                        w.sqrt(),
+                    ));
                 }
             }
         }
@@ -647,7 +736,10 @@ pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) 
             return Err("flat window");
         }
         let mid = 0.5 * (hi + lo);
-        let px: Vec<(f64, f64, f64, f64)> = px.into_iter().map(|p| (p.0, p.1, (p.2 - mid) / span, p.3)).collect();
+        let px: Vec<(f64, f64, f64, f64)> = px
+            .into_iter()
+            .map(|p| (p.0, p.1, (p.2 - mid) / span, p.3))
+            .collect();
         // Linear coefficients for a nonlinear guess (first pass).
         let linear = |x: &[f64]| -> Option<[f64; 6]> {
             let mut ata = [0.0; 36];
@@ -688,7 +780,10 @@ pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) 
             if !(x[4] >= BETA_MIN && x[4] < 20.0) {
                 return None;
             }
-            let mut e = super::lm::Eval { width: 11, ..Default::default() };
+            let mut e = super::lm::Eval {
+                width: 11,
+                ..Default::default()
+            };
             e.r.reserve(px.len());
             e.vals.reserve(11 * px.len());
             e.cols.reserve(11 * px.len());
@@ -701,23 +796,49 @@ pub fn refine_model(img: &Image, q0: [f64; 2], radius: f64, angles: (f64, f64)) 
                 let (s1, c1) = (t1[1], t1[0]);
                 let (s2, c2) = (t2[1], t2[0]);
                 // ∂S/∂q = −(g1 e2 n1 + e1 g2 n2), n = (−sin φ, cos φ).
-                let dsq = [-(g1 * e2 * -s1 + e1 * g2 * -s2), -(g1 * e2 * c1 + e1 * g2 * c2)];
+                let dsq = [
+                    -(g1 * e2 * -s1 + e1 * g2 * -s2),
+                    -(g1 * e2 * c1 + e1 * g2 * c2),
+                ];
                 // ∂(n·d)/∂φ = −(cos φ·dx + sin φ·dy).
                 let ds1 = g1 * e2 * -(c1 * dx + s1 * dy);
                 let ds2 = e1 * g2 * -(c2 * dx + s2 * dy);
                 // ∂S/∂β · ∂β/∂b.
                 let dsb = -(g1 * e2 * a1 + e1 * g2 * a2) / beta;
                 e.vals.extend(
-                    [-x[6] - x[9] * s + lin * dsq[0], -x[7] - x[10] * s + lin * dsq[1], lin * ds1, lin * ds2, lin * dsb, 1.0, dx, dy, s, s * dx, s * dy]
-                        .map(|v| v * sw),
+                    [
+                        -x[6] - x[9] * s + lin * dsq[0],
+                        -x[7] - x[10] * s + lin * dsq[1],
+                        lin * ds1,
+                        lin * ds2,
+                        lin * dsb,
+                        1.0,
+                        dx,
+                        dy,
+                        s,
+                        s * dx,
+                        s * dy,
+                    ]
+                    .map(|v| v * sw),
                 );
                 e.cols.extend(0..11);
             }
             Some(e)
         };
-        let apply = |x: &Vec<f64>, d: &[f64]| x.iter().zip(d).map(|(a, b)| a + b).collect::<Vec<f64>>();
-        let sol = super::lm::solve(x0, 11, eval, apply, super::lm::Options { max_iterations: 100, cost_tolerance: 1e-12, step_tolerance: 1e-9 })
-            .ok_or("model fit failed")?;
+        let apply =
+            |x: &Vec<f64>, d: &[f64]| x.iter().zip(d).map(|(a, b)| a + b).collect::<Vec<f64>>();
+        let sol = super::lm::solve(
+            x0,
+            11,
+            eval,
+            apply,
+            super::lm::Options {
+                max_iterations: 100,
+                cost_tolerance: 1e-12,
+                step_tolerance: 1e-9,
+            },
+        )
+        .ok_or("model fit failed")?;
         let x = sol.state;
         let nq = [x[0], x[1]];
         if !(nq[0].is_finite() && nq[1].is_finite()) || dist(nq, q0) > 0.5 * radius {
@@ -738,13 +859,20 @@ fn erf_exp(x: f64) -> (f64, f64) {
     let e = (-x * x).exp();
     let a = x.abs();
     let t = 1.0 / (1.0 + 0.327_591_1 * a);
-    let poly = t * (0.254_829_592 + t * (-0.284_496_736 + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    let poly = t
+        * (0.254_829_592
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
     let v = 1.0 - poly * e;
     (if x < 0.0 { -v } else { v }, e)
 }
 
 /// Find the inner corners of `board` in `img`.
-pub fn detect(img: &Image, board: &Board, opts: &DetectOptions) -> Result<Detection, DetectFailure> {
+pub fn detect(
+    img: &Image,
+    board: &Board,
+    opts: &DetectOptions,
+) -> Result<Detection, DetectFailure> {
     let want = board.inner();
     let need = board.corner_count();
     let mut last = DetectFailure::FewCandidates { found: 0, need };
@@ -752,7 +880,10 @@ pub fn detect(img: &Image, board: &Board, opts: &DetectOptions) -> Result<Detect
         let (blurred, cands) = candidates(img, sigma);
         if cands.len() < need {
             if !matches!(last, DetectFailure::Grid { .. }) {
-                last = DetectFailure::FewCandidates { found: cands.len(), need };
+                last = DetectFailure::FewCandidates {
+                    found: cands.len(),
+                    need,
+                };
             }
             continue;
         }
@@ -764,7 +895,14 @@ pub fn detect(img: &Image, board: &Board, opts: &DetectOptions) -> Result<Detect
     Err(last)
 }
 
-fn finish(img: &Image, blurred: &Image, board: &Board, mut pts: Vec<[f64; 2]>, sigma: f64, opts: &DetectOptions) -> Result<Detection, DetectFailure> {
+fn finish(
+    img: &Image,
+    blurred: &Image,
+    board: &Board,
+    mut pts: Vec<[f64; 2]>,
+    sigma: f64,
+    opts: &DetectOptions,
+) -> Result<Detection, DetectFailure> {
     let (ni, nj) = board.inner();
     let at = |p: &Vec<[f64; 2]>, i: usize, j: usize| p[j * ni + i];
     // Right-handed in the image: e_i × e_j > 0 (v points down).
@@ -792,7 +930,8 @@ fn finish(img: &Image, blurred: &Image, board: &Board, mut pts: Vec<[f64; 2]>, s
     };
     let opposite_same_colour = (ni + nj) % 2 == 0; // squares (0,0) and (cols−1, rows−1): parity of cols+rows
     let centre_val = blurred.sample(square_centre(&pts)[0], square_centre(&pts)[1]);
-    let rot = |p: &Vec<[f64; 2]>| -> Vec<[f64; 2]> { (0..ni * nj).map(|k| p[ni * nj - 1 - k]).collect() };
+    let rot =
+        |p: &Vec<[f64; 2]>| -> Vec<[f64; 2]> { (0..ni * nj).map(|k| p[ni * nj - 1 - k]).collect() };
     let other = rot(&pts);
     let other_val = blurred.sample(square_centre(&other)[0], square_centre(&other)[1]);
     if !opposite_same_colour && other_val < centre_val {
@@ -830,21 +969,48 @@ fn finish(img: &Image, blurred: &Image, board: &Board, mut pts: Vec<[f64; 2]>, s
             let sp = spacing[j * ni + i];
             let s = (opts.refine_sigma_ratio * sp).clamp(lo, hi);
             // A saddle pass at the detection scale, then the model fit.
-            let coarse = refine_saddle(img, p, s.max(sigma)).map_err(|why| DetectFailure::Refine { i, j, u: p[0], v: p[1], why })?;
+            let coarse =
+                refine_saddle(img, p, s.max(sigma)).map_err(|why| DetectFailure::Refine {
+                    i,
+                    j,
+                    u: p[0],
+                    v: p[1],
+                    why,
+                })?;
             let q = match opts.method {
                 Refinement::Saddle => refine_saddle(img, coarse, s),
                 Refinement::Model => {
-                    let h = saddle_hessian(img, coarse, s.max(sigma)).ok_or("too close to the image border");
+                    let h = saddle_hessian(img, coarse, s.max(sigma))
+                        .ok_or("too close to the image border");
                     h.and_then(|h| edge_angles(h).ok_or("not a saddle"))
-                        .and_then(|a| refine_model(img, coarse, (opts.window_ratio * sp).clamp(4.0, 20.0), a))
+                        .and_then(|a| {
+                            refine_model(img, coarse, (opts.window_ratio * sp).clamp(4.0, 20.0), a)
+                        })
                 }
             }
-            .map_err(|why| DetectFailure::Refine { i, j, u: p[0], v: p[1], why })?;
+            .map_err(|why| DetectFailure::Refine {
+                i,
+                j,
+                u: p[0],
+                v: p[1],
+                why,
+            })?;
             if dist(q, p) > (0.25 * sp).max(2.0) {
-                return Err(DetectFailure::Refine { i, j, u: p[0], v: p[1], why: "moved too far from the detected position" });
+                return Err(DetectFailure::Refine {
+                    i,
+                    j,
+                    u: p[0],
+                    v: p[1],
+                    why: "moved too far from the detected position",
+                });
             }
             out.push(q);
         }
     }
-    Ok(Detection { corners: out, half_turn_ambiguous: opposite_same_colour, spacing_px: median, detect_sigma: sigma })
+    Ok(Detection {
+        corners: out,
+        half_turn_ambiguous: opposite_same_colour,
+        spacing_px: median,
+        detect_sigma: sigma,
+    })
 }

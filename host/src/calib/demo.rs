@@ -48,7 +48,17 @@ pub struct DemoOptions {
 
 impl Default for DemoOptions {
     fn default() -> Self {
-        DemoOptions { size: None, noise: None, bits: None, seed: None, views: 15, board_supersample: None, volume_depth_range: true, end_to_end: true, quiet: true }
+        DemoOptions {
+            size: None,
+            noise: None,
+            bits: None,
+            seed: None,
+            views: 15,
+            board_supersample: None,
+            volume_depth_range: true,
+            end_to_end: true,
+            quiet: true,
+        }
     }
 }
 
@@ -57,7 +67,13 @@ impl Default for DemoOptions {
 /// with the true and the self-calibrated file, and return the calibration file's path and a
 /// report (every estimate against the truth; scan accuracy with both calibrations).
 pub fn demo_calibrate(work_dir: &Path, quiet: bool) -> Result<(PathBuf, Value)> {
-    demo_calibrate_with(work_dir, &DemoOptions { quiet, ..DemoOptions::default() })
+    demo_calibrate_with(
+        work_dir,
+        &DemoOptions {
+            quiet,
+            ..DemoOptions::default()
+        },
+    )
 }
 
 fn board_of(spec: &SceneSpec) -> Result<Board> {
@@ -88,7 +104,13 @@ pub struct CalibrationData {
 }
 
 fn scene_with(name: &str, o: &DemoOptions, views: Option<usize>) -> Result<Scene> {
-    let ov = Overrides { seed: o.seed, noise: o.noise, bits: o.bits, size: o.size, ..Overrides::default() };
+    let ov = Overrides {
+        seed: o.seed,
+        noise: o.noise,
+        bits: o.bits,
+        size: o.size,
+        ..Overrides::default()
+    };
     let mut s = SceneSpec::builtin(name)?;
     s.apply(&ov);
     if let Some(b) = s.board.as_mut() {
@@ -103,7 +125,15 @@ fn scene_with(name: &str, o: &DemoOptions, views: Option<usize>) -> Result<Scene
 }
 
 fn render_into(sc: &Scene, dir: &Path) -> Result<()> {
-    write_dataset(sc, dir, DatasetOptions { overwrite: true, progress: None }).with_context(|| format!("rendering {}", dir.display()))?;
+    write_dataset(
+        sc,
+        dir,
+        DatasetOptions {
+            overwrite: true,
+            progress: None,
+        },
+    )
+    .with_context(|| format!("rendering {}", dir.display()))?;
     Ok(())
 }
 
@@ -116,7 +146,8 @@ pub fn render_calibration_data(work_dir: &Path, o: &DemoOptions) -> Result<Calib
             eprintln!("{s}");
         }
     };
-    std::fs::create_dir_all(work_dir).with_context(|| format!("{}: cannot create", work_dir.display()))?;
+    std::fs::create_dir_all(work_dir)
+        .with_context(|| format!("{}: cannot create", work_dir.display()))?;
     say("calibration demo 1/6: rendering the checkerboard views ...");
     let cb_scene = scene_with("checkerboard", o, Some(o.views))?;
     let cb_dir = work_dir.join("checkerboard");
@@ -134,7 +165,11 @@ pub fn render_calibration_data(work_dir: &Path, o: &DemoOptions) -> Result<Calib
     // columns is the one case where the renderer's box-pixel sampling quantizes edge positions to
     // 1/16 px along whole edges, a 0.05 px corner bias.)
     let rig = ref_scene.rig.clone();
-    let mut bspec = cb_scene.spec.board.clone().context("checkerboard scene without a board")?;
+    let mut bspec = cb_scene
+        .spec
+        .board
+        .clone()
+        .context("checkerboard scene without a board")?;
     if let Some(ss) = o.board_supersample {
         bspec.supersample = ss;
     }
@@ -142,24 +177,56 @@ pub fn render_calibration_data(work_dir: &Path, o: &DemoOptions) -> Result<Calib
     sensor.supersample = bspec.supersample;
     sensor.edge_supersample = sensor.edge_supersample.max(16).max(bspec.supersample);
     let mut ref_boards = Vec::new();
-    for (k, (dx, dy, rot)) in [(0.0, 0.0, 8.0), (-70.0, -40.0, -6.0), (70.0, 40.0, 14.0)].into_iter().enumerate() {
+    for (k, (dx, dy, rot)) in [(0.0, 0.0, 8.0), (-70.0, -40.0, -6.0), (70.0, 40.0, 14.0)]
+        .into_iter()
+        .enumerate()
+    {
         let o = rig.reference_point;
-        let ref_pose = Pose { center: [o[0] + dx, o[1] + dy, o[2]], euler_deg: [0.0, 0.0, rot] };
-        let geo = Geometry::build(&[crate::render::board::board_object(&bspec, &ref_pose, None, true, bspec.light)]).map_err(anyhow::Error::msg)?;
-        let (frames, _) = ref_scene.render_slides(&geo, &[Slide::Uniform(1.0)], 77 + k as u64, RenderOptions { sensor: Some(sensor), ..Default::default() })?;
+        let ref_pose = Pose {
+            center: [o[0] + dx, o[1] + dy, o[2]],
+            euler_deg: [0.0, 0.0, rot],
+        };
+        let geo = Geometry::build(&[crate::render::board::board_object(
+            &bspec,
+            &ref_pose,
+            None,
+            true,
+            bspec.light,
+        )])
+        .map_err(anyhow::Error::msg)?;
+        let (frames, _) = ref_scene.render_slides(
+            &geo,
+            &[Slide::Uniform(1.0)],
+            77 + k as u64,
+            RenderOptions {
+                sensor: Some(sensor),
+                ..Default::default()
+            },
+        )?;
         let path = ref_dir.join(format!("board_{k}.png"));
         if frames.bits == 8 {
             let v: Vec<u8> = frames.images[0].iter().map(|&x| x.min(255) as u8).collect();
             write_png_u8(&path, frames.width, frames.height, &v)?;
         } else {
-            write_png_u16(&path, frames.width, frames.height, &frames.images[0], frames.bits)?;
+            write_png_u16(
+                &path,
+                frames.width,
+                frames.height,
+                &frames.images[0],
+                frames.bits,
+            )?;
         }
         ref_boards.push(path);
     }
     let mut plate_dirs: Vec<PathBuf> = std::fs::read_dir(&pl_dir)
         .with_context(|| format!("{}: cannot list", pl_dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.is_dir() && p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("plate_")))
+        .filter(|p| {
+            p.is_dir()
+                && p.file_name()
+                    .and_then(|n| n.to_str())
+                    .is_some_and(|n| n.starts_with("plate_"))
+        })
         .collect();
     plate_dirs.sort();
     Ok(CalibrationData {
@@ -191,16 +258,24 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
 
     // 1. Datasets.
     let data = render_calibration_data(work_dir, o)?;
-    let (cb_dir, pl_dir, ref_dir, rig) = (&data.checkerboard, &data.plates, &data.reference, &data.rig);
+    let (cb_dir, pl_dir, ref_dir, rig) =
+        (&data.checkerboard, &data.plates, &data.reference, &data.rig);
     tick("render_calibration_data", &mut lap);
 
     // 2. Camera.
     say("calibration demo 3/6: calibrate camera ...");
     let out_dir = work_dir.join("calibration");
-    std::fs::create_dir_all(&out_dir).with_context(|| format!("{}: cannot create", out_dir.display()))?;
+    std::fs::create_dir_all(&out_dir)
+        .with_context(|| format!("{}: cannot create", out_dir.display()))?;
     let cb_board = data.checkerboard_board;
     let imgs = files::image_list(std::slice::from_ref(cb_dir))?;
-    let (cam, dv) = files::calibrate_camera_files(&imgs, &cb_board, &DetectOptions::default(), &CameraOptions::default(), &|_| {})?;
+    let (cam, dv) = files::calibrate_camera_files(
+        &imgs,
+        &cb_board,
+        &DetectOptions::default(),
+        &CameraOptions::default(),
+        &|_| {},
+    )?;
     let cam_file = out_dir.join("camera.yml");
     files::write_opencv_yaml(&cam_file, &cam, &cb_board)?;
     files::write_camera_report(&out_dir.join("camera_report"), &cam, &dv, &cb_board)?;
@@ -232,7 +307,11 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         &cal_path,
         &ref_dir.join("patterns.toml"),
         std::slice::from_ref(ref_dir),
-        &PlaneSource::Board { images: data.reference_boards.clone(), board: cb_board, offset_mm: 0.0 },
+        &PlaneSource::Board {
+            images: data.reference_boards.clone(),
+            board: cb_board,
+            offset_mm: 0.0,
+        },
         &DetectOptions::default(),
         "reference_phase.tif",
     )?;
@@ -246,12 +325,17 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
     }
     let fx_rel = (cam.lens.p[0] - truth_cam.p[0]) / truth_cam.p[0];
     let fy_rel = (cam.lens.p[1] - truth_cam.p[1]) / truth_cam.p[1];
-    let pp_err = ((cam.lens.p[3] - truth_cam.p[3]).powi(2) + (cam.lens.p[4] - truth_cam.p[4]).powi(2)).sqrt();
+    let pp_err = ((cam.lens.p[3] - truth_cam.p[3]).powi(2)
+        + (cam.lens.p[4] - truth_cam.p[4]).powi(2))
+    .sqrt();
     let p_true = rig.translation;
     let p_err = sub(pr.result.center, p_true);
     let n_true = rig.reference_normal;
     let plane_offset = dot(n_true, sub(rr.plane.point, rig.reference_point));
-    let plane_angle = dot(n_true, rr.plane.normal).clamp(-1.0, 1.0).acos().to_degrees();
+    let plane_angle = dot(n_true, rr.plane.normal)
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees();
     let corner_truth = corner_errors(cb_dir, &dv)?;
     let mut report = json!({
         "work_dir": work_dir, "calibration": cal_path,
@@ -269,7 +353,9 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
 
     // 6. Scans.
     if o.end_to_end {
-        say("calibration demo 6/6: scanning the sphere and the ball bar with both calibrations ...");
+        say(
+            "calibration demo 6/6: scanning the sphere and the ball bar with both calibrations ...",
+        );
         let mut scans = Vec::new();
         for name in ["sphere", "ballbar"] {
             let sc = scene_with(name, o, None)?;
@@ -280,8 +366,10 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
             let c_self = scan_cloud(&dir, &cal_path)?;
             let a_true = accuracy::evaluate(&c_true, &truth)?;
             let a_self = accuracy::evaluate(&c_self, &truth)?;
-            let al_true = aligned_error(&c_true, &truth).unwrap_or((f64::NAN, f64::NAN, f64::NAN, f64::NAN));
-            let al_self = aligned_error(&c_self, &truth).unwrap_or((f64::NAN, f64::NAN, f64::NAN, f64::NAN));
+            let al_true =
+                aligned_error(&c_true, &truth).unwrap_or((f64::NAN, f64::NAN, f64::NAN, f64::NAN));
+            let al_self =
+                aligned_error(&c_self, &truth).unwrap_or((f64::NAN, f64::NAN, f64::NAN, f64::NAN));
             let al = |a: (f64, f64, f64, f64)| json!({"rms": a.0, "p95": a.1, "rotation_deg": a.2, "translation_mm": a.3});
             let mut st = summary(&a_true);
             st["interior_aligned"] = al(al_true);
@@ -299,12 +387,18 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
     times.insert("total".into(), json!(t_all.elapsed().as_secs_f64()));
     report["seconds"] = Value::Object(times);
     let text = serde_json::to_string_pretty(&report)?;
-    crate::io::atomic::write_atomic(&out_dir.join("demo_report.json"), |w| w.write_all(text.as_bytes()))?;
+    crate::io::atomic::write_atomic(&out_dir.join("demo_report.json"), |w| {
+        w.write_all(text.as_bytes())
+    })?;
     Ok((cal_path, report))
 }
 
 /// Decode a rendered fringe dataset and reconstruct it with `calibration`, then score it.
-pub fn scan_accuracy(dataset: &Path, calibration: &Path, truth: &accuracy::Truth) -> Result<Accuracy> {
+pub fn scan_accuracy(
+    dataset: &Path,
+    calibration: &Path,
+    truth: &accuracy::Truth,
+) -> Result<Accuracy> {
     let cloud = scan_cloud(dataset, calibration)?;
     accuracy::evaluate(&cloud, truth)
 }
@@ -324,7 +418,10 @@ pub fn scan_cloud(dataset: &Path, calibration: &Path) -> Result<crate::scan::Poi
 /// is fitted (Kabsch/Horn) to the interior points whose unaligned error is below 5 × the median
 /// (gross errors at a few pixels would otherwise pull it), and the RMS is over all interior points.
 /// Returns (RMS, 95th percentile, rotation angle in degrees, translation in mm).
-pub fn aligned_error(cloud: &crate::scan::PointCloud, truth: &accuracy::Truth) -> Option<(f64, f64, f64, f64)> {
+pub fn aligned_error(
+    cloud: &crate::scan::PointCloud,
+    truth: &accuracy::Truth,
+) -> Option<(f64, f64, f64, f64)> {
     let (w, h) = (truth.width, truth.height);
     if (cloud.width, cloud.height) != (w, h) {
         return None;
@@ -335,16 +432,26 @@ pub fn aligned_error(cloud: &crate::scan::PointCloud, truth: &accuracy::Truth) -
             return false;
         }
         let id = truth.object_id[i];
-        (0..3).all(|dy| (0..3).all(|dx| {
-            let j = (y + dy - 1) * w + x + dx - 1;
-            truth.object_id[j] == id && truth.points[3 * j].is_finite()
-        }))
+        (0..3).all(|dy| {
+            (0..3).all(|dx| {
+                let j = (y + dy - 1) * w + x + dx - 1;
+                truth.object_id[j] == id && truth.points[3 * j].is_finite()
+            })
+        })
     };
     let mut pairs: Vec<([f64; 3], [f64; 3])> = Vec::new();
     for i in 0..w * h {
         if cloud.validity[i] == 0 && truth.points[3 * i].is_finite() && interior(i) {
-            let p = [cloud.xyz[3 * i] as f64, cloud.xyz[3 * i + 1] as f64, cloud.xyz[3 * i + 2] as f64];
-            let q = [truth.points[3 * i], truth.points[3 * i + 1], truth.points[3 * i + 2]];
+            let p = [
+                cloud.xyz[3 * i] as f64,
+                cloud.xyz[3 * i + 1] as f64,
+                cloud.xyz[3 * i + 2] as f64,
+            ];
+            let q = [
+                truth.points[3 * i],
+                truth.points[3 * i + 1],
+                truth.points[3 * i + 2],
+            ];
             pairs.push((p, q));
         }
     }
@@ -354,7 +461,10 @@ pub fn aligned_error(cloud: &crate::scan::PointCloud, truth: &accuracy::Truth) -
     let mut d0: Vec<f64> = pairs.iter().map(|(p, q)| norm(sub(*p, *q))).collect();
     d0.sort_by(f64::total_cmp);
     let lim = 5.0 * d0[d0.len() / 2];
-    let fit: Vec<&([f64; 3], [f64; 3])> = pairs.iter().filter(|(p, q)| norm(sub(*p, *q)) <= lim.max(1e-9)).collect();
+    let fit: Vec<&([f64; 3], [f64; 3])> = pairs
+        .iter()
+        .filter(|(p, q)| norm(sub(*p, *q)) <= lim.max(1e-9))
+        .collect();
     let n = fit.len() as f64;
     let mut pc = [0.0; 3];
     let mut qc = [0.0; 3];
@@ -375,7 +485,10 @@ pub fn aligned_error(cloud: &crate::scan::PointCloud, truth: &accuracy::Truth) -
     }
     let r = super::linalg::nearest_rotation(&m);
     let t = sub(qc, super::linalg::mv(&r, pc));
-    let mut d: Vec<f64> = pairs.iter().map(|(p, q)| norm(sub(super::linalg::add(super::linalg::mv(&r, *p), t), *q))).collect();
+    let mut d: Vec<f64> = pairs
+        .iter()
+        .map(|(p, q)| norm(sub(super::linalg::add(super::linalg::mv(&r, *p), t), *q)))
+        .collect();
     let rms = (d.iter().map(|x| x * x).sum::<f64>() / d.len() as f64).sqrt();
     d.sort_by(f64::total_cmp);
     let p95 = d[((d.len() - 1) as f64 * 0.95) as usize];
@@ -395,12 +508,30 @@ fn summary(a: &Accuracy) -> Value {
 /// all used views, pixels. The labelling is matched per view (also under a half turn).
 pub fn corner_errors(dataset: &Path, dv: &files::DetectedViews) -> Result<Value> {
     let p = dataset.join("truth/corners.json");
-    let j: Value = serde_json::from_str(&std::fs::read_to_string(&p).with_context(|| format!("{}: cannot read", p.display()))?)?;
+    let j: Value = serde_json::from_str(
+        &std::fs::read_to_string(&p).with_context(|| format!("{}: cannot read", p.display()))?,
+    )?;
     let mut all = Vec::new();
     for pose in j["poses"].as_array().into_iter().flatten() {
         let name = pose["image"].as_str().unwrap_or("");
-        let Some(k) = dv.images.iter().position(|q| q.file_name().and_then(|n| n.to_str()) == Some(name)) else { continue };
-        let t: Vec<[f64; 2]> = pose["corners_px"].as_array().into_iter().flatten().map(|c| [c[0].as_f64().unwrap_or(f64::NAN), c[1].as_f64().unwrap_or(f64::NAN)]).collect();
+        let Some(k) = dv
+            .images
+            .iter()
+            .position(|q| q.file_name().and_then(|n| n.to_str()) == Some(name))
+        else {
+            continue;
+        };
+        let t: Vec<[f64; 2]> = pose["corners_px"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|c| {
+                [
+                    c[0].as_f64().unwrap_or(f64::NAN),
+                    c[1].as_f64().unwrap_or(f64::NAN),
+                ]
+            })
+            .collect();
         all.extend(match_errors(&dv.views[k].corners, &t));
     }
     let n = all.len().max(1) as f64;
@@ -417,8 +548,16 @@ pub fn match_errors(det: &[[f64; 2]], truth: &[[f64; 2]]) -> Vec<f64> {
     }
     let d = |a: &[f64; 2], b: &[f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
     let same: Vec<f64> = det.iter().zip(truth).map(|(a, b)| d(a, b)).collect();
-    let turned: Vec<f64> = det.iter().zip(truth.iter().rev()).map(|(a, b)| d(a, b)).collect();
-    if same.iter().sum::<f64>() <= turned.iter().sum::<f64>() { same } else { turned }
+    let turned: Vec<f64> = det
+        .iter()
+        .zip(truth.iter().rev())
+        .map(|(a, b)| d(a, b))
+        .collect();
+    if same.iter().sum::<f64>() <= turned.iter().sum::<f64>() {
+        same
+    } else {
+        turned
+    }
 }
 
 /// The true calibration of the default rig (for comparisons).

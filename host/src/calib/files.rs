@@ -4,12 +4,16 @@
 use super::camera::{CameraCalibration, CameraOptions, Rejected, View, calibrate};
 use super::corners::{Board, DetectOptions, Detection, Image, detect};
 use super::lens::Lens;
-use super::projector_centre::{PlateObservation, ProjectorCentre, ProjectorOptions, check_parallel, estimate};
+use super::projector_centre::{
+    PlateObservation, ProjectorCentre, ProjectorOptions, check_parallel, estimate,
+};
 use super::reference::ReferencePose;
 use super::report::{nice_scale, view_picture};
 use super::{CalibError, pose};
 use crate::batch::{FrameOut, Isa, decode_frames};
-use crate::io::calibration::{Calibration, CameraModel, ReferencePlane, import_bouguet_file, import_opencv};
+use crate::io::calibration::{
+    Calibration, CameraModel, ReferencePlane, import_bouguet_file, import_opencv,
+};
 use crate::io::image::{Pixels, read_gray, write_tiff_f32};
 use crate::io::image_set::{self, Frames};
 use crate::io::pattern_file::PatternSetFile;
@@ -23,14 +27,20 @@ use std::path::{Path, PathBuf};
 pub type Progress<'a> = &'a (dyn Fn(u64) + Sync);
 
 fn input(what: &Path, message: impl Into<String>) -> CalibError {
-    CalibError::Input { what: what.display().to_string(), message: message.into() }
+    CalibError::Input {
+        what: what.display().to_string(),
+        message: message.into(),
+    }
 }
 
 /// The images named on a command line: the files themselves, or every PNG/TIFF/BMP of one
 /// folder sorted by name.
 pub fn image_list(args: &[PathBuf]) -> Result<Vec<PathBuf>, CalibError> {
     match args {
-        [] => Err(CalibError::Input { what: "images".into(), message: "no images given".into() }),
+        [] => Err(CalibError::Input {
+            what: "images".into(),
+            message: "no images given".into(),
+        }),
         [d] if d.is_dir() => Ok(image_set::list_folder(d)?),
         list => Ok(list.to_vec()),
     }
@@ -61,9 +71,17 @@ pub struct DetectedViews {
 
 /// Detect `board` in every image (in parallel). Unreadable images and images of another size
 /// are errors; images without the board are rejected views.
-pub fn detect_views(paths: &[PathBuf], board: &Board, opts: &DetectOptions, progress: Progress<'_>) -> Result<DetectedViews, CalibError> {
+pub fn detect_views(
+    paths: &[PathBuf],
+    board: &Board,
+    opts: &DetectOptions,
+    progress: Progress<'_>,
+) -> Result<DetectedViews, CalibError> {
     if paths.is_empty() {
-        return Err(CalibError::Input { what: "camera calibration".into(), message: "no board images given".into() });
+        return Err(CalibError::Input {
+            what: "camera calibration".into(),
+            message: "no board images given".into(),
+        });
     }
     let res: Vec<Result<(u32, u32, Result<Detection, String>), CalibError>> = paths
         .par_iter()
@@ -74,20 +92,38 @@ pub fn detect_views(paths: &[PathBuf], board: &Board, opts: &DetectOptions, prog
             Ok((img.width as u32, img.height as u32, d))
         })
         .collect();
-    let mut out = DetectedViews { width: 0, height: 0, views: Vec::new(), images: Vec::new(), rejected: Vec::new(), half_turn_ambiguous: 0 };
+    let mut out = DetectedViews {
+        width: 0,
+        height: 0,
+        views: Vec::new(),
+        images: Vec::new(),
+        rejected: Vec::new(),
+        half_turn_ambiguous: 0,
+    };
     for (p, r) in paths.iter().zip(res) {
         let (w, h, d) = r?;
         if out.width == 0 {
             out.width = w;
             out.height = h;
         } else if (w, h) != (out.width, out.height) {
-            return Err(input(p, format!("{w}x{h} pixels, but {} is {}x{}: all views must come from one camera", paths[0].display(), out.width, out.height)));
+            return Err(input(
+                p,
+                format!(
+                    "{w}x{h} pixels, but {} is {}x{}: all views must come from one camera",
+                    paths[0].display(),
+                    out.width,
+                    out.height
+                ),
+            ));
         }
         let name = p.display().to_string();
         match d {
             Ok(d) => {
                 out.half_turn_ambiguous += d.half_turn_ambiguous as usize;
-                out.views.push(View { name, corners: d.corners });
+                out.views.push(View {
+                    name,
+                    corners: d.corners,
+                });
                 out.images.push(p.clone());
             }
             Err(reason) => out.rejected.push(Rejected { name, reason }),
@@ -113,10 +149,24 @@ pub fn calibrate_camera_files(
             c.rejected = all;
             Ok((c, dv))
         }
-        Err(CalibError::TooFewViews { usable, needed, used, rejected }) => {
-            let mut all: Vec<String> = dv.rejected.iter().map(|r| format!("{}: {}", r.name, r.reason)).collect();
+        Err(CalibError::TooFewViews {
+            usable,
+            needed,
+            used,
+            rejected,
+        }) => {
+            let mut all: Vec<String> = dv
+                .rejected
+                .iter()
+                .map(|r| format!("{}: {}", r.name, r.reason))
+                .collect();
             all.extend(rejected);
-            Err(CalibError::TooFewViews { usable, needed, used, rejected: all })
+            Err(CalibError::TooFewViews {
+                usable,
+                needed,
+                used,
+                rejected: all,
+            })
         }
         Err(e) => Err(e),
     }
@@ -130,7 +180,11 @@ fn num(v: f64) -> String {
 /// Write the camera as an OpenCV `cv::FileStorage` YAML file (`camera_matrix` with
 /// `K[0][1] = α·fx`, `distortion_coefficients` `[k1, k2, p1, p2, k3]`, image size, RMS), readable
 /// by OpenCV and by `import_opencv` (`--camera-from`).
-pub fn write_opencv_yaml(path: &Path, cal: &CameraCalibration, board: &Board) -> Result<(), CalibError> {
+pub fn write_opencv_yaml(
+    path: &Path,
+    cal: &CameraCalibration,
+    board: &Board,
+) -> Result<(), CalibError> {
     let p = &cal.lens.p;
     let (ni, nj) = board.inner();
     let text = format!(
@@ -156,27 +210,61 @@ pub fn write_opencv_yaml(path: &Path, cal: &CameraCalibration, board: &Board) ->
         num(p[9]),
         num(cal.rms),
     );
-    crate::io::atomic::write_atomic(path, |w| w.write_all(text.as_bytes())).map_err(|e| input(path, e.to_string()))
+    crate::io::atomic::write_atomic(path, |w| w.write_all(text.as_bytes()))
+        .map_err(|e| input(path, e.to_string()))
 }
 
 /// Write `report.json` and one PNG per used view (corners, residuals magnified) into `dir`.
 /// Returns the report.
-pub fn write_camera_report(dir: &Path, cal: &CameraCalibration, dv: &DetectedViews, board: &Board) -> Result<serde_json::Value, CalibError> {
+pub fn write_camera_report(
+    dir: &Path,
+    cal: &CameraCalibration,
+    dv: &DetectedViews,
+    board: &Board,
+) -> Result<serde_json::Value, CalibError> {
     std::fs::create_dir_all(dir).map_err(|e| input(dir, format!("cannot create: {e}")))?;
-    let mut all: Vec<f64> = cal.views.iter().flat_map(|v| v.residuals.iter().map(|r| (r[0] * r[0] + r[1] * r[1]).sqrt())).collect();
+    let mut all: Vec<f64> = cal
+        .views
+        .iter()
+        .flat_map(|v| {
+            v.residuals
+                .iter()
+                .map(|r| (r[0] * r[0] + r[1] * r[1]).sqrt())
+        })
+        .collect();
     all.sort_by(f64::total_cmp);
-    let p95 = all.get(((all.len().max(1) - 1) as f64 * 0.95) as usize).cloned().unwrap_or(0.0);
+    let p95 = all
+        .get(((all.len().max(1) - 1) as f64 * 0.95) as usize)
+        .cloned()
+        .unwrap_or(0.0);
     let scale = nice_scale(p95, 15.0);
     let pics: Vec<Result<String, CalibError>> = cal
         .views
         .par_iter()
         .map(|v| {
-            let src = dv.images.iter().find(|p| p.display().to_string() == v.name).cloned().unwrap_or_else(|| PathBuf::from(&v.name));
+            let src = dv
+                .images
+                .iter()
+                .find(|p| p.display().to_string() == v.name)
+                .cloned()
+                .unwrap_or_else(|| PathBuf::from(&v.name));
             let img = load_image(&src)?;
-            let stem = src.file_stem().and_then(|s| s.to_str()).unwrap_or("view").to_string();
+            let stem = src
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("view")
+                .to_string();
             let name = format!("view_{stem}.png");
-            let c = view_picture(img.width, img.height, &img.data, &v.corners, &v.residuals, scale);
-            c.save(&dir.join(&name)).map_err(|m| input(&dir.join(&name), m))?;
+            let c = view_picture(
+                img.width,
+                img.height,
+                &img.data,
+                &v.corners,
+                &v.residuals,
+                scale,
+            );
+            c.save(&dir.join(&name))
+                .map_err(|m| input(&dir.join(&name), m))?;
             Ok(name)
         })
         .collect();
@@ -188,7 +276,8 @@ pub fn write_camera_report(dir: &Path, cal: &CameraCalibration, dv: &DetectedVie
     j["half_turn_ambiguous_views"] = json!(dv.half_turn_ambiguous);
     let text = serde_json::to_string_pretty(&j).unwrap_or_default();
     let rp = dir.join("report.json");
-    crate::io::atomic::write_atomic(&rp, |w| w.write_all(text.as_bytes())).map_err(|e| input(&rp, e.to_string()))?;
+    crate::io::atomic::write_atomic(&rp, |w| w.write_all(text.as_bytes()))
+        .map_err(|e| input(&rp, e.to_string()))?;
     Ok(j)
 }
 
@@ -197,18 +286,33 @@ pub fn write_camera_report(dir: &Path, cal: &CameraCalibration, dv: &DetectedVie
 /// `size` (the images' size) fills in a size the file does not state and is checked against one
 /// it does.
 pub fn load_camera(path: &Path, size: Option<(u32, u32)>) -> Result<CameraModel, CalibError> {
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     let (w, h) = size.unwrap_or((0, 0));
     let cam = match ext.as_str() {
         "toml" => Calibration::load(path)?.camera,
         "m" => import_bouguet_file(path, w.max(1), h.max(1))?,
         "yml" | "yaml" | "xml" | "json" => import_opencv(path, w.max(1), h.max(1))?,
-        _ => return Err(input(path, "unknown camera file type: use a fringe3d calibration (.toml), an OpenCV file (.yml, .yaml, .xml, .json) or Bouguet's Calib_Results.m")),
+        _ => {
+            return Err(input(
+                path,
+                "unknown camera file type: use a fringe3d calibration (.toml), an OpenCV file (.yml, .yaml, .xml, .json) or Bouguet's Calib_Results.m",
+            ));
+        }
     };
     if let Some((w, h)) = size
         && (cam.width, cam.height) != (w, h)
     {
-        return Err(input(path, format!("the camera was calibrated for {}x{} images, these are {w}x{h}", cam.width, cam.height)));
+        return Err(input(
+            path,
+            format!(
+                "the camera was calibrated for {}x{} images, these are {w}x{h}",
+                cam.width, cam.height
+            ),
+        ));
     }
     Ok(cam)
 }
@@ -251,13 +355,19 @@ pub fn decode_set(set_path: &Path, images: &[PathBuf]) -> Result<DecodedSet, Cal
         list => (list.to_vec(), "the images given".to_string()),
     };
     let imgs = image_set::load(&paths, n, &what)?;
-    let dec = Decoder::new(&set, DecodeConfig::for_bit_depth(imgs.bits as u32)).map_err(|e| input(set_path, format!("decoder: {e}")))?;
+    let dec = Decoder::new(&set, DecodeConfig::for_bit_depth(imgs.bits as u32))
+        .map_err(|e| input(set_path, format!("decoder: {e}")))?;
     let (w, h) = (imgs.width as usize, imgs.height as usize);
     let mut phase = vec![0f32; w * h];
     let mut m = vec![0f32; w * h];
     let mut a = vec![0f32; w * h];
     let mut v = vec![0u8; w * h];
-    let out = FrameOut { phase: &mut phase, modulation: &mut m, dc: &mut a, validity: &mut v };
+    let out = FrameOut {
+        phase: &mut phase,
+        modulation: &mut m,
+        dc: &mut a,
+        validity: &mut v,
+    };
     let r = match &imgs.frames {
         Frames::U8(f) => {
             let fr: Vec<&[u8]> = f.iter().map(|x| x.as_slice()).collect();
@@ -268,44 +378,104 @@ pub fn decode_set(set_path: &Path, images: &[PathBuf]) -> Result<DecodedSet, Cal
             decode_frames(&dec, &fr, w, h, out, Isa::detect(), true)
         }
     };
-    r.map_err(|e| input(&paths[0], format!("decoding the set of {}: {e}", set_path.display())))?;
+    r.map_err(|e| {
+        input(
+            &paths[0],
+            format!("decoding the set of {}: {e}", set_path.display()),
+        )
+    })?;
     for (p, c) in phase.iter_mut().zip(&v) {
         if *c != 0 {
             *p = f32::NAN;
         }
     }
     let valid = phase.iter().filter(|p| p.is_finite()).count();
-    Ok(DecodedSet { width: imgs.width, height: imgs.height, phase, validity: v, valid_fraction: valid as f64 / (w * h).max(1) as f64, axis: set.axis(), images: paths })
+    Ok(DecodedSet {
+        width: imgs.width,
+        height: imgs.height,
+        phase,
+        validity: v,
+        valid_fraction: valid as f64 / (w * h).max(1) as f64,
+        axis: set.axis(),
+        images: paths,
+    })
 }
 
 /// The board pose in one image with a calibrated lens; errors name the image.
-pub fn board_pose_file(path: &Path, lens: &Lens, board: &Board, opts: &DetectOptions) -> Result<(pose::PlanePose, Detection), CalibError> {
+pub fn board_pose_file(
+    path: &Path,
+    lens: &Lens,
+    board: &Board,
+    opts: &DetectOptions,
+) -> Result<(pose::PlanePose, Detection), CalibError> {
     let img = load_image(path)?;
     if (img.width as u32, img.height as u32) != (lens.width, lens.height) {
-        return Err(input(path, format!("{}x{} pixels, but the camera is {}x{}", img.width, img.height, lens.width, lens.height)));
+        return Err(input(
+            path,
+            format!(
+                "{}x{} pixels, but the camera is {}x{}",
+                img.width, img.height, lens.width, lens.height
+            ),
+        ));
     }
-    let d = detect(&img, board, opts).map_err(|e| CalibError::Board { path: path.to_path_buf(), message: e.to_string() })?;
-    let p = pose::board_pose(lens, board, &d.corners).map_err(|e| CalibError::Board { path: path.to_path_buf(), message: e.to_string() })?;
+    let d = detect(&img, board, opts).map_err(|e| CalibError::Board {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let p = pose::board_pose(lens, board, &d.corners).map_err(|e| CalibError::Board {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
     Ok((p, d))
 }
 
 /// One plate position's files: `DIR/v/` (vertical fringes, phase along ξ), `DIR/h/` (horizontal
 /// fringes, phase along η) and `DIR/board.png` (the board printed on the plate).
 /// Also returns the board corners.
-pub fn load_plate(dir: &Path, lens: &Lens, board: &Board, set_v: &Path, set_h: &Path, opts: &DetectOptions) -> Result<(PlateObservation, Vec<[f64; 2]>), CalibError> {
+pub fn load_plate(
+    dir: &Path,
+    lens: &Lens,
+    board: &Board,
+    set_v: &Path,
+    set_h: &Path,
+    opts: &DetectOptions,
+) -> Result<(PlateObservation, Vec<[f64; 2]>), CalibError> {
     if !dir.is_dir() {
-        return Err(input(dir, "not a folder (a plate position is a folder with v/, h/ and board.png)"));
+        return Err(input(
+            dir,
+            "not a folder (a plate position is a folder with v/, h/ and board.png)",
+        ));
     }
-    let board_img = ["board.png", "board.tif", "board.tiff", "board.bmp"].iter().map(|n| dir.join(n)).find(|p| p.is_file()).ok_or_else(|| input(dir, "no board.png (the board image of this plate position)"))?;
+    let board_img = ["board.png", "board.tif", "board.tiff", "board.bmp"]
+        .iter()
+        .map(|n| dir.join(n))
+        .find(|p| p.is_file())
+        .ok_or_else(|| input(dir, "no board.png (the board image of this plate position)"))?;
     let (pose, det) = board_pose_file(&board_img, lens, board, opts)?;
     let v = decode_set(set_v, &[dir.join("v")])?;
     let h = decode_set(set_h, &[dir.join("h")])?;
     for (d, which) in [(&v, "v"), (&h, "h")] {
         if (d.width, d.height) != (lens.width, lens.height) {
-            return Err(input(&dir.join(which), format!("images are {}x{}, the camera is {}x{}", d.width, d.height, lens.width, lens.height)));
+            return Err(input(
+                &dir.join(which),
+                format!(
+                    "images are {}x{}, the camera is {}x{}",
+                    d.width, d.height, lens.width, lens.height
+                ),
+            ));
         }
     }
-    Ok((PlateObservation { name: dir.display().to_string(), pose, width: v.width as usize, height: v.height as usize, phase_v: v.phase, phase_h: h.phase }, det.corners))
+    Ok((
+        PlateObservation {
+            name: dir.display().to_string(),
+            pose,
+            width: v.width as usize,
+            height: v.height as usize,
+            phase_v: v.phase,
+            phase_h: h.phase,
+        },
+        det.corners,
+    ))
 }
 
 /// The result of [`calibrate_projector_files`].
@@ -324,10 +494,16 @@ fn check_axes(set_v: &Path, set_h: &Path) -> Result<(), CalibError> {
     let av = PatternSetFile::load(set_v)?.to_pattern_set()?.axis();
     let ah = PatternSetFile::load(set_h)?.to_pattern_set()?.axis();
     if av != Axis::Xi {
-        return Err(input(set_v, "this pattern set has its phase along η (horizontal fringes); --patterns-v needs vertical fringes (phase along ξ)"));
+        return Err(input(
+            set_v,
+            "this pattern set has its phase along η (horizontal fringes); --patterns-v needs vertical fringes (phase along ξ)",
+        ));
     }
     if ah != Axis::Eta {
-        return Err(input(set_h, "this pattern set has its phase along ξ (vertical fringes); --patterns-h needs horizontal fringes (phase along η)"));
+        return Err(input(
+            set_h,
+            "this pattern set has its phase along ξ (vertical fringes); --patterns-h needs horizontal fringes (phase along η)",
+        ));
     }
     Ok(())
 }
@@ -350,7 +526,13 @@ pub fn calibrate_projector_files(
     check_axes(set_v, set_h)?;
     let lens = Lens::from_model(camera);
     if plate_dirs.len() < 2 {
-        return Err(CalibError::Input { what: "projector calibration".into(), message: format!("{} plate position(s) given; at least two are needed (paper §7)", plate_dirs.len()) });
+        return Err(CalibError::Input {
+            what: "projector calibration".into(),
+            message: format!(
+                "{} plate position(s) given; at least two are needed (paper §7)",
+                plate_dirs.len()
+            ),
+        });
     }
     let mut plates = Vec::new();
     let mut corners = Vec::new();
@@ -364,8 +546,11 @@ pub fn calibrate_projector_files(
     let angles = check_parallel(&plates, opts.max_plate_angle_deg)?;
     let independent: Vec<pose::PlanePose> = plates.iter().map(|p| p.pose.clone()).collect();
     let mut result = if opts.translated {
-        let (poses, cov) = pose::translated_board_poses(&lens, board, &corners)
-            .map_err(|e| CalibError::Degenerate { what: format!("joint board fit of the plate positions: {e}") })?;
+        let (poses, cov) = pose::translated_board_poses(&lens, board, &corners).map_err(|e| {
+            CalibError::Degenerate {
+                what: format!("joint board fit of the plate positions: {e}"),
+            }
+        })?;
         for (p, q) in plates.iter_mut().zip(poses) {
             p.pose = q;
         }
@@ -379,8 +564,17 @@ pub fn calibrate_projector_files(
         let pad = 0.1 * (b - a).max(10.0);
         [(a - pad).max(1.0), b + pad]
     });
-    let calibration = Calibration { version: 1, camera: camera.clone(), projector_center: result.center, reference: None, depth_range: dr, projector: None };
-    calibration.validate().map_err(|m| CalibError::Degenerate { what: format!("the resulting calibration: {m}") })?;
+    let calibration = Calibration {
+        version: 1,
+        camera: camera.clone(),
+        projector_center: result.center,
+        reference: None,
+        depth_range: dr,
+        projector: None,
+    };
+    calibration.validate().map_err(|m| CalibError::Degenerate {
+        what: format!("the resulting calibration: {m}"),
+    })?;
     let summary = plates
         .iter()
         .zip(&independent)
@@ -392,7 +586,11 @@ pub fn calibrate_projector_files(
                    "independent_fit": {"plane_point": ind.point(), "plane_normal": ind.normal(), "board_rms_px": ind.rms}})
         })
         .collect();
-    Ok(ProjectorRun { result, calibration, plates: summary })
+    Ok(ProjectorRun {
+        result,
+        calibration,
+        plates: summary,
+    })
 }
 
 /// Where the reference plane's pose comes from.
@@ -463,12 +661,27 @@ pub fn calibrate_reference_files(
     };
     let dec = decode_set(patterns, images)?;
     if (dec.width, dec.height) != (lens.width, lens.height) {
-        return Err(input(&dec.images[0], format!("{}x{} pixels, but the camera is {}x{}", dec.width, dec.height, lens.width, lens.height)));
+        return Err(input(
+            &dec.images[0],
+            format!(
+                "{}x{} pixels, but the camera is {}x{}",
+                dec.width, dec.height, lens.width, lens.height
+            ),
+        ));
     }
     if dec.valid_fraction < 0.05 {
-        return Err(input(&dec.images[0], format!("only {:.1} % of the reference images decode to a valid phase", 100.0 * dec.valid_fraction)));
+        return Err(input(
+            &dec.images[0],
+            format!(
+                "only {:.1} % of the reference images decode to a valid phase",
+                100.0 * dec.valid_fraction
+            ),
+        ));
     }
-    let dir = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|e| input(dir, format!("cannot create: {e}")))?;
     let map_path = dir.join(map_name);
     write_tiff_f32(&map_path, dec.width, dec.height, &dec.phase)?;
@@ -477,9 +690,19 @@ pub fn calibrate_reference_files(
     let pat_name = "reference_patterns.toml";
     pf.save(&dir.join(pat_name))?;
     let mut cal = calibration.clone();
-    cal.reference = Some(ReferencePlane { point: pose.point, normal: pose.normal, phase_map: PathBuf::from(map_name), pattern_set: Some(PathBuf::from(pat_name)) });
+    cal.reference = Some(ReferencePlane {
+        point: pose.point,
+        normal: pose.normal,
+        phase_map: PathBuf::from(map_name),
+        pattern_set: Some(PathBuf::from(pat_name)),
+    });
     cal.save(out)?;
-    Ok(ReferenceRun { plane: pose, calibration: cal, map_path, valid_fraction: dec.valid_fraction })
+    Ok(ReferenceRun {
+        plane: pose,
+        calibration: cal,
+        map_path,
+        valid_fraction: dec.valid_fraction,
+    })
 }
 
 /// Read a float phase map (TIFF).

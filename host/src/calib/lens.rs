@@ -17,7 +17,8 @@ use crate::io::calibration::CameraModel;
 pub const N_INTRINSICS: usize = 10;
 
 /// Names of the intrinsic parameters, in [`Lens::p`] order.
-pub const PARAM_NAMES: [&str; N_INTRINSICS] = ["fx", "fy", "skew", "cx", "cy", "k1", "k2", "p1", "p2", "k3"];
+pub const PARAM_NAMES: [&str; N_INTRINSICS] =
+    ["fx", "fy", "skew", "cx", "cy", "k1", "k2", "p1", "p2", "k3"];
 
 /// A pinhole camera with Brown distortion.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -43,7 +44,11 @@ impl Lens {
     /// The model of a calibration file's camera section.
     pub fn from_model(c: &CameraModel) -> Lens {
         let d = c.distortion;
-        Lens { width: c.width, height: c.height, p: [c.fx, c.fy, c.skew, c.cx, c.cy, d[0], d[1], d[2], d[3], d[4]] }
+        Lens {
+            width: c.width,
+            height: c.height,
+            p: [c.fx, c.fy, c.skew, c.cx, c.cy, d[0], d[1], d[2], d[3], d[4]],
+        }
     }
 
     /// The calibration file's form.
@@ -67,7 +72,10 @@ impl Lens {
         let [_, _, _, _, _, k1, k2, p1, p2, k3] = self.p;
         let r2 = x * x + y * y;
         let rad = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-        (x * rad + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x), y * rad + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y)
+        (
+            x * rad + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
+            y * rad + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y,
+        )
     }
 
     /// Normalized undistorted coordinates → pixel.
@@ -97,10 +105,19 @@ impl Lens {
         let dyd_dy = rad + 2.0 * y * y * drad + 6.0 * p1 * y + 2.0 * p2 * x;
         let u = fx * (xd + a * yd) + self.p[3];
         let v = fy * yd + self.p[4];
-        let d_xy = [[fx * (dxd_dx + a * dyd_dx), fx * (dxd_dy + a * dyd_dy)], [fy * dyd_dx, fy * dyd_dy]];
+        let d_xy = [
+            [fx * (dxd_dx + a * dyd_dx), fx * (dxd_dy + a * dyd_dy)],
+            [fy * dyd_dx, fy * dyd_dy],
+        ];
         // ∂(xd, yd)/∂(k1, k2, p1, p2, k3).
         let r4 = r2 * r2;
-        let dk = [(x * r2, y * r2), (x * r4, y * r4), (2.0 * x * y, r2 + 2.0 * y * y), (r2 + 2.0 * x * x, 2.0 * x * y), (x * r4 * r2, y * r4 * r2)];
+        let dk = [
+            (x * r2, y * r2),
+            (x * r4, y * r4),
+            (2.0 * x * y, r2 + 2.0 * y * y),
+            (r2 + 2.0 * x * x, 2.0 * x * y),
+            (x * r4 * r2, y * r4 * r2),
+        ];
         let mut d_intr = [[0.0; N_INTRINSICS]; 2];
         d_intr[0][0] = xd + a * yd;
         d_intr[0][2] = fx * yd;
@@ -157,7 +174,13 @@ mod tests {
     use super::*;
 
     fn lens() -> Lens {
-        Lens { width: 1280, height: 1024, p: [1550.0, 1545.0, 0.001, 642.25, 508.75, -0.085, 0.11, 0.0004, -0.0003, -0.02] }
+        Lens {
+            width: 1280,
+            height: 1024,
+            p: [
+                1550.0, 1545.0, 0.001, 642.25, 508.75, -0.085, 0.11, 0.0004, -0.0003, -0.02,
+            ],
+        }
     }
 
     #[test]
@@ -182,15 +205,28 @@ mod tests {
             b.p[k] -= hk;
             let (ua, va) = a.project(x, y);
             let (ub, vb) = b.project(x, y);
-            assert!(((ua - ub) / (2.0 * hk) - j.d_intr[0][k]).abs() < 1e-4 * (1.0 + j.d_intr[0][k].abs()), "u/{k}");
-            assert!(((va - vb) / (2.0 * hk) - j.d_intr[1][k]).abs() < 1e-4 * (1.0 + j.d_intr[1][k].abs()), "v/{k}");
+            assert!(
+                ((ua - ub) / (2.0 * hk) - j.d_intr[0][k]).abs()
+                    < 1e-4 * (1.0 + j.d_intr[0][k].abs()),
+                "u/{k}"
+            );
+            assert!(
+                ((va - vb) / (2.0 * hk) - j.d_intr[1][k]).abs()
+                    < 1e-4 * (1.0 + j.d_intr[1][k].abs()),
+                "v/{k}"
+            );
         }
     }
 
     #[test]
     fn undistort_inverts_project() {
         let l = lens();
-        for (u, v) in [(0.0, 0.0), (1279.0, 1023.0), (640.0, 512.0), (17.5, 1000.25)] {
+        for (u, v) in [
+            (0.0, 0.0),
+            (1279.0, 1023.0),
+            (640.0, 512.0),
+            (17.5, 1000.25),
+        ] {
             let (x, y) = l.undistort(u, v).unwrap();
             let (pu, pv) = l.project(x, y);
             assert!((pu - u).abs() < 1e-9 && (pv - v).abs() < 1e-9);

@@ -21,7 +21,11 @@ pub fn dot(a: V3, b: V3) -> f64 {
 /// a × b.
 #[inline]
 pub fn cross(a: V3, b: V3) -> V3 {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 /// a + b.
@@ -83,7 +87,11 @@ pub fn mm(a: &M3, b: &M3) -> M3 {
 
 /// Aᵀ.
 pub fn transpose(a: &M3) -> M3 {
-    [[a[0][0], a[1][0], a[2][0]], [a[0][1], a[1][1], a[2][1]], [a[0][2], a[1][2], a[2][2]]]
+    [
+        [a[0][0], a[1][0], a[2][0]],
+        [a[0][1], a[1][1], a[2][1]],
+        [a[0][2], a[1][2], a[2][2]],
+    ]
 }
 
 /// Column `j` of `a`.
@@ -106,7 +114,11 @@ pub fn inv3(a: &M3) -> Option<M3> {
     let c1 = cross(a[2], a[0]);
     let c2 = cross(a[0], a[1]);
     // The inverse's columns are the cofactor rows divided by det.
-    let inv = [[c0[0] / d, c1[0] / d, c2[0] / d], [c0[1] / d, c1[1] / d, c2[1] / d], [c0[2] / d, c1[2] / d, c2[2] / d]];
+    let inv = [
+        [c0[0] / d, c1[0] / d, c2[0] / d],
+        [c0[1] / d, c1[1] / d, c2[1] / d],
+        [c0[2] / d, c1[2] / d, c2[2] / d],
+    ];
     Some(inv)
 }
 
@@ -158,16 +170,36 @@ pub fn quat_from_rot(r: &M3) -> [f64; 4] {
     let t = r[0][0] + r[1][1] + r[2][2];
     let q = if t > 0.0 {
         let s = (t + 1.0).sqrt() * 2.0;
-        [0.25 * s, (r[2][1] - r[1][2]) / s, (r[0][2] - r[2][0]) / s, (r[1][0] - r[0][1]) / s]
+        [
+            0.25 * s,
+            (r[2][1] - r[1][2]) / s,
+            (r[0][2] - r[2][0]) / s,
+            (r[1][0] - r[0][1]) / s,
+        ]
     } else if r[0][0] > r[1][1] && r[0][0] > r[2][2] {
         let s = (1.0 + r[0][0] - r[1][1] - r[2][2]).sqrt() * 2.0;
-        [(r[2][1] - r[1][2]) / s, 0.25 * s, (r[0][1] + r[1][0]) / s, (r[0][2] + r[2][0]) / s]
+        [
+            (r[2][1] - r[1][2]) / s,
+            0.25 * s,
+            (r[0][1] + r[1][0]) / s,
+            (r[0][2] + r[2][0]) / s,
+        ]
     } else if r[1][1] > r[2][2] {
         let s = (1.0 + r[1][1] - r[0][0] - r[2][2]).sqrt() * 2.0;
-        [(r[0][2] - r[2][0]) / s, (r[0][1] + r[1][0]) / s, 0.25 * s, (r[1][2] + r[2][1]) / s]
+        [
+            (r[0][2] - r[2][0]) / s,
+            (r[0][1] + r[1][0]) / s,
+            0.25 * s,
+            (r[1][2] + r[2][1]) / s,
+        ]
     } else {
         let s = (1.0 + r[2][2] - r[0][0] - r[1][1]).sqrt() * 2.0;
-        [(r[1][0] - r[0][1]) / s, (r[0][2] + r[2][0]) / s, (r[1][2] + r[2][1]) / s, 0.25 * s]
+        [
+            (r[1][0] - r[0][1]) / s,
+            (r[0][2] + r[2][0]) / s,
+            (r[1][2] + r[2][1]) / s,
+            0.25 * s,
+        ]
     };
     let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
     let sg = if q[0] < 0.0 { -1.0 } else { 1.0 };
@@ -179,9 +211,21 @@ pub fn rot_from_quat(q: [f64; 4]) -> M3 {
     let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
     let [w, x, y, z] = [q[0] / n, q[1] / n, q[2] / n, q[3] / n];
     [
-        [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-        [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
-        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
     ]
 }
 
@@ -211,7 +255,9 @@ pub fn nearest_rotation(m: &M3) -> M3 {
         -sxx - syy + szz,
     ];
     let (vals, vecs) = sym_eigen(&n, 4);
-    let k = (0..4).max_by(|&a, &b| vals[a].total_cmp(&vals[b])).unwrap_or(3);
+    let k = (0..4)
+        .max_by(|&a, &b| vals[a].total_cmp(&vals[b]))
+        .unwrap_or(3);
     rot_from_quat([vecs[k], vecs[4 + k], vecs[8 + k], vecs[12 + k]])
 }
 
@@ -286,7 +332,9 @@ pub fn sym_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
 /// that eigenvalue.
 pub fn smallest_eigenvector(a: &[f64], n: usize) -> (Vec<f64>, f64) {
     let (vals, vecs) = sym_eigen(a, n);
-    let k = (0..n).min_by(|&x, &y| vals[x].total_cmp(&vals[y])).unwrap_or(0);
+    let k = (0..n)
+        .min_by(|&x, &y| vals[x].total_cmp(&vals[y]))
+        .unwrap_or(0);
     ((0..n).map(|i| vecs[i * n + k]).collect(), vals[k])
 }
 
@@ -357,7 +405,12 @@ mod tests {
 
     #[test]
     fn rodrigues_log_roundtrip() {
-        for w in [[0.1, -0.2, 0.3], [1e-9, 0.0, 2e-9], [2.0, 1.0, -0.5], [0.0, 3.1, 0.0]] {
+        for w in [
+            [0.1, -0.2, 0.3],
+            [1e-9, 0.0, 2e-9],
+            [2.0, 1.0, -0.5],
+            [0.0, 3.1, 0.0],
+        ] {
             let r = rodrigues(w);
             let (e, d) = {
                 let rt = mm(&transpose(&r), &r);
@@ -402,7 +455,11 @@ mod tests {
         let (vals, vecs) = sym_eigen(&a, 3);
         for k in 0..3 {
             let v = [vecs[k], vecs[3 + k], vecs[6 + k]];
-            let av = [dot([a[0], a[1], a[2]], v), dot([a[3], a[4], a[5]], v), dot([a[6], a[7], a[8]], v)];
+            let av = [
+                dot([a[0], a[1], a[2]], v),
+                dot([a[3], a[4], a[5]], v),
+                dot([a[6], a[7], a[8]], v),
+            ];
             assert!(norm(sub(av, scale(v, vals[k]))) < 1e-12);
         }
         let inv = spd_inverse(&a, 3).unwrap();

@@ -75,7 +75,11 @@ pub struct Options {
 
 impl Default for Options {
     fn default() -> Self {
-        Options { max_iterations: 200, cost_tolerance: 1e-14, step_tolerance: 1e-10 }
+        Options {
+            max_iterations: 200,
+            cost_tolerance: 1e-14,
+            step_tolerance: 1e-10,
+        }
     }
 }
 
@@ -151,13 +155,19 @@ pub fn solve<S: Clone>(
         let mut delta: Vec<f64> = g.iter().map(|x| -x).collect();
         cholesky_solve(&m, n, &mut delta);
         // Predicted decrease: δᵀ(μ D δ − g)·… (for the linear model).
-        let pred: f64 = (0..n).map(|i| delta[i] * (mu * diag[i] * delta[i] - g[i])).sum();
+        let pred: f64 = (0..n)
+            .map(|i| delta[i] * (mu * diag[i] * delta[i] - g[i]))
+            .sum();
         let cand = apply(&state, &delta);
         let small_step = (0..n).all(|i| (delta[i] * diag[i].sqrt()).abs() < opts.step_tolerance);
         match eval(&cand, true) {
             Some(ec) if ec.cost() < cost => {
                 let newc = ec.cost();
-                let rho = if pred > 0.0 { (cost - newc) / pred } else { 1.0 };
+                let rho = if pred > 0.0 {
+                    (cost - newc) / pred
+                } else {
+                    1.0
+                };
                 let rel = (cost - newc) / cost.max(1e-300);
                 state = cand;
                 e = ec;
@@ -186,7 +196,14 @@ pub fn solve<S: Clone>(
             }
         }
     }
-    Some(Solution { state, cost, residuals: e.r, jtj: a, iterations: it, converged })
+    Some(Solution {
+        state,
+        cost,
+        residuals: e.r,
+        jtj: a,
+        iterations: it,
+        converged,
+    })
 }
 
 #[cfg(test)]
@@ -200,7 +217,10 @@ mod tests {
         let xs: Vec<f64> = (0..30).map(|i| i as f64 * 0.2).collect();
         let ys: Vec<f64> = xs.iter().map(|x| a0 * (b0 * x).exp() + c0).collect();
         let eval = |p: &Vec<f64>, _j: bool| -> Option<Eval> {
-            let mut e = Eval { width: 3, ..Default::default() };
+            let mut e = Eval {
+                width: 3,
+                ..Default::default()
+            };
             for (x, y) in xs.iter().zip(&ys) {
                 let ex = (p[1] * x).exp();
                 e.r.push(p[0] * ex + p[2] - y);
@@ -209,9 +229,16 @@ mod tests {
             }
             Some(e)
         };
-        let apply = |p: &Vec<f64>, d: &[f64]| p.iter().zip(d).map(|(a, b)| a + b).collect::<Vec<f64>>();
+        let apply =
+            |p: &Vec<f64>, d: &[f64]| p.iter().zip(d).map(|(a, b)| a + b).collect::<Vec<f64>>();
         let s = solve(vec![1.0, 0.0, 0.0], 3, eval, apply, Options::default()).unwrap();
         assert!(s.converged);
-        assert!((s.state[0] - a0).abs() < 1e-8 && (s.state[1] - b0).abs() < 1e-8 && (s.state[2] - c0).abs() < 1e-8, "{:?}", s.state);
+        assert!(
+            (s.state[0] - a0).abs() < 1e-8
+                && (s.state[1] - b0).abs() < 1e-8
+                && (s.state[2] - c0).abs() < 1e-8,
+            "{:?}",
+            s.state
+        );
     }
 }

@@ -28,7 +28,11 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum CalibError {
     /// Not enough usable checkerboard views.
-    #[error("too few usable views: {usable} (need at least {needed}, taken from different angles){}{}", list_used(used), list(rejected))]
+    #[error(
+        "too few usable views: {usable} (need at least {needed}, taken from different angles){}{}",
+        list_used(used),
+        list(rejected)
+    )]
     TooFewViews {
         /// Views usable.
         usable: usize,
@@ -62,7 +66,9 @@ pub enum CalibError {
         message: String,
     },
     /// Two plate positions are not parallel.
-    #[error("plates {a} and {b} are not parallel: their normals differ by {angle_deg:.3} degrees (limit {limit_deg} degrees; the method of paper §7 translates the plate without turning it)")]
+    #[error(
+        "plates {a} and {b} are not parallel: their normals differ by {angle_deg:.3} degrees (limit {limit_deg} degrees; the method of paper §7 translates the plate without turning it)"
+    )]
     NotParallel {
         /// One plate.
         a: String,
@@ -74,7 +80,9 @@ pub enum CalibError {
         limit_deg: f64,
     },
     /// The plate positions' phase maps do not overlap.
-    #[error("the plate positions' phase maps do not overlap enough to match points ({detail}); the plates must be lit by the same projector area and seen by the camera at every position")]
+    #[error(
+        "the plate positions' phase maps do not overlap enough to match points ({detail}); the plates must be lit by the same projector area and seen by the camera at every position"
+    )]
     NoOverlap {
         /// Per pair: matched pixels.
         detail: String,
@@ -91,9 +99,17 @@ pub enum CalibError {
 }
 
 fn list_used(v: &[String]) -> String {
-    if v.is_empty() { String::new() } else { format!("; usable: {}", v.join(", ")) }
+    if v.is_empty() {
+        String::new()
+    } else {
+        format!("; usable: {}", v.join(", "))
+    }
 }
 
 fn list(v: &[String]) -> String {
-    if v.is_empty() { String::new() } else { format!("; left out: {}", v.join("; ")) }
+    if v.is_empty() {
+        String::new()
+    } else {
+        format!("; left out: {}", v.join("; "))
+    }
 }

@@ -30,7 +30,11 @@ impl PlanePose {
     /// The plane's unit normal, pointing towards the camera.
     pub fn normal(&self) -> V3 {
         let n = column(&self.rotation, 2);
-        if dot(n, self.translation) > 0.0 { scale(n, -1.0) } else { n }
+        if dot(n, self.translation) > 0.0 {
+            scale(n, -1.0)
+        } else {
+            n
+        }
     }
 
     /// A point of the plane (the board origin).
@@ -67,7 +71,11 @@ pub enum PoseError {
 }
 
 /// The pose of `board` from its detected `corners` (object-point order) with a calibrated lens.
-pub fn board_pose(lens: &Lens, board: &Board, corners: &[[f64; 2]]) -> Result<PlanePose, PoseError> {
+pub fn board_pose(
+    lens: &Lens,
+    board: &Board,
+    corners: &[[f64; 2]],
+) -> Result<PlanePose, PoseError> {
     let obj = board.object_points();
     if corners.len() != obj.len() || obj.len() < 4 {
         return Err(PoseError::Degenerate);
@@ -75,12 +83,19 @@ pub fn board_pose(lens: &Lens, board: &Board, corners: &[[f64; 2]]) -> Result<Pl
     let norm_pts: Vec<[f64; 2]> = corners
         .iter()
         .enumerate()
-        .map(|(i, c)| lens.undistort(c[0], c[1]).map(|(x, y)| [x, y]).ok_or(PoseError::Undistort(i)))
+        .map(|(i, c)| {
+            lens.undistort(c[0], c[1])
+                .map(|(x, y)| [x, y])
+                .ok_or(PoseError::Undistort(i))
+        })
         .collect::<Result<_, _>>()?;
     let h = zhang::homography(&obj, &norm_pts).ok_or(PoseError::Degenerate)?;
     let (r0, t0) = zhang::pose_from_homography(&h).ok_or(PoseError::Degenerate)?;
     let eval = |s: &(M3, V3), _j: bool| -> Option<Eval> {
-        let mut e = Eval { width: 6, ..Default::default() };
+        let mut e = Eval {
+            width: 6,
+            ..Default::default()
+        };
         for (o, c) in obj.iter().zip(corners) {
             let rx = mv(&s.0, [o[0], o[1], 0.0]);
             let xc = add(rx, s.1);
@@ -105,8 +120,14 @@ pub fn board_pose(lens: &Lens, board: &Board, corners: &[[f64; 2]]) -> Result<Pl
         }
         Some(e)
     };
-    let apply = |s: &(M3, V3), d: &[f64]| (mm(&rodrigues([d[0], d[1], d[2]]), &s.0), add(s.1, [d[3], d[4], d[5]]));
-    let sol = lm::solve((r0, t0), 6, eval, apply, lm::Options::default()).ok_or(PoseError::Refine)?;
+    let apply = |s: &(M3, V3), d: &[f64]| {
+        (
+            mm(&rodrigues([d[0], d[1], d[2]]), &s.0),
+            add(s.1, [d[3], d[4], d[5]]),
+        )
+    };
+    let sol =
+        lm::solve((r0, t0), 6, eval, apply, lm::Options::default()).ok_or(PoseError::Refine)?;
     let cov = sol.covariance(6).unwrap_or_else(|| vec![0.0; 36]);
     let m = sol.residuals.len();
     Ok(PlanePose {
@@ -140,10 +161,17 @@ pub fn ray_dir_plane(d: V3, o: V3, n: V3) -> Option<V3> {
 /// shared by all views and a translation per view, fitted jointly to all corners. Returns the poses
 /// (each with the marginal covariance of `(δω, δt_k)`) and the joint covariance of
 /// `(δω, δt_1, …, δt_n)` (`(3 + 3n)²`, row-major).
-pub fn translated_board_poses(lens: &Lens, board: &Board, views: &[Vec<[f64; 2]>]) -> Result<(Vec<PlanePose>, Vec<f64>), PoseError> {
+pub fn translated_board_poses(
+    lens: &Lens,
+    board: &Board,
+    views: &[Vec<[f64; 2]>],
+) -> Result<(Vec<PlanePose>, Vec<f64>), PoseError> {
     let n = views.len();
     let obj = board.object_points();
-    let single: Vec<PlanePose> = views.iter().map(|c| board_pose(lens, board, c)).collect::<Result<_, _>>()?;
+    let single: Vec<PlanePose> = views
+        .iter()
+        .map(|c| board_pose(lens, board, c))
+        .collect::<Result<_, _>>()?;
     // Start: the mean rotation.
     let mut sum = [[0.0; 3]; 3];
     for p in &single {
@@ -157,7 +185,10 @@ pub fn translated_board_poses(lens: &Lens, board: &Board, views: &[Vec<[f64; 2]>
     let t0: Vec<V3> = single.iter().map(|p| p.translation).collect();
     let np = 3 + 3 * n;
     let eval = |s: &(M3, Vec<V3>), _j: bool| -> Option<Eval> {
-        let mut e = Eval { width: 6, ..Default::default() };
+        let mut e = Eval {
+            width: 6,
+            ..Default::default()
+        };
         for (k, corners) in views.iter().enumerate() {
             for (o, c) in obj.iter().zip(corners) {
                 let rx = mv(&s.0, [o[0], o[1], 0.0]);
@@ -186,16 +217,23 @@ pub fn translated_board_poses(lens: &Lens, board: &Board, views: &[Vec<[f64; 2]>
     };
     let apply = |s: &(M3, Vec<V3>), d: &[f64]| {
         let r = mm(&rodrigues([d[0], d[1], d[2]]), &s.0);
-        let t = s.1.iter().enumerate().map(|(k, t)| add(*t, [d[3 + 3 * k], d[4 + 3 * k], d[5 + 3 * k]])).collect();
+        let t =
+            s.1.iter()
+                .enumerate()
+                .map(|(k, t)| add(*t, [d[3 + 3 * k], d[4 + 3 * k], d[5 + 3 * k]]))
+                .collect();
         (r, t)
     };
-    let sol = lm::solve((r0, t0), np, eval, apply, lm::Options::default()).ok_or(PoseError::Refine)?;
+    let sol =
+        lm::solve((r0, t0), np, eval, apply, lm::Options::default()).ok_or(PoseError::Refine)?;
     let cov = sol.covariance(np).unwrap_or_else(|| vec![0.0; np * np]);
     let per = obj.len();
     let poses = (0..n)
         .map(|k| {
             let idx = [0, 1, 2, 3 + 3 * k, 4 + 3 * k, 5 + 3 * k];
-            let ss: f64 = (0..2 * per).map(|i| sol.residuals[2 * per * k + i].powi(2)).sum();
+            let ss: f64 = (0..2 * per)
+                .map(|i| sol.residuals[2 * per * k + i].powi(2))
+                .sum();
             PlanePose {
                 rotation: sol.state.0,
                 translation: sol.state.1[k],

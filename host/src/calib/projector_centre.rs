@@ -63,7 +63,15 @@ pub struct ProjectorOptions {
 
 impl Default for ProjectorOptions {
     fn default() -> Self {
-        ProjectorOptions { stride: 2, max_plate_angle_deg: 2.0, outlier_sigmas: 4.0, min_pair_lines: 200, blocks: 4, erode: 2, translated: true }
+        ProjectorOptions {
+            stride: 2,
+            max_plate_angle_deg: 2.0,
+            outlier_sigmas: 4.0,
+            min_pair_lines: 200,
+            blocks: 4,
+            erode: 2,
+            translated: true,
+        }
     }
 }
 
@@ -173,7 +181,12 @@ fn intersect(lines: &[Line], keep: &[bool], weights: &[f64]) -> Option<V3> {
 /// Validity after erosion: finite in both maps with every pixel within `r` finite too.
 fn eroded_valid(p: &PlateObservation, r: usize) -> Vec<bool> {
     let (w, h) = (p.width, p.height);
-    let ok: Vec<bool> = p.phase_v.iter().zip(&p.phase_h).map(|(a, b)| a.is_finite() && b.is_finite()).collect();
+    let ok: Vec<bool> = p
+        .phase_v
+        .iter()
+        .zip(&p.phase_h)
+        .map(|(a, b)| a.is_finite() && b.is_finite())
+        .collect();
     if r == 0 {
         return ok;
     }
@@ -207,25 +220,51 @@ struct Predictor {
 }
 
 fn terms(a: f64, b: f64) -> [f64; 10] {
-    [1.0, a, b, a * a, a * b, b * b, a * a * a, a * a * b, a * b * b, b * b * b]
+    [
+        1.0,
+        a,
+        b,
+        a * a,
+        a * b,
+        b * b,
+        a * a * a,
+        a * a * b,
+        a * b * b,
+        b * b * b,
+    ]
 }
 
 impl Predictor {
     fn fit(p: &PlateObservation, valid: &[bool]) -> Option<Predictor> {
         let w = p.width;
-        let idx: Vec<usize> = (0..valid.len()).filter(|&i| valid[i] && (i % w).is_multiple_of(4) && (i / w).is_multiple_of(4)).collect();
+        let idx: Vec<usize> = (0..valid.len())
+            .filter(|&i| valid[i] && (i % w).is_multiple_of(4) && (i / w).is_multiple_of(4))
+            .collect();
         if idx.len() < 30 {
             return None;
         }
         let n = idx.len() as f64;
-        let mean = [idx.iter().map(|&i| p.phase_v[i] as f64).sum::<f64>() / n, idx.iter().map(|&i| p.phase_h[i] as f64).sum::<f64>() / n];
-        let sd = |m: f64, f: &dyn Fn(usize) -> f64| (idx.iter().map(|&i| (f(i) - m).powi(2)).sum::<f64>() / n).sqrt().max(1e-9);
-        let scale = [sd(mean[0], &|i| p.phase_v[i] as f64), sd(mean[1], &|i| p.phase_h[i] as f64)];
+        let mean = [
+            idx.iter().map(|&i| p.phase_v[i] as f64).sum::<f64>() / n,
+            idx.iter().map(|&i| p.phase_h[i] as f64).sum::<f64>() / n,
+        ];
+        let sd = |m: f64, f: &dyn Fn(usize) -> f64| {
+            (idx.iter().map(|&i| (f(i) - m).powi(2)).sum::<f64>() / n)
+                .sqrt()
+                .max(1e-9)
+        };
+        let scale = [
+            sd(mean[0], &|i| p.phase_v[i] as f64),
+            sd(mean[1], &|i| p.phase_h[i] as f64),
+        ];
         let mut ata = vec![0.0; 100];
         let mut bu = [0.0; 10];
         let mut bv = [0.0; 10];
         for &i in &idx {
-            let t = terms((p.phase_v[i] as f64 - mean[0]) / scale[0], (p.phase_h[i] as f64 - mean[1]) / scale[1]);
+            let t = terms(
+                (p.phase_v[i] as f64 - mean[0]) / scale[0],
+                (p.phase_h[i] as f64 - mean[1]) / scale[1],
+            );
             let (u, v) = ((i % w) as f64, (i / w) as f64);
             for r in 0..10 {
                 bu[r] += t[r] * u;
@@ -241,23 +280,43 @@ impl Predictor {
         }
         super::linalg::cholesky_solve(&l, 10, &mut bu);
         super::linalg::cholesky_solve(&l, 10, &mut bv);
-        Some(Predictor { mean, scale, cu: bu, cv: bv })
+        Some(Predictor {
+            mean,
+            scale,
+            cu: bu,
+            cv: bv,
+        })
     }
 
     fn predict(&self, pv: f64, ph: f64) -> (f64, f64) {
-        let t = terms((pv - self.mean[0]) / self.scale[0], (ph - self.mean[1]) / self.scale[1]);
-        (t.iter().zip(&self.cu).map(|(a, b)| a * b).sum(), t.iter().zip(&self.cv).map(|(a, b)| a * b).sum())
+        let t = terms(
+            (pv - self.mean[0]) / self.scale[0],
+            (ph - self.mean[1]) / self.scale[1],
+        );
+        (
+            t.iter().zip(&self.cu).map(|(a, b)| a * b).sum(),
+            t.iter().zip(&self.cv).map(|(a, b)| a * b).sum(),
+        )
     }
 }
 
 /// The sub-pixel point of `plate` where the bilinearly interpolated phase maps equal
 /// `(pv, ph)`: the intersection of the two contour lines, found cell by cell from `guess`.
-pub fn invert_bilinear(plate: &PlateObservation, valid: &[bool], pv: f64, ph: f64, guess: (f64, f64)) -> Option<(f64, f64)> {
+pub fn invert_bilinear(
+    plate: &PlateObservation,
+    valid: &[bool],
+    pv: f64,
+    ph: f64,
+    guess: (f64, f64),
+) -> Option<(f64, f64)> {
     let (w, h) = (plate.width as isize, plate.height as isize);
     if !(guess.0.is_finite() && guess.1.is_finite()) {
         return None;
     }
-    let (mut cx, mut cy) = (guess.0.floor().clamp(-1e6, 1e6) as isize, guess.1.floor().clamp(-1e6, 1e6) as isize);
+    let (mut cx, mut cy) = (
+        guess.0.floor().clamp(-1e6, 1e6) as isize,
+        guess.1.floor().clamp(-1e6, 1e6) as isize,
+    );
     let mut visited = 0;
     while visited < 24 {
         visited += 1;
@@ -280,7 +339,12 @@ pub fn invert_bilinear(plate: &PlateObservation, valid: &[bool], pv: f64, ph: f6
         for _ in 0..12 {
             let f = a[0] + a[1] * s + a[2] * t + a[3] * s * t - pv;
             let k = b[0] + b[1] * s + b[2] * t + b[3] * s * t - ph;
-            let (j11, j12, j21, j22) = (a[1] + a[3] * t, a[2] + a[3] * s, b[1] + b[3] * t, b[2] + b[3] * s);
+            let (j11, j12, j21, j22) = (
+                a[1] + a[3] * t,
+                a[2] + a[3] * s,
+                b[1] + b[3] * t,
+                b[2] + b[3] * s,
+            );
             let det = j11 * j22 - j12 * j21;
             if !(det.abs() > 1e-18) {
                 break;
@@ -304,7 +368,15 @@ pub fn invert_bilinear(plate: &PlateObservation, valid: &[bool], pv: f64, ph: f6
         if (-eps..=1.0 + eps).contains(&s) && (-eps..=1.0 + eps).contains(&t) {
             return Some((cx as f64 + s, cy as f64 + t));
         }
-        let step = |x: f64| if x < 0.0 { (x.floor() as isize).max(-4) } else if x > 1.0 { (x.floor() as isize).min(4) } else { 0 };
+        let step = |x: f64| {
+            if x < 0.0 {
+                (x.floor() as isize).max(-4)
+            } else if x > 1.0 {
+                (x.floor() as isize).min(4)
+            } else {
+                0
+            }
+        };
         cx += step(s);
         cy += step(t);
     }
@@ -313,7 +385,10 @@ pub fn invert_bilinear(plate: &PlateObservation, valid: &[bool], pv: f64, ph: f6
 
 /// The angles between the plates' normals (each pair once), and an error if one exceeds
 /// `max_deg` or two positions are less than 5 mm apart.
-pub fn check_parallel(plates: &[PlateObservation], max_deg: f64) -> Result<Vec<(String, String, f64)>, CalibError> {
+pub fn check_parallel(
+    plates: &[PlateObservation],
+    max_deg: f64,
+) -> Result<Vec<(String, String, f64)>, CalibError> {
     let mut angles = Vec::new();
     for a in 0..plates.len() {
         for b in a + 1..plates.len() {
@@ -321,13 +396,24 @@ pub fn check_parallel(plates: &[PlateObservation], max_deg: f64) -> Result<Vec<(
             let ang = c.acos().to_degrees();
             angles.push((plates[a].name.clone(), plates[b].name.clone(), ang));
             if ang > max_deg {
-                return Err(CalibError::NotParallel { a: plates[a].name.clone(), b: plates[b].name.clone(), angle_deg: ang, limit_deg: max_deg });
+                return Err(CalibError::NotParallel {
+                    a: plates[a].name.clone(),
+                    b: plates[b].name.clone(),
+                    angle_deg: ang,
+                    limit_deg: max_deg,
+                });
             }
-            let gap = dot(plates[a].pose.normal(), sub(plates[b].pose.point(), plates[a].pose.point())).abs();
+            let gap = dot(
+                plates[a].pose.normal(),
+                sub(plates[b].pose.point(), plates[a].pose.point()),
+            )
+            .abs();
             if gap < 5.0 {
                 return Err(CalibError::Input {
                     what: format!("plates {} and {}", plates[a].name, plates[b].name),
-                    message: format!("the two positions are only {gap:.1} mm apart; move the plate by at least a few centimetres"),
+                    message: format!(
+                        "the two positions are only {gap:.1} mm apart; move the plate by at least a few centimetres"
+                    ),
                 });
             }
         }
@@ -340,24 +426,49 @@ pub fn check_parallel(plates: &[PlateObservation], max_deg: f64) -> Result<Vec<(
 /// `shared_covariance`: when the plate poses come from a joint fit with one rotation
 /// ([`super::pose::translated_board_poses`]), its covariance of `(δω, δt_1, …, δt_n)`; `None` when
 /// each plate's pose (and covariance) is its own.
-pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOptions, shared_covariance: Option<&[f64]>) -> Result<ProjectorCentre, CalibError> {
+pub fn estimate(
+    lens: &Lens,
+    plates: &[PlateObservation],
+    opts: &ProjectorOptions,
+    shared_covariance: Option<&[f64]>,
+) -> Result<ProjectorCentre, CalibError> {
     if plates.len() < 2 {
-        return Err(CalibError::Input { what: "projector calibration".into(), message: format!("{} plate position(s) given; at least two are needed (paper §7)", plates.len()) });
+        return Err(CalibError::Input {
+            what: "projector calibration".into(),
+            message: format!(
+                "{} plate position(s) given; at least two are needed (paper §7)",
+                plates.len()
+            ),
+        });
     }
     for p in plates {
-        if p.width != lens.width as usize || p.height != lens.height as usize || p.phase_v.len() != p.width * p.height || p.phase_h.len() != p.width * p.height {
+        if p.width != lens.width as usize
+            || p.height != lens.height as usize
+            || p.phase_v.len() != p.width * p.height
+            || p.phase_h.len() != p.width * p.height
+        {
             return Err(CalibError::Input {
                 what: p.name.clone(),
-                message: format!("phase maps are {}x{}, the calibrated camera is {}x{}", p.width, p.height, lens.width, lens.height),
+                message: format!(
+                    "phase maps are {}x{}, the calibrated camera is {}x{}",
+                    p.width, p.height, lens.width, lens.height
+                ),
             });
         }
     }
     let angles = check_parallel(plates, opts.max_plate_angle_deg)?;
     let valid: Vec<Vec<bool>> = plates.iter().map(|p| eroded_valid(p, opts.erode)).collect();
-    let preds: Vec<Option<Predictor>> = plates.iter().zip(&valid).map(|(p, v)| Predictor::fit(p, v)).collect();
+    let preds: Vec<Option<Predictor>> = plates
+        .iter()
+        .zip(&valid)
+        .map(|(p, v)| Predictor::fit(p, v))
+        .collect();
     for (p, pr) in plates.iter().zip(&preds) {
         if pr.is_none() {
-            return Err(CalibError::Input { what: p.name.clone(), message: "too few pixels with valid vertical and horizontal phases".into() });
+            return Err(CalibError::Input {
+                what: p.name.clone(),
+                message: "too few pixels with valid vertical and horizontal phases".into(),
+            });
         }
     }
     let (w, h) = (plates[0].width, plates[0].height);
@@ -372,7 +483,11 @@ pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOption
             let (ns, os) = (ps.pose.normal(), ps.pose.point());
             let (nt, ot) = (pt.pose.normal(), pt.pose.point());
             let pred = preds[b].as_ref().expect("checked");
-            let pix: Vec<(usize, usize)> = (0..h).step_by(stride).flat_map(|y| (0..w).step_by(stride).map(move |x| (x, y))).filter(|&(x, y)| valid[a][y * w + x]).collect();
+            let pix: Vec<(usize, usize)> = (0..h)
+                .step_by(stride)
+                .flat_map(|y| (0..w).step_by(stride).map(move |x| (x, y)))
+                .filter(|&(x, y)| valid[a][y * w + x])
+                .collect();
             let sampled = pix.len();
             let pair = pairs.len();
             let found: Vec<Line> = pix
@@ -388,11 +503,25 @@ pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOption
                     let dt = [tx, ty, 1.0];
                     let s = ray_dir_plane(ds, os, ns)?;
                     let t = ray_dir_plane(dt, ot, nt)?;
-                    (norm(sub(t, s)) > 1e-6).then_some(Line { ds, dt, s, t, pair, block: (y * nb / h) * nb + x * nb / w })
+                    (norm(sub(t, s)) > 1e-6).then_some(Line {
+                        ds,
+                        dt,
+                        s,
+                        t,
+                        pair,
+                        block: (y * nb / h) * nb + x * nb / w,
+                    })
                 })
                 .collect();
             let matched = found.len();
-            pairs.push(PairStats { s: ps.name.clone(), t: pt.name.clone(), sampled, matched, used: 0, rms_distance_mm: f64::NAN });
+            pairs.push(PairStats {
+                s: ps.name.clone(),
+                t: pt.name.clone(),
+                sampled,
+                matched,
+                used: 0,
+                rms_distance_mm: f64::NAN,
+            });
             pair_of.push((a, b));
             if matched >= opts.min_pair_lines {
                 lines.extend(found);
@@ -400,43 +529,83 @@ pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOption
         }
     }
     if lines.len() < opts.min_pair_lines.max(10) {
-        let detail: Vec<String> = pairs.iter().map(|p| format!("{} -> {}: {} of {} pixels matched", p.s, p.t, p.matched, p.sampled)).collect();
-        return Err(CalibError::NoOverlap { detail: detail.join("; ") });
+        let detail: Vec<String> = pairs
+            .iter()
+            .map(|p| {
+                format!(
+                    "{} -> {}: {} of {} pixels matched",
+                    p.s, p.t, p.matched, p.sampled
+                )
+            })
+            .collect();
+        return Err(CalibError::NoOverlap {
+            detail: detail.join("; "),
+        });
     }
     // Robust weighted intersection.
     let n = lines.len();
     let mut keep = vec![true; n];
     let mut weights = vec![1.0; n];
-    let mut p = intersect(&lines, &keep, &weights).ok_or_else(|| CalibError::Degenerate { what: "the plate lines are all parallel".into() })?;
+    let mut p = intersect(&lines, &keep, &weights).ok_or_else(|| CalibError::Degenerate {
+        what: "the plate lines are all parallel".into(),
+    })?;
     for _round in 0..3 {
         weights = lines.iter().map(|l| weight(p, l)).collect();
-        p = intersect(&lines, &keep, &weights).ok_or_else(|| CalibError::Degenerate { what: "the plate lines are all parallel".into() })?;
+        p = intersect(&lines, &keep, &weights).ok_or_else(|| CalibError::Degenerate {
+            what: "the plate lines are all parallel".into(),
+        })?;
         // Normalised residuals r·√w.
-        let r: Vec<f64> = lines.iter().zip(&weights).map(|(l, w)| distance(p, l.s, dir(l)) * w.sqrt()).collect();
-        let mut kr: Vec<f64> = r.iter().zip(&keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect();
+        let r: Vec<f64> = lines
+            .iter()
+            .zip(&weights)
+            .map(|(l, w)| distance(p, l.s, dir(l)) * w.sqrt())
+            .collect();
+        let mut kr: Vec<f64> = r
+            .iter()
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(x, _)| *x)
+            .collect();
         kr.sort_by(f64::total_cmp);
         let med = kr[kr.len() / 2];
         let thr = opts.outlier_sigmas * 1.4826 * med;
         for (k, ri) in keep.iter_mut().zip(&r) {
             *k = *ri <= thr.max(1e-12);
         }
-        p = intersect(&lines, &keep, &weights).ok_or_else(|| CalibError::Degenerate { what: "the plate lines are all parallel".into() })?;
+        p = intersect(&lines, &keep, &weights).ok_or_else(|| CalibError::Degenerate {
+            what: "the plate lines are all parallel".into(),
+        })?;
     }
     weights = lines.iter().map(|l| weight(p, l)).collect();
-    p = intersect(&lines, &keep, &weights).ok_or_else(|| CalibError::Degenerate { what: "the plate lines are all parallel".into() })?;
+    p = intersect(&lines, &keep, &weights).ok_or_else(|| CalibError::Degenerate {
+        what: "the plate lines are all parallel".into(),
+    })?;
     let used = keep.iter().filter(|k| **k).count();
     if used < 10 {
-        return Err(CalibError::Degenerate { what: "too few consistent plate lines".into() });
+        return Err(CalibError::Degenerate {
+            what: "too few consistent plate lines".into(),
+        });
     }
     // Statistics.
     let dists: Vec<f64> = lines.iter().map(|l| distance(p, l.s, dir(l))).collect();
-    let mut kd: Vec<f64> = dists.iter().zip(&keep).filter(|(_, k)| **k).map(|(d, _)| *d).collect();
+    let mut kd: Vec<f64> = dists
+        .iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(d, _)| *d)
+        .collect();
     let rms = (kd.iter().map(|d| d * d).sum::<f64>() / kd.len() as f64).sqrt();
     kd.sort_by(f64::total_cmp);
     let median = kd[kd.len() / 2];
     let maxd = kd[kd.len() - 1];
     for (pi, ps) in pairs.iter_mut().enumerate() {
-        let d: Vec<f64> = lines.iter().zip(&keep).zip(&dists).filter(|((l, k), _)| **k && l.pair == pi).map(|(_, d)| *d).collect();
+        let d: Vec<f64> = lines
+            .iter()
+            .zip(&keep)
+            .zip(&dists)
+            .filter(|((l, k), _)| **k && l.pair == pi)
+            .map(|(_, d)| *d)
+            .collect();
         ps.used = d.len();
         if !d.is_empty() {
             ps.rms_distance_mm = (d.iter().map(|x| x * x).sum::<f64>() / d.len() as f64).sqrt();
@@ -454,7 +623,9 @@ pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOption
     }
     let s2 = wss / (used as f64 - 3.0);
     let inv_a = super::linalg::inv3(&[[a[0], a[1], a[2]], [a[3], a[4], a[5]], [a[6], a[7], a[8]]]);
-    let std_formal = inv_a.map(|m| [0, 1, 2].map(|i| (s2 * m[i][i]).max(0.0).sqrt())).unwrap_or([f64::NAN; 3]);
+    let std_formal = inv_a
+        .map(|m| [0, 1, 2].map(|i| (s2 * m[i][i]).max(0.0).sqrt()))
+        .unwrap_or([f64::NAN; 3]);
     // Block jackknife.
     let nbl = nb * nb;
     let mut ab = vec![[0.0; 9]; nbl];
@@ -523,7 +694,9 @@ pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOption
         }
     };
     if cov_params.len() != np * np {
-        return Err(CalibError::Degenerate { what: "plate pose covariance of the wrong size".into() });
+        return Err(CalibError::Degenerate {
+            what: "plate pose covariance of the wrong size".into(),
+        });
     }
     let moved = |param: usize, h: f64| -> Vec<PlanePose> {
         let mut out = base.clone();
@@ -549,8 +722,18 @@ pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOption
     let mut jac = vec![[0.0; 3]; np];
     for (q, jq) in jac.iter_mut().enumerate() {
         let sdq = cov_params[q * np + q].max(0.0).sqrt();
-        let is_rot = if shared_covariance.is_some() { q < 3 } else { q % 6 < 3 };
-        let hk = if sdq > 0.0 { sdq } else if is_rot { 1e-5 } else { 1e-3 };
+        let is_rot = if shared_covariance.is_some() {
+            q < 3
+        } else {
+            q % 6 < 3
+        };
+        let hk = if sdq > 0.0 {
+            sdq
+        } else if is_rot {
+            1e-5
+        } else {
+            1e-3
+        };
         if let (Some(a1), Some(a2)) = (resolve(&moved(q, hk)), resolve(&moved(q, -hk))) {
             for i in 0..3 {
                 jq[i] = (a1[i] - a2[i]) / (2.0 * hk);
@@ -571,8 +754,16 @@ pub fn estimate(lens: &Lens, plates: &[PlateObservation], opts: &ProjectorOption
     }
     let cov: [f64; 9] = std::array::from_fn(|i| cov_lines[i] + cov_pose[i]);
     let sd = |c: &[f64; 9]| [0, 1, 2].map(|i| c[i * 3 + i].max(0.0).sqrt());
-    let zs: Vec<f64> = lines.iter().zip(&keep).filter(|(_, k)| **k).flat_map(|(l, _)| [l.s[2], l.t[2]]).collect();
-    let z_range = [zs.iter().cloned().fold(f64::INFINITY, f64::min), zs.iter().cloned().fold(f64::NEG_INFINITY, f64::max)];
+    let zs: Vec<f64> = lines
+        .iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .flat_map(|(l, _)| [l.s[2], l.t[2]])
+        .collect();
+    let z_range = [
+        zs.iter().cloned().fold(f64::INFINITY, f64::min),
+        zs.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+    ];
     Ok(ProjectorCentre {
         center: p,
         std: sd(&cov),

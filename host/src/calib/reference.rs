@@ -29,7 +29,13 @@ impl ReferencePose {
         if super::linalg::dot(n, point) > 0.0 {
             n = scale(n, -1.0);
         }
-        (super::linalg::dot(n, point).abs() > 1e-6).then_some(ReferencePose { point, normal: n, boards: Vec::new(), distance_std_mm: 0.0, tilt_std_deg: 0.0 })
+        (super::linalg::dot(n, point).abs() > 1e-6).then_some(ReferencePose {
+            point,
+            normal: n,
+            boards: Vec::new(),
+            distance_std_mm: 0.0,
+            tilt_std_deg: 0.0,
+        })
     }
 
     /// The plane of one or more boards lying on it, seen by the calibrated `lens`, moved by
@@ -38,11 +44,19 @@ impl ReferencePose {
     /// plane, turned as they come) are combined: the normal is their inverse-variance weighted
     /// mean, the distance the weighted mean of their distances along it, O_R the centroid of the
     /// board origins projected onto the plane.
-    pub fn from_boards(lens: &Lens, board: &Board, corners: &[Vec<[f64; 2]>], offset_mm: f64) -> Result<ReferencePose, PoseError> {
+    pub fn from_boards(
+        lens: &Lens,
+        board: &Board,
+        corners: &[Vec<[f64; 2]>],
+        offset_mm: f64,
+    ) -> Result<ReferencePose, PoseError> {
         if corners.is_empty() {
             return Err(PoseError::Degenerate);
         }
-        let poses: Vec<PlanePose> = corners.iter().map(|c| board_pose(lens, board, c)).collect::<Result<_, _>>()?;
+        let poses: Vec<PlanePose> = corners
+            .iter()
+            .map(|c| board_pose(lens, board, c))
+            .collect::<Result<_, _>>()?;
         // Per board: normal, tilt variance (rad²), distance variance (mm²).
         let stats: Vec<(V3, f64, f64)> = poses
             .iter()
@@ -50,7 +64,10 @@ impl ReferencePose {
                 let n = p.normal();
                 let c = &p.covariance;
                 let var_rot: f64 = (0..3).map(|i| c[i * 6 + i]).sum();
-                let var_about_n: f64 = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| n[i] * c[i * 6 + j] * n[j]).sum();
+                let var_about_n: f64 = (0..3)
+                    .flat_map(|i| (0..3).map(move |j| (i, j)))
+                    .map(|(i, j)| n[i] * c[i * 6 + j] * n[j])
+                    .sum();
                 let mut var_d = 0.0;
                 for i in 0..3 {
                     for j in 0..3 {

@@ -18,14 +18,27 @@ impl Canvas {
     /// A gray image stretched from its 1st to 99th percentile, dimmed to `brightness` (0..1) so
     /// that drawings stand out.
     pub fn from_gray(width: usize, height: usize, data: &[f32], brightness: f32) -> Canvas {
-        let mut s: Vec<f32> = data.iter().step_by(5).cloned().filter(|x| x.is_finite()).collect();
+        let mut s: Vec<f32> = data
+            .iter()
+            .step_by(5)
+            .cloned()
+            .filter(|x| x.is_finite())
+            .collect();
         s.sort_by(f32::total_cmp);
-        let q = |p: f64| s.get(((s.len().max(1) - 1) as f64 * p) as usize).cloned().unwrap_or(0.0);
+        let q = |p: f64| {
+            s.get(((s.len().max(1) - 1) as f64 * p) as usize)
+                .cloned()
+                .unwrap_or(0.0)
+        };
         let (lo, hi) = (q(0.01), q(0.99));
         let span = if hi > lo { hi - lo } else { 1.0 };
         let mut rgb = Vec::with_capacity(width * height * 3);
         for &v in data {
-            let g = if v.is_finite() { (((v - lo) / span).clamp(0.0, 1.0) * 255.0 * brightness) as u8 } else { 0 };
+            let g = if v.is_finite() {
+                (((v - lo) / span).clamp(0.0, 1.0) * 255.0 * brightness) as u8
+            } else {
+                0
+            };
             rgb.extend([g, g, g]);
         }
         Canvas { width, height, rgb }
@@ -44,7 +57,11 @@ impl Canvas {
         let n = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()).ceil() as usize).clamp(1, 20000);
         for k in 0..=n {
             let t = k as f64 / n as f64;
-            self.put((a[0] + t * (b[0] - a[0])).round() as i64, (a[1] + t * (b[1] - a[1])).round() as i64, c);
+            self.put(
+                (a[0] + t * (b[0] - a[0])).round() as i64,
+                (a[1] + t * (b[1] - a[1])).round() as i64,
+                c,
+            );
         }
     }
 
@@ -64,7 +81,14 @@ impl Canvas {
             let h = 3.0f64.min(0.3 * l);
             for s in [1.0, -1.0] {
                 let w = [-u[1] * s, u[0] * s];
-                self.line(b, [b[0] - h * u[0] + h * 0.6 * w[0], b[1] - h * u[1] + h * 0.6 * w[1]], c);
+                self.line(
+                    b,
+                    [
+                        b[0] - h * u[0] + h * 0.6 * w[0],
+                        b[1] - h * u[1] + h * 0.6 * w[1],
+                    ],
+                    c,
+                );
             }
         }
     }
@@ -84,17 +108,34 @@ pub fn nice_scale(typical: f64, target_px: f64) -> f64 {
     let e = raw.log10().floor();
     let base = 10f64.powf(e);
     let m = raw / base;
-    let k = if m >= 5.0 { 5.0 } else if m >= 2.0 { 2.0 } else { 1.0 };
+    let k = if m >= 5.0 {
+        5.0
+    } else if m >= 2.0 {
+        2.0
+    } else {
+        1.0
+    };
     k * base
 }
 
 /// Draw a view: detected corners (green crosses), residuals (projected − detected) magnified by
 /// `scale` (red arrows), the board's first corner (cyan ring: the origin of the labelling) and a
 /// scale bar of 0.1 px × `scale` (yellow, bottom left).
-pub fn view_picture(width: usize, height: usize, image: &[f32], corners: &[[f64; 2]], residuals: &[[f64; 2]], scale: f64) -> Canvas {
+pub fn view_picture(
+    width: usize,
+    height: usize,
+    image: &[f32],
+    corners: &[[f64; 2]],
+    residuals: &[[f64; 2]],
+    scale: f64,
+) -> Canvas {
     let mut c = Canvas::from_gray(width, height, image, 0.6);
     for (p, r) in corners.iter().zip(residuals) {
-        c.arrow(*p, [p[0] + scale * r[0], p[1] + scale * r[1]], [255, 40, 40]);
+        c.arrow(
+            *p,
+            [p[0] + scale * r[0], p[1] + scale * r[1]],
+            [255, 40, 40],
+        );
     }
     for p in corners {
         c.cross(*p, 2.0, [40, 255, 40]);
@@ -102,7 +143,11 @@ pub fn view_picture(width: usize, height: usize, image: &[f32], corners: &[[f64;
     if let Some(o) = corners.first() {
         for k in 0..32 {
             let a = k as f64 * std::f64::consts::TAU / 32.0;
-            c.put((o[0] + 6.0 * a.cos()).round() as i64, (o[1] + 6.0 * a.sin()).round() as i64, [0, 220, 255]);
+            c.put(
+                (o[0] + 6.0 * a.cos()).round() as i64,
+                (o[1] + 6.0 * a.sin()).round() as i64,
+                [0, 220, 255],
+            );
         }
     }
     let y = height as f64 - 12.0;

@@ -3,15 +3,24 @@
 //! estimates it needs. These give the starting point of the bundle adjustment ([`super::camera`]);
 //! lens distortion is ignored here (it starts at zero).
 
-use super::linalg::{M3, V3, cross, inv3, mm, mv, nearest_rotation, norm, scale, smallest_eigenvector};
+use super::linalg::{
+    M3, V3, cross, inv3, mm, mv, nearest_rotation, norm, scale, smallest_eigenvector,
+};
 
 /// A homography: `[u, v, 1]ᵀ ∝ H [X, Y, 1]ᵀ`.
 pub type Homography = M3;
 
 fn normalizer(pts: &[[f64; 2]]) -> Option<M3> {
     let n = pts.len() as f64;
-    let m = [pts.iter().map(|p| p[0]).sum::<f64>() / n, pts.iter().map(|p| p[1]).sum::<f64>() / n];
-    let d = pts.iter().map(|p| ((p[0] - m[0]).powi(2) + (p[1] - m[1]).powi(2)).sqrt()).sum::<f64>() / n;
+    let m = [
+        pts.iter().map(|p| p[0]).sum::<f64>() / n,
+        pts.iter().map(|p| p[1]).sum::<f64>() / n,
+    ];
+    let d = pts
+        .iter()
+        .map(|p| ((p[0] - m[0]).powi(2) + (p[1] - m[1]).powi(2)).sqrt())
+        .sum::<f64>()
+        / n;
     if !(d > 0.0 && d.is_finite()) {
         return None;
     }
@@ -45,7 +54,11 @@ pub fn homography(src: &[[f64; 2]], dst: &[[f64; 2]]) -> Option<Homography> {
     let (h, _) = smallest_eigenvector(&ata, 9);
     let hn = [[h[0], h[1], h[2]], [h[3], h[4], h[5]], [h[6], h[7], h[8]]];
     let h = mm(&inv3(&td)?, &mm(&hn, &ts));
-    let s = if h[2][2].abs() > 1e-12 { 1.0 / h[2][2] } else { 1.0 / norm(h[2]) };
+    let s = if h[2][2].abs() > 1e-12 {
+        1.0 / h[2][2]
+    } else {
+        1.0 / norm(h[2])
+    };
     let out = h.map(|row| row.map(|x| x * s));
     out.iter().flatten().all(|x| x.is_finite()).then_some(out)
 }
@@ -54,7 +67,14 @@ fn vij(h: &M3, i: usize, j: usize) -> [f64; 6] {
     // Columns of H: h_k = (H[0][k], H[1][k], H[2][k]).
     let a = [h[0][i], h[1][i], h[2][i]];
     let b = [h[0][j], h[1][j], h[2][j]];
-    [a[0] * b[0], a[0] * b[1] + a[1] * b[0], a[1] * b[1], a[2] * b[0] + a[0] * b[2], a[2] * b[1] + a[1] * b[2], a[2] * b[2]]
+    [
+        a[0] * b[0],
+        a[0] * b[1] + a[1] * b[0],
+        a[1] * b[1],
+        a[2] * b[0] + a[0] * b[2],
+        a[2] * b[1] + a[1] * b[2],
+        a[2] * b[2],
+    ]
 }
 
 /// Intrinsics `(fx, fy, γ, u0, v0)` from three or more homographies (γ = α·fx is Zhang's skew in
@@ -62,8 +82,17 @@ fn vij(h: &M3, i: usize, j: usize) -> [f64; 6] {
 /// pre-scaled about `centre` by `half_size` for conditioning. Falls back to a principal point at
 /// `centre` and square-free focal lengths when the closed form is not positive definite (too little
 /// perspective in the views). `None` if nothing works.
-pub fn intrinsics(hs: &[Homography], zero_skew: bool, centre: [f64; 2], half_size: f64) -> Option<[f64; 5]> {
-    let nrm: M3 = [[1.0 / half_size, 0.0, -centre[0] / half_size], [0.0, 1.0 / half_size, -centre[1] / half_size], [0.0, 0.0, 1.0]];
+pub fn intrinsics(
+    hs: &[Homography],
+    zero_skew: bool,
+    centre: [f64; 2],
+    half_size: f64,
+) -> Option<[f64; 5]> {
+    let nrm: M3 = [
+        [1.0 / half_size, 0.0, -centre[0] / half_size],
+        [0.0, 1.0 / half_size, -centre[1] / half_size],
+        [0.0, 0.0, 1.0],
+    ];
     let hn: Vec<M3> = hs.iter().map(|h| mm(&nrm, h)).collect();
     let closed = || -> Option<[f64; 5]> {
         let mut vtv = [0.0; 36];
@@ -76,7 +105,10 @@ pub fn intrinsics(hs: &[Homography], zero_skew: bool, centre: [f64; 2], half_siz
         };
         for h in &hn {
             // Each homography's columns are scaled to unit norm for balance.
-            let s = 1.0 / norm([h[0][0], h[1][0], h[2][0]]).max(norm([h[0][1], h[1][1], h[2][1]])).max(1e-300);
+            let s = 1.0
+                / norm([h[0][0], h[1][0], h[2][0]])
+                    .max(norm([h[0][1], h[1][1], h[2][1]]))
+                    .max(1e-300);
             let h = h.map(|r| r.map(|x| x * s));
             let v12 = vij(&h, 0, 1);
             let v11 = vij(&h, 0, 0);
@@ -114,7 +146,11 @@ pub fn intrinsics(hs: &[Homography], zero_skew: bool, centre: [f64; 2], half_siz
             let c = |k: usize| [h[0][k], h[1][k], h[2][k]];
             let (h1, h2) = (c(0), c(1));
             let r1 = [h1[0] * h2[0], h1[1] * h2[1], h1[2] * h2[2]];
-            let r2 = [h1[0] * h1[0] - h2[0] * h2[0], h1[1] * h1[1] - h2[1] * h2[1], h1[2] * h1[2] - h2[2] * h2[2]];
+            let r2 = [
+                h1[0] * h1[0] - h2[0] * h2[0],
+                h1[1] * h1[1] - h2[1] * h2[1],
+                h1[2] * h1[2] - h2[2] * h2[2],
+            ];
             for i in 0..3 {
                 for j in 0..3 {
                     m[i * 3 + j] += r1[i] * r1[j] + r2[i] * r2[j];
@@ -125,10 +161,18 @@ pub fn intrinsics(hs: &[Homography], zero_skew: bool, centre: [f64; 2], half_siz
         let (fx2, fy2) = (b[2] / b[0], b[2] / b[1]);
         (fx2 > 0.0 && fy2 > 0.0).then(|| [fx2.sqrt(), fy2.sqrt(), 0.0, 0.0, 0.0])
     };
-    let k = closed().filter(|k| k.iter().all(|x| x.is_finite()) && k[3].abs() < 1.0 && k[4].abs() < 1.0).or_else(fallback)?;
+    let k = closed()
+        .filter(|k| k.iter().all(|x| x.is_finite()) && k[3].abs() < 1.0 && k[4].abs() < 1.0)
+        .or_else(fallback)?;
     // Undo the normalisation: A = N⁻¹ A'.
     let [a, b, g, u0, v0] = k;
-    let out = [a * half_size, b * half_size, g * half_size, u0 * half_size + centre[0], v0 * half_size + centre[1]];
+    let out = [
+        a * half_size,
+        b * half_size,
+        g * half_size,
+        u0 * half_size + centre[0],
+        v0 * half_size + centre[1],
+    ];
     out.iter().all(|x| x.is_finite()).then_some(out)
 }
 
@@ -147,7 +191,11 @@ pub fn pose_from_homography(h: &Homography) -> Option<(M3, V3)> {
     let r2 = scale(h2, sgn * l);
     let t = scale(h3, sgn * l);
     let r3 = cross(r1, r2);
-    let m = [[r1[0], r2[0], r3[0]], [r1[1], r2[1], r3[1]], [r1[2], r2[2], r3[2]]];
+    let m = [
+        [r1[0], r2[0], r3[0]],
+        [r1[1], r2[1], r3[1]],
+        [r1[2], r2[2], r3[2]],
+    ];
     Some((nearest_rotation(&m), t))
 }
 
@@ -167,9 +215,16 @@ mod tests {
     fn closed_form_recovers_a_distortion_free_camera() {
         let k = [1500.0, 1490.0, 0.0, 640.0, 500.0];
         let km: M3 = [[k[0], k[2], k[3]], [0.0, k[1], k[4]], [0.0, 0.0, 1.0]];
-        let board: Vec<[f64; 2]> = (0..7).flat_map(|j| (0..10).map(move |i| [i as f64 * 25.0 - 112.5, j as f64 * 25.0 - 75.0])).collect();
+        let board: Vec<[f64; 2]> = (0..7)
+            .flat_map(|j| (0..10).map(move |i| [i as f64 * 25.0 - 112.5, j as f64 * 25.0 - 75.0]))
+            .collect();
         let mut hs = Vec::new();
-        for (w, t) in [([0.3, 0.1, 0.05], [10.0, -20.0, 600.0]), ([-0.2, 0.35, -0.1], [-40.0, 10.0, 550.0]), ([0.1, -0.4, 0.2], [30.0, 30.0, 650.0]), ([-0.35, -0.2, 0.0], [0.0, 0.0, 700.0])] {
+        for (w, t) in [
+            ([0.3, 0.1, 0.05], [10.0, -20.0, 600.0]),
+            ([-0.2, 0.35, -0.1], [-40.0, 10.0, 550.0]),
+            ([0.1, -0.4, 0.2], [30.0, 30.0, 650.0]),
+            ([-0.35, -0.2, 0.0], [0.0, 0.0, 700.0]),
+        ] {
             let r = rodrigues(w);
             let img: Vec<[f64; 2]> = board
                 .iter()

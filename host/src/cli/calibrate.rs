@@ -61,12 +61,14 @@ impl BoardArgs {
 
 /// Arguments of `fringe3d calibrate camera`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example:\n  fringe3d calibrate camera data/checkerboard/ --board 11x8 --square 25 -o camera.yml\n\n\
+#[command(
+    after_help = "Example:\n  fringe3d calibrate camera data/checkerboard/ --board 11x8 --square 25 -o camera.yml\n\n\
 IMAGES: board images (PNG/TIFF/BMP), or one folder (every image in it, sorted by name). The whole\n\
 board must be in view; views without it are left out with the reason. Writes the camera as an\n\
 OpenCV FileStorage YAML file (K[0][1] = skew·fx, distortion [k1, k2, p1, p2, k3]) and a report\n\
 folder: report.json (intrinsics with standard deviations, per-view RMS, rejected views) and a PNG\n\
-per view with the detected corners and the residual vectors magnified.")]
+per view with the detected corners and the residual vectors magnified."
+)]
 pub struct CameraArgs {
     /// Board images, or one folder.
     #[arg(required = true)]
@@ -96,13 +98,15 @@ pub struct CameraArgs {
 
 /// Arguments of `fringe3d calibrate projector`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example:\n  fringe3d calibrate projector data/plates/plate_00 data/plates/plate_01 data/plates/plate_02 \\\n      \
+#[command(
+    after_help = "Example:\n  fringe3d calibrate projector data/plates/plate_00 data/plates/plate_01 data/plates/plate_02 \\\n      \
 --camera-from camera.yml --board 9x7 --square 30 -o calibration.toml\n\n\
 PLATES: one folder per plate position (far to near or any order), each holding v/ (the images of the\n\
 vertical-fringe set, phase along ξ), h/ (horizontal fringes, phase along η) and board.png (the board\n\
 printed on the plate, same pose). The positions must be parallel (the plate translated, not turned).\n\
 Writes the calibration file (camera, projector_center P, depth_range; no reference yet) and\n\
-OUT's name with `_projector.json` (P's uncertainty, line residuals, per-pair statistics).")]
+OUT's name with `_projector.json` (P's uncertainty, line residuals, per-pair statistics)."
+)]
 pub struct ProjectorArgs {
     /// Plate-position folders (two or more).
     #[arg(required = true)]
@@ -140,13 +144,15 @@ pub struct ProjectorArgs {
 
 /// Arguments of `fringe3d calibrate reference`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example:\n  fringe3d calibrate reference data/ref/ --patterns data/ref/patterns.toml --calibration calibration.toml \\\n      \
+#[command(
+    after_help = "Example:\n  fringe3d calibrate reference data/ref/ --patterns data/ref/patterns.toml --calibration calibration.toml \\\n      \
 --board-image data/ref/board.png --board 11x8 --square 25\n\n\
 IMAGES: the reference plane's fringe images in set order, or one folder (the pattern file's `images`\n\
 names inside it, else every image sorted by name); none: the pattern file's own `images` list.\n\
 The plane's pose comes from a board lying on it (--board-image; --board-offset for its thickness) or\n\
 is given (--plane-point and --plane-normal, camera frame, mm). Writes reference_phase.tif and\n\
-reference_patterns.toml beside OUT and OUT itself (the calibration with its [reference] section).")]
+reference_patterns.toml beside OUT and OUT itself (the calibration with its [reference] section)."
+)]
 pub struct ReferenceArgs {
     /// The reference plane's fringe images, or one folder.
     pub images: Vec<PathBuf>,
@@ -192,27 +198,41 @@ pub fn run(a: CalibrateArgs, g: Global) -> Result<()> {
 /// Create the folder an output file goes into (after the computation succeeded: no partial output).
 fn make_parent(out: &Path) -> Result<()> {
     if let Some(d) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d).with_context(|| format!("{}: cannot create the output folder", d.display()))?;
+        std::fs::create_dir_all(d)
+            .with_context(|| format!("{}: cannot create the output folder", d.display()))?;
     }
     Ok(())
 }
 
 fn sibling(out: &Path, suffix: &str) -> PathBuf {
-    let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("calibration");
+    let stem = out
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("calibration");
     out.with_file_name(format!("{stem}{suffix}"))
 }
 
 fn camera(a: CameraArgs, g: Global) -> Result<()> {
     let board = a.board.get("calibrate camera")?;
     let paths = files::image_list(&a.images)?;
-    let opts = CameraOptions { fix_skew: a.fix_skew, fix_k3: a.fix_k3, fix_tangential: a.fix_tangential, outlier_factor: a.outlier_factor, ..Default::default() };
+    let opts = CameraOptions {
+        fix_skew: a.fix_skew,
+        fix_k3: a.fix_k3,
+        fix_tangential: a.fix_tangential,
+        outlier_factor: a.outlier_factor,
+        ..Default::default()
+    };
     let pb = common::progress(paths.len() as u64, "corners", g.quiet || g.json);
     let inc = |n: u64| pb.inc(n);
-    let (cal, dv) = files::calibrate_camera_files(&paths, &board, &DetectOptions::default(), &opts, &inc)?;
+    let (cal, dv) =
+        files::calibrate_camera_files(&paths, &board, &DetectOptions::default(), &opts, &inc)?;
     pb.finish_and_clear();
     make_parent(&a.out)?;
     files::write_opencv_yaml(&a.out, &cal, &board)?;
-    let report_dir = a.report.clone().unwrap_or_else(|| sibling(&a.out, "_report"));
+    let report_dir = a
+        .report
+        .clone()
+        .unwrap_or_else(|| sibling(&a.out, "_report"));
     let report = files::write_camera_report(&report_dir, &cal, &dv, &board)?;
     if g.json {
         let mut j = report;
@@ -221,50 +241,105 @@ fn camera(a: CameraArgs, g: Global) -> Result<()> {
         j["report_dir"] = json!(report_dir);
         println!("{}", serde_json::to_string_pretty(&j)?);
     } else if !g.quiet {
-        println!("{} of {} views used ({} corners each); overall reprojection RMS {:.4} px (corner noise σ ≈ {:.4} px)", cal.views.len(), paths.len(), board.corner_count(), cal.rms, cal.sigma);
+        println!(
+            "{} of {} views used ({} corners each); overall reprojection RMS {:.4} px (corner noise σ ≈ {:.4} px)",
+            cal.views.len(),
+            paths.len(),
+            board.corner_count(),
+            cal.rms,
+            cal.sigma
+        );
         for (k, n) in PARAM_NAMES.iter().enumerate() {
             println!("  {n:>4} = {:>14.6} ± {:.6}", cal.lens.p[k], cal.std[k]);
         }
         for v in &cal.views {
-            println!("  view {}: RMS {:.4} px, max {:.4} px", v.name, v.rms, v.max);
+            println!(
+                "  view {}: RMS {:.4} px, max {:.4} px",
+                v.name, v.rms, v.max
+            );
         }
         for r in &cal.rejected {
             println!("  left out {}: {}", r.name, r.reason);
         }
-        println!("wrote {} and {}/ (report.json, a picture per view)", a.out.display(), report_dir.display());
+        println!(
+            "wrote {} and {}/ (report.json, a picture per view)",
+            a.out.display(),
+            report_dir.display()
+        );
     }
     Ok(())
 }
 
 fn parse3(s: &str, what: &str) -> Result<[f64; 3]> {
-    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().with_context(|| format!("{what} {s:?}: expected X,Y,Z"))?;
-    let [x, y, z] = v[..] else { bail!("{what} {s:?}: expected three numbers X,Y,Z") };
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{what} {s:?}: expected X,Y,Z"))?;
+    let [x, y, z] = v[..] else {
+        bail!("{what} {s:?}: expected three numbers X,Y,Z")
+    };
     Ok([x, y, z])
 }
 
 fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
     let board = a.board.get("calibrate projector")?;
     if a.plates.len() < 2 {
-        bail!("calibrate projector: {} plate folder(s) given; at least two plate positions are needed (paper §7)", a.plates.len());
+        bail!(
+            "calibrate projector: {} plate folder(s) given; at least two plate positions are needed (paper §7)",
+            a.plates.len()
+        );
     }
-    let base = a.plates[0].parent().map(Path::to_path_buf).unwrap_or_default();
-    let set_v = a.patterns_v.clone().unwrap_or_else(|| base.join("patterns_v.toml"));
-    let set_h = a.patterns_h.clone().unwrap_or_else(|| base.join("patterns_h.toml"));
+    let base = a.plates[0]
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_default();
+    let set_v = a
+        .patterns_v
+        .clone()
+        .unwrap_or_else(|| base.join("patterns_v.toml"));
+    let set_h = a
+        .patterns_h
+        .clone()
+        .unwrap_or_else(|| base.join("patterns_h.toml"));
     // The image size, to complete camera files that do not state it.
-    let size = crate::io::image::read_gray(&a.plates[0].join("board.png")).ok().map(|(i, _)| (i.width, i.height));
+    let size = crate::io::image::read_gray(&a.plates[0].join("board.png"))
+        .ok()
+        .map(|(i, _)| (i.width, i.height));
     let camera = files::load_camera(&a.camera_from, size)?;
     let depth = match &a.depth_range {
         Some(s) => {
-            let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().with_context(|| format!("--depth-range {s:?}: expected MIN,MAX in mm"))?;
-            let [z0, z1] = v[..] else { bail!("--depth-range {s:?}: expected MIN,MAX") };
+            let v: Vec<f64> = s
+                .split(',')
+                .map(|x| x.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .with_context(|| format!("--depth-range {s:?}: expected MIN,MAX in mm"))?;
+            let [z0, z1] = v[..] else {
+                bail!("--depth-range {s:?}: expected MIN,MAX")
+            };
             Some([z0, z1])
         }
         None => None,
     };
-    let opts = ProjectorOptions { stride: a.stride.max(1), max_plate_angle_deg: a.max_plate_angle, translated: !a.independent_plates, ..Default::default() };
+    let opts = ProjectorOptions {
+        stride: a.stride.max(1),
+        max_plate_angle_deg: a.max_plate_angle,
+        translated: !a.independent_plates,
+        ..Default::default()
+    };
     let pb = common::progress(a.plates.len() as u64, "plates", g.quiet || g.json);
     let inc = |n: u64| pb.inc(n);
-    let run = files::calibrate_projector_files(&camera, &a.plates, &set_v, &set_h, &board, &DetectOptions::default(), &opts, depth, &inc)?;
+    let run = files::calibrate_projector_files(
+        &camera,
+        &a.plates,
+        &set_v,
+        &set_h,
+        &board,
+        &DetectOptions::default(),
+        &opts,
+        depth,
+        &inc,
+    )?;
     pb.finish_and_clear();
     make_parent(&a.out)?;
     run.calibration.save(&a.out)?;
@@ -279,16 +354,35 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
     } else if !g.quiet {
         let r = &run.result;
         let [x, y, z] = r.center;
-        println!("P = ({x:.4}, {y:.4}, {z:.4}) mm ± ({:.4}, {:.4}, {:.4}) mm (lines {:.4}/{:.4}/{:.4}, plate poses {:.4}/{:.4}/{:.4})",
-            r.std[0], r.std[1], r.std[2], r.std_lines[0], r.std_lines[1], r.std_lines[2], r.std_poses[0], r.std_poses[1], r.std_poses[2]);
-        println!("{} lines ({} rejected): distance from P RMS {:.4} mm, median {:.4} mm, max {:.4} mm", r.lines, r.rejected, r.rms_distance_mm, r.median_distance_mm, r.max_distance_mm);
+        println!(
+            "P = ({x:.4}, {y:.4}, {z:.4}) mm ± ({:.4}, {:.4}, {:.4}) mm (lines {:.4}/{:.4}/{:.4}, plate poses {:.4}/{:.4}/{:.4})",
+            r.std[0],
+            r.std[1],
+            r.std[2],
+            r.std_lines[0],
+            r.std_lines[1],
+            r.std_lines[2],
+            r.std_poses[0],
+            r.std_poses[1],
+            r.std_poses[2]
+        );
+        println!(
+            "{} lines ({} rejected): distance from P RMS {:.4} mm, median {:.4} mm, max {:.4} mm",
+            r.lines, r.rejected, r.rms_distance_mm, r.median_distance_mm, r.max_distance_mm
+        );
         for p in &r.pairs {
-            println!("  {} -> {}: {} of {} sampled pixels matched, {} used, RMS {:.4} mm", p.s, p.t, p.matched, p.sampled, p.used, p.rms_distance_mm);
+            println!(
+                "  {} -> {}: {} of {} sampled pixels matched, {} used, RMS {:.4} mm",
+                p.s, p.t, p.matched, p.sampled, p.used, p.rms_distance_mm
+            );
         }
         for (a_, b_, ang) in &r.plate_angles_deg {
             println!("  angle between {a_} and {b_}: {ang:.4} degrees");
         }
-        println!("depth range [{:.1}, {:.1}] mm", run.calibration.depth_range[0], run.calibration.depth_range[1]);
+        println!(
+            "depth range [{:.1}, {:.1}] mm",
+            run.calibration.depth_range[0], run.calibration.depth_range[1]
+        );
         println!("wrote {} and {}", a.out.display(), rp.display());
     }
     Ok(())
@@ -298,13 +392,32 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
     let cal = Calibration::load(&a.calibration)?;
     let imgs = !a.board_image.is_empty();
     let plane = match (imgs, &a.plane_point, &a.plane_normal) {
-        (true, None, None) => PlaneSource::Board { images: a.board_image.clone(), board: a.board.get("--board-image")?, offset_mm: a.board_offset },
-        (false, Some(p), Some(n)) => PlaneSource::Given { point: parse3(p, "--plane-point")?, normal: parse3(n, "--plane-normal")? },
-        (false, None, None) => bail!("calibrate reference: give the plane's pose, either --board-image (with --board, --square) or --plane-point and --plane-normal"),
-        _ => bail!("calibrate reference: give either --board-image or both --plane-point and --plane-normal, not a mix"),
+        (true, None, None) => PlaneSource::Board {
+            images: a.board_image.clone(),
+            board: a.board.get("--board-image")?,
+            offset_mm: a.board_offset,
+        },
+        (false, Some(p), Some(n)) => PlaneSource::Given {
+            point: parse3(p, "--plane-point")?,
+            normal: parse3(n, "--plane-normal")?,
+        },
+        (false, None, None) => bail!(
+            "calibrate reference: give the plane's pose, either --board-image (with --board, --square) or --plane-point and --plane-normal"
+        ),
+        _ => bail!(
+            "calibrate reference: give either --board-image or both --plane-point and --plane-normal, not a mix"
+        ),
     };
     let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
-    let run = files::calibrate_reference_files(&cal, &out, &a.patterns, &a.images, &plane, &DetectOptions::default(), &a.map)?;
+    let run = files::calibrate_reference_files(
+        &cal,
+        &out,
+        &a.patterns,
+        &a.images,
+        &plane,
+        &DetectOptions::default(),
+        &a.map,
+    )?;
     let j = json!({"command": "calibrate reference", "out": out, "map": run.map_path, "valid_fraction": run.valid_fraction,
         "plane": run.plane});
     if g.json {
@@ -313,10 +426,24 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
         let p = &run.plane;
         println!(
             "reference plane O_R = ({:.4}, {:.4}, {:.4}) mm, n_R = ({:.6}, {:.6}, {:.6}); distance σ {:.4} mm, tilt σ {:.5} degrees",
-            p.point[0], p.point[1], p.point[2], p.normal[0], p.normal[1], p.normal[2], p.distance_std_mm, p.tilt_std_deg
+            p.point[0],
+            p.point[1],
+            p.point[2],
+            p.normal[0],
+            p.normal[1],
+            p.normal[2],
+            p.distance_std_mm,
+            p.tilt_std_deg
         );
-        println!("phase map: {:.1} % of the pixels valid", 100.0 * run.valid_fraction);
-        println!("wrote {} (with {} and reference_patterns.toml beside it)", out.display(), a.map);
+        println!(
+            "phase map: {:.1} % of the pixels valid",
+            100.0 * run.valid_fraction
+        );
+        println!(
+            "wrote {} (with {} and reference_patterns.toml beside it)",
+            out.display(),
+            a.map
+        );
     }
     Ok(())
 }

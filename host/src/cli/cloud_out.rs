@@ -27,7 +27,11 @@ pub struct CloudArgs {
 }
 
 /// Apply the depth-edge filter unless `--no-edge-filter`.
-pub fn apply_edge_filter(args: &CloudArgs, cal: &crate::scan::ScanCalibration, cloud: &mut PointCloud) -> Result<()> {
+pub fn apply_edge_filter(
+    args: &CloudArgs,
+    cal: &crate::scan::ScanCalibration,
+    cloud: &mut PointCloud,
+) -> Result<()> {
     if !args.no_edge_filter {
         let f = cal.edge_filter(args.max_angle)?;
         crate::scan::filter_edges(cloud, &f);
@@ -37,7 +41,13 @@ pub fn apply_edge_filter(args: &CloudArgs, cal: &crate::scan::ScanCalibration, c
 
 /// Write `cloud` with per-pixel intensity (A) and modulation (B) as `args` say. Returns the
 /// number of vertices written.
-pub fn write_cloud(args: &CloudArgs, cloud: &PointCloud, intensity: &[f32], modulation: &[f32], comments: Vec<String>) -> Result<u64> {
+pub fn write_cloud(
+    args: &CloudArgs,
+    cloud: &PointCloud,
+    intensity: &[f32],
+    modulation: &[f32],
+    comments: Vec<String>,
+) -> Result<u64> {
     let (w, h) = (cloud.width, cloud.height);
     let xyz: &[[f32; 3]] = bytemuck_xyz(&cloud.xyz);
     let row = |v: usize| PointRow {
@@ -47,7 +57,12 @@ pub fn write_cloud(args: &CloudArgs, cloud: &PointCloud, intensity: &[f32], modu
         modulation: &modulation[v * w..(v + 1) * w],
         validity: &cloud.validity[v * w..(v + 1) * w],
     };
-    let is_xyz = args.out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("xyz")).unwrap_or(false);
+    let is_xyz = args
+        .out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.eq_ignore_ascii_case("xyz"))
+        .unwrap_or(false);
     if is_xyz {
         let mut wr = XyzWriter::create(&args.out)?;
         for v in 0..h {
@@ -56,7 +71,11 @@ pub fn write_cloud(args: &CloudArgs, cloud: &PointCloud, intensity: &[f32], modu
         return Ok(wr.finish()?);
     }
     let opts = PlyOptions {
-        encoding: if args.ascii { PlyEncoding::Ascii } else { PlyEncoding::BinaryLittleEndian },
+        encoding: if args.ascii {
+            PlyEncoding::Ascii
+        } else {
+            PlyEncoding::BinaryLittleEndian
+        },
         comments,
         ..PlyOptions::default()
     };
@@ -78,4 +97,3 @@ fn bytemuck_xyz(flat: &[f32]) -> &[[f32; 3]] {
     let (chunks, _) = flat.as_chunks::<3>();
     chunks
 }
-

@@ -23,7 +23,11 @@ pub struct LoadedSet {
 pub fn load_set(path: &Path) -> Result<LoadedSet> {
     let file = PatternSetFile::load(path)?;
     let set = file.to_pattern_set()?;
-    Ok(LoadedSet { path: path.to_path_buf(), file, set })
+    Ok(LoadedSet {
+        path: path.to_path_buf(),
+        file,
+        set,
+    })
 }
 
 /// The image files of a scan: an explicit ordered list, or one folder (the pattern file's
@@ -40,10 +44,19 @@ pub fn resolve_images(set: &LoadedSet, args: &[PathBuf]) -> Result<(Vec<PathBuf>
             ),
         },
         [dir] if dir.is_dir() => match &set.file.images {
-            Some(names) => Ok((names.iter().map(|n| dir.join(n)).collect(), format!("{} (names from {})", dir.display(), set.path.display()))),
-            None => Ok((image_set::list_folder(dir)?, format!("folder {}", dir.display()))),
+            Some(names) => Ok((
+                names.iter().map(|n| dir.join(n)).collect(),
+                format!("{} (names from {})", dir.display(), set.path.display()),
+            )),
+            None => Ok((
+                image_set::list_folder(dir)?,
+                format!("folder {}", dir.display()),
+            )),
         },
-        list => Ok((list.to_vec(), format!("{} (images from the command line)", set.path.display()))),
+        list => Ok((
+            list.to_vec(),
+            format!("{} (images from the command line)", set.path.display()),
+        )),
     }
 }
 
@@ -107,8 +120,20 @@ pub fn decode(set: &PatternSet, imgs: &ImageSet, cfg: DecodeConfig) -> Result<De
     let d = Decoder::new(set, cfg).map_err(|e| anyhow::anyhow!("decoder: {e}"))?;
     let (w, h) = (imgs.width as usize, imgs.height as usize);
     let n = w * h;
-    let mut o = Decoded { width: w, height: h, phase: vec![0.0; n], modulation: vec![0.0; n], dc: vec![0.0; n], validity: vec![0; n] };
-    let out = FrameOut { phase: &mut o.phase, modulation: &mut o.modulation, dc: &mut o.dc, validity: &mut o.validity };
+    let mut o = Decoded {
+        width: w,
+        height: h,
+        phase: vec![0.0; n],
+        modulation: vec![0.0; n],
+        dc: vec![0.0; n],
+        validity: vec![0; n],
+    };
+    let out = FrameOut {
+        phase: &mut o.phase,
+        modulation: &mut o.modulation,
+        dc: &mut o.dc,
+        validity: &mut o.validity,
+    };
     match &imgs.frames {
         Frames::U8(f) => {
             let fr: Vec<&[u8]> = f.iter().map(|v| v.as_slice()).collect();
@@ -127,7 +152,12 @@ pub fn decode(set: &PatternSet, imgs: &ImageSet, cfg: DecodeConfig) -> Result<De
 /// A one-line text summary of validity counts.
 pub fn validity_summary(h: &Histogram) -> String {
     let total: usize = h.iter().sum();
-    let mut s = format!("{} of {} pixels valid ({:.1} %)", h[0], total, 100.0 * h[0] as f64 / total.max(1) as f64);
+    let mut s = format!(
+        "{} of {} pixels valid ({:.1} %)",
+        h[0],
+        total,
+        100.0 * h[0] as f64 / total.max(1) as f64
+    );
     for (i, c) in h.iter().enumerate().skip(1) {
         if *c > 0 {
             s.push_str(&format!(", {} {}", c, Validity::ALL[i].name()));

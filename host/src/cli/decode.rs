@@ -10,11 +10,13 @@ use std::time::Instant;
 
 /// Arguments of `fringe3d decode`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example:\n  fringe3d decode --patterns scan/patterns.toml scan/ --out decoded/\n\n\
+#[command(
+    after_help = "Example:\n  fringe3d decode --patterns scan/patterns.toml scan/ --out decoded/\n\n\
 IMAGES: the images in set order, or one folder (the pattern file's `images` names inside it, else\n\
 every PNG/TIFF/BMP sorted by name); none: the pattern file's own `images` list.\n\
 Writes phase.tif, modulation.tif, dc.tif (32-bit float TIFF; phase NaN where invalid),\n\
-validity.png (8-bit codes, see docs/formats.md) and preview.png (false colour).")]
+validity.png (8-bit codes, see docs/formats.md) and preview.png (false colour)."
+)]
 pub struct DecodeArgs {
     /// The pattern-set file the images were captured with.
     #[arg(long, short = 'p')]
@@ -54,7 +56,13 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
     write_tiff_f32(&dir.join("modulation.tif"), w, h, &d.modulation)?;
     write_tiff_f32(&dir.join("dc.tif"), w, h, &d.dc)?;
     write_png_u8(&dir.join("validity.png"), w, h, &d.validity)?;
-    preview::write_rgb_png(&dir.join("preview.png"), w, h, &preview::colourize(&d.phase, &d.validity)).map_err(anyhow::Error::msg)?;
+    preview::write_rgb_png(
+        &dir.join("preview.png"),
+        w,
+        h,
+        &preview::colourize(&d.phase, &d.validity),
+    )
+    .map_err(anyhow::Error::msg)?;
     let out = dir.commit()?;
     let hist = d.histogram();
     if g.json {
@@ -64,8 +72,18 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
                 "validity": common::validity_json(&hist), "seconds": t0.elapsed().as_secs_f64()})
         );
     } else if !g.quiet {
-        println!("decoded {}x{} ({}-bit, {} images): {}", w, h, imgs.bits, imgs.paths.len(), common::validity_summary(&hist));
-        println!("wrote phase.tif, modulation.tif, dc.tif, validity.png, preview.png to {}", out.display());
+        println!(
+            "decoded {}x{} ({}-bit, {} images): {}",
+            w,
+            h,
+            imgs.bits,
+            imgs.paths.len(),
+            common::validity_summary(&hist)
+        );
+        println!(
+            "wrote phase.tif, modulation.tif, dc.tif, validity.png, preview.png to {}",
+            out.display()
+        );
     }
     Ok(())
 }

@@ -6,9 +6,9 @@ use super::{Global, common};
 use crate::accuracy::{self, Accuracy};
 use crate::io::atomic::AtomicDir;
 use crate::io::preview;
+use crate::render::Scene;
 use crate::render::dataset::{DatasetOptions, write_dataset};
 use crate::render::scene::{BUILTIN_SCENES, Overrides};
-use crate::render::Scene;
 use crate::scan::ScanCalibration;
 use anyhow::{Context, Result, bail};
 use std::path::PathBuf;
@@ -16,11 +16,13 @@ use std::time::Instant;
 
 /// Arguments of `fringe3d demo`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example:\n  fringe3d demo                          # ball bar, default rig, into ./fringe3d-demo\n  \
+#[command(
+    after_help = "Example:\n  fringe3d demo                          # ball bar, default rig, into ./fringe3d-demo\n  \
 fringe3d demo --scene sphere --noise 1 --bits 8 --out /tmp/demo\n  \
 fringe3d demo --calibrate --noise 1     # calibrate from rendered data, compare with the truth\n\n\
 Writes DIR/dataset (the rendered scan with its calibration and ground truth), DIR/cloud.ply,\n\
-DIR/phase.png, DIR/depth.png, DIR/error.png (false colour) and DIR/report.json, replacing DIR.")]
+DIR/phase.png, DIR/depth.png, DIR/error.png (false colour) and DIR/report.json, replacing DIR."
+)]
 pub struct DemoArgs {
     /// Output folder (replaced if it exists).
     #[arg(long, short = 'o', default_value = "fringe3d-demo")]
@@ -61,11 +63,22 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
     if a.calibrate {
         return run_calibrate(a, g);
     }
-    if !BUILTIN_SCENES.contains(&a.scene.as_str()) || matches!(a.scene.as_str(), "reference" | "checkerboard" | "plates") {
-        bail!("--scene {:?}: the demo scans one of sphere, ballbar, steps, freeform, plane", a.scene);
+    if !BUILTIN_SCENES.contains(&a.scene.as_str())
+        || matches!(a.scene.as_str(), "reference" | "checkerboard" | "plates")
+    {
+        bail!(
+            "--scene {:?}: the demo scans one of sphere, ballbar, steps, freeform, plane",
+            a.scene
+        );
     }
     let size = parse_size(a.size.as_deref())?;
-    let o = Overrides { seed: a.seed, noise: a.noise, bits: a.bits, size, ..Overrides::default() };
+    let o = Overrides {
+        seed: a.seed,
+        noise: a.noise,
+        bits: a.bits,
+        size,
+        ..Overrides::default()
+    };
     let say = |s: String| {
         if !g.quiet && !g.json {
             println!("{s}");
@@ -75,10 +88,24 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
     let dir = AtomicDir::create(&a.out, true)?;
     let scene = Scene::builtin(&a.scene, &o)?;
     let ds = dir.join("dataset");
-    say(format!("1/4 rendering scene {:?} with ground truth ...", a.scene));
-    let pb = common::progress(crate::render::dataset::planned_rows(&scene), "rendering", g.quiet || g.json);
+    say(format!(
+        "1/4 rendering scene {:?} with ground truth ...",
+        a.scene
+    ));
+    let pb = common::progress(
+        crate::render::dataset::planned_rows(&scene),
+        "rendering",
+        g.quiet || g.json,
+    );
     let inc = |n: u64| pb.inc(n);
-    write_dataset(&scene, &ds, DatasetOptions { overwrite: true, progress: Some(&inc) })?;
+    write_dataset(
+        &scene,
+        &ds,
+        DatasetOptions {
+            overwrite: true,
+            progress: Some(&inc),
+        },
+    )?;
     pb.finish_and_clear();
     let t_render = t0.elapsed();
 
@@ -89,10 +116,22 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
     let imgs = common::load_images(&ls, &[], g.quiet)?;
     let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs))?;
     let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
-    let cloud_args = CloudArgs { out: dir.join("cloud.ply"), ascii: false, organized: false, no_edge_filter: a.no_edge_filter, max_angle: 80.0 };
+    let cloud_args = CloudArgs {
+        out: dir.join("cloud.ply"),
+        ascii: false,
+        organized: false,
+        no_edge_filter: a.no_edge_filter,
+        max_angle: 80.0,
+    };
     apply_edge_filter(&cloud_args, &cal, &mut cloud)?;
     let t_scan = t1.elapsed();
-    let n = write_cloud(&cloud_args, &cloud, &d.dc, &d.modulation, vec![format!("fringe3d demo, scene {}", a.scene)])?;
+    let n = write_cloud(
+        &cloud_args,
+        &cloud,
+        &d.dc,
+        &d.modulation,
+        vec![format!("fringe3d demo, scene {}", a.scene)],
+    )?;
 
     say("3/4 comparing with ground truth ...".into());
     let truth = accuracy::load_truth(&ds)?;
@@ -100,17 +139,38 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
 
     say("4/4 writing previews ...".into());
     let (w, h) = (cloud.width as u32, cloud.height as u32);
-    preview::write_rgb_png(&dir.join("phase.png"), w, h, &preview::colourize(&d.phase, &d.validity)).map_err(anyhow::Error::msg)?;
+    preview::write_rgb_png(
+        &dir.join("phase.png"),
+        w,
+        h,
+        &preview::colourize(&d.phase, &d.validity),
+    )
+    .map_err(anyhow::Error::msg)?;
     let z: Vec<f32> = cloud.xyz.chunks_exact(3).map(|p| p[2]).collect();
-    preview::write_rgb_png(&dir.join("depth.png"), w, h, &preview::colourize(&z, &cloud.validity)).map_err(anyhow::Error::msg)?;
+    preview::write_rgb_png(
+        &dir.join("depth.png"),
+        w,
+        h,
+        &preview::colourize(&z, &cloud.validity),
+    )
+    .map_err(anyhow::Error::msg)?;
     let err: Vec<f32> = (0..cloud.width * cloud.height)
         .map(|i| {
             let t = &truth.points[3 * i..3 * i + 3];
             let p = &cloud.xyz[3 * i..3 * i + 3];
-            (((p[0] as f64 - t[0]).powi(2) + (p[1] as f64 - t[1]).powi(2) + (p[2] as f64 - t[2]).powi(2)).sqrt()) as f32
+            (((p[0] as f64 - t[0]).powi(2)
+                + (p[1] as f64 - t[1]).powi(2)
+                + (p[2] as f64 - t[2]).powi(2))
+            .sqrt()) as f32
         })
         .collect();
-    preview::write_rgb_png(&dir.join("error.png"), w, h, &preview::colourize(&err, &cloud.validity)).map_err(anyhow::Error::msg)?;
+    preview::write_rgb_png(
+        &dir.join("error.png"),
+        w,
+        h,
+        &preview::colourize(&err, &cloud.validity),
+    )
+    .map_err(anyhow::Error::msg)?;
     let hist = common::histogram(&cloud.validity);
     let report = serde_json::json!({
         "command": "demo", "scene": a.scene, "points": n,
@@ -133,14 +193,24 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
 /// Parse `--size WxH`.
 fn parse_size(s: Option<&str>) -> Result<Option<(u32, u32)>> {
     let Some(s) = s else { return Ok(None) };
-    let (w, h) = s.split_once('x').with_context(|| format!("--size {s:?}: expected WxH, e.g. 640x512"))?;
-    Ok(Some((w.parse().with_context(|| format!("--size {s:?}: bad width"))?, h.parse().with_context(|| format!("--size {s:?}: bad height"))?)))
+    let (w, h) = s
+        .split_once('x')
+        .with_context(|| format!("--size {s:?}: expected WxH, e.g. 640x512"))?;
+    Ok(Some((
+        w.parse()
+            .with_context(|| format!("--size {s:?}: bad width"))?,
+        h.parse()
+            .with_context(|| format!("--size {s:?}: bad height"))?,
+    )))
 }
 
 /// `fringe3d demo --calibrate`.
 fn run_calibrate(a: DemoArgs, g: Global) -> Result<()> {
     if a.views < 3 {
-        bail!("--views {}: the camera calibration needs at least 3 checkerboard views", a.views);
+        bail!(
+            "--views {}: the camera calibration needs at least 3 checkerboard views",
+            a.views
+        );
     }
     let dir = AtomicDir::create(&a.out, true)?;
     let opts = crate::calib::DemoOptions {
@@ -156,9 +226,12 @@ fn run_calibrate(a: DemoArgs, g: Global) -> Result<()> {
     // The report names files inside the temporary folder: name them where they will be.
     let tmp = serde_json::to_string(&dir.path().display().to_string())?;
     let fin = serde_json::to_string(&dir.target().display().to_string())?;
-    let text = serde_json::to_string_pretty(&report)?.replace(tmp.trim_end_matches('"'), fin.trim_end_matches('"'));
+    let text = serde_json::to_string_pretty(&report)?
+        .replace(tmp.trim_end_matches('"'), fin.trim_end_matches('"'));
     let report: serde_json::Value = serde_json::from_str(&text)?;
-    crate::io::atomic::write_atomic(&dir.join("calibration").join("demo_report.json"), |w| w.write_all(text.as_bytes()))?;
+    crate::io::atomic::write_atomic(&dir.join("calibration").join("demo_report.json"), |w| {
+        w.write_all(text.as_bytes())
+    })?;
     let out = dir.commit()?;
     if g.json {
         println!("{text}");
@@ -217,19 +290,40 @@ fn print_calibration_report(r: &serde_json::Value, out: &std::path::Path) {
         );
         for (name, cal) in [("true", t), ("self", o)] {
             for sp in cal["spheres"].as_array().into_iter().flatten() {
-                println!("  {name}: sphere {} diameter error {:+.1} µm", sp["name"].as_str().unwrap_or("?"), um(&sp["diameter_error_mm"]));
+                println!(
+                    "  {name}: sphere {} diameter error {:+.1} µm",
+                    sp["name"].as_str().unwrap_or("?"),
+                    um(&sp["diameter_error_mm"])
+                );
             }
             for b in cal["ball_bars"].as_array().into_iter().flatten() {
-                println!("  {name}: ball-bar length error {:+.1} µm", um(&b["length_error_mm"]));
+                println!(
+                    "  {name}: ball-bar length error {:+.1} µm",
+                    um(&b["length_error_mm"])
+                );
             }
         }
     }
-    println!("wrote {}/{{checkerboard, plates, reference, scans, calibration/}} (report: calibration/demo_report.json)", out.display());
+    println!(
+        "wrote {}/{{checkerboard, plates, reference, scans, calibration/}} (report: calibration/demo_report.json)",
+        out.display()
+    );
 }
 
-fn print_report(acc: &Accuracy, hist: &common::Histogram, n: u64, scan_s: f64, out: &std::path::Path) {
+fn print_report(
+    acc: &Accuracy,
+    hist: &common::Histogram,
+    n: u64,
+    scan_s: f64,
+    out: &std::path::Path,
+) {
     println!();
-    println!("scan: {} points in {:.0} ms (decode + reconstruct, all cores); {}", n, scan_s * 1e3, common::validity_summary(hist));
+    println!(
+        "scan: {} points in {:.0} ms (decode + reconstruct, all cores); {}",
+        n,
+        scan_s * 1e3,
+        common::validity_summary(hist)
+    );
     println!(
         "coverage: {} of {} lit pixels reconstructed ({:.1} %), {} spurious points",
         acc.valid_pixels,
@@ -262,7 +356,15 @@ fn print_report(acc: &Accuracy, hist: &common::Histogram, n: u64, scan_s: f64, o
         );
     }
     for b in &acc.ball_bars {
-        println!("ball bar: length {:.4} mm (true {:.4}), error {:+.1} µm", b.measured_length, b.true_length, um(b.length_error));
+        println!(
+            "ball bar: length {:.4} mm (true {:.4}), error {:+.1} µm",
+            b.measured_length,
+            b.true_length,
+            um(b.length_error)
+        );
     }
-    println!("wrote {}/{{cloud.ply, phase.png, depth.png, error.png, report.json, dataset/}}", out.display());
+    println!(
+        "wrote {}/{{cloud.ply, phase.png, depth.png, error.png, report.json, dataset/}}",
+        out.display()
+    );
 }

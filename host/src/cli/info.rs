@@ -9,9 +9,11 @@ use std::path::{Path, PathBuf};
 
 /// Arguments of `fringe3d info`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Examples:\n  fringe3d info demo-out/dataset          # a dataset folder (manifest.json)\n  \
+#[command(
+    after_help = "Examples:\n  fringe3d info demo-out/dataset          # a dataset folder (manifest.json)\n  \
 fringe3d info calibration.toml          # a calibration\n  fringe3d info examples/patterns/paper8.toml\n  \
-fringe3d info phase.tif                 # an image or float map")]
+fringe3d info phase.tif                 # an image or float map"
+)]
 pub struct InfoArgs {
     /// What to describe.
     pub path: PathBuf,
@@ -23,20 +25,32 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
     let v = if p.is_dir() {
         let m = p.join("manifest.json");
         if !m.is_file() {
-            bail!("{}: a folder without manifest.json is no fringe3d dataset", p.display());
+            bail!(
+                "{}: a folder without manifest.json is no fringe3d dataset",
+                p.display()
+            );
         }
-        let text = std::fs::read_to_string(&m).with_context(|| format!("{}: cannot read", m.display()))?;
-        let mut v: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{}: not valid JSON", m.display()))?;
+        let text =
+            std::fs::read_to_string(&m).with_context(|| format!("{}: cannot read", m.display()))?;
+        let mut v: serde_json::Value = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not valid JSON", m.display()))?;
         if let Some(o) = v.as_object_mut() {
             o.insert("kind".into(), json!("dataset"));
         }
         v
     } else {
-        let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        let ext = p
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
         match ext.as_str() {
             "toml" => toml_info(p)?,
             "png" | "tif" | "tiff" | "bmp" => image_info(p)?,
-            _ => bail!("{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif or .bmp)", p.display()),
+            _ => bail!(
+                "{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif or .bmp)",
+                p.display()
+            ),
         }
     };
     if g.json {
@@ -48,15 +62,21 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
 }
 
 fn toml_info(p: &Path) -> Result<serde_json::Value> {
-    let text = std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
-    let raw: toml::Table = text.parse().with_context(|| format!("{}: not valid TOML", p.display()))?;
+    let text =
+        std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
+    let raw: toml::Table = text
+        .parse()
+        .with_context(|| format!("{}: not valid TOML", p.display()))?;
     if raw.contains_key("camera") {
         let c = Calibration::load(p)?;
         let mut v = serde_json::to_value(&c)?;
         if let Some(o) = v.as_object_mut() {
             o.insert("kind".into(), json!("calibration"));
             let reference = c.reference_map_path(p);
-            o.insert("reference_map_exists".into(), json!(reference.as_ref().map(|r| r.is_file())));
+            o.insert(
+                "reference_map_exists".into(),
+                json!(reference.as_ref().map(|r| r.is_file())),
+            );
         }
         Ok(v)
     } else if raw.contains_key("projector") {
@@ -84,7 +104,10 @@ fn toml_info(p: &Path) -> Result<serde_json::Value> {
             "image_files": ls.file.image_paths(p),
         }))
     } else {
-        bail!("{}: neither a calibration ([camera]) nor a pattern set ([projector])", p.display())
+        bail!(
+            "{}: neither a calibration ([camera]) nor a pattern set ([projector])",
+            p.display()
+        )
     }
 }
 
@@ -93,8 +116,15 @@ fn image_info(p: &Path) -> Result<serde_json::Value> {
     let (kind, stats) = match &img.pixels {
         Pixels::F32(v) => {
             let finite: Vec<f32> = v.iter().copied().filter(|x| x.is_finite()).collect();
-            let (lo, hi) = finite.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), x| (a.min(*x), b.max(*x)));
-            ("float", json!({"finite": finite.len(), "nan_or_inf": v.len() - finite.len(), "min": lo, "max": hi}))
+            let (lo, hi) = finite
+                .iter()
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), x| {
+                    (a.min(*x), b.max(*x))
+                });
+            (
+                "float",
+                json!({"finite": finite.len(), "nan_or_inf": v.len() - finite.len(), "min": lo, "max": hi}),
+            )
         }
         px => {
             let n = px.len();
@@ -105,7 +135,10 @@ fn image_info(p: &Path) -> Result<serde_json::Value> {
                 hi = hi.max(x);
                 sum += x;
             }
-            ("integer", json!({"min": lo, "max": hi, "mean": sum / n.max(1) as f64}))
+            (
+                "integer",
+                json!({"min": lo, "max": hi, "mean": sum / n.max(1) as f64}),
+            )
         }
     };
     Ok(json!({

@@ -75,7 +75,10 @@ where
 {
     let cli = Cli::try_parse_from(args).inspect_err(|e| {
         // --help and --version are "errors" to clap; print them and succeed.
-        if matches!(e.kind(), clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion) {
+        if matches!(
+            e.kind(),
+            clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion
+        ) {
             let _ = e.print();
             std::process::exit(0);
         }
@@ -88,9 +91,15 @@ where
         }
     };
     if let Some(n) = cli.threads {
-        rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global().ok();
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build_global()
+            .ok();
     }
-    let g = Global { quiet: cli.quiet, json: cli.json };
+    let g = Global {
+        quiet: cli.quiet,
+        json: cli.json,
+    };
     match cli.command {
         Command::Patterns(a) => patterns::run(a, g),
         Command::Decode(a) => decode::run(a, g),

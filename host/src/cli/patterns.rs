@@ -8,9 +8,11 @@ use std::path::PathBuf;
 
 /// Arguments of `fringe3d patterns`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example:\n  fringe3d patterns --patterns examples/patterns/paper8.toml --out patterns/\n\n\
+#[command(
+    after_help = "Example:\n  fringe3d patterns --patterns examples/patterns/paper8.toml --out patterns/\n\n\
 Writes pattern_00.png ... (one per image, in projection order, 8- or 16-bit by the file's\n\
-projector.bit_depth unless --bits is given) and patterns.toml: the set with its image list.")]
+projector.bit_depth unless --bits is given) and patterns.toml: the set with its image list."
+)]
 pub struct PatternsArgs {
     /// The pattern-set file (TOML, see docs/formats.md).
     #[arg(long, short = 'p')]
@@ -37,7 +39,11 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
     };
     let o = *set.output();
     if bits == 8 && o.i_max > 255.0 {
-        anyhow::bail!("{}: projector.i_max = {} does not fit 8-bit patterns; use --bits 16", a.patterns.display(), o.i_max);
+        anyhow::bail!(
+            "{}: projector.i_max = {} does not fit 8-bit patterns; use --bits 16",
+            a.patterns.display(),
+            o.i_max
+        );
     }
     let dir = AtomicDir::create(&a.out, a.overwrite)?;
     let (w, h) = (o.width as usize, o.height as usize);
@@ -49,13 +55,15 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
         if bits == 8 {
             let mut img = vec![0u8; w * h];
             for (y, row) in img.chunks_exact_mut(w).enumerate() {
-                set.generate_row(i, y as u32, row).map_err(|e| anyhow::anyhow!("{e}"))?;
+                set.generate_row(i, y as u32, row)
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
             }
             write_png_u8(&path, o.width, o.height, &img)?;
         } else {
             let mut img = vec![0u16; w * h];
             for (y, row) in img.chunks_exact_mut(w).enumerate() {
-                set.generate_row(i, y as u32, row).map_err(|e| anyhow::anyhow!("{e}"))?;
+                set.generate_row(i, y as u32, row)
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
             }
             write_png_u16(&path, o.width, o.height, &img, 16)?;
         }
@@ -68,9 +76,19 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
     f.save(&dir.join("patterns.toml"))?;
     let out = dir.commit()?;
     if g.json {
-        println!("{}", serde_json::json!({"command": "patterns", "out": out, "images": names, "bits": bits, "width": o.width, "height": o.height}));
+        println!(
+            "{}",
+            serde_json::json!({"command": "patterns", "out": out, "images": names, "bits": bits, "width": o.width, "height": o.height})
+        );
     } else if !g.quiet {
-        println!("wrote {} {}-bit patterns ({}x{}) and patterns.toml to {}", names.len(), bits, o.width, o.height, out.display());
+        println!(
+            "wrote {} {}-bit patterns ({}x{}) and patterns.toml to {}",
+            names.len(),
+            bits,
+            o.width,
+            o.height,
+            out.display()
+        );
     }
     Ok(())
 }

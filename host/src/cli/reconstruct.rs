@@ -10,10 +10,12 @@ use std::path::{Path, PathBuf};
 
 /// Arguments of `fringe3d reconstruct`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example:\n  fringe3d decode --patterns scan/patterns.toml scan/ --out decoded/\n  \
+#[command(
+    after_help = "Example:\n  fringe3d decode --patterns scan/patterns.toml scan/ --out decoded/\n  \
 fringe3d reconstruct --calibration scan/calibration.toml --decoded decoded/ -o cloud.ply\n\n\
 Reads phase.tif and validity.png (and dc.tif, modulation.tif for the per-point intensity and\n\
-modulation, when present) from the decode folder.")]
+modulation, when present) from the decode folder."
+)]
 pub struct ReconstructArgs {
     /// The calibration file (TOML).
     #[arg(long, short = 'c')]
@@ -33,7 +35,12 @@ pub struct ReconstructArgs {
 fn read_f32(p: &Path, w: usize, h: usize) -> Result<Vec<f32>> {
     let (img, _) = read_gray(p)?;
     if (img.width as usize, img.height as usize) != (w, h) {
-        bail!("{}: {}x{} pixels, but the calibrated camera is {w}x{h}", p.display(), img.width, img.height);
+        bail!(
+            "{}: {}x{} pixels, but the calibrated camera is {w}x{h}",
+            p.display(),
+            img.width,
+            img.height
+        );
     }
     match img.pixels {
         Pixels::F32(v) => Ok(v),
@@ -65,22 +72,47 @@ pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
         let (img, _) = read_gray(&vpath)?;
         match img.pixels {
             Pixels::U8(v) if v.len() == w * h => v,
-            _ => bail!("{}: expected an 8-bit {w}x{h} validity image", vpath.display()),
+            _ => bail!(
+                "{}: expected an 8-bit {w}x{h} validity image",
+                vpath.display()
+            ),
         }
     } else {
-        phase.iter().map(|p| if p.is_finite() { 0 } else { fringe3d_core::Validity::PhaseOutOfRange as u8 }).collect()
+        phase
+            .iter()
+            .map(|p| {
+                if p.is_finite() {
+                    0
+                } else {
+                    fringe3d_core::Validity::PhaseOutOfRange as u8
+                }
+            })
+            .collect()
     };
     let opt = |name: &str| -> Result<Vec<f32>> {
         let p = a.decoded.join(name);
-        if p.is_file() { read_f32(&p, w, h) } else { Ok(vec![f32::NAN; w * h]) }
+        if p.is_file() {
+            read_f32(&p, w, h)
+        } else {
+            Ok(vec![f32::NAN; w * h])
+        }
     };
     let (dc, modulation) = (opt("dc.tif")?, opt("modulation.tif")?);
     let mut cloud = cal.reconstruct(&phase, &validity, true)?;
     apply_edge_filter(&a.cloud, &cal, &mut cloud)?;
-    let n = write_cloud(&a.cloud, &cloud, &dc, &modulation, vec![format!("fringe3d reconstruct of {}", a.decoded.display())])?;
+    let n = write_cloud(
+        &a.cloud,
+        &cloud,
+        &dc,
+        &modulation,
+        vec![format!("fringe3d reconstruct of {}", a.decoded.display())],
+    )?;
     let hist = common::histogram(&cloud.validity);
     if g.json {
-        println!("{}", serde_json::json!({"command": "reconstruct", "out": a.cloud.out, "points": n, "validity": common::validity_json(&hist)}));
+        println!(
+            "{}",
+            serde_json::json!({"command": "reconstruct", "out": a.cloud.out, "points": n, "validity": common::validity_json(&hist)})
+        );
     } else if !g.quiet {
         println!("{}", common::validity_summary(&hist));
         println!("wrote {n} points to {}", a.cloud.out.display());

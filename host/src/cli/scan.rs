@@ -9,10 +9,12 @@ use std::time::Instant;
 
 /// Arguments of `fringe3d scan`.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example:\n  fringe3d scan --patterns scan/patterns.toml --calibration scan/calibration.toml scan/ -o cloud.ply\n\n\
+#[command(
+    after_help = "Example:\n  fringe3d scan --patterns scan/patterns.toml --calibration scan/calibration.toml scan/ -o cloud.ply\n\n\
 IMAGES: the images in set order, or one folder (the pattern file's `images` names inside it, else\n\
 every PNG/TIFF/BMP sorted by name); none: the pattern file's own `images` list.\n\
-The calibration names the reference phase map (float TIFF) beside it; see docs/formats.md.")]
+The calibration names the reference phase map (float TIFF) beside it; see docs/formats.md."
+)]
 pub struct ScanArgs {
     /// The pattern-set file the images were captured with.
     #[arg(long, short = 'p')]
@@ -32,7 +34,10 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     let t0 = Instant::now();
     let ls = common::load_set(&a.patterns)?;
     // The calibration (with its reference map) and the images load side by side.
-    let (cal, imgs) = rayon::join(|| ScanCalibration::load(&a.calibration, ls.set.axis()), || common::load_images(&ls, &a.images, g.quiet));
+    let (cal, imgs) = rayon::join(
+        || ScanCalibration::load(&a.calibration, ls.set.axis()),
+        || common::load_images(&ls, &a.images, g.quiet),
+    );
     let (cal, imgs) = (cal?, imgs?);
     if (imgs.width as usize, imgs.height as usize) != (cal.width(), cal.height()) {
         anyhow::bail!(
@@ -51,7 +56,13 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
     apply_edge_filter(&a.cloud, &cal, &mut cloud)?;
     let t_recon = t0.elapsed();
-    let n = write_cloud(&a.cloud, &cloud, &d.dc, &d.modulation, vec![format!("fringe3d scan of {}", a.patterns.display())])?;
+    let n = write_cloud(
+        &a.cloud,
+        &cloud,
+        &d.dc,
+        &d.modulation,
+        vec![format!("fringe3d scan of {}", a.patterns.display())],
+    )?;
     let hist = common::histogram(&cloud.validity);
     if g.json {
         println!(
@@ -63,7 +74,11 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
         );
     } else if !g.quiet {
         println!("{}", common::validity_summary(&hist));
-        println!("wrote {n} points to {} in {:.0} ms", a.cloud.out.display(), t0.elapsed().as_secs_f64() * 1e3);
+        println!(
+            "wrote {n} points to {} in {:.0} ms",
+            a.cloud.out.display(),
+            t0.elapsed().as_secs_f64() * 1e3
+        );
     }
     Ok(())
 }

@@ -225,7 +225,10 @@ fn decode_png(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageE
     let mut out8 = Vec::new();
     if channels == 1 {
         // Grayscale (the common case): the rows as they are, without the per-sample path below.
-        let rows = buf.chunks_exact(line).take(h as usize).map(|r| &r[..w as usize * bps]);
+        let rows = buf
+            .chunks_exact(line)
+            .take(h as usize)
+            .map(|r| &r[..w as usize * bps]);
         if sixteen {
             out16.reserve_exact(n);
             for r in rows {

@@ -64,7 +64,9 @@ pub enum ImageSetError {
         got: usize,
     },
     /// An image's size differs from the first image's.
-    #[error("{path}: {width}x{height} pixels, but {first} is {w0}x{h0}: all images of a set must have one size")]
+    #[error(
+        "{path}: {width}x{height} pixels, but {first} is {w0}x{h0}: all images of a set must have one size"
+    )]
     Size {
         /// The offending image.
         path: PathBuf,
@@ -80,7 +82,9 @@ pub enum ImageSetError {
         h0: u32,
     },
     /// An image's bit depth differs from the first image's.
-    #[error("{path}: {bits}-bit samples, but {first} has {bits0}-bit samples: all images of a set must have one bit depth")]
+    #[error(
+        "{path}: {bits}-bit samples, but {first} has {bits0}-bit samples: all images of a set must have one bit depth"
+    )]
     Depth {
         /// The offending image.
         path: PathBuf,
@@ -109,20 +113,31 @@ pub enum ImageSetError {
 
 /// The image files (PNG, TIFF, BMP by extension) of a folder, sorted by name.
 pub fn list_folder(dir: &Path) -> Result<Vec<PathBuf>, ImageSetError> {
-    let rd = std::fs::read_dir(dir).map_err(|e| ImageSetError::Folder { path: dir.to_path_buf(), message: format!("cannot list: {e}") })?;
+    let rd = std::fs::read_dir(dir).map_err(|e| ImageSetError::Folder {
+        path: dir.to_path_buf(),
+        message: format!("cannot list: {e}"),
+    })?;
     let mut v: Vec<PathBuf> = rd
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
             p.is_file()
                 && p.extension()
                     .and_then(|e| e.to_str())
-                    .map(|e| matches!(e.to_ascii_lowercase().as_str(), "png" | "tif" | "tiff" | "bmp"))
+                    .map(|e| {
+                        matches!(
+                            e.to_ascii_lowercase().as_str(),
+                            "png" | "tif" | "tiff" | "bmp"
+                        )
+                    })
                     .unwrap_or(false)
         })
         .collect();
     v.sort();
     if v.is_empty() {
-        return Err(ImageSetError::Folder { path: dir.to_path_buf(), message: "no PNG, TIFF or BMP images in this folder".into() });
+        return Err(ImageSetError::Folder {
+            path: dir.to_path_buf(),
+            message: "no PNG, TIFF or BMP images in this folder".into(),
+        });
     }
     Ok(v)
 }
@@ -131,14 +146,26 @@ pub fn list_folder(dir: &Path) -> Result<Vec<PathBuf>, ImageSetError> {
 /// `what` names the list's origin in a count error (e.g. the pattern-set file).
 pub fn load(paths: &[PathBuf], expected: usize, what: &str) -> Result<ImageSet, ImageSetError> {
     if paths.len() != expected {
-        return Err(ImageSetError::Count { what: what.to_string(), expected, got: paths.len() });
+        return Err(ImageSetError::Count {
+            what: what.to_string(),
+            expected,
+            got: paths.len(),
+        });
     }
-    let read: Vec<(GrayImage, crate::io::image::ReadInfo)> =
-        paths.par_iter().map(|p| read_gray(p)).collect::<Result<_, _>>()?;
+    let read: Vec<(GrayImage, crate::io::image::ReadInfo)> = paths
+        .par_iter()
+        .map(|p| read_gray(p))
+        .collect::<Result<_, _>>()?;
     let mut warnings = Vec::new();
     let (w0, h0, b0) = match read.first() {
         Some((g, _)) => (g.width, g.height, g.significant_bits),
-        None => return Err(ImageSetError::Count { what: what.to_string(), expected, got: 0 }),
+        None => {
+            return Err(ImageSetError::Count {
+                what: what.to_string(),
+                expected,
+                got: 0,
+            });
+        }
     };
     let container = |g: &GrayImage| match g.pixels {
         Pixels::U8(_) => 8u8,
@@ -151,22 +178,64 @@ pub fn load(paths: &[PathBuf], expected: usize, what: &str) -> Result<ImageSet, 
             return Err(ImageSetError::Float { path: p.clone() });
         }
         if (g.width, g.height) != (w0, h0) {
-            return Err(ImageSetError::Size { path: p.clone(), width: g.width, height: g.height, first: paths[0].clone(), w0, h0 });
+            return Err(ImageSetError::Size {
+                path: p.clone(),
+                width: g.width,
+                height: g.height,
+                first: paths[0].clone(),
+                w0,
+                h0,
+            });
         }
         if container(g) != c0 || g.significant_bits != b0 {
-            return Err(ImageSetError::Depth { path: p.clone(), bits: g.significant_bits, first: paths[0].clone(), bits0: b0 });
+            return Err(ImageSetError::Depth {
+                path: p.clone(),
+                bits: g.significant_bits,
+                first: paths[0].clone(),
+                bits0: b0,
+            });
         }
         if info.converted_from_color {
-            warnings.push(format!("{}: colour image converted to luma (Rec. 601)", p.display()));
+            warnings.push(format!(
+                "{}: colour image converted to luma (Rec. 601)",
+                p.display()
+            ));
         }
         if info.dropped_alpha {
             warnings.push(format!("{}: alpha channel ignored", p.display()));
         }
     }
     let frames = if c0 == 8 {
-        Frames::U8(read.into_iter().map(|(g, _)| if let Pixels::U8(v) = g.pixels { v } else { Vec::new() }).collect())
+        Frames::U8(
+            read.into_iter()
+                .map(|(g, _)| {
+                    if let Pixels::U8(v) = g.pixels {
+                        v
+                    } else {
+                        Vec::new()
+                    }
+                })
+                .collect(),
+        )
     } else {
-        Frames::U16(read.into_iter().map(|(g, _)| if let Pixels::U16(v) = g.pixels { v } else { Vec::new() }).collect())
+        Frames::U16(
+            read.into_iter()
+                .map(|(g, _)| {
+                    if let Pixels::U16(v) = g.pixels {
+                        v
+                    } else {
+                        Vec::new()
+                    }
+                })
+                .collect(),
+        )
     };
-    Ok(ImageSet { width: w0, height: h0, bits: b0, frames, paths: paths.to_vec(), warnings })
+    Ok(ImageSet {
+        width: w0,
+        height: h0,
+        bits: b0,
+        frames,
+        paths: paths.to_vec(),
+        warnings,
+    })
 }

@@ -270,7 +270,11 @@ impl PlyWriter {
     /// once and the vertices straight into the (atomic) target, without the scratch file and the
     /// copy that [`PlyWriter::create`] needs. [`PlyWriter::finish`] refuses (and writes nothing)
     /// if a different number of vertices was written.
-    pub fn create_with_count(path: &Path, count: u64, opts: PlyOptions) -> Result<PlyWriter, FormatError> {
+    pub fn create_with_count(
+        path: &Path,
+        count: u64,
+        opts: PlyOptions,
+    ) -> Result<PlyWriter, FormatError> {
         let mut out = AtomicFile::create(path)?;
         out.write_all(header(&opts, None, count).as_bytes())
             .map_err(|e| FormatError::io(path, "cannot write", e))?;
@@ -489,7 +493,10 @@ impl PlyWriter {
         if let Some(n) = self.announced
             && n != self.count
         {
-            return Err(self.invalid(format!("{} vertices written, {n} announced in the header", self.count)));
+            return Err(self.invalid(format!(
+                "{} vertices written, {n} announced in the header",
+                self.count
+            )));
         }
         let path = self.path.clone();
         let ioe = |e| FormatError::io(&path, "cannot write", e);

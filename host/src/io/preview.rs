@@ -21,8 +21,18 @@ pub const VALIDITY_COLOURS: [[u8; 3]; fringe3d_core::Validity::ALL.len()] = [
 
 /// A perceptually ordered blue-cyan-green-yellow-red ramp (piecewise linear), `t ∈ [0, 1]`.
 pub fn ramp(t: f32) -> [u8; 3] {
-    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
-    let stops: [[f32; 3]; 5] = [[48.0, 18.0, 59.0], [40.0, 140.0, 230.0], [60.0, 220.0, 90.0], [245.0, 200.0, 40.0], [180.0, 20.0, 10.0]];
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let stops: [[f32; 3]; 5] = [
+        [48.0, 18.0, 59.0],
+        [40.0, 140.0, 230.0],
+        [60.0, 220.0, 90.0],
+        [245.0, 200.0, 40.0],
+        [180.0, 20.0, 10.0],
+    ];
     let x = t * 4.0;
     let i = (x as usize).min(3);
     let f = x - i as f32;
@@ -52,7 +62,12 @@ pub fn write_rgb_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result
 /// Colour a map: valid pixels by `values` scaled from the 1st to the 99th percentile of the valid
 /// values, invalid ones by [`VALIDITY_COLOURS`].
 pub fn colourize(values: &[f32], validity: &[u8]) -> Vec<u8> {
-    let mut v: Vec<f32> = values.iter().zip(validity).filter(|(x, c)| **c == 0 && x.is_finite()).map(|(x, _)| *x).collect();
+    let mut v: Vec<f32> = values
+        .iter()
+        .zip(validity)
+        .filter(|(x, c)| **c == 0 && x.is_finite())
+        .map(|(x, _)| *x)
+        .collect();
     let (lo, hi) = if v.is_empty() {
         (0.0, 1.0)
     } else {
@@ -63,7 +78,11 @@ pub fn colourize(values: &[f32], validity: &[u8]) -> Vec<u8> {
     let span = if hi > lo { hi - lo } else { 1.0 };
     let mut out = Vec::with_capacity(values.len() * 3);
     for (x, c) in values.iter().zip(validity) {
-        let rgb = if *c == 0 && x.is_finite() { ramp((x - lo) / span) } else { VALIDITY_COLOURS[(*c as usize).min(VALIDITY_COLOURS.len() - 1)] };
+        let rgb = if *c == 0 && x.is_finite() {
+            ramp((x - lo) / span)
+        } else {
+            VALIDITY_COLOURS[(*c as usize).min(VALIDITY_COLOURS.len() - 1)]
+        };
         out.extend_from_slice(&rgb);
     }
     out
