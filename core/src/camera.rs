@@ -10,7 +10,7 @@
 //! - Distortion coefficients in OpenCV order `[k1, k2, p1, p2, k3]`, which are the paper's
 //!   `[k1, k2, k3, k4, k5]` of eq 3 (radial k1, k2, k5 = our k3; tangential k3, k4 = our p1, p2).
 //! - The intrinsic matrix of eq 4 includes the paper's skew α:
-//!   `u = fx·x_d + α·fx·y_d + u0`, `v = fy·y_d + v0`.
+//!   `u = fx·x_d + α·fx·y_d + cx`, `v = fy·y_d + cy` ([`CameraParams`]).
 //!
 //! # Inverse
 //! Undistortion (normalized distorted → normalized ideal coordinates) has no closed form. It runs
@@ -24,6 +24,7 @@
 //! f32 rounding, ~1e-4 px, not convergence).
 
 use crate::geometry::Vec3;
+pub use crate::params::{CameraParams, Distortion};
 
 /// Newton iterations of [`CameraModel::undistort`] / [`CameraModel::undistort_f32`].
 pub const UNDISTORT_ITERATIONS: usize = 8;
@@ -50,68 +51,6 @@ const KNOT_OFFSETS_F32: [f32; ROW_KNOT_STEP] = {
 pub const MAX_DIMENSION: u32 = 16384;
 /// Grid step (pixels) of the interior convergence check of [`CameraModel::new`].
 const CHECK_GRID: u32 = 16;
-
-/// Intrinsic parameters of eq 4 (pixels) and the image size.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Intrinsics {
-    /// Scale factor of the u axis, pixels (focal length in pixel widths).
-    pub fx: f64,
-    /// Scale factor of the v axis, pixels.
-    pub fy: f64,
-    /// The paper's skew coefficient α (eq 4): `u = fx·x_d + α·fx·y_d + u0`. Dimensionless.
-    pub skew: f64,
-    /// Principal point, u (pixel coordinates, pixel centres at integers).
-    pub u0: f64,
-    /// Principal point, v.
-    pub v0: f64,
-    /// Image width, pixels.
-    pub width: u32,
-    /// Image height, pixels.
-    pub height: u32,
-}
-
-/// Lens distortion coefficients of eq 3, OpenCV order `[k1, k2, p1, p2, k3]` (= paper's
-/// `[k1, k2, k3, k4, k5]`).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Distortion {
-    /// Radial, r² (paper k1).
-    pub k1: f64,
-    /// Radial, r⁴ (paper k2).
-    pub k2: f64,
-    /// Tangential (paper k3): `Δx = 2 p1 x y + p2 (r² + 2x²)`, `Δy = p1 (r² + 2y²) + 2 p2 x y`.
-    pub p1: f64,
-    /// Tangential (paper k4).
-    pub p2: f64,
-    /// Radial, r⁶ (paper k5).
-    pub k3: f64,
-}
-
-impl Distortion {
-    /// No distortion.
-    pub const NONE: Distortion = Distortion {
-        k1: 0.0,
-        k2: 0.0,
-        p1: 0.0,
-        p2: 0.0,
-        k3: 0.0,
-    };
-
-    /// From `[k1, k2, p1, p2, k3]`.
-    pub const fn from_array(a: [f64; 5]) -> Self {
-        Distortion {
-            k1: a[0],
-            k2: a[1],
-            p1: a[2],
-            p2: a[3],
-            k3: a[4],
-        }
-    }
-
-    /// `[k1, k2, p1, p2, k3]`.
-    pub const fn to_array(self) -> [f64; 5] {
-        [self.k1, self.k2, self.p1, self.p2, self.k3]
-    }
-}
 
 /// Why a camera model was refused.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -202,8 +141,7 @@ struct F32Params {
 /// A validated, invertible camera model (eqs 2-4 and their inverse).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraModel {
-    intr: Intrinsics,
-    dist: Distortion,
+    params: CameraParams,
     f: F32Params,
     /// Radius up to which ρ(r) was verified strictly increasing.
     monotonic_radius: f64,
@@ -267,11 +205,10 @@ distort_fns!(f32, distort32, distort_jac32, newton32);
 impl CameraModel {
     /// Validate a model and check that it can be inverted over the whole image (see the module
     /// documentation).
-    pub fn new(intrinsics: Intrinsics, distortion: Distortion) -> Result<Self, CameraError> {
-        let i = intrinsics;
-        let d = distortion;
-        let all = [i.fx, i.fy, i.skew, i.u0, i.v0, d.k1, d.k2, d.p1, d.p2, d.k3];
-        if !all.iter().all(|v| v.is_finite()) {
+    pub fn new(params: CameraParams) -> Result<Self, CameraError> {
+        let i = params;
+        let d = params.distortion;
+        if !params.is_finite() {
             return Err(CameraError::NotFinite);
         }
         if !(i.fx > 0.0 && i.fy > 0.0) {
@@ -287,8 +224,8 @@ impl CameraModel {
             fx: i.fx as f32,
             fy: i.fy as f32,
             sfx: (i.skew * i.fx) as f32,
-            u0: i.u0 as f32,
-            v0: i.v0 as f32,
+            u0: i.cx as f32,
+            v0: i.cy as f32,
             k1: d.k1 as f32,
             k2: d.k2 as f32,
             p1: d.p1 as f32,
@@ -296,8 +233,7 @@ impl CameraModel {
             k3: d.k3 as f32,
         };
         let mut cam = CameraModel {
-            intr: i,
-            dist: d,
+            params,
             f,
             monotonic_radius: 0.0,
             max_error_f64: 0.0,
@@ -312,8 +248,8 @@ impl CameraModel {
     /// (plus 5 % and a bound on the tangential terms); `dρ/dr` must stay positive on the way.
     /// Returns the radius reached.
     fn check_monotonic(&self) -> Result<f64, CameraError> {
-        let w = (self.intr.width - 1) as f64;
-        let h = (self.intr.height - 1) as f64;
+        let w = (self.params.width - 1) as f64;
+        let h = (self.params.height - 1) as f64;
         // The image rectangle is convex and the norm convex: the largest distorted radius is at a
         // corner.
         let mut rd_max: f64 = 0.0;
@@ -321,7 +257,7 @@ impl CameraModel {
             let [x, y] = self.pixel_to_distorted([u, v]);
             rd_max = rd_max.max(libm::sqrt(x * x + y * y));
         }
-        let Distortion { k1, k2, p1, p2, k3 } = self.dist;
+        let Distortion { k1, k2, p1, p2, k3 } = self.params.distortion;
         let tang = 3.0 * (libm::fabs(p1) + libm::fabs(p2));
         let step = rd_max / 1024.0 + 1e-9;
         let mut r = 0.0;
@@ -343,8 +279,8 @@ impl CameraModel {
     /// Run both inverses over the border and a grid of the interior, and the row inverse over
     /// a subset of rows; record the worst errors.
     fn check_convergence(&mut self) -> Result<(), CameraError> {
-        let w = self.intr.width;
-        let h = self.intr.height;
+        let w = self.params.width;
+        let h = self.params.height;
         let mut worst64: f64 = 0.0;
         let mut worst32: f64 = 0.0;
         let mut check = |cam: &Self, u: u32, v: u32| -> Result<(), CameraError> {
@@ -440,24 +376,24 @@ impl CameraModel {
         if e.is_finite() { e } else { f64::INFINITY }
     }
 
-    /// The intrinsics.
-    pub fn intrinsics(&self) -> &Intrinsics {
-        &self.intr
+    /// The parameters the model was built from.
+    pub fn params(&self) -> &CameraParams {
+        &self.params
     }
 
     /// The distortion coefficients.
     pub fn distortion(&self) -> &Distortion {
-        &self.dist
+        &self.params.distortion
     }
 
     /// Image width, pixels.
     pub fn width(&self) -> u32 {
-        self.intr.width
+        self.params.width
     }
 
     /// Image height, pixels.
     pub fn height(&self) -> u32 {
-        self.intr.height
+        self.params.height
     }
 
     /// Worst round-trip error of the f64 inverse found by the construction check, pixels.
@@ -476,7 +412,7 @@ impl CameraModel {
     }
 
     fn k64(&self) -> [f64; 5] {
-        let d = self.dist;
+        let d = self.params.distortion;
         [d.k1, d.k2, d.p1, d.p2, d.k3]
     }
 
@@ -495,18 +431,18 @@ impl CameraModel {
 
     /// Eq 4: distorted normalized coordinates → pixel coordinates.
     pub fn distorted_to_pixel(&self, d: [f64; 2]) -> [f64; 2] {
-        let i = &self.intr;
+        let i = &self.params;
         [
-            i.fx * d[0] + i.skew * i.fx * d[1] + i.u0,
-            i.fy * d[1] + i.v0,
+            i.fx * d[0] + i.skew * i.fx * d[1] + i.cx,
+            i.fy * d[1] + i.cy,
         ]
     }
 
     /// Inverse of eq 4: pixel coordinates → distorted normalized coordinates.
     pub fn pixel_to_distorted(&self, p: [f64; 2]) -> [f64; 2] {
-        let i = &self.intr;
-        let yd = (p[1] - i.v0) / i.fy;
-        let xd = (p[0] - i.u0 - i.skew * i.fx * yd) / i.fx;
+        let i = &self.params;
+        let yd = (p[1] - i.cy) / i.fy;
+        let xd = (p[0] - i.cx - i.skew * i.fx * yd) / i.fx;
         [xd, yd]
     }
 
@@ -601,7 +537,7 @@ impl CameraModel {
     /// vectorizes). Returns the number of knots written (≤ [`MAX_ROW_KNOTS`] and ≤ the buffers).
     #[inline(always)]
     pub fn row_knots_f32(&self, v: u32, xs: &mut [f32], ys: &mut [f32]) -> usize {
-        let w = self.intr.width as usize;
+        let w = self.params.width as usize;
         let nk = (w.div_ceil(ROW_KNOT_STEP) + 1)
             .min(xs.len())
             .min(ys.len())
@@ -647,7 +583,7 @@ impl CameraModel {
         xs: &mut [f32; ROW_KNOT_STEP],
         ys: &mut [f32; ROW_KNOT_STEP],
     ) {
-        let w = self.intr.width as usize;
+        let w = self.params.width as usize;
         let c_a = c0 - c0 % ROW_KNOT_STEP;
         let c_b = (c_a + ROW_KNOT_STEP).min(w.saturating_sub(1)).max(c_a);
         let span = if c_b > c_a {
@@ -678,7 +614,7 @@ impl CameraModel {
     /// [`CameraModel::undistort_span_from_knots_f32`]); writes `min(xs.len(), ys.len(), width)`
     /// pixels.
     pub fn undistort_row_f32(&self, v: u32, xs: &mut [f32], ys: &mut [f32]) {
-        let n = xs.len().min(ys.len()).min(self.intr.width as usize);
+        let n = xs.len().min(ys.len()).min(self.params.width as usize);
         let mut kx = [0f32; MAX_ROW_KNOTS];
         let mut ky = [0f32; MAX_ROW_KNOTS];
         let nk = self.row_knots_f32(v, &mut kx, &mut ky);
@@ -704,25 +640,22 @@ impl CameraModel {
 mod tests {
     use super::*;
 
-    fn intr() -> Intrinsics {
-        Intrinsics {
-            fx: 1500.0,
-            fy: 1502.0,
-            skew: 0.001,
-            u0: 641.5,
-            v0: 509.25,
+    fn params(k: [f64; 5]) -> CameraParams {
+        CameraParams {
             width: 1280,
             height: 1024,
+            fx: 1500.0,
+            fy: 1502.0,
+            cx: 641.5,
+            cy: 509.25,
+            skew: 0.001,
+            distortion: Distortion::from_array(k),
         }
     }
 
     #[test]
     fn strong_barrel_is_accepted_and_round_trips() {
-        let cam = CameraModel::new(
-            intr(),
-            Distortion::from_array([-0.3, 0.1, 1e-3, -5e-4, 0.0]),
-        )
-        .unwrap();
+        let cam = CameraModel::new(params([-0.3, 0.1, 1e-3, -5e-4, 0.0])).unwrap();
         assert!(cam.max_undistort_error_px() <= 1e-4);
         let p = cam.normalized_to_pixel(cam.pixel_to_normalized([0.0, 0.0]));
         assert!((p[0]).abs() < 1e-4 && (p[1]).abs() < 1e-4);
@@ -730,8 +663,7 @@ mod tests {
 
     #[test]
     fn fold_over_is_rejected() {
-        let e = CameraModel::new(intr(), Distortion::from_array([-1.2, 0.0, 0.0, 0.0, 0.0]))
-            .unwrap_err();
+        let e = CameraModel::new(params([-1.2, 0.0, 0.0, 0.0, 0.0])).unwrap_err();
         assert_eq!(e.kind(), CameraErrorKind::NotInvertible);
     }
 }

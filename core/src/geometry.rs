@@ -1,7 +1,7 @@
-//! Small vector maths: 3-vectors in f32 and f64, planes (point + normal), line–plane
+//! Small vector maths: the crate's one 3-vector type (f64), planes (point + normal), line–plane
 //! intersection and the closest points of two lines.
 //!
-//! Everything is plain `+ − × ÷` plus `libm::sqrt`/`libm::sqrtf`, in a fixed operation order and
+//! Everything is plain `+ − × ÷` plus `libm::sqrt`, in a fixed operation order and
 //! without fused multiply-add, so the results are the same bits on every target. Degenerate cases
 //! (a zero normal, a line parallel to a plane, parallel lines, NaN input) return `None`; nothing
 //! panics.
@@ -9,7 +9,8 @@
 //! Coordinates follow the camera frame of the rest of the crate (OpenCV convention: x right,
 //! y down, z forward, millimetres).
 
-/// A 3-vector of `f64` (set-up code, host code, reference computations).
+/// The crate's 3-vector, `f64` (set-up code, host code, reference computations; the per-pixel
+/// kernels work on scalar f32 lanes).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Vec3 {
     /// x component.
@@ -18,17 +19,6 @@ pub struct Vec3 {
     pub y: f64,
     /// z component.
     pub z: f64,
-}
-
-/// A 3-vector of `f32` (per-pixel code).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Vec3f {
-    /// x component.
-    pub x: f32,
-    /// y component.
-    pub y: f32,
-    /// z component.
-    pub z: f32,
 }
 
 macro_rules! vec3_impl {
@@ -131,23 +121,6 @@ macro_rules! vec3_impl {
 }
 
 vec3_impl!(Vec3, f64, libm::sqrt);
-vec3_impl!(Vec3f, f32, libm::sqrtf);
-
-impl Vec3 {
-    /// The f32 vector nearest to `self` (component-wise rounding).
-    #[inline]
-    pub fn to_f32(self) -> Vec3f {
-        Vec3f::new(self.x as f32, self.y as f32, self.z as f32)
-    }
-}
-
-impl Vec3f {
-    /// The same vector in f64 (exact).
-    #[inline]
-    pub fn to_f64(self) -> Vec3 {
-        Vec3::new(self.x as f64, self.y as f64, self.z as f64)
-    }
-}
 
 /// A plane given by a point on it and a normal (not necessarily unit length).
 ///

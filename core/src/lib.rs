@@ -10,6 +10,7 @@ pub mod decode;
 pub mod filter;
 pub mod geometry;
 pub mod math;
+pub mod params;
 pub mod pattern;
 pub mod phase_function;
 pub mod reconstruct;

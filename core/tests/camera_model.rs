@@ -8,8 +8,8 @@
 mod support;
 
 use fringe3d_core::camera::{
-    CameraError, CameraErrorKind, CameraModel, Distortion, Intrinsics, UNDISTORT_TOLERANCE_F32_PX,
-    UNDISTORT_TOLERANCE_PX,
+    CameraError, CameraErrorKind, CameraModel, CameraParams, Distortion,
+    UNDISTORT_TOLERANCE_F32_PX, UNDISTORT_TOLERANCE_PX,
 };
 use fringe3d_core::geometry::Vec3;
 use support::Pinhole;
@@ -90,31 +90,37 @@ fn inverse_round_trip_full_image_strong_distortion() {
     assert!(worst_row <= UNDISTORT_TOLERANCE_F32_PX);
 }
 
-fn intr() -> Intrinsics {
-    strong().intrinsics()
+fn intr() -> CameraParams {
+    strong().params()
+}
+
+/// The model of `params` with distortion `d` instead.
+fn model(params: CameraParams, d: Distortion) -> Result<CameraModel, CameraError> {
+    CameraModel::new(CameraParams {
+        distortion: d,
+        ..params
+    })
 }
 
 #[test]
 fn non_invertible_models_are_rejected() {
     // Barrel so strong that ρ(r) = r(1 + k1 r²) turns over inside the field of view
     // (dρ/dr = 0 at r = 1/√(3·0.9) ≈ 0.61 < the corner's radius).
-    let e =
-        CameraModel::new(intr(), Distortion::from_array([-0.9, 0.0, 0.0, 0.0, 0.0])).unwrap_err();
+    let e = model(intr(), Distortion::from_array([-0.9, 0.0, 0.0, 0.0, 0.0])).unwrap_err();
     assert_eq!(e.kind(), CameraErrorKind::NotInvertible, "{e}");
     assert!(matches!(e, CameraError::NotMonotonic { .. }));
     // A k2 that folds the profile back.
-    let e =
-        CameraModel::new(intr(), Distortion::from_array([0.2, -1.5, 0.0, 0.0, 0.0])).unwrap_err();
+    let e = model(intr(), Distortion::from_array([0.2, -1.5, 0.0, 0.0, 0.0])).unwrap_err();
     assert_eq!(e.kind(), CameraErrorKind::NotInvertible, "{e}");
     // Monotonic in the field of view but Newton from the distorted point does not reach 1e-4 px
     // in the fixed count near the turning point, or lands off the branch: refused too.
-    let e = CameraModel::new(intr(), Distortion::from_array([-0.56, 0.0, 0.0, 0.0, 0.0]));
+    let e = model(intr(), Distortion::from_array([-0.56, 0.0, 0.0, 0.0, 0.0]));
     if let Err(e) = e {
         assert_eq!(e.kind(), CameraErrorKind::NotInvertible, "{e}");
     }
     // Strong but invertible: accepted.
-    assert!(CameraModel::new(intr(), Distortion::from_array([-0.3, 0.1, 0.0, 0.0, 0.0])).is_ok());
-    assert!(CameraModel::new(intr(), Distortion::from_array([0.3, 0.2, 0.0, 0.0, 0.05])).is_ok());
+    assert!(model(intr(), Distortion::from_array([-0.3, 0.1, 0.0, 0.0, 0.0])).is_ok());
+    assert!(model(intr(), Distortion::from_array([0.3, 0.2, 0.0, 0.0, 0.05])).is_ok());
 }
 
 #[test]
@@ -122,21 +128,18 @@ fn bad_parameters_are_rejected() {
     let d = Distortion::NONE;
     let mut i = intr();
     i.fx = f64::NAN;
-    assert_eq!(CameraModel::new(i, d).unwrap_err(), CameraError::NotFinite);
+    assert_eq!(model(i, d).unwrap_err(), CameraError::NotFinite);
     let mut i = intr();
     i.fy = -1.0;
-    assert_eq!(
-        CameraModel::new(i, d).unwrap_err(),
-        CameraError::NonPositiveFocal
-    );
+    assert_eq!(model(i, d).unwrap_err(), CameraError::NonPositiveFocal);
     let mut i = intr();
     i.width = 1;
-    assert_eq!(CameraModel::new(i, d).unwrap_err(), CameraError::Size);
+    assert_eq!(model(i, d).unwrap_err(), CameraError::Size);
     let mut i = intr();
     i.skew = 0.7;
-    assert_eq!(CameraModel::new(i, d).unwrap_err(), CameraError::Skew);
+    assert_eq!(model(i, d).unwrap_err(), CameraError::Skew);
     assert_eq!(
-        CameraModel::new(
+        model(
             intr(),
             Distortion::from_array([f64::INFINITY, 0.0, 0.0, 0.0, 0.0])
         )

@@ -128,25 +128,21 @@ impl Pinhole {
         (x, y)
     }
 
-    pub fn intrinsics(&self) -> fringe3d_core::camera::Intrinsics {
-        fringe3d_core::camera::Intrinsics {
-            fx: self.fx,
-            fy: self.fy,
-            skew: self.skew,
-            u0: self.u0,
-            v0: self.v0,
+    pub fn params(&self) -> fringe3d_core::params::CameraParams {
+        fringe3d_core::params::CameraParams {
             width: self.width,
             height: self.height,
+            fx: self.fx,
+            fy: self.fy,
+            cx: self.u0,
+            cy: self.v0,
+            skew: self.skew,
+            distortion: fringe3d_core::params::Distortion::from_array(self.k),
         }
     }
 
-    pub fn distortion(&self) -> fringe3d_core::camera::Distortion {
-        fringe3d_core::camera::Distortion::from_array(self.k)
-    }
-
     pub fn model(&self) -> fringe3d_core::camera::CameraModel {
-        fringe3d_core::camera::CameraModel::new(self.intrinsics(), self.distortion())
-            .expect("camera model")
+        fringe3d_core::camera::CameraModel::new(self.params()).expect("camera model")
     }
 }
 

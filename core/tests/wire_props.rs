@@ -113,21 +113,23 @@ fn calibration(r: &mut XorShift64) -> Calibration {
     }
     let depth_min = r.below(2_000_000) as f64 / 1024.0 - 1000.0;
     Calibration {
-        camera: CameraModel {
-            width: 1 + r.below(65535) as u16,
-            height: 1 + r.below(65535) as u16,
+        camera: CameraParams {
+            width: 1 + r.below(65535) as u32,
+            height: 1 + r.below(65535) as u32,
             fx: positive(r),
             fy: positive(r),
             cx: finite(r),
             cy: finite(r),
             skew: finite(r),
-            distortion: [finite(r), finite(r), finite(r), finite(r), finite(r)],
+            distortion: [finite(r), finite(r), finite(r), finite(r), finite(r)].into(),
         },
-        projector_centre,
-        plane_point,
-        plane_normal,
-        depth_min,
-        depth_max: depth_min + 1.0 + r.below(1000) as f64 / 3.0,
+        geometry: ScanGeometry {
+            projector_centre,
+            plane_point,
+            plane_normal,
+            depth_min,
+            depth_max: depth_min + 1.0 + r.below(1000) as f64 / 3.0,
+        },
     }
 }
 

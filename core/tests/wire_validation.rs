@@ -406,7 +406,7 @@ fn upload_rules() {
 
 fn calibration() -> Calibration {
     Calibration {
-        camera: CameraModel {
+        camera: CameraParams {
             width: 640,
             height: 480,
             fx: 800.0,
@@ -414,13 +414,15 @@ fn calibration() -> Calibration {
             cx: 320.0,
             cy: 240.0,
             skew: 0.0,
-            distortion: [0.0; 5],
+            distortion: Default::default(),
         },
-        projector_centre: [100.0, 0.0, 0.0],
-        plane_point: [0.0, 0.0, 500.0],
-        plane_normal: [0.0, 0.0, 1.0],
-        depth_min: 300.0,
-        depth_max: 700.0,
+        geometry: ScanGeometry {
+            projector_centre: [100.0, 0.0, 0.0],
+            plane_point: [0.0, 0.0, 500.0],
+            plane_normal: [0.0, 0.0, 1.0],
+            depth_min: 300.0,
+            depth_max: 700.0,
+        },
     }
 }
 
@@ -437,17 +439,21 @@ fn calibration_rules() {
     let mut c = ok;
     c.camera.width = 0;
     assert_eq!(c.validate(), invalid(Invalid::Dimension));
+    // Sizes were u16 on the wire before the shared parameter type: the range stays.
     let mut c = ok;
-    c.camera.distortion[4] = f64::NAN;
+    c.camera.height = 65_536;
+    assert_eq!(c.validate(), invalid(Invalid::Dimension));
+    let mut c = ok;
+    c.camera.distortion.k3 = f64::NAN;
     assert_eq!(c.validate(), invalid(Invalid::NotFinite));
     let mut c = ok;
-    c.plane_point[1] = f64::NEG_INFINITY;
+    c.geometry.plane_point[1] = f64::NEG_INFINITY;
     assert_eq!(c.validate(), invalid(Invalid::NotFinite));
     let mut c = ok;
-    c.plane_normal = [0.0, -0.0, 0.0];
+    c.geometry.plane_normal = [0.0, -0.0, 0.0];
     assert_eq!(c.validate(), invalid(Invalid::PlaneNormal));
     let mut c = ok;
-    c.depth_max = c.depth_min;
+    c.geometry.depth_max = c.geometry.depth_min;
     assert_eq!(c.validate(), invalid(Invalid::DepthRange));
 }
 

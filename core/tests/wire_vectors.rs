@@ -565,7 +565,7 @@ fn vector_configure_sequence() {
 #[test]
 fn vector_upload_calibration() {
     let msg = Message::UploadCalibration(Calibration {
-        camera: CameraModel {
+        camera: CameraParams {
             width: 640,
             height: 480,
             fx: 800.0,
@@ -573,13 +573,15 @@ fn vector_upload_calibration() {
             cx: 320.0,
             cy: 240.0,
             skew: 0.0,
-            distortion: [-0.125, 0.0625, 0.0, 0.0, 0.0],
+            distortion: [-0.125, 0.0625, 0.0, 0.0, 0.0].into(),
         },
-        projector_centre: [100.0, 0.0, 0.0],
-        plane_point: [0.0, 0.0, 500.0],
-        plane_normal: [0.0, 0.0, -1.0],
-        depth_min: 300.0,
-        depth_max: 700.0,
+        geometry: ScanGeometry {
+            projector_centre: [100.0, 0.0, 0.0],
+            plane_point: [0.0, 0.0, 500.0],
+            plane_normal: [0.0, 0.0, -1.0],
+            depth_min: 300.0,
+            depth_max: 700.0,
+        },
     });
     // f64 LE: sign, 11-bit exponent (bias 1023), 52-bit fraction.
     let z = [0u8; 8];

@@ -1558,8 +1558,8 @@ fn dispatch<T: Write, S: Storage>(
             reply!(ack);
         }
         Message::UploadCalibration(cal) => {
-            if cal.camera.width != ctl.caps.sensor_width
-                || cal.camera.height != ctl.caps.sensor_height
+            if cal.camera.width != u32::from(ctl.caps.sensor_width)
+                || cal.camera.height != u32::from(ctl.caps.sensor_height)
             {
                 nak!(NakCode::Invalid, Invalid::Dimension);
             }

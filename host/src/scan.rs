@@ -6,13 +6,11 @@
 //! so the points are bit-identical whatever the thread count.
 
 use crate::batch::{Isa, PointsOut as BatchOut};
-use crate::io::calibration::{Calibration, CameraModel as CameraFile};
+use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, read_gray};
-use fringe3d_core::camera::{CameraModel, Distortion, Intrinsics};
 use fringe3d_core::filter::EdgeFilter;
-use fringe3d_core::geometry::Vec3;
 use fringe3d_core::phase_function::Axis;
-use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap, Setup};
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use fringe3d_core::validity::Validity;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -50,23 +48,6 @@ pub enum ScanError {
     },
 }
 
-/// The core camera model of a calibration file's camera section.
-pub fn core_camera(c: &CameraFile) -> Result<CameraModel, String> {
-    CameraModel::new(
-        Intrinsics {
-            fx: c.fx,
-            fy: c.fy,
-            skew: c.skew,
-            u0: c.cx,
-            v0: c.cy,
-            width: c.width,
-            height: c.height,
-        },
-        Distortion::from_array(c.distortion),
-    )
-    .map_err(|e| format!("camera model: {e}"))
-}
-
 /// Everything a reconstruction needs, loaded and checked.
 pub struct ScanCalibration {
     /// The calibration.
@@ -95,24 +76,7 @@ impl ScanCalibration {
             message: m,
         };
         calibration.validate().map_err(invalid)?;
-        let cam = core_camera(&calibration.camera).map_err(invalid)?;
-        let r = calibration.reference.as_ref().ok_or_else(|| {
-            invalid(
-                "no [reference] section: a scan needs the reference plane and its phase map".into(),
-            )
-        })?;
-        let setup = Setup {
-            projector_centre: Vec3::new(
-                calibration.projector_center[0],
-                calibration.projector_center[1],
-                calibration.projector_center[2],
-            ),
-            reference_point: Vec3::new(r.point[0], r.point[1], r.point[2]),
-            reference_normal: Vec3::new(r.normal[0], r.normal[1], r.normal[2]),
-            axis,
-            z_min: calibration.depth_range[0],
-            z_max: calibration.depth_range[1],
-        };
+        let (cam, setup) = calibration.core_setup(axis).map_err(invalid)?;
         let recon = Reconstructor::new(&cam, &setup)
             .map_err(|e| invalid(format!("reconstruction set-up: {e}")))?;
         let (w, h) = (recon.width(), recon.height());

@@ -783,8 +783,8 @@ fn params_bytes(inp: &Inputs, set: &PatternSet) -> Result<Vec<u8>, VectorsError>
     }
     // Camera.
     let cam = recon.camera();
-    let i = cam.intrinsics();
-    for v in [i.fx, i.fy, i.skew, i.u0, i.v0] {
+    let i = cam.params();
+    for v in [i.fx, i.fy, i.skew, i.cx, i.cy] {
         p.f64(v);
     }
     p.u32(i.width);
@@ -848,7 +848,7 @@ fn manifest_info(
     }
     let c = inp.decode_config;
     let cam = recon.camera();
-    let i = cam.intrinsics();
+    let i = cam.params();
     let s = recon.setup();
     let band = recon.band();
     let v3 = |v: fringe3d_core::geometry::Vec3| json!([v.x, v.y, v.z]);
@@ -904,7 +904,7 @@ fn manifest_info(
     m.insert(
         "calibration".into(),
         json!({
-            "camera": {"fx": i.fx, "fy": i.fy, "skew": i.skew, "u0": i.u0, "v0": i.v0, "width": i.width, "height": i.height,
+            "camera": {"fx": i.fx, "fy": i.fy, "skew": i.skew, "u0": i.cx, "v0": i.cy, "width": i.width, "height": i.height,
                        "distortion_k1_k2_p1_p2_k3": cam.distortion().to_array()},
             "projector_centre": v3(s.projector_centre),
             "reference_point": v3(s.reference_point),

@@ -320,7 +320,7 @@ fn plate_and_reference_errors() {
     )));
     let got = fringe3d::io::calibration::Calibration::load(&good)
         .unwrap()
-        .projector_center;
+        .projector_centre;
     let truth = fringe3d::render::Scene::new(SceneSpec::builtin("plates").unwrap(), None)
         .unwrap()
         .rig

@@ -14,7 +14,7 @@
 use fringe3d::accuracy::{self, Accuracy};
 use fringe3d::calib::demo::{DemoOptions, render_calibration_data, scan_cloud};
 use fringe3d::calib::files;
-use fringe3d::io::calibration::{Calibration, CameraModel};
+use fringe3d::io::calibration::{Calibration, CameraParams};
 use fringe3d::io::image::{Pixels, read_gray};
 use fringe3d::render::Scene;
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
@@ -99,8 +99,8 @@ fn rms(v: &[f64]) -> f64 {
 
 /// The true camera written in OpenCV's XML and JSON FileStorage forms and as Bouguet's
 /// Calib_Results.m (K[0][1] = α·fx; Bouguet's alpha_c = α).
-fn write_foreign_cameras(dir: &Path, c: &CameraModel) -> [PathBuf; 3] {
-    let d = c.distortion;
+fn write_foreign_cameras(dir: &Path, c: &CameraParams) -> [PathBuf; 3] {
+    let d = c.distortion.to_array();
     let k = [c.fx, c.skew * c.fx, c.cx, 0.0, c.fy, c.cy, 0.0, 0.0, 1.0];
     let join = |v: &[f64], sep: &str| {
         v.iter()
@@ -324,7 +324,7 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         let k = a.iter().position(|x| x == "--camera-from").unwrap() + 1;
         a[k] = s(camera).to_string();
         run(&a.iter().map(String::as_str).collect::<Vec<_>>());
-        Calibration::load(out).unwrap().projector_center
+        Calibration::load(out).unwrap().projector_centre
     };
     let p = projector(&yml, &cal);
     let p_err = dist(p, data.rig.translation);
@@ -504,8 +504,9 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         );
         assert!(
             m.distortion
+                .to_array()
                 .iter()
-                .zip(truth_cam.distortion)
+                .zip(truth_cam.distortion.to_array())
                 .all(|(a, b)| close(*a, b)),
             "{}",
             f.display()

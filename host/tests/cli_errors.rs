@@ -220,7 +220,7 @@ fn calibration_problems() {
     fringe3d::io::image::write_tiff_f32(&map, 100, 50, &vec![0.5f32; 5000]).unwrap();
     let cal = |fx: &str| {
         format!(
-            "version = 1\nprojector_center = [200.0, 0.0, 0.0]\ndepth_range = [400.0, 800.0]\n\
+            "version = 1\nprojector_centre = [200.0, 0.0, 0.0]\ndepth_range = [400.0, 800.0]\n\
              [camera]\nwidth = 320\nheight = 200\nfx = {fx}\nfy = 400.0\nskew = 0.0\ncx = 159.5\ncy = 99.5\ndistortion = [0.0, 0.0, 0.0, 0.0, 0.0]\n\
              [reference]\npoint = [0.0, 0.0, 700.0]\nnormal = [0.0, 0.0, -1.0]\nphase_map = \"ref.tif\"\n"
         )

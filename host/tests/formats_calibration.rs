@@ -5,8 +5,8 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use fringe3d::io::calibration::{
-    Calibration, CameraModel, FormatError, ProjectorModel, ReferencePlane, import_bouguet,
-    import_bouguet_file, import_opencv,
+    Calibration, CameraParams, Distortion, FormatError, ProjectorParams, ReferencePlane,
+    import_bouguet, import_bouguet_file, import_opencv,
 };
 
 fn scratch(name: &str) -> PathBuf {
@@ -28,7 +28,7 @@ fn examples() -> PathBuf {
 fn sample() -> Calibration {
     Calibration {
         version: 1,
-        camera: CameraModel {
+        camera: CameraParams {
             width: 640,
             height: 480,
             fx: 1100.0,
@@ -36,9 +36,9 @@ fn sample() -> Calibration {
             skew: 0.001,
             cx: 319.5,
             cy: 239.5,
-            distortion: [-0.12, 0.08, 0.0005, -0.0003, 0.0],
+            distortion: Distortion::from_array([-0.12, 0.08, 0.0005, -0.0003, 0.0]),
         },
-        projector_center: [-200.0, 0.0, 30.0],
+        projector_centre: [-200.0, 0.0, 30.0],
         reference: Some(ReferencePlane {
             point: [0.0, 0.0, 800.0],
             normal: [0.0, 0.0, -1.0],
@@ -46,8 +46,8 @@ fn sample() -> Calibration {
             pattern_set: Some(PathBuf::from("patterns.toml")),
         }),
         depth_range: [650.0, 900.0],
-        projector: Some(ProjectorModel {
-            intrinsics: CameraModel {
+        projector: Some(ProjectorParams {
+            intrinsics: CameraParams {
                 width: 1024,
                 height: 768,
                 fx: 1500.0,
@@ -55,7 +55,7 @@ fn sample() -> Calibration {
                 skew: 0.0,
                 cx: 511.5,
                 cy: 767.5,
-                distortion: [0.0; 5],
+                distortion: Distortion::from_array([0.0; 5]),
             },
             rotation: [
                 [0.9682458365518543, 0.0, 0.25],
@@ -74,7 +74,7 @@ const SAMPLE_TOML: &str = r#"# fringe3d calibration file, format version 1 (docs
 # skew (alpha of eq 4) and distortion [k1, k2, p1, p2, k3] are dimensionless.
 # Pixel centres are at integer coordinates: (0, 0) is the centre of the top-left pixel.
 version = 1
-projector_center = [-200.0, 0.0, 30.0]  # P, mm
+projector_centre = [-200.0, 0.0, 30.0]  # P, mm
 depth_range = [650.0, 900.0]  # [z_min, z_max], mm
 
 [camera]
@@ -137,9 +137,9 @@ fn load_reads_a_hand_written_minimal_file() {
     let c = Calibration::load(&p).unwrap();
     assert_eq!(c.camera.fx, 10.0);
     assert_eq!(c.camera.fy, 11.0);
-    assert_eq!(c.camera.distortion, [0.1, -0.2, 0.0, 0.0, 0.001]);
+    assert_eq!(c.camera.distortion.to_array(), [0.1, -0.2, 0.0, 0.0, 0.001]);
     assert_eq!(c.depth_range, [100.0, 2000.0]);
-    assert_eq!(c.projector_center, [150.0, -10.0, 0.0]);
+    assert_eq!(c.projector_centre, [150.0, -10.0, 0.0]);
     assert_eq!(c.reference, None);
     assert_eq!(c.projector, None);
     assert_eq!(c.reference_map_path(&p), None);
@@ -152,12 +152,13 @@ fn awkward_floats_round_trip_exactly() {
     let mut c = sample();
     c.camera.fx = 1.0 / 3.0 * 3000.0 + 1e-10;
     c.camera.cx = 0.1 + 0.2;
-    c.camera.distortion = [1e-300, -0.0, 5e-324, 123456789.0e-15, -999.9999999999999];
+    c.camera.distortion =
+        Distortion::from_array([1e-300, -0.0, 5e-324, 123456789.0e-15, -999.9999999999999]);
     c.depth_range = [1e-3, 1e21];
     c.save(&p).unwrap();
     let back = Calibration::load(&p).unwrap();
     assert_eq!(back, c);
-    assert_eq!(back.camera.distortion[1].to_bits(), (-0.0f64).to_bits());
+    assert_eq!(back.camera.distortion.k2.to_bits(), (-0.0f64).to_bits());
 }
 
 fn err_of(text: &str) -> FormatError {
@@ -195,7 +196,7 @@ fn validation_errors_name_file_and_field() {
     ))
     .to_string();
     assert!(
-        m.contains("projector.translation") && m.contains("projector_center"),
+        m.contains("projector.translation") && m.contains("projector_centre"),
         "{m}"
     );
 
@@ -332,8 +333,8 @@ fn sample_example() -> Calibration {
 
 // --- OpenCV -----------------------------------------------------------------------------------
 
-fn expected_opencv() -> CameraModel {
-    CameraModel {
+fn expected_opencv() -> CameraParams {
+    CameraParams {
         width: 640,
         height: 480,
         fx: 1102.3456789012345,
@@ -341,13 +342,13 @@ fn expected_opencv() -> CameraModel {
         skew: 0.0,
         cx: 321.45678901234567,
         cy: 240.34567890123456,
-        distortion: [
+        distortion: Distortion::from_array([
             -0.12345678901234567,
             0.087_654_321_098_765_43,
             0.000_543_210_987_654_321,
             -0.00032109876543210987,
             -0.011111111111111111,
-        ],
+        ]),
     }
 }
 
@@ -385,7 +386,7 @@ fn opencv_skew_four_coefficients_and_size_arguments() {
     let c = import_opencv(&p, 800, 600).unwrap();
     assert_eq!((c.width, c.height), (800, 600));
     assert_eq!(c.skew, 0.002);
-    assert_eq!(c.distortion, [0.1, -0.2, 0.001, 0.002, 0.0]);
+    assert_eq!(c.distortion.to_array(), [0.1, -0.2, 0.001, 0.002, 0.0]);
     assert_eq!((c.fx, c.fy, c.cx, c.cy), (1000.0, 1000.0, 320.0, 240.0));
 }
 
@@ -401,7 +402,7 @@ fn opencv_json_and_alias_keys() {
     );
     let c = import_opencv(&p, 1, 1).unwrap();
     assert_eq!((c.width, c.height, c.fy, c.cy), (1280, 1024, 1501.0, 511.5));
-    assert_eq!(c.distortion, [0.01, 0.02, 0.0, 0.0, 0.03]);
+    assert_eq!(c.distortion.to_array(), [0.01, 0.02, 0.0, 0.0, 0.03]);
 }
 
 fn yaml_with_dist(n: usize, data: &str) -> String {
@@ -419,7 +420,7 @@ fn opencv_extra_coefficients_must_be_zero() {
         &yaml_with_dist(8, "0.1, 0.2, 0.0, 0.0, 0.3, 0., 0., 0."),
     );
     assert_eq!(
-        import_opencv(&ok, 640, 480).unwrap().distortion,
+        import_opencv(&ok, 640, 480).unwrap().distortion.to_array(),
         [0.1, 0.2, 0.0, 0.0, 0.3]
     );
     let fourteen = vec!["0."; 14].join(", ");
@@ -499,7 +500,7 @@ fn bouguet_values_map_without_pixel_shift() {
     );
     assert_eq!(
         c,
-        CameraModel {
+        CameraParams {
             width: 640,
             height: 480,
             fx: 657.6,
@@ -507,7 +508,7 @@ fn bouguet_values_map_without_pixel_shift() {
             skew: 0.001,
             cx: 303.2,
             cy: 242.6,
-            distortion: [-0.25, 0.13, -0.0002, 0.00004, 0.01],
+            distortion: Distortion::from_array([-0.25, 0.13, -0.0002, 0.00004, 0.01]),
         }
     );
 }
@@ -522,7 +523,7 @@ fn bouguet_results_file() {
     .unwrap();
     assert_eq!(
         c,
-        CameraModel {
+        CameraParams {
             width: 640,
             height: 480,
             fx: 1102.3456789012345,
@@ -530,13 +531,13 @@ fn bouguet_results_file() {
             skew: 0.0,
             cx: 321.45678901234567,
             cy: 240.34567890123456,
-            distortion: [
+            distortion: Distortion::from_array([
                 -0.123456789012346,
                 0.087654321098765,
                 0.000543210987654,
                 -0.000321098765432,
                 0.0
-            ],
+            ]),
         }
     );
 }
@@ -548,7 +549,7 @@ fn bouguet_file_variants_and_errors() {
     // Old toolbox: 4 distortion values; no nx/ny (taken from the arguments); skew set.
     fs::write(&p, "fc = [ 500 ; 501 ];\ncc = [ 319.5 ; 239.5 ];\nalpha_c = 0.002;\nkc = [ 0.1 ; 0.2 ; 0.003 ; 0.004 ];\n").unwrap();
     let c = import_bouguet_file(&p, 640, 480).unwrap();
-    assert_eq!(c.distortion, [0.1, 0.2, 0.003, 0.004, 0.0]);
+    assert_eq!(c.distortion.to_array(), [0.1, 0.2, 0.003, 0.004, 0.0]);
     assert_eq!((c.width, c.height, c.skew, c.fy), (640, 480, 0.002, 501.0));
 
     fs::write(&p, "cc = [ 319.5 ; 239.5 ];\nkc = [ 0 ; 0 ; 0 ; 0 ; 0 ];\n").unwrap();

@@ -153,7 +153,7 @@ fn dataset_files_read_back_with_the_project_readers() {
     let cal_path = dir.join("calibration.toml");
     let cal = Calibration::load(&cal_path).unwrap();
     assert_eq!(cal.camera.width, 160);
-    assert_eq!(cal.projector_center, scene.rig.translation);
+    assert_eq!(cal.projector_centre, scene.rig.translation);
     let map = cal.reference_map_path(&cal_path).unwrap();
     let (ref_img, _) = read_gray(&map).unwrap();
     let Pixels::F32(ref_phase) = ref_img.pixels else {

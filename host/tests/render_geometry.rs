@@ -15,7 +15,7 @@ fn camera_ray(rig: &Rig, u: f64, v: f64) -> [f64; 3] {
     let c = &rig.camera;
     let yd = (v - c.cy) / c.fy;
     let xd = (u - c.cx) / c.fx - c.skew * yd;
-    let [k1, k2, p1, p2, k3] = c.distortion;
+    let [k1, k2, p1, p2, k3] = c.distortion.to_array();
     let (mut x, mut y) = (xd, yd);
     for _ in 0..500 {
         let r2 = x * x + y * y;

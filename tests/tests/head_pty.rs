@@ -71,8 +71,8 @@ fn has_non_f32_values(c: &Calibration) -> bool {
     let r = c.reference.as_ref().unwrap();
     let cam = &c.camera;
     let mut all = vec![cam.fx, cam.fy, cam.cx, cam.cy, cam.skew];
-    all.extend(cam.distortion);
-    all.extend(c.projector_center);
+    all.extend(cam.distortion.to_array());
+    all.extend(c.projector_centre);
     all.extend(c.depth_range);
     all.extend(r.point);
     all.extend(r.normal);

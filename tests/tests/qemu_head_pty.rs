@@ -155,7 +155,7 @@ fn dataset(root: &Path) -> PathBuf {
         ..Default::default()
     });
     // The rig's projector with a coarser DMD over the same field of view.
-    let p = &mut spec.projector;
+    let p = &mut spec.projector.lens;
     let s = PROJ.0 as f64 / p.width as f64;
     assert_eq!(PROJ.1 as f64 / p.height as f64, s, "same aspect ratio");
     (p.width, p.height) = PROJ;

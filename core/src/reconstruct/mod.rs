@@ -336,7 +336,7 @@ impl Reconstructor {
         if !(p.norm() > 1e-6 * s.z_max) || !(libm::fabs(h) > 1e-6 * s.z_max) {
             return Err(ReconstructError::ProjectorCentre);
         }
-        let i = camera.intrinsics();
+        let i = camera.params();
         let c = Consts {
             nx: n.x as f32,
             ny: n.y as f32,

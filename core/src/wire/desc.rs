@@ -9,7 +9,7 @@
 //!   trigger sequence's business). Linear and knot profiles, curved fringes, `I_min`, sine or
 //!   cosine, any phase offset and explicit shifts are all carried. Shifts that equal
 //!   `TAU * i as f64 / n as f64` bit for bit go as `Uniform { n, count }`, others as `Explicit`.
-//! - [`Calibration::from_core`] takes the very [`Intrinsics`], [`Distortion`] and [`Setup`] the
+//! - [`Calibration::from_core`] takes the very [`CameraParams`] and [`Setup`] the
 //!   desktop builds its [`Reconstructor`] from; [`Calibration::reconstructor`] builds the same
 //!   reconstructor on the head, and [`Calibration::edge_filter`] the same depth-edge filter as the
 //!   desktop's (`EdgeFilter::new(min(fx, fy), angle)`).
@@ -21,13 +21,13 @@
 use core::f64::consts::TAU;
 
 use super::message::{
-    Calibration, CameraModel, Knots, Level, MAX_BIT_DEPTH, MAX_KNOTS, MAX_LEVELS, MAX_SHIFTS,
+    Calibration, CameraParams, Knots, Level, MAX_BIT_DEPTH, MAX_KNOTS, MAX_LEVELS, MAX_SHIFTS,
     PatternAxis, PatternSetDesc, PhaseDesc, PhaseProfile, Shifts, Waveform,
 };
 use super::{Invalid, WireError};
-use crate::camera::{self, Distortion, Intrinsics};
+use crate::camera;
 use crate::filter::EdgeFilter;
-use crate::geometry::Vec3;
+use crate::params::ScanGeometry;
 use crate::pattern::{self, Convention, ImageId, Output, PatternError, PatternSet};
 use crate::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
 use crate::reconstruct::{ReconstructError, Reconstructor, Setup};
@@ -281,37 +281,17 @@ pub fn image_index(set: &PatternSet, id: ImageId) -> Option<usize> {
     set.order().iter().position(|o| *o == id)
 }
 
-fn v3(a: [f64; 3]) -> Vec3 {
-    Vec3::new(a[0], a[1], a[2])
-}
-
 impl Calibration {
-    /// The wire form of the inputs of a desktop reconstruction: the camera model's intrinsics
-    /// and distortion and the set-up, exactly as given (the set-up's axis is the pattern set's
-    /// business and is not carried).
-    pub fn from_core(
-        intrinsics: &Intrinsics,
-        distortion: &Distortion,
-        setup: &Setup,
-    ) -> Result<Self, DescError> {
-        let i = intrinsics;
-        let p = |v: Vec3| [v.x, v.y, v.z];
+    /// The wire form of the inputs of a desktop reconstruction: the camera model's parameters
+    /// and the set-up, exactly as given (the set-up's axis is the pattern set's business and is
+    /// not carried).
+    pub fn from_core(camera: &CameraParams, setup: &Setup) -> Result<Self, DescError> {
+        if camera.width > u32::from(u16::MAX) || camera.height > u32::from(u16::MAX) {
+            return Err(DescError::Size);
+        }
         let c = Calibration {
-            camera: CameraModel {
-                width: u16::try_from(i.width).map_err(|_| DescError::Size)?,
-                height: u16::try_from(i.height).map_err(|_| DescError::Size)?,
-                fx: i.fx,
-                fy: i.fy,
-                cx: i.u0,
-                cy: i.v0,
-                skew: i.skew,
-                distortion: distortion.to_array(),
-            },
-            projector_centre: p(setup.projector_centre),
-            plane_point: p(setup.reference_point),
-            plane_normal: p(setup.reference_normal),
-            depth_min: setup.z_min,
-            depth_max: setup.z_max,
+            camera: *camera,
+            geometry: ScanGeometry::from_setup(setup),
         };
         c.validate()
             .map_err(|e| DescError::Invalid(invalid_of(e)))?;
@@ -320,32 +300,12 @@ impl Calibration {
 
     /// The core camera model (its construction checks run: [`Invalid::Intrinsics`] if refused).
     pub fn camera_model(&self) -> Result<camera::CameraModel, Invalid> {
-        let c = &self.camera;
-        camera::CameraModel::new(
-            Intrinsics {
-                fx: c.fx,
-                fy: c.fy,
-                skew: c.skew,
-                u0: c.cx,
-                v0: c.cy,
-                width: c.width as u32,
-                height: c.height as u32,
-            },
-            Distortion::from_array(c.distortion),
-        )
-        .map_err(|_| Invalid::Intrinsics)
+        camera::CameraModel::new(self.camera).map_err(|_| Invalid::Intrinsics)
     }
 
     /// The core set-up for phases monotonic along `axis`.
     pub fn setup(&self, axis: PatternAxis) -> Setup {
-        Setup {
-            projector_centre: v3(self.projector_centre),
-            reference_point: v3(self.plane_point),
-            reference_normal: v3(self.plane_normal),
-            axis: axis.into(),
-            z_min: self.depth_min,
-            z_max: self.depth_max,
-        }
+        self.geometry.setup(axis.into())
     }
 
     /// The core reconstructor (band and tables) for phases monotonic along `axis`.

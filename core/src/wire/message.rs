@@ -9,16 +9,12 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use super::crc::crc32c;
 use super::{Invalid, MAX_PAYLOAD, WireError};
 use crate::Validity;
+pub use crate::params::pattern::{
+    Knots, Level, MAX_KNOTS, MAX_LEVELS, MAX_SHIFTS, PatternAxis, PatternSetDesc, PhaseDesc,
+    PhaseProfile, Shifts, Waveform,
+};
+pub use crate::params::{CameraParams, ScanGeometry};
 
-/// Most fringe levels (scale coefficients `c_k`) in a [`PatternSetDesc`]: the core's
-/// [`pattern::MAX_LEVELS`](crate::pattern::MAX_LEVELS).
-pub const MAX_LEVELS: usize = crate::pattern::MAX_LEVELS;
-/// Most phase shifts in one level of a [`PatternSetDesc`]: the core's
-/// [`pattern::MAX_SHIFTS`](crate::pattern::MAX_SHIFTS).
-pub const MAX_SHIFTS: usize = crate::pattern::MAX_SHIFTS;
-/// Most knots of a [`Knots`] profile: the core's
-/// [`phase_function::MAX_KNOTS`](crate::phase_function::MAX_KNOTS).
-pub const MAX_KNOTS: usize = crate::phase_function::MAX_KNOTS;
 /// Most data bytes in one [`UploadChunk`]; a multiple of 4 so phase-map chunks can hold whole f32s.
 pub const MAX_CHUNK: usize = 4064;
 /// Most data bytes in one [`ResultRow`].
@@ -235,104 +231,10 @@ impl Capabilities {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Pattern sets
-
-/// The projector axis along which the phase function is monotonic.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum PatternAxis {
-    /// ξ, projector columns: vertical fringes (wire value 0).
-    Xi,
-    /// η, projector rows: horizontal fringes (wire value 1).
-    Eta,
-}
-
-/// The periodic function turning phase into intensity.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Waveform {
-    /// `I = I_min + (I_max − I_min)/2 · (1 + sin(·))`, the paper's eq 5 (wire value 0).
-    Sine,
-    /// `I = I_min + (I_max − I_min)/2 · (1 + cos(·))` (wire value 1).
-    Cosine,
-}
-
-/// Knots of a monotonic cubic Hermite profile (the core's
-/// [`KnotProfile`](crate::phase_function::KnotProfile)): positions `s` (projector pixels),
-/// phases `phi` (radians) and slopes (radians per pixel) of the first `count` knots; the unused
-/// entries are `+0.0`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Knots {
-    /// Knots used, `2..=MAX_KNOTS`.
-    pub count: u8,
-    /// Knot positions.
-    pub s: [f64; MAX_KNOTS],
-    /// Knot phases.
-    pub phi: [f64; MAX_KNOTS],
-    /// Knot slopes.
-    pub slope: [f64; MAX_KNOTS],
-}
-
-/// The 1-D profile `g(t)` of the phase function along its axis (the core's
-/// [`Profile`](crate::phase_function::Profile)).
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum PhaseProfile {
-    /// `g(t) = slope·(t − origin)`, `slope > 0` (wire value 0): straight fringes of fixed width.
-    Linear {
-        /// Position (projector pixels) where the phase is zero.
-        origin: f64,
-        /// Radians per projector pixel.
-        slope: f64,
-    },
-    /// A monotonic cubic through knots (wire value 1): fringes of varying width.
-    Knots(Knots),
-}
-
-/// The phase function `Φ(ξ, η) = g(t + curvature·(w − bend_center)²)`, `t` the coordinate along
-/// `axis`, `w` the other one (the core's [`PhaseFunction`](crate::phase_function::PhaseFunction);
-/// curvature 0: straight fringes).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PhaseDesc {
-    /// The axis along which Φ increases.
-    pub axis: PatternAxis,
-    /// The profile `g`.
-    pub profile: PhaseProfile,
-    /// Bending coefficient `a`, 1/pixel.
-    pub curvature: f64,
-    /// The line `w₀` about which fringes bend, pixels.
-    pub bend_center: f64,
-}
-
-/// The phase shifts of one level.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum Shifts {
-    /// The first `count` of `n` equally spaced shifts `2π·i/n` (evaluated in f64 as
-    /// `TAU * i as f64 / n as f64`), `i = 0..count` (eq 14; the paper's eq 7 levels 0 and 1 are
-    /// `{ n: 4, count: 2 }`). `1 <= count <= n <= MAX_SHIFTS`.
-    Uniform {
-        /// Number of equal steps in 2π.
-        n: u8,
-        /// How many of them are projected.
-        count: u8,
-    },
-    /// Explicit shifts in radians: the first `count` entries, `1..=MAX_SHIFTS`; the rest must be
-    /// `+0.0`.
-    Explicit {
-        /// Number of shifts used.
-        count: u8,
-        /// The shifts, radians.
-        radians: [f64; MAX_SHIFTS],
-    },
-}
+// Pattern sets: the description types live in `crate::params::pattern`; their field checks here.
 
 impl Shifts {
-    /// Number of patterns (shifts) of the level.
-    pub const fn count(&self) -> usize {
-        match *self {
-            Shifts::Uniform { count, .. } | Shifts::Explicit { count, .. } => count as usize,
-        }
-    }
-
-    fn validate(&self) -> Result<(), WireError> {
+    pub(crate) fn validate(&self) -> Result<(), WireError> {
         match *self {
             Shifts::Uniform { n, count } => check(
                 count >= 1 && count <= n && n as usize <= MAX_SHIFTS,
@@ -349,69 +251,7 @@ impl Shifts {
     }
 }
 
-/// One level of a pattern set: a scale coefficient `c_k` and its shifts.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Level {
-    /// Scale coefficient `c_k` (eq 7), finite and `> 0`.
-    pub scale: f64,
-    /// The level's phase shifts.
-    pub shifts: Shifts,
-}
-
-impl Level {
-    /// The filler for unused level slots: scale `+0.0`, `Uniform { n: 0, count: 0 }`.
-    pub const UNUSED: Level = Level {
-        scale: 0.0,
-        shifts: Shifts::Uniform { n: 0, count: 0 },
-    };
-
-    fn is_unused(&self) -> bool {
-        self.scale.to_bits() == 0 && matches!(self.shifts, Shifts::Uniform { n: 0, count: 0 })
-    }
-}
-
-/// A parametric pattern set the head generates row by row: the core's
-/// [`PatternSet`](crate::pattern::PatternSet) (eq 7 generalised) with every parameter as the
-/// core holds it (f64), so the head's set is the desktop's bit for bit
-/// ([`PatternSetDesc::from_set`], [`PatternSetDesc::to_set`]). Pattern `(k, n)` has intensity
-/// `I_min + (I_max − I_min)/2 · (1 + wave(c_k · Φ(ξ, η) + shift_{k,n} + phase_offset))`, quantised
-/// to `bit_depth` bits; wire pattern indices count levels in order, shifts in order within a
-/// level.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PatternSetDesc {
-    /// Projector width, pixels, `>= 1`.
-    pub width: u16,
-    /// Projector height, pixels, `>= 1`.
-    pub height: u16,
-    /// Bits per pattern pixel, `1..=MAX_BIT_DEPTH`.
-    pub bit_depth: u8,
-    /// Gray level of the fringe minimum, `0 <= I_min < I_max`.
-    pub i_min: f64,
-    /// Peak intensity `I_max`, `<= 2^bit_depth - 1`.
-    pub i_max: f64,
-    /// Sine or cosine modulation.
-    pub waveform: Waveform,
-    /// Constant phase added to every pattern, radians.
-    pub phase_offset: f64,
-    /// The phase function Φ.
-    pub phase: PhaseDesc,
-    /// Levels used, `1..=MAX_LEVELS`.
-    pub level_count: u8,
-    /// The levels, coarse to fine; slots from `level_count` on must be [`Level::UNUSED`].
-    pub levels: [Level; MAX_LEVELS],
-}
-
 impl PatternSetDesc {
-    /// The used levels (empty if `level_count` is out of range).
-    pub fn used_levels(&self) -> &[Level] {
-        self.levels.get(..self.level_count as usize).unwrap_or(&[])
-    }
-
-    /// Total number of patterns in the set.
-    pub fn pattern_count(&self) -> usize {
-        self.used_levels().iter().map(|l| l.shifts.count()).sum()
-    }
-
     /// Check every field (see the field docs). What only the whole set can tell (monotonic,
     /// continuous phase, coarse range, scales increasing, shifts separating the unknowns) is
     /// checked by [`PatternSetDesc::to_set`].
@@ -595,65 +435,40 @@ pub struct UploadAck {
 // ---------------------------------------------------------------------------------------------
 // Calibration
 
-/// Camera intrinsics: pinhole with skew and Brown distortion (OpenCV order), the values the
-/// core's [`CameraModel`](crate::camera::CameraModel) is built from (f64, as the desktop holds
-/// them).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CameraModel {
-    /// Image width, pixels, `>= 1`.
-    pub width: u16,
-    /// Image height, pixels, `>= 1`.
-    pub height: u16,
-    /// Focal length in x, pixels, `> 0`.
-    pub fx: f64,
-    /// Focal length in y, pixels, `> 0`.
-    pub fy: f64,
-    /// Principal point x, pixels.
-    pub cx: f64,
-    /// Principal point y, pixels.
-    pub cy: f64,
-    /// Skew α.
-    pub skew: f64,
-    /// `[k1, k2, p1, p2, k3]`.
-    pub distortion: [f64; 5],
-}
-
-/// Host → head: everything reconstruction needs besides the reference phase map (mm, camera
-/// frame): the inputs of the core's [`Setup`](crate::reconstruct::Setup), in f64, so the head's
-/// reconstructor is the desktop's ([`Calibration::reconstructor`]).
+/// Host → head: everything reconstruction needs besides the reference phase map: the camera's
+/// [`CameraParams`] and the [`ScanGeometry`] of the core's [`Setup`](crate::reconstruct::Setup),
+/// in f64, so the head's reconstructor is the desktop's ([`Calibration::reconstructor`]).
+/// Encoded as the two in turn (postcard is positional).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Calibration {
     /// The camera.
-    pub camera: CameraModel,
-    /// Projector centre of projection.
-    pub projector_centre: [f64; 3],
-    /// A point of the reference plane.
-    pub plane_point: [f64; 3],
-    /// The reference plane's normal, non-zero (need not be unit length).
-    pub plane_normal: [f64; 3],
-    /// Nearest accepted depth.
-    pub depth_min: f64,
-    /// Farthest accepted depth, `> depth_min`.
-    pub depth_max: f64,
+    pub camera: CameraParams,
+    /// Projector centre, reference plane, depth range.
+    pub geometry: ScanGeometry,
 }
 
 impl Calibration {
     /// Check finiteness and ranges.
     pub fn validate(&self) -> Result<(), WireError> {
         let c = &self.camera;
-        check(c.width >= 1 && c.height >= 1, Invalid::Dimension)?;
-        finite64(&[c.fx, c.fy, c.cx, c.cy, c.skew])?;
-        finite64(&c.distortion)?;
-        finite64(&self.projector_centre)?;
-        finite64(&self.plane_point)?;
-        finite64(&self.plane_normal)?;
-        finite64(&[self.depth_min, self.depth_max])?;
+        let g = &self.geometry;
+        // Sizes travel as varints and were u16 before the shared type: keep the same range.
+        let side = 1..=u32::from(u16::MAX);
+        check(
+            side.contains(&c.width) && side.contains(&c.height),
+            Invalid::Dimension,
+        )?;
+        finite64(&c.to_vector())?;
+        finite64(&g.projector_centre)?;
+        finite64(&g.plane_point)?;
+        finite64(&g.plane_normal)?;
+        finite64(&[g.depth_min, g.depth_max])?;
         check(c.fx > 0.0 && c.fy > 0.0, Invalid::Intrinsics)?;
         check(
-            self.plane_normal.iter().any(|&x| x != 0.0),
+            g.plane_normal.iter().any(|&x| x != 0.0),
             Invalid::PlaneNormal,
         )?;
-        check(self.depth_min < self.depth_max, Invalid::DepthRange)
+        check(g.depth_min < g.depth_max, Invalid::DepthRange)
     }
 }
 

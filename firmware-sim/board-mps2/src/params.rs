@@ -4,10 +4,11 @@
 //! reconstructor from them with the same code on both sides, so the head's kernels see the same
 //! constants as the desktop's.
 
-use fringe3d_core::camera::{CameraModel, Distortion, Intrinsics};
+use fringe3d_core::camera::CameraModel;
 use fringe3d_core::decode::{DecodeConfig, Decoder};
 use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::geometry::Vec3;
+use fringe3d_core::params::{CameraParams, Distortion};
 use fringe3d_core::pattern::{
     Convention, ImageId, Level, MAX_IMAGES, MAX_LEVELS, MAX_SHIFTS, Output, PatternSet,
 };
@@ -270,17 +271,15 @@ fn camera(r: &mut Reader<'_>) -> Result<CameraModel, ParamsError> {
     for v in d.iter_mut() {
         *v = r.f64()?;
     }
-    CameraModel::new(
-        Intrinsics {
-            fx,
-            fy,
-            skew,
-            u0,
-            v0,
-            width: cw,
-            height: ch,
-        },
-        Distortion::from_array(d),
-    )
+    CameraModel::new(CameraParams {
+        width: cw,
+        height: ch,
+        fx,
+        fy,
+        cx: u0,
+        cy: v0,
+        skew,
+        distortion: Distortion::from_array(d),
+    })
     .map_err(|_| ParamsError("camera model refused"))
 }

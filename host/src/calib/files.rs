@@ -12,7 +12,7 @@ use super::report::{nice_scale, view_picture};
 use super::{CalibError, pose};
 use crate::batch::{FrameOut, Isa, decode_frames};
 use crate::io::calibration::{
-    Calibration, CameraModel, ReferencePlane, import_bouguet_file, import_opencv,
+    Calibration, CameraParams, ReferencePlane, import_bouguet_file, import_opencv,
 };
 use crate::io::image::{Pixels, read_gray, write_tiff_f32};
 use crate::io::image_set::{self, Frames};
@@ -285,7 +285,7 @@ pub fn write_camera_report(
 /// `cv::FileStorage` file (`.yml`, `.yaml`, `.xml`, `.json`) or Bouguet's `Calib_Results.m`.
 /// `size` (the images' size) fills in a size the file does not state and is checked against one
 /// it does.
-pub fn load_camera(path: &Path, size: Option<(u32, u32)>) -> Result<CameraModel, CalibError> {
+pub fn load_camera(path: &Path, size: Option<(u32, u32)>) -> Result<CameraParams, CalibError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -513,7 +513,7 @@ fn check_axes(set_v: &Path, set_h: &Path) -> Result<(), CalibError> {
 /// 10 % of its span.
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate_projector_files(
-    camera: &CameraModel,
+    camera: &CameraParams,
     plate_dirs: &[PathBuf],
     set_v: &Path,
     set_h: &Path,
@@ -567,7 +567,7 @@ pub fn calibrate_projector_files(
     let calibration = Calibration {
         version: 1,
         camera: camera.clone(),
-        projector_center: result.center,
+        projector_centre: result.center,
         reference: None,
         depth_range: dr,
         projector: None,

@@ -11,7 +11,7 @@
 //! α is the paper's dimensionless skew (eq 4). OpenCV's camera matrix holds `K[0][1] = α·fx`
 //! instead; Bouguet's `alpha_c` is α.
 
-use crate::io::calibration::CameraModel;
+use fringe3d_core::params::CameraParams;
 
 /// Number of intrinsic parameters: `[fx, fy, α, u0, v0, k1, k2, p1, p2, k3]`.
 pub const N_INTRINSICS: usize = 10;
@@ -27,7 +27,7 @@ pub struct Lens {
     pub width: u32,
     /// Image height, pixels.
     pub height: u32,
-    /// Intrinsics `[fx, fy, α, u0, v0, k1, k2, p1, p2, k3]`.
+    /// Intrinsics `[fx, fy, α, u0, v0, k1, k2, p1, p2, k3]` ([`CameraParams::to_vector`]).
     pub p: [f64; N_INTRINSICS],
 }
 
@@ -41,29 +41,18 @@ pub struct ProjJac {
 }
 
 impl Lens {
-    /// The model of a calibration file's camera section.
-    pub fn from_model(c: &CameraModel) -> Lens {
-        let d = c.distortion;
+    /// The solver's form of a camera's parameters.
+    pub fn from_model(c: &CameraParams) -> Lens {
         Lens {
             width: c.width,
             height: c.height,
-            p: [c.fx, c.fy, c.skew, c.cx, c.cy, d[0], d[1], d[2], d[3], d[4]],
+            p: c.to_vector(),
         }
     }
 
-    /// The calibration file's form.
-    pub fn to_model(&self) -> CameraModel {
-        let p = &self.p;
-        CameraModel {
-            width: self.width,
-            height: self.height,
-            fx: p[0],
-            fy: p[1],
-            skew: p[2],
-            cx: p[3],
-            cy: p[4],
-            distortion: [p[5], p[6], p[7], p[8], p[9]],
-        }
+    /// The parameters again ([`CameraParams::from_vector`]).
+    pub fn to_model(&self) -> CameraParams {
+        CameraParams::from_vector(self.width, self.height, self.p)
     }
 
     /// Apply the distortion to normalized coordinates.

@@ -104,7 +104,7 @@ pub struct CameraArgs {
 PLATES: one folder per plate position (far to near or any order), each holding v/ (the images of the\n\
 vertical-fringe set, phase along ξ), h/ (horizontal fringes, phase along η) and board.png (the board\n\
 printed on the plate, same pose). The positions must be parallel (the plate translated, not turned).\n\
-Writes the calibration file (camera, projector_center P, depth_range; no reference yet) and\n\
+Writes the calibration file (camera, projector_centre P, depth_range; no reference yet) and\n\
 OUT's name with `_projector.json` (P's uncertainty, line residuals, per-pair statistics)."
 )]
 pub struct ProjectorArgs {
@@ -344,7 +344,7 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
     make_parent(&a.out)?;
     run.calibration.save(&a.out)?;
     let report = json!({"command": "calibrate projector", "out": a.out, "camera_from": a.camera_from,
-        "projector_center": run.result.center, "depth_range": run.calibration.depth_range,
+        "projector_centre": run.result.center, "depth_range": run.calibration.depth_range,
         "estimate": run.result, "plates": run.plates});
     let rp = sibling(&a.out, "_projector.json");
     let text = serde_json::to_string_pretty(&report)?;

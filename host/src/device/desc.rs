@@ -9,10 +9,8 @@
 //! (a rebuilt set that differed would be a bug).
 
 use fringe3d_core::decode::{DecodeConfig, Decoder};
-use fringe3d_core::geometry::Vec3;
 use fringe3d_core::pattern::PatternSet;
 use fringe3d_core::phase_function::Axis;
-use fringe3d_core::reconstruct::Setup;
 use fringe3d_core::validity::Validity;
 use fringe3d_core::wire::{self, LutEntry, PatternSetDesc};
 
@@ -142,21 +140,9 @@ pub fn render_pattern(set: &PatternSet, i: usize) -> Result<Vec<u8>, String> {
 /// camera model holds them, and the reconstruction set-up exactly as `fringe3d scan` builds it
 /// (`scan::ScanCalibration::from_parts`), all f64. Needs the reference plane.
 pub fn wire_calibration(c: &Calibration) -> Result<wire::Calibration, String> {
-    let r = c
-        .reference
-        .as_ref()
-        .ok_or("the calibration has no [reference] section (plane and phase map)")?;
-    let cam = crate::scan::core_camera(&c.camera)?;
-    let v = |a: &[f64; 3]| Vec3::new(a[0], a[1], a[2]);
-    let setup = Setup {
-        projector_centre: v(&c.projector_center),
-        reference_point: v(&r.point),
-        reference_normal: v(&r.normal),
-        axis: Axis::Xi, // not carried: the head takes the pattern set's
-        z_min: c.depth_range[0],
-        z_max: c.depth_range[1],
-    };
-    wire::Calibration::from_core(cam.intrinsics(), cam.distortion(), &setup)
+    // The axis is not carried: the head takes the pattern set's.
+    let (cam, setup) = c.core_setup(Axis::Xi)?;
+    wire::Calibration::from_core(cam.params(), &setup)
         .map_err(|e| format!("the calibration does not fit the wire: {e}"))
 }
 

@@ -19,6 +19,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::atomic::{AtomicError, write_atomic};
+use fringe3d_core::camera::CameraModel;
+pub use fringe3d_core::params::{CameraParams, Distortion, ProjectorParams, ScanGeometry};
+use fringe3d_core::phase_function::Axis;
+use fringe3d_core::reconstruct::Setup;
 
 /// The calibration file format version this build reads and writes.
 pub const CALIBRATION_VERSION: u32 = 1;
@@ -161,39 +165,18 @@ pub struct Calibration {
     /// Format version; [`CALIBRATION_VERSION`] (= 1).
     pub version: u32,
     /// The camera's intrinsic model.
-    pub camera: CameraModel,
-    /// The projector's centre of projection P (paper §6), camera frame, mm.
-    pub projector_center: [f64; 3],
+    pub camera: CameraParams,
+    /// The projector's centre of projection P (paper §6), camera frame, mm. Written
+    /// `projector_centre`; files with the older spelling `projector_center` still load.
+    #[serde(alias = "projector_center")]
+    pub projector_centre: [f64; 3],
     /// The reference plane and its absolute phase map Φ_R (paper §6), if calibrated.
     pub reference: Option<ReferencePlane>,
     /// `[z_min, z_max]`: the depth range of the measurement volume, camera frame, mm
     /// (`0 < z_min < z_max`).
     pub depth_range: [f64; 2],
     /// The full projector model, when known (synthetic data); not needed to scan.
-    pub projector: Option<ProjectorModel>,
-}
-
-/// A pinhole camera with Brown distortion (paper §4.1, eqs 2-4), OpenCV conventions.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CameraModel {
-    /// Image width, pixels.
-    pub width: u32,
-    /// Image height, pixels.
-    pub height: u32,
-    /// Focal length along u, pixels (`f_x` of eq 4).
-    pub fx: f64,
-    /// Focal length along v, pixels (`f_y` of eq 4).
-    pub fy: f64,
-    /// Skew α of eq 4, dimensionless: `u = fx·x + α·fx·y + cx`. OpenCV's `K[0][1] = α·fx`;
-    /// Bouguet's `alpha_c = α`.
-    pub skew: f64,
-    /// Principal point u coordinate, pixels (`u_0`), pixel centres at integers.
-    pub cx: f64,
-    /// Principal point v coordinate, pixels (`v_0`), pixel centres at integers.
-    pub cy: f64,
-    /// Distortion `[k1, k2, p1, p2, k3]` (OpenCV order; the paper's `k1, k2, k3, k4, k5`).
-    pub distortion: [f64; 5],
+    pub projector: Option<ProjectorParams>,
 }
 
 /// The reference plane of paper §6 and its phase map.
@@ -216,19 +199,6 @@ pub struct ReferencePlane {
     pub pattern_set: Option<PathBuf>,
 }
 
-/// A full projector model: intrinsics like a camera's, and its pose.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ProjectorModel {
-    /// Intrinsics; `width`/`height` are the projector resolution (ξ, η extents).
-    pub intrinsics: CameraModel,
-    /// Rotation R, row-major, from projector to camera coordinates: `X_cam = R·X_proj + T`.
-    pub rotation: [[f64; 3]; 3],
-    /// Translation T: the projector's centre in the camera frame, mm. Equals
-    /// [`Calibration::projector_center`].
-    pub translation: [f64; 3],
-}
-
 fn finite3(v: &[f64; 3]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
@@ -245,70 +215,70 @@ fn fmt3(v: &[f64; 3]) -> String {
     format!("[{}, {}, {}]", v[0], v[1], v[2])
 }
 
-/// Limits of [`CameraModel::validate`] on distortion coefficients: radial `|k| ≤ 1000`,
+/// Limits of [`validate_camera`] on distortion coefficients: radial `|k| ≤ 1000`,
 /// tangential `|p| ≤ 1`.
 const RADIAL_LIMIT: f64 = 1000.0;
 const TANGENTIAL_LIMIT: f64 = 1.0;
 
-impl CameraModel {
-    /// Check the model; every problem is reported, joined by `"; "`, each naming its field:
-    /// sizes > 0; `fx`, `fy` finite and > 0; `|skew| < 1`; `cx`, `cy` finite and within ten
-    /// image sizes of the image; distortion finite with `|k1|, |k2|, |k3| ≤ 1000` and
-    /// `|p1|, |p2| ≤ 1`.
-    pub fn validate(&self) -> Result<(), String> {
-        let mut errs = Vec::new();
-        self.check("camera", &mut errs);
-        if errs.is_empty() {
-            Ok(())
-        } else {
-            Err(errs.join("; "))
+/// Check a camera's parameters as a file states them; every problem is reported, joined by
+/// `"; "`, each naming its field: sizes > 0; `fx`, `fy` finite and > 0; `|skew| < 1`; `cx`, `cy`
+/// finite and within ten image sizes of the image; distortion finite with
+/// `|k1|, |k2|, |k3| ≤ 1000` and `|p1|, |p2| ≤ 1`. (The core's `CameraParams::new` then checks
+/// that the model can be inverted over the image.)
+pub fn validate_camera(c: &CameraParams) -> Result<(), String> {
+    let mut errs = Vec::new();
+    check_camera(c, "camera", &mut errs);
+    if errs.is_empty() {
+        Ok(())
+    } else {
+        Err(errs.join("; "))
+    }
+}
+
+/// [`validate_camera`] for the table `name`, appending to `errs`.
+fn check_camera(c: &CameraParams, name: &str, errs: &mut Vec<String>) {
+    if c.width == 0 {
+        errs.push(format!("{name}.width must be positive, got 0"));
+    }
+    if c.height == 0 {
+        errs.push(format!("{name}.height must be positive, got 0"));
+    }
+    for (k, v) in [("fx", c.fx), ("fy", c.fy)] {
+        if !(v.is_finite() && v > 0.0) {
+            errs.push(format!("{name}.{k} must be positive, got {v}"));
         }
     }
-
-    fn check(&self, name: &str, errs: &mut Vec<String>) {
-        if self.width == 0 {
-            errs.push(format!("{name}.width must be positive, got 0"));
-        }
-        if self.height == 0 {
-            errs.push(format!("{name}.height must be positive, got 0"));
-        }
-        for (k, v) in [("fx", self.fx), ("fy", self.fy)] {
-            if !(v.is_finite() && v > 0.0) {
-                errs.push(format!("{name}.{k} must be positive, got {v}"));
-            }
-        }
-        if !(self.skew.is_finite() && self.skew.abs() < 1.0) {
+    if !(c.skew.is_finite() && c.skew.abs() < 1.0) {
+        errs.push(format!(
+            "{name}.skew (alpha of eq 4, dimensionless) must satisfy |skew| < 1, got {}",
+            c.skew
+        ));
+    }
+    for (k, v, size) in [("cx", c.cx, c.width), ("cy", c.cy, c.height)] {
+        let s = f64::from(size.max(1));
+        if !v.is_finite() {
+            errs.push(format!("{name}.{k} must be finite, got {v}"));
+        } else if (v - 0.5 * s).abs() > 10.0 * s {
             errs.push(format!(
-                "{name}.skew (alpha of eq 4, dimensionless) must satisfy |skew| < 1, got {}",
-                self.skew
+                "{name}.{k} = {v} px is implausibly far outside the image ({size} px)"
             ));
         }
-        for (k, v, size) in [("cx", self.cx, self.width), ("cy", self.cy, self.height)] {
-            let s = f64::from(size.max(1));
-            if !v.is_finite() {
-                errs.push(format!("{name}.{k} must be finite, got {v}"));
-            } else if (v - 0.5 * s).abs() > 10.0 * s {
-                errs.push(format!(
-                    "{name}.{k} = {v} px is implausibly far outside the image ({size} px)"
-                ));
-            }
-        }
-        let names = ["k1", "k2", "p1", "p2", "k3"];
-        for (i, (&v, n)) in self.distortion.iter().zip(names).enumerate() {
-            let limit = if i == 2 || i == 3 {
-                TANGENTIAL_LIMIT
-            } else {
-                RADIAL_LIMIT
-            };
-            if !v.is_finite() {
-                errs.push(format!(
-                    "{name}.distortion[{i}] ({n}) must be finite, got {v}"
-                ));
-            } else if v.abs() > limit {
-                errs.push(format!(
-                    "{name}.distortion[{i}] ({n}) = {v} is not plausible (|{n}| <= {limit})"
-                ));
-            }
+    }
+    let names = ["k1", "k2", "p1", "p2", "k3"];
+    for (i, (&v, n)) in c.distortion.to_array().iter().zip(names).enumerate() {
+        let limit = if i == 2 || i == 3 {
+            TANGENTIAL_LIMIT
+        } else {
+            RADIAL_LIMIT
+        };
+        if !v.is_finite() {
+            errs.push(format!(
+                "{name}.distortion[{i}] ({n}) must be finite, got {v}"
+            ));
+        } else if v.abs() > limit {
+            errs.push(format!(
+                "{name}.distortion[{i}] ({n}) = {v} is not plausible (|{n}| <= {limit})"
+            ));
         }
     }
 }
@@ -337,13 +307,13 @@ impl Calibration {
     /// Check everything; every problem is reported, joined by `"; "`, each naming its field:
     ///
     /// - `version` is 1; all numbers finite;
-    /// - the camera (and projector intrinsics), as in [`CameraModel::validate`];
-    /// - `projector_center` is not the camera centre (no baseline otherwise);
+    /// - the camera (and projector intrinsics), as in [`validate_camera`];
+    /// - `projector_centre` is not the camera centre (no baseline otherwise);
     /// - `0 < depth_range[0] < depth_range[1]`;
     /// - reference: `| |n_R| − 1 | ≤ 1e-3`; the plane passes neither through the camera centre nor
     ///   through the projector centre; `phase_map` is not empty;
     /// - projector: `rotation` orthonormal (`|RRᵀ − I| ≤ 1e-6` element-wise) with determinant +1;
-    ///   `translation` equals `projector_center` (within 1e-6 mm + 1e-9 relative).
+    ///   `translation` equals `projector_centre` (within 1e-6 mm + 1e-9 relative).
     pub fn validate(&self) -> Result<(), String> {
         let mut errs = Vec::new();
         if self.version != CALIBRATION_VERSION {
@@ -352,13 +322,13 @@ impl Calibration {
                 self.version
             ));
         }
-        self.camera.check("camera", &mut errs);
-        let p = &self.projector_center;
+        check_camera(&self.camera, "camera", &mut errs);
+        let p = &self.projector_centre;
         if !finite3(p) {
-            errs.push(format!("projector_center must be finite, got {}", fmt3(p)));
+            errs.push(format!("projector_centre must be finite, got {}", fmt3(p)));
         } else if norm(p) <= 1e-9 {
             errs.push(
-                "projector_center coincides with the camera centre: there is no baseline".into(),
+                "projector_centre coincides with the camera centre: there is no baseline".into(),
             );
         }
         let [z0, z1] = self.depth_range;
@@ -406,7 +376,7 @@ impl Calibration {
             }
         }
         if let Some(pr) = &self.projector {
-            pr.intrinsics.check("projector.intrinsics", &mut errs);
+            check_camera(&pr.intrinsics, "projector.intrinsics", &mut errs);
             let r = &pr.rotation;
             if !r.iter().all(finite3) {
                 errs.push("projector.rotation must be finite".into());
@@ -442,7 +412,7 @@ impl Calibration {
                 let d = [t[0] - p[0], t[1] - p[1], t[2] - p[2]];
                 if norm(&d) > 1e-6 + 1e-9 * norm(p) {
                     errs.push(format!(
-                        "projector.translation {} differs from projector_center {} (both are the projector centre, mm)",
+                        "projector.translation {} differs from projector_centre {} (both are the projector centre, mm)",
                         fmt3(t),
                         fmt3(p)
                     ));
@@ -454,6 +424,29 @@ impl Calibration {
         } else {
             Err(errs.join("; "))
         }
+    }
+
+    /// The scan geometry of paper §6 (projector centre, reference plane, depth range); `None`
+    /// without a `[reference]` section.
+    pub fn geometry(&self) -> Option<ScanGeometry> {
+        let r = self.reference.as_ref()?;
+        Some(ScanGeometry {
+            projector_centre: self.projector_centre,
+            plane_point: r.point,
+            plane_normal: r.normal,
+            depth_min: self.depth_range[0],
+            depth_max: self.depth_range[1],
+        })
+    }
+
+    /// The core's checked camera model and the reconstruction set-up for phases monotonic along
+    /// `axis`: the one conversion `fringe3d scan`, `reconstruct` and the head's upload share.
+    pub fn core_setup(&self, axis: Axis) -> Result<(CameraModel, Setup), String> {
+        let camera = CameraModel::new(self.camera).map_err(|e| format!("camera model: {e}"))?;
+        let geometry = self
+            .geometry()
+            .ok_or("no [reference] section: a scan needs the reference plane and its phase map")?;
+        Ok((camera, geometry.setup(axis)))
     }
 
     /// The reference phase map's path: `reference.phase_map` resolved against the folder of
@@ -485,8 +478,8 @@ impl Calibration {
         let _ = writeln!(s, "version = {}", self.version);
         let _ = writeln!(
             s,
-            "projector_center = {}  # P, mm",
-            arr(&self.projector_center)
+            "projector_centre = {}  # P, mm",
+            arr(&self.projector_centre)
         );
         let _ = writeln!(
             s,
@@ -552,7 +545,7 @@ fn toml_str(p: &Path) -> Result<String, String> {
     Ok(toml::Value::String(s.to_string()).to_string())
 }
 
-fn camera_toml(s: &mut String, table: &str, c: &CameraModel) {
+fn camera_toml(s: &mut String, table: &str, c: &CameraParams) {
     let _ = writeln!(s, "[{table}]");
     let _ = writeln!(s, "width = {}  # px", c.width);
     let _ = writeln!(s, "height = {}  # px", c.height);
@@ -568,7 +561,7 @@ fn camera_toml(s: &mut String, table: &str, c: &CameraModel) {
     let _ = writeln!(
         s,
         "distortion = {}  # [k1, k2, p1, p2, k3]",
-        arr(&c.distortion)
+        arr(&c.distortion.to_array())
     );
 }
 
@@ -591,7 +584,7 @@ fn camera_toml(s: &mut String, table: &str, c: &CameraModel) {
 /// - `kc = [k1; k2; p1; p2; k3]`: radial `1 + kc(1)r² + kc(2)r⁴ + kc(5)r⁶`, tangential
 ///   `[2kc(3)xy + kc(4)(r² + 2x²); kc(3)(r² + 2y²) + 2kc(4)xy]` — OpenCV's order.
 ///
-/// The model is not validated here; call [`CameraModel::validate`].
+/// The model is not validated here; call [`validate_camera`].
 pub fn import_bouguet(
     fc: [f64; 2],
     cc: [f64; 2],
@@ -599,8 +592,8 @@ pub fn import_bouguet(
     kc: [f64; 5],
     width: u32,
     height: u32,
-) -> CameraModel {
-    CameraModel {
+) -> CameraParams {
+    CameraParams {
         width,
         height,
         fx: fc[0],
@@ -608,7 +601,7 @@ pub fn import_bouguet(
         skew: alpha_c,
         cx: cc[0],
         cy: cc[1],
-        distortion: kc,
+        distortion: kc.into(),
     }
 }
 
@@ -621,7 +614,7 @@ pub fn import_bouguet_file(
     path: &Path,
     width: u32,
     height: u32,
-) -> Result<CameraModel, FormatError> {
+) -> Result<CameraParams, FormatError> {
     let text = read_text(path)?;
     let vars = matlab_assignments(&text);
     let get = |name: &str| -> Result<Option<Vec<f64>>, FormatError> {
@@ -691,7 +684,7 @@ pub fn import_bouguet_file(
         size("nx", width)?,
         size("ny", height)?,
     );
-    cam.validate().map_err(|m| FormatError::invalid(path, m))?;
+    validate_camera(&cam).map_err(|m| FormatError::invalid(path, m))?;
     Ok(cam)
 }
 
@@ -783,13 +776,13 @@ fn matlab_numbers(expr: &str) -> Result<Vec<f64>, String> {
 /// or 14 coefficients; beyond the fifth (`k4 k5 k6 s1 s2 s3 s4 τx τy`) all must be zero, as
 /// fringe3d's model has only `[k1, k2, p1, p2, k3]`. `image_width`/`image_height`, if present,
 /// override `width`/`height`. OpenCV's pixel convention is ours. The result is validated.
-pub fn import_opencv(path: &Path, width: u32, height: u32) -> Result<CameraModel, FormatError> {
+pub fn import_opencv(path: &Path, width: u32, height: u32) -> Result<CameraParams, FormatError> {
     let text = read_text(path)?;
     let root = parse_filestorage(&text).map_err(|m| FormatError::parse(path, m))?;
     opencv_camera(&root, width, height).map_err(|m| FormatError::invalid(path, m))
 }
 
-fn opencv_camera(root: &Node, width: u32, height: u32) -> Result<CameraModel, String> {
+fn opencv_camera(root: &Node, width: u32, height: u32) -> Result<CameraParams, String> {
     let find = |names: &[&'static str]| names.iter().find_map(|&n| root.get(n).map(|v| (n, v)));
     let (kname, k) = find(&["camera_matrix", "cameraMatrix", "K"])
         .ok_or("no camera matrix (looked for camera_matrix, cameraMatrix, K)")?;
@@ -841,7 +834,7 @@ fn opencv_camera(root: &Node, width: u32, height: u32) -> Result<CameraModel, St
         }
     };
     let fx = k[0];
-    let cam = CameraModel {
+    let cam = CameraParams {
         width: size("image_width", width)?,
         height: size("image_height", height)?,
         fx,
@@ -849,9 +842,9 @@ fn opencv_camera(root: &Node, width: u32, height: u32) -> Result<CameraModel, St
         skew: if fx != 0.0 { k[1] / fx } else { f64::NAN },
         cx: k[2],
         cy: k[5],
-        distortion: dist,
+        distortion: dist.into(),
     };
-    cam.validate()?;
+    validate_camera(&cam)?;
     Ok(cam)
 }
 

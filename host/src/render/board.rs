@@ -1,5 +1,6 @@
 //! Checkerboards: the board object, its inner corners, and random poses in the volume.
 
+use super::camera::LensModel;
 use super::math::Vec3;
 use super::objects::{ObjectSpec, Shape, Texture};
 use super::rig::Rig;
@@ -136,7 +137,7 @@ pub fn pose_ok(b: &BoardSpec, pose: &Pose, rig: &Rig, margin_px: f64, lit: bool)
         return false;
     }
     if lit {
-        let p = rig.projector_center();
+        let p = rig.projector_centre();
         let ok = corners(b, pose).iter().all(|x| {
             let facing = n.dot(p - *x).signum() == n.dot(-*x).signum();
             facing

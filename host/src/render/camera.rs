@@ -14,40 +14,73 @@
 //! code — so that tests comparing the two are independent.
 
 use super::math::Vec3;
-use serde::{Deserialize, Serialize};
-
-/// Intrinsic parameters of a camera or a projector (the projector is an inverted camera whose
-/// "pixels" are the DMD mirrors: ξ = u, η = v).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Intrinsics {
-    /// Width, pixels.
-    pub width: u32,
-    /// Height, pixels.
-    pub height: u32,
-    /// Focal length along u, pixels.
-    pub fx: f64,
-    /// Focal length along v, pixels.
-    pub fy: f64,
-    /// Skew coefficient α of eq 4 (u gains α·fx·y_d).
-    #[serde(default)]
-    pub skew: f64,
-    /// Principal point u, pixels.
-    pub cx: f64,
-    /// Principal point v, pixels.
-    pub cy: f64,
-    /// Brown distortion `[k1, k2, p1, p2, k3]`.
-    #[serde(default)]
-    pub distortion: [f64; 5],
-}
+pub use fringe3d_core::params::CameraParams;
 
 /// Largest normalized radius the forward model is used at when no turning point limits it:
 /// 3 (≈ 72° off axis).
 const R_CAP: f64 = 3.0;
 
-impl Intrinsics {
+/// The renderer's own lens math (eqs 2-4 and the inverse of eq 3) over the shared
+/// [`CameraParams`] of a camera or a projector (the projector is an inverted camera whose
+/// "pixels" are the DMD mirrors: ξ = u, η = v).
+pub trait LensModel {
     /// Check that the parameters are finite and sensible; `what` names the device in the message.
-    pub fn validate(&self, what: &str) -> Result<(), String> {
+    fn validate(&self, what: &str) -> Result<(), String>;
+
+    /// Apply the lens distortion (eq 3) to normalized coordinates.
+    fn distort(&self, x: f64, y: f64) -> (f64, f64);
+
+    /// Distorted normalized coordinates → pixel (eq 4).
+    fn to_pixel(&self, xd: f64, yd: f64) -> (f64, f64);
+
+    /// Pixel → distorted normalized coordinates (inverse of eq 4).
+    fn from_pixel(&self, u: f64, v: f64) -> (f64, f64);
+
+    /// The normalized radius beyond which the model is not used: just inside the first radius
+    /// where the radial map `r·(1 + k1 r² + k2 r⁴ + k3 r⁶)` stops increasing (the lens "folds
+    /// over"), capped at 3. Points beyond it are outside the device's field.
+    fn max_radius(&self) -> f64;
+
+    /// Project normalized undistorted coordinates to a pixel; `None` beyond [`max_radius`].
+    ///
+    /// [`max_radius`]: LensModel::max_radius
+    fn project_normalized(&self, x: f64, y: f64, r_max: f64) -> Option<(f64, f64)>;
+
+    /// Project a point given in this device's frame (mm) to pixel coordinates. `None` if the point
+    /// is not in front (z ≤ 0) or lies beyond the model's radius `r_max` (see [`max_radius`]).
+    ///
+    /// [`max_radius`]: LensModel::max_radius
+    fn project(&self, p: Vec3, r_max: f64) -> Option<(f64, f64)>;
+
+    /// Invert the distortion: the undistorted normalized coordinates `(x, y)` whose projection is
+    /// pixel `(u, v)`, by Newton's method from `guess` (or from the distorted coordinates) until the
+    /// reprojection residual is below 1e-12 px. `None` if it does not converge within `r_max`.
+    fn undistort_pixel(
+        &self,
+        u: f64,
+        v: f64,
+        guess: Option<(f64, f64)>,
+        r_max: f64,
+    ) -> Option<(f64, f64)>;
+
+    /// The viewing ray of pixel `(u, v)`: direction `(x, y, 1)` in the device frame.
+    fn pixel_ray(&self, u: f64, v: f64, r_max: f64) -> Option<Vec3>;
+
+    /// The same model for an image resized by `scale` (pixel centres stay at integers: a new pixel
+    /// `u'` covers the old `(u' + 0.5)/scale − 0.5`).
+    fn scaled(&self, width: u32, height: u32) -> CameraParams;
+}
+
+/// The radial part `1 + k1 r² + k2 r⁴ + k3 r⁶`.
+#[inline]
+fn radial(c: &CameraParams, r2: f64) -> f64 {
+    let [k1, k2, _, _, k3] = c.distortion.to_array();
+    1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+}
+
+impl LensModel for CameraParams {
+    /// Check that the parameters are finite and sensible; `what` names the device in the message.
+    fn validate(&self, what: &str) -> Result<(), String> {
         let all = [self.fx, self.fy, self.skew, self.cx, self.cy];
         if self.width == 0 || self.height == 0 {
             return Err(format!("{what}: width and height must be positive"));
@@ -60,7 +93,7 @@ impl Intrinsics {
         }
         if !all
             .iter()
-            .chain(self.distortion.iter())
+            .chain(self.distortion.to_array().iter())
             .all(|v| v.is_finite())
         {
             return Err(format!("{what}: intrinsics contain NaN or infinity"));
@@ -76,19 +109,12 @@ impl Intrinsics {
         Ok(())
     }
 
-    /// The radial part `1 + k1 r² + k2 r⁴ + k3 r⁶`.
-    #[inline]
-    fn radial(&self, r2: f64) -> f64 {
-        let [k1, k2, _, _, k3] = self.distortion;
-        1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    }
-
     /// Apply the lens distortion (eq 3) to normalized coordinates.
     #[inline]
-    pub fn distort(&self, x: f64, y: f64) -> (f64, f64) {
-        let [_, _, p1, p2, _] = self.distortion;
+    fn distort(&self, x: f64, y: f64) -> (f64, f64) {
+        let [_, _, p1, p2, _] = self.distortion.to_array();
         let r2 = x * x + y * y;
-        let rad = self.radial(r2);
+        let rad = radial(self, r2);
         let xy = x * y;
         (
             x * rad + 2.0 * p1 * xy + p2 * (r2 + 2.0 * x * x),
@@ -98,7 +124,7 @@ impl Intrinsics {
 
     /// Distorted normalized coordinates → pixel (eq 4).
     #[inline]
-    pub fn to_pixel(&self, xd: f64, yd: f64) -> (f64, f64) {
+    fn to_pixel(&self, xd: f64, yd: f64) -> (f64, f64) {
         (
             self.fx * xd + self.skew * self.fx * yd + self.cx,
             self.fy * yd + self.cy,
@@ -107,7 +133,7 @@ impl Intrinsics {
 
     /// Pixel → distorted normalized coordinates (inverse of eq 4).
     #[inline]
-    pub fn from_pixel(&self, u: f64, v: f64) -> (f64, f64) {
+    fn from_pixel(&self, u: f64, v: f64) -> (f64, f64) {
         let yd = (v - self.cy) / self.fy;
         ((u - self.cx) / self.fx - self.skew * yd, yd)
     }
@@ -115,8 +141,8 @@ impl Intrinsics {
     /// The normalized radius beyond which the model is not used: just inside the first radius
     /// where the radial map `r·(1 + k1 r² + k2 r⁴ + k3 r⁶)` stops increasing (the lens "folds
     /// over"), capped at 3. Points beyond it are outside the device's field.
-    pub fn max_radius(&self) -> f64 {
-        let [k1, k2, _, _, k3] = self.distortion;
+    fn max_radius(&self) -> f64 {
+        let [k1, k2, _, _, k3] = self.distortion.to_array();
         let deriv = |r: f64| {
             let r2 = r * r;
             1.0 + r2 * (3.0 * k1 + r2 * (5.0 * k2 + r2 * 7.0 * k3))
@@ -135,9 +161,9 @@ impl Intrinsics {
 
     /// Project normalized undistorted coordinates to a pixel; `None` beyond [`max_radius`].
     ///
-    /// [`max_radius`]: Intrinsics::max_radius
+    /// [`max_radius`]: LensModel::max_radius
     #[inline]
-    pub fn project_normalized(&self, x: f64, y: f64, r_max: f64) -> Option<(f64, f64)> {
+    fn project_normalized(&self, x: f64, y: f64, r_max: f64) -> Option<(f64, f64)> {
         if !(x * x + y * y <= r_max * r_max) {
             return None;
         }
@@ -148,9 +174,9 @@ impl Intrinsics {
     /// Project a point given in this device's frame (mm) to pixel coordinates. `None` if the point
     /// is not in front (z ≤ 0) or lies beyond the model's radius `r_max` (see [`max_radius`]).
     ///
-    /// [`max_radius`]: Intrinsics::max_radius
+    /// [`max_radius`]: LensModel::max_radius
     #[inline]
-    pub fn project(&self, p: Vec3, r_max: f64) -> Option<(f64, f64)> {
+    fn project(&self, p: Vec3, r_max: f64) -> Option<(f64, f64)> {
         if !(p.z > 0.0) {
             return None;
         }
@@ -160,7 +186,7 @@ impl Intrinsics {
     /// Invert the distortion: the undistorted normalized coordinates `(x, y)` whose projection is
     /// pixel `(u, v)`, by Newton's method from `guess` (or from the distorted coordinates) until the
     /// reprojection residual is below 1e-12 px. `None` if it does not converge within `r_max`.
-    pub fn undistort_pixel(
+    fn undistort_pixel(
         &self,
         u: f64,
         v: f64,
@@ -168,7 +194,7 @@ impl Intrinsics {
         r_max: f64,
     ) -> Option<(f64, f64)> {
         let (xd, yd) = self.from_pixel(u, v);
-        let [k1, k2, p1, p2, k3] = self.distortion;
+        let [k1, k2, p1, p2, k3] = self.distortion.to_array();
         if k1 == 0.0 && k2 == 0.0 && k3 == 0.0 && p1 == 0.0 && p2 == 0.0 {
             return Some((xd, yd));
         }
@@ -195,7 +221,7 @@ impl Intrinsics {
             if res < 1e-24 {
                 return Some((x, y));
             }
-            let rad = self.radial(r2);
+            let rad = radial(self, r2);
             let drad = k1 + r2 * (2.0 * k2 + r2 * 3.0 * k3);
             let j11 = rad + 2.0 * x * x * drad + 2.0 * p1 * y + 6.0 * p2 * x;
             let j12 = 2.0 * x * y * drad + 2.0 * p1 * x + 2.0 * p2 * y;
@@ -214,17 +240,17 @@ impl Intrinsics {
     }
 
     /// The viewing ray of pixel `(u, v)`: direction `(x, y, 1)` in the device frame.
-    pub fn pixel_ray(&self, u: f64, v: f64, r_max: f64) -> Option<Vec3> {
+    fn pixel_ray(&self, u: f64, v: f64, r_max: f64) -> Option<Vec3> {
         self.undistort_pixel(u, v, None, r_max)
             .map(|(x, y)| Vec3::new(x, y, 1.0))
     }
 
     /// The same model for an image resized by `scale` (pixel centres stay at integers: a new pixel
     /// `u'` covers the old `(u' + 0.5)/scale − 0.5`).
-    pub fn scaled(&self, width: u32, height: u32) -> Intrinsics {
+    fn scaled(&self, width: u32, height: u32) -> CameraParams {
         let sx = width as f64 / self.width as f64;
         let sy = height as f64 / self.height as f64;
-        Intrinsics {
+        CameraParams {
             width,
             height,
             fx: self.fx * sx,
@@ -242,8 +268,8 @@ impl Intrinsics {
 mod tests {
     use super::*;
 
-    fn nasty() -> Intrinsics {
-        Intrinsics {
+    fn nasty() -> CameraParams {
+        CameraParams {
             width: 1280,
             height: 1024,
             fx: 1550.0,
@@ -251,7 +277,7 @@ mod tests {
             skew: 0.002,
             cx: 641.3,
             cy: 509.8,
-            distortion: [-0.2, 0.15, 0.001, -0.0015, -0.05],
+            distortion: [-0.2, 0.15, 0.001, -0.0015, -0.05].into(),
         }
     }
 

@@ -23,6 +23,7 @@
 //! continuous projector coordinate (ξ, η) of that point (forward projector model), object id, and a
 //! mask of [`MASK_HIT`], [`MASK_IN_FRAME`], [`MASK_LIT`], [`MASK_CLEAN`].
 
+use super::camera::LensModel;
 use super::light::LightSet;
 use super::math::Vec3;
 use super::objects::{Geometry, SHADOW_EPS};
@@ -283,7 +284,7 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
     let n_img = job.lights.len();
     let tr = Tracer {
         job,
-        p: job.rig.projector_center(),
+        p: job.rig.projector_centre(),
         cam_rmax: cam.max_radius(),
         proj_rmax: job.rig.projector.max_radius(),
     };

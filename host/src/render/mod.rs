@@ -34,7 +34,7 @@ pub mod rig;
 pub mod rng;
 pub mod scene;
 
-pub use camera::Intrinsics;
+pub use camera::{CameraParams, LensModel};
 pub use engine::{
     Frames, MASK_CLEAN, MASK_HIT, MASK_IN_FRAME, MASK_LIT, MASK_VALID, Photometry, Sensor, Truth,
 };

@@ -1,9 +1,10 @@
 //! The camera–projector rig and the default geometry every built-in scene, the demo and the
 //! tests share.
 
-use super::camera::Intrinsics;
+use super::camera::{CameraParams, LensModel};
 use super::math::{Mat3, Vec3, look_at};
-use crate::io::calibration::{Calibration, CameraModel, ProjectorModel, ReferencePlane};
+use crate::io::calibration::{Calibration, ProjectorParams, ReferencePlane};
+use fringe3d_core::params::Distortion;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -14,9 +15,9 @@ use std::path::PathBuf;
 #[serde(deny_unknown_fields)]
 pub struct Rig {
     /// Camera intrinsics.
-    pub camera: Intrinsics,
+    pub camera: CameraParams,
     /// Projector intrinsics (width × height = the DMD, ξ × η).
-    pub projector: Intrinsics,
+    pub projector: CameraParams,
     /// R, row-major: projector → camera rotation.
     pub rotation: [[f64; 3]; 3],
     /// T: the projector centre in the camera frame, mm.
@@ -35,8 +36,8 @@ pub struct Rig {
 
 /// The default camera: 1280 × 1024, f = 1550 px (field of view ≈ 495 × 396 mm at 600 mm),
 /// principal point a little off centre, moderate barrel distortion, no skew.
-pub fn default_camera() -> Intrinsics {
-    Intrinsics {
+pub fn default_camera() -> CameraParams {
+    CameraParams {
         width: 1280,
         height: 1024,
         fx: 1550.0,
@@ -44,14 +45,14 @@ pub fn default_camera() -> Intrinsics {
         skew: 0.0,
         cx: 642.25,
         cy: 508.75,
-        distortion: [-0.085, 0.11, 0.0004, -0.0003, 0.0],
+        distortion: Distortion::from_array([-0.085, 0.11, 0.0004, -0.0003, 0.0]),
     }
 }
 
 /// The default projector: a 1024 × 768 DMD, f = 1250 px (≈ 490 × 370 mm at 600 mm), slight
 /// pincushion distortion.
-pub fn default_projector() -> Intrinsics {
-    Intrinsics {
+pub fn default_projector() -> CameraParams {
+    CameraParams {
         width: 1024,
         height: 768,
         fx: 1250.0,
@@ -59,7 +60,7 @@ pub fn default_projector() -> Intrinsics {
         skew: 0.0,
         cx: 511.5,
         cy: 390.0,
-        distortion: [0.03, -0.02, 0.0, 0.0, 0.0],
+        distortion: Distortion::from_array([0.03, -0.02, 0.0, 0.0, 0.0]),
     }
 }
 
@@ -97,14 +98,14 @@ impl Rig {
     }
 
     /// The projector centre P (camera frame).
-    pub fn projector_center(&self) -> Vec3 {
+    pub fn projector_centre(&self) -> Vec3 {
         Vec3::from_array(self.translation)
     }
 
     /// A camera-frame point in the projector frame: `Rᵀ·(X − T)`.
     #[inline]
     pub fn to_projector_frame(&self, p: Vec3) -> Vec3 {
-        self.rotation_matrix().tmul_vec(p - self.projector_center())
+        self.rotation_matrix().tmul_vec(p - self.projector_centre())
     }
 
     /// The projector pixel (ξ, η) lighting the camera-frame point `p`, by the exact forward model
@@ -124,7 +125,7 @@ impl Rig {
                 "projector rotation is not a rotation (|RᵀR − I| = {e:e}, det = {det})"
             ));
         }
-        let t = self.projector_center();
+        let t = self.projector_centre();
         if !(t.is_finite() && t.norm() > 1e-6) {
             return Err("projector centre must be finite and away from the camera centre".into());
         }
@@ -145,16 +146,16 @@ impl Rig {
     }
 
     /// The rig for a camera image of `width × height` (same field of view; see
-    /// [`Intrinsics::scaled`]).
+    /// [`LensModel::scaled`]).
     pub fn with_camera_size(&self, width: u32, height: u32) -> Rig {
         let mut r = self.clone();
         r.camera = self.camera.scaled(width, height);
         r
     }
 
-    /// The camera in the calibration file's form.
-    pub fn camera_model(&self) -> CameraModel {
-        to_model(&self.camera)
+    /// The camera's parameters (the calibration file's form).
+    pub fn camera_model(&self) -> CameraParams {
+        self.camera
     }
 
     /// The true calibration of this rig. `reference_map` (relative to the calibration file) and
@@ -167,7 +168,7 @@ impl Rig {
         Calibration {
             version: 1,
             camera: self.camera_model(),
-            projector_center: self.translation,
+            projector_centre: self.translation,
             reference: reference_map.map(|phase_map| ReferencePlane {
                 point: self.reference_point,
                 normal: self.reference_normal,
@@ -175,39 +176,11 @@ impl Rig {
                 pattern_set,
             }),
             depth_range: self.depth_range,
-            projector: Some(ProjectorModel {
-                intrinsics: to_model(&self.projector),
+            projector: Some(ProjectorParams {
+                intrinsics: self.projector,
                 rotation: self.rotation,
                 translation: self.translation,
             }),
         }
-    }
-}
-
-/// Intrinsics in the calibration file's form.
-pub fn to_model(i: &Intrinsics) -> CameraModel {
-    CameraModel {
-        width: i.width,
-        height: i.height,
-        fx: i.fx,
-        fy: i.fy,
-        skew: i.skew,
-        cx: i.cx,
-        cy: i.cy,
-        distortion: i.distortion,
-    }
-}
-
-/// Intrinsics from the calibration file's form.
-pub fn from_model(m: &CameraModel) -> Intrinsics {
-    Intrinsics {
-        width: m.width,
-        height: m.height,
-        fx: m.fx,
-        fy: m.fy,
-        skew: m.skew,
-        cx: m.cx,
-        cy: m.cy,
-        distortion: m.distortion,
     }
 }

@@ -5,7 +5,7 @@
 //! `docs/render.md` for every key; `fringe3d render --scene NAME --print` prints a built-in scene
 //! as a file to start from.
 
-use super::camera::Intrinsics;
+use super::camera::{CameraParams, LensModel};
 use super::engine::{Photometry, Sensor};
 use super::light::{Optics, ProjectorMode};
 use super::math::{Mat3, Vec3, look_at};
@@ -15,6 +15,7 @@ use crate::io::pattern_file::PatternSetFile;
 use fringe3d_core::pattern::{Level, Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, PhaseFunction};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The names of the built-in scenes.
@@ -80,28 +81,13 @@ fn d_albedo() -> f64 {
     0.8
 }
 
-/// The camera: intrinsics (eq 4, distortion eq 3) and sensor.
+/// The camera: intrinsics (eq 4, distortion eq 3) and sensor. In a scene file the
+/// [`CameraParams`] keys (`width`, `fx`, …) and the sensor's sit side by side in `[camera]`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct CameraSpec {
-    /// Width, pixels.
-    pub width: u32,
-    /// Height, pixels.
-    pub height: u32,
-    /// Focal length along u, pixels.
-    pub fx: f64,
-    /// Focal length along v, pixels.
-    pub fy: f64,
-    /// Skew α (eq 4).
-    #[serde(default)]
-    pub skew: f64,
-    /// Principal point u.
-    pub cx: f64,
-    /// Principal point v.
-    pub cy: f64,
-    /// `[k1, k2, p1, p2, k3]`.
-    #[serde(default)]
-    pub distortion: [f64; 5],
+    /// The lens and the image size.
+    #[serde(flatten)]
+    pub lens: CameraParams,
     /// Bits per sample: 8, 12 or 16 (default 16).
     #[serde(default = "d_bits16")]
     pub bits: u8,
@@ -117,38 +103,22 @@ pub struct CameraSpec {
     /// Samples per pixel side at edges (default 9).
     #[serde(default = "d_edge_ss")]
     pub edge_supersample: u32,
+    /// Keys that belong to neither part (refused by [`SceneSpec::parse`]; `flatten` rules out
+    /// serde's own `deny_unknown_fields`).
+    #[serde(flatten, skip_serializing)]
+    pub unknown: BTreeMap<String, toml::Value>,
 }
 
 impl CameraSpec {
-    /// The intrinsics.
-    pub fn intrinsics(&self) -> Intrinsics {
-        Intrinsics {
-            width: self.width,
-            height: self.height,
-            fx: self.fx,
-            fy: self.fy,
-            skew: self.skew,
-            cx: self.cx,
-            cy: self.cy,
-            distortion: self.distortion,
-        }
-    }
-
-    fn from_intrinsics(i: &Intrinsics) -> CameraSpec {
+    fn from_lens(lens: &CameraParams) -> CameraSpec {
         CameraSpec {
-            width: i.width,
-            height: i.height,
-            fx: i.fx,
-            fy: i.fy,
-            skew: i.skew,
-            cx: i.cx,
-            cy: i.cy,
-            distortion: i.distortion,
+            lens: *lens,
             bits: 16,
             noise: 0.0,
             blur: 0.0,
             supersample: d_ss(),
             edge_supersample: d_edge_ss(),
+            unknown: BTreeMap::new(),
         }
     }
 
@@ -164,28 +134,14 @@ impl CameraSpec {
     }
 }
 
-/// The projector: intrinsics, pose and optics.
+/// The projector: intrinsics, pose and optics. In a scene file the [`CameraParams`] keys of its
+/// lens (`width` × `height` = the DMD, ξ × η; distortion forward: camera-frame point → DMD
+/// pixel) sit beside the pose and optics keys in `[projector]`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct ProjectorSpec {
-    /// DMD width (ξ extent), pixels.
-    pub width: u32,
-    /// DMD height (η extent), pixels.
-    pub height: u32,
-    /// Focal length along ξ, pixels.
-    pub fx: f64,
-    /// Focal length along η, pixels.
-    pub fy: f64,
-    /// Skew α.
-    #[serde(default)]
-    pub skew: f64,
-    /// Principal point ξ₀.
-    pub cx: f64,
-    /// Principal point η₀.
-    pub cy: f64,
-    /// `[k1, k2, p1, p2, k3]` (forward: camera-frame point → DMD pixel).
-    #[serde(default)]
-    pub distortion: [f64; 5],
+    /// The lens and the DMD's size.
+    #[serde(flatten)]
+    pub lens: CameraParams,
     /// The projector centre P in the camera frame, mm (the translation T).
     pub center: [f64; 3],
     /// Aim the optical axis at this point (camera frame, mm), image "down" towards camera +y.
@@ -209,23 +165,12 @@ pub struct ProjectorSpec {
     /// Pattern bits, 8 or 16 (default 16).
     #[serde(default = "d_bits16")]
     pub bits: u8,
+    /// Keys that belong to no part (refused by [`SceneSpec::parse`]).
+    #[serde(flatten, skip_serializing)]
+    pub unknown: BTreeMap<String, toml::Value>,
 }
 
 impl ProjectorSpec {
-    /// The intrinsics.
-    pub fn intrinsics(&self) -> Intrinsics {
-        Intrinsics {
-            width: self.width,
-            height: self.height,
-            fx: self.fx,
-            fy: self.fy,
-            skew: self.skew,
-            cx: self.cx,
-            cy: self.cy,
-            distortion: self.distortion,
-        }
-    }
-
     /// The optics.
     pub fn optics(&self) -> Optics {
         Optics {
@@ -593,10 +538,22 @@ impl SceneSpec {
 
     /// Parse scene TOML; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<SceneSpec, SceneError> {
-        toml::from_str(text).map_err(|e| SceneError::Parse {
+        let parse_error = |message: String| SceneError::Parse {
             path: path.to_path_buf(),
-            message: e.to_string().trim_end().to_string(),
-        })
+            message,
+        };
+        let spec: SceneSpec =
+            toml::from_str(text).map_err(|e| parse_error(e.to_string().trim_end().to_string()))?;
+        let tables = [
+            ("camera", &spec.camera.unknown),
+            ("projector", &spec.projector.unknown),
+        ];
+        for (table, unknown) in tables {
+            if let Some(k) = unknown.keys().next() {
+                return Err(parse_error(format!("[{table}]: unknown key `{k}`")));
+            }
+        }
+        Ok(spec)
     }
 
     /// The scene as TOML text (round-trips through [`SceneSpec::parse`]).
@@ -633,16 +590,7 @@ impl SceneSpec {
             self.projector.defocus = d;
         }
         if let Some((w, h)) = o.size {
-            let s = self.camera.intrinsics().scaled(w, h);
-            let keep = self.camera.clone();
-            self.camera = CameraSpec {
-                ..CameraSpec::from_intrinsics(&s)
-            };
-            self.camera.bits = keep.bits;
-            self.camera.noise = keep.noise;
-            self.camera.blur = keep.blur;
-            self.camera.supersample = keep.supersample;
-            self.camera.edge_supersample = keep.edge_supersample;
+            self.camera.lens = self.camera.lens.scaled(w, h);
         }
     }
 
@@ -680,8 +628,8 @@ impl SceneSpec {
             }
         });
         let rig = Rig {
-            camera: self.camera.intrinsics(),
-            projector: self.projector.intrinsics(),
+            camera: self.camera.lens,
+            projector: self.projector.lens,
             rotation: r.0,
             translation: t.to_array(),
             reference_point: p.to_array(),
@@ -739,15 +687,15 @@ impl SceneSpec {
             let set = f
                 .to_pattern_set()
                 .map_err(|e| self.invalid(format!("patterns: {e}")))?;
-            if set.output().width != self.projector.width
-                || set.output().height != self.projector.height
+            if set.output().width != self.projector.lens.width
+                || set.output().height != self.projector.lens.height
             {
                 return Err(self.invalid(format!(
                     "patterns are for a {}x{} projector, the scene's is {}x{}",
                     set.output().width,
                     set.output().height,
-                    self.projector.width,
-                    self.projector.height
+                    self.projector.lens.width,
+                    self.projector.lens.height
                 )));
             }
             return Ok((set, bits));
@@ -757,8 +705,8 @@ impl SceneSpec {
             FringeAxis::Eta => Axis::Eta,
         };
         let out = Output {
-            width: self.projector.width,
-            height: self.projector.height,
+            width: self.projector.lens.width,
+            height: self.projector.lens.height,
             i_min: 0.0,
             i_max: ((1u32 << bits) - 1) as f64,
         };
@@ -803,7 +751,7 @@ impl SceneSpec {
             self.pattern_set(base_dir, None)?;
         }
         let s = self.camera.sensor();
-        if self.camera.width as u64 * self.camera.height as u64 > 64_000_000 {
+        if self.camera.lens.width as u64 * self.camera.lens.height as u64 > 64_000_000 {
             return Err(self.invalid("camera images larger than 64 megapixels are not supported"));
         }
         if ![8u8, 12, 16].contains(&s.bits) {
@@ -898,16 +846,9 @@ fn base(name: &str) -> SceneSpec {
         seed: 0,
         depth_range: rig.depth_range,
         volume: None,
-        camera: CameraSpec::from_intrinsics(&rig.camera),
+        camera: CameraSpec::from_lens(&rig.camera),
         projector: ProjectorSpec {
-            width: p.width,
-            height: p.height,
-            fx: p.fx,
-            fy: p.fy,
-            skew: p.skew,
-            cx: p.cx,
-            cy: p.cy,
-            distortion: p.distortion,
+            lens: *p,
             center: rig.translation,
             look_at: Some(DEFAULT_AIM),
             rotation: None,
@@ -916,6 +857,7 @@ fn base(name: &str) -> SceneSpec {
             gamma: 1.0,
             black_level: 0.0,
             bits: 16,
+            unknown: BTreeMap::new(),
         },
         patterns: PatternSpec::default(),
         photometry: PhotometrySpec::default(),

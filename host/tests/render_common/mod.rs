@@ -128,7 +128,7 @@ pub fn project_to_projector(rig: &Rig, x: [f64; 3]) -> (f64, f64) {
     ];
     let i = &rig.projector;
     let (xn, yn) = (p[0] / p[2], p[1] / p[2]);
-    let [k1, k2, p1, p2, k3] = i.distortion;
+    let [k1, k2, p1, p2, k3] = i.distortion.to_array();
     let r2 = xn * xn + yn * yn;
     let radial = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2;
     let xd = xn * radial + 2.0 * p1 * xn * yn + p2 * (r2 + 2.0 * xn * xn);
@@ -140,7 +140,7 @@ pub fn project_to_projector(rig: &Rig, x: [f64; 3]) -> (f64, f64) {
 pub fn project_to_camera(rig: &Rig, p: [f64; 3]) -> (f64, f64) {
     let i = &rig.camera;
     let (xn, yn) = (p[0] / p[2], p[1] / p[2]);
-    let [k1, k2, p1, p2, k3] = i.distortion;
+    let [k1, k2, p1, p2, k3] = i.distortion.to_array();
     let r2 = xn * xn + yn * yn;
     let radial = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2;
     let xd = xn * radial + 2.0 * p1 * xn * yn + p2 * (r2 + 2.0 * xn * xn);

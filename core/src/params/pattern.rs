@@ -1,0 +1,178 @@
+//! The pattern-set description: the parametric form of the core's
+//! [`PatternSet`](crate::pattern::PatternSet) (paper §5, eqs 5-7 and 14) as plain data, the
+//! same on disk, on the wire and in a head's blob. Checks live with their users:
+//! `PatternSetDesc::validate` in [`crate::wire`] (field ranges) and `PatternSetDesc::to_set`
+//! (what only the whole set can tell).
+
+use serde::{Deserialize, Serialize};
+
+/// Most fringe levels (scale coefficients `c_k`) in a [`PatternSetDesc`]: the core's
+/// [`pattern::MAX_LEVELS`](crate::pattern::MAX_LEVELS).
+pub const MAX_LEVELS: usize = crate::pattern::MAX_LEVELS;
+/// Most phase shifts in one level of a [`PatternSetDesc`]: the core's
+/// [`pattern::MAX_SHIFTS`](crate::pattern::MAX_SHIFTS).
+pub const MAX_SHIFTS: usize = crate::pattern::MAX_SHIFTS;
+/// Most knots of a [`Knots`] profile: the core's
+/// [`phase_function::MAX_KNOTS`](crate::phase_function::MAX_KNOTS).
+pub const MAX_KNOTS: usize = crate::phase_function::MAX_KNOTS;
+
+/// The projector axis along which the phase function is monotonic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum PatternAxis {
+    /// ξ, projector columns: vertical fringes (wire value 0).
+    Xi,
+    /// η, projector rows: horizontal fringes (wire value 1).
+    Eta,
+}
+
+/// The periodic function turning phase into intensity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Waveform {
+    /// `I = I_min + (I_max − I_min)/2 · (1 + sin(·))`, the paper's eq 5 (wire value 0).
+    Sine,
+    /// `I = I_min + (I_max − I_min)/2 · (1 + cos(·))` (wire value 1).
+    Cosine,
+}
+
+/// Knots of a monotonic cubic Hermite profile (the core's
+/// [`KnotProfile`](crate::phase_function::KnotProfile)): positions `s` (projector pixels),
+/// phases `phi` (radians) and slopes (radians per pixel) of the first `count` knots; the unused
+/// entries are `+0.0`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Knots {
+    /// Knots used, `2..=MAX_KNOTS`.
+    pub count: u8,
+    /// Knot positions.
+    pub s: [f64; MAX_KNOTS],
+    /// Knot phases.
+    pub phi: [f64; MAX_KNOTS],
+    /// Knot slopes.
+    pub slope: [f64; MAX_KNOTS],
+}
+
+/// The 1-D profile `g(t)` of the phase function along its axis (the core's
+/// [`Profile`](crate::phase_function::Profile)).
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum PhaseProfile {
+    /// `g(t) = slope·(t − origin)`, `slope > 0` (wire value 0): straight fringes of fixed width.
+    Linear {
+        /// Position (projector pixels) where the phase is zero.
+        origin: f64,
+        /// Radians per projector pixel.
+        slope: f64,
+    },
+    /// A monotonic cubic through knots (wire value 1): fringes of varying width.
+    Knots(Knots),
+}
+
+/// The phase function `Φ(ξ, η) = g(t + curvature·(w − bend_center)²)`, `t` the coordinate along
+/// `axis`, `w` the other one (the core's [`PhaseFunction`](crate::phase_function::PhaseFunction);
+/// curvature 0: straight fringes).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PhaseDesc {
+    /// The axis along which Φ increases.
+    pub axis: PatternAxis,
+    /// The profile `g`.
+    pub profile: PhaseProfile,
+    /// Bending coefficient `a`, 1/pixel.
+    pub curvature: f64,
+    /// The line `w₀` about which fringes bend, pixels.
+    pub bend_center: f64,
+}
+
+/// The phase shifts of one level.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Shifts {
+    /// The first `count` of `n` equally spaced shifts `2π·i/n` (evaluated in f64 as
+    /// `TAU * i as f64 / n as f64`), `i = 0..count` (eq 14; the paper's eq 7 levels 0 and 1 are
+    /// `{ n: 4, count: 2 }`). `1 <= count <= n <= MAX_SHIFTS`.
+    Uniform {
+        /// Number of equal steps in 2π.
+        n: u8,
+        /// How many of them are projected.
+        count: u8,
+    },
+    /// Explicit shifts in radians: the first `count` entries, `1..=MAX_SHIFTS`; the rest must be
+    /// `+0.0`.
+    Explicit {
+        /// Number of shifts used.
+        count: u8,
+        /// The shifts, radians.
+        radians: [f64; MAX_SHIFTS],
+    },
+}
+
+impl Shifts {
+    /// Number of patterns (shifts) of the level.
+    pub const fn count(&self) -> usize {
+        match *self {
+            Shifts::Uniform { count, .. } | Shifts::Explicit { count, .. } => count as usize,
+        }
+    }
+}
+
+/// One level of a pattern set: a scale coefficient `c_k` and its shifts.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Level {
+    /// Scale coefficient `c_k` (eq 7), finite and `> 0`.
+    pub scale: f64,
+    /// The level's phase shifts.
+    pub shifts: Shifts,
+}
+
+impl Level {
+    /// The filler for unused level slots: scale `+0.0`, `Uniform { n: 0, count: 0 }`.
+    pub const UNUSED: Level = Level {
+        scale: 0.0,
+        shifts: Shifts::Uniform { n: 0, count: 0 },
+    };
+
+    /// Whether the slot is [`Level::UNUSED`] to the bit.
+    pub fn is_unused(&self) -> bool {
+        self.scale.to_bits() == 0 && matches!(self.shifts, Shifts::Uniform { n: 0, count: 0 })
+    }
+}
+
+/// A parametric pattern set the head generates row by row: the core's
+/// [`PatternSet`](crate::pattern::PatternSet) (eq 7 generalised) with every parameter as the
+/// core holds it (f64), so the head's set is the desktop's bit for bit
+/// (`PatternSetDesc::from_set`, `PatternSetDesc::to_set` in [`crate::wire`]). Pattern `(k, n)` has intensity
+/// `I_min + (I_max − I_min)/2 · (1 + wave(c_k · Φ(ξ, η) + shift_{k,n} + phase_offset))`, quantised
+/// to `bit_depth` bits; wire pattern indices count levels in order, shifts in order within a
+/// level.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PatternSetDesc {
+    /// Projector width, pixels, `>= 1`.
+    pub width: u16,
+    /// Projector height, pixels, `>= 1`.
+    pub height: u16,
+    /// Bits per pattern pixel, `1..=MAX_BIT_DEPTH`.
+    pub bit_depth: u8,
+    /// Gray level of the fringe minimum, `0 <= I_min < I_max`.
+    pub i_min: f64,
+    /// Peak intensity `I_max`, `<= 2^bit_depth - 1`.
+    pub i_max: f64,
+    /// Sine or cosine modulation.
+    pub waveform: Waveform,
+    /// Constant phase added to every pattern, radians.
+    pub phase_offset: f64,
+    /// The phase function Φ.
+    pub phase: PhaseDesc,
+    /// Levels used, `1..=MAX_LEVELS`.
+    pub level_count: u8,
+    /// The levels, coarse to fine; slots from `level_count` on must be [`Level::UNUSED`].
+    pub levels: [Level; MAX_LEVELS],
+}
+
+impl PatternSetDesc {
+    /// The used levels (empty if `level_count` is out of range).
+    pub fn used_levels(&self) -> &[Level] {
+        self.levels.get(..self.level_count as usize).unwrap_or(&[])
+    }
+
+    /// Total number of patterns in the set.
+    pub fn pattern_count(&self) -> usize {
+        self.used_levels().iter().map(|l| l.shifts.count()).sum()
+    }
+}
