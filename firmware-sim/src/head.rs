@@ -53,7 +53,7 @@ use fringe3d_core::wire::{
     emit_packet, image_index,
 };
 
-use crate::hal::{Board, Camera, HwError, Projector, Storage};
+use crate::hal::{BoardIo, Camera, HwError, Projector, Storage};
 use crate::memory::{HeadMemory, MemoryReport};
 
 /// Pattern-set slots the head has room for.
@@ -514,8 +514,8 @@ impl From<LinkError> for ScanFail {
 }
 
 /// The scan head. See the module documentation.
-pub struct Head<'m, P, C, S, PT, CT, CR, ET, D> {
-    board: Board<P, C, S, PT, CT, CR, ET, D>,
+pub struct Head<'m, B> {
+    board: B,
     mem: HeadMemory<'m>,
     cfg: HeadConfig,
     rx: FrameDecoder<[u8; MAX_ENCODED_FRAME]>,
@@ -537,21 +537,23 @@ fn store_crc<S: Storage>(store: &mut S, len: u32) -> Result<u32, HwError> {
     Ok(crc.finish())
 }
 
-fn wait_high<I: InputPin, D: DelayNs>(
-    pin: &mut I,
-    delay: &mut D,
+/// Wait until the input `pin` of `board` reads high, polling every `cfg.poll_us`, at most
+/// `cfg.trigger_timeout_us`.
+fn wait_high<B: BoardIo, I: InputPin>(
+    board: &mut B,
+    pin: impl Fn(&mut B) -> &mut I,
     cfg: &HeadConfig,
 ) -> Result<(), HwError> {
     let step = cfg.poll_us.max(1);
     let mut waited = 0u32;
     loop {
-        if pin.is_high().map_err(|_| HwError::Pin)? {
+        if pin(board).is_high().map_err(|_| HwError::Pin)? {
             return Ok(());
         }
         if waited >= cfg.trigger_timeout_us {
             return Err(HwError::Timeout);
         }
-        delay.delay_us(step);
+        board.delay().delay_us(step);
         waited = waited.saturating_add(step);
     }
 }
@@ -565,32 +567,18 @@ fn hw_bit(e: HwError) -> u32 {
     }
 }
 
-impl<'m, P, C, S, PT, CT, CR, ET, D> Head<'m, P, C, S, PT, CT, CR, ET, D>
-where
-    P: Projector,
-    C: Camera,
-    S: Storage,
-    PT: OutputPin,
-    CT: OutputPin,
-    CR: InputPin,
-    ET: InputPin,
-    D: DelayNs,
-{
+impl<'m, B: BoardIo> Head<'m, B> {
     /// A head driving `board` in `mem`. The line buffers must fit the camera and projector
     /// widths; the per-pixel buffers are checked per scan (a scan that does not fit is refused
     /// with Nak OutOfMemory).
-    pub fn new(
-        board: Board<P, C, S, PT, CT, CR, ET, D>,
-        mem: HeadMemory<'m>,
-        cfg: HeadConfig,
-    ) -> Result<Self, HeadError> {
+    pub fn new(mut board: B, mem: HeadMemory<'m>, cfg: HeadConfig) -> Result<Self, HeadError> {
         let (w, h) = (
-            board.camera.width() as usize,
-            board.camera.height() as usize,
+            board.camera().width() as usize,
+            board.camera().height() as usize,
         );
         let (pw, ph) = (
-            board.projector.width() as usize,
-            board.projector.height() as usize,
+            board.projector().width() as usize,
+            board.projector().height() as usize,
         );
         if w < 2 || h < 2 || pw == 0 || ph == 0 {
             return Err(HeadError::Dimensions);
@@ -622,9 +610,9 @@ where
             projector_width: pw as u16,
             projector_height: ph as u16,
             free_memory: board
-                .pattern_store
+                .pattern_store()
                 .capacity()
-                .saturating_add(board.map_store.capacity()),
+                .saturating_add(board.map_store().capacity()),
             max_chunk: cfg.max_chunk,
             max_sets: cfg.max_sets,
             max_lut_entries: MAX_LUT_ENTRIES as u16,
@@ -671,12 +659,12 @@ where
     }
 
     /// The board (to inspect simulated peripherals).
-    pub fn board(&self) -> &Board<P, C, S, PT, CT, CR, ET, D> {
+    pub fn board(&self) -> &B {
         &self.board
     }
 
     /// The board, mutably.
-    pub fn board_mut(&mut self) -> &mut Board<P, C, S, PT, CT, CR, ET, D> {
+    pub fn board_mut(&mut self) -> &mut B {
         &mut self.board
     }
 
@@ -722,8 +710,7 @@ where
             cfg,
             ..
         } = self;
-        let stores = Some((&mut board.pattern_store, &mut board.map_store));
-        let mut busy = pump(rx, tx, ctl, cfg, io, stores)?;
+        let mut busy = pump(rx, tx, ctl, cfg, io, Some(board))?;
         if let Some(scan) = self.ctl.pending.take() {
             self.run_scan(io, scan)?;
             busy = true;
@@ -825,9 +812,9 @@ where
         } = self;
         let slot = *ctl.usable(sc.slot).ok_or(ScanFail::Internal)?;
         let lut = ctl.lut.ok_or(ScanFail::Internal)?;
-        let w = board.camera.width() as usize;
-        let h = board.camera.height() as usize;
-        let bits = board.camera.bit_depth() as u32;
+        let w = board.camera().width() as usize;
+        let h = board.camera().height() as usize;
+        let bits = board.camera().bit_depth() as u32;
         let decoder = Decoder::new(&sc.set, DecodeConfig::for_bit_depth(bits))
             .map_err(|_| ScanFail::Internal)?;
         let plane = w * h;
@@ -861,7 +848,7 @@ where
         // Camera line, decoded row; projector line; three point rows with their codes, the
         // reference row, and with the edge filter its output codes.
         let lines = w * (2 + 12 + 1)
-            + board.projector.width() as usize
+            + board.projector().width() as usize
             + if points { w * (3 * 13 + 5) } else { 0 }
             + if points && sc.filter.is_some() { w } else { 0 };
         r.lines = r.lines.max(lines);
@@ -872,7 +859,7 @@ where
             projector: projector_line,
         };
         for i in 0..lut.len {
-            pump::<T, S>(rx, tx, ctl, cfg, io, None)?;
+            pump::<T, B>(rx, tx, ctl, cfg, io, None)?;
             if ctl.abort {
                 return Ok(ScanEnd::Aborted);
             }
@@ -922,7 +909,7 @@ where
         let mut valid = 0u32;
         let mut sent = 0u16;
         for y in lo..hi {
-            pump::<T, S>(rx, tx, ctl, cfg, io, None)?;
+            pump::<T, B>(rx, tx, ctl, cfg, io, None)?;
             if ctl.abort {
                 return Ok(ScanEnd::Aborted);
             }
@@ -950,7 +937,7 @@ where
             let (_, last) = rc.rows_needed(y as u32);
             while ring.rows_pushed() <= last {
                 read_reference_row(
-                    &mut board.map_store,
+                    board.map_store(),
                     ring.rows_pushed(),
                     w,
                     reference_phase,
@@ -1101,24 +1088,14 @@ struct Lines<'a, 'b> {
     projector: &'a mut &'b mut [u8],
 }
 
-fn run_entry<P, C, S, PT, CT, CR, ET, D>(
-    board: &mut Board<P, C, S, PT, CT, CR, ET, D>,
+fn run_entry<B: BoardIo>(
+    board: &mut B,
     mem: &mut HeadMemory<'_>,
     cfg: &HeadConfig,
     slot: &Slot,
     e: LutEntry,
     capture: Option<&mut CaptureDecoder<'_, '_>>,
-) -> Result<(), HwError>
-where
-    P: Projector,
-    C: Camera,
-    S: Storage,
-    PT: OutputPin,
-    CT: OutputPin,
-    CR: InputPin,
-    ET: InputPin,
-    D: DelayNs,
-{
+) -> Result<(), HwError> {
     let mut lines = Lines {
         camera: &mut mem.camera_line,
         projector: &mut mem.projector_line,
@@ -1133,33 +1110,23 @@ where
 /// Project one sequence entry: wait for the external trigger if asked, load the pattern, show it
 /// (and expose the camera if asked), dark time, then read the frame into `capture` (or discard
 /// it).
-fn entry<P, C, S, PT, CT, CR, ET, D>(
-    board: &mut Board<P, C, S, PT, CT, CR, ET, D>,
+fn entry<B: BoardIo>(
+    board: &mut B,
     lines: &mut Lines<'_, '_>,
     cfg: &HeadConfig,
     slot: &Slot,
     e: LutEntry,
     capture: Option<&mut CaptureDecoder<'_, '_>>,
-) -> Result<(), ScanFail>
-where
-    P: Projector,
-    C: Camera,
-    S: Storage,
-    PT: OutputPin,
-    CT: OutputPin,
-    CR: InputPin,
-    ET: InputPin,
-    D: DelayNs,
-{
+) -> Result<(), ScanFail> {
     if e.wait_for_trigger {
-        wait_high(&mut board.external_trigger, &mut board.delay, cfg)?;
+        wait_high(board, B::external_trigger, cfg)?;
     }
-    let pw = board.projector.width() as usize;
-    let ph = board.projector.height();
+    let pw = board.projector().width() as usize;
+    let ph = board.projector().height();
     let line = lines.projector.get_mut(..pw).ok_or(ScanFail::Internal)?;
     let id = slot.desc.pattern_id(e.pattern).ok_or(ScanFail::Internal)?;
     let image = image_index(&slot.set, id).ok_or(ScanFail::Internal)?;
-    board.projector.begin_frame(e.pattern)?;
+    board.projector().begin_frame(e.pattern)?;
     for y in 0..ph {
         match slot.source {
             Source::Generated => slot
@@ -1169,30 +1136,30 @@ where
             Source::Uploaded { .. } => {
                 let off = (e.pattern as u64 * ph as u64 + y as u64) * pw as u64;
                 let off = u32::try_from(off).map_err(|_| ScanFail::Hw(HwError::Storage))?;
-                board.pattern_store.read(off, line)?;
+                board.pattern_store().read(off, line)?;
             }
         }
-        board.projector.write_row(y, line)?;
+        board.projector().write_row(y, line)?;
     }
-    board.projector.end_frame()?;
+    board.projector().end_frame()?;
     const PIN: ScanFail = ScanFail::Hw(HwError::Pin);
-    board.projector_trigger.set_high().map_err(|_| PIN)?;
+    board.projector_trigger().set_high().map_err(|_| PIN)?;
     if e.trigger_out {
-        board.camera_trigger.set_high().map_err(|_| PIN)?;
+        board.camera_trigger().set_high().map_err(|_| PIN)?;
     }
-    board.delay.delay_us(e.exposure_us);
+    board.delay().delay_us(e.exposure_us);
     if e.trigger_out {
-        board.camera_trigger.set_low().map_err(|_| PIN)?;
+        board.camera_trigger().set_low().map_err(|_| PIN)?;
     }
-    board.projector_trigger.set_low().map_err(|_| PIN)?;
-    board.delay.delay_us(e.dark_us);
+    board.projector_trigger().set_low().map_err(|_| PIN)?;
+    board.delay().delay_us(e.dark_us);
     if e.trigger_out {
-        wait_high(&mut board.camera_ready, &mut board.delay, cfg)?;
-        let w = board.camera.width() as usize;
+        wait_high(board, B::camera_ready, cfg)?;
+        let w = board.camera().width() as usize;
         let cam = lines.camera.get_mut(..w).ok_or(ScanFail::Internal)?;
         let mut capture = capture;
-        for y in 0..board.camera.height() {
-            board.camera.read_row(y, cam)?;
+        for y in 0..board.camera().height() {
+            board.camera().read_row(y, cam)?;
             if let Some(fd) = capture.as_deref_mut() {
                 fd.push_row(&cam[..]).map_err(|_| ScanFail::Internal)?;
             }
@@ -1201,15 +1168,15 @@ where
     Ok(())
 }
 
-/// Read every byte available, feed the frame decoder and answer each complete frame. `stores` is
-/// `None` while a scan holds the board (commands that need them are refused as busy).
-fn pump<T: Read + ReadReady + Write, S: Storage>(
+/// Read every byte available, feed the frame decoder and answer each complete frame. `board` is
+/// `None` while a scan holds it (commands that need its stores are refused as busy).
+fn pump<T: Read + ReadReady + Write, B: BoardIo>(
     rx: &mut FrameDecoder<[u8; MAX_ENCODED_FRAME]>,
     tx: &mut Tx,
     ctl: &mut Control,
     cfg: &HeadConfig,
     io: &mut T,
-    mut stores: Option<(&mut S, &mut S)>,
+    mut board: Option<&mut B>,
 ) -> Result<bool, LinkError> {
     let mut any = false;
     let mut buf = [0u8; 256];
@@ -1231,8 +1198,7 @@ fn pump<T: Read + ReadReady + Write, S: Storage>(
                 }
                 Some(Ok(f)) => {
                     ctl.rx_frames = ctl.rx_frames.wrapping_add(1);
-                    let st = stores.as_mut().map(|(a, b)| (&mut **a, &mut **b));
-                    handle_frame(f, tx, ctl, cfg, io, st)?;
+                    handle_frame(f, tx, ctl, cfg, io, board.as_deref_mut())?;
                 }
             }
         }
@@ -1241,13 +1207,13 @@ fn pump<T: Read + ReadReady + Write, S: Storage>(
 }
 
 /// Parse one CRC-checked frame and dispatch it; malformed requests get a Nak echoing their seq.
-fn handle_frame<T: Write, S: Storage>(
+fn handle_frame<T: Write, B: BoardIo>(
     f: &[u8],
     tx: &mut Tx,
     ctl: &mut Control,
     cfg: &HeadConfig,
     io: &mut T,
-    stores: Option<(&mut S, &mut S)>,
+    board: Option<&mut B>,
 ) -> Result<(), LinkError> {
     // The CRC passed, so the header bytes are what the host sent.
     let (seq, cmd) = (
@@ -1276,15 +1242,15 @@ fn handle_frame<T: Write, S: Storage>(
     if check_header(&header, &msg).is_err() || !msg.command().is_request() {
         return tx.nak(io, seq, cmd, NakCode::Malformed, 0);
     }
-    dispatch(tx, ctl, cfg, io, stores, header, msg)
+    dispatch(tx, ctl, cfg, io, board, header, msg)
 }
 
-fn dispatch<T: Write, S: Storage>(
+fn dispatch<T: Write, B: BoardIo>(
     tx: &mut Tx,
     ctl: &mut Control,
     cfg: &HeadConfig,
     io: &mut T,
-    stores: Option<(&mut S, &mut S)>,
+    board: Option<&mut B>,
     h: Header,
     msg: Message<'_>,
 ) -> Result<(), LinkError> {
@@ -1372,7 +1338,7 @@ fn dispatch<T: Write, S: Storage>(
     if !msg.command().is_request() {
         nak!(NakCode::Malformed, 0);
     }
-    let Some((patterns, maps)) = stores.filter(|_| !ctl.busy()) else {
+    let Some(board) = board.filter(|_| !ctl.busy()) else {
         nak!(NakCode::Busy, 0);
     };
     match msg {
@@ -1429,7 +1395,7 @@ fn dispatch<T: Write, S: Storage>(
             if b.bit_depth != d.bit_depth {
                 nak!(NakCode::Invalid, Invalid::BitDepth);
             }
-            if b.total_bytes > patterns.capacity() {
+            if b.total_bytes > board.pattern_store().capacity() {
                 nak!(NakCode::OutOfMemory, 0);
             }
             let key = UploadKey::Patterns(b);
@@ -1463,7 +1429,7 @@ fn dispatch<T: Write, S: Storage>(
             if m.width != ctl.caps.sensor_width || m.height != ctl.caps.sensor_height {
                 nak!(NakCode::Invalid, Invalid::Dimension);
             }
-            if m.total_bytes > maps.capacity() {
+            if m.total_bytes > board.map_store().capacity() {
                 nak!(NakCode::OutOfMemory, 0);
             }
             let key = UploadKey::Map(m);
@@ -1484,9 +1450,9 @@ fn dispatch<T: Write, S: Storage>(
             if c.data.len() > ctl.caps.max_chunk as usize {
                 nak!(NakCode::Invalid, Invalid::ChunkSize);
             }
-            let store: &mut S = match c.target {
-                UploadTarget::PatternSet(_) => patterns,
-                UploadTarget::PhaseMap => maps,
+            let store = match c.target {
+                UploadTarget::PatternSet(_) => board.pattern_store(),
+                UploadTarget::PhaseMap => board.map_store(),
             };
             let Some((next, total)) = ctl.upload_mut(c.target).map(|u| (u.next, u.key.total()))
             else {
@@ -1516,9 +1482,9 @@ fn dispatch<T: Write, S: Storage>(
             }));
         }
         Message::ConfirmUpload(t) => {
-            let store: &mut S = match t {
-                UploadTarget::PatternSet(_) => patterns,
-                UploadTarget::PhaseMap => maps,
+            let store = match t {
+                UploadTarget::PatternSet(_) => board.pattern_store(),
+                UploadTarget::PhaseMap => board.map_store(),
             };
             let Some(u) = ctl.upload_mut(t).copied() else {
                 if ctl.confirmed(t).is_some() {
