@@ -2,7 +2,7 @@
 //! trigger lines and a delay.
 //!
 //! The trigger lines are `embedded-hal` 1.0 digital pins and exposure timing goes through
-//! [`DelayNs`](embedded_hal::delay::DelayNs), so a board support crate plugs in its GPIO and timer drivers unchanged; the
+//! [`DelayNs`], so a board support crate plugs in its GPIO and timer drivers unchanged; the
 //! simulated board ([`crate::sim`]) implements the same traits and records what happens on them.
 //! Projector, camera and storage are small traits of this crate: on real hardware they wrap the
 //! projector controller's video port, the sensor's readout and external RAM or flash.

@@ -3,7 +3,7 @@
 //! images, heap-backed stores and buffers, and an in-process link for deterministic tests.
 //!
 //! None of this is firmware: it plays the board (interrupts, external memory, peripherals) around
-//! the `no_std` [`Head`](crate::Head).
+//! the `no_std` [`Head`].
 
 mod inprocess;
 mod pty;
