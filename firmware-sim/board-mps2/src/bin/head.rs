@@ -1,4 +1,4 @@
-//! The fringe3d scan head on QEMU's `mps2-an386`: `fringe3d-firmware-sim`'s [`Head`] — the wire
+//! The fringe3d scan head on QEMU's `mps2-an386`: `fringe3d-head`'s [`Head`] — the wire
 //! protocol's command handler, uploads, trigger sequences, scans — served on UART0, so that the
 //! host's `fringe3d device info | upload | scan` reach it through QEMU's `-serial pty` exactly as
 //! they reach the simulated head on the desktop (`fringe3d-head`).
@@ -49,10 +49,10 @@ use core::panic::PanicInfo;
 use core::ptr::addr_of_mut;
 
 use cortex_m_rt::{ExceptionFrame, entry, exception};
-use fringe3d_firmware_sim::hal::{HwError, SliceStore};
-use fringe3d_firmware_sim::head::{Activity, Head, HeadConfig};
-use fringe3d_firmware_sim::memory::HeadMemory;
-use fringe3d_firmware_sim::sim::{FrameSource, NoSink, SimBoard, SimWorld};
+use fringe3d_head::hal::{HwError, SliceStore};
+use fringe3d_head::head::{Activity, Head, HeadConfig};
+use fringe3d_head::memory::HeadMemory;
+use fringe3d_head::sim::{FrameSource, NoSink, SimBoard, SimWorld};
 
 use semihosting::{Console, File};
 use uart::CmsdkUart;
