@@ -2,10 +2,14 @@
 //! trigger lines and a delay.
 //!
 //! The trigger lines are `embedded-hal` 1.0 digital pins and exposure timing goes through
-//! [`DelayNs`](embedded_hal::delay::DelayNs), so a board support crate plugs in its GPIO and timer drivers unchanged; the
+//! [`DelayNs`], so a board support crate plugs in its GPIO and timer drivers unchanged; the
 //! simulated board ([`crate::sim`]) implements the same traits and records what happens on them.
 //! Projector, camera and storage are small traits of this crate: on real hardware they wrap the
 //! projector controller's video port, the sensor's readout and external RAM or flash.
+//! [`BoardIo`] gathers them: the firmware is generic over that one trait.
+
+use embedded_hal::delay::DelayNs;
+use embedded_hal::digital::{InputPin, OutputPin};
 
 /// A hardware fault. Small and `Copy`, like every error of the firmware.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -85,26 +89,49 @@ pub trait Storage {
     fn read(&mut self, offset: u32, out: &mut [u8]) -> Result<(), HwError>;
 }
 
-/// Everything the head drives. Fields are public so that a board's `main` builds it directly.
-pub struct Board<P, C, S, PT, CT, CR, ET, D> {
+/// Everything the head drives, as one type: a board names the types of its peripherals once
+/// (associated types, like `embedded-io`'s `ErrorType`) and lends each of them out, so that the
+/// firmware is generic over a single `B: BoardIo`.
+///
+/// The head borrows one peripheral at a time (an exposure drives a trigger, then waits on the
+/// delay), so each accessor may hand out the same `&mut self`. [`crate::sim::SimBoard`] is the
+/// simulated board, used on the desktop and under QEMU.
+pub trait BoardIo {
     /// The projector.
-    pub projector: P,
+    type Projector: Projector;
     /// The camera.
-    pub camera: C,
-    /// Store of uploaded pattern images.
-    pub pattern_store: S,
-    /// Store of the reference phase map.
-    pub map_store: S,
+    type Camera: Camera;
+    /// The stores of uploaded pattern images and of the reference phase map.
+    type Store: Storage;
     /// Output: high while the projector shows the loaded pattern.
-    pub projector_trigger: PT,
+    type ProjectorTrigger: OutputPin;
     /// Output: high while the camera exposes.
-    pub camera_trigger: CT,
+    type CameraTrigger: OutputPin;
     /// Input: high while the camera holds a frame ready to read.
-    pub camera_ready: CR,
+    type CameraReady: InputPin;
     /// Input: the external trigger, for sequence entries that wait for it.
-    pub external_trigger: ET,
+    type ExternalTrigger: InputPin;
     /// Exposure and dark-time delays.
-    pub delay: D,
+    type Delay: DelayNs;
+
+    /// The projector.
+    fn projector(&mut self) -> &mut Self::Projector;
+    /// The camera.
+    fn camera(&mut self) -> &mut Self::Camera;
+    /// Store of uploaded pattern images.
+    fn pattern_store(&mut self) -> &mut Self::Store;
+    /// Store of the reference phase map.
+    fn map_store(&mut self) -> &mut Self::Store;
+    /// The projector trigger line.
+    fn projector_trigger(&mut self) -> &mut Self::ProjectorTrigger;
+    /// The camera trigger line.
+    fn camera_trigger(&mut self) -> &mut Self::CameraTrigger;
+    /// The camera-ready line.
+    fn camera_ready(&mut self) -> &mut Self::CameraReady;
+    /// The external trigger line.
+    fn external_trigger(&mut self) -> &mut Self::ExternalTrigger;
+    /// The delay.
+    fn delay(&mut self) -> &mut Self::Delay;
 }
 
 /// A [`Storage`] over a borrowed byte slice (a `static` buffer on a board, or a test's).

@@ -3,10 +3,11 @@
 //! behind the default `std` feature, a desktop front that presents the head on a pseudo-terminal.
 //!
 //! - [`head`]: the command handler, uploads, trigger sequences and scans — [`Head`];
-//! - [`hal`]: what the head needs from a board ([`Board`]: projector, camera, stores, pins, delay);
+//! - [`hal`]: what the head needs from a board ([`BoardIo`]: projector, camera, stores, pins,
+//!   delay);
 //! - [`port`]: the `heapless` queues between the UART interrupts and the main loop;
 //! - [`memory`]: the fixed working buffers and the peak-use report;
-//! - [`sim`]: a simulated board with virtual time and a trigger timeline;
+//! - [`sim`]: a simulated board ([`sim::SimBoard`]) with virtual time and a trigger timeline;
 //! - `desktop` (feature `std`): the PTY front, dataset replay and in-process links for tests.
 //!
 //! Build for a board with `--no-default-features` (e.g. `--target thumbv7em-none-eabihf`).
@@ -26,6 +27,6 @@ pub mod sim;
 #[cfg(feature = "std")]
 pub mod desktop;
 
-pub use hal::{Board, Camera, HwError, Projector, SliceStore, Storage};
+pub use hal::{BoardIo, Camera, HwError, Projector, SliceStore, Storage};
 pub use head::{Activity, Head, HeadConfig, HeadError, LinkError, MAX_SETS};
 pub use memory::{HeadBuffers, HeadMemory, MemoryPlan, MemoryReport};

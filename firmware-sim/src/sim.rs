@@ -16,6 +16,8 @@
 //!
 //! Every pin edge, pattern load, capture and readout is an [`Event`] on the timeline, stamped
 //! with virtual time, so tests can check the sequence.
+//!
+//! [`SimBoard`] gathers the simulated peripherals and two stores into one [`BoardIo`].
 
 use core::cell::RefCell;
 
@@ -24,7 +26,7 @@ use embedded_hal::digital::{ErrorKind, ErrorType, InputPin, OutputPin};
 use fringe3d_core::wire::crc::Crc32c;
 use heapless::{Deque, HistoryBuf};
 
-use crate::hal::{Camera, HwError, Projector};
+use crate::hal::{BoardIo, Camera, HwError, Projector, Storage};
 
 /// Events kept on the timeline (the oldest are dropped first).
 pub const TIMELINE_LEN: usize = 1024;
@@ -499,6 +501,102 @@ impl<F: FrameSource> Camera for SimCamera<'_, F> {
             self.world.release_frame();
         }
         Ok(())
+    }
+}
+
+/// The simulated board: projector, camera, two stores of type `S`, the trigger lines and the
+/// delay, all in one [`SimWorld`]. Fields are public so that a board's `main` or a test builds
+/// it directly and inspects its parts.
+pub struct SimBoard<'w, F, R, S> {
+    /// The projector.
+    pub projector: SimProjector<'w, R>,
+    /// The camera.
+    pub camera: SimCamera<'w, F>,
+    /// Store of uploaded pattern images.
+    pub pattern_store: S,
+    /// Store of the reference phase map.
+    pub map_store: S,
+    /// Output: high while the projector shows the loaded pattern.
+    pub projector_trigger: SimOutput<'w>,
+    /// Output: high while the camera exposes.
+    pub camera_trigger: SimOutput<'w>,
+    /// Input: high while the camera holds a frame ready to read.
+    pub camera_ready: SimInput<'w>,
+    /// Input: the external trigger.
+    pub external_trigger: SimInput<'w>,
+    /// Exposure and dark-time delays (virtual time).
+    pub delay: SimDelay<'w>,
+}
+
+impl<'w, F: FrameSource, R: RowSink, S: Storage> SimBoard<'w, F, R, S> {
+    /// A board in `world`: a camera seeing `source`, a `projector.0 × projector.1` projector
+    /// passing its rows to `sink`, and the two stores.
+    pub fn new(
+        world: &'w SimWorld,
+        source: F,
+        sink: R,
+        projector: (u16, u16),
+        pattern_store: S,
+        map_store: S,
+    ) -> Self {
+        SimBoard {
+            projector: SimProjector::new(world, projector.0, projector.1, sink),
+            camera: SimCamera::new(world, source),
+            pattern_store,
+            map_store,
+            projector_trigger: SimOutput::new(world, Line::ProjectorTrigger),
+            camera_trigger: SimOutput::new(world, Line::CameraTrigger),
+            camera_ready: SimInput::new(world, Line::CameraReady),
+            external_trigger: SimInput::new(world, Line::ExternalTrigger),
+            delay: SimDelay::new(world),
+        }
+    }
+}
+
+impl<'w, F: FrameSource, R: RowSink, S: Storage> BoardIo for SimBoard<'w, F, R, S> {
+    type Projector = SimProjector<'w, R>;
+    type Camera = SimCamera<'w, F>;
+    type Store = S;
+    type ProjectorTrigger = SimOutput<'w>;
+    type CameraTrigger = SimOutput<'w>;
+    type CameraReady = SimInput<'w>;
+    type ExternalTrigger = SimInput<'w>;
+    type Delay = SimDelay<'w>;
+
+    fn projector(&mut self) -> &mut Self::Projector {
+        &mut self.projector
+    }
+
+    fn camera(&mut self) -> &mut Self::Camera {
+        &mut self.camera
+    }
+
+    fn pattern_store(&mut self) -> &mut S {
+        &mut self.pattern_store
+    }
+
+    fn map_store(&mut self) -> &mut S {
+        &mut self.map_store
+    }
+
+    fn projector_trigger(&mut self) -> &mut Self::ProjectorTrigger {
+        &mut self.projector_trigger
+    }
+
+    fn camera_trigger(&mut self) -> &mut Self::CameraTrigger {
+        &mut self.camera_trigger
+    }
+
+    fn camera_ready(&mut self) -> &mut Self::CameraReady {
+        &mut self.camera_ready
+    }
+
+    fn external_trigger(&mut self) -> &mut Self::ExternalTrigger {
+        &mut self.external_trigger
+    }
+
+    fn delay(&mut self) -> &mut Self::Delay {
+        &mut self.delay
     }
 }
 

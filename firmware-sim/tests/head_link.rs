@@ -15,11 +15,9 @@ use fringe3d_core::wire::{
     EdgeFilterMode, FaultConfig, HeadState, Invalid, NakCode, PatternSetDesc, PhaseProfile,
     ScanOutput, ValidationStatus,
 };
-use fringe3d_firmware_sim::desktop::{InProcess, OwnedMemory, Recorder, SimHead, sim_board};
-use fringe3d_firmware_sim::sim::{
-    DirectView, EventKind, FrameSource, Line, NoSink, RowSink, SimWorld,
-};
-use fringe3d_firmware_sim::{Head, HeadConfig, MemoryPlan};
+use fringe3d_head::desktop::{InProcess, OwnedMemory, Recorder, SimHead, sim_board};
+use fringe3d_head::sim::{DirectView, EventKind, FrameSource, Line, NoSink, RowSink, SimWorld};
+use fringe3d_head::{Head, HeadConfig, MemoryPlan};
 use std::time::Duration;
 
 const PW: u16 = 128;
@@ -733,7 +731,7 @@ fn a_hostile_line_ends_in_clean_errors_never_in_wrong_data() {
 
 /// A complete set of working buffers in one `static`, as on a board.
 static BUFFERS: std::sync::Mutex<
-    fringe3d_firmware_sim::HeadBuffers<
+    fringe3d_head::HeadBuffers<
         { 7 * 64 * 48 },
         { 64 * 48 },
         64,
@@ -742,7 +740,7 @@ static BUFFERS: std::sync::Mutex<
         128,
         { 16 * 64 },
     >,
-> = std::sync::Mutex::new(fringe3d_firmware_sim::HeadBuffers::new());
+> = std::sync::Mutex::new(fringe3d_head::HeadBuffers::new());
 
 #[test]
 fn the_head_runs_in_static_buffers() {

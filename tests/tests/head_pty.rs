@@ -26,10 +26,10 @@ use fringe3d_core::math::canonical;
 use fringe3d_core::phase_function::Profile;
 use fringe3d_core::validity::Validity;
 use fringe3d_core::wire::{EdgeFilterMode, HeadState, ScanOutput, ValidationStatus};
-use fringe3d_firmware_sim::desktop::{OwnedMemory, Pty, Replay, serve, sim_board};
-use fringe3d_firmware_sim::port::QUEUE_LEN;
-use fringe3d_firmware_sim::sim::{FrameSource, NoSink, SimWorld};
-use fringe3d_firmware_sim::{Head, HeadConfig, MemoryPlan, MemoryReport};
+use fringe3d_head::desktop::{OwnedMemory, Pty, Replay, serve, sim_board};
+use fringe3d_head::port::QUEUE_LEN;
+use fringe3d_head::sim::{FrameSource, NoSink, SimWorld};
+use fringe3d_head::{Head, HeadConfig, MemoryPlan, MemoryReport};
 
 const CAM: (u32, u32) = (320, 256);
 

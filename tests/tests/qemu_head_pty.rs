@@ -1,7 +1,7 @@
 //! The scan head's firmware on an emulated Cortex-M4F, reached by the host through QEMU's
 //! `-serial pty` with the same `fringe3d device` commands as the simulated head.
 //!
-//! Builds `fringe3d-board-mps2-head` (firmware-sim/board-mps2/src/bin/head.rs: `fringe3d-firmware-sim`'s
+//! Builds `fringe3d-board-mps2-head` (firmware-sim/board-mps2/src/bin/head.rs: `fringe3d-head`'s
 //! `Head` on the CMSDK UART0 of QEMU's `mps2-an386`, its camera reading the frames of a rendered
 //! scene from a file on the host through semihosting), starts QEMU with `-serial pty`, reads the
 //! PTY QEMU announces, then runs `fringe3d device info`, `fringe3d device upload` (pattern images
@@ -26,8 +26,8 @@ use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::{Overrides, SceneSpec};
 use fringe3d::scan::ScanCalibration;
 use fringe3d_core::math::canonical;
-use fringe3d_firmware_sim::desktop::Replay;
-use fringe3d_firmware_sim::sim::FrameSource;
+use fringe3d_head::desktop::Replay;
+use fringe3d_head::sim::FrameSource;
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 
 const BIN: &str = "fringe3d-board-mps2-head";

@@ -21,7 +21,7 @@
 //! Arguments (semihosting, `-semihosting-config arg=...`): the program name, the vectors folder
 //! (default `vectors`), and optionally `quiet` to send only the report (measurement runs).
 //!
-//! The head engineer's full firmware logic (`fringe3d-firmware-sim`'s `Head`) is not linked here:
+//! The head engineer's full firmware logic (`fringe3d-head`'s `Head`) is not linked here:
 //! this board crate runs the kernels directly.
 //!
 //! # UART0 record format

@@ -16,10 +16,10 @@ use std::sync::atomic::AtomicBool;
 
 use fringe3d_core::pattern::MAX_LEVELS;
 use fringe3d_core::reconstruct::MAX_BAND_ROWS;
-use fringe3d_firmware_sim::desktop::{OwnedMemory, Pty, Replay, serve, sim_board};
-use fringe3d_firmware_sim::port::QUEUE_LEN;
-use fringe3d_firmware_sim::sim::{FrameSource, NoSink, SimWorld};
-use fringe3d_firmware_sim::{Head, HeadConfig, MemoryPlan};
+use fringe3d_head::desktop::{OwnedMemory, Pty, Replay, serve, sim_board};
+use fringe3d_head::port::QUEUE_LEN;
+use fringe3d_head::sim::{FrameSource, NoSink, SimWorld};
+use fringe3d_head::{Head, HeadConfig, MemoryPlan};
 
 fn usage() -> ExitCode {
     eprintln!(

@@ -13,13 +13,11 @@ use std::prelude::rust_2024::*;
 use std::collections::VecDeque;
 use std::time::Instant;
 
-use embedded_hal::delay::DelayNs;
-use embedded_hal::digital::{InputPin, OutputPin};
 use embedded_io::{ErrorType, Read, ReadReady, Write};
 use fringe3d::device::Transport;
 use fringe3d_core::wire::{FaultConfig, FaultInjector, FaultStats};
 
-use crate::hal::{Camera, Projector, Storage};
+use crate::hal::BoardIo;
 use crate::head::{Activity, Head, LinkError};
 
 /// An unbounded byte FIFO (`embedded-io` writer).
@@ -86,17 +84,7 @@ pub trait Device {
     ) -> Result<Activity, LinkError>;
 }
 
-impl<P, C, S, PT, CT, CR, ET, D> Device for Head<'_, P, C, S, PT, CT, CR, ET, D>
-where
-    P: Projector,
-    C: Camera,
-    S: Storage,
-    PT: OutputPin,
-    CT: OutputPin,
-    CR: InputPin,
-    ET: InputPin,
-    D: DelayNs,
-{
+impl<B: BoardIo> Device for Head<'_, B> {
     fn service_io<T: Read + ReadReady + Write>(
         &mut self,
         io: &mut T,

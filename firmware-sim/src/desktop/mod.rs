@@ -3,7 +3,7 @@
 //! images, heap-backed stores and buffers, and an in-process link for deterministic tests.
 //!
 //! None of this is firmware: it plays the board (interrupts, external memory, peripherals) around
-//! the `no_std` [`Head`](crate::Head).
+//! the `no_std` [`Head`].
 
 mod inprocess;
 mod pty;
@@ -13,12 +13,10 @@ pub use inprocess::{Device, HeadPort, InProcess, VecSink};
 pub use pty::{Pty, ServeReport, serve};
 pub use replay::{Replay, wire_index};
 
-use crate::hal::{Board, HwError, Storage};
+use crate::hal::{HwError, Storage};
 use crate::head::Head;
 use crate::memory::{HeadMemory, MemoryPlan};
-use crate::sim::{
-    FrameSource, Line, RowSink, SimCamera, SimDelay, SimInput, SimOutput, SimProjector, SimWorld,
-};
+use crate::sim::{FrameSource, RowSink, SimBoard, SimWorld};
 
 /// A [`Storage`] over a `Vec` (the head's external memory on the desktop).
 #[derive(Clone, Debug, Default)]
@@ -149,30 +147,8 @@ impl OwnedMemory {
     }
 }
 
-/// The simulated board type.
-pub type SimBoard<'w, F, R> = Board<
-    SimProjector<'w, R>,
-    SimCamera<'w, F>,
-    VecStore,
-    SimOutput<'w>,
-    SimOutput<'w>,
-    SimInput<'w>,
-    SimInput<'w>,
-    SimDelay<'w>,
->;
-
-/// A head on the simulated board.
-pub type SimHead<'m, 'w, F, R> = Head<
-    'm,
-    SimProjector<'w, R>,
-    SimCamera<'w, F>,
-    VecStore,
-    SimOutput<'w>,
-    SimOutput<'w>,
-    SimInput<'w>,
-    SimInput<'w>,
-    SimDelay<'w>,
->;
+/// A head on the simulated board with `Vec` stores.
+pub type SimHead<'m, 'w, F, R> = Head<'m, SimBoard<'w, F, R, VecStore>>;
 
 /// A simulated board in `world`: camera seeing `source`, a `projector.0 × projector.1` projector
 /// passing its rows to `sink`, stores of the given sizes.
@@ -183,16 +159,13 @@ pub fn sim_board<'w, F: FrameSource, R: RowSink>(
     projector: (u16, u16),
     pattern_store: usize,
     map_store: usize,
-) -> SimBoard<'w, F, R> {
-    Board {
-        projector: SimProjector::new(world, projector.0, projector.1, sink),
-        camera: SimCamera::new(world, source),
-        pattern_store: VecStore::new(pattern_store),
-        map_store: VecStore::new(map_store),
-        projector_trigger: SimOutput::new(world, Line::ProjectorTrigger),
-        camera_trigger: SimOutput::new(world, Line::CameraTrigger),
-        camera_ready: SimInput::new(world, Line::CameraReady),
-        external_trigger: SimInput::new(world, Line::ExternalTrigger),
-        delay: SimDelay::new(world),
-    }
+) -> SimBoard<'w, F, R, VecStore> {
+    SimBoard::new(
+        world,
+        source,
+        sink,
+        projector,
+        VecStore::new(pattern_store),
+        VecStore::new(map_store),
+    )
 }

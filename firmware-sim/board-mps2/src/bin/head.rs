@@ -1,15 +1,15 @@
-//! The fringe3d scan head on QEMU's `mps2-an386`: `fringe3d-firmware-sim`'s [`Head`] — the wire
+//! The fringe3d scan head on QEMU's `mps2-an386`: `fringe3d-head`'s [`Head`] — the wire
 //! protocol's command handler, uploads, trigger sequences, scans — served on UART0, so that the
 //! host's `fringe3d device info | upload | scan` reach it through QEMU's `-serial pty` exactly as
 //! they reach the simulated head on the desktop (`fringe3d-head`).
 //!
 //! The board (the AN386 image has no projector or camera, so both are simulated around the
-//! firmware-sim's no_std [`SimWorld`]):
+//! firmware-sim's no_std [`SimWorld`], gathered in a [`SimBoard`]):
 //! - serial link: the CMSDK UART0 at 0x4000_4000, polled, behind `embedded-io` (`src/uart.rs`);
 //!   QEMU holds back PTY input while the one-byte receive register is full, so nothing is lost;
-//! - projector, trigger pins and delay: [`SimProjector`], [`SimOutput`], [`SimInput`],
-//!   [`SimDelay`] (virtual time: exposures and dark times cost no emulated time);
-//! - camera: a [`SimCamera`] whose frames come from a file on the host through semihosting
+//! - projector, trigger pins and delay: `SimProjector`, `SimOutput`, `SimInput`, `SimDelay`
+//!   (virtual time: exposures and dark times cost no emulated time);
+//! - camera: a `SimCamera` whose frames come from a file on the host through semihosting
 //!   ([`HostFrames`]; layout below), row by row as the head reads them;
 //! - stores for uploaded patterns and the reference map, the frame-sequential decoder's state and
 //!   the reference ring: `static`s in the 16 MiB PSRAM at 0x2100_0000 (section `.psram` of
@@ -49,12 +49,10 @@ use core::panic::PanicInfo;
 use core::ptr::addr_of_mut;
 
 use cortex_m_rt::{ExceptionFrame, entry, exception};
-use fringe3d_firmware_sim::hal::{Board, HwError, SliceStore};
-use fringe3d_firmware_sim::head::{Activity, Head, HeadConfig};
-use fringe3d_firmware_sim::memory::HeadMemory;
-use fringe3d_firmware_sim::sim::{
-    FrameSource, Line, NoSink, SimCamera, SimDelay, SimInput, SimOutput, SimProjector, SimWorld,
-};
+use fringe3d_head::hal::{HwError, SliceStore};
+use fringe3d_head::head::{Activity, Head, HeadConfig};
+use fringe3d_head::memory::HeadMemory;
+use fringe3d_head::sim::{FrameSource, NoSink, SimBoard, SimWorld};
 
 use semihosting::{Console, File};
 use uart::CmsdkUart;
@@ -338,17 +336,14 @@ fn run(uart: &mut CmsdkUart) -> Result<(), Fail> {
             &mut *addr_of_mut!(LINES),
         )
     };
-    let board = Board {
-        projector: SimProjector::new(&world, pw, ph, NoSink),
-        camera: SimCamera::new(&world, frames),
-        pattern_store: SliceStore::new(patterns),
-        map_store: SliceStore::new(maps),
-        projector_trigger: SimOutput::new(&world, Line::ProjectorTrigger),
-        camera_trigger: SimOutput::new(&world, Line::CameraTrigger),
-        camera_ready: SimInput::new(&world, Line::CameraReady),
-        external_trigger: SimInput::new(&world, Line::ExternalTrigger),
-        delay: SimDelay::new(&world),
-    };
+    let board = SimBoard::new(
+        &world,
+        frames,
+        NoSink,
+        (pw, ph),
+        SliceStore::new(patterns),
+        SliceStore::new(maps),
+    );
     let Lines {
         camera,
         projector,

@@ -1,0 +1,352 @@
+//! A scan: capture the sequence once into the frame-sequential decoder, then decode,
+//! reconstruct, filter and stream the requested rows, serving the link between frames and rows.
+
+use embedded_io::{Read, ReadReady, Write};
+use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut};
+use fringe3d_core::filter::EdgeFilter;
+use fringe3d_core::reconstruct::ReferenceRing;
+use fringe3d_core::sequential::FrameDecoder as CaptureDecoder;
+use fringe3d_core::validity::Validity;
+use fringe3d_core::wire::{Command, HeadErrors, Message, NakCode, RowKind, ScanDone, ScanOutput};
+
+use super::control::PendingScan;
+use super::dispatch::Link;
+use super::error::{LinkError, ScanFail, hw_bit};
+use super::sequence::{Lines, entry};
+use super::transmit::Tx;
+use crate::hal::{BoardIo, Camera, HwError, Projector, Storage};
+use crate::memory::HeadMemory;
+
+/// How a scan ended.
+enum ScanEnd {
+    Done { rows: u16, valid: u32 },
+    Aborted,
+}
+
+/// Run the planned scan `sc` to its end, serving the link between frames and rows, and end its
+/// stream: ScanDone, or a Nak (Aborted; Internal with the fault's bit, in Fault for hardware).
+pub(super) fn run<B: BoardIo, T: Read + ReadReady + Write>(
+    board: &mut B,
+    mem: &mut HeadMemory<'_>,
+    link: &mut Link<'_>,
+    io: &mut T,
+    sc: PendingScan,
+) -> Result<(), LinkError> {
+    link.ctl.scanning = true;
+    let res = capture_and_stream(board, mem, link, io, &sc);
+    let Link { tx, ctl, .. } = link;
+    ctl.scanning = false;
+    ctl.abort = false;
+    let cmd = Command::Scan as u8;
+    match res {
+        Ok(ScanEnd::Done { rows, valid }) => {
+            ctl.validated = true;
+            tx.reply(
+                io,
+                sc.seq,
+                Message::ScanDone(ScanDone { rows, valid }),
+                false,
+            )
+        }
+        Ok(ScanEnd::Aborted) => tx.nak(io, sc.seq, cmd, NakCode::Aborted, 0),
+        Err(ScanFail::Hw(e)) => {
+            ctl.fault = true;
+            ctl.errors |= hw_bit(e);
+            tx.nak(io, sc.seq, cmd, NakCode::Internal, hw_bit(e) as u16)
+        }
+        Err(ScanFail::Internal) => {
+            ctl.errors |= HeadErrors::INTERNAL;
+            tx.nak(
+                io,
+                sc.seq,
+                cmd,
+                NakCode::Internal,
+                HeadErrors::INTERNAL as u16,
+            )
+        }
+        Err(ScanFail::Link(e)) => Err(e),
+    }
+}
+
+/// Capture the sequence once into the frame-sequential decoder, then decode, reconstruct,
+/// filter and stream rows `sc.first ..` of the scan.
+fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
+    board: &mut B,
+    mem: &mut HeadMemory<'_>,
+    link: &mut Link<'_>,
+    io: &mut T,
+    sc: &PendingScan,
+) -> Result<ScanEnd, ScanFail> {
+    let slot = *link.ctl.usable(sc.slot).ok_or(ScanFail::Internal)?;
+    let lut = link.ctl.lut.ok_or(ScanFail::Internal)?;
+    let w = board.camera().width() as usize;
+    let h = board.camera().height() as usize;
+    let bits = board.camera().bit_depth() as u32;
+    let decoder =
+        Decoder::new(&sc.set, DecodeConfig::for_bit_depth(bits)).map_err(|_| ScanFail::Internal)?;
+    let plane = w * h;
+    let state_len = CaptureDecoder::state_len(&decoder, w, h);
+    let HeadMemory {
+        decode_state,
+        decode_flags,
+        ring_phase,
+        ring_validity,
+        camera_line,
+        projector_line,
+        phase_row,
+        modulation_row,
+        dc_row,
+        validity_row,
+        xyz_rows,
+        point_codes,
+        reference_phase,
+        reference_validity,
+    } = mem;
+    let state = decode_state
+        .get_mut(..state_len)
+        .ok_or(ScanFail::Internal)?;
+    let flags = decode_flags.get_mut(..plane).ok_or(ScanFail::Internal)?;
+    let mut fd =
+        CaptureDecoder::new(&decoder, w, h, state, flags).map_err(|_| ScanFail::Internal)?;
+    let r = &mut link.ctl.report;
+    r.decode_state = r.decode_state.max(state_len * 4);
+    r.decode_flags = r.decode_flags.max(plane);
+    let points = !matches!(sc.output, ScanOutput::Phase);
+    // Camera line, decoded row; projector line; three point rows with their codes, the
+    // reference row, and with the edge filter its output codes.
+    let lines = w * (2 + 12 + 1)
+        + board.projector().width() as usize
+        + if points { w * (3 * 13 + 5) } else { 0 }
+        + if points && sc.filter.is_some() { w } else { 0 };
+    r.lines = r.lines.max(lines);
+
+    // Capture: the sequence once, every camera-triggered frame into the decoder.
+    let mut lines_buf = Lines {
+        camera: camera_line,
+        projector: projector_line,
+    };
+    for i in 0..lut.len {
+        link.pump(io, None::<&mut B>)?;
+        if link.ctl.abort {
+            return Ok(ScanEnd::Aborted);
+        }
+        let e = lut.entry(i).ok_or(ScanFail::Internal)?;
+        entry(board, &mut lines_buf, link.cfg, &slot, e, Some(&mut fd))?;
+    }
+    if !fd.is_complete() {
+        return Err(ScanFail::Internal);
+    }
+
+    // Output rows: decode, reconstruct, stream.
+    let mut ring = None;
+    let mut recon = None;
+    if let (true, Some(rc)) = (points, sc.recon.as_ref()) {
+        let rows = (rc.band().rows() as usize).min(h);
+        let rp = ring_phase.get_mut(..rows * w).ok_or(ScanFail::Internal)?;
+        let rv = ring_validity
+            .get_mut(..rows * w)
+            .ok_or(ScanFail::Internal)?;
+        ring = Some(ReferenceRing::new(rc, rp, rv).map_err(|_| ScanFail::Internal)?);
+        recon = Some(rc);
+        link.ctl.report.ring = link.ctl.report.ring.max(rows * w * 5);
+    }
+    let (phase_row, modulation_row, dc_row, validity_row) = (
+        &mut phase_row[..w],
+        &mut modulation_row[..w],
+        &mut dc_row[..w],
+        &mut validity_row[..w],
+    );
+    let (xyz_rows, point_codes) = (&mut xyz_rows[..9 * w], &mut point_codes[..4 * w]);
+    let (point_codes, filtered) = point_codes.split_at_mut(3 * w);
+    let (reference_phase, reference_validity) =
+        (&mut reference_phase[..w], &mut reference_validity[..w]);
+    let filter = sc.filter.filter(|_| recon.is_some());
+    let end = sc.first.saturating_add(sc.count);
+    let wanted = |r: u16| r >= sc.first && r < end;
+    // With the edge filter, point row y needs rows y − 1 and y + 1 too: decode and
+    // reconstruct one row beyond the range at each end (where the image has one), and emit
+    // row y once row y + 1 is reconstructed. Point rows rotate through three slots.
+    let (lo, hi) = match filter {
+        Some(_) => (
+            sc.first.saturating_sub(1),
+            end.saturating_add(1).min(h as u16),
+        ),
+        None => (sc.first, end),
+    };
+    let mut valid = 0u32;
+    let mut sent = 0u16;
+    for y in lo..hi {
+        link.pump(io, None::<&mut B>)?;
+        if link.ctl.abort {
+            return Ok(ScanEnd::Aborted);
+        }
+        fd.finish_row(
+            y as usize,
+            RowOut {
+                phase: &mut *phase_row,
+                modulation: &mut *modulation_row,
+                dc: &mut *dc_row,
+                validity: &mut *validity_row,
+            },
+        )
+        .map_err(|_| ScanFail::Internal)?;
+        if wanted(y) && matches!(sc.output, ScanOutput::Phase | ScanOutput::Both) {
+            link.tx
+                .rows(io, sc.seq, y, RowKind::Phase, phase_row, validity_row, None)?;
+        }
+        let (Some(rc), Some(ring)) = (recon, ring.as_mut()) else {
+            if wanted(y) {
+                valid += count_valid(validity_row);
+                sent += 1;
+                link.ctl.rows_sent = link.ctl.rows_sent.wrapping_add(1);
+            }
+            continue;
+        };
+        let (_, last) = rc.rows_needed(y as u32);
+        while ring.rows_pushed() <= last {
+            read_reference_row(
+                board.map_store(),
+                ring.rows_pushed(),
+                w,
+                reference_phase,
+                reference_validity,
+            )?;
+            ring.push_row(reference_phase, reference_validity)
+                .map_err(|_| ScanFail::Internal)?;
+        }
+        let k = y as usize % 3;
+        rc.reconstruct_row(
+            ring,
+            y as u32,
+            phase_row,
+            validity_row,
+            &mut xyz_rows[3 * w * k..3 * w * (k + 1)],
+            &mut point_codes[w * k..w * (k + 1)],
+        )
+        .map_err(|_| ScanFail::Internal)?;
+        // The point row now complete: y itself without the filter, else y − 1.
+        let (done, below) = match filter {
+            None => (Some(y), false),
+            Some(_) => (y.checked_sub(1).filter(|&t| wanted(t)), true),
+        };
+        if let Some(t) = done {
+            valid += emit_points(
+                link.tx,
+                io,
+                sc.seq,
+                t,
+                h,
+                filter,
+                below,
+                xyz_rows,
+                point_codes,
+                filtered,
+                w,
+            )?;
+            sent += 1;
+            link.ctl.rows_sent = link.ctl.rows_sent.wrapping_add(1);
+        }
+    }
+    // The image's last row has no row below: filter it now.
+    if let (Some(_), Some(_)) = (filter, recon) {
+        let t = end.saturating_sub(1);
+        if end as usize == h && wanted(t) {
+            valid += emit_points(
+                link.tx,
+                io,
+                sc.seq,
+                t,
+                h,
+                filter,
+                false,
+                xyz_rows,
+                point_codes,
+                filtered,
+                w,
+            )?;
+            sent += 1;
+            link.ctl.rows_sent = link.ctl.rows_sent.wrapping_add(1);
+        }
+    }
+    Ok(ScanEnd::Done { rows: sent, valid })
+}
+
+/// The number of valid points of a row (its validity codes).
+fn count_valid(codes: &[u8]) -> u32 {
+    codes
+        .iter()
+        .filter(|&&v| v == Validity::Valid as u8)
+        .count() as u32
+}
+
+/// Stream point row `t` from its slot (`t % 3`) of `xyz_rows` / `codes`; with `filter`, first run
+/// the depth-edge filter over it with its neighbours (rows `t ± 1`, read from their slots; the
+/// row below only if `below`), exactly as the desktop's `filter_edges`: flagged points become
+/// canonical NaN. Returns the number of valid points sent.
+#[allow(clippy::too_many_arguments)]
+fn emit_points<T: Write>(
+    tx: &mut Tx,
+    io: &mut T,
+    seq: u8,
+    t: u16,
+    h: usize,
+    filter: Option<EdgeFilter>,
+    below: bool,
+    xyz_rows: &[f32],
+    codes: &[u8],
+    filtered: &mut [u8],
+    w: usize,
+) -> Result<u32, ScanFail> {
+    let slot = |r: usize| {
+        let k = r % 3;
+        (
+            &xyz_rows[3 * w * k..3 * w * (k + 1)],
+            &codes[w * k..w * (k + 1)],
+        )
+    };
+    let t = t as usize;
+    let cur = slot(t);
+    let Some(f) = filter else {
+        tx.rows(io, seq, t as u16, RowKind::Points, cur.0, cur.1, None)?;
+        return Ok(count_valid(cur.1));
+    };
+    let above = (t > 0).then(|| slot(t - 1));
+    let below = (below && t + 1 < h).then(|| slot(t + 1));
+    if !f.filter_row(above, cur, below, filtered) {
+        return Err(ScanFail::Internal);
+    }
+    tx.rows(
+        io,
+        seq,
+        t as u16,
+        RowKind::Points,
+        cur.0,
+        filtered,
+        Some(cur.1),
+    )?;
+    Ok(count_valid(filtered))
+}
+
+/// Read row `r` of the reference phase map from `store` (phases LE, then validity codes).
+fn read_reference_row<S: Storage>(
+    store: &mut S,
+    r: u32,
+    w: usize,
+    phase: &mut [f32],
+    validity: &mut [u8],
+) -> Result<(), HwError> {
+    let row_bytes = (w * 5) as u32;
+    let base = r.checked_mul(row_bytes).ok_or(HwError::Storage)?;
+    let mut buf = [0u8; 256];
+    let mut i = 0usize;
+    while i < w {
+        let n = (w - i).min(buf.len() / 4);
+        let b = &mut buf[..4 * n];
+        store.read(base + 4 * i as u32, b)?;
+        for (dst, c) in phase[i..i + n].iter_mut().zip(b.chunks_exact(4)) {
+            *dst = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+        }
+        i += n;
+    }
+    store.read(base + 4 * w as u32, &mut validity[..w])
+}
