@@ -29,7 +29,7 @@ core, alloc and the primitive types) are not checked. Skipped: CLI flags, shell 
 than cargo's, TOML/key = value spans, file paths outside the repository.
 
 Prints every missing name as FILE:LINE and exits 1 if there is any; exits 0 otherwise.
-Standard library only; reads every .rs file once (well under a second on this repository).
+Standard library only; reads every .rs file once (about a second on this repository).
 """
 
 import argparse
