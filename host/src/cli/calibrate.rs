@@ -213,6 +213,10 @@ fn sibling(out: &Path, suffix: &str) -> PathBuf {
 }
 
 fn camera(a: CameraArgs, g: Global) -> Result<()> {
+    common::file_out(&a.out, "--out")?;
+    if let Some(r) = &a.report {
+        common::dir_out(r, "--report")?;
+    }
     let board = a.board.get("calibrate camera")?;
     let paths = files::image_list(&a.images)?;
     let opts = CameraOptions {
@@ -283,6 +287,7 @@ fn parse3(s: &str, what: &str) -> Result<[f64; 3]> {
 }
 
 fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
+    common::file_out(&a.out, "--out")?;
     let board = a.board.get("calibrate projector")?;
     if a.plates.len() < 2 {
         bail!(
@@ -409,6 +414,7 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
         ),
     };
     let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
+    common::file_out(&out, "--out")?;
     let run = files::calibrate_reference_files(
         &cal,
         &out,

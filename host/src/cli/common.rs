@@ -9,6 +9,28 @@ use fringe3d_core::pattern::PatternSet;
 use fringe3d_core::validity::Validity;
 use std::path::{Path, PathBuf};
 
+/// Check an output *file* option before any work is done: `-` (standard output) is only for
+/// point clouds, and an existing target must be a regular file (never a folder, a device, a FIFO).
+pub fn file_out(p: &Path, opt: &str) -> Result<()> {
+    refuse_stdout(p, opt)?;
+    crate::io::atomic::check_file_target(p)?;
+    Ok(())
+}
+
+/// Check an output *folder* option: `-` (standard output) is refused.
+pub fn dir_out(p: &Path, opt: &str) -> Result<()> {
+    refuse_stdout(p, opt)
+}
+
+fn refuse_stdout(p: &Path, opt: &str) -> Result<()> {
+    if p.as_os_str() == "-" {
+        bail!(
+            "{opt} -: only point clouds (scan, reconstruct, device scan) can be written to standard output; for a file or folder named '-', write ./-"
+        );
+    }
+    Ok(())
+}
+
 /// A loaded pattern-set file and its validated set.
 pub struct LoadedSet {
     /// The file.

@@ -40,6 +40,7 @@ pub struct DecodeArgs {
 /// Run `fringe3d decode`.
 pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
     let t0 = Instant::now();
+    common::dir_out(&a.out, "--out")?;
     let ls = common::load_set(&a.patterns)?;
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;
     let mut cfg = common::decode_config(&imgs);

@@ -1,7 +1,7 @@
 //! `fringe3d demo`: render a built-in scene, scan it as a user would (files in, files out), and
 //! report the accuracy against ground truth.
 
-use super::cloud_out::{CloudArgs, apply_edge_filter, write_cloud};
+use super::cloud_out::{CloudArgs, CloudOut, apply_edge_filter, write_cloud};
 use super::{Global, common};
 use crate::accuracy::{self, Accuracy};
 use crate::io::atomic::AtomicDir;
@@ -60,6 +60,7 @@ pub struct DemoArgs {
 
 /// Run `fringe3d demo`.
 pub fn run(a: DemoArgs, g: Global) -> Result<()> {
+    common::dir_out(&a.out, "--out")?;
     if a.calibrate {
         return run_calibrate(a, g);
     }
@@ -118,6 +119,7 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
     let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
     let cloud_args = CloudArgs {
         out: dir.join("cloud.ply"),
+        format: None,
         ascii: false,
         organized: false,
         no_edge_filter: a.no_edge_filter,
@@ -127,6 +129,7 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
     let t_scan = t1.elapsed();
     let n = write_cloud(
         &cloud_args,
+        &CloudOut::resolve(&cloud_args.out, None, "--out")?,
         &cloud,
         &d.dc,
         &d.modulation,

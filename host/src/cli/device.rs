@@ -1,6 +1,7 @@
 //! `fringe3d device`: talk to a scan head over a serial port — `info`, `upload`, `scan`, and
 //! the trigger-sequence controls `start`, `stop`, `abort`.
 
+use super::cloud_out::{self, CloudFormat, CloudOut};
 use super::{Global, common};
 use crate::device::desc::{
     capture_sequence, fidelity, pattern_bytes, pattern_desc, phase_map_bytes, render_pattern,
@@ -9,7 +10,7 @@ use crate::device::desc::{
 use crate::device::{Client, ClientOptions, DeviceError, SerialTransport, nak_reason, open_serial};
 use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, read_gray, write_tiff_f32};
-use crate::io::ply::{PlyOptions, PlyWriter, PointRow};
+use crate::io::ply::{PlyOptions, PointRow};
 use anyhow::{Context, Result, bail};
 use fringe3d_core::wire::{
     EdgeFilterMode, HeadErrors, HeadState, NakCode, PROTOCOL_VERSION, ScanOutput, ValidationStatus,
@@ -125,9 +126,13 @@ pub struct ScanArgs {
     /// What to stream.
     #[arg(long, value_enum, default_value_t = OutputKind::Points)]
     pub output: OutputKind,
-    /// Point cloud file (PLY, organized rows; invalid points kept as NaN with their code).
+    /// Point cloud file (PLY, or .xyz for plain "x y z" text; valid points only), or - for
+    /// standard output (the summary then goes to standard error).
     #[arg(long, short = 'o')]
     pub out: Option<PathBuf>,
+    /// Cloud format (default: by the extension of --out; PLY for -).
+    #[arg(long, value_enum)]
+    pub format: Option<CloudFormat>,
     /// Phase map file (32-bit float TIFF, NaN where invalid).
     #[arg(long)]
     pub phase_out: Option<PathBuf>,
@@ -484,6 +489,14 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
     if a.out.is_none() && a.phase_out.is_none() {
         bail!("nothing to write: give --out FILE.ply (points) and/or --phase-out FILE.tif (phase)");
     }
+    let cloud = a
+        .out
+        .as_deref()
+        .map(|p| CloudOut::resolve(p, a.format, "--out"))
+        .transpose()?;
+    if let Some(p) = &a.phase_out {
+        common::file_out(p, "--phase-out")?;
+    }
     let output = match (a.output, a.out.is_some(), a.phase_out.is_some()) {
         (OutputKind::Points, _, true) | (OutputKind::Both, _, _) => ScanOutput::Both,
         (OutputKind::Phase, true, _) => ScanOutput::Both,
@@ -516,38 +529,40 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
     };
     let (w, rows) = (r.width, r.rows);
     let mut valid = None;
-    if let (Some(path), Some(xyz), Some(codes)) = (&a.out, &r.xyz, &r.point_validity) {
-        let mut wr = PlyWriter::create(
-            path,
-            PlyOptions {
-                intensity: false,
-                modulation: false,
-                ..Default::default()
-            },
-        )?;
+    if let (Some(out), Some(xyz), Some(codes)) = (&cloud, &r.xyz, &r.point_validity) {
         let pts: Vec<[f32; 3]> = xyz.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
-        for i in 0..rows {
-            wr.write_row(&PointRow {
-                v: (r.first_row + i) as u32,
-                xyz: &pts[i * w..(i + 1) * w],
-                intensity: &[],
-                modulation: &[],
-                validity: &codes[i * w..(i + 1) * w],
-            })?;
-        }
-        valid = Some(wr.finish()?);
+        let row = |i: usize| PointRow {
+            v: (r.first_row + i) as u32,
+            xyz: &pts[i * w..(i + 1) * w],
+            intensity: &[],
+            modulation: &[],
+            validity: &codes[i * w..(i + 1) * w],
+        };
+        let opts = PlyOptions {
+            intensity: false,
+            modulation: false,
+            ..Default::default()
+        };
+        valid = Some(cloud_out::write_rows(out, w, rows, row, opts, false)?);
     }
     if let (Some(path), Some(phase)) = (&a.phase_out, &r.phase) {
         write_tiff_f32(path, w as u32, rows as u32, phase)?;
     }
+    // With the cloud on standard output, the summary goes to standard error.
+    let to_stderr = cloud.as_ref().is_some_and(CloudOut::to_stdout);
+    let say = |line: String| {
+        if to_stderr {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    };
     if g.json {
-        println!(
-            "{}",
-            serde_json::json!({"command": "device scan", "port": a.port.port, "protocol_version": PROTOCOL_VERSION, "width": w, "first_row": r.first_row,
+        say(serde_json::json!({"command": "device scan", "port": a.port.port, "protocol_version": PROTOCOL_VERSION, "width": w, "first_row": r.first_row,
                 "rows": rows, "points": valid, "rescans": r.rescans, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
-        );
+            .to_string());
     } else if !g.quiet {
-        println!(
+        say(format!(
             "scanned rows {}..{} ({} x {}) in {:.2} s, {} bytes received{}",
             r.first_row,
             r.first_row + rows,
@@ -560,12 +575,12 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
             } else {
                 String::new()
             }
-        );
-        if let (Some(n), Some(p)) = (valid, &a.out) {
-            println!("wrote {n} points to {}", p.display());
+        ));
+        if let (Some(n), Some(out)) = (valid, &cloud) {
+            say(format!("wrote {n} points to {}", out.describe()));
         }
         if let Some(p) = &a.phase_out {
-            println!("wrote the phase map to {}", p.display());
+            say(format!("wrote the phase map to {}", p.display()));
         }
     }
     Ok(())

@@ -30,6 +30,7 @@ pub struct PatternsArgs {
 
 /// Run `fringe3d patterns`.
 pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
+    common::dir_out(&a.out, "--out")?;
     let ls = common::load_set(&a.patterns)?;
     let set = &ls.set;
     let bits: u8 = match a.bits.as_deref() {

@@ -1,6 +1,6 @@
 //! `fringe3d reconstruct`: a decoded phase map + calibration → point cloud.
 
-use super::cloud_out::{CloudArgs, apply_edge_filter, write_cloud};
+use super::cloud_out::{self, CloudArgs, CloudOut, apply_edge_filter, write_cloud};
 use super::{Global, common};
 use crate::io::image::{Pixels, read_gray};
 use crate::scan::ScanCalibration;
@@ -50,6 +50,7 @@ fn read_f32(p: &Path, w: usize, h: usize) -> Result<Vec<f32>> {
 
 /// Run `fringe3d reconstruct`.
 pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
+    let out = CloudOut::resolve(&a.cloud.out, a.cloud.format, "--out")?;
     let axis = match a.axis.as_deref() {
         Some("eta") => Axis::Eta,
         Some(_) => Axis::Xi,
@@ -102,6 +103,7 @@ pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
     apply_edge_filter(&a.cloud, &cal, &mut cloud)?;
     let n = write_cloud(
         &a.cloud,
+        &out,
         &cloud,
         &dc,
         &modulation,
@@ -109,13 +111,14 @@ pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
     )?;
     let hist = common::histogram(&cloud.validity);
     if g.json {
-        println!(
-            "{}",
-            serde_json::json!({"command": "reconstruct", "out": a.cloud.out, "points": n, "validity": common::validity_json(&hist)})
+        cloud_out::say(
+            &out,
+            &serde_json::json!({"command": "reconstruct", "out": a.cloud.out, "points": n, "validity": common::validity_json(&hist)})
+            .to_string(),
         );
     } else if !g.quiet {
-        println!("{}", common::validity_summary(&hist));
-        println!("wrote {n} points to {}", a.cloud.out.display());
+        cloud_out::say(&out, &common::validity_summary(&hist));
+        cloud_out::say(&out, &format!("wrote {n} points to {}", out.describe()));
     }
     Ok(())
 }

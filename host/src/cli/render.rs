@@ -133,6 +133,7 @@ pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
     let Some(out) = a.out else {
         bail!("--out DIR is required (or --print to show the scene)");
     };
+    super::common::dir_out(&out, "--out")?;
     let total = planned_rows(&scene);
     let show = !g.quiet && !g.json;
     let bar = indicatif::ProgressBar::hidden();

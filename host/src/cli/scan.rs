@@ -1,6 +1,6 @@
 //! `fringe3d scan`: images + calibration → point cloud, in one go (nothing written in between).
 
-use super::cloud_out::{CloudArgs, apply_edge_filter, write_cloud};
+use super::cloud_out::{self, CloudArgs, CloudOut, apply_edge_filter, write_cloud};
 use super::{Global, common};
 use crate::scan::ScanCalibration;
 use anyhow::Result;
@@ -32,6 +32,7 @@ pub struct ScanArgs {
 /// Run `fringe3d scan`.
 pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     let t0 = Instant::now();
+    let out = CloudOut::resolve(&a.cloud.out, a.cloud.format, "--out")?;
     let ls = common::load_set(&a.patterns)?;
     // The calibration (with its reference map) and the images load side by side.
     let (cal, imgs) = rayon::join(
@@ -58,6 +59,7 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     let t_recon = t0.elapsed();
     let n = write_cloud(
         &a.cloud,
+        &out,
         &cloud,
         &d.dc,
         &d.modulation,
@@ -65,19 +67,23 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     )?;
     let hist = common::histogram(&cloud.validity);
     if g.json {
-        println!(
-            "{}",
-            serde_json::json!({"command": "scan", "out": a.cloud.out, "points": n, "width": cloud.width, "height": cloud.height,
+        cloud_out::say(
+            &out,
+            &serde_json::json!({"command": "scan", "out": a.cloud.out, "points": n, "width": cloud.width, "height": cloud.height,
                 "validity": common::validity_json(&hist),
                 "seconds": {"load": t_load.as_secs_f64(), "decode": (t_decode - t_load).as_secs_f64(),
                             "reconstruct": (t_recon - t_decode).as_secs_f64(), "total": t0.elapsed().as_secs_f64()}})
+            .to_string(),
         );
     } else if !g.quiet {
-        println!("{}", common::validity_summary(&hist));
-        println!(
-            "wrote {n} points to {} in {:.0} ms",
-            a.cloud.out.display(),
-            t0.elapsed().as_secs_f64() * 1e3
+        cloud_out::say(&out, &common::validity_summary(&hist));
+        cloud_out::say(
+            &out,
+            &format!(
+                "wrote {n} points to {} in {:.0} ms",
+                out.describe(),
+                t0.elapsed().as_secs_f64() * 1e3
+            ),
         );
     }
     Ok(())

@@ -60,6 +60,7 @@ fn parse_size(s: &str) -> Result<(u32, u32)> {
 
 /// Run `fringe3d vectors`.
 pub fn run(a: VectorsArgs, g: Global) -> Result<()> {
+    super::common::dir_out(&a.out, "--out")?;
     let opts = VectorOptions {
         scene: a.scene.clone(),
         size: parse_size(&a.size)?,

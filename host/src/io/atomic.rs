@@ -11,7 +11,8 @@
 //!
 //! Renames within one directory are atomic on POSIX file systems, so a reader sees either the old
 //! target or the complete new one. A rename replaces a symbolic link itself, not the file it
-//! points to. The new file gets the default permissions of a new file (not those of the file it
+//! points to. A target that exists and is not a regular file (a device node, a FIFO, a socket,
+//! or a link to one) is refused, never renamed over ([`check_file_target`]). The new file gets the default permissions of a new file (not those of the file it
 //! replaces).
 
 use std::fs::{self, File, OpenOptions};
@@ -47,6 +48,15 @@ pub enum AtomicError {
         /// "file" or "folder".
         expected: &'static str,
     },
+    /// The target exists and is not a regular file (a device, a FIFO, a socket): renaming over it
+    /// would replace the special file itself, so it is never done.
+    #[error("{}: is a {kind}, not a regular file; refusing to replace it", path.display())]
+    NotRegular {
+        /// The target.
+        path: PathBuf,
+        /// What it is ("character device", "FIFO (named pipe)", ...).
+        kind: &'static str,
+    },
     /// The path has no file name (e.g. `/` or `..`).
     #[error("{}: not a usable output path (it has no file name)", path.display())]
     BadPath {
@@ -62,6 +72,7 @@ impl AtomicError {
             AtomicError::Io { path, .. }
             | AtomicError::NotEmpty { path }
             | AtomicError::WrongKind { path, .. }
+            | AtomicError::NotRegular { path, .. }
             | AtomicError::BadPath { path } => path,
         }
     }
@@ -90,6 +101,55 @@ fn split(path: &Path) -> Result<(PathBuf, std::ffi::OsString), AtomicError> {
         _ => PathBuf::from("."),
     };
     Ok((dir, name))
+}
+
+/// A name for a file type that is neither a regular file nor a folder.
+fn special_kind(t: &fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() {
+            return "character device";
+        }
+        if t.is_block_device() {
+            return "block device";
+        }
+        if t.is_fifo() {
+            return "FIFO (named pipe)";
+        }
+        if t.is_socket() {
+            return "socket";
+        }
+    }
+    let _ = t;
+    "special file"
+}
+
+/// Check that a file may be written at `path`: nothing there yet, a regular file, or a symbolic
+/// link to a regular file or to nothing (the rename replaces the link itself). A folder, a
+/// device, a FIFO or a socket is refused, directly or behind a link: renaming over a device node
+/// would replace the device.
+pub fn check_file_target(path: &Path) -> Result<(), AtomicError> {
+    let meta = match fs::metadata(path) {
+        Ok(m) => m,
+        // Nothing there, or a dangling link: the new file takes its place.
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(io_err(path, "cannot inspect")(e)),
+    };
+    let t = meta.file_type();
+    if t.is_file() {
+        Ok(())
+    } else if t.is_dir() {
+        Err(AtomicError::WrongKind {
+            path: path.to_path_buf(),
+            expected: "file",
+        })
+    } else {
+        Err(AtomicError::NotRegular {
+            path: path.to_path_buf(),
+            kind: special_kind(&t),
+        })
+    }
 }
 
 /// A fresh sibling name: `{prefix}{name}{infix}{pid}-{n}`.
@@ -123,15 +183,11 @@ pub struct AtomicFile {
 
 impl AtomicFile {
     /// Start writing `path`. The temporary file `.NAME.tmp-PID-N` is created (exclusively) in the
-    /// target's directory, which must exist.
+    /// target's directory, which must exist. A target that exists and is not a regular file (a
+    /// folder, a device, a FIFO, a socket) is refused ([`check_file_target`]).
     pub fn create(path: &Path) -> Result<AtomicFile, AtomicError> {
         let (dir, name) = split(path)?;
-        if path.is_dir() {
-            return Err(AtomicError::WrongKind {
-                path: path.to_path_buf(),
-                expected: "file",
-            });
-        }
+        check_file_target(path)?;
         let mut last = None;
         for _ in 0..16 {
             let tmp = sibling(&dir, ".", &name, ".tmp-");
@@ -184,6 +240,8 @@ impl AtomicFile {
         file.sync_all()
             .map_err(io_err(&target, "cannot sync the temporary file"))?;
         drop(file);
+        // Again just before the rename: something may have appeared there while we wrote.
+        check_file_target(&target)?;
         fs::rename(&self.tmp, &target)
             .map_err(io_err(&target, "cannot rename the temporary file over it"))?;
         // Renamed: nothing left to clean up.

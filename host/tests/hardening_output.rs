@@ -1,0 +1,184 @@
+//! Hardening of the output side: what `-o` may replace, standard output, cloud formats, temporary
+//! files on interruption and their names.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+}
+
+/// A scratch folder removed at the end of the test.
+struct Tmp(PathBuf);
+impl Tmp {
+    fn new(name: &str) -> Tmp {
+        let p = std::env::temp_dir().join(format!(
+            "fringe3d-hardening-out-{}-{name}",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&p);
+        std::fs::create_dir_all(&p).unwrap();
+        Tmp(p)
+    }
+    fn join(&self, s: &str) -> PathBuf {
+        self.0.join(s)
+    }
+}
+impl Drop for Tmp {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// A small rendered dataset (64×48 sphere), made once per test process.
+fn dataset() -> &'static Path {
+    static DS: OnceLock<PathBuf> = OnceLock::new();
+    DS.get_or_init(|| {
+        let p = std::env::temp_dir().join(format!(
+            "fringe3d-hardening-out-{}-dataset",
+            std::process::id()
+        ));
+        let out = bin()
+            .args(["render", "-q", "--scene", "sphere", "--size", "64x48"])
+            .args(["--supersample", "1", "--overwrite", "--out"])
+            .arg(&p)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+        p
+    })
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// `fringe3d scan` of the dataset with extra arguments.
+fn scan(extra: &[&std::ffi::OsStr]) -> Output {
+    let ds = dataset();
+    bin()
+        .arg("scan")
+        .arg("--patterns")
+        .arg(ds.join("patterns.toml"))
+        .arg("--calibration")
+        .arg(ds.join("calibration.toml"))
+        .arg(ds)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+/// Expect a clean failure: non-zero exit, no panic; returns stderr.
+fn fails(o: &Output) -> String {
+    let e = stderr(o);
+    assert!(!o.status.success(), "expected failure; stderr: {e}");
+    assert!(!e.contains("panicked"), "panic: {e}");
+    e
+}
+
+/// Names in a folder, sorted.
+fn listing(d: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[cfg(unix)]
+fn mkfifo(p: &Path) {
+    let st = Command::new("mkfifo").arg(p).status().unwrap();
+    assert!(st.success(), "mkfifo {}", p.display());
+}
+
+#[cfg(unix)]
+fn is_fifo(p: &Path) -> bool {
+    use std::os::unix::fs::FileTypeExt;
+    std::fs::symlink_metadata(p)
+        .map(|m| m.file_type().is_fifo())
+        .unwrap_or(false)
+}
+
+#[cfg(unix)]
+#[test]
+fn a_fifo_or_device_given_as_output_is_refused_and_kept() {
+    let t = Tmp::new("fifo");
+    let fifo = t.join("cloud.ply");
+    mkfifo(&fifo);
+    let err = fails(&scan(&["-q".as_ref(), "-o".as_ref(), fifo.as_os_str()]));
+    assert!(
+        err.contains("cloud.ply") && err.contains("FIFO") && err.contains("not a regular file"),
+        "{err}"
+    );
+    assert!(is_fifo(&fifo), "the FIFO was replaced");
+    assert_eq!(listing(&t.0), ["cloud.ply"], "temporary files left");
+    // Behind a symbolic link too.
+    let link = t.join("link.ply");
+    std::os::unix::fs::symlink(&fifo, &link).unwrap();
+    let err = fails(&scan(&["-q".as_ref(), "-o".as_ref(), link.as_os_str()]));
+    assert!(err.contains("link.ply") && err.contains("FIFO"), "{err}");
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    // The library refuses it as well.
+    let e = fringe3d::io::atomic::write_atomic(&fifo, |w| w.write_all(b"x")).unwrap_err();
+    assert!(
+        matches!(e, fringe3d::io::atomic::AtomicError::NotRegular { .. }),
+        "{e}"
+    );
+    assert!(is_fifo(&fifo));
+    // A character device node (the /dev/null numbers), where this user may create one.
+    let dev = t.join("dev.ply");
+    let made = Command::new("mknod")
+        .arg(&dev)
+        .args(["c", "1", "3"])
+        .stderr(std::process::Stdio::null())
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false);
+    if made {
+        use std::os::unix::fs::FileTypeExt;
+        let err = fails(&scan(&["-q".as_ref(), "-o".as_ref(), dev.as_os_str()]));
+        assert!(err.contains("character device"), "{err}");
+        let ft = std::fs::symlink_metadata(&dev).unwrap().file_type();
+        assert!(ft.is_char_device(), "the device node was replaced");
+    }
+}
+
+#[test]
+fn a_cloud_goes_to_stdout_only_when_asked_with_dash() {
+    let t = Tmp::new("stdout");
+    let file = t.join("c.ply");
+    let o = scan(&["-q".as_ref(), "-o".as_ref(), file.as_os_str()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = scan(&["-o".as_ref(), "-".as_ref()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The whole file, byte for byte, and the summary on stderr, not mixed into the cloud.
+    assert_eq!(o.stdout, std::fs::read(&file).unwrap());
+    assert!(stderr(&o).contains("standard output"), "{}", stderr(&o));
+    // XYZ on request.
+    let o = scan(&["-q", "-o", "-", "--format", "xyz"].map(std::ffi::OsStr::new));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    let first = text.lines().next().unwrap();
+    assert_eq!(first.split(' ').count(), 3, "{first}");
+    // Commands whose output is no cloud refuse `-` rather than writing a file named `-`.
+    let ds = dataset();
+    let o = bin()
+        .current_dir(&t.0)
+        .arg("decode")
+        .arg("--patterns")
+        .arg(ds.join("patterns.toml"))
+        .arg(ds)
+        .args(["--out", "-"])
+        .output()
+        .unwrap();
+    let err = fails(&o);
+    assert!(err.contains("--out -") && err.contains("./-"), "{err}");
+    assert!(!t.join("-").exists());
+}
