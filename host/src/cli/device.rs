@@ -9,7 +9,7 @@ use crate::device::desc::{
 };
 use crate::device::{Client, ClientOptions, DeviceError, SerialTransport, nak_reason, open_serial};
 use crate::io::calibration::Calibration;
-use crate::io::image::{Pixels, read_gray, write_tiff_f32};
+use crate::io::image::{Pixels, ReadLimits, read_gray_limited, write_tiff_f32};
 use crate::io::ply::{PlyOptions, PointRow};
 use anyhow::{Context, Result, bail};
 use fringe3d_core::wire::{
@@ -349,7 +349,8 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
                     );
                 }
                 pattern_bytes(set, &desc, |i| {
-                    let (img, _) = read_gray(&files[i]).map_err(|e| e.to_string())?;
+                    let lim = ReadLimits::sized(desc.width as u32, desc.height as u32);
+                    let (img, _) = read_gray_limited(&files[i], &lim).map_err(|e| e.to_string())?;
                     match img.pixels {
                         Pixels::U8(v)
                             if (img.width, img.height)

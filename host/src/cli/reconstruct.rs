@@ -2,7 +2,7 @@
 
 use super::cloud_out::{self, CloudArgs, CloudOut, apply_edge_filter, write_cloud};
 use super::{Global, common};
-use crate::io::image::{Pixels, read_gray};
+use crate::io::image::{Pixels, ReadLimits, read_gray_limited, read_header};
 use crate::scan::ScanCalibration;
 use anyhow::{Result, bail};
 use fringe3d_core::phase_function::Axis;
@@ -32,16 +32,18 @@ pub struct ReconstructArgs {
     pub cloud: CloudArgs,
 }
 
+/// Read a float map of the calibrated camera's size (checked from the header, before decoding).
 fn read_f32(p: &Path, w: usize, h: usize) -> Result<Vec<f32>> {
-    let (img, _) = read_gray(p)?;
-    if (img.width as usize, img.height as usize) != (w, h) {
+    let hdr = read_header(p)?;
+    if (hdr.width as usize, hdr.height as usize) != (w, h) {
         bail!(
             "{}: {}x{} pixels, but the calibrated camera is {w}x{h}",
             p.display(),
-            img.width,
-            img.height
+            hdr.width,
+            hdr.height
         );
     }
+    let (img, _) = read_gray_limited(p, &ReadLimits::sized(w as u32, h as u32))?;
     match img.pixels {
         Pixels::F32(v) => Ok(v),
         _ => bail!("{}: expected a 32-bit float TIFF", p.display()),
@@ -70,7 +72,7 @@ pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
     let phase = read_f32(&a.decoded.join("phase.tif"), w, h)?;
     let vpath = a.decoded.join("validity.png");
     let validity: Vec<u8> = if vpath.is_file() {
-        let (img, _) = read_gray(&vpath)?;
+        let (img, _) = read_gray_limited(&vpath, &ReadLimits::sized(w as u32, h as u32))?;
         match img.pixels {
             Pixels::U8(v) if v.len() == w * h => v,
             _ => bail!(
