@@ -196,3 +196,73 @@ fn an_image_of_another_size_in_a_set_is_refused_from_its_header() {
     );
     assert!(!t.join("out").exists());
 }
+
+#[cfg(unix)]
+fn mkfifo(p: &Path) {
+    let st = Command::new("mkfifo").arg(p).status().unwrap();
+    assert!(st.success(), "mkfifo {}", p.display());
+}
+
+#[cfg(unix)]
+#[test]
+fn inputs_that_are_no_regular_files_are_refused_at_once() {
+    let t = Tmp::new("special");
+    let fifo_png = t.join("fifo.png");
+    mkfifo(&fifo_png);
+    let zero_png = t.join("zero.png");
+    std::os::unix::fs::symlink("/dev/zero", &zero_png).unwrap();
+    let fifo_toml = t.join("fifo.toml");
+    mkfifo(&fifo_toml);
+    let dir_toml = t.join("dir.toml");
+    std::fs::create_dir(&dir_toml).unwrap();
+    // An image that is a FIFO (used to block forever) or /dev/zero (used to grow without end).
+    for (p, kind) in [(&fifo_png, "FIFO"), (&zero_png, "character device")] {
+        let e = fails(&info(p));
+        assert!(
+            e.contains(&*p.file_name().unwrap().to_string_lossy()) && e.contains(kind),
+            "{e}"
+        );
+    }
+    // Pattern-set and calibration files.
+    for (p, kind) in [(&fifo_toml, "FIFO"), (&dir_toml, "folder")] {
+        let e = fails(&info(p));
+        assert!(e.contains(&*p.to_string_lossy()) && e.contains(kind), "{e}");
+        let mut c = bin();
+        c.args(["scan", "--patterns"])
+            .arg(p)
+            .arg("--calibration")
+            .arg(p);
+        c.arg(&t.0).arg("-o").arg(t.join("out.ply"));
+        let e = fails(&run_within(c, Duration::from_secs(20)));
+        assert!(e.contains(&*p.to_string_lossy()) && e.contains(kind), "{e}");
+        assert!(!t.join("out.ply").exists());
+    }
+    // An image of a set.
+    let set = t.join("set.toml");
+    std::fs::write(
+        &set,
+        "version = 1\npreset = \"paper8\"\nratio = 4.0\n[projector]\nwidth = 64\nheight = 48\n[phase]\naxis = \"xi\"\nkind = \"centered\"\n",
+    )
+    .unwrap();
+    let good = t.join("good.png");
+    fringe3d::io::image::write_png_u8(&good, 64, 48, &vec![100u8; 64 * 48]).unwrap();
+    for bad in [&fifo_png, &zero_png] {
+        let mut c = bin();
+        c.args(["decode", "--patterns"]).arg(&set);
+        for i in 0..8 {
+            c.arg(if i == 3 { bad } else { &good });
+        }
+        c.arg("--out").arg(t.join("out"));
+        let e = fails(&run_within(c, Duration::from_secs(20)));
+        assert!(e.contains(&*bad.to_string_lossy()), "{e}");
+        assert!(!t.join("out").exists());
+    }
+    // A scene file for render.
+    let mut c = bin();
+    c.args(["render", "--scene"])
+        .arg(&fifo_toml)
+        .arg("--out")
+        .arg(t.join("r"));
+    let e = fails(&run_within(c, Duration::from_secs(20)));
+    assert!(e.contains("fifo.toml") && e.contains("FIFO"), "{e}");
+}

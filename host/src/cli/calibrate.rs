@@ -311,6 +311,7 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
     let size = crate::io::image::read_gray(&a.plates[0].join("board.png"))
         .ok()
         .map(|(i, _)| (i.width, i.height));
+    common::input_file(&a.camera_from)?;
     let camera = files::load_camera(&a.camera_from, size)?;
     let depth = match &a.depth_range {
         Some(s) => {

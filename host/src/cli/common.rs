@@ -31,6 +31,12 @@ fn refuse_stdout(p: &Path, opt: &str) -> Result<()> {
     Ok(())
 }
 
+/// Check that an input read by library code that opens it itself is a regular file (a FIFO
+/// would block the open forever, a device would never end).
+pub fn input_file(p: &Path) -> Result<()> {
+    crate::io::input::check_regular(p).with_context(|| format!("{}: cannot read", p.display()))
+}
+
 /// A loaded pattern-set file and its validated set.
 pub struct LoadedSet {
     /// The file.

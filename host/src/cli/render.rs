@@ -116,6 +116,7 @@ pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
     };
     let is_file = scene_arg.ends_with(".toml") || Path::new(scene_arg).is_file();
     let scene = if is_file {
+        super::common::input_file(Path::new(scene_arg))?;
         Scene::load(Path::new(scene_arg), &o)?
     } else {
         if !BUILTIN_SCENES.contains(&scene_arg) {

@@ -104,7 +104,7 @@ fn split(path: &Path) -> Result<(PathBuf, std::ffi::OsString), AtomicError> {
 }
 
 /// A name for a file type that is neither a regular file nor a folder.
-fn special_kind(t: &fs::FileType) -> &'static str {
+pub(crate) fn special_kind(t: &fs::FileType) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;

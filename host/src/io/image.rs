@@ -21,6 +21,7 @@
 //! Writers go through [`crate::io::atomic::write_atomic`]: a file is either complete or absent.
 //! The `encode_*` functions return the file bytes instead (for hashing or embedding).
 
+use crate::io::input::{MAX_IMAGE_BYTES, open_regular, read_limited};
 use std::io::{BufReader, Cursor, Read};
 use std::path::{Path, PathBuf};
 
@@ -264,15 +265,12 @@ fn check_dims(path: &Path, width: u32, height: u32, lim: &ReadLimits) -> Result<
     Ok(())
 }
 
+/// The file's bytes: a regular file of at most [`MAX_IMAGE_BYTES`] (never a device or a FIFO).
 fn read_file(path: &Path) -> Result<Vec<u8>, ImageError> {
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| BufReader::new(f).read_to_end(&mut bytes))
-        .map_err(|source| ImageError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    Ok(bytes)
+    read_limited(path, MAX_IMAGE_BYTES).map_err(|source| ImageError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// Read a gray image from `path` (format by signature, not by extension), with the default
@@ -298,7 +296,7 @@ pub fn read_header(path: &Path) -> Result<ImageHeader, ImageError> {
         path: path.to_path_buf(),
         source,
     };
-    let mut f = std::fs::File::open(path).map_err(io)?;
+    let (mut f, _) = open_regular(path).map_err(io)?;
     let mut head = Vec::with_capacity(64);
     (&mut f).take(64).read_to_end(&mut head).map_err(io)?;
     match format_of(&head) {
