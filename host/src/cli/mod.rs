@@ -9,6 +9,7 @@ pub mod decode;
 pub mod demo;
 pub mod device;
 pub mod info;
+pub mod parse;
 pub mod patterns;
 pub mod reconstruct;
 pub mod render;
@@ -25,8 +26,8 @@ pub struct Cli {
     /// Print a machine-readable JSON summary on stdout.
     #[arg(long, global = true)]
     pub json: bool,
-    /// Worker threads (default: all cores).
-    #[arg(long, short = 'j', global = true)]
+    /// Worker threads, 1 to 256 (default: all cores).
+    #[arg(long, short = 'j', global = true, value_name = "N", value_parser = parse::threads)]
     pub threads: Option<usize>,
     /// The command.
     #[command(subcommand)]
@@ -90,12 +91,15 @@ where
             std::process::exit(2);
         }
     };
-    if let Some(n) = cli.threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
-            .build_global()
-            .ok();
-    }
+    // The pool is built here, not lazily by the first parallel call, so that a failure (no
+    // threads to be had) is an error rather than a panic. 0: rayon's default, all cores.
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(cli.threads.unwrap_or(0))
+        .build_global()
+        .map_err(|e| match cli.threads {
+            Some(n) => anyhow::anyhow!("-j {n}: cannot start {n} worker threads: {e}"),
+            None => anyhow::anyhow!("cannot start the worker threads: {e}"),
+        })?;
     let g = Global {
         quiet: cli.quiet,
         json: cli.json,

@@ -1,0 +1,91 @@
+//! Hardening of the command line: numeric options out of range, standard output closed early,
+//! messages.
+
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+}
+
+/// Run `cmd`, killing it after `limit`; panics if it had to be killed.
+fn run_within(mut cmd: Command, limit: Duration) -> Output {
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            return child.wait_with_output().unwrap();
+        }
+        if t0.elapsed() > limit {
+            let _ = child.kill();
+            let out = child.wait_with_output().unwrap();
+            panic!(
+                "still running after {limit:?}; stderr: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Run with `args`, expect a refusal of the command line (exit 2, no panic); returns stderr.
+fn refused(args: &[&str]) -> String {
+    let mut c = bin();
+    c.args(args);
+    let o = run_within(c, Duration::from_secs(20));
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+    assert!(!e.contains("panicked"), "{args:?}: {e}");
+    e
+}
+
+/// A small 8-bit PNG to describe.
+fn image(name: &str) -> std::path::PathBuf {
+    let p = std::env::temp_dir().join(format!(
+        "fringe3d-hardening-cli-{}-{name}.png",
+        std::process::id()
+    ));
+    fringe3d::io::image::write_png_u8(&p, 4, 3, &[7u8; 12]).unwrap();
+    p
+}
+
+#[test]
+fn threads_must_be_1_to_256() {
+    let img = image("threads");
+    let img = img.to_str().unwrap();
+    for bad in [
+        "0",
+        "257",
+        "100000",
+        "18446744073709551615",
+        "18446744073709551616",
+        "x",
+    ] {
+        let e = refused(&["-j", bad, "info", img]);
+        assert!(
+            e.contains("--threads") && e.contains("1 to 256"),
+            "-j {bad}: {e}"
+        );
+    }
+    let o = bin().args(["-j", "2", "info", img]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        bin()
+            .arg("--help")
+            .output()
+            .unwrap()
+            .stdout
+            .windows(10)
+            .any(|w| w == b"1 to 256 (")
+    );
+    let _ = std::fs::remove_file(img);
+}
