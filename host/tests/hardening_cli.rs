@@ -89,3 +89,94 @@ fn threads_must_be_1_to_256() {
     );
     let _ = std::fs::remove_file(img);
 }
+
+#[test]
+fn a_closed_stdout_ends_quietly_with_141() {
+    let img = image("pipe");
+    for args in [
+        vec!["info", img.to_str().unwrap()],
+        vec!["--json", "info", img.to_str().unwrap()],
+        vec!["render", "--list"],
+    ] {
+        // A pipe whose reader is gone before the command starts: every write fails (EPIPE).
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let o = bin()
+            .args(&args)
+            .stdout(Stdio::from(writer))
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap();
+        let e = stderr(&o);
+        assert!(!e.contains("panicked"), "{args:?}: {e}");
+        assert_eq!(o.status.code(), Some(141), "{args:?}: {e}");
+        assert!(e.is_empty(), "{args:?}: quiet, got {e}");
+    }
+    // A full standard output is an error, said once.
+    if let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") {
+        let o = bin()
+            .args(["info", img.to_str().unwrap()])
+            .stdout(Stdio::from(full))
+            .output()
+            .unwrap();
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{e}");
+        assert!(e.starts_with("error: standard output: cannot write"), "{e}");
+        assert!(!e.contains("panicked"), "{e}");
+    }
+    let _ = std::fs::remove_file(img);
+}
+
+#[test]
+fn device_numbers_are_checked_when_parsed() {
+    let cases: [(&[&str], &str, &str); 9] = [
+        (&["info", "--baud", "0"], "--baud", "50 to 20000000"),
+        (
+            &["info", "--baud", "4294967296"],
+            "--baud",
+            "50 to 20000000",
+        ),
+        (
+            &["info", "--retries", "4294967295"],
+            "--retries",
+            "0 to 100",
+        ),
+        (
+            &["info", "--timeout-ms", "0"],
+            "--timeout-ms",
+            "1 to 3600000",
+        ),
+        (
+            &["info", "--timeout-ms", "18446744073709551615"],
+            "--timeout-ms",
+            "1 to 3600000",
+        ),
+        (
+            &["scan", "-o", "x.ply", "--scan-timeout-s", "1e300"],
+            "--scan-timeout-s",
+            "86400",
+        ),
+        (
+            &["scan", "-o", "x.ply", "--scan-timeout-s", "inf"],
+            "--scan-timeout-s",
+            "86400",
+        ),
+        (
+            &["scan", "-o", "x.ply", "--scan-timeout-s", "NaN"],
+            "--scan-timeout-s",
+            "86400",
+        ),
+        (
+            &["scan", "-o", "x.ply", "--scan-timeout-s", "0"],
+            "--scan-timeout-s",
+            "86400",
+        ),
+    ];
+    for (args, opt, range) in cases {
+        let mut a = vec!["device"];
+        a.extend_from_slice(args);
+        a.extend_from_slice(&["--port", "/nonexistent/port"]);
+        let e = refused(&a);
+        assert!(e.contains(opt) && e.contains(range), "{a:?}: {e}");
+    }
+}

@@ -120,9 +120,14 @@ impl CloudOut {
                 let mut f = std::fs::File::open(&file)
                     .with_context(|| format!("{}: cannot read back", file.display()))?;
                 let mut out = std::io::stdout().lock();
-                std::io::copy(&mut f, &mut out)
-                    .and_then(|_| out.flush())
-                    .context("standard output: cannot write the cloud")?;
+                match std::io::copy(&mut f, &mut out).and_then(|_| out.flush()) {
+                    Ok(()) => {}
+                    // The reader went away: not this command's failure (see `print`).
+                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                        super::print::note_stdout_error(e)
+                    }
+                    Err(e) => return Err(e).context("standard output: cannot write the cloud"),
+                }
                 Ok(n)
             }
         }
@@ -212,9 +217,9 @@ pub fn write_cloud(
 /// standard output.
 pub fn say(out: &CloudOut, line: &str) {
     if out.to_stdout() {
-        eprintln!("{line}");
+        errln!("{line}");
     } else {
-        println!("{line}");
+        outln!("{line}");
     }
 }
 

@@ -94,7 +94,7 @@ pub fn load_images(set: &LoadedSet, args: &[PathBuf], quiet: bool) -> Result<Ima
     let imgs = image_set::load(&paths, set.set.image_count(), &what)?;
     if !quiet {
         for w in &imgs.warnings {
-            eprintln!("warning: {w}");
+            errln!("warning: {w}");
         }
     }
     Ok(imgs)

@@ -2,7 +2,7 @@
 //! the trigger-sequence controls `start`, `stop`, `abort`.
 
 use super::cloud_out::{self, CloudFormat, CloudOut};
-use super::{Global, common};
+use super::{Global, common, parse};
 use crate::device::desc::{
     capture_sequence, fidelity, pattern_bytes, pattern_desc, phase_map_bytes, render_pattern,
     wire_calibration,
@@ -59,14 +59,14 @@ pub struct PortArgs {
     /// Serial port (e.g. /dev/ttyUSB0, or the PTY `fringe3d-head` prints).
     #[arg(long)]
     pub port: String,
-    /// Baud rate.
-    #[arg(long, default_value_t = 921_600)]
+    /// Baud rate, 50 to 20000000.
+    #[arg(long, default_value_t = 921_600, value_parser = parse::baud)]
     pub baud: u32,
-    /// Time allowed for an answer beyond its transmission time, milliseconds.
-    #[arg(long, default_value_t = 500)]
+    /// Time allowed for an answer beyond its transmission time, milliseconds (1 to 3600000).
+    #[arg(long, default_value_t = 500, value_parser = parse::timeout_ms)]
     pub timeout_ms: u64,
-    /// Times a request is repeated on silence or line damage before giving up.
-    #[arg(long, default_value_t = 8)]
+    /// Times a request is repeated on silence or line damage before giving up (0 to 100).
+    #[arg(long, default_value_t = 8, value_parser = parse::retries)]
     pub retries: u32,
 }
 
@@ -142,8 +142,8 @@ pub struct ScanArgs {
     /// Rows (0: to the last row).
     #[arg(long, default_value_t = 0)]
     pub rows: u16,
-    /// Silence tolerated while the head captures, seconds.
-    #[arg(long, default_value_t = 30.0)]
+    /// Silence tolerated while the head captures, seconds (more than 0, at most 86400).
+    #[arg(long, default_value_t = 30.0, value_parser = parse::scan_timeout_s)]
     pub scan_timeout_s: f64,
     /// Keep points at depth discontinuities ("flying pixels" that mix two surfaces); by default
     /// the head filters them as `fringe3d scan` does.
@@ -161,8 +161,10 @@ fn connect(p: &PortArgs, scan_timeout: Option<f64>) -> Result<Client<SerialTrans
         retries: p.retries,
         ..Default::default()
     };
-    if let Some(s) = scan_timeout.filter(|s| s.is_finite() && *s > 0.0) {
-        opts.scan_timeout = Duration::from_secs_f64(s);
+    if let Some(s) = scan_timeout {
+        // Checked at parse time (`parse::scan_timeout_s`); `try_` all the same: never a panic.
+        opts.scan_timeout = Duration::try_from_secs_f64(s)
+            .map_err(|e| anyhow::anyhow!("--scan-timeout-s {s}: {e}"))?;
     }
     Client::connect(io, opts).with_context(|| format!("connecting to the scan head on {}", p.port))
 }
@@ -210,7 +212,7 @@ fn control(p: PortArgs, what: Control, g: Global) -> Result<()> {
     }
     let st = c.status()?;
     if g.json {
-        println!(
+        outln!(
             "{}",
             serde_json::json!({"command": format!("device {name}"), "port": p.port, "state": state_name(st.state),
                 "errors": error_names(st.errors)})
@@ -221,7 +223,7 @@ fn control(p: PortArgs, what: Control, g: Global) -> Result<()> {
             (Control::Start, _) => " (the sequence already ran to its end)",
             _ => "",
         };
-        println!("{name}: the head is {}{note}", state_name(st.state));
+        outln!("{name}: the head is {}{note}", state_name(st.state));
     }
     Ok(())
 }
@@ -262,7 +264,7 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
     let st = c.status()?;
     let v = c.validate()?;
     if g.json {
-        println!(
+        outln!(
             "{}",
             serde_json::json!({"command": "device info", "port": p.port, "protocol_version": caps.protocol_version,
                 "firmware": format!("{}.{}.{}", caps.firmware.major, caps.firmware.minor, caps.firmware.patch),
@@ -272,7 +274,7 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
                 "tx_frames": st.tx_frames, "rows_sent": st.rows_sent, "validation": v.0})
         );
     } else if !g.quiet {
-        println!(
+        outln!(
             "scan head on {}: protocol {}, firmware {}.{}.{}",
             p.port,
             caps.protocol_version,
@@ -280,7 +282,7 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
             caps.firmware.minor,
             caps.firmware.patch
         );
-        println!(
+        outln!(
             "  camera {}x{}, projector {}x{}, {} bytes for uploads, chunks up to {} bytes, {} pattern-set slots, {} trigger entries",
             caps.sensor_width,
             caps.sensor_height,
@@ -291,7 +293,7 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
             caps.max_sets,
             caps.max_lut_entries
         );
-        println!(
+        outln!(
             "  state {}, errors [{}], frames in {} (damaged {}), out {}, rows sent {}",
             state_name(st.state),
             error_names(st.errors).join(", "),
@@ -301,9 +303,9 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
             st.rows_sent
         );
         if v.is_ok() {
-            println!("  sequence valid: ready to scan points");
+            outln!("  sequence valid: ready to scan points");
         } else {
-            println!(
+            outln!(
                 "  sequence: {}",
                 nak_reason(NakCode::SequenceInvalid, v.0 as u16)
             );
@@ -412,7 +414,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
             } else {
                 String::new()
             };
-            println!(
+            outln!(
                 "uploaded {} pattern images, {} bytes{} in {:.2} s; digest confirmed",
                 desc.pattern_count(),
                 r.total,
@@ -421,7 +423,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
             );
         }
     } else if !g.quiet && !g.json {
-        println!(
+        outln!(
             "pattern set {} defined; the head renders its {} patterns itself",
             a.set_id,
             desc.pattern_count()
@@ -444,14 +446,15 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
         let r = r?;
         summary["phase_map_upload"] = serde_json::json!({"bytes": r.total, "resumed_from": r.resumed_from, "wire_bytes": r.wire_bytes, "seconds": r.seconds});
         if !g.quiet && !g.json {
-            println!(
+            outln!(
                 "uploaded the calibration and the reference phase map ({} bytes) in {:.2} s; digest confirmed",
-                r.total, r.seconds
+                r.total,
+                r.seconds
             );
         }
     }
     if !fid.decoder && !g.quiet {
-        eprintln!(
+        errln!(
             "warning: the head's decoder for this set differs from the desktop's (a bug: its wire description does not rebuild the set): phases may differ in the last bits"
         );
     }
@@ -462,15 +465,15 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
     summary["validation"] = serde_json::json!(v.0);
     let blocking = v.0 & !(ValidationStatus::NO_CALIBRATION | ValidationStatus::NO_REFERENCE);
     if g.json {
-        println!("{summary}");
+        outln!("{summary}");
     } else if !g.quiet {
         if v.is_ok() {
-            println!(
+            outln!(
                 "trigger sequence of {} entries configured and valid: ready to scan",
                 lut.len()
             );
         } else {
-            println!(
+            outln!(
                 "trigger sequence of {} entries configured: {}",
                 lut.len(),
                 nak_reason(NakCode::SequenceInvalid, v.0 as u16)
@@ -553,9 +556,9 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
     let to_stderr = cloud.as_ref().is_some_and(CloudOut::to_stdout);
     let say = |line: String| {
         if to_stderr {
-            eprintln!("{line}");
+            errln!("{line}");
         } else {
-            println!("{line}");
+            outln!("{line}");
         }
     };
     if g.json {

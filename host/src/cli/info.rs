@@ -55,7 +55,7 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
         }
     };
     if g.json {
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        outln!("{}", serde_json::to_string_pretty(&v)?);
     } else if !g.quiet {
         print_tree(&v, 0);
     }
@@ -159,20 +159,20 @@ fn print_tree(v: &serde_json::Value, indent: usize) {
             for (k, x) in m {
                 match x {
                     serde_json::Value::Object(_) => {
-                        println!("{pad}{k}:");
+                        outln!("{pad}{k}:");
                         print_tree(x, indent + 1);
                     }
                     serde_json::Value::Array(a) if a.iter().any(|e| e.is_object()) => {
-                        println!("{pad}{k}:");
+                        outln!("{pad}{k}:");
                         for (i, e) in a.iter().enumerate() {
-                            println!("{pad}  [{i}]");
+                            outln!("{pad}  [{i}]");
                             print_tree(e, indent + 2);
                         }
                     }
-                    _ => println!("{pad}{k}: {x}"),
+                    _ => outln!("{pad}{k}: {x}"),
                 }
             }
         }
-        other => println!("{pad}{other}"),
+        other => outln!("{pad}{other}"),
     }
 }

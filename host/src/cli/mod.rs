@@ -2,6 +2,19 @@
 
 use clap::{Parser, Subcommand};
 
+// Printing for the commands (see `print`): to standard output without panicking on a closed pipe,
+// and to standard error ignoring failures. Defined before the modules that use them.
+macro_rules! outln {
+    () => { $crate::cli::print::stdout(format_args!("\n")) };
+    ($($t:tt)*) => { $crate::cli::print::stdout(format_args!("{}\n", format_args!($($t)*))) };
+}
+macro_rules! out {
+    ($($t:tt)*) => { $crate::cli::print::stdout(format_args!($($t)*)) };
+}
+macro_rules! errln {
+    ($($t:tt)*) => { $crate::cli::print::stderr(format_args!("{}\n", format_args!($($t)*))) };
+}
+
 pub mod calibrate;
 pub mod cloud_out;
 pub mod common;
@@ -11,6 +24,7 @@ pub mod device;
 pub mod info;
 pub mod parse;
 pub mod patterns;
+pub mod print;
 pub mod reconstruct;
 pub mod render;
 pub mod scan;
@@ -66,6 +80,26 @@ pub struct Global {
     pub quiet: bool,
     /// `--json`.
     pub json: bool,
+}
+
+/// Report how a run ended and give the process's exit status: 0 on success; 1 after an error
+/// (printed to standard error) or when standard output could not be written; 141 (128 +
+/// SIGPIPE, as for a Unix tool killed by SIGPIPE) when the reader of standard output went away
+/// early (`fringe3d info x | head -1`), quietly.
+pub fn exit_status(result: anyhow::Result<()>) -> i32 {
+    let stdout = print::finish();
+    if let Err(e) = result {
+        errln!("error: {e:#}");
+        return 1;
+    }
+    match stdout {
+        print::Finish::Ok => 0,
+        print::Finish::BrokenPipe => print::BROKEN_PIPE_STATUS,
+        print::Finish::Failed(e) => {
+            errln!("error: standard output: cannot write: {e}");
+            1
+        }
+    }
 }
 
 /// Parse `args` (including the program name) and run the command.

@@ -77,12 +77,12 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
     f.save(&dir.join("patterns.toml"))?;
     let out = dir.commit()?;
     if g.json {
-        println!(
+        outln!(
             "{}",
             serde_json::json!({"command": "patterns", "out": out, "images": names, "bits": bits, "width": o.width, "height": o.height})
         );
     } else if !g.quiet {
-        println!(
+        outln!(
             "wrote {} {}-bit patterns ({}x{}) and patterns.toml to {}",
             names.len(),
             bits,

@@ -1,11 +1,11 @@
 //! Printing that never panics: standard output closed early (`fringe3d info x | head -1`) or
 //! full (`> /dev/full`), or standard error gone, is noted, not fatal in the middle of a command.
 //!
-//! [`outln!`](crate::outln) and [`out!`](crate::out) print to standard output; after the first
+//! `outln!` and `out!` (macros of the `cli` module) print to standard output; after the first
 //! failure nothing more is written there and the failure is kept for [`finish`], which the binary
 //! calls at the end: a broken pipe then ends the process quietly with status 141 (128 + SIGPIPE,
 //! what a shell reports for a Unix tool killed by SIGPIPE), any other failure is an error.
-//! [`errln!`](crate::errln) prints to standard error and ignores failures.
+//! `errln!` prints to standard error and ignores failures.
 
 use std::io::{self, Write};
 use std::sync::Mutex;
