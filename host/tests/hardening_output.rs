@@ -182,3 +182,141 @@ fn a_cloud_goes_to_stdout_only_when_asked_with_dash() {
     assert!(err.contains("--out -") && err.contains("./-"), "{err}");
     assert!(!t.join("-").exists());
 }
+
+/// Copy the dataset's files (not `truth/`) into `to`.
+fn copy_dataset(to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(dataset()).unwrap() {
+        let e = e.unwrap();
+        if e.file_type().unwrap().is_file() {
+            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+        }
+    }
+}
+
+#[test]
+fn a_cloud_extension_is_ply_or_xyz_or_an_error() {
+    let t = Tmp::new("ext");
+    let obj = t.join("x.obj");
+    let e = fails(&scan(&["-o".as_ref(), obj.as_os_str()]));
+    assert!(e.contains("x.obj") && e.contains(".ply or .xyz"), "{e}");
+    let e = fails(&scan(
+        &["-o", "x.xyz", "--format", "ply"].map(std::ffi::OsStr::new),
+    ));
+    assert!(e.contains("does not match"), "{e}");
+    // device scan checks it before it touches the port.
+    let o = bin()
+        .args(["device", "scan", "--port", "/nonexistent/port", "-o"])
+        .arg(&obj)
+        .output()
+        .unwrap();
+    let e = fails(&o);
+    assert!(e.contains("x.obj") && e.contains(".ply or .xyz"), "{e}");
+    // An explicit format names the file whatever its extension.
+    let o = scan(&[
+        "-q".as_ref(),
+        "--format".as_ref(),
+        "xyz".as_ref(),
+        "-o".as_ref(),
+        obj.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&obj).unwrap();
+    assert_eq!(text.lines().next().unwrap().split(' ').count(), 3);
+    assert_eq!(listing(&t.0), ["x.obj"]);
+}
+
+#[test]
+fn reconstruct_refuses_incomplete_or_inconsistent_decode_folders() {
+    let t = Tmp::new("recon");
+    let ds = dataset();
+    let dec = t.join("dec");
+    let o = bin()
+        .args(["decode", "-q", "--patterns"])
+        .arg(ds.join("patterns.toml"))
+        .arg(ds)
+        .arg("--out")
+        .arg(&dec)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = t.join("c.ply");
+    let recon = || {
+        bin()
+            .args(["reconstruct", "-q", "--calibration"])
+            .arg(ds.join("calibration.toml"))
+            .arg("--decoded")
+            .arg(&dec)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let o = recon();
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::remove_file(&out).unwrap();
+    let vpath = dec.join("validity.png");
+    let (img, _) = fringe3d::io::image::read_gray(&vpath).unwrap();
+    let fringe3d::io::image::Pixels::U8(codes) = img.pixels else {
+        panic!("8-bit validity")
+    };
+    let (w, h) = (img.width, img.height);
+    // An unknown validity code.
+    let mut bad = codes.clone();
+    bad[w as usize * 2 + 5] = 200;
+    fringe3d::io::image::write_png_u8(&vpath, w, h, &bad).unwrap();
+    let e = fails(&recon());
+    assert!(
+        e.contains("validity.png") && e.contains("code 200") && e.contains("(5, 2)"),
+        "{e}"
+    );
+    assert!(!out.exists());
+    // A valid pixel without a phase.
+    let (img, _) = fringe3d::io::image::read_gray(&dec.join("phase.tif")).unwrap();
+    let fringe3d::io::image::Pixels::F32(mut phase) = img.pixels else {
+        panic!("float phase")
+    };
+    let i = codes.iter().position(|&c| c == 0).unwrap();
+    phase[i] = f32::NAN;
+    fringe3d::io::image::write_png_u8(&vpath, w, h, &codes).unwrap();
+    fringe3d::io::image::write_tiff_f32(&dec.join("phase.tif"), w, h, &phase).unwrap();
+    let e = fails(&recon());
+    assert!(
+        e.contains("phase.tif") && e.contains("marks it valid"),
+        "{e}"
+    );
+    assert!(!out.exists());
+    // No validity map at all.
+    std::fs::remove_file(&vpath).unwrap();
+    let e = fails(&recon());
+    assert!(e.contains("validity.png") && e.contains("missing"), "{e}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_reference_map_without_finite_phase_is_an_error() {
+    let t = Tmp::new("refmap");
+    let ds = t.join("ds");
+    copy_dataset(&ds);
+    let map = ds.join("reference_phase.tif");
+    let (img, _) = fringe3d::io::image::read_gray(&map).unwrap();
+    let (w, h) = (img.width, img.height);
+    let n = (w * h) as usize;
+    let out = t.join("c.ply");
+    for (what, data) in [("NaN", vec![f32::NAN; n]), ("inf", vec![f32::INFINITY; n])] {
+        fringe3d::io::image::write_tiff_f32(&map, w, h, &data).unwrap();
+        let o = bin()
+            .args(["scan", "-q", "--patterns"])
+            .arg(ds.join("patterns.toml"))
+            .arg("--calibration")
+            .arg(ds.join("calibration.toml"))
+            .arg(&ds)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let e = fails(&o);
+        assert!(e.contains("reference_phase.tif"), "{what}: {e}");
+        assert!(!out.exists(), "{what}");
+    }
+}

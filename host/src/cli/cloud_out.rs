@@ -7,7 +7,7 @@
 use crate::io::atomic::{AtomicDir, check_file_target};
 use crate::io::ply::{PlyEncoding, PlyOptions, PlyWriter, PointRow, XyzWriter};
 use crate::scan::PointCloud;
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -36,7 +36,7 @@ pub struct CloudArgs {
     /// (PLY unless --format xyz; the summary then goes to standard error).
     #[arg(long, short = 'o')]
     pub out: PathBuf,
-    /// Cloud format (default: by the extension of --out; PLY for -).
+    /// Cloud format (default: by the extension of --out, which must then be .ply or .xyz; PLY for -).
     #[arg(long, value_enum)]
     pub format: Option<CloudFormat>,
     /// ASCII PLY instead of binary little-endian.
@@ -68,8 +68,10 @@ pub fn is_stdout(p: &Path) -> bool {
 }
 
 impl CloudOut {
-    /// Resolve `out` (the value of option `opt`) and an explicit `format`. The target is checked
-    /// at once (a folder, a device or a FIFO is refused before any work is done).
+    /// Resolve `out` (the value of option `opt`) and an explicit `format`. Without `format` the
+    /// extension decides (.ply or .xyz; any other is an error, never silently PLY); with it, the
+    /// extension must agree or be unknown. The target is checked at once (a folder, a device or a
+    /// FIFO is refused before any work is done).
     pub fn resolve(out: &Path, format: Option<CloudFormat>, opt: &str) -> Result<CloudOut> {
         if is_stdout(out) {
             return Ok(CloudOut {
@@ -77,20 +79,37 @@ impl CloudOut {
                 format: format.unwrap_or(CloudFormat::Ply),
             });
         }
-        let by_ext = match out
+        let ext = out
             .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-        {
-            Some("xyz") => CloudFormat::Xyz,
-            _ => CloudFormat::Ply,
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let by_ext = match ext.as_deref() {
+            Some("ply") => Some(CloudFormat::Ply),
+            Some("xyz") => Some(CloudFormat::Xyz),
+            _ => None,
         };
-        let _ = opt;
+        let format = match (format, by_ext) {
+            (None, Some(f)) => f,
+            (Some(f), None) => f,
+            (Some(f), Some(e)) if f == e => f,
+            (Some(f), Some(e)) => bail!(
+                "{opt} {}: --format {} does not match the .{} extension",
+                out.display(),
+                f.extension(),
+                e.extension()
+            ),
+            (None, None) => bail!(
+                "{opt} {}: {}; point clouds are written as .ply or .xyz (or name the format with --format ply|xyz)",
+                out.display(),
+                match &ext {
+                    Some(e) => format!("unknown extension .{e}"),
+                    None => "no extension".to_string(),
+                }
+            ),
+        };
         check_file_target(out)?;
         Ok(CloudOut {
             path: Some(out.to_path_buf()),
-            format: format.unwrap_or(by_ext),
+            format,
         })
     }
 

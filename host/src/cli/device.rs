@@ -130,7 +130,7 @@ pub struct ScanArgs {
     /// standard output (the summary then goes to standard error).
     #[arg(long, short = 'o')]
     pub out: Option<PathBuf>,
-    /// Cloud format (default: by the extension of --out; PLY for -).
+    /// Cloud format (default: by the extension of --out, which must then be .ply or .xyz; PLY for -).
     #[arg(long, value_enum)]
     pub format: Option<CloudFormat>,
     /// Phase map file (32-bit float TIFF, NaN where invalid).
@@ -378,7 +378,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
         Some(path) => {
             let cal = Calibration::load(path)?;
             let axis = set.axis();
-            let sc = crate::scan::ScanCalibration::load(path, axis)
+            let sc = common::load_calibration(path, axis)
                 .with_context(|| format!("{}: preparing the reconstruction", path.display()))?;
             let w =
                 wire_calibration(&cal).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
@@ -551,6 +551,14 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
     }
     if let (Some(path), Some(phase)) = (&a.phase_out, &r.phase) {
         write_tiff_f32(path, w as u32, rows as u32, phase)?;
+    }
+    if let (Some(0), Some(out)) = (valid, &cloud)
+        && !g.quiet
+    {
+        errln!(
+            "warning: no pixel gave a valid point: {} holds no points",
+            out.describe()
+        );
     }
     // With the cloud on standard output, the summary goes to standard error.
     let to_stderr = cloud.as_ref().is_some_and(CloudOut::to_stdout);

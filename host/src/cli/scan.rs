@@ -2,7 +2,6 @@
 
 use super::cloud_out::{self, CloudArgs, CloudOut, apply_edge_filter, write_cloud};
 use super::{Global, common};
-use crate::scan::ScanCalibration;
 use anyhow::Result;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -36,7 +35,7 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     let ls = common::load_set(&a.patterns)?;
     // The calibration (with its reference map) and the images load side by side.
     let (cal, imgs) = rayon::join(
-        || ScanCalibration::load(&a.calibration, ls.set.axis()),
+        || common::load_calibration(&a.calibration, ls.set.axis()),
         || common::load_images(&ls, &a.images, g.quiet),
     );
     let (cal, imgs) = (cal?, imgs?);
@@ -66,6 +65,7 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
         vec![format!("fringe3d scan of {}", a.patterns.display())],
     )?;
     let hist = common::histogram(&cloud.validity);
+    common::warn_if_empty(&hist, &out.describe(), g.quiet);
     if g.json {
         cloud_out::say(
             &out,
