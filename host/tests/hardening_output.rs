@@ -320,3 +320,66 @@ fn a_reference_map_without_finite_phase_is_an_error() {
         assert!(!out.exists(), "{what}");
     }
 }
+
+#[cfg(unix)]
+#[test]
+fn an_interrupted_run_leaves_no_temporary_files() {
+    use std::os::unix::process::ExitStatusExt;
+    let t = Tmp::new("signal");
+    for (sig, num) in [("-INT", 2), ("-TERM", 15)] {
+        // A full-size render takes seconds: long enough to be interrupted while it writes.
+        let mut child = bin()
+            .args(["render", "-q", "--scene", "sphere", "--out"])
+            .arg(t.join("ds"))
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let t0 = std::time::Instant::now();
+        while listing(&t.0).is_empty() {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "render ended too early"
+            );
+            assert!(t0.elapsed().as_secs() < 60, "no temporary folder appeared");
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        let st = Command::new("kill")
+            .arg(sig)
+            .arg(child.id().to_string())
+            .status()
+            .unwrap();
+        assert!(st.success());
+        let out = child.wait_with_output().unwrap();
+        assert_eq!(out.status.signal(), Some(num), "{}", stderr(&out));
+        assert_eq!(listing(&t.0), Vec::<String>::new(), "left after {sig}");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn stale_temporary_files_of_dead_processes_are_swept() {
+    let t = Tmp::new("sweep");
+    // A PID that just ended.
+    let mut c = Command::new("true").spawn().unwrap();
+    let dead = c.id();
+    c.wait().unwrap();
+    let live = std::process::id();
+    std::fs::write(t.join(&format!(".c.ply.f3d-tmp-{dead}-0")), b"stale").unwrap();
+    std::fs::create_dir(t.join(&format!("ds.f3d-tmp-{dead}-3"))).unwrap();
+    std::fs::write(t.join(&format!("ds.f3d-tmp-{dead}-3/img.png")), b"x").unwrap();
+    std::fs::write(t.join(&format!(".c.ply.f3d-tmp-{live}-0")), b"in use").unwrap();
+    // An old folder moved aside whose replacement never arrived: kept, it may be the only copy.
+    std::fs::create_dir(t.join(&format!("gone.f3d-old-{dead}-1"))).unwrap();
+    std::fs::write(t.join("notes.tmp-1-0"), b"user file").unwrap();
+    let out = t.join("c.ply");
+    let o = scan(&["-q".as_ref(), "-o".as_ref(), out.as_os_str()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut want = vec![
+        format!(".c.ply.f3d-tmp-{live}-0"),
+        "c.ply".to_string(),
+        format!("gone.f3d-old-{dead}-1"),
+        "notes.tmp-1-0".to_string(),
+    ];
+    want.sort();
+    assert_eq!(listing(&t.0), want);
+}

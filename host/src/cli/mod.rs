@@ -102,6 +102,33 @@ pub fn exit_status(result: anyhow::Result<()>) -> i32 {
     }
 }
 
+/// On SIGINT, SIGTERM or SIGHUP: remove this process's temporary files and folders (see
+/// [`crate::io::atomic::clean_up_for_exit`]), then die of the signal as if it had not been caught
+/// (exit status 130 for Ctrl-C in a shell). Installed once per process; best effort.
+fn install_signal_cleanup() {
+    #[cfg(unix)]
+    {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        static ONCE: std::sync::Once = std::sync::Once::new();
+        ONCE.call_once(|| {
+            let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])
+            else {
+                return;
+            };
+            let spawned = std::thread::Builder::new()
+                .name("signals".into())
+                .spawn(move || {
+                    if let Some(sig) = signals.forever().next() {
+                        crate::io::atomic::clean_up_for_exit();
+                        let _ = signal_hook::low_level::emulate_default_handler(sig);
+                        std::process::exit(128 + sig);
+                    }
+                });
+            drop(spawned);
+        });
+    }
+}
+
 /// Parse `args` (including the program name) and run the command.
 pub fn run<I, T>(args: I) -> anyhow::Result<()>
 where
@@ -134,6 +161,7 @@ where
             Some(n) => anyhow::anyhow!("-j {n}: cannot start {n} worker threads: {e}"),
             None => anyhow::anyhow!("cannot start the worker threads: {e}"),
         })?;
+    install_signal_cleanup();
     let g = Global {
         quiet: cli.quiet,
         json: cli.json,

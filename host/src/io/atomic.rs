@@ -1,13 +1,19 @@
 //! Atomic output: a reader never sees a half-written file or dataset folder.
 //!
 //! - [`write_atomic`] writes a whole file through a closure: the bytes go to a temporary file in the
-//!   target's directory (`.NAME.tmp-PID-N`), which is flushed, fsynced and renamed over the target.
+//!   target's directory (`.NAME.f3d-tmp-PID-N`), which is flushed, fsynced and renamed over the target.
 //!   On any error, or a panic in the closure, the temporary file is removed and the target is left
 //!   as it was.
 //! - [`AtomicFile`] is the same as a handle, for writers that stream (the PLY writer): write into
 //!   it, then [`AtomicFile::commit`]; dropping it uncommitted removes the temporary file.
 //! - [`AtomicDir`] does the same for a dataset folder: files are written into a sibling
-//!   `DIR.tmp-PID-N`, and [`AtomicDir::commit`] renames it to `DIR`.
+//!   `DIR.f3d-tmp-PID-N`, and [`AtomicDir::commit`] renames it to `DIR`.
+//!
+//! Interrupted runs leave nothing behind: the temporary files and folders of a process are
+//! registered, and [`clean_up_for_exit`] (which the `fringe3d` binary runs on SIGINT, SIGTERM
+//! and SIGHUP) removes them. What a process killed outright (SIGKILL, a power cut) left is
+//! removed by the next run that writes into the same folder ([`sweep_stale`]: temporary names of
+//! processes no longer alive on this machine).
 //!
 //! Renames within one directory are atomic on POSIX file systems, so a reader sees either the old
 //! target or the complete new one. A rename replaces a symbolic link itself, not the file it
@@ -19,6 +25,10 @@ use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+
+mod cleanup;
+use cleanup::{OLD, Pending, TMP, register, unregister};
+pub use cleanup::{clean_up_for_exit, sweep_stale};
 
 /// Why an atomic write failed. Every message names the target path.
 #[derive(Debug, thiserror::Error)]
@@ -179,24 +189,29 @@ pub struct AtomicFile {
     target: PathBuf,
     tmp: PathBuf,
     out: Option<BufWriter<File>>,
+    /// The temporary file's entry in the clean-up registry (removed on a signal).
+    reg: Option<u64>,
 }
 
 impl AtomicFile {
-    /// Start writing `path`. The temporary file `.NAME.tmp-PID-N` is created (exclusively) in the
+    /// Start writing `path`. The temporary file `.NAME.f3d-tmp-PID-N` is created (exclusively) in the
     /// target's directory, which must exist. A target that exists and is not a regular file (a
     /// folder, a device, a FIFO, a socket) is refused ([`check_file_target`]).
     pub fn create(path: &Path) -> Result<AtomicFile, AtomicError> {
         let (dir, name) = split(path)?;
         check_file_target(path)?;
+        sweep_stale(&dir);
         let mut last = None;
         for _ in 0..16 {
-            let tmp = sibling(&dir, ".", &name, ".tmp-");
+            let tmp = sibling(&dir, ".", &name, TMP);
             match OpenOptions::new().write(true).create_new(true).open(&tmp) {
                 Ok(f) => {
+                    let reg = Some(register(Pending::File(tmp.clone())));
                     return Ok(AtomicFile {
                         target: path.to_path_buf(),
                         tmp,
                         out: Some(BufWriter::with_capacity(1 << 16, f)),
+                        reg,
                     });
                 }
                 Err(e) if e.kind() == io::ErrorKind::AlreadyExists => last = Some(e),
@@ -223,6 +238,10 @@ impl AtomicFile {
         let res = self.finish();
         if res.is_err() {
             let _ = fs::remove_file(&self.tmp);
+            self.tmp = PathBuf::new();
+        }
+        if let Some(id) = self.reg.take() {
+            unregister(id);
         }
         res
     }
@@ -285,6 +304,9 @@ impl Drop for AtomicFile {
             self.out = None;
             let _ = fs::remove_file(&self.tmp);
         }
+        if let Some(id) = self.reg.take() {
+            unregister(id);
+        }
     }
 }
 
@@ -309,13 +331,15 @@ where
 }
 
 /// A dataset folder written atomically: everything goes into a sibling temporary folder
-/// `DIR.tmp-PID-N` ([`AtomicDir::path`]), and [`AtomicDir::commit`] renames it to `DIR`.
+/// `DIR.f3d-tmp-PID-N` ([`AtomicDir::path`]), and [`AtomicDir::commit`] renames it to `DIR`.
 /// Dropped without a commit, the temporary folder and everything in it is removed.
 #[derive(Debug)]
 pub struct AtomicDir {
     target: PathBuf,
     tmp: PathBuf,
     overwrite: bool,
+    /// The temporary folder's entry in the clean-up registry (removed on a signal).
+    reg: Option<u64>,
 }
 
 /// `true` if `p` is a folder with nothing in it.
@@ -332,15 +356,18 @@ impl AtomicDir {
         let (parent, name) = split(dir)?;
         Self::check_target(dir, overwrite)?;
         fs::create_dir_all(&parent).map_err(io_err(dir, "cannot create the parent folder"))?;
+        sweep_stale(&parent);
         let mut last = None;
         for _ in 0..16 {
-            let tmp = sibling(&parent, "", &name, ".tmp-");
+            let tmp = sibling(&parent, "", &name, TMP);
             match fs::create_dir(&tmp) {
                 Ok(()) => {
+                    let reg = Some(register(Pending::Dir(tmp.clone())));
                     return Ok(AtomicDir {
                         target: dir.to_path_buf(),
                         tmp,
                         overwrite,
+                        reg,
                     });
                 }
                 Err(e) if e.kind() == io::ErrorKind::AlreadyExists => last = Some(e),
@@ -390,7 +417,7 @@ impl AtomicDir {
     /// Fsync every file in the temporary folder, then rename it to the target.
     ///
     /// If the target exists: an empty folder is replaced; a non-empty one only with `overwrite`
-    /// (it is first renamed aside to `DIR.old-PID-N`, then removed once the new folder is in
+    /// (it is first renamed aside to `DIR.f3d-old-PID-N`, then removed once the new folder is in
     /// place, so the target is never a mixture of old and new files); a file is never replaced.
     /// On error the temporary folder is removed.
     pub fn commit(mut self) -> Result<PathBuf, AtomicError> {
@@ -398,6 +425,9 @@ impl AtomicDir {
         if res.is_err() {
             let _ = fs::remove_dir_all(&self.tmp);
             self.tmp = PathBuf::new();
+        }
+        if let Some(id) = self.reg.take() {
+            unregister(id);
         }
         res
     }
@@ -413,15 +443,20 @@ impl AtomicDir {
                 fs::remove_dir(&target)
                     .map_err(io_err(&target, "cannot remove the empty folder"))?;
             } else {
-                let old = sibling(&parent, "", &name, ".old-");
+                let old = sibling(&parent, "", &name, OLD);
                 fs::rename(&target, &old)
                     .map_err(io_err(&target, "cannot move the old folder aside"))?;
-                aside = Some(old);
+                let id = register(Pending::Aside {
+                    old: old.clone(),
+                    target: target.clone(),
+                });
+                aside = Some((old, id));
             }
         }
         if let Err(e) = fs::rename(&self.tmp, &target) {
-            if let Some(old) = &aside {
+            if let Some((old, id)) = &aside {
                 let _ = fs::rename(old, &target);
+                unregister(*id);
             }
             return Err(io_err(&target, "cannot rename the temporary folder to it")(
                 e,
@@ -429,8 +464,10 @@ impl AtomicDir {
         }
         self.tmp = PathBuf::new();
         sync_dir(&parent);
-        if let Some(old) = aside {
-            fs::remove_dir_all(&old).map_err(io_err(
+        if let Some((old, id)) = aside {
+            let r = fs::remove_dir_all(&old);
+            unregister(id);
+            r.map_err(io_err(
                 &old,
                 "new folder in place, but cannot remove the old one",
             ))?;
@@ -458,6 +495,9 @@ impl Drop for AtomicDir {
     fn drop(&mut self) {
         if !self.tmp.as_os_str().is_empty() {
             let _ = fs::remove_dir_all(&self.tmp);
+        }
+        if let Some(id) = self.reg.take() {
+            unregister(id);
         }
     }
 }
