@@ -180,3 +180,58 @@ fn device_numbers_are_checked_when_parsed() {
         assert!(e.contains(opt) && e.contains(range), "{a:?}: {e}");
     }
 }
+
+#[test]
+fn messages_say_each_cause_once_and_name_the_option() {
+    let dir = std::env::temp_dir().join(format!(
+        "fringe3d-hardening-cli-{}-dir.toml",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let d = dir.to_str().unwrap();
+    let missing = "/nonexistent/fringe3d/x.png";
+    for (args, cause) in [
+        (
+            vec!["patterns", "--patterns", d, "--out", "/nonexistent/o"],
+            "not a regular file",
+        ),
+        (vec!["info", missing], "(os error 2)"),
+    ] {
+        let o = bin().args(&args).output().unwrap();
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert_eq!(e.matches(cause).count(), 1, "{args:?}: said twice: {e}");
+        assert_eq!(e.lines().count(), 1, "{args:?}: one line: {e}");
+    }
+    // A zero exposure is refused for what it is, with its range (it was "trigger table:
+    // invalid field: lut-entry" from the head).
+    let e = refused(&[
+        "device",
+        "upload",
+        "--port",
+        "/nonexistent/port",
+        "-p",
+        d,
+        "--exposure-us",
+        "0",
+    ]);
+    assert!(
+        e.contains("--exposure-us") && e.contains("1 to 60000000"),
+        "{e}"
+    );
+    let e = refused(&[
+        "device",
+        "upload",
+        "--port",
+        "/nonexistent/port",
+        "-p",
+        d,
+        "--dark-us",
+        "60000001",
+    ]);
+    assert!(
+        e.contains("--dark-us") && e.contains("0 to 60000000"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

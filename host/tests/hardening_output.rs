@@ -383,3 +383,32 @@ fn stale_temporary_files_of_dead_processes_are_swept() {
     want.sort();
     assert_eq!(listing(&t.0), want);
 }
+
+#[test]
+fn output_names_up_to_255_bytes_work() {
+    let t = Tmp::new("longname");
+    // 251 + ".ply": the longest legal name; its temporary name must fit too.
+    let name = format!("{}.ply", "a".repeat(251));
+    let out = t.join(&name);
+    let o = scan(&["-q".as_ref(), "-o".as_ref(), out.as_os_str()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(listing(&t.0), [name]);
+    // Multi-byte characters are cut at a character boundary.
+    let name = format!("{}.ply", "é".repeat(125));
+    let o = scan(&["-q".as_ref(), "-o".as_ref(), t.join(&name).as_os_str()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // A folder of 255 bytes.
+    let dir = t.join(&"d".repeat(255));
+    let ds = dataset();
+    let o = bin()
+        .args(["decode", "-q", "--patterns"])
+        .arg(ds.join("patterns.toml"))
+        .arg(ds)
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("phase.tif").is_file());
+    assert_eq!(listing(&t.0).len(), 3, "{:?}", listing(&t.0));
+}

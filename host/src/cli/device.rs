@@ -94,11 +94,11 @@ pub struct UploadArgs {
     /// reference phase map it names, go to the head (needed for point scans).
     #[arg(long, short = 'c')]
     pub calibration: Option<PathBuf>,
-    /// Exposure per pattern, µs.
-    #[arg(long, default_value_t = 10_000)]
+    /// Exposure per pattern, µs (1 to 60000000).
+    #[arg(long, default_value_t = 10_000, value_parser = parse::exposure_us)]
     pub exposure_us: u32,
-    /// Dark time after each pattern (covers the camera readout), µs.
-    #[arg(long, default_value_t = 2_000)]
+    /// Dark time after each pattern (covers the camera readout), µs (0 to 60000000).
+    #[arg(long, default_value_t = 2_000, value_parser = parse::dark_us)]
     pub dark_us: u32,
     /// Configure the sequence to repeat until `fringe3d device stop` (for `device start`; a scan
     /// always runs it once).

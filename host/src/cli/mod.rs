@@ -82,6 +82,25 @@ pub struct Global {
     pub json: bool,
 }
 
+/// An error and its causes on one line, `outer: inner: …`, without repeating a cause whose text
+/// the message already holds (several error types print their source in their own message and
+/// also return it as their `source()`: "Is a directory (os error 21): Is a directory (os error
+/// 21)").
+pub fn error_message(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for cause in e.chain() {
+        let s = cause.to_string();
+        if s.is_empty() || msg.contains(&s) {
+            continue;
+        }
+        if !msg.is_empty() {
+            msg.push_str(": ");
+        }
+        msg.push_str(&s);
+    }
+    msg
+}
+
 /// Report how a run ended and give the process's exit status: 0 on success; 1 after an error
 /// (printed to standard error) or when standard output could not be written; 141 (128 +
 /// SIGPIPE, as for a Unix tool killed by SIGPIPE) when the reader of standard output went away
@@ -89,7 +108,7 @@ pub struct Global {
 pub fn exit_status(result: anyhow::Result<()>) -> i32 {
     let stdout = print::finish();
     if let Err(e) = result {
-        errln!("error: {e:#}");
+        errln!("error: {}", error_message(&e));
         return 1;
     }
     match stdout {

@@ -35,6 +35,16 @@ pub fn retries(s: &str) -> Result<u32, String> {
     whole(s, 0, 100, "").map(|v| v as u32)
 }
 
+/// `--exposure-us`: 1 µs to 60 s.
+pub fn exposure_us(s: &str) -> Result<u32, String> {
+    whole(s, 1, 60_000_000, " µs").map(|v| v as u32)
+}
+
+/// `--dark-us`: 0 to 60 s.
+pub fn dark_us(s: &str) -> Result<u32, String> {
+    whole(s, 0, 60_000_000, " µs").map(|v| v as u32)
+}
+
 /// `--scan-timeout-s`: more than 0 and at most one day, seconds.
 pub fn scan_timeout_s(s: &str) -> Result<f64, String> {
     const MAX: f64 = 86_400.0;
@@ -78,5 +88,7 @@ mod tests {
             assert!(e.contains("at most 86400"), "{bad}: {e}");
         }
         assert_eq!(scan_timeout_s("0.5"), Ok(0.5));
+        assert!(exposure_us("0").unwrap_err().contains("1 to 60000000 µs"));
+        assert_eq!(dark_us("0"), Ok(0));
     }
 }

@@ -162,13 +162,48 @@ pub fn check_file_target(path: &Path) -> Result<(), AtomicError> {
     }
 }
 
-/// A fresh sibling name: `{prefix}{name}{infix}{pid}-{n}`.
+/// The longest file name most file systems allow, bytes.
+const NAME_MAX: usize = 255;
+
+/// A fresh sibling name: `{prefix}{name}{infix}{pid}-{n}`, with `name` shortened (at a character
+/// boundary) so that the whole stays within [`NAME_MAX`] bytes: any name legal for the target
+/// gives a legal temporary name. The PID and counter keep it unique.
 fn sibling(dir: &Path, prefix: &str, name: &std::ffi::OsStr, infix: &str) -> PathBuf {
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let suffix = format!("{infix}{}-{n}", std::process::id());
+    let room = NAME_MAX.saturating_sub(prefix.len() + suffix.len());
     let mut s = std::ffi::OsString::from(prefix);
-    s.push(name);
-    s.push(format!("{infix}{}-{n}", std::process::id()));
+    s.push(shorten(name, room));
+    s.push(suffix);
     dir.join(s)
+}
+
+/// `name` cut to at most `max` bytes: at a character boundary when it is UTF-8.
+fn shorten(name: &std::ffi::OsStr, max: usize) -> std::ffi::OsString {
+    if name.len() <= max {
+        return name.to_os_string();
+    }
+    if let Some(t) = name.to_str() {
+        let mut end = max;
+        while !t.is_char_boundary(end) {
+            end -= 1;
+        }
+        return t[..end].into();
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::{OsStrExt, OsStringExt};
+        std::ffi::OsString::from_vec(name.as_bytes()[..max].to_vec())
+    }
+    #[cfg(not(unix))]
+    {
+        let t = name.to_string_lossy();
+        let mut end = max.min(t.len());
+        while !t.is_char_boundary(end) {
+            end -= 1;
+        }
+        t[..end].into()
+    }
 }
 
 /// Fsync a directory so that a rename in it is durable. Best effort: some platforms and file

@@ -140,10 +140,10 @@ pub fn sweep_stale(dir: &Path) {
         return;
     };
     for e in rd.flatten() {
+        // Names may have been shortened mid-way (not UTF-8); the suffix is ASCII either way.
         let name = e.file_name();
-        let Some(name) = name.to_str() else {
-            continue;
-        };
+        let name = name.to_string_lossy();
+        let name = name.as_ref();
         let Ok(ty) = e.file_type() else {
             continue;
         };
