@@ -121,6 +121,26 @@ pub fn exit_status(result: anyhow::Result<()>) -> i32 {
     }
 }
 
+/// Build rayon's global pool here, not lazily at the first parallel call, so that a failure to
+/// start the threads is an error rather than a panic (`None`: rayon's default, all cores). A pool
+/// that already exists (a program that runs several commands in one process, or used rayon
+/// before) is used as it is.
+fn start_pool(threads: Option<usize>) -> anyhow::Result<()> {
+    use std::error::Error as _;
+    match rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0))
+        .build_global()
+    {
+        Ok(()) => Ok(()),
+        // "Already initialized" has no source; a failure to spawn threads has its OS error.
+        Err(e) if e.source().is_none() => Ok(()),
+        Err(e) => Err(match threads {
+            Some(n) => anyhow::anyhow!("-j {n}: cannot start {n} worker threads: {e}"),
+            None => anyhow::anyhow!("cannot start the worker threads: {e}"),
+        }),
+    }
+}
+
 /// On SIGINT, SIGTERM or SIGHUP: remove this process's temporary files and folders (see
 /// [`crate::io::atomic::clean_up_for_exit`]), then die of the signal as if it had not been caught
 /// (exit status 130 for Ctrl-C in a shell). Installed once per process; best effort.
@@ -171,15 +191,7 @@ where
             std::process::exit(2);
         }
     };
-    // The pool is built here, not lazily by the first parallel call, so that a failure (no
-    // threads to be had) is an error rather than a panic. 0: rayon's default, all cores.
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(cli.threads.unwrap_or(0))
-        .build_global()
-        .map_err(|e| match cli.threads {
-            Some(n) => anyhow::anyhow!("-j {n}: cannot start {n} worker threads: {e}"),
-            None => anyhow::anyhow!("cannot start the worker threads: {e}"),
-        })?;
+    start_pool(cli.threads)?;
     install_signal_cleanup();
     let g = Global {
         quiet: cli.quiet,
