@@ -1,8 +1,6 @@
 //! The `fringe3d` binary: see `fringe3d --help`.
 
 fn main() {
-    if let Err(e) = fringe3d::cli::run(std::env::args_os()) {
-        eprintln!("error: {e:#}");
-        std::process::exit(1);
-    }
+    let result = fringe3d::cli::run(std::env::args_os());
+    std::process::exit(fringe3d::cli::exit_status(result));
 }

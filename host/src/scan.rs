@@ -7,7 +7,7 @@
 
 use crate::batch::{Isa, PointsOut as BatchOut};
 use crate::io::calibration::Calibration;
-use crate::io::image::{Pixels, read_gray};
+use crate::io::image::{Pixels, ReadLimits, read_gray_limited, read_header};
 use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::phase_function::Axis;
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
@@ -120,7 +120,19 @@ impl ScanCalibration {
                 path: path.to_path_buf(),
                 message: "no [reference] section with a phase_map".into(),
             })?;
-        let (img, _) = read_gray(&map_path)?;
+        // The declared size first: nothing is decoded from a map of another size.
+        let (cw, ch) = (cal.camera.width, cal.camera.height);
+        let hdr = read_header(&map_path)?;
+        if (hdr.width, hdr.height) != (cw, ch) {
+            return Err(ScanError::Size {
+                what: map_path.display().to_string(),
+                got_w: hdr.width as usize,
+                got_h: hdr.height as usize,
+                w: cw as usize,
+                h: ch as usize,
+            });
+        }
+        let (img, _) = read_gray_limited(&map_path, &ReadLimits::sized(cw, ch))?;
         let Pixels::F32(phase) = img.pixels else {
             return Err(ScanError::Invalid {
                 path: map_path,

@@ -1024,7 +1024,8 @@ pub struct Mismatch {
 /// missing manifest or file; digests are not checked here (see [`check_dir`]).
 pub fn read_dir(dir: &Path) -> Result<GoldenVectors, VectorsError> {
     let mp = dir.join(MANIFEST);
-    let text = std::fs::read_to_string(&mp).map_err(|e| file_err(&mp, e))?;
+    let text = crate::io::input::read_text_limited(&mp, crate::io::input::MAX_TEXT_BYTES)
+        .map_err(|e| file_err(&mp, e))?;
     let m: serde_json::Value = serde_json::from_str(&text).map_err(|e| file_err(&mp, e))?;
     let obj = m
         .as_object()
@@ -1043,7 +1044,8 @@ pub fn read_dir(dir: &Path) -> Result<GoldenVectors, VectorsError> {
             .and_then(|p| p.as_str())
             .ok_or_else(|| file_err(&mp, "a file entry has no path"))?;
         let full = dir.join(path);
-        let bytes = std::fs::read(&full).map_err(|e| file_err(&full, e))?;
+        let bytes = crate::io::input::read_limited(&full, crate::io::input::MAX_IMAGE_BYTES)
+            .map_err(|e| file_err(&full, e))?;
         let array = match (
             f.get("dtype").and_then(|d| d.as_str()),
             f.get("shape").and_then(|s| s.as_array()),
@@ -1095,7 +1097,8 @@ pub fn read_dir(dir: &Path) -> Result<GoldenVectors, VectorsError> {
 /// Returns the mismatches (empty: the folder is intact).
 pub fn check_dir(dir: &Path) -> Result<Vec<Mismatch>, VectorsError> {
     let mp = dir.join(MANIFEST);
-    let text = std::fs::read_to_string(&mp).map_err(|e| file_err(&mp, e))?;
+    let text = crate::io::input::read_text_limited(&mp, crate::io::input::MAX_TEXT_BYTES)
+        .map_err(|e| file_err(&mp, e))?;
     let m: serde_json::Value = serde_json::from_str(&text).map_err(|e| file_err(&mp, e))?;
     let files = m
         .get("files")
@@ -1113,7 +1116,7 @@ pub fn check_dir(dir: &Path) -> Result<Vec<Mismatch>, VectorsError> {
             .and_then(|p| p.as_str())
             .unwrap_or("")
             .to_string();
-        match std::fs::read(dir.join(&path)) {
+        match crate::io::input::read_limited(&dir.join(&path), crate::io::input::MAX_IMAGE_BYTES) {
             Ok(b) => {
                 let got = sha256_hex(&b);
                 if got != want {

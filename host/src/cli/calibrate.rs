@@ -213,6 +213,10 @@ fn sibling(out: &Path, suffix: &str) -> PathBuf {
 }
 
 fn camera(a: CameraArgs, g: Global) -> Result<()> {
+    common::file_out(&a.out, "--out")?;
+    if let Some(r) = &a.report {
+        common::dir_out(r, "--report")?;
+    }
     let board = a.board.get("calibrate camera")?;
     let paths = files::image_list(&a.images)?;
     let opts = CameraOptions {
@@ -239,9 +243,9 @@ fn camera(a: CameraArgs, g: Global) -> Result<()> {
         j["command"] = json!("calibrate camera");
         j["out"] = json!(a.out);
         j["report_dir"] = json!(report_dir);
-        println!("{}", serde_json::to_string_pretty(&j)?);
+        outln!("{}", serde_json::to_string_pretty(&j)?);
     } else if !g.quiet {
-        println!(
+        outln!(
             "{} of {} views used ({} corners each); overall reprojection RMS {:.4} px (corner noise σ ≈ {:.4} px)",
             cal.views.len(),
             paths.len(),
@@ -250,18 +254,20 @@ fn camera(a: CameraArgs, g: Global) -> Result<()> {
             cal.sigma
         );
         for (k, n) in PARAM_NAMES.iter().enumerate() {
-            println!("  {n:>4} = {:>14.6} ± {:.6}", cal.lens.p[k], cal.std[k]);
+            outln!("  {n:>4} = {:>14.6} ± {:.6}", cal.lens.p[k], cal.std[k]);
         }
         for v in &cal.views {
-            println!(
+            outln!(
                 "  view {}: RMS {:.4} px, max {:.4} px",
-                v.name, v.rms, v.max
+                v.name,
+                v.rms,
+                v.max
             );
         }
         for r in &cal.rejected {
-            println!("  left out {}: {}", r.name, r.reason);
+            outln!("  left out {}: {}", r.name, r.reason);
         }
-        println!(
+        outln!(
             "wrote {} and {}/ (report.json, a picture per view)",
             a.out.display(),
             report_dir.display()
@@ -283,6 +289,7 @@ fn parse3(s: &str, what: &str) -> Result<[f64; 3]> {
 }
 
 fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
+    common::file_out(&a.out, "--out")?;
     let board = a.board.get("calibrate projector")?;
     if a.plates.len() < 2 {
         bail!(
@@ -306,6 +313,7 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
     let size = crate::io::image::read_gray(&a.plates[0].join("board.png"))
         .ok()
         .map(|(i, _)| (i.width, i.height));
+    common::input_file(&a.camera_from)?;
     let camera = files::load_camera(&a.camera_from, size)?;
     let depth = match &a.depth_range {
         Some(s) => {
@@ -350,11 +358,11 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
     let text = serde_json::to_string_pretty(&report)?;
     crate::io::atomic::write_atomic(&rp, |w| w.write_all(text.as_bytes()))?;
     if g.json {
-        println!("{text}");
+        outln!("{text}");
     } else if !g.quiet {
         let r = &run.result;
         let [x, y, z] = r.center;
-        println!(
+        outln!(
             "P = ({x:.4}, {y:.4}, {z:.4}) mm ± ({:.4}, {:.4}, {:.4}) mm (lines {:.4}/{:.4}/{:.4}, plate poses {:.4}/{:.4}/{:.4})",
             r.std[0],
             r.std[1],
@@ -366,24 +374,34 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
             r.std_poses[1],
             r.std_poses[2]
         );
-        println!(
+        outln!(
             "{} lines ({} rejected): distance from P RMS {:.4} mm, median {:.4} mm, max {:.4} mm",
-            r.lines, r.rejected, r.rms_distance_mm, r.median_distance_mm, r.max_distance_mm
+            r.lines,
+            r.rejected,
+            r.rms_distance_mm,
+            r.median_distance_mm,
+            r.max_distance_mm
         );
         for p in &r.pairs {
-            println!(
+            outln!(
                 "  {} -> {}: {} of {} sampled pixels matched, {} used, RMS {:.4} mm",
-                p.s, p.t, p.matched, p.sampled, p.used, p.rms_distance_mm
+                p.s,
+                p.t,
+                p.matched,
+                p.sampled,
+                p.used,
+                p.rms_distance_mm
             );
         }
         for (a_, b_, ang) in &r.plate_angles_deg {
-            println!("  angle between {a_} and {b_}: {ang:.4} degrees");
+            outln!("  angle between {a_} and {b_}: {ang:.4} degrees");
         }
-        println!(
+        outln!(
             "depth range [{:.1}, {:.1}] mm",
-            run.calibration.depth_range[0], run.calibration.depth_range[1]
+            run.calibration.depth_range[0],
+            run.calibration.depth_range[1]
         );
-        println!("wrote {} and {}", a.out.display(), rp.display());
+        outln!("wrote {} and {}", a.out.display(), rp.display());
     }
     Ok(())
 }
@@ -409,6 +427,7 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
         ),
     };
     let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
+    common::file_out(&out, "--out")?;
     let run = files::calibrate_reference_files(
         &cal,
         &out,
@@ -421,10 +440,10 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
     let j = json!({"command": "calibrate reference", "out": out, "map": run.map_path, "valid_fraction": run.valid_fraction,
         "plane": run.plane});
     if g.json {
-        println!("{}", serde_json::to_string_pretty(&j)?);
+        outln!("{}", serde_json::to_string_pretty(&j)?);
     } else if !g.quiet {
         let p = &run.plane;
-        println!(
+        outln!(
             "reference plane O_R = ({:.4}, {:.4}, {:.4}) mm, n_R = ({:.6}, {:.6}, {:.6}); distance σ {:.4} mm, tilt σ {:.5} degrees",
             p.point[0],
             p.point[1],
@@ -435,11 +454,11 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
             p.distance_std_mm,
             p.tilt_std_deg
         );
-        println!(
+        outln!(
             "phase map: {:.1} % of the pixels valid",
             100.0 * run.valid_fraction
         );
-        println!(
+        outln!(
             "wrote {} (with {} and reference_patterns.toml beside it)",
             out.display(),
             a.map

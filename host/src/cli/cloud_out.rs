@@ -1,17 +1,44 @@
-//! Writing point clouds for `scan`, `reconstruct` and `demo`: PLY (binary or ASCII, organized or
-//! not) or XYZ text, always atomically.
+//! Writing point clouds for `scan`, `reconstruct`, `demo` and `device scan`: PLY (binary or
+//! ASCII, organized or not) or XYZ text, always atomically; or, with `-o -`, to standard output.
+//!
+//! Standard output gets the complete file only: the cloud is first written to a private temporary
+//! folder and copied out once it is whole, so an error never leaves half a cloud in a pipe.
 
+use crate::io::atomic::{AtomicDir, check_file_target};
 use crate::io::ply::{PlyEncoding, PlyOptions, PlyWriter, PointRow, XyzWriter};
 use crate::scan::PointCloud;
-use anyhow::Result;
-use std::path::PathBuf;
+use anyhow::{Context, Result, bail};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The point-cloud file formats.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CloudFormat {
+    /// PLY (binary little-endian, or ASCII with --ascii).
+    Ply,
+    /// Plain text, one "x y z" line per valid point.
+    Xyz,
+}
+
+impl CloudFormat {
+    fn extension(self) -> &'static str {
+        match self {
+            CloudFormat::Ply => "ply",
+            CloudFormat::Xyz => "xyz",
+        }
+    }
+}
 
 /// Output options shared by the commands that write clouds.
 #[derive(clap::Args, Debug, Clone)]
 pub struct CloudArgs {
-    /// Output point cloud (.ply, or .xyz for plain "x y z" text).
+    /// Output point cloud: FILE.ply, FILE.xyz (plain "x y z" text), or - for standard output
+    /// (PLY unless --format xyz; the summary then goes to standard error).
     #[arg(long, short = 'o')]
     pub out: PathBuf,
+    /// Cloud format (default: by the extension of --out, which must then be .ply or .xyz; PLY for -).
+    #[arg(long, value_enum)]
+    pub format: Option<CloudFormat>,
     /// ASCII PLY instead of binary little-endian.
     #[arg(long)]
     pub ascii: bool,
@@ -24,6 +51,106 @@ pub struct CloudArgs {
     /// Steepest accepted surface for the edge filter, degrees from facing the camera.
     #[arg(long, default_value_t = 80.0)]
     pub max_angle: f64,
+}
+
+/// Where a cloud goes and in which format.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CloudOut {
+    /// The file, or `None` for standard output.
+    pub path: Option<PathBuf>,
+    /// The format.
+    pub format: CloudFormat,
+}
+
+/// `true` if `p` is `-`: standard output.
+pub fn is_stdout(p: &Path) -> bool {
+    p.as_os_str() == "-"
+}
+
+impl CloudOut {
+    /// Resolve `out` (the value of option `opt`) and an explicit `format`. Without `format` the
+    /// extension decides (.ply or .xyz; any other is an error, never silently PLY); with it, the
+    /// extension must agree or be unknown. The target is checked at once (a folder, a device or a
+    /// FIFO is refused before any work is done).
+    pub fn resolve(out: &Path, format: Option<CloudFormat>, opt: &str) -> Result<CloudOut> {
+        if is_stdout(out) {
+            return Ok(CloudOut {
+                path: None,
+                format: format.unwrap_or(CloudFormat::Ply),
+            });
+        }
+        let ext = out
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let by_ext = match ext.as_deref() {
+            Some("ply") => Some(CloudFormat::Ply),
+            Some("xyz") => Some(CloudFormat::Xyz),
+            _ => None,
+        };
+        let format = match (format, by_ext) {
+            (None, Some(f)) => f,
+            (Some(f), None) => f,
+            (Some(f), Some(e)) if f == e => f,
+            (Some(f), Some(e)) => bail!(
+                "{opt} {}: --format {} does not match the .{} extension",
+                out.display(),
+                f.extension(),
+                e.extension()
+            ),
+            (None, None) => bail!(
+                "{opt} {}: {}; point clouds are written as .ply or .xyz (or name the format with --format ply|xyz)",
+                out.display(),
+                match &ext {
+                    Some(e) => format!("unknown extension .{e}"),
+                    None => "no extension".to_string(),
+                }
+            ),
+        };
+        check_file_target(out)?;
+        Ok(CloudOut {
+            path: Some(out.to_path_buf()),
+            format,
+        })
+    }
+
+    /// `true` when the cloud goes to standard output (so messages must go to standard error).
+    pub fn to_stdout(&self) -> bool {
+        self.path.is_none()
+    }
+
+    /// The target for messages: the file name, or "standard output".
+    pub fn describe(&self) -> String {
+        match &self.path {
+            Some(p) => p.display().to_string(),
+            None => "standard output".into(),
+        }
+    }
+
+    /// Run `write` on the file path (or, for standard output, on a path in a private temporary
+    /// folder, then copy the finished file to standard output). Returns `write`'s count.
+    pub fn deliver(&self, write: impl FnOnce(&Path) -> Result<u64>) -> Result<u64> {
+        match &self.path {
+            Some(p) => write(p),
+            None => {
+                let scratch =
+                    AtomicDir::create(&std::env::temp_dir().join("fringe3d-stdout"), true)?;
+                let file = scratch.join(format!("cloud.{}", self.format.extension()));
+                let n = write(&file)?;
+                let mut f = std::fs::File::open(&file)
+                    .with_context(|| format!("{}: cannot read back", file.display()))?;
+                let mut out = std::io::stdout().lock();
+                match std::io::copy(&mut f, &mut out).and_then(|_| out.flush()) {
+                    Ok(()) => {}
+                    // The reader went away: not this command's failure (see `print`).
+                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                        super::print::note_stdout_error(e)
+                    }
+                    Err(e) => return Err(e).context("standard output: cannot write the cloud"),
+                }
+                Ok(n)
+            }
+        }
+    }
 }
 
 /// Apply the depth-edge filter unless `--no-edge-filter`.
@@ -39,10 +166,46 @@ pub fn apply_edge_filter(
     Ok(())
 }
 
+/// Write `height` rows (`row(v)`) of a cloud `width` pixels wide to `out`. PLY: `opts` say what
+/// each vertex holds; `organized` keeps every pixel. XYZ: the valid points only. Returns the
+/// number of vertices written.
+pub fn write_rows<'a>(
+    out: &CloudOut,
+    width: usize,
+    height: usize,
+    row: impl Fn(usize) -> PointRow<'a>,
+    opts: PlyOptions,
+    organized: bool,
+) -> Result<u64> {
+    out.deliver(|path| {
+        if out.format == CloudFormat::Xyz {
+            let mut wr = XyzWriter::create(path)?;
+            for v in 0..height {
+                wr.write_row(&row(v))?;
+            }
+            return Ok(wr.finish()?);
+        }
+        let mut wr = if organized {
+            PlyWriter::create_organized(path, width as u32, height as u32, opts)?
+        } else {
+            // The valid points are known: the header can carry their count from the start.
+            let n = (0..height)
+                .map(|v| row(v).validity.iter().filter(|&&c| c == 0).count() as u64)
+                .sum();
+            PlyWriter::create_with_count(path, n, opts)?
+        };
+        for v in 0..height {
+            wr.write_row(&row(v))?;
+        }
+        Ok(wr.finish()?)
+    })
+}
+
 /// Write `cloud` with per-pixel intensity (A) and modulation (B) as `args` say. Returns the
 /// number of vertices written.
 pub fn write_cloud(
     args: &CloudArgs,
+    out: &CloudOut,
     cloud: &PointCloud,
     intensity: &[f32],
     modulation: &[f32],
@@ -57,19 +220,6 @@ pub fn write_cloud(
         modulation: &modulation[v * w..(v + 1) * w],
         validity: &cloud.validity[v * w..(v + 1) * w],
     };
-    let is_xyz = args
-        .out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.eq_ignore_ascii_case("xyz"))
-        .unwrap_or(false);
-    if is_xyz {
-        let mut wr = XyzWriter::create(&args.out)?;
-        for v in 0..h {
-            wr.write_row(&row(v))?;
-        }
-        return Ok(wr.finish()?);
-    }
     let opts = PlyOptions {
         encoding: if args.ascii {
             PlyEncoding::Ascii
@@ -79,17 +229,17 @@ pub fn write_cloud(
         comments,
         ..PlyOptions::default()
     };
-    let mut wr = if args.organized {
-        PlyWriter::create_organized(&args.out, w as u32, h as u32, opts)?
+    write_rows(out, w, h, row, opts, args.organized)
+}
+
+/// Print a summary line: to standard output, or to standard error when the cloud itself goes to
+/// standard output.
+pub fn say(out: &CloudOut, line: &str) {
+    if out.to_stdout() {
+        errln!("{line}");
     } else {
-        // The valid points are known: the header can carry their count from the start.
-        let n = cloud.validity.iter().filter(|&&c| c == 0).count() as u64;
-        PlyWriter::create_with_count(&args.out, n, opts)?
-    };
-    for v in 0..h {
-        wr.write_row(&row(v))?;
+        outln!("{line}");
     }
-    Ok(wr.finish()?)
 }
 
 /// View a flat `[x0, y0, z0, x1, …]` buffer as points.

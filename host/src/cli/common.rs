@@ -3,11 +3,79 @@
 use crate::batch::{FrameOut, Isa, decode_frames};
 use crate::io::image_set::{self, Frames, ImageSet};
 use crate::io::pattern_file::PatternSetFile;
+use crate::scan::ScanCalibration;
 use anyhow::{Context, Result, bail};
 use fringe3d_core::decode::{DecodeConfig, Decoder};
 use fringe3d_core::pattern::PatternSet;
+use fringe3d_core::phase_function::Axis;
 use fringe3d_core::validity::Validity;
 use std::path::{Path, PathBuf};
+
+/// Check an output *file* option before any work is done: `-` (standard output) is only for
+/// point clouds, and an existing target must be a regular file (never a folder, a device, a FIFO).
+pub fn file_out(p: &Path, opt: &str) -> Result<()> {
+    refuse_stdout(p, opt)?;
+    crate::io::atomic::check_file_target(p)?;
+    Ok(())
+}
+
+/// Check an output *folder* option: `-` (standard output) is refused.
+pub fn dir_out(p: &Path, opt: &str) -> Result<()> {
+    refuse_stdout(p, opt)
+}
+
+fn refuse_stdout(p: &Path, opt: &str) -> Result<()> {
+    if p.as_os_str() == "-" {
+        bail!(
+            "{opt} -: only point clouds (scan, reconstruct, device scan) can be written to standard output; for a file or folder named '-', write ./-"
+        );
+    }
+    Ok(())
+}
+
+/// Check that an input read by library code that opens it itself is a regular file (a FIFO
+/// would block the open forever, a device would never end).
+pub fn input_file(p: &Path) -> Result<()> {
+    crate::io::input::check_regular(p).with_context(|| format!("{}: cannot read", p.display()))
+}
+
+/// Load a calibration and its reference phase map, refusing a map no scan can use: one with an
+/// infinite phase anywhere (NaN marks an invalid pixel; ±inf is never a phase) or without a
+/// single finite phase (every point would be invalid: an empty cloud, not an answer).
+pub fn load_calibration(path: &Path, axis: Axis) -> Result<ScanCalibration> {
+    let cal = ScanCalibration::load(path, axis)?;
+    let map = cal
+        .calibration
+        .reference_map_path(path)
+        .unwrap_or_else(|| path.to_path_buf());
+    let w = cal.width().max(1);
+    if let Some(i) = cal.reference_phase.iter().position(|p| p.is_infinite()) {
+        bail!(
+            "{}: reference phase map: pixel ({}, {}) is {} (invalid pixels are NaN; an infinite phase is no phase); re-run `fringe3d calibrate reference`",
+            map.display(),
+            i % w,
+            i / w,
+            cal.reference_phase[i]
+        );
+    }
+    if !cal.reference_phase.iter().any(|p| p.is_finite()) {
+        bail!(
+            "{}: reference phase map has no valid (finite) phase at all: no point could be reconstructed; re-run `fringe3d calibrate reference`",
+            map.display()
+        );
+    }
+    Ok(cal)
+}
+
+/// Warn (unless quiet) when a cloud holds no valid point at all.
+pub fn warn_if_empty(h: &Histogram, out: &str, quiet: bool) {
+    if h[0] == 0 && !quiet {
+        errln!(
+            "warning: no pixel gave a valid point: {out} holds no points ({})",
+            validity_summary(h)
+        );
+    }
+}
 
 /// A loaded pattern-set file and its validated set.
 pub struct LoadedSet {
@@ -66,7 +134,7 @@ pub fn load_images(set: &LoadedSet, args: &[PathBuf], quiet: bool) -> Result<Ima
     let imgs = image_set::load(&paths, set.set.image_count(), &what)?;
     if !quiet {
         for w in &imgs.warnings {
-            eprintln!("warning: {w}");
+            errln!("warning: {w}");
         }
     }
     Ok(imgs)

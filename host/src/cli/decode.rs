@@ -40,6 +40,7 @@ pub struct DecodeArgs {
 /// Run `fringe3d decode`.
 pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
     let t0 = Instant::now();
+    common::dir_out(&a.out, "--out")?;
     let ls = common::load_set(&a.patterns)?;
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;
     let mut cfg = common::decode_config(&imgs);
@@ -66,13 +67,13 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
     let out = dir.commit()?;
     let hist = d.histogram();
     if g.json {
-        println!(
+        outln!(
             "{}",
             serde_json::json!({"command": "decode", "out": out, "width": w, "height": h, "bits": imgs.bits,
                 "validity": common::validity_json(&hist), "seconds": t0.elapsed().as_secs_f64()})
         );
     } else if !g.quiet {
-        println!(
+        outln!(
             "decoded {}x{} ({}-bit, {} images): {}",
             w,
             h,
@@ -80,7 +81,7 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
             imgs.paths.len(),
             common::validity_summary(&hist)
         );
-        println!(
+        outln!(
             "wrote phase.tif, modulation.tif, dc.tif, validity.png, preview.png to {}",
             out.display()
         );

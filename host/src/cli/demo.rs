@@ -1,7 +1,7 @@
 //! `fringe3d demo`: render a built-in scene, scan it as a user would (files in, files out), and
 //! report the accuracy against ground truth.
 
-use super::cloud_out::{CloudArgs, apply_edge_filter, write_cloud};
+use super::cloud_out::{CloudArgs, CloudOut, apply_edge_filter, write_cloud};
 use super::{Global, common};
 use crate::accuracy::{self, Accuracy};
 use crate::io::atomic::AtomicDir;
@@ -60,6 +60,7 @@ pub struct DemoArgs {
 
 /// Run `fringe3d demo`.
 pub fn run(a: DemoArgs, g: Global) -> Result<()> {
+    common::dir_out(&a.out, "--out")?;
     if a.calibrate {
         return run_calibrate(a, g);
     }
@@ -81,7 +82,7 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
     };
     let say = |s: String| {
         if !g.quiet && !g.json {
-            println!("{s}");
+            outln!("{s}");
         }
     };
     let t0 = Instant::now();
@@ -118,6 +119,7 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
     let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
     let cloud_args = CloudArgs {
         out: dir.join("cloud.ply"),
+        format: None,
         ascii: false,
         organized: false,
         no_edge_filter: a.no_edge_filter,
@@ -127,6 +129,7 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
     let t_scan = t1.elapsed();
     let n = write_cloud(
         &cloud_args,
+        &CloudOut::resolve(&cloud_args.out, None, "--out")?,
         &cloud,
         &d.dc,
         &d.modulation,
@@ -183,7 +186,7 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
     crate::io::atomic::write_atomic(&dir.join("report.json"), |wr| wr.write_all(text.as_bytes()))?;
     let out = dir.commit()?;
     if g.json {
-        println!("{text}");
+        outln!("{text}");
     } else if !g.quiet {
         print_report(&acc, &hist, n, t_scan.as_secs_f64(), &out);
     }
@@ -234,7 +237,7 @@ fn run_calibrate(a: DemoArgs, g: Global) -> Result<()> {
     })?;
     let out = dir.commit()?;
     if g.json {
-        println!("{text}");
+        outln!("{text}");
     } else if !g.quiet {
         print_calibration_report(&report, &out);
     }
@@ -244,8 +247,8 @@ fn run_calibrate(a: DemoArgs, g: Global) -> Result<()> {
 fn print_calibration_report(r: &serde_json::Value, out: &std::path::Path) {
     let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
     let c = &r["camera"];
-    println!();
-    println!(
+    outln!();
+    outln!(
         "camera: {} views used; reprojection RMS {:.3} px; corners vs truth RMS {:.3} px; fx {:+.4} %, fy {:+.4} %, principal point off by {:.3} px",
         c["views_used"],
         f(&c["reprojection_rms_px"]),
@@ -255,14 +258,14 @@ fn print_calibration_report(r: &serde_json::Value, out: &std::path::Path) {
         f(&c["principal_point_error_px"])
     );
     let p = &r["projector"];
-    println!(
+    outln!(
         "projector centre: off by {:.3} mm from truth ({} lines, RMS line distance {:.3} mm)",
         f(&p["error_norm_mm"]),
         p["lines"],
         f(&p["rms_line_distance_mm"])
     );
     if let Some(d) = p["depth_range"].as_array() {
-        println!(
+        outln!(
             "depth range [{:.1}, {:.1}] mm: {}",
             d.first().map(f).unwrap_or(f64::NAN),
             d.get(1).map(f).unwrap_or(f64::NAN),
@@ -270,7 +273,7 @@ fn print_calibration_report(r: &serde_json::Value, out: &std::path::Path) {
         );
     }
     let rf = &r["reference"];
-    println!(
+    outln!(
         "reference plane: {:+.3} mm along the normal, normal off by {:.4}°",
         f(&rf["offset_along_normal_mm"]),
         f(&rf["normal_angle_deg"])
@@ -278,7 +281,7 @@ fn print_calibration_report(r: &serde_json::Value, out: &std::path::Path) {
     for s in r["scans"].as_array().into_iter().flatten() {
         let um = |v: &serde_json::Value| 1e3 * f(v);
         let (t, o) = (&s["true_calibration"], &s["self_calibration"]);
-        println!(
+        outln!(
             "scan {}: interior RMS {:.1} µm with the true calibration, {:.1} µm self-calibrated (ratio {:.2}; after a rigid alignment {:.2}); max error {:.3} / {:.3} mm",
             s["scene"].as_str().unwrap_or("?"),
             um(&t["interior"]["rms"]),
@@ -290,21 +293,21 @@ fn print_calibration_report(r: &serde_json::Value, out: &std::path::Path) {
         );
         for (name, cal) in [("true", t), ("self", o)] {
             for sp in cal["spheres"].as_array().into_iter().flatten() {
-                println!(
+                outln!(
                     "  {name}: sphere {} diameter error {:+.1} µm",
                     sp["name"].as_str().unwrap_or("?"),
                     um(&sp["diameter_error_mm"])
                 );
             }
             for b in cal["ball_bars"].as_array().into_iter().flatten() {
-                println!(
+                outln!(
                     "  {name}: ball-bar length error {:+.1} µm",
                     um(&b["length_error_mm"])
                 );
             }
         }
     }
-    println!(
+    outln!(
         "wrote {}/{{checkerboard, plates, reference, scans, calibration/}} (report: calibration/demo_report.json)",
         out.display()
     );
@@ -317,14 +320,14 @@ fn print_report(
     scan_s: f64,
     out: &std::path::Path,
 ) {
-    println!();
-    println!(
+    outln!();
+    outln!(
         "scan: {} points in {:.0} ms (decode + reconstruct, all cores); {}",
         n,
         scan_s * 1e3,
         common::validity_summary(hist)
     );
-    println!(
+    outln!(
         "coverage: {} of {} lit pixels reconstructed ({:.1} %), {} spurious points",
         acc.valid_pixels,
         acc.truth_pixels,
@@ -332,21 +335,21 @@ fn print_report(
         acc.spurious_points
     );
     let um = |x: f64| x * 1e3;
-    println!(
+    outln!(
         "error against ground truth, away from depth edges: RMS {:.1} µm, 95 % {:.1} µm, max {:.1} µm ({} points)",
         um(acc.interior.rms),
         um(acc.interior.p95),
         um(acc.interior.max),
         acc.interior.count
     );
-    println!(
+    outln!(
         "error against ground truth, all points (nearest surface in the pixel's 3x3 neighbourhood): RMS {:.1} µm, 95 % {:.1} µm, max {:.1} µm",
         um(acc.all.rms),
         um(acc.all.p95),
         um(acc.all.max)
     );
     for s in &acc.spheres {
-        println!(
+        outln!(
             "sphere {}: diameter {:.4} mm (true {:.4}), error {:+.1} µm, form RMS {:.1} µm",
             s.name,
             s.fitted_diameter,
@@ -356,14 +359,14 @@ fn print_report(
         );
     }
     for b in &acc.ball_bars {
-        println!(
+        outln!(
             "ball bar: length {:.4} mm (true {:.4}), error {:+.1} µm",
             b.measured_length,
             b.true_length,
             um(b.length_error)
         );
     }
-    println!(
+    outln!(
         "wrote {}/{{cloud.ply, phase.png, depth.png, error.png, report.json, dataset/}}",
         out.display()
     );

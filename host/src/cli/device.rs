@@ -1,15 +1,16 @@
 //! `fringe3d device`: talk to a scan head over a serial port — `info`, `upload`, `scan`, and
 //! the trigger-sequence controls `start`, `stop`, `abort`.
 
-use super::{Global, common};
+use super::cloud_out::{self, CloudFormat, CloudOut};
+use super::{Global, common, parse};
 use crate::device::desc::{
     capture_sequence, fidelity, pattern_bytes, pattern_desc, phase_map_bytes, render_pattern,
     wire_calibration,
 };
 use crate::device::{Client, ClientOptions, DeviceError, SerialTransport, nak_reason, open_serial};
 use crate::io::calibration::Calibration;
-use crate::io::image::{Pixels, read_gray, write_tiff_f32};
-use crate::io::ply::{PlyOptions, PlyWriter, PointRow};
+use crate::io::image::{Pixels, ReadLimits, read_gray_limited, write_tiff_f32};
+use crate::io::ply::{PlyOptions, PointRow};
 use anyhow::{Context, Result, bail};
 use fringe3d_core::wire::{
     EdgeFilterMode, HeadErrors, HeadState, NakCode, PROTOCOL_VERSION, ScanOutput, ValidationStatus,
@@ -58,14 +59,14 @@ pub struct PortArgs {
     /// Serial port (e.g. /dev/ttyUSB0, or the PTY `fringe3d-head` prints).
     #[arg(long)]
     pub port: String,
-    /// Baud rate.
-    #[arg(long, default_value_t = 921_600)]
+    /// Baud rate, 50 to 20000000.
+    #[arg(long, default_value_t = 921_600, value_parser = parse::baud)]
     pub baud: u32,
-    /// Time allowed for an answer beyond its transmission time, milliseconds.
-    #[arg(long, default_value_t = 500)]
+    /// Time allowed for an answer beyond its transmission time, milliseconds (1 to 3600000).
+    #[arg(long, default_value_t = 500, value_parser = parse::timeout_ms)]
     pub timeout_ms: u64,
-    /// Times a request is repeated on silence or line damage before giving up.
-    #[arg(long, default_value_t = 8)]
+    /// Times a request is repeated on silence or line damage before giving up (0 to 100).
+    #[arg(long, default_value_t = 8, value_parser = parse::retries)]
     pub retries: u32,
 }
 
@@ -93,11 +94,11 @@ pub struct UploadArgs {
     /// reference phase map it names, go to the head (needed for point scans).
     #[arg(long, short = 'c')]
     pub calibration: Option<PathBuf>,
-    /// Exposure per pattern, µs.
-    #[arg(long, default_value_t = 10_000)]
+    /// Exposure per pattern, µs (1 to 60000000).
+    #[arg(long, default_value_t = 10_000, value_parser = parse::exposure_us)]
     pub exposure_us: u32,
-    /// Dark time after each pattern (covers the camera readout), µs.
-    #[arg(long, default_value_t = 2_000)]
+    /// Dark time after each pattern (covers the camera readout), µs (0 to 60000000).
+    #[arg(long, default_value_t = 2_000, value_parser = parse::dark_us)]
     pub dark_us: u32,
     /// Configure the sequence to repeat until `fringe3d device stop` (for `device start`; a scan
     /// always runs it once).
@@ -125,9 +126,13 @@ pub struct ScanArgs {
     /// What to stream.
     #[arg(long, value_enum, default_value_t = OutputKind::Points)]
     pub output: OutputKind,
-    /// Point cloud file (PLY, organized rows; invalid points kept as NaN with their code).
+    /// Point cloud file (PLY, or .xyz for plain "x y z" text; valid points only), or - for
+    /// standard output (the summary then goes to standard error).
     #[arg(long, short = 'o')]
     pub out: Option<PathBuf>,
+    /// Cloud format (default: by the extension of --out, which must then be .ply or .xyz; PLY for -).
+    #[arg(long, value_enum)]
+    pub format: Option<CloudFormat>,
     /// Phase map file (32-bit float TIFF, NaN where invalid).
     #[arg(long)]
     pub phase_out: Option<PathBuf>,
@@ -137,8 +142,8 @@ pub struct ScanArgs {
     /// Rows (0: to the last row).
     #[arg(long, default_value_t = 0)]
     pub rows: u16,
-    /// Silence tolerated while the head captures, seconds.
-    #[arg(long, default_value_t = 30.0)]
+    /// Silence tolerated while the head captures, seconds (more than 0, at most 86400).
+    #[arg(long, default_value_t = 30.0, value_parser = parse::scan_timeout_s)]
     pub scan_timeout_s: f64,
     /// Keep points at depth discontinuities ("flying pixels" that mix two surfaces); by default
     /// the head filters them as `fringe3d scan` does.
@@ -156,8 +161,10 @@ fn connect(p: &PortArgs, scan_timeout: Option<f64>) -> Result<Client<SerialTrans
         retries: p.retries,
         ..Default::default()
     };
-    if let Some(s) = scan_timeout.filter(|s| s.is_finite() && *s > 0.0) {
-        opts.scan_timeout = Duration::from_secs_f64(s);
+    if let Some(s) = scan_timeout {
+        // Checked at parse time (`parse::scan_timeout_s`); `try_` all the same: never a panic.
+        opts.scan_timeout = Duration::try_from_secs_f64(s)
+            .map_err(|e| anyhow::anyhow!("--scan-timeout-s {s}: {e}"))?;
     }
     Client::connect(io, opts).with_context(|| format!("connecting to the scan head on {}", p.port))
 }
@@ -205,7 +212,7 @@ fn control(p: PortArgs, what: Control, g: Global) -> Result<()> {
     }
     let st = c.status()?;
     if g.json {
-        println!(
+        outln!(
             "{}",
             serde_json::json!({"command": format!("device {name}"), "port": p.port, "state": state_name(st.state),
                 "errors": error_names(st.errors)})
@@ -216,7 +223,7 @@ fn control(p: PortArgs, what: Control, g: Global) -> Result<()> {
             (Control::Start, _) => " (the sequence already ran to its end)",
             _ => "",
         };
-        println!("{name}: the head is {}{note}", state_name(st.state));
+        outln!("{name}: the head is {}{note}", state_name(st.state));
     }
     Ok(())
 }
@@ -257,7 +264,7 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
     let st = c.status()?;
     let v = c.validate()?;
     if g.json {
-        println!(
+        outln!(
             "{}",
             serde_json::json!({"command": "device info", "port": p.port, "protocol_version": caps.protocol_version,
                 "firmware": format!("{}.{}.{}", caps.firmware.major, caps.firmware.minor, caps.firmware.patch),
@@ -267,7 +274,7 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
                 "tx_frames": st.tx_frames, "rows_sent": st.rows_sent, "validation": v.0})
         );
     } else if !g.quiet {
-        println!(
+        outln!(
             "scan head on {}: protocol {}, firmware {}.{}.{}",
             p.port,
             caps.protocol_version,
@@ -275,7 +282,7 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
             caps.firmware.minor,
             caps.firmware.patch
         );
-        println!(
+        outln!(
             "  camera {}x{}, projector {}x{}, {} bytes for uploads, chunks up to {} bytes, {} pattern-set slots, {} trigger entries",
             caps.sensor_width,
             caps.sensor_height,
@@ -286,7 +293,7 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
             caps.max_sets,
             caps.max_lut_entries
         );
-        println!(
+        outln!(
             "  state {}, errors [{}], frames in {} (damaged {}), out {}, rows sent {}",
             state_name(st.state),
             error_names(st.errors).join(", "),
@@ -296,9 +303,9 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
             st.rows_sent
         );
         if v.is_ok() {
-            println!("  sequence valid: ready to scan points");
+            outln!("  sequence valid: ready to scan points");
         } else {
-            println!(
+            outln!(
                 "  sequence: {}",
                 nak_reason(NakCode::SequenceInvalid, v.0 as u16)
             );
@@ -344,7 +351,8 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
                     );
                 }
                 pattern_bytes(set, &desc, |i| {
-                    let (img, _) = read_gray(&files[i]).map_err(|e| e.to_string())?;
+                    let lim = ReadLimits::sized(desc.width as u32, desc.height as u32);
+                    let (img, _) = read_gray_limited(&files[i], &lim).map_err(|e| e.to_string())?;
                     match img.pixels {
                         Pixels::U8(v)
                             if (img.width, img.height)
@@ -370,7 +378,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
         Some(path) => {
             let cal = Calibration::load(path)?;
             let axis = set.axis();
-            let sc = crate::scan::ScanCalibration::load(path, axis)
+            let sc = common::load_calibration(path, axis)
                 .with_context(|| format!("{}: preparing the reconstruction", path.display()))?;
             let w =
                 wire_calibration(&cal).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
@@ -406,7 +414,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
             } else {
                 String::new()
             };
-            println!(
+            outln!(
                 "uploaded {} pattern images, {} bytes{} in {:.2} s; digest confirmed",
                 desc.pattern_count(),
                 r.total,
@@ -415,7 +423,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
             );
         }
     } else if !g.quiet && !g.json {
-        println!(
+        outln!(
             "pattern set {} defined; the head renders its {} patterns itself",
             a.set_id,
             desc.pattern_count()
@@ -438,14 +446,15 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
         let r = r?;
         summary["phase_map_upload"] = serde_json::json!({"bytes": r.total, "resumed_from": r.resumed_from, "wire_bytes": r.wire_bytes, "seconds": r.seconds});
         if !g.quiet && !g.json {
-            println!(
+            outln!(
                 "uploaded the calibration and the reference phase map ({} bytes) in {:.2} s; digest confirmed",
-                r.total, r.seconds
+                r.total,
+                r.seconds
             );
         }
     }
     if !fid.decoder && !g.quiet {
-        eprintln!(
+        errln!(
             "warning: the head's decoder for this set differs from the desktop's (a bug: its wire description does not rebuild the set): phases may differ in the last bits"
         );
     }
@@ -456,15 +465,15 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
     summary["validation"] = serde_json::json!(v.0);
     let blocking = v.0 & !(ValidationStatus::NO_CALIBRATION | ValidationStatus::NO_REFERENCE);
     if g.json {
-        println!("{summary}");
+        outln!("{summary}");
     } else if !g.quiet {
         if v.is_ok() {
-            println!(
+            outln!(
                 "trigger sequence of {} entries configured and valid: ready to scan",
                 lut.len()
             );
         } else {
-            println!(
+            outln!(
                 "trigger sequence of {} entries configured: {}",
                 lut.len(),
                 nak_reason(NakCode::SequenceInvalid, v.0 as u16)
@@ -483,6 +492,14 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
 fn scan(a: ScanArgs, g: Global) -> Result<()> {
     if a.out.is_none() && a.phase_out.is_none() {
         bail!("nothing to write: give --out FILE.ply (points) and/or --phase-out FILE.tif (phase)");
+    }
+    let cloud = a
+        .out
+        .as_deref()
+        .map(|p| CloudOut::resolve(p, a.format, "--out"))
+        .transpose()?;
+    if let Some(p) = &a.phase_out {
+        common::file_out(p, "--phase-out")?;
     }
     let output = match (a.output, a.out.is_some(), a.phase_out.is_some()) {
         (OutputKind::Points, _, true) | (OutputKind::Both, _, _) => ScanOutput::Both,
@@ -516,38 +533,48 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
     };
     let (w, rows) = (r.width, r.rows);
     let mut valid = None;
-    if let (Some(path), Some(xyz), Some(codes)) = (&a.out, &r.xyz, &r.point_validity) {
-        let mut wr = PlyWriter::create(
-            path,
-            PlyOptions {
-                intensity: false,
-                modulation: false,
-                ..Default::default()
-            },
-        )?;
+    if let (Some(out), Some(xyz), Some(codes)) = (&cloud, &r.xyz, &r.point_validity) {
         let pts: Vec<[f32; 3]> = xyz.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
-        for i in 0..rows {
-            wr.write_row(&PointRow {
-                v: (r.first_row + i) as u32,
-                xyz: &pts[i * w..(i + 1) * w],
-                intensity: &[],
-                modulation: &[],
-                validity: &codes[i * w..(i + 1) * w],
-            })?;
-        }
-        valid = Some(wr.finish()?);
+        let row = |i: usize| PointRow {
+            v: (r.first_row + i) as u32,
+            xyz: &pts[i * w..(i + 1) * w],
+            intensity: &[],
+            modulation: &[],
+            validity: &codes[i * w..(i + 1) * w],
+        };
+        let opts = PlyOptions {
+            intensity: false,
+            modulation: false,
+            ..Default::default()
+        };
+        valid = Some(cloud_out::write_rows(out, w, rows, row, opts, false)?);
     }
     if let (Some(path), Some(phase)) = (&a.phase_out, &r.phase) {
         write_tiff_f32(path, w as u32, rows as u32, phase)?;
     }
-    if g.json {
-        println!(
-            "{}",
-            serde_json::json!({"command": "device scan", "port": a.port.port, "protocol_version": PROTOCOL_VERSION, "width": w, "first_row": r.first_row,
-                "rows": rows, "points": valid, "rescans": r.rescans, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
+    if let (Some(0), Some(out)) = (valid, &cloud)
+        && !g.quiet
+    {
+        errln!(
+            "warning: no pixel gave a valid point: {} holds no points",
+            out.describe()
         );
+    }
+    // With the cloud on standard output, the summary goes to standard error.
+    let to_stderr = cloud.as_ref().is_some_and(CloudOut::to_stdout);
+    let say = |line: String| {
+        if to_stderr {
+            errln!("{line}");
+        } else {
+            outln!("{line}");
+        }
+    };
+    if g.json {
+        say(serde_json::json!({"command": "device scan", "port": a.port.port, "protocol_version": PROTOCOL_VERSION, "width": w, "first_row": r.first_row,
+                "rows": rows, "points": valid, "rescans": r.rescans, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
+            .to_string());
     } else if !g.quiet {
-        println!(
+        say(format!(
             "scanned rows {}..{} ({} x {}) in {:.2} s, {} bytes received{}",
             r.first_row,
             r.first_row + rows,
@@ -560,12 +587,12 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
             } else {
                 String::new()
             }
-        );
-        if let (Some(n), Some(p)) = (valid, &a.out) {
-            println!("wrote {n} points to {}", p.display());
+        ));
+        if let (Some(n), Some(out)) = (valid, &cloud) {
+            say(format!("wrote {n} points to {}", out.describe()));
         }
         if let Some(p) = &a.phase_out {
-            println!("wrote the phase map to {}", p.display());
+            say(format!("wrote the phase map to {}", p.display()));
         }
     }
     Ok(())

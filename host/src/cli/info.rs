@@ -3,6 +3,7 @@
 use super::{Global, common};
 use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, read_gray};
+use crate::io::input::{MAX_TEXT_BYTES, read_text_limited};
 use anyhow::{Context, Result, bail};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -30,8 +31,8 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
                 p.display()
             );
         }
-        let text =
-            std::fs::read_to_string(&m).with_context(|| format!("{}: cannot read", m.display()))?;
+        let text = read_text_limited(&m, MAX_TEXT_BYTES)
+            .with_context(|| format!("{}: cannot read", m.display()))?;
         let mut v: serde_json::Value = serde_json::from_str(&text)
             .with_context(|| format!("{}: not valid JSON", m.display()))?;
         if let Some(o) = v.as_object_mut() {
@@ -54,7 +55,7 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
         }
     };
     if g.json {
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        outln!("{}", serde_json::to_string_pretty(&v)?);
     } else if !g.quiet {
         print_tree(&v, 0);
     }
@@ -62,8 +63,8 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
 }
 
 fn toml_info(p: &Path) -> Result<serde_json::Value> {
-    let text =
-        std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
+    let text = read_text_limited(p, MAX_TEXT_BYTES)
+        .with_context(|| format!("{}: cannot read", p.display()))?;
     let raw: toml::Table = text
         .parse()
         .with_context(|| format!("{}: not valid TOML", p.display()))?;
@@ -158,20 +159,20 @@ fn print_tree(v: &serde_json::Value, indent: usize) {
             for (k, x) in m {
                 match x {
                     serde_json::Value::Object(_) => {
-                        println!("{pad}{k}:");
+                        outln!("{pad}{k}:");
                         print_tree(x, indent + 1);
                     }
                     serde_json::Value::Array(a) if a.iter().any(|e| e.is_object()) => {
-                        println!("{pad}{k}:");
+                        outln!("{pad}{k}:");
                         for (i, e) in a.iter().enumerate() {
-                            println!("{pad}  [{i}]");
+                            outln!("{pad}  [{i}]");
                             print_tree(e, indent + 2);
                         }
                     }
-                    _ => println!("{pad}{k}: {x}"),
+                    _ => outln!("{pad}{k}: {x}"),
                 }
             }
         }
-        other => println!("{pad}{other}"),
+        other => outln!("{pad}{other}"),
     }
 }

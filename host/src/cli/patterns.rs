@@ -30,6 +30,7 @@ pub struct PatternsArgs {
 
 /// Run `fringe3d patterns`.
 pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
+    common::dir_out(&a.out, "--out")?;
     let ls = common::load_set(&a.patterns)?;
     let set = &ls.set;
     let bits: u8 = match a.bits.as_deref() {
@@ -76,12 +77,12 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
     f.save(&dir.join("patterns.toml"))?;
     let out = dir.commit()?;
     if g.json {
-        println!(
+        outln!(
             "{}",
             serde_json::json!({"command": "patterns", "out": out, "images": names, "bits": bits, "width": o.width, "height": o.height})
         );
     } else if !g.quiet {
-        println!(
+        outln!(
             "wrote {} {}-bit patterns ({}x{}) and patterns.toml to {}",
             names.len(),
             bits,

@@ -1,9 +1,8 @@
 //! `fringe3d reconstruct`: a decoded phase map + calibration → point cloud.
 
-use super::cloud_out::{CloudArgs, apply_edge_filter, write_cloud};
+use super::cloud_out::{self, CloudArgs, CloudOut, apply_edge_filter, write_cloud};
 use super::{Global, common};
-use crate::io::image::{Pixels, read_gray};
-use crate::scan::ScanCalibration;
+use crate::io::image::{Pixels, ReadLimits, read_gray_limited, read_header};
 use anyhow::{Result, bail};
 use fringe3d_core::phase_function::Axis;
 use std::path::{Path, PathBuf};
@@ -13,8 +12,8 @@ use std::path::{Path, PathBuf};
 #[command(
     after_help = "Example:\n  fringe3d decode --patterns scan/patterns.toml scan/ --out decoded/\n  \
 fringe3d reconstruct --calibration scan/calibration.toml --decoded decoded/ -o cloud.ply\n\n\
-Reads phase.tif and validity.png (and dc.tif, modulation.tif for the per-point intensity and\n\
-modulation, when present) from the decode folder."
+Reads phase.tif and validity.png (both required; and dc.tif, modulation.tif for the per-point\n\
+intensity and modulation, when present) from the decode folder."
 )]
 pub struct ReconstructArgs {
     /// The calibration file (TOML).
@@ -32,24 +31,61 @@ pub struct ReconstructArgs {
     pub cloud: CloudArgs,
 }
 
+/// Read a float map of the calibrated camera's size (checked from the header, before decoding).
 fn read_f32(p: &Path, w: usize, h: usize) -> Result<Vec<f32>> {
-    let (img, _) = read_gray(p)?;
-    if (img.width as usize, img.height as usize) != (w, h) {
+    let hdr = read_header(p)?;
+    if (hdr.width as usize, hdr.height as usize) != (w, h) {
         bail!(
             "{}: {}x{} pixels, but the calibrated camera is {w}x{h}",
             p.display(),
-            img.width,
-            img.height
+            hdr.width,
+            hdr.height
         );
     }
+    let (img, _) = read_gray_limited(p, &ReadLimits::sized(w as u32, h as u32))?;
     match img.pixels {
         Pixels::F32(v) => Ok(v),
         _ => bail!("{}: expected a 32-bit float TIFF", p.display()),
     }
 }
 
+/// Check a decode folder's maps against each other: every validity code is known, and every
+/// pixel marked valid has a finite phase.
+fn check_decoded(
+    phase: &[f32],
+    validity: &[u8],
+    w: usize,
+    ppath: &Path,
+    vpath: &Path,
+) -> Result<()> {
+    let unknown = |c: u8| c as usize >= common::CODES;
+    if let Some(i) = validity.iter().position(|&c| unknown(c)) {
+        bail!(
+            "{}: pixel ({}, {}) has validity code {}, but the codes are 0 to {} (docs/formats.md); {} pixels have unknown codes: not a validity map written by `fringe3d decode`",
+            vpath.display(),
+            i % w,
+            i / w,
+            validity[i],
+            common::CODES - 1,
+            validity.iter().filter(|&&c| unknown(c)).count()
+        );
+    }
+    if let Some(i) = (0..phase.len()).find(|&i| validity[i] == 0 && !phase[i].is_finite()) {
+        bail!(
+            "{}: pixel ({}, {}) has phase {}, but {} marks it valid (code 0)",
+            ppath.display(),
+            i % w,
+            i / w,
+            phase[i],
+            vpath.display()
+        );
+    }
+    Ok(())
+}
+
 /// Run `fringe3d reconstruct`.
 pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
+    let out = CloudOut::resolve(&a.cloud.out, a.cloud.format, "--out")?;
     let axis = match a.axis.as_deref() {
         Some("eta") => Axis::Eta,
         Some(_) => Axis::Xi,
@@ -64,31 +100,28 @@ pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
             }
         }
     };
-    let cal = ScanCalibration::load(&a.calibration, axis)?;
+    let cal = common::load_calibration(&a.calibration, axis)?;
     let (w, h) = (cal.width(), cal.height());
-    let phase = read_f32(&a.decoded.join("phase.tif"), w, h)?;
+    let ppath = a.decoded.join("phase.tif");
     let vpath = a.decoded.join("validity.png");
-    let validity: Vec<u8> = if vpath.is_file() {
-        let (img, _) = read_gray(&vpath)?;
-        match img.pixels {
-            Pixels::U8(v) if v.len() == w * h => v,
-            _ => bail!(
-                "{}: expected an 8-bit {w}x{h} validity image",
-                vpath.display()
-            ),
+    for p in [&ppath, &vpath] {
+        if !p.exists() {
+            bail!(
+                "{}: missing; --decoded must be a folder written by `fringe3d decode` (phase.tif and validity.png)",
+                p.display()
+            );
         }
-    } else {
-        phase
-            .iter()
-            .map(|p| {
-                if p.is_finite() {
-                    0
-                } else {
-                    fringe3d_core::Validity::PhaseOutOfRange as u8
-                }
-            })
-            .collect()
+    }
+    let phase = read_f32(&ppath, w, h)?;
+    let (img, _) = read_gray_limited(&vpath, &ReadLimits::sized(w as u32, h as u32))?;
+    let validity = match img.pixels {
+        Pixels::U8(v) if v.len() == w * h => v,
+        _ => bail!(
+            "{}: expected an 8-bit {w}x{h} validity image",
+            vpath.display()
+        ),
     };
+    check_decoded(&phase, &validity, w, &ppath, &vpath)?;
     let opt = |name: &str| -> Result<Vec<f32>> {
         let p = a.decoded.join(name);
         if p.is_file() {
@@ -102,20 +135,23 @@ pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
     apply_edge_filter(&a.cloud, &cal, &mut cloud)?;
     let n = write_cloud(
         &a.cloud,
+        &out,
         &cloud,
         &dc,
         &modulation,
         vec![format!("fringe3d reconstruct of {}", a.decoded.display())],
     )?;
     let hist = common::histogram(&cloud.validity);
+    common::warn_if_empty(&hist, &out.describe(), g.quiet);
     if g.json {
-        println!(
-            "{}",
-            serde_json::json!({"command": "reconstruct", "out": a.cloud.out, "points": n, "validity": common::validity_json(&hist)})
+        cloud_out::say(
+            &out,
+            &serde_json::json!({"command": "reconstruct", "out": a.cloud.out, "points": n, "validity": common::validity_json(&hist)})
+            .to_string(),
         );
     } else if !g.quiet {
-        println!("{}", common::validity_summary(&hist));
-        println!("wrote {n} points to {}", a.cloud.out.display());
+        cloud_out::say(&out, &common::validity_summary(&hist));
+        cloud_out::say(&out, &format!("wrote {n} points to {}", out.describe()));
     }
     Ok(())
 }

@@ -88,13 +88,13 @@ fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
 pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
     if a.list {
         if g.json {
-            println!(
+            outln!(
                 "{}",
                 serde_json::json!({"scenes": BUILTIN_SCENES, "default_rig": default_rig()})
             );
         } else {
             for s in BUILTIN_SCENES {
-                println!("{s}");
+                outln!("{s}");
             }
         }
         return Ok(());
@@ -116,6 +116,7 @@ pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
     };
     let is_file = scene_arg.ends_with(".toml") || Path::new(scene_arg).is_file();
     let scene = if is_file {
+        super::common::input_file(Path::new(scene_arg))?;
         Scene::load(Path::new(scene_arg), &o)?
     } else {
         if !BUILTIN_SCENES.contains(&scene_arg) {
@@ -127,12 +128,13 @@ pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
         Scene::builtin(scene_arg, &o)?
     };
     if a.print {
-        print!("{}", scene.spec.to_toml()?);
+        out!("{}", scene.spec.to_toml()?);
         return Ok(());
     }
     let Some(out) = a.out else {
         bail!("--out DIR is required (or --print to show the scene)");
     };
+    super::common::dir_out(&out, "--out")?;
     let total = planned_rows(&scene);
     let show = !g.quiet && !g.json;
     let bar = indicatif::ProgressBar::hidden();
@@ -172,7 +174,7 @@ pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let secs = start.elapsed().as_secs_f64();
     if g.json {
-        println!(
+        outln!(
             "{}",
             serde_json::json!({
                 "path": summary.path, "scene": scene.spec.name, "kind": summary.kind, "images": summary.images,
@@ -181,7 +183,7 @@ pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
             })
         );
     } else if !g.quiet {
-        println!(
+        outln!(
             "wrote {} ({} images, {} files, {:.1} MB) in {:.1} s",
             summary.path.display(),
             summary.images,

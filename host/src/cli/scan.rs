@@ -1,8 +1,7 @@
 //! `fringe3d scan`: images + calibration → point cloud, in one go (nothing written in between).
 
-use super::cloud_out::{CloudArgs, apply_edge_filter, write_cloud};
+use super::cloud_out::{self, CloudArgs, CloudOut, apply_edge_filter, write_cloud};
 use super::{Global, common};
-use crate::scan::ScanCalibration;
 use anyhow::Result;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -32,10 +31,11 @@ pub struct ScanArgs {
 /// Run `fringe3d scan`.
 pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     let t0 = Instant::now();
+    let out = CloudOut::resolve(&a.cloud.out, a.cloud.format, "--out")?;
     let ls = common::load_set(&a.patterns)?;
     // The calibration (with its reference map) and the images load side by side.
     let (cal, imgs) = rayon::join(
-        || ScanCalibration::load(&a.calibration, ls.set.axis()),
+        || common::load_calibration(&a.calibration, ls.set.axis()),
         || common::load_images(&ls, &a.images, g.quiet),
     );
     let (cal, imgs) = (cal?, imgs?);
@@ -58,26 +58,32 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     let t_recon = t0.elapsed();
     let n = write_cloud(
         &a.cloud,
+        &out,
         &cloud,
         &d.dc,
         &d.modulation,
         vec![format!("fringe3d scan of {}", a.patterns.display())],
     )?;
     let hist = common::histogram(&cloud.validity);
+    common::warn_if_empty(&hist, &out.describe(), g.quiet);
     if g.json {
-        println!(
-            "{}",
-            serde_json::json!({"command": "scan", "out": a.cloud.out, "points": n, "width": cloud.width, "height": cloud.height,
+        cloud_out::say(
+            &out,
+            &serde_json::json!({"command": "scan", "out": a.cloud.out, "points": n, "width": cloud.width, "height": cloud.height,
                 "validity": common::validity_json(&hist),
                 "seconds": {"load": t_load.as_secs_f64(), "decode": (t_decode - t_load).as_secs_f64(),
                             "reconstruct": (t_recon - t_decode).as_secs_f64(), "total": t0.elapsed().as_secs_f64()}})
+            .to_string(),
         );
     } else if !g.quiet {
-        println!("{}", common::validity_summary(&hist));
-        println!(
-            "wrote {n} points to {} in {:.0} ms",
-            a.cloud.out.display(),
-            t0.elapsed().as_secs_f64() * 1e3
+        cloud_out::say(&out, &common::validity_summary(&hist));
+        cloud_out::say(
+            &out,
+            &format!(
+                "wrote {n} points to {} in {:.0} ms",
+                out.describe(),
+                t0.elapsed().as_secs_f64() * 1e3
+            ),
         );
     }
     Ok(())

@@ -60,6 +60,7 @@ fn parse_size(s: &str) -> Result<(u32, u32)> {
 
 /// Run `fringe3d vectors`.
 pub fn run(a: VectorsArgs, g: Global) -> Result<()> {
+    super::common::dir_out(&a.out, "--out")?;
     let opts = VectorOptions {
         scene: a.scene.clone(),
         size: parse_size(&a.size)?,
@@ -75,7 +76,7 @@ pub fn run(a: VectorsArgs, g: Global) -> Result<()> {
     };
     let say = |s: String| {
         if !g.quiet && !g.json {
-            println!("{s}");
+            outln!("{s}");
         }
     };
     if a.verify {
@@ -101,7 +102,7 @@ pub fn run(a: VectorsArgs, g: Global) -> Result<()> {
                 .iter()
                 .map(|m| serde_json::json!({"path": m.path, "what": m.what}))
                 .collect();
-            println!(
+            outln!(
                 "{}",
                 serde_json::json!({"command": "vectors", "verify": a.out, "files": fresh.files.len(), "mismatches": list})
             );
@@ -115,14 +116,14 @@ pub fn run(a: VectorsArgs, g: Global) -> Result<()> {
             return Ok(());
         }
         for m in &bad {
-            eprintln!("{}: {}", m.path, m.what);
+            errln!("{}: {}", m.path, m.what);
         }
         bail!("{}: {} file(s) differ", a.out.display(), bad.len());
     }
     let v = vectors::generate_into(&opts, &a.out, a.overwrite)?;
     let bytes: usize = v.files.iter().map(|f| f.bytes.len()).sum();
     if g.json {
-        println!(
+        outln!(
             "{}",
             serde_json::json!({"command": "vectors", "out": a.out, "files": v.files.len(), "bytes": bytes, "width": v.width, "height": v.height})
         );

@@ -111,7 +111,8 @@ impl FormatError {
 
 /// Read a whole text file.
 pub(crate) fn read_text(path: &Path) -> Result<String, FormatError> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, "cannot read", e))?;
+    let bytes = super::input::read_limited(path, super::input::MAX_TEXT_BYTES)
+        .map_err(|e| FormatError::io(path, "cannot read", e))?;
     let mut text = String::from_utf8(bytes)
         .map_err(|e| FormatError::parse(path, format!("not UTF-8 text: {e}")))?;
     if text.starts_with('\u{feff}') {

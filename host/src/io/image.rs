@@ -12,11 +12,68 @@
 //! ([`ReadInfo::dropped_alpha`]). 16-bit PNGs whose `sBIT` chunk declares fewer significant bits
 //! (12-bit sensors stored unscaled) report them in [`GrayImage::significant_bits`].
 //!
+//! Readers check the size a file declares before they allocate anything for its pixels: against
+//! the size the caller expects ([`ReadLimits::size`]: the first image of a set, the calibrated
+//! camera) and against a cap of [`MAX_PIXELS`] pixels (16384 × 16384, `render`'s largest size),
+//! so a small file that declares a huge image (a decompression bomb) is refused at once.
+//! [`read_header`] reads only the declared format and size.
+//!
 //! Writers go through [`crate::io::atomic::write_atomic`]: a file is either complete or absent.
 //! The `encode_*` functions return the file bytes instead (for hashing or embedding).
 
+use crate::io::input::{MAX_IMAGE_BYTES, open_regular, read_limited};
 use std::io::{BufReader, Cursor, Read};
 use std::path::{Path, PathBuf};
+
+mod read_bmp;
+mod read_png;
+mod read_tiff;
+
+/// The most pixels an image may declare: 16384 × 16384 (the largest `render --size`).
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// The most bytes a reader may decode an image into before it is reduced to gray (e.g. a
+/// 16384 × 16384 gray float TIFF is 1 GiB; RGB(A) files of that size are refused).
+pub const MAX_DECODED_BYTES: u64 = 2 << 30;
+
+/// What a reader accepts: checked against the header, before any pixel is allocated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReadLimits {
+    /// The most pixels (width × height) the image may declare.
+    pub max_pixels: u64,
+    /// The exact size the image must have, when the caller knows it.
+    pub size: Option<(u32, u32)>,
+}
+
+impl Default for ReadLimits {
+    fn default() -> Self {
+        ReadLimits {
+            max_pixels: MAX_PIXELS,
+            size: None,
+        }
+    }
+}
+
+impl ReadLimits {
+    /// The default cap and an exact expected size.
+    pub fn sized(width: u32, height: u32) -> Self {
+        ReadLimits {
+            size: Some((width, height)),
+            ..Self::default()
+        }
+    }
+}
+
+/// The format and size an image file declares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageHeader {
+    /// The format.
+    pub format: ImageFormat,
+    /// Declared width, pixels.
+    pub width: u32,
+    /// Declared height, pixels.
+    pub height: u32,
+}
 
 /// Why an image could not be read or written. Every variant names the file.
 #[derive(Debug, thiserror::Error)]
@@ -44,6 +101,34 @@ pub enum ImageError {
         format: &'static str,
         /// What went wrong.
         message: String,
+    },
+    /// The file declares more pixels than the reader accepts ([`ReadLimits::max_pixels`]).
+    #[error(
+        "{path}: declares {width}x{height} pixels, more than the {max} (16384x16384) an image may have; not decoded"
+    )]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+        /// The cap.
+        max: u64,
+    },
+    /// The file declares another size than the caller expects ([`ReadLimits::size`]).
+    #[error("{path}: {width}x{height} pixels, expected {expected_width}x{expected_height}")]
+    WrongSize {
+        /// The file.
+        path: PathBuf,
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+        /// Expected width.
+        expected_width: u32,
+        /// Expected height.
+        expected_height: u32,
     },
     /// The pixel buffer handed to a writer does not match the stated size.
     #[error("{path}: {got} samples given for a {width}x{height} image (need {need})")]
@@ -149,327 +234,126 @@ fn decode_err(path: &Path, format: &'static str, message: impl std::fmt::Display
     }
 }
 
-/// Read a gray image from `path` (format by signature, not by extension).
-pub fn read_gray(path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| BufReader::new(f).read_to_end(&mut bytes))
-        .map_err(|source| ImageError::Io {
+/// Check a declared size against `lim`, before anything is allocated for it.
+fn check_dims(path: &Path, width: u32, height: u32, lim: &ReadLimits) -> Result<(), ImageError> {
+    if width == 0 || height == 0 {
+        return Err(ImageError::Decode {
             path: path.to_path_buf(),
-            source,
-        })?;
-    decode_gray(&bytes, path)
+            format: "image",
+            message: format!("declares an empty {width}x{height} image"),
+        });
+    }
+    if u64::from(width) * u64::from(height) > lim.max_pixels {
+        return Err(ImageError::TooLarge {
+            path: path.to_path_buf(),
+            width,
+            height,
+            max: lim.max_pixels,
+        });
+    }
+    if let Some((ew, eh)) = lim.size
+        && (ew, eh) != (width, height)
+    {
+        return Err(ImageError::WrongSize {
+            path: path.to_path_buf(),
+            width,
+            height,
+            expected_width: ew,
+            expected_height: eh,
+        });
+    }
+    Ok(())
 }
 
-/// Decode a gray image from file bytes; `path` is used in error messages only.
-pub fn decode_gray(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
+/// The file's bytes: a regular file of at most [`MAX_IMAGE_BYTES`] (never a device or a FIFO).
+fn read_file(path: &Path) -> Result<Vec<u8>, ImageError> {
+    read_limited(path, MAX_IMAGE_BYTES).map_err(|source| ImageError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Read a gray image from `path` (format by signature, not by extension), with the default
+/// [`ReadLimits`].
+pub fn read_gray(path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
+    read_gray_limited(path, &ReadLimits::default())
+}
+
+/// Read a gray image from `path`, refusing (before decoding) a declared size that `lim` does not
+/// accept.
+pub fn read_gray_limited(
+    path: &Path,
+    lim: &ReadLimits,
+) -> Result<(GrayImage, ReadInfo), ImageError> {
+    let bytes = read_file(path)?;
+    decode_gray_limited(&bytes, path, lim)
+}
+
+/// The format and declared size of the image at `path`, from its header only (the pixels are
+/// not read).
+pub fn read_header(path: &Path) -> Result<ImageHeader, ImageError> {
+    let io = |source| ImageError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let (mut f, _) = open_regular(path).map_err(io)?;
+    let mut head = Vec::with_capacity(64);
+    (&mut f).take(64).read_to_end(&mut head).map_err(io)?;
+    match format_of(&head) {
+        Some(ImageFormat::Png) => read_png::header(&head, path),
+        Some(ImageFormat::Bmp) => read_bmp::header(&head, path),
+        Some(ImageFormat::Tiff) => {
+            use std::io::Seek;
+            f.seek(std::io::SeekFrom::Start(0)).map_err(io)?;
+            read_tiff::header(BufReader::new(f), path)
+        }
+        None => Err(ImageError::UnknownFormat {
+            path: path.to_path_buf(),
+        }),
+    }
+}
+
+/// The format a file's first bytes announce.
+fn format_of(bytes: &[u8]) -> Option<ImageFormat> {
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        decode_png(bytes, path)
+        Some(ImageFormat::Png)
     } else if bytes.starts_with(b"II*\0")
         || bytes.starts_with(b"MM\0*")
         || bytes.starts_with(b"II+\0")
         || bytes.starts_with(b"MM\0+")
     {
-        decode_tiff(bytes, path)
+        Some(ImageFormat::Tiff)
     } else if bytes.starts_with(b"BM") {
-        decode_bmp(bytes, path)
+        Some(ImageFormat::Bmp)
     } else {
-        Err(ImageError::UnknownFormat {
+        None
+    }
+}
+
+/// Decode a gray image from file bytes; `path` is used in error messages only.
+pub fn decode_gray(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
+    decode_gray_limited(bytes, path, &ReadLimits::default())
+}
+
+/// Decode a gray image from file bytes within `lim`; `path` is used in error messages only.
+pub fn decode_gray_limited(
+    bytes: &[u8],
+    path: &Path,
+    lim: &ReadLimits,
+) -> Result<(GrayImage, ReadInfo), ImageError> {
+    match format_of(bytes) {
+        Some(ImageFormat::Png) => read_png::decode(bytes, path, lim),
+        Some(ImageFormat::Tiff) => read_tiff::decode(bytes, path, lim),
+        Some(ImageFormat::Bmp) => read_bmp::decode(bytes, path, lim),
+        None => Err(ImageError::UnknownFormat {
             path: path.to_path_buf(),
-        })
+        }),
     }
 }
 
 /// Rec. 601 luma of 8-bit or 16-bit samples, rounded to the nearest code.
 fn luma(r: f64, g: f64, b: f64) -> f64 {
     (0.299 * r + 0.587 * g + 0.114 * b).round()
-}
-
-fn decode_png(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
-    let mut dec = png::Decoder::new(Cursor::new(bytes));
-    dec.set_transformations(png::Transformations::EXPAND);
-    let mut reader = dec.read_info().map_err(|e| decode_err(path, "PNG", e))?;
-    let sbit = reader.info().sbit.as_ref().map(|s| s.to_vec());
-    let size = reader
-        .output_buffer_size()
-        .ok_or_else(|| decode_err(path, "PNG", "image too large for this machine"))?;
-    let mut buf = vec![0u8; size];
-    let info = reader
-        .next_frame(&mut buf)
-        .map_err(|e| decode_err(path, "PNG", e))?;
-    buf.truncate(info.buffer_size());
-    let (w, h) = (info.width, info.height);
-    let n = w as usize * h as usize;
-    let (channels, color, alpha) = match info.color_type {
-        png::ColorType::Grayscale => (1, false, false),
-        png::ColorType::GrayscaleAlpha => (2, false, true),
-        png::ColorType::Rgb => (3, true, false),
-        png::ColorType::Rgba => (4, true, true),
-        png::ColorType::Indexed => return Err(decode_err(path, "PNG", "palette was not expanded")),
-    };
-    let sixteen = info.bit_depth == png::BitDepth::Sixteen;
-    let line = info.line_size;
-    let bps = if sixteen { 2 } else { 1 };
-    let sample = |y: usize, x: usize, c: usize| -> f64 {
-        let off = y * line + (x * channels + c) * bps;
-        if sixteen {
-            u16::from_be_bytes([buf[off], buf[off + 1]]) as f64
-        } else {
-            buf[off] as f64
-        }
-    };
-    if buf.len() < line * h as usize {
-        return Err(decode_err(path, "PNG", "truncated image data"));
-    }
-    let mut out16 = Vec::new();
-    let mut out8 = Vec::new();
-    if channels == 1 {
-        // Grayscale (the common case): the rows as they are, without the per-sample path below.
-        let rows = buf
-            .chunks_exact(line)
-            .take(h as usize)
-            .map(|r| &r[..w as usize * bps]);
-        if sixteen {
-            out16.reserve_exact(n);
-            for r in rows {
-                out16.extend(r.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]])));
-            }
-        } else {
-            out8.reserve_exact(n);
-            for r in rows {
-                out8.extend_from_slice(r);
-            }
-        }
-    } else {
-        for y in 0..h as usize {
-            for x in 0..w as usize {
-                let v = if color {
-                    luma(sample(y, x, 0), sample(y, x, 1), sample(y, x, 2))
-                } else {
-                    sample(y, x, 0)
-                };
-                if sixteen {
-                    out16.push(v as u16);
-                } else {
-                    out8.push(v as u8);
-                }
-            }
-        }
-    }
-    let full_bits = if sixteen { 16 } else { 8 };
-    // sBIT: one byte per channel; for gray the first is the gray channel's significant bits.
-    let significant_bits = match sbit.as_deref() {
-        Some([b, ..]) if !color && *b >= 1 && *b <= full_bits => *b,
-        _ => full_bits,
-    };
-    let pixels = if sixteen {
-        Pixels::U16(out16)
-    } else {
-        Pixels::U8(out8)
-    };
-    debug_assert_eq!(pixels.len(), n);
-    Ok((
-        GrayImage {
-            width: w,
-            height: h,
-            pixels,
-            significant_bits,
-        },
-        ReadInfo {
-            format: ImageFormat::Png,
-            converted_from_color: color,
-            dropped_alpha: alpha,
-        },
-    ))
-}
-
-fn decode_tiff(bytes: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
-    use tiff::ColorType as C;
-    use tiff::decoder::DecodingResult as D;
-    let err = |e: tiff::TiffError| decode_err(path, "TIFF", e);
-    let mut dec = tiff::decoder::Decoder::new(Cursor::new(bytes)).map_err(err)?;
-    let (w, h) = dec.dimensions().map_err(err)?;
-    let ct = dec.colortype().map_err(err)?;
-    let (channels, color, alpha) = match ct {
-        C::Gray(_) => (1usize, false, false),
-        C::GrayA(_) => (2, false, true),
-        C::RGB(_) => (3, true, false),
-        C::RGBA(_) => (4, true, true),
-        other => {
-            return Err(decode_err(
-                path,
-                "TIFF",
-                format!("unsupported colour type {other:?}"),
-            ));
-        }
-    };
-    let data = dec.read_image().map_err(err)?;
-    let n = w as usize * h as usize;
-    let short = || decode_err(path, "TIFF", "fewer samples than the image size needs");
-    let info = ReadInfo {
-        format: ImageFormat::Tiff,
-        converted_from_color: color,
-        dropped_alpha: alpha,
-    };
-    macro_rules! reduce {
-        ($v:expr, $conv:expr) => {{
-            let v = $v;
-            if v.len() < n * channels {
-                return Err(short());
-            }
-            (0..n)
-                .map(|i| {
-                    let s = &v[i * channels..];
-                    if color {
-                        $conv(luma(s[0] as f64, s[1] as f64, s[2] as f64))
-                    } else {
-                        s[0]
-                    }
-                })
-                .collect::<Vec<_>>()
-        }};
-    }
-    let (pixels, bits) = match data {
-        D::U8(v) => (Pixels::U8(reduce!(v, |x: f64| x as u8)), 8),
-        D::U16(v) => (Pixels::U16(reduce!(v, |x: f64| x as u16)), 16),
-        D::F32(v) => (Pixels::F32(reduce!(v, |x: f64| x as f32)), 32),
-        D::F64(v) => {
-            if v.len() < n * channels {
-                return Err(short());
-            }
-            let v: Vec<f32> = (0..n)
-                .map(|i| {
-                    let s = &v[i * channels..];
-                    if color {
-                        (0.299 * s[0] + 0.587 * s[1] + 0.114 * s[2]) as f32
-                    } else {
-                        s[0] as f32
-                    }
-                })
-                .collect();
-            (Pixels::F32(v), 32)
-        }
-        _ => {
-            return Err(decode_err(
-                path,
-                "TIFF",
-                format!("unsupported sample format for colour type {ct:?}"),
-            ));
-        }
-    };
-    Ok((
-        GrayImage {
-            width: w,
-            height: h,
-            pixels,
-            significant_bits: bits,
-        },
-        info,
-    ))
-}
-
-fn decode_bmp(b: &[u8], path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
-    let bad = |m: &str| decode_err(path, "BMP", m);
-    let u16_at = |o: usize| -> Result<u16, ImageError> {
-        b.get(o..o + 2)
-            .map(|s| u16::from_le_bytes([s[0], s[1]]))
-            .ok_or_else(|| bad("truncated header"))
-    };
-    let u32_at = |o: usize| -> Result<u32, ImageError> {
-        b.get(o..o + 4)
-            .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
-            .ok_or_else(|| bad("truncated header"))
-    };
-    let data_off = u32_at(10)? as usize;
-    let hdr = u32_at(14)? as usize;
-    if hdr < 40 {
-        return Err(bad("OS/2 bitmap headers are not supported"));
-    }
-    let w = u32_at(18)? as i32;
-    let h_raw = u32_at(22)? as i32;
-    let bpp = u16_at(28)?;
-    let compression = u32_at(30)?;
-    if w <= 0 || h_raw == 0 || h_raw == i32::MIN {
-        return Err(bad("invalid image size"));
-    }
-    let (w, top_down, h) = (w as usize, h_raw < 0, h_raw.unsigned_abs() as usize);
-    if compression != 0 && !(compression == 3 && bpp == 32) {
-        return Err(bad("compressed (RLE) bitmaps are not supported"));
-    }
-    let stride = (w * bpp as usize).div_ceil(32) * 4;
-    let need = data_off.checked_add(
-        stride
-            .checked_mul(h)
-            .ok_or_else(|| bad("image too large"))?,
-    );
-    if need.is_none_or(|n| n > b.len()) {
-        return Err(bad("truncated pixel data"));
-    }
-    let mut out = vec![0u8; w * h];
-    let color;
-    match bpp {
-        8 => {
-            let mut n_colors = u32_at(46)? as usize;
-            if n_colors == 0 {
-                n_colors = 256;
-            }
-            let pal_off = 14 + hdr;
-            let mut pal = [[0u8; 3]; 256];
-            let mut gray = true;
-            for (i, p) in pal.iter_mut().enumerate().take(n_colors.min(256)) {
-                let e = b
-                    .get(pal_off + 4 * i..pal_off + 4 * i + 3)
-                    .ok_or_else(|| bad("truncated palette"))?;
-                *p = [e[2], e[1], e[0]];
-                gray &= e[0] == e[1] && e[1] == e[2];
-            }
-            color = !gray;
-            for y in 0..h {
-                let src_y = if top_down { y } else { h - 1 - y };
-                let row = &b[data_off + src_y * stride..];
-                for x in 0..w {
-                    let [r, g, bl] = pal[row[x] as usize];
-                    out[y * w + x] = if gray {
-                        r
-                    } else {
-                        luma(r as f64, g as f64, bl as f64) as u8
-                    };
-                }
-            }
-        }
-        24 | 32 => {
-            color = true;
-            let step = bpp as usize / 8;
-            for y in 0..h {
-                let src_y = if top_down { y } else { h - 1 - y };
-                let row = &b[data_off + src_y * stride..];
-                for x in 0..w {
-                    let p = &row[x * step..];
-                    out[y * w + x] = luma(p[2] as f64, p[1] as f64, p[0] as f64) as u8;
-                }
-            }
-        }
-        other => {
-            return Err(decode_err(
-                path,
-                "BMP",
-                format!("{other}-bit bitmaps are not supported"),
-            ));
-        }
-    }
-    Ok((
-        GrayImage {
-            width: w as u32,
-            height: h as u32,
-            pixels: Pixels::U8(out),
-            significant_bits: 8,
-        },
-        ReadInfo {
-            format: ImageFormat::Bmp,
-            converted_from_color: color,
-            dropped_alpha: false,
-        },
-    ))
 }
 
 fn check_size(path: &Path, got: usize, width: u32, height: u32) -> Result<(), ImageError> {

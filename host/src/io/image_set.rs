@@ -2,7 +2,7 @@
 //! the count matches the pattern set, all sizes and bit depths agree, no float images. Every
 //! error names the offending file.
 
-use crate::io::image::{GrayImage, ImageError, Pixels, read_gray};
+use crate::io::image::{GrayImage, ImageError, Pixels, ReadLimits, read_gray_limited, read_header};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -152,9 +152,33 @@ pub fn load(paths: &[PathBuf], expected: usize, what: &str) -> Result<ImageSet, 
             got: paths.len(),
         });
     }
+    // Every declared size first, from the headers alone: all must be the first image's (which
+    // is itself capped), so nothing larger than one frame per image is ever decoded.
+    let Some(first) = paths.first() else {
+        return Err(ImageSetError::Count {
+            what: what.to_string(),
+            expected,
+            got: 0,
+        });
+    };
+    let h0 = read_header(first)?;
+    for p in &paths[1..] {
+        let h = read_header(p)?;
+        if (h.width, h.height) != (h0.width, h0.height) {
+            return Err(ImageSetError::Size {
+                path: p.clone(),
+                width: h.width,
+                height: h.height,
+                first: first.clone(),
+                w0: h0.width,
+                h0: h0.height,
+            });
+        }
+    }
+    let lim = ReadLimits::sized(h0.width, h0.height);
     let read: Vec<(GrayImage, crate::io::image::ReadInfo)> = paths
         .par_iter()
-        .map(|p| read_gray(p))
+        .map(|p| read_gray_limited(p, &lim))
         .collect::<Result<_, _>>()?;
     let mut warnings = Vec::new();
     let (w0, h0, b0) = match read.first() {
