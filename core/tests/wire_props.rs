@@ -114,8 +114,8 @@ fn calibration(r: &mut XorShift64) -> Calibration {
     let depth_min = r.below(2_000_000) as f64 / 1024.0 - 1000.0;
     Calibration {
         camera: CameraParams {
-            width: 1 + r.below(65535) as u32,
-            height: 1 + r.below(65535) as u32,
+            width: 1 + r.below(65535),
+            height: 1 + r.below(65535),
             fx: positive(r),
             fy: positive(r),
             cx: finite(r),
