@@ -4,8 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::{
-    Body, Invalid, Level, MAX_KNOTS, MAX_LEVELS, MAX_SHIFTS, PatternSetDesc, PhaseProfile, Shifts,
-    WireError, bit_depth_ok, check, finite64,
+    Body, Invalid, Level, MAX_BIT_DEPTH, MAX_KNOTS, MAX_LEVELS, MAX_SHIFTS, PatternSetDesc,
+    PhaseProfile, Shifts, WireError, check, finite64,
 };
 
 impl Shifts {
@@ -31,8 +31,15 @@ impl PatternSetDesc {
     /// continuous phase, coarse range, scales increasing, shifts separating the unknowns) is
     /// checked by [`PatternSetDesc::to_set`].
     pub fn validate(&self) -> Result<(), WireError> {
+        self.validate_up_to(MAX_BIT_DEPTH)
+    }
+
+    /// [`PatternSetDesc::validate`] for projectors of up to `max_bits` bits: the head renders
+    /// 1..=[`MAX_BIT_DEPTH`]-bit patterns, a set-up blob describes the projector the camera saw,
+    /// up to the core's 16 bits.
+    pub(crate) fn validate_up_to(&self, max_bits: u8) -> Result<(), WireError> {
         check(self.width >= 1 && self.height >= 1, Invalid::Dimension)?;
-        check(bit_depth_ok(self.bit_depth), Invalid::BitDepth)?;
+        check((1..=max_bits).contains(&self.bit_depth), Invalid::BitDepth)?;
         let p = &self.phase;
         finite64(&[
             self.i_min,
