@@ -130,7 +130,17 @@ impl PatternSetDesc {
     /// holds it, so [`PatternSetDesc::to_set`] gives `set` back bit for bit (in the core's
     /// default image order).
     pub fn from_set(set: &PatternSet, bit_depth: u32) -> Result<Self, DescError> {
-        if !(1..=MAX_BIT_DEPTH as u32).contains(&bit_depth) {
+        Self::from_set_up_to(set, bit_depth, MAX_BIT_DEPTH)
+    }
+
+    /// [`PatternSetDesc::from_set`] for projectors of up to `max_bits` bits (the set-up blob's
+    /// 16).
+    pub(crate) fn from_set_up_to(
+        set: &PatternSet,
+        bit_depth: u32,
+        max_bits: u8,
+    ) -> Result<Self, DescError> {
+        if !(1..=max_bits as u32).contains(&bit_depth) {
             return Err(DescError::BitDepth(bit_depth));
         }
         let f = set.function();
@@ -182,7 +192,7 @@ impl PatternSetDesc {
             level_count: levels.len().min(MAX_LEVELS) as u8,
             levels: wl,
         };
-        d.validate()
+        d.validate_up_to(max_bits)
             .map_err(|e| DescError::Invalid(invalid_of(e)))?;
         Ok(d)
     }
@@ -208,7 +218,12 @@ impl PatternSetDesc {
     /// [`PatternSet::new`] over the projector (monotonic, continuous, coarse range, shifts).
     /// Errors are the wire's [`Invalid`] codes (a Nak's detail).
     pub fn to_set(&self) -> Result<PatternSet, Invalid> {
-        self.validate().map_err(invalid_of)?;
+        self.build_set_up_to(MAX_BIT_DEPTH)
+    }
+
+    /// [`PatternSetDesc::to_set`] for projectors of up to `max_bits` bits (the set-up blob's 16).
+    pub(crate) fn build_set_up_to(&self, max_bits: u8) -> Result<PatternSet, Invalid> {
+        self.validate_up_to(max_bits).map_err(invalid_of)?;
         let function = self.phase_function()?;
         let n = self.level_count as usize;
         let mut levels = [pattern::Level::with_shifts(0.0, &[]); MAX_LEVELS];

@@ -18,6 +18,10 @@
 //! [`link`] has test doubles: a [`Loopback`] ring and a seeded [`FaultInjector`], both
 //! `embedded-io` readers/writers.
 //!
+//! Besides the link, [`setup`] defines the head set-up blob: the same parameter types (pattern
+//! set, calibration, decoder thresholds, edge filter) in one versioned, CRC-checked byte string
+//! a head loads at start ([`HeadSetup::parse`]; `docs/setup-blob.md`).
+//!
 //! # Byte layout (for a C integrator)
 //!
 //! ## On the line
@@ -135,6 +139,7 @@ pub mod header;
 pub mod link;
 pub mod message;
 mod packet;
+pub mod setup;
 
 pub use desc::{DescError, image_index};
 pub use frame::{DecoderStats, FrameDecoder, MAX_ENCODED_FRAME, MAX_FRAME, MIN_FRAME};
@@ -142,6 +147,9 @@ pub use header::{Flags, HEADER_LEN, Header, PROTOCOL_VERSION};
 pub use link::{FaultConfig, FaultInjector, FaultStats, Loopback, LoopbackError, XorShift64};
 pub use message::*;
 pub use packet::{Packet, check_header, emit_packet, parse_packet};
+pub use setup::{
+    CaptureOrder, DecodeThresholds, EdgeFilterParams, FrameFormat, HeadSetup, SetupError,
+};
 
 /// Largest payload of one frame, bytes.
 pub const MAX_PAYLOAD: usize = 4096;

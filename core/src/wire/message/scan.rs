@@ -1,0 +1,191 @@
+//! Scanning: the scan request, the result rows streamed back and the end-of-scan summary.
+
+use serde::{Deserialize, Serialize};
+
+use super::{Body, Invalid, MAX_ROW_DATA, WireError, check, finite64};
+use crate::Validity;
+
+/// What a scan streams back.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ScanOutput {
+    /// Absolute phase rows (wire value 0).
+    Phase,
+    /// Point rows (wire value 1).
+    Points,
+    /// Both, phase row first (wire value 2).
+    Both,
+}
+
+/// Whether a point scan runs the depth-edge filter ([`EdgeFilter`](crate::filter::EdgeFilter),
+/// as `fringe3d scan` does by default).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum EdgeFilterMode {
+    /// No filter (wire value 0).
+    Off,
+    /// Flag points steeper than this many degrees from facing the camera, `0 < angle < 90`
+    /// (wire value 1, then the f64).
+    MaxAngle(f64),
+}
+
+/// Host → head: run the configured sequence, decode, stream rows.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ScanRequest {
+    /// What to stream.
+    pub output: ScanOutput,
+    /// First camera row to stream.
+    pub first_row: u16,
+    /// Number of rows (0 = to the last row).
+    pub row_count: u16,
+    /// The depth-edge filter of point rows (ignored for phase rows).
+    pub edge_filter: EdgeFilterMode,
+}
+
+impl ScanRequest {
+    /// Check the filter angle.
+    pub fn validate(&self) -> Result<(), WireError> {
+        match self.edge_filter {
+            EdgeFilterMode::Off => Ok(()),
+            EdgeFilterMode::MaxAngle(a) => {
+                finite64(&[a])?;
+                check(a > 0.0 && a < 90.0, Invalid::EdgeFilter)
+            }
+        }
+    }
+}
+
+/// The kind of a [`ResultRow`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RowKind {
+    /// One f32 per column: the absolute phase (wire value 0).
+    Phase,
+    /// Three f32 per column: x, y, z in mm, camera frame (wire value 1).
+    Points,
+}
+
+impl RowKind {
+    /// f32 values per column.
+    pub const fn components(self) -> usize {
+        match self {
+            RowKind::Phase => 1,
+            RowKind::Points => 3,
+        }
+    }
+
+    /// Data bytes per column: the f32s and one validity byte.
+    pub const fn stride(self) -> usize {
+        4 * self.components() + 1
+    }
+}
+
+/// Head → host: a segment of one result row, columns `first_col ..`.
+///
+/// `data` holds `n` columns: first `n · components` little-endian f32s (points interleaved
+/// x, y, z), then `n` [`Validity`] bytes. A row wider than [`MAX_ROW_DATA`] allows is sent as
+/// several segments with increasing `first_col`. Like every frame answering a Scan except the
+/// final [`ScanDone`], row frames carry [`Flags::MORE_FOLLOWS`](crate::wire::Flags::MORE_FOLLOWS).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ResultRow<'a> {
+    /// Camera row.
+    pub row: u16,
+    /// Column of the segment's first value.
+    pub first_col: u16,
+    /// Phase or points.
+    pub kind: RowKind,
+    /// Values then validity bytes, `n · kind.stride()` bytes, `1..=MAX_ROW_DATA`.
+    pub data: &'a [u8],
+}
+
+impl<'a> ResultRow<'a> {
+    /// Lay out `values` (`n · kind.components()` f32s) and `validity` (`n` codes) into `out` as a
+    /// row segment's `data`; returns the data slice.
+    pub fn write_data<'o>(
+        kind: RowKind,
+        values: &[f32],
+        validity: &[Validity],
+        out: &'o mut [u8],
+    ) -> Result<&'o [u8], WireError> {
+        let n = validity.len();
+        check(values.len() == n * kind.components(), Invalid::RowData)?;
+        let vbytes = values.len() * 4;
+        let out = out
+            .get_mut(..n * kind.stride())
+            .ok_or(WireError::BufferTooSmall)?;
+        let (vals, codes) = out.split_at_mut(vbytes);
+        for (x, dst) in values.iter().zip(vals.chunks_exact_mut(4)) {
+            dst.copy_from_slice(&x.to_le_bytes());
+        }
+        for (v, dst) in validity.iter().zip(codes.iter_mut()) {
+            *dst = *v as u8;
+        }
+        Ok(out)
+    }
+
+    /// Number of columns in the segment.
+    pub const fn columns(&self) -> usize {
+        self.data.len() / self.kind.stride()
+    }
+
+    /// Component `comp` of column `i` (relative to `first_col`).
+    pub fn value(&self, i: usize, comp: usize) -> Option<f32> {
+        let k = self.kind.components();
+        if comp >= k || i >= self.columns() {
+            return None;
+        }
+        let at = (i * k + comp) * 4;
+        let b = self.data.get(at..at + 4)?;
+        Some(f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    }
+
+    /// Validity of column `i` (relative to `first_col`).
+    pub fn validity(&self, i: usize) -> Option<Validity> {
+        let n = self.columns();
+        if i >= n {
+            return None;
+        }
+        let b = *self.data.get(n * 4 * self.kind.components() + i)?;
+        Validity::from_u8(b)
+    }
+
+    /// Check the length and the validity codes.
+    pub fn validate(&self) -> Result<(), WireError> {
+        let stride = self.kind.stride();
+        let len = self.data.len();
+        check(
+            (1..=MAX_ROW_DATA).contains(&len) && len.is_multiple_of(stride),
+            Invalid::RowData,
+        )?;
+        let n = len / stride;
+        check(
+            self.first_col as usize + n <= u16::MAX as usize + 1,
+            Invalid::RowData,
+        )?;
+        let codes = &self.data[n * 4 * self.kind.components()..];
+        check(
+            codes.iter().all(|&b| Validity::from_u8(b).is_some()),
+            Invalid::ValidityCode,
+        )
+    }
+}
+
+/// Head → host: the scan finished (after its last [`ResultRow`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ScanDone {
+    /// Rows streamed.
+    pub rows: u16,
+    /// Valid pixels (phase) or points over all rows.
+    pub valid: u32,
+}
+
+impl Body for ScanRequest {
+    fn validate_body(&self) -> Result<(), WireError> {
+        self.validate()
+    }
+}
+
+impl Body for ResultRow<'_> {
+    fn validate_body(&self) -> Result<(), WireError> {
+        self.validate()
+    }
+}
+
+impl Body for ScanDone {}

@@ -1,0 +1,155 @@
+//! Uploads: pattern images and the reference phase map, chunk by chunk, digest-checked.
+
+use serde::{Deserialize, Serialize};
+
+use super::{Body, Invalid, MAX_CHUNK, PHASE_MAP_BYTES_PER_PIXEL, WireError, bit_depth_ok, check};
+use crate::wire::crc::crc32c;
+#[cfg(doc)]
+use {
+    super::{Command, ResultRow},
+    crate::Validity,
+};
+
+/// What an upload fills.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum UploadTarget {
+    /// The images of pattern set `set_id` (wire value 0, then the u8).
+    PatternSet(u8),
+    /// The reference phase map (wire value 1).
+    PhaseMap,
+}
+
+/// Host → head: start uploading explicit pattern images into set `set_id`.
+///
+/// The data is `image_count` images of `height` rows of `width` pixels, one byte per pixel, images
+/// in projection order; `digest` is the CRC-32C of all of it. The head answers with an
+/// [`UploadAck`] at offset 0 and never uses the set before a [`Command::ConfirmUpload`] whose
+/// digest check passed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BeginUpload {
+    /// Slot.
+    pub set_id: u8,
+    /// Number of images, `>= 1`.
+    pub image_count: u16,
+    /// Image width, `>= 1`.
+    pub width: u16,
+    /// Image height, `>= 1`.
+    pub height: u16,
+    /// Significant bits per pixel, `1..=MAX_BIT_DEPTH`.
+    pub bit_depth: u8,
+    /// `image_count · width · height`.
+    pub total_bytes: u32,
+    /// CRC-32C of all image bytes.
+    pub digest: u32,
+}
+
+impl BeginUpload {
+    /// Check the fields' ranges and `total_bytes`.
+    pub fn validate(&self) -> Result<(), WireError> {
+        check(
+            self.image_count >= 1 && self.width >= 1 && self.height >= 1,
+            Invalid::Dimension,
+        )?;
+        check(bit_depth_ok(self.bit_depth), Invalid::BitDepth)?;
+        let want = self.image_count as u64 * self.width as u64 * self.height as u64;
+        check(want == self.total_bytes as u64, Invalid::TotalBytes)
+    }
+}
+
+/// Host → head: start uploading the reference phase map.
+///
+/// The data is `height` rows, each `width` little-endian f32 phases then `width` validity bytes
+/// ([`Validity`] codes), as in a phase [`ResultRow`]; `digest` is the CRC-32C of all of it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BeginPhaseMap {
+    /// Map width (the camera's), `>= 1`.
+    pub width: u16,
+    /// Map height, `>= 1`.
+    pub height: u16,
+    /// `width · height · PHASE_MAP_BYTES_PER_PIXEL`.
+    pub total_bytes: u32,
+    /// CRC-32C of all bytes.
+    pub digest: u32,
+}
+
+impl BeginPhaseMap {
+    /// Check the fields' ranges and `total_bytes`.
+    pub fn validate(&self) -> Result<(), WireError> {
+        check(self.width >= 1 && self.height >= 1, Invalid::Dimension)?;
+        let want = self.width as u64 * self.height as u64 * PHASE_MAP_BYTES_PER_PIXEL as u64;
+        check(want == self.total_bytes as u64, Invalid::TotalBytes)
+    }
+}
+
+/// Host → head: bytes `offset .. offset + data.len()` of the open upload of `target`.
+///
+/// The head accepts a chunk only at its current offset (the one of its last [`UploadAck`]); an
+/// interrupted upload resumes from there after a [`Command::QueryUpload`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct UploadChunk<'a> {
+    /// Which upload.
+    pub target: UploadTarget,
+    /// Byte offset of `data` in the upload.
+    pub offset: u32,
+    /// CRC-32C of `data` (checked by [`UploadChunk::validate`]).
+    pub crc: u32,
+    /// `1..=MAX_CHUNK` bytes.
+    pub data: &'a [u8],
+}
+
+impl<'a> UploadChunk<'a> {
+    /// A chunk with its CRC computed.
+    pub fn new(target: UploadTarget, offset: u32, data: &'a [u8]) -> Self {
+        UploadChunk {
+            target,
+            offset,
+            crc: crc32c(data),
+            data,
+        }
+    }
+
+    /// Check the length, that the end offset fits a u32, and the CRC.
+    pub fn validate(&self) -> Result<(), WireError> {
+        check(
+            (1..=MAX_CHUNK).contains(&self.data.len()),
+            Invalid::ChunkSize,
+        )?;
+        check(
+            self.offset as u64 + self.data.len() as u64 <= u32::MAX as u64,
+            Invalid::Offset,
+        )?;
+        check(crc32c(self.data) == self.crc, Invalid::ChunkCrc)
+    }
+}
+
+/// Head → host: the upload of `target` holds bytes `0 .. next_offset` (the next chunk must start
+/// there). `next_offset == total_bytes` means complete (awaiting confirmation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct UploadAck {
+    /// Which upload.
+    pub target: UploadTarget,
+    /// First byte not yet received.
+    pub next_offset: u32,
+}
+
+impl Body for UploadTarget {}
+
+impl Body for BeginUpload {
+    fn validate_body(&self) -> Result<(), WireError> {
+        self.validate()
+    }
+}
+
+impl Body for BeginPhaseMap {
+    fn validate_body(&self) -> Result<(), WireError> {
+        self.validate()
+    }
+}
+
+impl Body for UploadChunk<'_> {
+    fn validate_body(&self) -> Result<(), WireError> {
+        self.validate()
+    }
+}
+
+impl Body for UploadAck {}

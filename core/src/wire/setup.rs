@@ -1,0 +1,531 @@
+//! The head set-up blob: everything a scan head needs to decode and reconstruct, besides the
+//! images and the reference phase map, as one versioned, CRC-checked byte string.
+//!
+//! The desktop writes it (the golden vectors' `input/setup.bin`, `fringe3d vectors`), a head
+//! reads it with [`HeadSetup::parse`] and builds the core's working objects with the core's own
+//! constructors ([`HeadSetup::pattern_set`], [`HeadSetup::decoder`],
+//! [`HeadSetup::camera_model`], [`HeadSetup::reconstructor`], [`HeadSetup::edge_filter`]), so
+//! nothing the desktop computed is recomputed differently: every parameter travels as the value
+//! the desktop holds (f64 or f32, bit for bit) and the head derives the rest (estimators, band,
+//! kernel constants) with the same code. Full description: `docs/setup-blob.md`.
+//!
+//! # Byte layout
+//!
+//! | offset  | size | field                                                             |
+//! |--------:|-----:|-------------------------------------------------------------------|
+//! | 0       | 4    | magic `F3DS` ([`SETUP_MAGIC`])                                    |
+//! | 4       | 1    | format version = 1 ([`SETUP_VERSION`])                            |
+//! | 5       | 1    | reserved, 0                                                       |
+//! | 6       | 2    | payload length `L`, u16 LE, `L <= 2048` ([`MAX_SETUP_PAYLOAD`])   |
+//! | 8       | `L`  | payload: the postcard encoding of a [`HeadSetup`]                 |
+//! | 8 + `L` | 4    | CRC-32C ([`crc`](super::crc)) of bytes `0 .. 8+L`, u32 LE          |
+//!
+//! The payload's fields, in order (postcard as in the frame bodies: `u8` raw, `u16`/`u32`
+//! varint, `f32`/`f64` LE, enums a varint index):
+//!
+//! 1. [`FrameFormat`]: width u16, height u16, sample_bits u8, sample_bytes u8;
+//! 2. the pattern set, a [`PatternSetDesc`] as in DefinePatternSet, except that its bit depth
+//!    may be up to 16 ([`MAX_SETUP_BIT_DEPTH`]: the projector the camera saw, not the head's
+//!    8-bit renderer);
+//! 3. [`CaptureOrder`]: count u8, 32 × u8 wire pattern indices (unused = 0);
+//! 4. [`DecodeThresholds`]: 5 × f32;
+//! 5. [`Calibration`]: as in UploadCalibration;
+//! 6. the reconstruction's axis, [`PatternAxis`] `[0]` ξ `[1]` η;
+//! 7. [`EdgeFilterParams`]: focal_px f64, max_angle_deg f64.
+//!
+//! Everything is checked on [`HeadSetup::emit`] and [`HeadSetup::parse`] ([`HeadSetup::validate`]);
+//! what only the whole set can tell (monotonic phase, coarse range, …) is checked when the head
+//! builds the pattern set. No input makes the parser panic (`core/tests/wire_setup.rs` fuzzes it).
+
+use serde::{Deserialize, Serialize};
+
+use super::crc::crc32c;
+use super::desc::DescError;
+use super::message::{Calibration, PatternAxis, PatternSetDesc};
+use super::{Invalid, WireError};
+use crate::camera::CameraModel;
+use crate::decode::{DecodeConfig, Decoder};
+use crate::filter::EdgeFilter;
+use crate::params::CameraParams;
+use crate::pattern::{ImageId, MAX_IMAGES, PatternSet};
+use crate::reconstruct::{Reconstructor, Setup};
+
+/// First four bytes of a set-up blob.
+pub const SETUP_MAGIC: [u8; 4] = *b"F3DS";
+/// The blob format version this core writes and reads.
+pub const SETUP_VERSION: u8 = 1;
+/// Bytes before the payload: magic, version, reserved, length.
+pub const SETUP_HEADER_LEN: usize = 8;
+/// Bytes of the trailing CRC-32C.
+pub const SETUP_CRC_LEN: usize = 4;
+/// Largest payload (the largest valid set-up is about 1.5 KiB).
+pub const MAX_SETUP_PAYLOAD: usize = 2048;
+/// Largest blob: header, payload, CRC.
+pub const MAX_SETUP_BLOB: usize = SETUP_HEADER_LEN + MAX_SETUP_PAYLOAD + SETUP_CRC_LEN;
+/// Highest projector bit depth a set-up's pattern set may have (the core's 16-bit output).
+pub const MAX_SETUP_BIT_DEPTH: u8 = 16;
+
+/// Why a set-up blob was refused (or could not be written). Each names one thing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SetupError {
+    /// The output buffer is too small.
+    BufferTooSmall,
+    /// Shorter than a header and a CRC.
+    Truncated,
+    /// Not a set-up blob (the magic).
+    Magic,
+    /// A format version this core does not read (the byte found).
+    Version(u8),
+    /// The reserved header byte is not 0.
+    Reserved,
+    /// The payload length exceeds [`MAX_SETUP_PAYLOAD`] or disagrees with the blob's length.
+    Length,
+    /// CRC mismatch.
+    Crc,
+    /// The payload is not a postcard-encoded [`HeadSetup`].
+    Payload,
+    /// Bytes left over after the payload's fields.
+    TrailingBytes,
+    /// A field breaks a wire rule (the wire's code says which).
+    Invalid(Invalid),
+    /// Sample bits not in `1..=8 · sample_bytes`, or sample bytes not 1 or 2.
+    FrameFormat,
+    /// The frame size is not the calibrated camera's.
+    ImageSize,
+    /// The capture order is not a permutation of the set's patterns.
+    CaptureOrder,
+    /// A decoder threshold is not finite, negative, or out of range.
+    Thresholds,
+    /// The edge filter's focal length is not positive or its angle not in `(0, 90)` degrees.
+    EdgeFilter,
+    /// The core refused the pattern set (the wire's code says why).
+    PatternSet(Invalid),
+    /// The core's decoder refused the set.
+    Decoder,
+    /// The core refused the camera model or the reconstruction set-up (the wire's code).
+    Reconstruction(Invalid),
+}
+
+impl SetupError {
+    /// What is wrong, without the detail (for a firmware's fixed messages).
+    pub const fn what(self) -> &'static str {
+        match self {
+            SetupError::BufferTooSmall => "set-up: buffer too small",
+            SetupError::Truncated => "set-up: truncated blob",
+            SetupError::Magic => "set-up: not a set-up blob (magic)",
+            SetupError::Version(_) => "set-up: unsupported format version",
+            SetupError::Reserved => "set-up: reserved header byte set",
+            SetupError::Length => "set-up: payload length disagrees with the blob",
+            SetupError::Crc => "set-up: CRC mismatch",
+            SetupError::Payload => "set-up: payload does not decode",
+            SetupError::TrailingBytes => "set-up: trailing bytes after the payload",
+            SetupError::Invalid(_) => "set-up: a field is out of range",
+            SetupError::FrameFormat => "set-up: bad sample format",
+            SetupError::ImageSize => "set-up: frame size is not the camera's",
+            SetupError::CaptureOrder => "set-up: capture order is not a permutation of the set",
+            SetupError::Thresholds => "set-up: bad decoder thresholds",
+            SetupError::EdgeFilter => "set-up: bad edge filter",
+            SetupError::PatternSet(_) => "set-up: the core refused the pattern set",
+            SetupError::Decoder => "set-up: the decoder refused the pattern set",
+            SetupError::Reconstruction(_) => "set-up: the core refused the calibration",
+        }
+    }
+}
+
+impl core::fmt::Display for SetupError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.what())?;
+        match self {
+            SetupError::Version(v) => write!(f, " {v} (this core reads {SETUP_VERSION})"),
+            SetupError::Invalid(why)
+            | SetupError::PatternSet(why)
+            | SetupError::Reconstruction(why) => write!(f, " ({})", why.name()),
+            _ => Ok(()),
+        }
+    }
+}
+
+impl core::error::Error for SetupError {}
+
+fn field(e: WireError) -> SetupError {
+    match e {
+        WireError::Invalid(why) => SetupError::Invalid(why),
+        _ => SetupError::Payload,
+    }
+}
+
+fn desc_error(e: DescError) -> SetupError {
+    match e {
+        DescError::BitDepth(_) => SetupError::Invalid(Invalid::BitDepth),
+        DescError::Size => SetupError::Invalid(Invalid::Dimension),
+        DescError::Invalid(why) => SetupError::Invalid(why),
+    }
+}
+
+/// The camera frames a scan decodes: their size and sample format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FrameFormat {
+    /// Width, pixels: the calibrated camera's.
+    pub width: u16,
+    /// Height, pixels: the calibrated camera's.
+    pub height: u16,
+    /// Significant bits per sample, `1..=8 · sample_bytes`.
+    pub sample_bits: u8,
+    /// Bytes per sample: 1 (u8 frames) or 2 (u16, little-endian).
+    pub sample_bytes: u8,
+}
+
+impl FrameFormat {
+    /// Check the sample format.
+    pub fn validate(&self) -> Result<(), SetupError> {
+        let bytes_ok = self.sample_bytes == 1 || self.sample_bytes == 2;
+        if bytes_ok && (1..=8 * self.sample_bytes).contains(&self.sample_bits) {
+            Ok(())
+        } else {
+            Err(SetupError::FrameFormat)
+        }
+    }
+}
+
+/// Which pattern each captured image shows, in capture order: wire pattern indices (levels in
+/// order, shifts in order within a level, as in a [`LutEntry`](super::LutEntry)). The head's
+/// images arrive in this order; the core's default order is another numbering
+/// ([`PatternSetDesc::pattern_id`] maps between them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CaptureOrder {
+    /// Images captured: the set's pattern count.
+    pub count: u8,
+    /// Pattern index of each image; entries from `count` on are 0.
+    pub patterns: [u8; MAX_IMAGES],
+}
+
+impl CaptureOrder {
+    /// The capture order of images `order` of the set `desc` describes; `None` if an image is
+    /// not in the set or there are more than [`MAX_IMAGES`].
+    pub fn of(desc: &PatternSetDesc, order: &[ImageId]) -> Option<Self> {
+        let mut c = CaptureOrder {
+            count: u8::try_from(order.len()).ok()?,
+            patterns: [0; MAX_IMAGES],
+        };
+        for (dst, id) in c.patterns.get_mut(..order.len())?.iter_mut().zip(order) {
+            *dst = u8::try_from(desc.pattern_index(*id)?).ok()?;
+        }
+        Some(c)
+    }
+
+    /// The used entries (empty if `count` is out of range).
+    pub fn used(&self) -> &[u8] {
+        self.patterns.get(..self.count as usize).unwrap_or(&[])
+    }
+
+    /// Check that the order is a permutation of the `desc`'s patterns and unused entries are 0.
+    pub fn validate(&self, desc: &PatternSetDesc) -> Result<(), SetupError> {
+        let n = self.count as usize;
+        let (Some(used), Some(unused)) = (self.patterns.get(..n), self.patterns.get(n..)) else {
+            return Err(SetupError::CaptureOrder);
+        };
+        let mut seen = [false; MAX_IMAGES];
+        let ok = n == desc.pattern_count()
+            && n >= 1
+            && unused.iter().all(|&p| p == 0)
+            && used.iter().all(|&p| match seen.get_mut(p as usize) {
+                Some(s) if (p as usize) < n && !*s => {
+                    *s = true;
+                    true
+                }
+                _ => false,
+            });
+        if ok {
+            Ok(())
+        } else {
+            Err(SetupError::CaptureOrder)
+        }
+    }
+
+    /// The core's image ids in capture order, and how many.
+    pub fn image_ids(
+        &self,
+        desc: &PatternSetDesc,
+    ) -> Result<([ImageId; MAX_IMAGES], usize), SetupError> {
+        let mut ids = [ImageId { level: 0, shift: 0 }; MAX_IMAGES];
+        let used = self.used();
+        if used.len() != self.count as usize {
+            return Err(SetupError::CaptureOrder);
+        }
+        for (dst, &p) in ids.iter_mut().zip(used) {
+            *dst = desc.pattern_id(p as u16).ok_or(SetupError::CaptureOrder)?;
+        }
+        Ok((ids, used.len()))
+    }
+}
+
+/// The wire description of the decoder's thresholds ([`DecodeConfig`]), field for field, as the
+/// f32 the desktop holds.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DecodeThresholds {
+    /// [`DecodeConfig::dark_level`].
+    pub dark_level: f32,
+    /// [`DecodeConfig::saturation_level`].
+    pub saturation_level: f32,
+    /// [`DecodeConfig::min_modulation`].
+    pub min_modulation: f32,
+    /// [`DecodeConfig::unwrap_tolerance`].
+    pub unwrap_tolerance: f32,
+    /// [`DecodeConfig::range_tolerance`].
+    pub range_tolerance: f32,
+}
+
+impl From<DecodeConfig> for DecodeThresholds {
+    fn from(c: DecodeConfig) -> Self {
+        DecodeThresholds {
+            dark_level: c.dark_level,
+            saturation_level: c.saturation_level,
+            min_modulation: c.min_modulation,
+            unwrap_tolerance: c.unwrap_tolerance,
+            range_tolerance: c.range_tolerance,
+        }
+    }
+}
+
+impl From<DecodeThresholds> for DecodeConfig {
+    fn from(t: DecodeThresholds) -> Self {
+        DecodeConfig {
+            dark_level: t.dark_level,
+            saturation_level: t.saturation_level,
+            min_modulation: t.min_modulation,
+            unwrap_tolerance: t.unwrap_tolerance,
+            range_tolerance: t.range_tolerance,
+        }
+    }
+}
+
+impl DecodeThresholds {
+    /// The decoder's rules: every threshold finite and `>= 0`, the saturation level `> 0`, the
+    /// unwrapping tolerance `<= π` (eqs 12-13 cannot tell fringe orders apart beyond it).
+    pub fn validate(&self) -> Result<(), SetupError> {
+        let all = [
+            self.dark_level,
+            self.saturation_level,
+            self.min_modulation,
+            self.unwrap_tolerance,
+            self.range_tolerance,
+        ];
+        let ok = all.iter().all(|v| v.is_finite() && *v >= 0.0)
+            && self.saturation_level > 0.0
+            && self.unwrap_tolerance <= core::f32::consts::PI;
+        if ok {
+            Ok(())
+        } else {
+            Err(SetupError::Thresholds)
+        }
+    }
+}
+
+/// The depth-edge filter's parameters ([`EdgeFilter::new`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EdgeFilterParams {
+    /// Focal length, pixels (the desktop uses `min(fx, fy)`), finite and `> 0`.
+    pub focal_px: f64,
+    /// Steepest accepted surface, degrees from facing the camera, `0 < angle < 90`.
+    pub max_angle_deg: f64,
+}
+
+impl EdgeFilterParams {
+    /// Check the ranges [`EdgeFilter::new`] accepts.
+    pub fn validate(&self) -> Result<(), SetupError> {
+        let (f, a) = (self.focal_px, self.max_angle_deg);
+        if f.is_finite() && f > 0.0 && a > 0.0 && a < 90.0 {
+            Ok(())
+        } else {
+            Err(SetupError::EdgeFilter)
+        }
+    }
+}
+
+/// A head's set-up: the payload of the blob (field order = wire order, see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HeadSetup {
+    /// The camera frames.
+    pub frames: FrameFormat,
+    /// The projected pattern set (bit depth up to [`MAX_SETUP_BIT_DEPTH`]).
+    pub patterns: PatternSetDesc,
+    /// Which pattern each captured image shows.
+    pub capture_order: CaptureOrder,
+    /// The decoder's thresholds.
+    pub thresholds: DecodeThresholds,
+    /// Camera model and scan geometry.
+    pub calibration: Calibration,
+    /// The projector axis the reference phase is monotonic along (the reconstruction's; the
+    /// pattern set's axis for a consistent rig).
+    pub axis: PatternAxis,
+    /// The depth-edge filter.
+    pub edge_filter: EdgeFilterParams,
+}
+
+impl HeadSetup {
+    /// The set-up of a desktop scan: frames of `frames`' format, the images of `set` (in its
+    /// order) from a `pattern_bits`-bit projector, decoded with `thresholds`, reconstructed with
+    /// `camera` and `setup` (its axis included), filtered with `edge_filter`. Checked like
+    /// [`HeadSetup::parse`].
+    pub fn from_core(
+        frames: FrameFormat,
+        set: &PatternSet,
+        pattern_bits: u32,
+        thresholds: DecodeConfig,
+        camera: &CameraParams,
+        setup: &Setup,
+        edge_filter: EdgeFilterParams,
+    ) -> Result<Self, SetupError> {
+        let patterns = PatternSetDesc::from_set_up_to(set, pattern_bits, MAX_SETUP_BIT_DEPTH)
+            .map_err(desc_error)?;
+        let s = HeadSetup {
+            frames,
+            patterns,
+            capture_order: CaptureOrder::of(&patterns, set.order())
+                .ok_or(SetupError::CaptureOrder)?,
+            thresholds: thresholds.into(),
+            calibration: Calibration::from_core(camera, setup).map_err(desc_error)?,
+            axis: setup.axis.into(),
+            edge_filter,
+        };
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Check every field and their agreement (frame size = camera size, capture order a
+    /// permutation of the set's patterns).
+    pub fn validate(&self) -> Result<(), SetupError> {
+        self.frames.validate()?;
+        self.patterns
+            .validate_up_to(MAX_SETUP_BIT_DEPTH)
+            .map_err(field)?;
+        self.capture_order.validate(&self.patterns)?;
+        self.thresholds.validate()?;
+        self.calibration.validate().map_err(field)?;
+        let c = &self.calibration.camera;
+        if u32::from(self.frames.width) != c.width || u32::from(self.frames.height) != c.height {
+            return Err(SetupError::ImageSize);
+        }
+        self.edge_filter.validate()
+    }
+
+    /// Validate, then write the blob into `out`; returns its length.
+    pub fn emit(&self, out: &mut [u8]) -> Result<usize, SetupError> {
+        self.validate()?;
+        let room = out
+            .len()
+            .checked_sub(SETUP_HEADER_LEN + SETUP_CRC_LEN)
+            .ok_or(SetupError::BufferTooSmall)?
+            .min(MAX_SETUP_PAYLOAD);
+        let body = out
+            .get_mut(SETUP_HEADER_LEN..SETUP_HEADER_LEN + room)
+            .ok_or(SetupError::BufferTooSmall)?;
+        let len = match postcard::to_slice(self, body) {
+            Ok(used) => used.len(),
+            Err(postcard::Error::SerializeBufferFull) => return Err(SetupError::BufferTooSmall),
+            Err(_) => return Err(SetupError::Payload),
+        };
+        let end = SETUP_HEADER_LEN + len;
+        let l16 = u16::try_from(len).map_err(|_| SetupError::Length)?;
+        let head = out
+            .get_mut(..SETUP_HEADER_LEN)
+            .ok_or(SetupError::BufferTooSmall)?;
+        head[..4].copy_from_slice(&SETUP_MAGIC);
+        head[4] = SETUP_VERSION;
+        head[5] = 0;
+        head[6..8].copy_from_slice(&l16.to_le_bytes());
+        let crc = crc32c(out.get(..end).ok_or(SetupError::BufferTooSmall)?);
+        out.get_mut(end..end + SETUP_CRC_LEN)
+            .ok_or(SetupError::BufferTooSmall)?
+            .copy_from_slice(&crc.to_le_bytes());
+        Ok(end + SETUP_CRC_LEN)
+    }
+
+    /// Check and decode a whole blob (header, length, CRC, payload, every field).
+    pub fn parse(blob: &[u8]) -> Result<HeadSetup, SetupError> {
+        let (Some(head), Some(rest)) = (blob.get(..SETUP_HEADER_LEN), blob.get(SETUP_HEADER_LEN..))
+        else {
+            return Err(SetupError::Truncated);
+        };
+        if rest.len() < SETUP_CRC_LEN {
+            return Err(SetupError::Truncated);
+        }
+        if head[..4] != SETUP_MAGIC {
+            return Err(SetupError::Magic);
+        }
+        if head[4] != SETUP_VERSION {
+            return Err(SetupError::Version(head[4]));
+        }
+        if head[5] != 0 {
+            return Err(SetupError::Reserved);
+        }
+        let len = u16::from_le_bytes([head[6], head[7]]) as usize;
+        if len > MAX_SETUP_PAYLOAD || rest.len() != len + SETUP_CRC_LEN {
+            return Err(SetupError::Length);
+        }
+        let (payload, crc) = rest.split_at(len);
+        let end = SETUP_HEADER_LEN + len;
+        let want = u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]);
+        if crc32c(blob.get(..end).ok_or(SetupError::Truncated)?) != want {
+            return Err(SetupError::Crc);
+        }
+        let s: HeadSetup = match postcard::take_from_bytes(payload) {
+            Ok((s, [])) => s,
+            Ok(_) => return Err(SetupError::TrailingBytes),
+            Err(_) => return Err(SetupError::Payload),
+        };
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Number of images per scan.
+    pub fn image_count(&self) -> usize {
+        self.capture_order.used().len()
+    }
+
+    /// The core pattern set, images in capture order ([`PatternSetDesc::to_set`], then
+    /// [`PatternSet::with_order`]): the desktop's set bit for bit.
+    pub fn pattern_set(&self) -> Result<PatternSet, SetupError> {
+        let set = self
+            .patterns
+            .build_set_up_to(MAX_SETUP_BIT_DEPTH)
+            .map_err(SetupError::PatternSet)?;
+        let (ids, n) = self.capture_order.image_ids(&self.patterns)?;
+        let order = ids.get(..n).ok_or(SetupError::CaptureOrder)?;
+        if set.order() == order {
+            return Ok(set);
+        }
+        set.with_order(order).map_err(|_| SetupError::CaptureOrder)
+    }
+
+    /// The decoder of the pattern set with the thresholds ([`Decoder::new`]).
+    pub fn decoder(&self) -> Result<Decoder, SetupError> {
+        let set = self.pattern_set()?;
+        Decoder::new(&set, self.thresholds.into()).map_err(|_| SetupError::Decoder)
+    }
+
+    /// The camera model ([`CameraModel::new`]).
+    pub fn camera_model(&self) -> Result<CameraModel, SetupError> {
+        self.calibration
+            .camera_model()
+            .map_err(SetupError::Reconstruction)
+    }
+
+    /// The reconstruction's set-up (geometry and axis).
+    pub fn setup(&self) -> Setup {
+        self.calibration.setup(self.axis)
+    }
+
+    /// The reconstructor ([`Reconstructor::new`] over the camera model and set-up).
+    pub fn reconstructor(&self) -> Result<Reconstructor, SetupError> {
+        self.calibration
+            .reconstructor(self.axis)
+            .map_err(SetupError::Reconstruction)
+    }
+
+    /// The depth-edge filter ([`EdgeFilter::new`]).
+    pub fn edge_filter(&self) -> Result<EdgeFilter, SetupError> {
+        let e = self.edge_filter;
+        EdgeFilter::new(e.focal_px, e.max_angle_deg).ok_or(SetupError::EdgeFilter)
+    }
+}

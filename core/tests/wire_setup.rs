@@ -1,0 +1,660 @@
+//! The head set-up blob (`wire::setup`): a fixed byte vector, round trips that rebuild the
+//! desktop's pattern set, decoder, camera model, reconstructor and edge filter exactly, every
+//! named error, and a seeded fuzz of `HeadSetup::parse` on mutated blobs (never a panic).
+//!
+//! The byte vector was laid out by hand field by field (postcard rules as in wire_vectors.rs) and
+//! its CRC-32C computed with an independent bitwise Python implementation, not with this crate.
+
+use fringe3d_core::camera::CameraModel;
+use fringe3d_core::decode::{DecodeConfig, Decoder};
+use fringe3d_core::filter::EdgeFilter;
+use fringe3d_core::geometry::Vec3;
+use fringe3d_core::params::{CameraParams, Distortion};
+use fringe3d_core::pattern::{self, Convention, ImageId, Output, PatternSet};
+use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
+use fringe3d_core::reconstruct::{Reconstructor, Setup};
+use fringe3d_core::wire::crc::crc32c;
+use fringe3d_core::wire::setup::{
+    MAX_SETUP_BLOB, MAX_SETUP_PAYLOAD, SETUP_CRC_LEN, SETUP_HEADER_LEN,
+};
+use fringe3d_core::wire::*;
+
+fn camera() -> CameraParams {
+    CameraParams {
+        width: 160,
+        height: 128,
+        fx: 200.0,
+        fy: 201.0,
+        cx: 79.5,
+        cy: 63.5,
+        skew: 1e-4,
+        distortion: Distortion::from_array([0.01, -0.002, 1e-4, -2e-4, 0.0]),
+    }
+}
+
+fn rig(axis: Axis) -> Setup {
+    Setup {
+        // Projector beside the camera across the fringes.
+        projector_centre: match axis {
+            Axis::Xi => Vec3::new(200.0, -10.0, 5.0),
+            Axis::Eta => Vec3::new(-10.0, 200.0, 5.0),
+        },
+        reference_point: Vec3::new(0.0, 0.0, 700.0),
+        reference_normal: Vec3::new(0.02, -0.03, -1.0),
+        axis,
+        z_min: 575.0,
+        z_max: 825.0,
+    }
+}
+
+/// The paper's set on a 16-bit projector, images captured in reverse order.
+fn paper_set() -> PatternSet {
+    let out = Output {
+        width: 1024,
+        height: 768,
+        i_min: 0.0,
+        i_max: 65535.0,
+    };
+    let set = PatternSet::default_for(Axis::Xi, out).expect("the default set");
+    let mut order: Vec<ImageId> = set.order().to_vec();
+    order.reverse();
+    set.with_order(&order).expect("a permutation")
+}
+
+/// Knots, curved fringes, cosine, an offset and explicit shifts on an 8-bit projector.
+fn odd_set() -> PatternSet {
+    let out = Output {
+        width: 1024,
+        height: 768,
+        i_min: 10.0,
+        i_max: 250.0,
+    };
+    let k = KnotProfile::new(
+        &[0.0, 300.0, 767.0],
+        &[-2.8, 0.0, 2.8],
+        &[0.0073, 0.0095, 0.0073],
+    )
+    .expect("knots");
+    let f = PhaseFunction::with_profile(Axis::Eta, Profile::Knots(k))
+        .and_then(|f| f.curved(1e-6, 511.5))
+        .expect("phase function");
+    let levels = [
+        pattern::Level::with_shifts(1.0, &[0.0, 0.3, 2.0]),
+        pattern::Level::two_step(6.0),
+        pattern::Level::n_step(36.0, 5),
+    ];
+    PatternSet::new(f, &levels, out)
+        .expect("set")
+        .with_convention(Convention::Cosine)
+        .with_phase_offset(0.25)
+        .expect("offset")
+}
+
+fn frames(sample_bits: u8) -> FrameFormat {
+    FrameFormat {
+        width: 160,
+        height: 128,
+        sample_bits,
+        sample_bytes: if sample_bits > 8 { 2 } else { 1 },
+    }
+}
+
+fn edge() -> EdgeFilterParams {
+    EdgeFilterParams {
+        focal_px: 200.0,
+        max_angle_deg: 80.0,
+    }
+}
+
+fn head_setup(set: &PatternSet, pattern_bits: u32, sample_bits: u8) -> HeadSetup {
+    HeadSetup::from_core(
+        frames(sample_bits),
+        set,
+        pattern_bits,
+        DecodeConfig::for_bit_depth(sample_bits as u32),
+        &camera(),
+        &rig(set.axis()),
+        edge(),
+    )
+    .expect("a valid set-up")
+}
+
+fn emit(s: &HeadSetup) -> Vec<u8> {
+    let mut out = [0u8; MAX_SETUP_BLOB];
+    let n = s.emit(&mut out).expect("emit");
+    out[..n].to_vec()
+}
+
+/// A blob of `s` without any field check (the test's own writer), to show `parse` the errors
+/// `emit` refuses to write.
+fn raw_blob(s: &HeadSetup) -> Vec<u8> {
+    let mut buf = [0u8; MAX_SETUP_PAYLOAD];
+    let payload = postcard::to_slice(s, &mut buf).expect("postcard").to_vec();
+    seal(&payload)
+}
+
+/// Header and CRC around `payload`.
+fn seal(payload: &[u8]) -> Vec<u8> {
+    let mut b = b"F3DS".to_vec();
+    b.extend_from_slice(&[1, 0]);
+    b.extend_from_slice(&(payload.len() as u16).to_le_bytes());
+    b.extend_from_slice(payload);
+    let crc = crc32c(&b);
+    b.extend_from_slice(&crc.to_le_bytes());
+    b
+}
+
+/// The hand-laid blob of [`small_setup`].
+#[rustfmt::skip]
+const SMALL_BLOB: &[u8] = &[
+    // header: magic F3DS, version 1, reserved 0, payload length 373 (LE)
+    0x46, 0x33, 0x44, 0x53, 0x01, 0x00, 0x75, 0x01,
+    // frames: width 4, height 3, sample_bits 12, sample_bytes 2
+    0x04, 0x03, 0x0C, 0x02,
+    // patterns: width 8, height 2, bit_depth 8
+    0x08, 0x02, 0x08,
+    // i_min 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // i_max 255.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0xE0, 0x6F, 0x40,
+    // waveform [0] sine
+    0x00,
+    // phase_offset 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // phase: axis [0] xi, profile [0] linear
+    0x00, 0x00,
+    // origin 3.5
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x40,
+    // slope 0.5
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xE0, 0x3F,
+    // curvature 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // bend_center 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // level_count 1
+    0x01,
+    // level 0: scale 1.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF0, 0x3F,
+    // shifts [0] uniform n 3, count 3
+    0x00, 0x03, 0x03,
+    // levels 1-5: unused (scale 0.0, [0] 0 0)
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // capture order: count 3, patterns 2 0 1, 29 x 0
+    0x03, 0x02, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // thresholds: dark 80.0, saturation 4095.0, min_modulation 82.0, unwrap_tolerance 2.0,
+    // range_tolerance 0.25 (f32)
+    0x00, 0x00, 0xA0, 0x42,
+    0x00, 0xF0, 0x7F, 0x45,
+    0x00, 0x00, 0xA4, 0x42,
+    0x00, 0x00, 0x00, 0x40,
+    0x00, 0x00, 0x80, 0x3E,
+    // camera: width 4, height 3
+    0x04, 0x03,
+    // fx 100.0, fy 100.0, cx 1.5, cy 1.0, skew 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x59, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x59, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF8, 0x3F,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF0, 0x3F,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // distortion 5 x 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00,
+    // projector_centre 200, 0, 0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x69, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // plane_point 0, 0, 700
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0xE0, 0x85, 0x40,
+    // plane_normal 0, 0, -1
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF0, 0xBF,
+    // depth_min 500.0, depth_max 900.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x40, 0x7F, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x20, 0x8C, 0x40,
+    // axis [0] xi
+    0x00,
+    // edge filter: focal_px 100.0, max_angle_deg 80.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x59, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x54, 0x40,
+    // CRC-32C 0xE39447BE (LE)
+    0xBE, 0x47, 0x94, 0xE3,
+];
+
+/// The set-up [`SMALL_BLOB`] spells out: a 3-step set on an 8 × 2 projector, a 4 × 3 camera.
+fn small_setup() -> HeadSetup {
+    let mut levels = [Level::UNUSED; MAX_LEVELS];
+    levels[0] = Level {
+        scale: 1.0,
+        shifts: Shifts::Uniform { n: 3, count: 3 },
+    };
+    let mut order = [0u8; 32];
+    order[..3].copy_from_slice(&[2, 0, 1]);
+    HeadSetup {
+        frames: FrameFormat {
+            width: 4,
+            height: 3,
+            sample_bits: 12,
+            sample_bytes: 2,
+        },
+        patterns: PatternSetDesc {
+            width: 8,
+            height: 2,
+            bit_depth: 8,
+            i_min: 0.0,
+            i_max: 255.0,
+            waveform: Waveform::Sine,
+            phase_offset: 0.0,
+            phase: PhaseDesc {
+                axis: PatternAxis::Xi,
+                profile: PhaseProfile::Linear {
+                    origin: 3.5,
+                    slope: 0.5,
+                },
+                curvature: 0.0,
+                bend_center: 0.0,
+            },
+            level_count: 1,
+            levels,
+        },
+        capture_order: CaptureOrder {
+            count: 3,
+            patterns: order,
+        },
+        thresholds: DecodeThresholds {
+            dark_level: 80.0,
+            saturation_level: 4095.0,
+            min_modulation: 82.0,
+            unwrap_tolerance: 2.0,
+            range_tolerance: 0.25,
+        },
+        calibration: Calibration {
+            camera: CameraParams {
+                width: 4,
+                height: 3,
+                fx: 100.0,
+                fy: 100.0,
+                cx: 1.5,
+                cy: 1.0,
+                skew: 0.0,
+                distortion: Distortion::NONE,
+            },
+            geometry: ScanGeometry {
+                projector_centre: [200.0, 0.0, 0.0],
+                plane_point: [0.0, 0.0, 700.0],
+                plane_normal: [0.0, 0.0, -1.0],
+                depth_min: 500.0,
+                depth_max: 900.0,
+            },
+        },
+        axis: PatternAxis::Xi,
+        edge_filter: EdgeFilterParams {
+            focal_px: 100.0,
+            max_angle_deg: 80.0,
+        },
+    }
+}
+
+#[test]
+fn the_small_blob_is_laid_out_as_documented() {
+    let s = small_setup();
+    assert_eq!(emit(&s), SMALL_BLOB);
+    assert_eq!(HeadSetup::parse(SMALL_BLOB), Ok(s));
+    // The capture order maps wire pattern indices to the core's images.
+    let set = s.pattern_set().expect("a valid 3-step set");
+    let shift = |k: u8| ImageId { level: 0, shift: k };
+    assert_eq!(set.order(), &[shift(2), shift(0), shift(1)]);
+    assert_eq!(s.image_count(), 3);
+    assert!(s.decoder().is_ok());
+}
+
+#[test]
+fn round_trips_rebuild_the_desktop_objects_exactly() {
+    for (set, pattern_bits, sample_bits) in [(paper_set(), 16, 12), (odd_set(), 8, 8)] {
+        let s = head_setup(&set, pattern_bits, sample_bits);
+        let blob = emit(&s);
+        assert!(blob.len() <= MAX_SETUP_BLOB);
+        let back = HeadSetup::parse(&blob).expect("parse");
+        assert_eq!(back, s);
+        // Every object the head builds is the desktop's.
+        let cfg = DecodeConfig::for_bit_depth(sample_bits as u32);
+        assert_eq!(back.pattern_set(), Ok(set));
+        assert_eq!(back.image_count(), set.image_count());
+        assert_eq!(
+            back.decoder(),
+            Ok(Decoder::new(&set, cfg).expect("decoder"))
+        );
+        let cam = CameraModel::new(camera()).expect("camera");
+        assert_eq!(back.camera_model(), Ok(cam));
+        assert_eq!(back.setup(), rig(set.axis()));
+        let recon = Reconstructor::new(&cam, &rig(set.axis())).expect("reconstructor");
+        assert_eq!(back.reconstructor(), Ok(recon));
+        assert_eq!(
+            back.edge_filter(),
+            Ok(EdgeFilter::new(200.0, 80.0).expect("filter"))
+        );
+        // The same set-up gives the same bytes.
+        assert_eq!(emit(&back), blob);
+    }
+}
+
+#[test]
+fn emit_needs_room() {
+    let s = small_setup();
+    let mut out = [0u8; 385];
+    assert_eq!(s.emit(&mut out), Ok(385));
+    for n in [0, 11, 12, 100, 384] {
+        let mut short = vec![0u8; n];
+        assert_eq!(
+            s.emit(&mut short),
+            Err(SetupError::BufferTooSmall),
+            "{n} bytes"
+        );
+    }
+}
+
+#[test]
+fn header_errors_are_named() {
+    let good = SMALL_BLOB.to_vec();
+    let with = |f: &dyn Fn(&mut Vec<u8>)| {
+        let mut b = good.clone();
+        f(&mut b);
+        HeadSetup::parse(&b)
+    };
+    assert_eq!(HeadSetup::parse(&good[..11]), Err(SetupError::Truncated));
+    assert_eq!(HeadSetup::parse(&[]), Err(SetupError::Truncated));
+    assert_eq!(with(&|b| b[0] = b'G'), Err(SetupError::Magic));
+    assert_eq!(with(&|b| b[4] = 2), Err(SetupError::Version(2)));
+    assert_eq!(with(&|b| b[5] = 1), Err(SetupError::Reserved));
+    assert_eq!(with(&|b| b[6] += 1), Err(SetupError::Length));
+    assert_eq!(with(&|b| b.push(0)), Err(SetupError::Length));
+    assert_eq!(with(&|b| b[7] = 0x08), Err(SetupError::Length)); // 2165 > MAX_SETUP_PAYLOAD
+    assert_eq!(with(&|b| b[40] ^= 1), Err(SetupError::Crc));
+    assert_eq!(with(&|b| b[384] ^= 0x80), Err(SetupError::Crc));
+    // Past the CRC: a byte too many, and a payload that is not a set-up.
+    let payload = &good[SETUP_HEADER_LEN..good.len() - SETUP_CRC_LEN];
+    let mut longer = payload.to_vec();
+    longer.push(0);
+    assert_eq!(
+        HeadSetup::parse(&seal(&longer)),
+        Err(SetupError::TrailingBytes)
+    );
+    assert_eq!(
+        HeadSetup::parse(&seal(&payload[..payload.len() - 1])),
+        Err(SetupError::Payload)
+    );
+    let mut bad_enum = payload.to_vec();
+    bad_enum[4 + 3 + 16] = 7; // waveform variant 7
+    assert_eq!(HeadSetup::parse(&seal(&bad_enum)), Err(SetupError::Payload));
+}
+
+#[test]
+fn field_errors_are_named_on_both_ends() {
+    type Edit = fn(&mut HeadSetup);
+    let cases: &[(Edit, SetupError)] = &[
+        (|s| s.frames.sample_bits = 17, SetupError::FrameFormat),
+        (|s| s.frames.sample_bytes = 3, SetupError::FrameFormat),
+        (|s| s.frames.sample_bits = 0, SetupError::FrameFormat),
+        (|s| s.frames.width = 5, SetupError::ImageSize),
+        (|s| s.calibration.camera.height = 4, SetupError::ImageSize),
+        (
+            |s| s.capture_order.patterns[1] = 2,
+            SetupError::CaptureOrder,
+        ),
+        (
+            |s| s.capture_order.patterns[2] = 3,
+            SetupError::CaptureOrder,
+        ),
+        (
+            |s| s.capture_order.patterns[5] = 1,
+            SetupError::CaptureOrder,
+        ),
+        (|s| s.capture_order.count = 2, SetupError::CaptureOrder),
+        (|s| s.capture_order.count = 40, SetupError::CaptureOrder),
+        (
+            |s| s.thresholds.dark_level = f32::NAN,
+            SetupError::Thresholds,
+        ),
+        (
+            |s| s.thresholds.min_modulation = -1.0,
+            SetupError::Thresholds,
+        ),
+        (
+            |s| s.thresholds.unwrap_tolerance = 3.5,
+            SetupError::Thresholds,
+        ),
+        (
+            |s| s.thresholds.saturation_level = 0.0,
+            SetupError::Thresholds,
+        ),
+        (
+            |s| s.edge_filter.max_angle_deg = 90.0,
+            SetupError::EdgeFilter,
+        ),
+        (
+            |s| s.edge_filter.focal_px = f64::INFINITY,
+            SetupError::EdgeFilter,
+        ),
+        (|s| s.edge_filter.focal_px = 0.0, SetupError::EdgeFilter),
+        (
+            |s| s.patterns.bit_depth = 17,
+            SetupError::Invalid(Invalid::BitDepth),
+        ),
+        (
+            |s| s.patterns.i_max = 300.0,
+            SetupError::Invalid(Invalid::Intensity),
+        ),
+        (
+            |s| s.calibration.geometry.depth_min = 1000.0,
+            SetupError::Invalid(Invalid::DepthRange),
+        ),
+        (
+            |s| s.calibration.camera.fx = f64::NAN,
+            SetupError::Invalid(Invalid::NotFinite),
+        ),
+    ];
+    for (i, (edit, want)) in cases.iter().enumerate() {
+        let mut s = small_setup();
+        edit(&mut s);
+        assert_eq!(s.validate(), Err(*want), "case {i}");
+        let mut out = [0u8; MAX_SETUP_BLOB];
+        assert_eq!(s.emit(&mut out), Err(*want), "case {i}: emit");
+        assert_eq!(
+            HeadSetup::parse(&raw_blob(&s)),
+            Err(*want),
+            "case {i}: parse"
+        );
+    }
+    // A 16-bit projector is fine in a set-up (not in a DefinePatternSet).
+    let mut s = small_setup();
+    s.patterns.bit_depth = 16;
+    s.patterns.i_max = 65535.0;
+    assert_eq!(HeadSetup::parse(&raw_blob(&s)), Ok(s));
+    assert_eq!(
+        s.patterns.validate(),
+        Err(WireError::Invalid(Invalid::BitDepth))
+    );
+}
+
+#[test]
+fn builders_report_what_the_core_refuses() {
+    // Field-valid, but the coarse phase spans more than 2π: the core refuses the set.
+    let mut s = small_setup();
+    s.patterns.phase.profile = PhaseProfile::Linear {
+        origin: 3.5,
+        slope: 2.0,
+    };
+    let blob = raw_blob(&s);
+    let back = HeadSetup::parse(&blob).expect("fields are in range");
+    assert!(matches!(back.pattern_set(), Err(SetupError::PatternSet(_))));
+    assert!(matches!(back.decoder(), Err(SetupError::PatternSet(_))));
+    // The reference plane through the projector centre: no reconstruction.
+    let mut s = small_setup();
+    s.calibration.geometry.plane_point = [200.0, 0.0, 0.0];
+    s.calibration.geometry.plane_normal = [1.0, 0.0, 0.0];
+    let back = HeadSetup::parse(&raw_blob(&s)).expect("fields are in range");
+    assert!(matches!(
+        back.reconstructor(),
+        Err(SetupError::Reconstruction(_))
+    ));
+    // from_core refuses a projector deeper than 16 bits and a camera wider than the wire's u16.
+    let set = paper_set();
+    let e = HeadSetup::from_core(
+        frames(12),
+        &set,
+        17,
+        DecodeConfig::for_bit_depth(12),
+        &camera(),
+        &rig(Axis::Xi),
+        edge(),
+    );
+    assert_eq!(e, Err(SetupError::Invalid(Invalid::BitDepth)));
+    let wide = CameraParams {
+        width: 70_000,
+        ..camera()
+    };
+    let e = HeadSetup::from_core(
+        frames(12),
+        &set,
+        16,
+        DecodeConfig::for_bit_depth(12),
+        &wide,
+        &rig(Axis::Xi),
+        edge(),
+    );
+    assert_eq!(e, Err(SetupError::Invalid(Invalid::Dimension)));
+}
+
+#[test]
+fn the_largest_set_up_fits_the_payload_limit() {
+    // Every varint at its longest, every array full: the postcard encoding's upper bound.
+    let mut s = small_setup();
+    s.frames.width = u16::MAX;
+    s.frames.height = u16::MAX;
+    s.patterns.width = u16::MAX;
+    s.patterns.height = u16::MAX;
+    s.patterns.phase.profile = PhaseProfile::Knots(Knots {
+        count: MAX_KNOTS as u8,
+        s: [1.0; MAX_KNOTS],
+        phi: [1.0; MAX_KNOTS],
+        slope: [1.0; MAX_KNOTS],
+    });
+    s.patterns.level_count = MAX_LEVELS as u8;
+    s.patterns.levels = [Level {
+        scale: 1.0,
+        shifts: Shifts::Explicit {
+            count: MAX_SHIFTS as u8,
+            radians: [1.0; MAX_SHIFTS],
+        },
+    }; MAX_LEVELS];
+    s.calibration.camera.width = u32::MAX;
+    s.calibration.camera.height = u32::MAX;
+    let mut buf = [0u8; 4 * MAX_SETUP_PAYLOAD];
+    let n = postcard::to_slice(&s, &mut buf).expect("postcard").len();
+    assert!(n <= MAX_SETUP_PAYLOAD, "{n} bytes");
+    assert!(n > 1400, "{n} bytes: not the worst case");
+}
+
+/// xorshift64*, seeded.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+/// Mutate a blob: bit flips, random bytes, small integers and special floats at random places,
+/// truncation or growth; half the time the header length and CRC are fixed up afterwards so the
+/// payload parser and the field checks see the damage.
+fn mutate(r: &mut Rng, blob: &[u8]) -> Vec<u8> {
+    let mut b = blob.to_vec();
+    for _ in 0..1 + r.below(4) {
+        let at = r.below(b.len());
+        match r.below(6) {
+            0 => b[at] ^= 1 << r.below(8),
+            1 => b[at] = r.next() as u8,
+            2 => b[at] = r.below(4) as u8,
+            3 => {
+                let f = [f64::NAN, f64::INFINITY, -1.0, 0.0, 1e300, 90.0][r.below(6)];
+                let end = (at + 8).min(b.len());
+                b[at..end].copy_from_slice(&f.to_le_bytes()[..end - at]);
+            }
+            4 => b.truncate(at),
+            _ => {
+                let extra = r.below(16);
+                b.splice(at..at, (0..extra).map(|_| r.next() as u8));
+            }
+        }
+        if b.is_empty() {
+            break;
+        }
+    }
+    if r.below(2) == 0 && b.len() >= SETUP_HEADER_LEN + SETUP_CRC_LEN {
+        let end = b.len() - SETUP_CRC_LEN;
+        b = seal(&b[SETUP_HEADER_LEN..end]);
+    }
+    b
+}
+
+#[test]
+fn parse_never_panics_on_mutated_blobs() {
+    let seeds = [
+        SMALL_BLOB.to_vec(),
+        emit(&head_setup(&paper_set(), 16, 12)),
+        emit(&head_setup(&odd_set(), 8, 8)),
+    ];
+    let mut r = Rng(0x5EED_F3D5_0001);
+    let (mut ok, mut crc, mut payload, mut fields) = (0, 0, 0, 0);
+    for i in 0..30_000 {
+        let b = mutate(&mut r, &seeds[i % seeds.len()]);
+        match HeadSetup::parse(&b) {
+            Ok(s) => {
+                ok += 1;
+                // Whatever parses round-trips, and builds or is refused without a panic (the
+                // builders check a whole projector: every 8th, to keep the test quick).
+                assert_eq!(HeadSetup::parse(&emit(&s)), Ok(s));
+                if ok % 8 == 0 {
+                    let _ = (
+                        s.pattern_set(),
+                        s.decoder(),
+                        s.reconstructor(),
+                        s.edge_filter(),
+                    );
+                }
+            }
+            Err(SetupError::Crc) => crc += 1,
+            Err(SetupError::Payload | SetupError::TrailingBytes) => payload += 1,
+            Err(
+                SetupError::Invalid(_)
+                | SetupError::FrameFormat
+                | SetupError::ImageSize
+                | SetupError::CaptureOrder
+                | SetupError::Thresholds
+                | SetupError::EdgeFilter,
+            ) => fields += 1,
+            Err(_) => {}
+        }
+    }
+    // The mutations reach every layer.
+    assert!(
+        ok > 100 && crc > 1000 && payload > 100 && fields > 1000,
+        "ok {ok}, crc {crc}, payload {payload}, fields {fields}"
+    );
+}
