@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 pub enum ScanError {
     /// The calibration file is unreadable or invalid.
     #[error(transparent)]
-    Format(#[from] crate::io::calibration::FormatError),
+    Format(#[from] crate::io::error::FormatError),
     /// An image (the reference map) is unreadable.
     #[error(transparent)]
     Image(#[from] crate::io::image::ImageError),

@@ -11,11 +11,10 @@ use super::reference::ReferencePose;
 use super::report::{nice_scale, view_picture};
 use super::{CalibError, pose};
 use crate::batch::{FrameOut, Isa, decode_frames};
-use crate::io::calibration::{
-    Calibration, CameraParams, ReferencePlane, import_bouguet_file, import_opencv,
-};
+use crate::io::calibration::{Calibration, CameraParams, ReferencePlane};
 use crate::io::image::{Pixels, read_gray, write_tiff_f32};
 use crate::io::image_set::{self, Frames};
+use crate::io::import::{import_bouguet_file, import_opencv};
 use crate::io::pattern_file::PatternSetFile;
 use fringe3d_core::decode::{DecodeConfig, Decoder};
 use fringe3d_core::phase_function::Axis;

@@ -30,7 +30,7 @@ use fringe3d_core::pattern::{Convention, ImageId, Level, Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
 
 use super::atomic::write_atomic;
-use super::calibration::{FormatError, check_toml_version, read_text, toml_message};
+use super::error::{FormatError, check_toml_version, read_text, toml_message};
 
 /// The pattern-set file format version this build reads and writes.
 pub const PATTERN_FILE_VERSION: u32 = 1;
@@ -65,7 +65,11 @@ pub struct PatternSetFile {
     pub ratio: Option<f64>,
     /// The image order as `[level, shift]` pairs (0-based), for captured data of other systems;
     /// default: the order of [`PatternSet::new`].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "read_order"
+    )]
     pub order: Option<Vec<[u32; 2]>>,
     /// The file of each image, in image order, relative to the pattern file's folder.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -97,6 +101,18 @@ impl PartialEq for PatternSetFile {
             && self.phase == o.phase
             && self.levels == o.levels
     }
+}
+
+/// `order`: each entry exactly a `[level, shift]` pair (an entry of 3 indices is refused).
+fn read_order<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Vec<[u32; 2]>>, D::Error> {
+    struct Entry([u32; 2]);
+    impl<'de> serde::Deserialize<'de> for Entry {
+        fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            super::exact::entry(d, "order").map(Entry)
+        }
+    }
+    let v = <Option<Vec<Entry>> as serde::Deserialize>::deserialize(d)?;
+    Ok(v.map(|v| v.into_iter().map(|e| e.0).collect()))
 }
 
 /// `convention = "sine" | "cosine"`.

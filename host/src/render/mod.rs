@@ -28,7 +28,6 @@ pub mod engine;
 pub mod freeform;
 pub mod light;
 pub mod math;
-pub mod npy;
 pub mod objects;
 pub mod rig;
 pub mod rng;
@@ -67,7 +66,7 @@ pub enum RenderError {
     Image(#[from] crate::io::image::ImageError),
     /// A calibration or pattern-set file could not be written.
     #[error(transparent)]
-    Format(#[from] crate::io::calibration::FormatError),
+    Format(#[from] crate::io::error::FormatError),
     /// The dataset folder could not be created or committed.
     #[error(transparent)]
     Atomic(#[from] crate::io::atomic::AtomicError),
