@@ -26,7 +26,7 @@
 use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
-use fringe3d_core::pattern::{Convention, ImageId, Level, Output, PatternSet};
+use fringe3d_core::pattern::{Convention, ImageId, Level, LevelPreset, Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
 
 use super::atomic::write_atomic;
@@ -126,14 +126,39 @@ pub enum ConventionName {
 }
 
 /// `preset = "paper8" | "twelve"`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Preset {
     /// The paper's 8 images (eq 7): levels of 2, 2 and 4 images, scales `1 : r : r²`.
+    #[default]
     #[serde(rename = "paper8")]
     Paper8,
     /// The conventional 12 images: three 4-step levels, scales `1 : r : r²`.
     #[serde(rename = "twelve")]
     Twelve,
+}
+
+impl Preset {
+    /// The core's preset.
+    pub fn core(self) -> LevelPreset {
+        match self {
+            Preset::Paper8 => LevelPreset::PaperEight,
+            Preset::Twelve => LevelPreset::Twelve,
+        }
+    }
+
+    /// The levels, coarse to fine, with the scale ratio `ratio` ([`LevelPreset::levels`]).
+    pub fn levels(self, ratio: f64) -> [Level; 3] {
+        self.core().levels(ratio)
+    }
+}
+
+impl From<LevelPreset> for Preset {
+    fn from(p: LevelPreset) -> Self {
+        match p {
+            LevelPreset::PaperEight => Preset::Paper8,
+            LevelPreset::Twelve => Preset::Twelve,
+        }
+    }
 }
 
 /// `[projector]`: pattern size and gray levels.
@@ -536,18 +561,7 @@ impl PatternSetFile {
                 if !(r.is_finite() && r > 1.0) {
                     return Err(self.err(format!("ratio must be greater than 1, got {r}")));
                 }
-                Ok(match preset.unwrap_or(Preset::Paper8) {
-                    Preset::Paper8 => vec![
-                        Level::two_step(1.0),
-                        Level::two_step(r),
-                        Level::n_step(r * r, 4),
-                    ],
-                    Preset::Twelve => vec![
-                        Level::n_step(1.0, 4),
-                        Level::n_step(r, 4),
-                        Level::n_step(r * r, 4),
-                    ],
-                })
+                Ok(preset.unwrap_or(Preset::Paper8).levels(r).to_vec())
             }
         }
     }
@@ -591,30 +605,10 @@ impl PatternSetFile {
             }
         }
         let levels = set.levels();
-        let mut preset = None;
-        let mut ratio = None;
-        if levels.len() == 3 {
-            let r = levels[1].scale();
-            if levels
-                == [
-                    Level::two_step(1.0),
-                    Level::two_step(r),
-                    Level::n_step(r * r, 4),
-                ]
-            {
-                preset = Some(Preset::Paper8);
-                ratio = Some(r);
-            } else if levels
-                == [
-                    Level::n_step(1.0, 4),
-                    Level::n_step(r, 4),
-                    Level::n_step(r * r, 4),
-                ]
-            {
-                preset = Some(Preset::Twelve);
-                ratio = Some(r);
-            }
-        }
+        let (preset, ratio) = match LevelPreset::recognize(levels) {
+            Some((p, r)) => (Some(Preset::from(p)), Some(r)),
+            None => (None, None),
+        };
         let level_sections = if preset.is_some() {
             None
         } else {
