@@ -203,6 +203,51 @@ impl Level {
     }
 }
 
+/// The built-in level structures, written once here: pattern-set files (`preset = "paper8"`),
+/// scene descriptions and [`PatternSet::paper_eight`] / [`PatternSet::twelve_pattern`] use them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LevelPreset {
+    /// The paper's 8 images (eq 7): levels of 2, 2 and 4 images (shifts 0, π/2 and
+    /// 0, π/2, π, 3π/2), scales `1 : ratio : ratio²`.
+    PaperEight,
+    /// The conventional 12 images: three 4-step levels (eq 14), scales `1 : ratio : ratio²`.
+    Twelve,
+}
+
+impl LevelPreset {
+    /// Every preset, in the order [`LevelPreset::recognize`] tries them.
+    pub const ALL: [LevelPreset; 2] = [LevelPreset::PaperEight, LevelPreset::Twelve];
+
+    /// The levels, coarse to fine, with the scale ratio `ratio` between consecutive levels.
+    pub fn levels(self, ratio: f64) -> [Level; 3] {
+        match self {
+            LevelPreset::PaperEight => [
+                Level::two_step(1.0),
+                Level::two_step(ratio),
+                Level::n_step(ratio * ratio, 4),
+            ],
+            LevelPreset::Twelve => [
+                Level::n_step(1.0, 4),
+                Level::n_step(ratio, 4),
+                Level::n_step(ratio * ratio, 4),
+            ],
+        }
+    }
+
+    /// The preset and ratio that give exactly `levels` (every scale and shift to the bit; the
+    /// ratio is the middle level's scale), if any.
+    pub fn recognize(levels: &[Level]) -> Option<(LevelPreset, f64)> {
+        let [_, middle, _] = levels else {
+            return None;
+        };
+        let ratio = middle.scale();
+        Self::ALL
+            .into_iter()
+            .find(|p| levels == p.levels(ratio))
+            .map(|p| (p, ratio))
+    }
+}
+
 /// Which level and shift one image of a set shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ImageId {
@@ -308,15 +353,7 @@ impl PatternSet {
         ratio: f64,
         output: Output,
     ) -> Result<Self, PatternError> {
-        Self::new(
-            function,
-            &[
-                Level::two_step(1.0),
-                Level::two_step(ratio),
-                Level::n_step(ratio * ratio, 4),
-            ],
-            output,
-        )
+        Self::new(function, &LevelPreset::PaperEight.levels(ratio), output)
     }
 
     /// The conventional 12-pattern set: three 4-step levels, scales `1 : ratio : ratio²`.
@@ -325,15 +362,7 @@ impl PatternSet {
         ratio: f64,
         output: Output,
     ) -> Result<Self, PatternError> {
-        Self::new(
-            function,
-            &[
-                Level::n_step(1.0, 4),
-                Level::n_step(ratio, 4),
-                Level::n_step(ratio * ratio, 4),
-            ],
-            output,
-        )
+        Self::new(function, &LevelPreset::Twelve.levels(ratio), output)
     }
 
     /// The default set of fringe3d: [`PatternSet::paper_eight`] with vertical fringes, the coarse
@@ -597,5 +626,35 @@ impl PatternSample for u16 {
         } else {
             0
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_are_recognized_with_their_ratio() {
+        for p in LevelPreset::ALL {
+            for r in [8.0, 5.5, 12.0] {
+                assert_eq!(LevelPreset::recognize(&p.levels(r)), Some((p, r)));
+            }
+        }
+        let paper = LevelPreset::PaperEight.levels(8.0);
+        assert_eq!(paper.iter().map(Level::len).sum::<usize>(), 8);
+        assert_eq!(
+            LevelPreset::Twelve
+                .levels(8.0)
+                .iter()
+                .map(Level::len)
+                .sum::<usize>(),
+            12
+        );
+        assert_eq!(paper[2].scale(), 64.0);
+        // A level changed, a level missing: no preset.
+        let mut other = paper;
+        other[0] = Level::n_step(1.0, 3);
+        assert_eq!(LevelPreset::recognize(&other), None);
+        assert_eq!(LevelPreset::recognize(&paper[..2]), None);
     }
 }

@@ -40,7 +40,7 @@ pub fn load_truth(dataset: &Path) -> Result<Truth> {
     let pts_path = dataset.join("truth/points.npy");
     let bytes =
         std::fs::read(&pts_path).with_context(|| format!("{}: cannot read", pts_path.display()))?;
-    let (shape, points) = crate::render::npy::decode_f64(&bytes)
+    let (shape, points) = crate::io::npy::decode_f64(&bytes)
         .map_err(|e| anyhow::anyhow!("{}: {e}", pts_path.display()))?;
     let [h, w, 3] = shape[..] else {
         bail!(

@@ -12,6 +12,7 @@
 use crate::gather::Avx2Pairs;
 #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
 use crate::gather::Avx512Pairs;
+use crate::io::image_set::{Frames, ImageSet};
 use fringe3d_core::decode::{DecodeError, DecodeScratch, Decoder, RowOut, Sample};
 use fringe3d_core::reconstruct::{
     CellGather, ReconstructError, Reconstructor, ReferenceMap, ScalarGather,
@@ -274,97 +275,63 @@ pub fn decode_frames<P: Sample + Sync>(
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use fringe3d_core::decode::DecodeConfig;
-    use fringe3d_core::pattern::{Output, PatternSet};
-    use fringe3d_core::phase_function::Axis;
+/// A whole decoded frame: every output of [`decode_frames`], owned.
+#[derive(Clone, Debug)]
+pub struct Decoded {
+    /// Width.
+    pub width: usize,
+    /// Height.
+    pub height: usize,
+    /// Finest absolute phase, radians (canonical NaN where invalid).
+    pub phase: Vec<f32>,
+    /// Modulation B.
+    pub modulation: Vec<f32>,
+    /// DC term A.
+    pub dc: Vec<f32>,
+    /// Validity codes.
+    pub validity: Vec<u8>,
+}
 
-    #[test]
-    fn every_variant_gives_the_same_bits() {
-        let (w, h) = (333, 50);
-        let set = PatternSet::default_for(
-            Axis::Xi,
-            Output {
-                width: 640,
-                height: 480,
-                i_min: 0.0,
-                i_max: 255.0,
-            },
-        )
-        .unwrap();
-        let d = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).unwrap();
-        let mut seed = 99u64;
-        let imgs: Vec<Vec<u8>> = (0..8)
-            .map(|i| {
-                let mut row = vec![0u8; 640];
-                (0..w * h)
-                    .map(|p| {
-                        if p % w == 0 {
-                            set.generate_row(i, ((p / w) % 480) as u32, &mut row)
-                                .unwrap();
-                        }
-                        seed = seed
-                            .wrapping_mul(6364136223846793005)
-                            .wrapping_add(1442695040888963407);
-                        (row[(p % w) * 640 / w] as u32 * 3 / 4 + 10 + (seed >> 60) as u32).min(255)
-                            as u8
-                    })
-                    .collect()
-            })
-            .collect();
-        let frames: Vec<&[u8]> = imgs.iter().map(|v| v.as_slice()).collect();
-        let mut results = Vec::new();
-        for (isa, par) in [
-            (Isa::Baseline, false),
-            (Isa::Avx2, false),
-            (Isa::Avx2, true),
-            (Isa::Avx512, false),
-            (Isa::Avx512, true),
-            (Isa::Baseline, true),
-        ] {
-            let (mut p, mut m, mut a, mut v) = (
-                vec![0.0f32; w * h],
-                vec![0.0f32; w * h],
-                vec![0.0f32; w * h],
-                vec![0u8; w * h],
-            );
-            decode_frames(
-                &d,
-                &frames,
-                w,
-                h,
-                FrameOut {
-                    phase: &mut p,
-                    modulation: &mut m,
-                    dc: &mut a,
-                    validity: &mut v,
-                },
-                isa,
-                par,
-            )
-            .unwrap();
-            let bits: Vec<u32> = p
-                .iter()
-                .chain(&m)
-                .chain(&a)
-                .map(|x| fringe3d_core::math::canonical(*x).to_bits())
-                .collect();
-            results.push((bits, v));
+/// Decode a whole set of images (`frames[i]` is image `i` of the set, `width × height`) on all
+/// threads of rayon's pool with the best kernel variant of this CPU: the one desktop decode of
+/// `fringe3d decode`/`scan`, the calibration steps and the renderer's reference map.
+pub fn decode_whole<P: Sample + Sync>(
+    d: &Decoder,
+    frames: &[&[P]],
+    width: usize,
+    height: usize,
+) -> Result<Decoded, DecodeError> {
+    let n = width.checked_mul(height).ok_or(DecodeError::Length)?;
+    let mut o = Decoded {
+        width,
+        height,
+        phase: vec![0.0; n],
+        modulation: vec![0.0; n],
+        dc: vec![0.0; n],
+        validity: vec![0; n],
+    };
+    let out = FrameOut {
+        phase: &mut o.phase,
+        modulation: &mut o.modulation,
+        dc: &mut o.dc,
+        validity: &mut o.validity,
+    };
+    decode_frames(d, frames, width, height, out, Isa::detect(), true)?;
+    Ok(o)
+}
+
+/// [`decode_whole`] over a loaded image set (8- or 16-bit).
+pub fn decode_image_set(d: &Decoder, imgs: &ImageSet) -> Result<Decoded, DecodeError> {
+    let (w, h) = (imgs.width as usize, imgs.height as usize);
+    match &imgs.frames {
+        Frames::U8(f) => {
+            let fr: Vec<&[u8]> = f.iter().map(|v| v.as_slice()).collect();
+            decode_whole(d, &fr, w, h)
         }
-        for isa in [Isa::Avx2, Isa::Avx512] {
-            if !isa.available() {
-                eprintln!(
-                    "note: no {isa:?} on this CPU or in this build; that variant fell back to {:?}",
-                    isa.effective()
-                );
-            }
+        Frames::U16(f) => {
+            let fr: Vec<&[u16]> = f.iter().map(|v| v.as_slice()).collect();
+            decode_whole(d, &fr, w, h)
         }
-        for r in &results[1..] {
-            assert!(r.0 == results[0].0 && r.1 == results[0].1);
-        }
-        assert!(results[0].1.contains(&0));
     }
 }
 
@@ -503,5 +470,99 @@ fn recon_rows_dispatch(
             None => recon_rows(ScalarGather, f, v0, xyz, codes),
         },
         _ => recon_rows(ScalarGather, f, v0, xyz, codes),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fringe3d_core::decode::DecodeConfig;
+    use fringe3d_core::pattern::{Output, PatternSet};
+    use fringe3d_core::phase_function::Axis;
+
+    #[test]
+    fn every_variant_gives_the_same_bits() {
+        let (w, h) = (333, 50);
+        let set = PatternSet::default_for(
+            Axis::Xi,
+            Output {
+                width: 640,
+                height: 480,
+                i_min: 0.0,
+                i_max: 255.0,
+            },
+        )
+        .unwrap();
+        let d = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).unwrap();
+        let mut seed = 99u64;
+        let imgs: Vec<Vec<u8>> = (0..8)
+            .map(|i| {
+                let mut row = vec![0u8; 640];
+                (0..w * h)
+                    .map(|p| {
+                        if p % w == 0 {
+                            set.generate_row(i, ((p / w) % 480) as u32, &mut row)
+                                .unwrap();
+                        }
+                        seed = seed
+                            .wrapping_mul(6364136223846793005)
+                            .wrapping_add(1442695040888963407);
+                        (row[(p % w) * 640 / w] as u32 * 3 / 4 + 10 + (seed >> 60) as u32).min(255)
+                            as u8
+                    })
+                    .collect()
+            })
+            .collect();
+        let frames: Vec<&[u8]> = imgs.iter().map(|v| v.as_slice()).collect();
+        let mut results = Vec::new();
+        for (isa, par) in [
+            (Isa::Baseline, false),
+            (Isa::Avx2, false),
+            (Isa::Avx2, true),
+            (Isa::Avx512, false),
+            (Isa::Avx512, true),
+            (Isa::Baseline, true),
+        ] {
+            let (mut p, mut m, mut a, mut v) = (
+                vec![0.0f32; w * h],
+                vec![0.0f32; w * h],
+                vec![0.0f32; w * h],
+                vec![0u8; w * h],
+            );
+            decode_frames(
+                &d,
+                &frames,
+                w,
+                h,
+                FrameOut {
+                    phase: &mut p,
+                    modulation: &mut m,
+                    dc: &mut a,
+                    validity: &mut v,
+                },
+                isa,
+                par,
+            )
+            .unwrap();
+            let bits: Vec<u32> = p
+                .iter()
+                .chain(&m)
+                .chain(&a)
+                .map(|x| fringe3d_core::math::canonical(*x).to_bits())
+                .collect();
+            results.push((bits, v));
+        }
+        for isa in [Isa::Avx2, Isa::Avx512] {
+            if !isa.available() {
+                eprintln!(
+                    "note: no {isa:?} on this CPU or in this build; that variant fell back to {:?}",
+                    isa.effective()
+                );
+            }
+        }
+        for r in &results[1..] {
+            assert!(r.0 == results[0].0 && r.1 == results[0].1);
+        }
+        assert!(results[0].1.contains(&0));
     }
 }

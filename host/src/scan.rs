@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 pub enum ScanError {
     /// The calibration file is unreadable or invalid.
     #[error(transparent)]
-    Format(#[from] crate::io::calibration::FormatError),
+    Format(#[from] crate::io::error::FormatError),
     /// An image (the reference map) is unreadable.
     #[error(transparent)]
     Image(#[from] crate::io::image::ImageError),
@@ -192,16 +192,13 @@ impl ScanCalibration {
                 h,
             });
         }
-        // The core's map view takes its samples mutably (it prepares them in place); a copy keeps
-        // this calibration reusable and shareable between threads.
-        let mut prepared = self.reference_phase.clone();
-        let map =
-            ReferenceMap::prepare(&mut prepared, &self.reference_validity, w, h).map_err(|e| {
-                ScanError::Invalid {
-                    path: self.source.clone(),
-                    message: format!("reference map: {e}"),
-                }
-            })?;
+        // Prepared once at set-up: a shared view, no copy.
+        let map = ReferenceMap::from_prepared(&self.reference_phase, w, h).map_err(|e| {
+            ScanError::Invalid {
+                path: self.source.clone(),
+                message: format!("reference map: {e}"),
+            }
+        })?;
         let mut xyz = vec![0.0f32; 3 * w * h];
         let mut out_v = vec![0u8; w * h];
         crate::batch::reconstruct_frame(

@@ -12,8 +12,8 @@
 //! minute (the calibration is correspondingly less precise than at full resolution); `docs/calibration.md` has the full-resolution figures of `fringe3d demo --calibrate`.
 
 use fringe3d::accuracy::{self, Accuracy};
-use fringe3d::calib::demo::{DemoOptions, render_calibration_data, scan_cloud};
 use fringe3d::calib::files;
+use fringe3d::cli::demo_calibrate::{DemoOptions, render_calibration_data, scan_cloud};
 use fringe3d::io::calibration::{Calibration, CameraParams};
 use fringe3d::io::image::{Pixels, read_gray};
 use fringe3d::render::Scene;
@@ -443,7 +443,7 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         let a_self = accuracy::evaluate(&c_self, &truth).unwrap();
         // For the record: after the rigid motion that best aligns the self-calibrated cloud with
         // the truth (what remains when the small pose error of the whole cloud is removed).
-        let al = fringe3d::calib::demo::aligned_error(&c_self, &truth)
+        let al = fringe3d::cli::demo_calibrate::aligned_error(&c_self, &truth)
             .map(|a| a.0)
             .unwrap_or(f64::NAN);
         let ratio = a_self.interior.rms / a_true.interior.rms;

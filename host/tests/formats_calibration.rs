@@ -583,3 +583,147 @@ fn bouguet_file_variants_and_errors() {
             .contains("NaN")
     );
 }
+
+/// A parse error whose message names `key` and the count found; it must not quote the whole line
+/// back (a million values would make a megabyte message).
+fn length_error(text: &str, key: &str, expected: &str) {
+    let e = err_of(text);
+    assert!(matches!(e, FormatError::Parse { .. }), "{e}");
+    let m = e.to_string();
+    assert!(m.contains("calib.toml"), "{m}");
+    assert!(m.contains(&format!("`{key}`")), "{m}");
+    assert!(m.contains(expected), "{m}");
+    assert!(m.len() < 2500, "{} bytes", m.len());
+}
+
+#[test]
+fn distortion_of_six_values_is_refused() {
+    length_error(
+        &SAMPLE_TOML.replace(
+            "distortion = [-0.12, 0.08, 0.0005, -0.0003, 0.0]",
+            "distortion = [-0.12, 0.08, 0.0005, -0.0003, 0.0, 0.0]",
+        ),
+        "distortion",
+        "must have exactly 5 values, got 6",
+    );
+}
+
+#[test]
+fn distortion_of_two_million_values_is_refused() {
+    let mut long = String::from("distortion = [-0.12, 0.08, 0.0005, -0.0003, 0.0");
+    for _ in 0..(2_000_000 - 5) {
+        long.push_str(", 0.0");
+    }
+    long.push(']');
+    length_error(
+        &SAMPLE_TOML.replace("distortion = [-0.12, 0.08, 0.0005, -0.0003, 0.0]", &long),
+        "distortion",
+        "must have exactly 5 values, got 2000000",
+    );
+}
+
+#[test]
+fn projector_intrinsics_distortion_of_six_values_is_refused() {
+    length_error(
+        &SAMPLE_TOML.replace(
+            "distortion = [0.0, 0.0, 0.0, 0.0, 0.0]",
+            "distortion = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]",
+        ),
+        "distortion",
+        "must have exactly 5 values, got 6",
+    );
+}
+
+#[test]
+fn projector_centre_of_four_values_is_refused() {
+    length_error(
+        &SAMPLE_TOML.replace(
+            "projector_centre = [-200.0, 0.0, 30.0]",
+            "projector_centre = [-200.0, 0.0, 30.0, 1.0]",
+        ),
+        "projector_centre",
+        "must have exactly 3 values, got 4",
+    );
+}
+
+#[test]
+fn normal_of_four_values_is_refused() {
+    length_error(
+        &SAMPLE_TOML.replace(
+            "normal = [0.0, 0.0, -1.0]",
+            "normal = [0.0, 0.0, -1.0, 0.0]",
+        ),
+        "normal",
+        "must have exactly 3 values, got 4",
+    );
+}
+
+#[test]
+fn point_and_translation_of_four_values_are_refused() {
+    length_error(
+        &SAMPLE_TOML.replace(
+            "point = [0.0, 0.0, 800.0]",
+            "point = [0.0, 0.0, 800.0, 1.0]",
+        ),
+        "point",
+        "must have exactly 3 values, got 4",
+    );
+    length_error(
+        &SAMPLE_TOML.replace(
+            "translation = [-200.0, 0.0, 30.0]",
+            "translation = [-200.0, 0.0, 30.0, 0.0]",
+        ),
+        "translation",
+        "must have exactly 3 values, got 4",
+    );
+}
+
+#[test]
+fn fourth_rotation_row_is_refused() {
+    length_error(
+        &SAMPLE_TOML.replace(
+            "[-0.25, 0.0, 0.9682458365518543]]",
+            "[-0.25, 0.0, 0.9682458365518543], [0.0, 0.0, 0.0]]",
+        ),
+        "rotation",
+        "must have exactly 3 rows, got 4",
+    );
+}
+
+#[test]
+fn rotation_row_of_four_values_is_refused() {
+    length_error(
+        &SAMPLE_TOML.replace("[0.0, 1.0, 0.0], [-0.25", "[0.0, 1.0, 0.0, 0.0], [-0.25"),
+        "rotation",
+        "must have exactly 3 values per row, got 4",
+    );
+}
+
+#[test]
+fn depth_range_of_three_values_is_refused() {
+    length_error(
+        &SAMPLE_TOML.replace(
+            "depth_range = [650.0, 900.0]",
+            "depth_range = [650.0, 900.0, 1000.0]",
+        ),
+        "depth_range",
+        "must have exactly 2 values, got 3",
+    );
+}
+
+#[test]
+fn short_arrays_are_refused_naming_the_key() {
+    length_error(
+        &SAMPLE_TOML.replace("depth_range = [650.0, 900.0]", "depth_range = [650.0]"),
+        "depth_range",
+        "must have exactly 2 values, got 1",
+    );
+    length_error(
+        &SAMPLE_TOML.replace(
+            "distortion = [-0.12, 0.08, 0.0005, -0.0003, 0.0]",
+            "distortion = [-0.12, 0.08, 0.0005, -0.0003]",
+        ),
+        "distortion",
+        "must have exactly 5 values, got 4",
+    );
+}

@@ -376,3 +376,15 @@ fn minimal_file_is_the_default_set() {
     );
     assert_eq!(f.image_paths(&p), None);
 }
+
+#[test]
+fn order_entry_of_three_indices_is_refused() {
+    // Cut to its first two indices, this order is the default one and would load.
+    let m = bad(&format!(
+        "order = [[2, 0], [2, 1], [2, 2], [2, 3], [0, 0], [0, 1], [1, 0], [1, 1, 5]]\n{HEAD}"
+    ));
+    assert!(
+        m.contains("`order` must have exactly 2 values per entry, got 3"),
+        "{m}"
+    );
+}

@@ -3,9 +3,9 @@
 
 use fringe3d::io::calibration::Calibration;
 use fringe3d::io::image::{Pixels, read_gray};
+use fringe3d::io::npy;
 use fringe3d::io::pattern_file::PatternSetFile;
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
-use fringe3d::render::npy;
 use fringe3d::render::{BUILTIN_SCENES, MASK_VALID, Overrides, RenderOptions, Scene, SceneSpec};
 use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;

@@ -107,7 +107,7 @@ fn scan(scene: &Scene, dir: &Path) -> Scanned {
 /// Per-pixel truth and the angle between the surface normal and the viewing ray (degrees), the
 /// normal from central differences of the true points (NaN near holes and borders).
 fn truth_and_angles(ds: &Path, w: usize, h: usize) -> (Vec<f64>, Vec<f64>) {
-    let p = fringe3d::render::npy::decode_f64(&std::fs::read(ds.join("truth/points.npy")).unwrap())
+    let p = fringe3d::io::npy::decode_f64(&std::fs::read(ds.join("truth/points.npy")).unwrap())
         .unwrap()
         .1;
     let at = |x: usize, y: usize| {

@@ -883,6 +883,32 @@ impl<'a> ReferenceMap<'a> {
         })
     }
 
+    /// A view of a `width × height` map prepared before (by [`ReferenceMap::prepare`]: every
+    /// sample finite or the canonical NaN), without copying or changing it, so one prepared map
+    /// can serve any number of reconstructions at once. `Err(Length)` if the sizes disagree,
+    /// `Err(NotFinite)` if a sample is neither finite nor the canonical NaN (not prepared).
+    pub fn from_prepared(
+        phase: &'a [f32],
+        width: usize,
+        height: usize,
+    ) -> Result<Self, ReconstructError> {
+        let n = width.checked_mul(height).ok_or(ReconstructError::Length)?;
+        if width == 0 || phase.len() != n {
+            return Err(ReconstructError::Length);
+        }
+        if phase
+            .iter()
+            .any(|p| !p.is_finite() && p.to_bits() != CANONICAL_NAN.to_bits())
+        {
+            return Err(ReconstructError::NotFinite);
+        }
+        Ok(ReferenceMap {
+            phase,
+            width,
+            height,
+        })
+    }
+
     /// The prepared phase samples.
     pub fn phase(&self) -> &[f32] {
         self.phase
@@ -938,4 +964,33 @@ pub fn triangulate_eq16_18(setup: &Setup, m_i: [f64; 2], n_i: [f64; 2]) -> Optio
     }
     let m = q.add(cm.scale(pq.norm() * m_r.sub(q).norm() / den));
     if m.is_finite() { Some(m) } else { None }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_prepared_map_is_viewed_without_a_copy() {
+        let mut phase = [1.0, f32::NAN, -f32::NAN, f32::INFINITY, 2.5, -0.0];
+        let validity = [0, 0, 0, 0, Validity::ReferenceInvalid as u8, 0];
+        let prepared: [u32; 6] = {
+            let m = ReferenceMap::prepare(&mut phase, &validity, 3, 2).unwrap();
+            core::array::from_fn(|i| m.phase()[i].to_bits())
+        };
+        let view = ReferenceMap::from_prepared(&phase, 3, 2).unwrap();
+        assert!(core::ptr::eq(view.phase(), &phase[..]));
+        assert!(view.phase().iter().map(|p| p.to_bits()).eq(prepared));
+        assert_eq!(
+            ReferenceMap::from_prepared(&phase, 2, 2).err(),
+            Some(ReconstructError::Length)
+        );
+        let unprepared = [1.0, -f32::NAN, 2.0, 3.0];
+        assert_eq!(
+            ReferenceMap::from_prepared(&unprepared, 2, 2).err(),
+            Some(ReconstructError::NotFinite)
+        );
+        let infinite = [1.0, f32::INFINITY, 2.0, 3.0];
+        assert!(ReferenceMap::from_prepared(&infinite, 2, 2).is_err());
+    }
 }

@@ -10,12 +10,11 @@ use super::projector_centre::{
 use super::reference::ReferencePose;
 use super::report::{nice_scale, view_picture};
 use super::{CalibError, pose};
-use crate::batch::{FrameOut, Isa, decode_frames};
-use crate::io::calibration::{
-    Calibration, CameraParams, ReferencePlane, import_bouguet_file, import_opencv,
-};
+use crate::batch::decode_image_set;
+use crate::io::calibration::{Calibration, CameraParams, ReferencePlane};
 use crate::io::image::{Pixels, read_gray, write_tiff_f32};
-use crate::io::image_set::{self, Frames};
+use crate::io::image_set;
+use crate::io::import::{import_bouguet_file, import_opencv};
 use crate::io::pattern_file::PatternSetFile;
 use fringe3d_core::decode::{DecodeConfig, Decoder};
 use fringe3d_core::phase_function::Axis;
@@ -358,32 +357,13 @@ pub fn decode_set(set_path: &Path, images: &[PathBuf]) -> Result<DecodedSet, Cal
     let dec = Decoder::new(&set, DecodeConfig::for_bit_depth(imgs.bits as u32))
         .map_err(|e| input(set_path, format!("decoder: {e}")))?;
     let (w, h) = (imgs.width as usize, imgs.height as usize);
-    let mut phase = vec![0f32; w * h];
-    let mut m = vec![0f32; w * h];
-    let mut a = vec![0f32; w * h];
-    let mut v = vec![0u8; w * h];
-    let out = FrameOut {
-        phase: &mut phase,
-        modulation: &mut m,
-        dc: &mut a,
-        validity: &mut v,
-    };
-    let r = match &imgs.frames {
-        Frames::U8(f) => {
-            let fr: Vec<&[u8]> = f.iter().map(|x| x.as_slice()).collect();
-            decode_frames(&dec, &fr, w, h, out, Isa::detect(), true)
-        }
-        Frames::U16(f) => {
-            let fr: Vec<&[u16]> = f.iter().map(|x| x.as_slice()).collect();
-            decode_frames(&dec, &fr, w, h, out, Isa::detect(), true)
-        }
-    };
-    r.map_err(|e| {
+    let decoded = decode_image_set(&dec, &imgs).map_err(|e| {
         input(
             &paths[0],
             format!("decoding the set of {}: {e}", set_path.display()),
         )
     })?;
+    let (mut phase, v) = (decoded.phase, decoded.validity);
     for (p, c) in phase.iter_mut().zip(&v) {
         if *c != 0 {
             *p = f32::NAN;

@@ -9,7 +9,6 @@
 
 pub mod camera;
 pub mod corners;
-pub mod demo;
 pub mod files;
 pub mod lens;
 pub mod linalg;
@@ -19,8 +18,6 @@ pub mod projector_centre;
 pub mod reference;
 pub mod report;
 pub mod zhang;
-
-pub use demo::{DemoOptions, demo_calibrate, demo_calibrate_with};
 
 use std::path::PathBuf;
 
@@ -95,7 +92,7 @@ pub enum CalibError {
     ImageSet(#[from] crate::io::image_set::ImageSetError),
     /// A calibration or pattern-set file could not be read or written.
     #[error(transparent)]
-    Format(#[from] crate::io::calibration::FormatError),
+    Format(#[from] crate::io::error::FormatError),
 }
 
 fn list_used(v: &[String]) -> String {

@@ -1,7 +1,8 @@
 //! Pieces shared by several commands: finding a set's images, decoding a whole set, progress.
 
-use crate::batch::{FrameOut, Isa, decode_frames};
-use crate::io::image_set::{self, Frames, ImageSet};
+pub use crate::batch::Decoded;
+use crate::batch::decode_image_set;
+use crate::io::image_set::{self, ImageSet};
 use crate::io::pattern_file::PatternSetFile;
 use crate::scan::ScanCalibration;
 use anyhow::{Context, Result, bail};
@@ -140,22 +141,6 @@ pub fn load_images(set: &LoadedSet, args: &[PathBuf], quiet: bool) -> Result<Ima
     Ok(imgs)
 }
 
-/// Whole-frame decode outputs.
-pub struct Decoded {
-    /// Width.
-    pub width: usize,
-    /// Height.
-    pub height: usize,
-    /// Finest absolute phase, radians (NaN where invalid).
-    pub phase: Vec<f32>,
-    /// Modulation B.
-    pub modulation: Vec<f32>,
-    /// DC term A.
-    pub dc: Vec<f32>,
-    /// Validity codes.
-    pub validity: Vec<u8>,
-}
-
 impl Decoded {
     /// Pixel count per validity code.
     pub fn histogram(&self) -> Histogram {
@@ -186,35 +171,9 @@ pub fn decode_config(imgs: &ImageSet) -> DecodeConfig {
 /// Decode a loaded set on all threads of rayon's pool with the best kernel variant.
 pub fn decode(set: &PatternSet, imgs: &ImageSet, cfg: DecodeConfig) -> Result<Decoded> {
     let d = Decoder::new(set, cfg).map_err(|e| anyhow::anyhow!("decoder: {e}"))?;
-    let (w, h) = (imgs.width as usize, imgs.height as usize);
-    let n = w * h;
-    let mut o = Decoded {
-        width: w,
-        height: h,
-        phase: vec![0.0; n],
-        modulation: vec![0.0; n],
-        dc: vec![0.0; n],
-        validity: vec![0; n],
-    };
-    let out = FrameOut {
-        phase: &mut o.phase,
-        modulation: &mut o.modulation,
-        dc: &mut o.dc,
-        validity: &mut o.validity,
-    };
-    match &imgs.frames {
-        Frames::U8(f) => {
-            let fr: Vec<&[u8]> = f.iter().map(|v| v.as_slice()).collect();
-            decode_frames(&d, &fr, w, h, out, Isa::detect(), true)
-        }
-        Frames::U16(f) => {
-            let fr: Vec<&[u16]> = f.iter().map(|v| v.as_slice()).collect();
-            decode_frames(&d, &fr, w, h, out, Isa::detect(), true)
-        }
-    }
-    .map_err(|e| anyhow::anyhow!("decode: {e}"))
-    .context("decoding the image set")?;
-    Ok(o)
+    decode_image_set(&d, imgs)
+        .map_err(|e| anyhow::anyhow!("decode: {e}"))
+        .context("decoding the image set")
 }
 
 /// A one-line text summary of validity counts.

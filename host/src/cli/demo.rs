@@ -216,16 +216,16 @@ fn run_calibrate(a: DemoArgs, g: Global) -> Result<()> {
         );
     }
     let dir = AtomicDir::create(&a.out, true)?;
-    let opts = crate::calib::DemoOptions {
+    let opts = super::demo_calibrate::DemoOptions {
         size: parse_size(a.size.as_deref())?,
         noise: a.noise,
         bits: a.bits,
         seed: a.seed,
         views: a.views,
         quiet: g.quiet || g.json,
-        ..crate::calib::DemoOptions::default()
+        ..super::demo_calibrate::DemoOptions::default()
     };
-    let (_, report) = crate::calib::demo_calibrate_with(dir.path(), &opts)?;
+    let (_, report) = super::demo_calibrate::demo_calibrate_with(dir.path(), &opts)?;
     // The report names files inside the temporary folder: name them where they will be.
     let tmp = serde_json::to_string(&dir.path().display().to_string())?;
     let fin = serde_json::to_string(&dir.target().display().to_string())?;

@@ -20,6 +20,7 @@ pub mod cloud_out;
 pub mod common;
 pub mod decode;
 pub mod demo;
+pub mod demo_calibrate;
 pub mod device;
 pub mod info;
 pub mod parse;

@@ -26,11 +26,11 @@
 use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
-use fringe3d_core::pattern::{Convention, ImageId, Level, Output, PatternSet};
+use fringe3d_core::pattern::{Convention, ImageId, Level, LevelPreset, Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
 
 use super::atomic::write_atomic;
-use super::calibration::{FormatError, check_toml_version, read_text, toml_message};
+use super::error::{FormatError, check_toml_version, read_text, toml_message};
 
 /// The pattern-set file format version this build reads and writes.
 pub const PATTERN_FILE_VERSION: u32 = 1;
@@ -65,7 +65,11 @@ pub struct PatternSetFile {
     pub ratio: Option<f64>,
     /// The image order as `[level, shift]` pairs (0-based), for captured data of other systems;
     /// default: the order of [`PatternSet::new`].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "read_order"
+    )]
     pub order: Option<Vec<[u32; 2]>>,
     /// The file of each image, in image order, relative to the pattern file's folder.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -99,6 +103,18 @@ impl PartialEq for PatternSetFile {
     }
 }
 
+/// `order`: each entry exactly a `[level, shift]` pair (an entry of 3 indices is refused).
+fn read_order<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Vec<[u32; 2]>>, D::Error> {
+    struct Entry([u32; 2]);
+    impl<'de> serde::Deserialize<'de> for Entry {
+        fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            super::exact::entry(d, "order").map(Entry)
+        }
+    }
+    let v = <Option<Vec<Entry>> as serde::Deserialize>::deserialize(d)?;
+    Ok(v.map(|v| v.into_iter().map(|e| e.0).collect()))
+}
+
 /// `convention = "sine" | "cosine"`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -110,14 +126,39 @@ pub enum ConventionName {
 }
 
 /// `preset = "paper8" | "twelve"`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Preset {
     /// The paper's 8 images (eq 7): levels of 2, 2 and 4 images, scales `1 : r : r²`.
+    #[default]
     #[serde(rename = "paper8")]
     Paper8,
     /// The conventional 12 images: three 4-step levels, scales `1 : r : r²`.
     #[serde(rename = "twelve")]
     Twelve,
+}
+
+impl Preset {
+    /// The core's preset.
+    pub fn core(self) -> LevelPreset {
+        match self {
+            Preset::Paper8 => LevelPreset::PaperEight,
+            Preset::Twelve => LevelPreset::Twelve,
+        }
+    }
+
+    /// The levels, coarse to fine, with the scale ratio `ratio` ([`LevelPreset::levels`]).
+    pub fn levels(self, ratio: f64) -> [Level; 3] {
+        self.core().levels(ratio)
+    }
+}
+
+impl From<LevelPreset> for Preset {
+    fn from(p: LevelPreset) -> Self {
+        match p {
+            LevelPreset::PaperEight => Preset::Paper8,
+            LevelPreset::Twelve => Preset::Twelve,
+        }
+    }
 }
 
 /// `[projector]`: pattern size and gray levels.
@@ -520,18 +561,7 @@ impl PatternSetFile {
                 if !(r.is_finite() && r > 1.0) {
                     return Err(self.err(format!("ratio must be greater than 1, got {r}")));
                 }
-                Ok(match preset.unwrap_or(Preset::Paper8) {
-                    Preset::Paper8 => vec![
-                        Level::two_step(1.0),
-                        Level::two_step(r),
-                        Level::n_step(r * r, 4),
-                    ],
-                    Preset::Twelve => vec![
-                        Level::n_step(1.0, 4),
-                        Level::n_step(r, 4),
-                        Level::n_step(r * r, 4),
-                    ],
-                })
+                Ok(preset.unwrap_or(Preset::Paper8).levels(r).to_vec())
             }
         }
     }
@@ -575,30 +605,10 @@ impl PatternSetFile {
             }
         }
         let levels = set.levels();
-        let mut preset = None;
-        let mut ratio = None;
-        if levels.len() == 3 {
-            let r = levels[1].scale();
-            if levels
-                == [
-                    Level::two_step(1.0),
-                    Level::two_step(r),
-                    Level::n_step(r * r, 4),
-                ]
-            {
-                preset = Some(Preset::Paper8);
-                ratio = Some(r);
-            } else if levels
-                == [
-                    Level::n_step(1.0, 4),
-                    Level::n_step(r, 4),
-                    Level::n_step(r * r, 4),
-                ]
-            {
-                preset = Some(Preset::Twelve);
-                ratio = Some(r);
-            }
-        }
+        let (preset, ratio) = match LevelPreset::recognize(levels) {
+            Some((p, r)) => (Some(Preset::from(p)), Some(r)),
+            None => (None, None),
+        };
         let level_sections = if preset.is_some() {
             None
         } else {

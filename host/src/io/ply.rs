@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::atomic::AtomicFile;
-use super::calibration::FormatError;
+use super::error::FormatError;
 
 /// PLY body encoding.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

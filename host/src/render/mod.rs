@@ -28,7 +28,6 @@ pub mod engine;
 pub mod freeform;
 pub mod light;
 pub mod math;
-pub mod npy;
 pub mod objects;
 pub mod rig;
 pub mod rng;
@@ -43,7 +42,8 @@ pub use objects::{Geometry, ObjectSpec, Shape, Texture};
 pub use rig::{Rig, default_rig};
 pub use scene::{BUILTIN_SCENES, DatasetKind, Overrides, SceneSpec};
 
-use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut};
+use crate::batch::decode_whole;
+use fringe3d_core::decode::{DecodeConfig, Decoder};
 use fringe3d_core::pattern::PatternSet;
 use std::path::{Path, PathBuf};
 
@@ -67,7 +67,7 @@ pub enum RenderError {
     Image(#[from] crate::io::image::ImageError),
     /// A calibration or pattern-set file could not be written.
     #[error(transparent)]
-    Format(#[from] crate::io::calibration::FormatError),
+    Format(#[from] crate::io::error::FormatError),
     /// The dataset folder could not be created or committed.
     #[error(transparent)]
     Atomic(#[from] crate::io::atomic::AtomicError),
@@ -267,31 +267,11 @@ pub fn decode_phase(set: &PatternSet, frames: &Frames) -> Result<Vec<f32>, Rende
             "frames must hold {w} x {h} samples each"
         )));
     }
-    let mut phase = vec![f32::NAN; w * h];
-    if w == 0 {
-        return Ok(phase);
+    if w == 0 || h == 0 {
+        return Ok(Vec::new());
     }
-    use rayon::prelude::*;
-    phase
-        .par_chunks_mut(w)
-        .enumerate()
-        .try_for_each(|(y, out)| {
-            let (mut m, mut a, mut v) = (vec![0f32; w], vec![0f32; w], vec![0u8; w]);
-            let rows: Vec<&[u16]> = frames
-                .images
-                .iter()
-                .map(|img| &img[y * w..(y + 1) * w])
-                .collect();
-            dec.decode_row(
-                &rows,
-                RowOut {
-                    phase: out,
-                    modulation: &mut m,
-                    dc: &mut a,
-                    validity: &mut v,
-                },
-            )
-            .map_err(|e| RenderError::Decode(e.to_string()))
-        })?;
-    Ok(phase)
+    let images: Vec<&[u16]> = frames.images.iter().map(|i| i.as_slice()).collect();
+    let decoded =
+        decode_whole(&dec, &images, w, h).map_err(|e| RenderError::Decode(e.to_string()))?;
+    Ok(decoded.phase)
 }

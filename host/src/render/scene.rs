@@ -11,8 +11,8 @@ use super::light::{Optics, ProjectorMode};
 use super::math::{Mat3, Vec3, look_at};
 use super::objects::{ObjectSpec, Shape};
 use super::rig::{DEFAULT_AIM, Rig, default_rig};
-use crate::io::pattern_file::PatternSetFile;
-use fringe3d_core::pattern::{Level, Output, PatternSet};
+use crate::io::pattern_file::{PatternSetFile, Preset};
+use fringe3d_core::pattern::{Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, PhaseFunction};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -193,18 +193,6 @@ pub enum FringeAxis {
     Eta,
 }
 
-/// Level structure of the shorthand pattern description.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-pub enum PresetName {
-    /// The paper's 8 images (eq 7).
-    #[default]
-    #[serde(rename = "paper8")]
-    Paper8,
-    /// Three 4-step levels.
-    #[serde(rename = "twelve")]
-    Twelve,
-}
-
 /// The pattern set: a file, an inline pattern-set file, or the shorthand (preset + linear phase
 /// function centred on the DMD, optionally bent).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -221,7 +209,7 @@ pub struct PatternSpec {
     pub axis: FringeAxis,
     /// Shorthand: preset.
     #[serde(default)]
-    pub preset: PresetName,
+    pub preset: Preset,
     /// Shorthand: scale ratio between levels (default 8).
     #[serde(default = "d_ratio")]
     pub ratio: f64,
@@ -239,7 +227,7 @@ impl Default for PatternSpec {
             file: None,
             set: None,
             axis: FringeAxis::Xi,
-            preset: PresetName::Paper8,
+            preset: Preset::Paper8,
             ratio: d_ratio(),
             span: d_span(),
             curvature: 0.0,
@@ -728,18 +716,7 @@ impl SceneSpec {
                 .map_err(|x| e(&x))?;
         }
         let r = p.ratio;
-        let levels = match p.preset {
-            PresetName::Paper8 => [
-                Level::two_step(1.0),
-                Level::two_step(r),
-                Level::n_step(r * r, 4),
-            ],
-            PresetName::Twelve => [
-                Level::n_step(1.0, 4),
-                Level::n_step(r, 4),
-                Level::n_step(r * r, 4),
-            ],
-        };
+        let levels = p.preset.levels(r);
         let set = PatternSet::new(f, &levels, out).map_err(|x| e(&x))?;
         Ok((set, bits))
     }

@@ -3,13 +3,13 @@
 //! with the renderer's truth, and (optionally) scan the sphere and ball-bar scenes with the true and
 //! with the self-calibrated file (VDI/VDE 2634-2 style sphere-diameter and ball-bar-length errors).
 
-use super::camera::CameraOptions;
-use super::corners::{Board, DetectOptions};
-use super::files::{self, PlaneSource};
-use super::lens::{Lens, PARAM_NAMES};
-use super::linalg::{dot, norm, sub};
-use super::projector_centre::ProjectorOptions;
 use crate::accuracy::{self, Accuracy};
+use crate::calib::camera::CameraOptions;
+use crate::calib::corners::{Board, DetectOptions};
+use crate::calib::files::{self, PlaneSource};
+use crate::calib::lens::{Lens, PARAM_NAMES};
+use crate::calib::linalg::{dot, norm, sub};
+use crate::calib::projector_centre::ProjectorOptions;
 use crate::io::calibration::Calibration;
 use crate::io::image::{write_png_u8, write_png_u16};
 use crate::render::dataset::{DatasetOptions, write_dataset};
@@ -483,16 +483,21 @@ pub fn aligned_error(
             }
         }
     }
-    let r = super::linalg::nearest_rotation(&m);
-    let t = sub(qc, super::linalg::mv(&r, pc));
+    let r = crate::calib::linalg::nearest_rotation(&m);
+    let t = sub(qc, crate::calib::linalg::mv(&r, pc));
     let mut d: Vec<f64> = pairs
         .iter()
-        .map(|(p, q)| norm(sub(super::linalg::add(super::linalg::mv(&r, *p), t), *q)))
+        .map(|(p, q)| {
+            norm(sub(
+                crate::calib::linalg::add(crate::calib::linalg::mv(&r, *p), t),
+                *q,
+            ))
+        })
         .collect();
     let rms = (d.iter().map(|x| x * x).sum::<f64>() / d.len() as f64).sqrt();
     d.sort_by(f64::total_cmp);
     let p95 = d[((d.len() - 1) as f64 * 0.95) as usize];
-    let angle = norm(super::linalg::rot_log(&r)).to_degrees();
+    let angle = norm(crate::calib::linalg::rot_log(&r)).to_degrees();
     Some((rms, p95, angle, norm(t)))
 }
 
