@@ -7,12 +7,17 @@
 pub mod arith;
 pub mod camera;
 pub mod decode;
+pub mod decode_config;
+pub mod decode_error;
+pub mod estimator;
 pub mod filter;
 pub mod geometry;
+pub mod limits;
 pub mod math;
 pub mod pattern;
 pub mod phase_function;
 pub mod reconstruct;
+pub mod sample;
 pub mod sequential;
 pub mod unwrap;
 pub mod validity;
