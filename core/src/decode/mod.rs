@@ -16,6 +16,10 @@
 //! computed once per set ([`level_estimator`]), so decoding is a weighted sum per image followed by
 //! one `atan2` per level — no per-pixel branching on the set's structure.
 //!
+//! **Read [`reference`](mod@reference) first**: the same decoding for one pixel, plain f64 written as the
+//! paper's equations 8-15, with no blocks, lanes or backends. Everything below computes that,
+//! reorganised for speed; a unit test ties the two together.
+//!
 //! # One kernel, two drivers
 //! Per block of [`BLOCK`] pixels, pass 1 computes each level's S and C (and the DC level's A),
 //! its wrapped phase and modulation measure; pass 2 unwraps (eqs 12-13) and sets validity and
@@ -39,6 +43,7 @@
 //! # Files
 //! | module | holds |
 //! |---|---|
+//! | [`reference`](mod@reference) | the one-pixel f64 reference decoder (eqs 8-15 as written) |
 //! | `decoder` | [`Decoder`]: set-up from the pattern set (coefficients, plane modes, loop kinds) |
 //! | `row` | the row driver ([`Decoder::decode_row`]): blocks, pass 1 from image rows |
 //! | `fused` | the row driver's pass 1 for the paper's and the 12-pattern sets (one loop, lanes) |
@@ -61,6 +66,7 @@ mod finish;
 mod fused;
 mod level;
 pub mod parity;
+pub mod reference;
 mod row;
 
 pub use any::AnyDecoder;
