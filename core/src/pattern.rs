@@ -16,14 +16,12 @@
 //! The built-in sets put the level that carries the DC term A (the one with ≥ 3 shifts) first,
 //! so that a frame-sequential decoder can use A for the 2-image levels as soon as they arrive.
 
+use crate::estimator::level_estimator;
 use crate::phase_function::{Axis, PhaseFunction, PhaseFunctionError};
 
-/// The most levels a set holds.
-pub const MAX_LEVELS: usize = 6;
-/// The most phase shifts one level holds.
-pub const MAX_SHIFTS: usize = 16;
-/// The most images a set holds.
-pub const MAX_IMAGES: usize = 32;
+// The set's size limits live in `crate::limits` (below the estimator, which this module uses to
+// check a level's shifts); re-exported here, where they have always been.
+pub use crate::limits::{MAX_IMAGES, MAX_LEVELS, MAX_SHIFTS};
 
 /// Margin (radians) kept between the coarsest level's phase range and ±π by
 /// [`PatternSet::validate`].
@@ -436,7 +434,7 @@ impl PatternSet {
             if l.shifts().iter().any(|s| !s.is_finite()) {
                 return Err(PatternError::Shift(i));
             }
-            if crate::decode::level_estimator(l.shifts(), 0.0).is_none() {
+            if level_estimator(l.shifts(), 0.0).is_none() {
                 return Err(PatternError::DegenerateShifts(i));
             }
             any_two |= l.n == 2;

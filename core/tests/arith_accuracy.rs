@@ -9,8 +9,8 @@
 
 mod common;
 use common::*;
-use fringe3d_core::arith::{AnyDecoder, Arith, Backend, F32Accurate, F32Fast, F32Micromath, Fixed};
-use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut, Sample};
+use fringe3d_core::arith::{Arith, Backend, F32Accurate, F32Fast, F32Micromath, Fixed};
+use fringe3d_core::decode::{AnyDecoder, DecodeConfig, Decoder, RowOut, Sample};
 use fringe3d_core::math::canonical;
 use fringe3d_core::pattern::{Level, Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, PhaseFunction};

@@ -1,9 +1,10 @@
-//! Golden digests of the parity workload ([`fringe3d_core::arith::parity`]) for every backend:
+//! Golden digests of the parity workload ([`fringe3d_core::decode::parity`]) for every backend:
 //! the bits x86-64 computes, which the Cortex-M builds reproduce (`arith_qemu.rs`, and the table
 //! in docs/arithmetic.md). A change here is a change of some backend's results: update the
 //! constants only on purpose, and say so in docs/arithmetic.md.
 
-use fringe3d_core::arith::{Backend, parity};
+use fringe3d_core::arith::Backend;
+use fringe3d_core::decode::parity;
 
 /// `backend → digest per case` (cases: [`parity::CASE_NAMES`]).
 const GOLDEN: [(&str, [u64; parity::CASES]); 4] = [
@@ -76,7 +77,7 @@ fn parity_digests_are_the_golden_ones() {
 #[test]
 fn the_workload_exercises_every_validity_code_it_should() {
     // Valid and invalid pixels in every case, so that the digests cover both paths.
-    use fringe3d_core::arith::AnyDecoder;
+    use fringe3d_core::decode::AnyDecoder;
     use fringe3d_core::decode::RowOut;
     use fringe3d_core::pattern::MAX_IMAGES;
     for case in 0..parity::CASES {

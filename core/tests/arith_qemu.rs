@@ -1,7 +1,7 @@
 //! Bit parity between x86-64 and Cortex-M for every arithmetic backend: builds `core/arith-bench`
 //! for thumbv7m-none-eabi (Cortex-M3, no FPU) and thumbv7em-none-eabihf (Cortex-M4F), runs its
 //! `parity` command under `qemu-system-arm` (mps2-an385 / mps2-an386) and compares every digest
-//! with the one computed here ([`fringe3d_core::arith::parity`]); checks the targets'
+//! with the one computed here ([`fringe3d_core::decode::parity`]); checks the targets'
 //! [`fringe3d_core::arith::TargetDefault`] too.
 //!
 //! Needs `qemu-system-arm` and the two rustup targets. Without QEMU, or for a target that is not
@@ -9,7 +9,8 @@
 //! that a failure, `FRINGE3D_SKIP_QEMU=1` skips the test). The first run builds the bench (a few
 //! minutes; its crates come from crates.io).
 
-use fringe3d_core::arith::{Backend, parity};
+use fringe3d_core::arith::Backend;
+use fringe3d_core::decode::parity;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};

@@ -3,7 +3,7 @@
 //! Commands (semihosting command line, after the program name):
 //! * `parity` — print `default <backend>` (the target's [`TargetDefault`]), then
 //!   `parity <backend> <case> <digest>` for every backend and case of
-//!   [`fringe3d_core::arith::parity`]; the host compares them with its own digests.
+//!   [`fringe3d_core::decode::parity`]; the host compares them with its own digests.
 //! * `count <backend> <case> <reps>` — decode the case's row `reps` times with the backend and
 //!   print its digest. Instructions per pixel are the difference of the instruction counts of
 //!   `reps = R` and `reps = 0` (QEMU plugin `qemu/insn_count.c`) over `R·WIDTH` pixels.
@@ -13,7 +13,8 @@
 use core::fmt::Write;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hio};
-use fringe3d_core::arith::{Arith, Backend, TargetDefault, parity};
+use fringe3d_core::arith::{Arith, Backend, TargetDefault};
+use fringe3d_core::decode::parity;
 
 /// SYS_GET_CMDLINE: the command line QEMU was given (`-semihosting-config arg=…`).
 fn cmdline(buf: &mut [u8]) -> &str {

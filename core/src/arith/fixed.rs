@@ -28,8 +28,9 @@
 
 use super::cordic::cordic_atan2;
 use super::{Arith, LevelCoefs, Limits, Plan, Sealed, max_unsaturated};
-use crate::decode::{DecodeError, Sample};
-use crate::pattern::MAX_SHIFTS;
+use crate::decode_error::DecodeError;
+use crate::limits::MAX_SHIFTS;
+use crate::sample::Sample;
 use crate::unwrap::{consistent_turns, unwrap_step_turns};
 use fixed::types::{I8F24, I16F16, U8F24};
 

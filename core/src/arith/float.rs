@@ -2,8 +2,9 @@
 //! square root of the modulation output.
 
 use super::{Arith, LevelCoefs, Limits, Plan, Sealed};
-use crate::decode::{DecodeError, Sample};
+use crate::decode_error::DecodeError;
 use crate::math;
+use crate::sample::Sample;
 use crate::unwrap::{consistent, unwrap_step};
 
 /// The default backend: f32 accumulators, [`math::atan2`] (degree-13 polynomial, 6.5e-7 rad) for

@@ -25,7 +25,7 @@
 //! config)` (or `Decoder::<TargetDefault>::with_arith`), whose row API,
 //! [`crate::decode::Decoder::accumulate`]/[`crate::decode::Decoder::finish`] and frame-sequential
 //! decoder ([`crate::sequential::FrameDecoder`]) are the same generic code. For a choice made at
-//! run time (tools, golden vectors) use [`AnyDecoder`] with a [`Backend`].
+//! run time (tools, golden vectors) use [`crate::decode::AnyDecoder`] with a [`Backend`].
 //!
 //! # Outputs
 //! Whatever the backend, the outputs are the decoder's f32 rows (phase and wrapped phase in
@@ -34,16 +34,15 @@
 //! integer-to-f32 conversion and an exact power-of-two scale, which is deterministic on every
 //! target, soft float included.
 
+mod backend;
 mod cordic;
 mod fixed;
 mod float;
-pub mod parity;
-mod select;
 
+pub use backend::Backend;
 pub use cordic::{CORDIC_ANGLES, CORDIC_INV_GAIN_Q32, CORDIC_ITERATIONS, cordic_atan2};
 pub use fixed::{Fixed, FixedFormat, PHASE_TURNS_LIMIT};
 pub use float::{F32Accurate, F32Fast, F32Micromath};
-pub use select::{AnyDecoder, Backend};
 
 /// The recommended backend for the target being compiled (`docs/arithmetic.md`): [`Fixed`] on
 /// ARM without the hard-float ABI (thumbv6m/thumbv7m/thumbv7em-none-eabi: no FPU in use, f32 would
@@ -60,8 +59,11 @@ pub type TargetDefault = Fixed;
 #[cfg(not(all(target_arch = "arm", not(target_abi = "eabihf"))))]
 pub type TargetDefault = F32Accurate;
 
-use crate::decode::{DecodeConfig, DecodeError, LevelEstimator, Sample};
-use crate::pattern::MAX_SHIFTS;
+use crate::decode_config::DecodeConfig;
+use crate::decode_error::DecodeError;
+use crate::estimator::LevelEstimator;
+use crate::limits::MAX_SHIFTS;
+use crate::sample::Sample;
 use core::fmt::Debug;
 
 mod sealed {

@@ -9,7 +9,7 @@
 //! moves values, every implementation gives the kernel the same inputs, and the reconstruction
 //! the same bits. The tests compare them.
 
-use super::kernel::LANES;
+use super::LANES;
 use crate::math::CANONICAL_NAN;
 
 /// Fetches the samples of the bilinear cells of one chunk of [`LANES`] pixels.

@@ -1,7 +1,9 @@
-//! Test support: a seeded RNG, Gaussian noise, and synthetic fringe images from the model of
-//! eq 8/14 evaluated in f64 (independent of the core's decoder).
+//! Test support: a seeded RNG, Gaussian noise, synthetic fringe images from the model of eq 8/14
+//! evaluated in f64 (independent of the core's decoder), and the crate's f64 reference decoder
+//! ([`fringe3d_core::decode::reference`]) in the tests' form.
 #![allow(dead_code, clippy::disallowed_methods)] // std f64 maths is the independent truth here
 
+use fringe3d_core::decode::reference;
 use fringe3d_core::pattern::PatternSet;
 
 /// SplitMix64: small, seeded, reproducible.
@@ -71,53 +73,12 @@ pub fn to_u8(imgs: &[Vec<u16>]) -> Vec<Vec<u8>> {
         .collect()
 }
 
-/// Independent f64 reference decoder for sets whose DC level has uniform N-step shifts and whose
-/// 2-image levels have shifts 0 and π/2 (the paper's sets): eqs 9-13 written out literally.
-/// Returns (finest absolute phase, per-level wrapped phase, A).
+/// The f64 reference decoder of the crate ([`fringe3d_core::decode::reference`], eqs 8-15 as
+/// written) for one pixel: (finest absolute phase, per-level wrapped phase, A). Panics on a set
+/// the reference does not cover (every level of ≥ 3 shifts uniform, 2-image levels at 0 and π/2).
 pub fn reference_decode(set: &PatternSet, samples: &[f64]) -> (f64, Vec<f64>, f64) {
-    let levels = set.levels();
-    let off = set.effective_offset();
-    let mut per_level: Vec<Vec<f64>> = vec![Vec::new(); levels.len()];
-    for (i, &v) in samples.iter().enumerate() {
-        let id = set.image(i).unwrap();
-        per_level[id.level as usize].push(v);
-    }
-    // eq 15: A from the DC level (most shifts, finest on ties)
-    let dc = (0..levels.len())
-        .filter(|&l| levels[l].len() >= 3)
-        .max_by_key(|&l| (levels[l].len(), l))
-        .unwrap();
-    let a = per_level[dc].iter().sum::<f64>() / per_level[dc].len() as f64;
-    let mut wrapped = Vec::new();
-    for (l, lv) in levels.iter().enumerate() {
-        let v = &per_level[l];
-        let (s, c) = if lv.len() >= 3 {
-            // generic N-step (eq 14), least squares for uniform shifts
-            let n = lv.len() as f64;
-            let mut s = 0.0;
-            let mut c = 0.0;
-            for (k, d) in lv.shifts().iter().enumerate() {
-                s += v[k] * (d + off).cos() * 2.0 / n;
-                c += v[k] * (d + off).sin() * 2.0 / n;
-            }
-            (s, c)
-        } else {
-            // eq 11 generalised to the offset: I1 − A = B sin(Φ + o), I2 − A = B cos(Φ + o)
-            let (y, x) = (v[0] - a, v[1] - a);
-            let ph = y.atan2(x) - off;
-            (ph.sin(), ph.cos())
-        };
-        wrapped.push(s.atan2(c));
-    }
-    // eqs 12-13
-    let mut phi = wrapped[0];
-    for l in 1..levels.len() {
-        let ratio = levels[l].scale() / levels[l - 1].scale();
-        let pred = ratio * phi;
-        let n = ((pred - wrapped[l]) / std::f64::consts::TAU).round();
-        phi = wrapped[l] + std::f64::consts::TAU * n;
-    }
-    (phi, wrapped, a)
+    let r = reference::decode_pixel(set, samples).expect("a set the reference decoder covers");
+    (r.phase, r.wrapped[..set.levels().len()].to_vec(), r.dc)
 }
 
 /// Wrap to (−π, π].

@@ -8,8 +8,11 @@
 //! so that every target builds the same input. The digest is FNV-1a (64 bits) over every output
 //! of [`AnyDecoder::decode_row`] and [`AnyDecoder::decode_row_level`] (f32 bits, NaN canonical).
 
-use super::{AnyDecoder, Backend};
-use crate::decode::{DecodeConfig, DecodeError, RowOut};
+use super::any::AnyDecoder;
+use super::buffers::RowOut;
+use crate::arith::Backend;
+use crate::decode_config::DecodeConfig;
+use crate::decode_error::DecodeError;
 use crate::math::canonical;
 use crate::pattern::{Level, MAX_IMAGES, Output, PatternSet};
 use crate::phase_function::{Axis, PhaseFunction};

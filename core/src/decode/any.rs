@@ -1,55 +1,13 @@
-//! Choosing the arithmetic at run time: [`Backend`] names one, [`AnyDecoder`] holds a decoder of
-//! any backend behind one type (tools, golden vectors, benchmarks).
+//! A decoder whose arithmetic is chosen at run time ([`AnyDecoder`], named by a [`Backend`]):
+//! tools, golden vectors, benchmarks, the parity workload ([`super::parity`]).
 
-use super::{F32Accurate, F32Fast, F32Micromath, Fixed, FixedFormat};
-use crate::arith::Arith;
-use crate::decode::{DecodeConfig, DecodeError, Decoder, RowOut, Sample};
+use super::buffers::RowOut;
+use super::decoder::Decoder;
+use crate::arith::{Backend, F32Accurate, F32Fast, F32Micromath, Fixed, FixedFormat};
+use crate::decode_config::DecodeConfig;
+use crate::decode_error::DecodeError;
 use crate::pattern::PatternSet;
-
-/// A decoding arithmetic, by name.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Backend {
-    /// [`F32Accurate`], the default.
-    #[default]
-    F32Accurate,
-    /// [`F32Fast`].
-    F32Fast,
-    /// [`F32Micromath`].
-    F32Micromath,
-    /// [`Fixed`].
-    Fixed,
-}
-
-impl Backend {
-    /// Every backend, default first.
-    pub const ALL: [Backend; 4] = [
-        Backend::F32Accurate,
-        Backend::F32Fast,
-        Backend::F32Micromath,
-        Backend::Fixed,
-    ];
-
-    /// Its name: `f32`, `f32-fast`, `f32-micromath` or `fixed` ([`Arith::NAME`]).
-    pub fn name(self) -> &'static str {
-        match self {
-            Backend::F32Accurate => F32Accurate::NAME,
-            Backend::F32Fast => F32Fast::NAME,
-            Backend::F32Micromath => F32Micromath::NAME,
-            Backend::Fixed => Fixed::NAME,
-        }
-    }
-
-    /// The backend of a name ([`Backend::name`]).
-    pub fn from_name(name: &str) -> Option<Backend> {
-        Backend::ALL.into_iter().find(|b| b.name() == name)
-    }
-}
-
-impl core::fmt::Display for Backend {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+use crate::sample::Sample;
 
 /// A decoder of any backend. Its methods are those of [`Decoder`], dispatched once per call.
 #[derive(Clone, Copy, Debug, PartialEq)]

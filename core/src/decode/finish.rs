@@ -1,0 +1,285 @@
+//! Pass 1 from accumulated planes and pass 2 of both drivers: S and C per level, the wrapped
+//! phases and modulation (eqs 9, 11), the hierarchical unwrapping (eqs 12-13), the range,
+//! modulation, dark and saturation tests and the outputs ([`Decoder::finish`]).
+
+use super::BLOCK;
+use super::buffers::{Block, BlockOut, RowOut, State, block, block_mut};
+use super::decoder::Decoder;
+use crate::arith::Arith;
+use crate::decode_error::DecodeError;
+use crate::math::CANONICAL_NAN;
+use crate::validity::Validity;
+
+impl<A: Arith> Decoder<A> {
+    /// Turn a complete state into outputs (the second half of the kernel): S and C per level,
+    /// wrapped phase by the backend's `atan2` ([`crate::math::atan2`] by default), modulation,
+    /// hierarchical unwrapping, validity.
+    ///
+    /// Always inlined (as are [`Self::decode_row`] and [`Self::accumulate`]) so that a caller
+    /// compiled for a wider instruction set (the host's AVX2 batch path) vectorizes the same
+    /// operations wider; IEEE arithmetic without contraction gives the same bits.
+    #[inline(always)]
+    pub fn finish(&self, st: &State<'_, A::Acc>, out: RowOut<'_>) -> Result<(), DecodeError> {
+        let flags = &st.flags[..];
+        if flags.len() != st.dc.len() {
+            return Err(DecodeError::Length);
+        }
+        self.finish_levels(st, flags, |f| f & 1 != 0, out)
+    }
+
+    /// [`Self::finish`] with the saturation test of pixel `i` given by `saturated(sat[i])`,
+    /// compiled once per level count.
+    #[inline(always)]
+    fn finish_levels<T: Copy>(
+        &self,
+        st: &State<'_, A::Acc>,
+        sat: &[T],
+        saturated: impl Fn(T) -> bool,
+        out: RowOut<'_>,
+    ) -> Result<(), DecodeError> {
+        let n = st.dc.len();
+        if !out.len_ok(n)
+            || sat.len() != n
+            || (0..self.n_levels).any(|l| st.s[l].len() != n || st.c[l].len() != n)
+        {
+            return Err(DecodeError::Length);
+        }
+        if n == 0 {
+            return Ok(());
+        }
+        let mut blk = Block::<A>::new();
+        if n < BLOCK {
+            // Short: padded copies of the state (the padding's results are dropped).
+            let pad = |p: &[A::Acc]| {
+                let mut b = [A::ZERO; BLOCK];
+                b[..n].copy_from_slice(p);
+                b
+            };
+            let mut sat_b = [sat[0]; BLOCK];
+            sat_b[..n].copy_from_slice(sat);
+            blk.dc = pad(st.dc);
+            let (mut ph, mut mo, mut dc) = ([0.0f32; BLOCK], [0.0f32; BLOCK], [0.0f32; BLOCK]);
+            let mut va = [0u8; BLOCK];
+            for l in 0..self.n_levels {
+                self.polar_into(l, &pad(st.s[l]), &pad(st.c[l]), &mut blk, &mut mo);
+            }
+            self.unwrap_block::<T, 1>(
+                &blk,
+                &sat_b,
+                &saturated,
+                BlockOut {
+                    phase: &mut ph,
+                    modulation: &mut mo,
+                    dc: &mut dc,
+                    validity: &mut va,
+                },
+            );
+            out.phase.copy_from_slice(&ph[..n]);
+            out.modulation.copy_from_slice(&mo[..n]);
+            out.dc.copy_from_slice(&dc[..n]);
+            out.validity.copy_from_slice(&va[..n]);
+            return Ok(());
+        }
+        // Whole blocks, the last one overlapping (see `decode_row_with`).
+        let mut start = 0;
+        loop {
+            let r = start..start + BLOCK;
+            blk.dc = *block(st.dc, r.clone())?;
+            let mo = block_mut(out.modulation, r.clone())?;
+            for l in 0..self.n_levels {
+                self.polar_into(
+                    l,
+                    block(st.s[l], r.clone())?,
+                    block(st.c[l], r.clone())?,
+                    &mut blk,
+                    mo,
+                );
+            }
+            let o = BlockOut {
+                phase: block_mut(out.phase, r.clone())?,
+                modulation: mo,
+                dc: block_mut(out.dc, r.clone())?,
+                validity: block_mut(out.validity, r.clone())?,
+            };
+            self.unwrap_block::<T, 1>(&blk, block(sat, r)?, &saturated, o);
+            if start + BLOCK == n {
+                return Ok(());
+            }
+            start = if n - (start + BLOCK) >= BLOCK {
+                start + BLOCK
+            } else {
+                n - BLOCK
+            };
+        }
+    }
+
+    /// Pass 1 for level `l` from its S and C accumulators and the block's A: S and C (eq 11 for
+    /// the 2-shift levels), the wrapped phase and the modulation measure. The coarser levels only
+    /// choose fringe orders, so they take the backend's cheaper arctangent
+    /// ([`Arith::polar_coarse`]); the finest level, whose phase is the output, the accurate one,
+    /// and it writes B into `modulation`.
+    #[inline(always)]
+    pub(super) fn polar_into(
+        &self,
+        l: usize,
+        s: &[A::Acc; BLOCK],
+        c: &[A::Acc; BLOCK],
+        blk: &mut Block<A>,
+        modulation: &mut [f32; BLOCK],
+    ) {
+        if l + 1 < self.n_levels {
+            self.polar_from_planes::<false>(l, s, c, blk, modulation);
+        } else {
+            self.polar_from_planes::<true>(l, s, c, blk, modulation);
+        }
+    }
+
+    /// [`Self::polar_into`] for a coarser (`FINE = false`) or the finest level.
+    #[inline(always)]
+    fn polar_from_planes<const FINE: bool>(
+        &self,
+        l: usize,
+        s: &[A::Acc; BLOCK],
+        c: &[A::Acc; BLOCK],
+        blk: &mut Block<A>,
+        mo: &mut [f32; BLOCK],
+    ) {
+        let (ad, bd, fmt) = (self.a_dc[l], self.b_dc[l], &self.format);
+        let Block { dc, wrapped, mag } = blk;
+        let (w, mag) = (&mut wrapped[l], &mut mag[l]);
+        for i in 0..BLOCK {
+            let (s, c) = A::level_sc(s[i], c[i], ad, bd, dc[i], fmt);
+            if FINE {
+                let (p, b2, b) = A::polar_fine(s, c, fmt);
+                (w[i], mag[i], mo[i]) = (p, b2, b);
+            } else {
+                (w[i], mag[i]) = A::polar_coarse(s, c);
+            }
+        }
+    }
+
+    /// Pass 2, compiled once per level count: both unwrapping steps (eqs 12-13), the range test,
+    /// the validity selects and the phase, DC and validity outputs of one block. Pixel `i` is
+    /// saturated if `saturated(sat[i])`.
+    ///
+    /// Splitting the finishing work into these two passes keeps each loop body short, with
+    /// independent iterations an out-of-order core overlaps; one fused body (arctangents →
+    /// unwrapping → validity, ~300 instructions per vector) ran at the latency of its chain.
+    #[inline(always)]
+    pub(super) fn unwrap_block<T: Copy, const N: usize>(
+        &self,
+        blk: &Block<A>,
+        sat: &[T; BLOCK],
+        saturated: impl Fn(T) -> bool,
+        out: BlockOut<'_>,
+    ) {
+        match self.n_levels {
+            1 => self.unwrap_levels::<1, T, N>(blk, sat, saturated, out),
+            2 => self.unwrap_levels::<2, T, N>(blk, sat, saturated, out),
+            3 => self.unwrap_levels::<3, T, N>(blk, sat, saturated, out),
+            4 => self.unwrap_levels::<4, T, N>(blk, sat, saturated, out),
+            5 => self.unwrap_levels::<5, T, N>(blk, sat, saturated, out),
+            _ => self.unwrap_levels::<6, T, N>(blk, sat, saturated, out),
+        }
+    }
+
+    /// [`Self::unwrap_block`] for `L` levels, pixel `j` of each of the block's `N` parts side by
+    /// side ([`Self::finish_lanes`]).
+    // Indices, not iterators, over the levels: the iterator form left this loop unvectorized
+    // (5× slower with AVX-512).
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn unwrap_levels<const L: usize, T: Copy, const N: usize>(
+        &self,
+        blk: &Block<A>,
+        sat: &[T; BLOCK],
+        saturated: impl Fn(T) -> bool,
+        out: BlockOut<'_>,
+    ) {
+        let fmt = &self.format;
+        let (wrapped, mag, a) = (&blk.wrapped, &blk.mag, &blk.dc);
+        let BlockOut {
+            phase: po,
+            dc: ao,
+            validity: vo,
+            ..
+        } = out;
+        const { assert!(N > 0 && BLOCK.is_multiple_of(N)) };
+        for j in 0..BLOCK / N {
+            let ix: [usize; N] = core::array::from_fn(|k| j + k * (BLOCK / N));
+            let av: [A::Acc; N] = core::array::from_fn(|k| a[ix[k]]);
+            let w: [[A::Phase; L]; N] =
+                core::array::from_fn(|k| core::array::from_fn(|l| wrapped[l][ix[k]]));
+            let m: [[A::Mag; L]; N] =
+                core::array::from_fn(|k| core::array::from_fn(|l| mag[l][ix[k]]));
+            let st: [bool; N] = core::array::from_fn(|k| saturated(sat[ix[k]]));
+            let r = self.finish_lanes(&w, &m, &av, &st);
+            for k in 0..N {
+                (po[ix[k]], vo[ix[k]]) = r[k];
+                ao[ix[k]] = A::dc_out(av[k], fmt);
+            }
+        }
+    }
+
+    /// Pass 2 of `N` pixels of `L` levels, every step written for the `N` side by side (each
+    /// pixel's operations are the same whatever `N`): both unwrapping steps (eqs 12-13) from the
+    /// wrapped phases `w` (coarsest first), the range test, the smallest modulation measure of
+    /// `m`, the dark test on `a` and the validity code (`saturated` given). Returns the phase
+    /// output and the code of each pixel.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn finish_lanes<const L: usize, const N: usize>(
+        &self,
+        w: &[[A::Phase; L]; N],
+        m: &[[A::Mag; L]; N],
+        a: &[A::Acc; N],
+        saturated: &[bool; N],
+    ) -> [(f32, u8); N] {
+        use core::array::from_fn as lanes;
+        let lim = &self.limits;
+        let mut phi: [A::Phase; N] = lanes(|k| w[k][0]);
+        let out_of_range: [bool; N] = lanes(|k| !A::in_range(phi[k], lim.coarse_lo, lim.coarse_hi));
+        let mut inconsistent = [false; N];
+        for l in 1..L {
+            let st: [(A::Phase, A::Phase); N] =
+                lanes(|k| A::unwrap(phi[k], self.ratio[l], w[k][l]));
+            for k in 0..N {
+                inconsistent[k] |= !A::consistent(st[k].1, lim.unwrap_tolerance);
+                phi[k] = st[k].0;
+            }
+        }
+        let mut bm = [A::MAG_MAX; N];
+        for l in 0..L {
+            for k in 0..N {
+                bm[k] = A::min_mag(m[k][l], bm[k]);
+            }
+        }
+        // Priority (highest last): unwrap inconsistent, out of range, low modulation, dark,
+        // saturated. Masks, not branches or a chain of selects (which LLVM may fold into
+        // branches), so the loop vectorizes.
+        let pick = |cond: bool, code: Validity, v: u32| {
+            let m = (cond as u32).wrapping_neg();
+            (v & !m) | (code as u32 & m)
+        };
+        lanes(|k| {
+            let mut v = Validity::Valid as u32;
+            v = pick(inconsistent[k], Validity::UnwrapInconsistent, v);
+            v = pick(out_of_range[k], Validity::PhaseOutOfRange, v);
+            v = pick(
+                !A::mag_at_least(bm[k], lim.min_modulation),
+                Validity::LowModulation,
+                v,
+            );
+            v = pick(!A::dc_at_least(a[k], lim.dark), Validity::Dark, v);
+            v = pick(saturated[k], Validity::Saturated, v);
+            (
+                if v == 0 {
+                    A::phase_out(phi[k])
+                } else {
+                    CANONICAL_NAN
+                },
+                v as u8,
+            )
+        })
+    }
+}

@@ -1,0 +1,73 @@
+//! The decoder's thresholds ([`DecodeConfig`]): the validity tests of every pixel (dark,
+//! saturated, low modulation, unwrapping residual, phase range), with defaults per sensor bit
+//! depth. Below the decoding arithmetic ([`crate::arith`], which converts them to its units) and
+//! the decoder ([`crate::decode`], which re-exports it as `fringe3d_core::decode::DecodeConfig`).
+
+#[cfg(doc)]
+use crate::validity::Validity;
+
+/// Thresholds of the validity tests. All intensities are in camera codes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DecodeConfig {
+    /// A pixel whose DC term A is below this is [`Validity::Dark`].
+    pub dark_level: f32,
+    /// A pixel with any sample `≥` this is [`Validity::Saturated`].
+    pub saturation_level: f32,
+    /// A pixel whose modulation B is below this in any level is [`Validity::LowModulation`].
+    pub min_modulation: f32,
+    /// Largest accepted unwrapping residual, radians ([`crate::unwrap::consistent`]).
+    pub unwrap_tolerance: f32,
+    /// How far (radians) the coarsest phase may lie outside the range the set produces before the
+    /// pixel is [`Validity::PhaseOutOfRange`].
+    pub range_tolerance: f32,
+}
+
+impl DecodeConfig {
+    /// Defaults for a sensor of `bits` bits per sample (8 to 16): dark below 2 % of full scale,
+    /// saturated at full scale, modulation at least 2 % of full scale but not below 12 codes (as
+    /// long as that is within 5 % of full scale), unwrapping residual ≤ 2π/3, coarse phase within
+    /// 0.15 rad of the projected range (the range keeps 0.05 rad from ±π, and the level-0 noise at
+    /// B/σ = 14 is 0.08 rad).
+    ///
+    /// Why 12 codes: the hierarchical unwrapping (eqs 12-13) picks a wrong fringe order *without
+    /// noticing* only when the residual's noise exceeds 2π minus the tolerance, 4π/3. With the
+    /// paper's set (2-step levels sharing A, level ratio 8) that noise is ≈ 9·σ_I/B rad, so at
+    /// B = 12 and σ_I = 1 code (a typical 8-bit sensor) a silent order error needs a 5.6σ event
+    /// (≈ 2e-8 per pixel); at 2 % of an 8-bit scale (5 codes) it was a 2.3σ event, and rendered
+    /// 8-bit scans showed dozens of valid-looking pixels a whole number of fringes off. From 10
+    /// bits up, 2 % of full scale is already ≥ 20 codes and the rule changes nothing.
+    pub fn for_bit_depth(bits: u32) -> Self {
+        let bits = bits.clamp(1, 16);
+        let full = ((1u32 << bits) - 1) as f32;
+        let floor = if 12.0 < 0.05 * full {
+            12.0
+        } else {
+            0.05 * full
+        };
+        let two_percent = 0.02 * full;
+        DecodeConfig {
+            dark_level: 0.02 * full,
+            saturation_level: full,
+            min_modulation: if two_percent > floor {
+                two_percent
+            } else {
+                floor
+            },
+            unwrap_tolerance: 2.0 * core::f32::consts::PI / 3.0,
+            range_tolerance: 0.15,
+        }
+    }
+
+    pub(crate) fn is_sane(&self) -> bool {
+        let all = [
+            self.dark_level,
+            self.saturation_level,
+            self.min_modulation,
+            self.unwrap_tolerance,
+            self.range_tolerance,
+        ];
+        all.iter().all(|v| v.is_finite() && *v >= 0.0)
+            && self.unwrap_tolerance <= core::f32::consts::PI
+            && self.saturation_level > 0.0
+    }
+}

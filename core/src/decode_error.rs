@@ -1,0 +1,42 @@
+//! Why a decoder could not be built or run ([`DecodeError`]). Below the decoding arithmetic
+//! ([`crate::arith`], whose backends may refuse a set) and the decoder ([`crate::decode`], which
+//! re-exports it as `fringe3d_core::decode::DecodeError`).
+
+/// Why a decoder could not be built or run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DecodeError {
+    /// The pattern set's shifts cannot be decoded at this level.
+    Degenerate(u8),
+    /// A threshold is NaN, negative, or the unwrap tolerance exceeds π.
+    Config,
+    /// The number of image rows differs from the set's image count.
+    ImageCount,
+    /// Input or output rows differ in length.
+    Length,
+    /// The state buffer given to the frame-sequential decoder is too small.
+    StateTooSmall,
+    /// A frame or row was pushed out of order, or the set was already complete.
+    Sequence,
+}
+
+impl DecodeError {
+    /// The error itself (all variants are argument errors; the enum is its own kind).
+    pub fn kind(&self) -> DecodeError {
+        *self
+    }
+}
+
+impl core::fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Degenerate(l) => write!(f, "level {l}: shifts cannot be decoded"),
+            Self::Config => f.write_str(
+                "decode thresholds must be finite and non-negative, unwrap tolerance <= pi",
+            ),
+            Self::ImageCount => f.write_str("number of image rows differs from the pattern set"),
+            Self::Length => f.write_str("input and output rows differ in length"),
+            Self::StateTooSmall => f.write_str("state buffer too small for this frame size"),
+            Self::Sequence => f.write_str("frame or row pushed out of order"),
+        }
+    }
+}

@@ -1,0 +1,166 @@
+//! [`Reconstructor`]: one calibration and depth range, validated at construction
+//! ([`Reconstructor::new`]), with its band of reference rows and the kernel's constants. Its row
+//! API is in `row`.
+
+use super::MAX_BAND_ROWS;
+use super::error::ReconstructError;
+use super::setup::{Band, Consts, Setup, analyse};
+use crate::camera::CameraModel;
+use crate::geometry::Plane;
+
+/// A reconstructor for one calibration and depth range: validated, with its band and constants.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reconstructor {
+    pub(super) cam: CameraModel,
+    pub(super) setup: Setup,
+    pub(super) band: Band,
+    pub(super) c: Consts,
+    pub(super) bisections: u32,
+    pub(super) max_segment_px: f32,
+}
+
+impl Reconstructor {
+    /// Validate the geometry against the camera and compute the band and the per-pixel constants.
+    ///
+    /// Checks, on a 16-pixel grid of the image (plus its last row and column): every ray meets the
+    /// reference plane in front of the camera; the depth range maps to a finite search segment
+    /// (no projector ray parallel to the reference plane); the epipolar line is within 45° of the
+    /// phase axis; and the band of reference rows the segments need fits [`MAX_BAND_ROWS`].
+    pub fn new(camera: &CameraModel, setup: &Setup) -> Result<Self, ReconstructError> {
+        let s = setup;
+        if !(s.projector_centre.is_finite()
+            && s.reference_point.is_finite()
+            && s.reference_normal.is_finite()
+            && s.z_min.is_finite()
+            && s.z_max.is_finite())
+        {
+            return Err(ReconstructError::NotFinite);
+        }
+        if !(s.z_min > 0.0 && s.z_min < s.z_max) {
+            return Err(ReconstructError::DepthRange);
+        }
+        let plane = Plane::new(s.reference_point, s.reference_normal)
+            .ok_or(ReconstructError::ReferencePlane)?;
+        let mut n = plane
+            .normal
+            .normalized()
+            .ok_or(ReconstructError::ReferencePlane)?;
+        let mut h_r = n.dot(plane.point);
+        if h_r < 0.0 {
+            n = n.scale(-1.0);
+            h_r = -h_r;
+        }
+        if !(h_r > 1e-3 * s.z_min) {
+            return Err(ReconstructError::ReferencePlane);
+        }
+        let p = s.projector_centre;
+        let h = h_r - n.dot(p);
+        if !(p.norm() > 1e-6 * s.z_max) || !(libm::fabs(h) > 1e-6 * s.z_max) {
+            return Err(ReconstructError::ProjectorCentre);
+        }
+        let i = camera.params();
+        let c = Consts {
+            nx: n.x as f32,
+            ny: n.y as f32,
+            nz: n.z as f32,
+            h_r: h_r as f32,
+            h: h as f32,
+            px: p.x as f32,
+            py: p.y as f32,
+            pz: p.z as f32,
+            z_min: s.z_min as f32,
+            z_max: s.z_max as f32,
+            fx: i.fx as f32,
+            fy: i.fy as f32,
+            sfx: (i.skew * i.fx) as f32,
+            k: {
+                let d = camera.distortion();
+                [
+                    d.k1 as f32,
+                    d.k2 as f32,
+                    d.p1 as f32,
+                    d.p2 as f32,
+                    d.k3 as f32,
+                ]
+            },
+        };
+        let (band, max_segment_px) = analyse(camera, s, n, h_r, h)?;
+        if band.rows() > MAX_BAND_ROWS as u32 {
+            return Err(ReconstructError::BandTooLarge { rows: band.rows() });
+        }
+        // Bisection steps bringing the longest segment below a quarter pixel.
+        let mut bisections = 0u32;
+        let mut len = max_segment_px;
+        while len > 0.25 && bisections < 30 {
+            len *= 0.5;
+            bisections += 1;
+        }
+        Ok(Reconstructor {
+            cam: *camera,
+            setup: *s,
+            band,
+            c,
+            bisections,
+            max_segment_px: max_segment_px as f32,
+        })
+    }
+
+    /// The camera model.
+    pub fn camera(&self) -> &CameraModel {
+        &self.cam
+    }
+
+    /// The geometry this reconstructor was built for.
+    pub fn setup(&self) -> &Setup {
+        &self.setup
+    }
+
+    /// The band of reference rows a row needs.
+    pub fn band(&self) -> Band {
+        self.band
+    }
+
+    /// Image width, pixels.
+    pub fn width(&self) -> usize {
+        self.cam.width() as usize
+    }
+
+    /// Image height, pixels.
+    pub fn height(&self) -> usize {
+        self.cam.height() as usize
+    }
+
+    /// The longest search segment (depth range) over the image, distorted pixels.
+    pub fn max_segment_px(&self) -> f32 {
+        self.max_segment_px
+    }
+
+    /// Bisection steps of the fallback search (fixed by the longest segment).
+    pub fn fallback_bisections(&self) -> u32 {
+        self.bisections
+    }
+
+    /// Bytes of a ring of `rows` rows for this image width: `rows × width × (4 + 1)`.
+    pub fn ring_bytes(&self, rows: u32) -> usize {
+        (rows as usize)
+            .saturating_mul(self.width())
+            .saturating_mul(5)
+    }
+
+    /// Reference rows `first..=last` that row `v` reads (clipped to the image).
+    pub fn rows_needed(&self, v: u32) -> (u32, u32) {
+        let h = self.cam.height();
+        (
+            v.saturating_sub(self.band.above),
+            (v.saturating_add(self.band.below)).min(h - 1),
+        )
+    }
+
+    pub(super) fn consts(&self) -> &Consts {
+        &self.c
+    }
+
+    pub(super) fn bisection_count(&self) -> u32 {
+        self.bisections
+    }
+}

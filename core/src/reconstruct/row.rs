@@ -1,0 +1,187 @@
+//! The row API of a [`Reconstructor`] (paper §6, row by row): argument checks, the band's row
+//! table, then the kernel ([`super::kernel`]) for one row; a whole frame row by row.
+
+use super::error::ReconstructError;
+use super::gather::{CellGather, ScalarGather};
+use super::kernel;
+use super::reconstructor::Reconstructor;
+use super::reference_rows::{ReferenceMap, ReferenceRows};
+use super::refrows::RefRows;
+#[cfg(doc)]
+use crate::validity::Validity;
+
+impl Reconstructor {
+    /// Reconstruct row `v` (paper §6): for each pixel `u`, the point M (x, y, z in mm, camera
+    /// frame) into `out_xyz[3u..3u+3]` and its [`Validity`] code into `out_validity[u]`.
+    ///
+    /// `phase_row` and `validity_row` are the decoder's output for row `v` (absolute phase,
+    /// increasing with ξ or η). A pixel whose input code is not `Valid` keeps its code (unknown
+    /// codes and non-finite phases marked `Valid` become [`Validity::PhaseOutOfRange`]); a pixel
+    /// whose phase is not found gets [`Validity::NoCrossing`], [`Validity::OutOfDepth`],
+    /// [`Validity::ReferenceInvalid`] or [`Validity::Degenerate`]. Every invalid pixel's point is
+    /// the canonical NaN. `reference` must hold the rows [`Reconstructor::rows_needed`] returns.
+    ///
+    /// Always inlined with its kernel: a host may call it from a `#[target_feature(enable =
+    /// "avx2")]` function to get 8-wide vectors; the results are the same bits (no FMA is enabled
+    /// or contracted).
+    #[inline(always)]
+    pub fn reconstruct_row<R: ReferenceRows + ?Sized>(
+        &self,
+        reference: &R,
+        v: u32,
+        phase_row: &[f32],
+        validity_row: &[u8],
+        out_xyz: &mut [f32],
+        out_validity: &mut [u8],
+    ) -> Result<(), ReconstructError> {
+        let (p, q) = (phase_row, validity_row);
+        self.reconstruct_row_gather(ScalarGather, reference, v, p, q, out_xyz, out_validity)
+    }
+
+    /// [`Reconstructor::reconstruct_row`] with the reference samples fetched by `gather` (a
+    /// host's wider gather, e.g. AVX-512 pairs): the same bits as [`ScalarGather`], which
+    /// `reconstruct_row` uses.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn reconstruct_row_gather<R: ReferenceRows + ?Sized, G: CellGather>(
+        &self,
+        gather: G,
+        reference: &R,
+        v: u32,
+        phase_row: &[f32],
+        validity_row: &[u8],
+        out_xyz: &mut [f32],
+        out_validity: &mut [u8],
+    ) -> Result<(), ReconstructError> {
+        self.row_impl(
+            gather,
+            reference,
+            v,
+            phase_row,
+            validity_row,
+            out_xyz,
+            out_validity,
+            None,
+        )
+    }
+
+    /// [`Reconstructor::reconstruct_row`], also writing each pixel's crossing N_I as ideal
+    /// normalized coordinates `(x, y)` into `crossings[2u..2u+2]` (canonical NaN where there is
+    /// none). For diagnostics and tests; the points are the same bits.
+    #[allow(clippy::too_many_arguments)]
+    pub fn reconstruct_row_with_crossings<R: ReferenceRows + ?Sized>(
+        &self,
+        reference: &R,
+        v: u32,
+        phase_row: &[f32],
+        validity_row: &[u8],
+        out_xyz: &mut [f32],
+        out_validity: &mut [u8],
+        crossings: &mut [f32],
+    ) -> Result<(), ReconstructError> {
+        if crossings.len() != 2 * self.width() {
+            return Err(ReconstructError::Length);
+        }
+        self.row_impl(
+            ScalarGather,
+            reference,
+            v,
+            phase_row,
+            validity_row,
+            out_xyz,
+            out_validity,
+            Some(crossings),
+        )
+    }
+
+    /// Whole-frame batch: [`Reconstructor::reconstruct_row`] for every row, with the whole
+    /// reference map. Same bits as streaming. `phase`/`validity` are `width × height` row-major,
+    /// `out_xyz` is `3 × width × height`, `out_validity` `width × height`.
+    pub fn reconstruct_frame(
+        &self,
+        reference: &ReferenceMap<'_>,
+        phase: &[f32],
+        validity: &[u8],
+        out_xyz: &mut [f32],
+        out_validity: &mut [u8],
+    ) -> Result<(), ReconstructError> {
+        let w = self.width();
+        let n = w * self.height();
+        if phase.len() != n
+            || validity.len() != n
+            || out_xyz.len() != 3 * n
+            || out_validity.len() != n
+        {
+            return Err(ReconstructError::Length);
+        }
+        let rows = phase.chunks_exact(w).zip(validity.chunks_exact(w)).zip(
+            out_xyz
+                .chunks_exact_mut(3 * w)
+                .zip(out_validity.chunks_exact_mut(w)),
+        );
+        for (v, ((p, q), (o, ov))) in rows.enumerate() {
+            self.reconstruct_row(reference, v as u32, p, q, o, ov)?;
+        }
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn row_impl<R: ReferenceRows + ?Sized, G: CellGather>(
+        &self,
+        gather: G,
+        reference: &R,
+        v: u32,
+        phase_row: &[f32],
+        validity_row: &[u8],
+        out_xyz: &mut [f32],
+        out_validity: &mut [u8],
+        crossings: Option<&mut [f32]>,
+    ) -> Result<(), ReconstructError> {
+        let w = self.width();
+        if v >= self.cam.height() {
+            return Err(ReconstructError::Row);
+        }
+        if phase_row.len() != w
+            || validity_row.len() != w
+            || out_xyz.len() != 3 * w
+            || out_validity.len() != w
+        {
+            return Err(ReconstructError::Length);
+        }
+        if reference.width() != w || reference.height() != self.height() {
+            return Err(ReconstructError::Length);
+        }
+        if reference.capacity_rows() < self.band.rows().min(self.cam.height()) {
+            return Err(ReconstructError::BandTooSmall {
+                needed: self.band.rows(),
+                given: reference.capacity_rows(),
+            });
+        }
+        let (first, last) = self.rows_needed(v);
+        let data = reference.storage();
+        let mut table = RefRows::new(data, first as i64, self.cam.height() as i64 - 1);
+        for r in first..=last {
+            let off = reference
+                .row_offset(r)
+                .ok_or(ReconstructError::NotResident { row: r })?;
+            if data.get(off..off + w).is_none() {
+                return Err(ReconstructError::BufferTooSmall);
+            }
+            table.set((r - first) as usize, off);
+        }
+        table.finish(w);
+        kernel::row(
+            gather,
+            self,
+            &table,
+            v,
+            phase_row,
+            validity_row,
+            out_xyz,
+            out_validity,
+            crossings,
+        );
+        Ok(())
+    }
+}

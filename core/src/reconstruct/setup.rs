@@ -1,0 +1,142 @@
+//! The geometry of a scan ([`Setup`]), the band of reference rows it needs ([`Band`]), and the
+//! set-up analysis that validates it against the camera on a grid of pixels, plus the f32
+//! constants the per-pixel kernel takes from it.
+
+use super::error::ReconstructError;
+use crate::camera::CameraModel;
+use crate::geometry::Vec3;
+use crate::phase_function::Axis;
+
+/// The geometry of a scan: everything §6 needs besides the camera model and the reference phase.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Setup {
+    /// The projector's centre of projection P, camera frame, mm.
+    pub projector_centre: Vec3,
+    /// A point O_R of the reference plane, camera frame, mm.
+    pub reference_point: Vec3,
+    /// The normal n_R of the reference plane (any non-zero length, either orientation).
+    pub reference_normal: Vec3,
+    /// The projector axis the phase is monotonic in (Xi: vertical fringes).
+    pub axis: Axis,
+    /// Near end of the measurement volume, camera z, mm.
+    pub z_min: f64,
+    /// Far end of the measurement volume, camera z, mm.
+    pub z_max: f64,
+}
+
+/// The reference rows needed around a row: `v − above ..= v + below` (clipped to the image).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Band {
+    /// Rows above (smaller v).
+    pub above: u32,
+    /// Rows below (larger v).
+    pub below: u32,
+}
+
+impl Band {
+    /// Rows of the band: `above + below + 1`, the smallest ring that works.
+    pub const fn rows(&self) -> u32 {
+        self.above + self.below + 1
+    }
+}
+
+/// f32 constants of the per-pixel kernel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Consts {
+    pub(super) nx: f32,
+    pub(super) ny: f32,
+    pub(super) nz: f32,
+    pub(super) h_r: f32,
+    pub(super) h: f32,
+    pub(super) px: f32,
+    pub(super) py: f32,
+    pub(super) pz: f32,
+    pub(super) z_min: f32,
+    pub(super) z_max: f32,
+    pub(super) fx: f32,
+    pub(super) fy: f32,
+    pub(super) sfx: f32,
+    pub(super) k: [f32; 5],
+}
+
+/// Sampling grid of the set-up analysis (pixels) and samples per search segment.
+const SETUP_GRID: u32 = 16;
+const SETUP_SEGMENT_SAMPLES: u32 = 17;
+
+/// Walk the image on a grid: check the geometry and measure the band and the longest segment.
+pub(super) fn analyse(
+    cam: &CameraModel,
+    s: &Setup,
+    n: Vec3,
+    h_r: f64,
+    h: f64,
+) -> Result<(Band, f64), ReconstructError> {
+    let w = cam.width();
+    let hgt = cam.height();
+    let p = s.projector_centre;
+    let (wf, hf) = ((w - 1) as f64, (hgt - 1) as f64);
+    let mut above: i64 = 1;
+    let mut below: i64 = 1;
+    let mut max_len: f64 = 0.0;
+    let grid =
+        |len: u32| (0..=len.div_ceil(SETUP_GRID)).map(move |k| (k * SETUP_GRID).min(len - 1));
+    for v in grid(hgt) {
+        for u in grid(w) {
+            let [x, y] = cam.pixel_to_normalized([u as f64, v as f64]);
+            let a = n.x * x + n.y * y + n.z;
+            if !(a > 1e-9) || !(h_r / a < 1e12) {
+                return Err(ReconstructError::ReferencePlane);
+            }
+            let ex = p.x - p.z * x;
+            let ey = p.y - p.z * y;
+            let (along, across) = match s.axis {
+                Axis::Xi => (ex, ey),
+                Axis::Eta => (ey, ex),
+            };
+            if !(libm::fabs(along) > libm::fabs(across)) {
+                return Err(ReconstructError::AxisMismatch { u, v });
+            }
+            let mut ts = [0.0f64; 2];
+            for (k, z) in [s.z_min, s.z_max].into_iter().enumerate() {
+                let num = z * a - h_r;
+                let den = num * p.z + h * z;
+                let t = num / den;
+                // N_R must be in front of the camera: n·(N_I, 1) has the sign of h_R.
+                let nn = n.x * (x + t * ex) + n.y * (y + t * ey) + n.z;
+                if !(libm::fabs(den) > 1e-9 * (libm::fabs(num * p.z) + libm::fabs(h * z)))
+                    || !t.is_finite()
+                    || !(nn > 0.0)
+                {
+                    return Err(ReconstructError::ProjectorCentre);
+                }
+                ts[k] = t;
+            }
+            let mut prev: Option<[f64; 2]> = None;
+            let mut len = 0.0;
+            for k in 0..SETUP_SEGMENT_SAMPLES {
+                let f = k as f64 / (SETUP_SEGMENT_SAMPLES - 1) as f64;
+                let t = ts[0] + f * (ts[1] - ts[0]);
+                let q = cam.normalized_to_pixel([x + t * ex, y + t * ey]);
+                if let Some(pr) = prev {
+                    let (du, dv) = (q[0] - pr[0], q[1] - pr[1]);
+                    len += libm::sqrt(du * du + dv * dv);
+                }
+                prev = Some(q);
+                if !(q[0] >= 0.0 && q[0] <= wf && q[1] >= 0.0 && q[1] <= hf) {
+                    continue; // outside the image: never sampled
+                }
+                let r0 = libm::floor(q[1]) as i64;
+                above = above.max(v as i64 - r0);
+                below = below.max(r0 + 1 - v as i64);
+            }
+            if !len.is_finite() {
+                return Err(ReconstructError::ProjectorCentre);
+            }
+            max_len = max_len.max(len);
+        }
+    }
+    // One row of margin for the grid sub-sampling.
+    let above = (above + 1).min(hgt as i64) as u32;
+    let below = (below + 1).min(hgt as i64) as u32;
+    Ok((Band { above, below }, max_len))
+}
