@@ -278,7 +278,7 @@ fn vectors_cli_writes_and_verifies() {
         "fringe3d", "vectors", "--out", d, "--size", "96x80", "--scene", "sphere", "-q",
     ];
     fringe3d::cli::run(args).expect("fringe3d vectors");
-    assert!(dir.join("manifest.json").exists() && dir.join("input/params.bin").exists());
+    assert!(dir.join("manifest.json").exists() && dir.join("input/setup.bin").exists());
     // Writing again over a non-empty folder needs --overwrite.
     assert!(fringe3d::cli::run(args).is_err());
     let verify = [

@@ -218,11 +218,17 @@ impl PatternSetDesc {
     /// [`PatternSet::new`] over the projector (monotonic, continuous, coarse range, shifts).
     /// Errors are the wire's [`Invalid`] codes (a Nak's detail).
     pub fn to_set(&self) -> Result<PatternSet, Invalid> {
-        self.build_set_up_to(MAX_BIT_DEPTH)
+        self.build_set_up_to(MAX_BIT_DEPTH, None)
     }
 
-    /// [`PatternSetDesc::to_set`] for projectors of up to `max_bits` bits (the set-up blob's 16).
-    pub(crate) fn build_set_up_to(&self, max_bits: u8) -> Result<PatternSet, Invalid> {
+    /// [`PatternSetDesc::to_set`] for projectors of up to `max_bits` bits (the set-up blob's 16),
+    /// images in `order` if given ([`PatternSet::with_order`]; [`Invalid::LevelCount`] if it is
+    /// not a permutation of the set's images).
+    pub(crate) fn build_set_up_to(
+        &self,
+        max_bits: u8,
+        order: Option<&[ImageId]>,
+    ) -> Result<PatternSet, Invalid> {
         self.validate_up_to(max_bits).map_err(invalid_of)?;
         let function = self.phase_function()?;
         let n = self.level_count as usize;
@@ -253,11 +259,24 @@ impl PatternSetDesc {
             Waveform::Sine => Convention::Sine,
             Waveform::Cosine => Convention::Cosine,
         };
-        PatternSet::new(function, &levels[..n], output)
-            .map_err(pattern_invalid)?
-            .with_convention(convention)
-            .with_phase_offset(self.phase_offset)
-            .map_err(pattern_invalid)
+        // Each `with_*` moves the whole set (1.4 KB of a head's set-up stack): call them only
+        // when they change it, and change the set inside the result rather than moving it out
+        // (the order is applied here too, for the same reason).
+        let mut built = PatternSet::new(function, &levels[..n], output);
+        if let Ok(set) = &mut built {
+            if set.convention() != convention {
+                *set = set.with_convention(convention);
+            }
+            if set.phase_offset().to_bits() != self.phase_offset.to_bits() {
+                *set = set
+                    .with_phase_offset(self.phase_offset)
+                    .map_err(pattern_invalid)?;
+            }
+            if let Some(order) = order.filter(|o| set.order() != *o) {
+                *set = set.with_order(order).map_err(pattern_invalid)?;
+            }
+        }
+        built.map_err(pattern_invalid)
     }
 
     /// Level and shift of wire pattern index `p` (levels in order, shifts in order).

@@ -4,8 +4,8 @@
 //! pipeline and sends every stage's rows over UART0 (the head's serial link, behind
 //! `embedded-io`), so a host can compare them bit for bit with the golden vectors:
 //!
-//! 1. `input/params.bin` (pattern set, thresholds, calibration, edge filter) → `Decoder`,
-//!    `Reconstructor`, `EdgeFilter`;
+//! 1. `input/setup.bin` (the core's head set-up blob: pattern set, capture order, thresholds,
+//!    calibration, edge filter) → `Decoder`, `Reconstructor`, `EdgeFilter`;
 //! 2. per camera row `v`: the rows `v` of every image → `Decoder::decode_row` (and, for the
 //!    vectors only, `decode_row_level` per level); reference rows pushed into a `ReferenceRing`
 //!    of exactly the band's rows; `Reconstructor::reconstruct_row`; the depth-edge filter over a
@@ -58,8 +58,8 @@ const MAX_IMAGES: usize = 8;
 /// (2 above + 22 below + 1, `reconstruction.band` of `fringe3d vectors --size 1280x1024`).
 /// Narrower images get proportionally more rows.
 const RING_ROWS: usize = 25;
-/// Room for `params.bin` (read into the ring's storage before the scan starts).
-const PARAMS_MAX: usize = 4096;
+/// Room for `setup.bin` (read into the ring's storage before the scan starts).
+const PARAMS_MAX: usize = fringe3d_core::wire::setup::MAX_SETUP_BLOB;
 
 /// Record tags on UART0.
 #[repr(u8)]
@@ -208,10 +208,10 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
 
     // Set-up: parameters, decoder, reconstructor.
     let mut path = [0u8; 256];
-    let mut pf = File::open(join(&mut path, dir, "input/params.bin")?)?;
+    let mut pf = File::open(join(&mut path, dir, "input/setup.bin")?)?;
     let plen = pf.len()?;
     if plen > PARAMS_MAX {
-        return Err(Fail("params.bin is too large"));
+        return Err(Fail("setup.bin is too large"));
     }
     let params_buf = &mut bytes_of_mut(&mut b.ring_phase[..])[..plen];
     pf.read_at(0, params_buf)?;

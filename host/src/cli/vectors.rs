@@ -11,7 +11,7 @@ use std::path::PathBuf;
     after_help = "Examples:\n  fringe3d vectors --out golden            # ballbar scene, 320x240, 16-bit camera\n  \
 fringe3d vectors --out golden --verify   # regenerate in memory and compare with golden/\n  \
 fringe3d vectors --out golden8 --bits 8 --scene steps\n\n\
-Writes DIR/input (camera rows, reference map, params.bin, calibration and pattern set),\n\
+Writes DIR/input (camera rows, reference map, setup.bin, calibration and pattern set),\n\
 DIR/decode, DIR/reconstruct, DIR/filter (raw little-endian arrays) and DIR/manifest.json\n\
 (dtype, shape, order and SHA-256 of every file). Same options, same bytes. See docs/golden-vectors.md."
 )]

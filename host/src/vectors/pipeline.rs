@@ -1,0 +1,218 @@
+//! The reference pipeline's inputs (a rendered scene and its calibration) and its row drivers:
+//! decode and reconstruct whole frames one row at a time, as a streaming head does.
+
+use super::{DecodeStage, PointStage, VectorOptions, VectorsError, kernel};
+use crate::render::scene::Overrides;
+use crate::render::{RenderOptions, Scene, decode_phase};
+use crate::scan::ScanCalibration;
+use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut, Sample};
+use fringe3d_core::filter::EdgeFilter;
+use fringe3d_core::math::CANONICAL_NAN;
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceRing};
+use fringe3d_core::validity::Validity;
+use std::path::{Path, PathBuf};
+
+/// The reference pipeline's inputs, resolved: what [`generate`] renders and what a test needs to
+/// run other drivers (the desktop batch path) on the same data.
+pub struct Inputs {
+    /// The rendered scene.
+    pub scene: Scene,
+    /// Camera codes per image (set order), `width × height` each.
+    pub images: Vec<Vec<u16>>,
+    /// Significant bits of the camera codes.
+    pub bits: u8,
+    /// The calibration, reconstructor and prepared reference map.
+    pub calibration: ScanCalibration,
+    /// Decoder thresholds.
+    pub decode_config: DecodeConfig,
+    /// The depth-edge filter.
+    pub edge_filter: EdgeFilter,
+    /// Its focal length, pixels (`min(fx, fy)`).
+    pub edge_focal_px: f64,
+    /// Its steepest accepted surface, degrees.
+    pub edge_max_angle_deg: f64,
+}
+
+/// Render the scene of `opts` and set up its calibration (no decoding of the object yet).
+pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
+    let scenes = ["sphere", "ballbar", "steps", "freeform", "plane"];
+    if !scenes.contains(&opts.scene.as_str()) {
+        return Err(VectorsError::Options(format!(
+            "scene {:?}: golden vectors use one of {}",
+            opts.scene,
+            scenes.join(", ")
+        )));
+    }
+    let (w, h) = opts.size;
+    if !(16..=4096).contains(&w) || !(16..=4096).contains(&h) {
+        return Err(VectorsError::Options(format!(
+            "size {w}x{h}: width and height must be 16 to 4096"
+        )));
+    }
+    if !(opts.max_angle_deg > 0.0 && opts.max_angle_deg < 90.0) {
+        return Err(VectorsError::Options(format!(
+            "edge-filter angle {}: must be in (0, 90) degrees",
+            opts.max_angle_deg
+        )));
+    }
+    let o = Overrides {
+        seed: opts.seed,
+        noise: opts.noise,
+        bits: opts.bits,
+        size: Some(opts.size),
+        ..Overrides::default()
+    };
+    let scene = Scene::builtin(&opts.scene, &o)?;
+    let ropts = RenderOptions::default();
+    let (frames, _truth) = scene.render_fringes(ropts)?;
+    let (ref_frames, _) = scene.render_reference(ropts)?;
+    let reference = decode_phase(&scene.patterns, &ref_frames)?;
+    let cal = scene.rig.calibration(
+        Some(PathBuf::from("reference_phase.tif")),
+        Some(PathBuf::from("patterns.toml")),
+    );
+    let calibration = ScanCalibration::from_parts(
+        cal,
+        reference,
+        scene.patterns.axis(),
+        Path::new("input/calibration.toml"),
+    )?;
+    let edge_filter = calibration.edge_filter(opts.max_angle_deg)?;
+    let c = &calibration.calibration.camera;
+    let edge_focal_px = c.fx.min(c.fy);
+    Ok(Inputs {
+        images: frames.images,
+        bits: frames.bits,
+        decode_config: DecodeConfig::for_bit_depth(frames.bits as u32),
+        scene,
+        calibration,
+        edge_filter,
+        edge_focal_px,
+        edge_max_angle_deg: opts.max_angle_deg,
+    })
+}
+
+/// Decode whole frames with the row APIs, one row at a time (the reference driver).
+pub fn decode_rows<P: Sample>(
+    dec: &Decoder,
+    frames: &[&[P]],
+    width: usize,
+    height: usize,
+) -> Result<DecodeStage, VectorsError> {
+    let n = width * height;
+    let levels = dec.level_count();
+    let mut s = DecodeStage {
+        wrapped: vec![vec![0.0; n]; levels],
+        modulation_level: vec![vec![0.0; n]; levels],
+        dc: vec![0.0; n],
+        modulation: vec![0.0; n],
+        phase: vec![0.0; n],
+        validity: vec![0; n],
+    };
+    if frames.len() != dec.image_count() || frames.iter().any(|f| f.len() != n) {
+        return Err(kernel(
+            "decode",
+            "frame count or size differs from the pattern set and image size",
+        ));
+    }
+    for y in 0..height {
+        let r = y * width..(y + 1) * width;
+        let rows: Vec<&[P]> = frames.iter().map(|f| &f[r.clone()]).collect();
+        dec.decode_row(
+            &rows,
+            RowOut {
+                phase: &mut s.phase[r.clone()],
+                modulation: &mut s.modulation[r.clone()],
+                dc: &mut s.dc[r.clone()],
+                validity: &mut s.validity[r.clone()],
+            },
+        )
+        .map_err(|e| kernel("decode", e))?;
+        for l in 0..levels {
+            dec.decode_row_level(
+                &rows,
+                l,
+                &mut s.wrapped[l][r.clone()],
+                &mut s.modulation_level[l][r.clone()],
+            )
+            .map_err(|e| kernel("decode (per level)", e))?;
+        }
+    }
+    Ok(s)
+}
+
+/// Reconstruct and edge-filter whole frames row by row through a [`ReferenceRing`] of exactly
+/// the band's rows (the streaming driver a head runs), with a 3-row window for the filter.
+pub fn reconstruct_rows(
+    recon: &Reconstructor,
+    reference_phase: &[f32],
+    reference_validity: &[u8],
+    phase: &[f32],
+    validity: &[u8],
+    filter: &EdgeFilter,
+) -> Result<PointStage, VectorsError> {
+    let (w, h) = (recon.width(), recon.height());
+    let n = w * h;
+    if reference_phase.len() != n
+        || reference_validity.len() != n
+        || phase.len() != n
+        || validity.len() != n
+    {
+        return Err(kernel("reconstruct", "map sizes differ from the camera"));
+    }
+    let band = recon.band().rows().min(h as u32) as usize;
+    let mut ring_phase = vec![0.0f32; band * w];
+    let mut ring_validity = vec![0u8; band * w];
+    let mut ring = ReferenceRing::new(recon, &mut ring_phase, &mut ring_validity)
+        .map_err(|e| kernel("reconstruct", e))?;
+    let mut out = PointStage {
+        points: vec![0.0; 3 * n],
+        validity: vec![0; n],
+        filtered_validity: vec![0; n],
+        filtered_points: vec![0.0; 3 * n],
+    };
+    for v in 0..h {
+        let (_, last) = recon.rows_needed(v as u32);
+        while ring.rows_pushed() <= last {
+            let r = ring.rows_pushed() as usize * w..(ring.rows_pushed() as usize + 1) * w;
+            ring.push_row(&reference_phase[r.clone()], &reference_validity[r])
+                .map_err(|e| kernel("reconstruct (reference ring)", e))?;
+        }
+        let r = v * w..(v + 1) * w;
+        recon
+            .reconstruct_row(
+                &ring,
+                v as u32,
+                &phase[r.clone()],
+                &validity[r.clone()],
+                &mut out.points[3 * v * w..3 * (v + 1) * w],
+                &mut out.validity[r],
+            )
+            .map_err(|e| kernel("reconstruct", e))?;
+    }
+    for v in 0..h {
+        let row = |k: usize| {
+            (
+                &out.points[3 * k * w..3 * (k + 1) * w],
+                &out.validity[k * w..(k + 1) * w],
+            )
+        };
+        let above = (v > 0).then(|| row(v - 1));
+        let below = (v + 1 < h).then(|| row(v + 1));
+        if !filter.filter_row(
+            above,
+            row(v),
+            below,
+            &mut out.filtered_validity[v * w..(v + 1) * w],
+        ) {
+            return Err(kernel("edge filter", "row lengths disagree"));
+        }
+    }
+    out.filtered_points.copy_from_slice(&out.points);
+    for (i, p) in out.filtered_points.chunks_exact_mut(3).enumerate() {
+        if out.filtered_validity[i] != Validity::Valid as u8 {
+            p.fill(CANONICAL_NAN);
+        }
+    }
+    Ok(out)
+}
