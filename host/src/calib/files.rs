@@ -547,7 +547,7 @@ pub fn calibrate_projector_files(
     });
     let calibration = Calibration {
         version: 1,
-        camera: camera.clone(),
+        camera: *camera,
         projector_centre: result.center,
         reference: None,
         depth_range: dr,

@@ -34,7 +34,7 @@ pub trait LensModel {
     fn to_pixel(&self, xd: f64, yd: f64) -> (f64, f64);
 
     /// Pixel → distorted normalized coordinates (inverse of eq 4).
-    fn from_pixel(&self, u: f64, v: f64) -> (f64, f64);
+    fn pixel_to_distorted(&self, u: f64, v: f64) -> (f64, f64);
 
     /// The normalized radius beyond which the model is not used: just inside the first radius
     /// where the radial map `r·(1 + k1 r² + k2 r⁴ + k3 r⁶)` stops increasing (the lens "folds
@@ -133,7 +133,7 @@ impl LensModel for CameraParams {
 
     /// Pixel → distorted normalized coordinates (inverse of eq 4).
     #[inline]
-    fn from_pixel(&self, u: f64, v: f64) -> (f64, f64) {
+    fn pixel_to_distorted(&self, u: f64, v: f64) -> (f64, f64) {
         let yd = (v - self.cy) / self.fy;
         ((u - self.cx) / self.fx - self.skew * yd, yd)
     }
@@ -193,7 +193,7 @@ impl LensModel for CameraParams {
         guess: Option<(f64, f64)>,
         r_max: f64,
     ) -> Option<(f64, f64)> {
-        let (xd, yd) = self.from_pixel(u, v);
+        let (xd, yd) = self.pixel_to_distorted(u, v);
         let [k1, k2, p1, p2, k3] = self.distortion.to_array();
         if k1 == 0.0 && k2 == 0.0 && k3 == 0.0 && p1 == 0.0 && p2 == 0.0 {
             return Some((xd, yd));
