@@ -13,6 +13,7 @@ pub mod cli;
 pub mod device;
 pub mod gather;
 pub mod io;
+pub mod math;
 pub mod render;
 pub mod scan;
 pub mod vectors;

@@ -586,8 +586,11 @@ fn bouguet_file_variants_and_errors() {
 
 /// A parse error whose message names `key` and the count found; it must not quote the whole line
 /// back (a million values would make a megabyte message).
-fn length_error(text: &str, key: &str, expected: &str) {
-    let e = err_of(text);
+/// Each call writes its own folder (`name`): tests run in parallel.
+fn length_error(name: &str, text: &str, key: &str, expected: &str) {
+    let p = scratch(name).join("calib.toml");
+    fs::write(&p, text).unwrap();
+    let e = Calibration::load(&p).unwrap_err();
     assert!(matches!(e, FormatError::Parse { .. }), "{e}");
     let m = e.to_string();
     assert!(m.contains("calib.toml"), "{m}");
@@ -599,6 +602,7 @@ fn length_error(text: &str, key: &str, expected: &str) {
 #[test]
 fn distortion_of_six_values_is_refused() {
     length_error(
+        "length-1",
         &SAMPLE_TOML.replace(
             "distortion = [-0.12, 0.08, 0.0005, -0.0003, 0.0]",
             "distortion = [-0.12, 0.08, 0.0005, -0.0003, 0.0, 0.0]",
@@ -616,6 +620,7 @@ fn distortion_of_two_million_values_is_refused() {
     }
     long.push(']');
     length_error(
+        "length-2",
         &SAMPLE_TOML.replace("distortion = [-0.12, 0.08, 0.0005, -0.0003, 0.0]", &long),
         "distortion",
         "must have exactly 5 values, got 2000000",
@@ -625,6 +630,7 @@ fn distortion_of_two_million_values_is_refused() {
 #[test]
 fn projector_intrinsics_distortion_of_six_values_is_refused() {
     length_error(
+        "length-3",
         &SAMPLE_TOML.replace(
             "distortion = [0.0, 0.0, 0.0, 0.0, 0.0]",
             "distortion = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]",
@@ -637,6 +643,7 @@ fn projector_intrinsics_distortion_of_six_values_is_refused() {
 #[test]
 fn projector_centre_of_four_values_is_refused() {
     length_error(
+        "length-4",
         &SAMPLE_TOML.replace(
             "projector_centre = [-200.0, 0.0, 30.0]",
             "projector_centre = [-200.0, 0.0, 30.0, 1.0]",
@@ -649,6 +656,7 @@ fn projector_centre_of_four_values_is_refused() {
 #[test]
 fn normal_of_four_values_is_refused() {
     length_error(
+        "length-5",
         &SAMPLE_TOML.replace(
             "normal = [0.0, 0.0, -1.0]",
             "normal = [0.0, 0.0, -1.0, 0.0]",
@@ -661,6 +669,7 @@ fn normal_of_four_values_is_refused() {
 #[test]
 fn point_and_translation_of_four_values_are_refused() {
     length_error(
+        "length-6",
         &SAMPLE_TOML.replace(
             "point = [0.0, 0.0, 800.0]",
             "point = [0.0, 0.0, 800.0, 1.0]",
@@ -669,6 +678,7 @@ fn point_and_translation_of_four_values_are_refused() {
         "must have exactly 3 values, got 4",
     );
     length_error(
+        "length-7",
         &SAMPLE_TOML.replace(
             "translation = [-200.0, 0.0, 30.0]",
             "translation = [-200.0, 0.0, 30.0, 0.0]",
@@ -681,6 +691,7 @@ fn point_and_translation_of_four_values_are_refused() {
 #[test]
 fn fourth_rotation_row_is_refused() {
     length_error(
+        "length-8",
         &SAMPLE_TOML.replace(
             "[-0.25, 0.0, 0.9682458365518543]]",
             "[-0.25, 0.0, 0.9682458365518543], [0.0, 0.0, 0.0]]",
@@ -693,6 +704,7 @@ fn fourth_rotation_row_is_refused() {
 #[test]
 fn rotation_row_of_four_values_is_refused() {
     length_error(
+        "length-9",
         &SAMPLE_TOML.replace("[0.0, 1.0, 0.0], [-0.25", "[0.0, 1.0, 0.0, 0.0], [-0.25"),
         "rotation",
         "must have exactly 3 values per row, got 4",
@@ -702,6 +714,7 @@ fn rotation_row_of_four_values_is_refused() {
 #[test]
 fn depth_range_of_three_values_is_refused() {
     length_error(
+        "length-10",
         &SAMPLE_TOML.replace(
             "depth_range = [650.0, 900.0]",
             "depth_range = [650.0, 900.0, 1000.0]",
@@ -714,11 +727,13 @@ fn depth_range_of_three_values_is_refused() {
 #[test]
 fn short_arrays_are_refused_naming_the_key() {
     length_error(
+        "length-11",
         &SAMPLE_TOML.replace("depth_range = [650.0, 900.0]", "depth_range = [650.0]"),
         "depth_range",
         "must have exactly 2 values, got 1",
     );
     length_error(
+        "length-12",
         &SAMPLE_TOML.replace(
             "distortion = [-0.12, 0.08, 0.0005, -0.0003, 0.0]",
             "distortion = [-0.12, 0.08, 0.0005, -0.0003]",

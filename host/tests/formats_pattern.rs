@@ -379,10 +379,20 @@ fn minimal_file_is_the_default_set() {
 
 #[test]
 fn order_entry_of_three_indices_is_refused() {
-    // Cut to its first two indices, this order is the default one and would load.
-    let m = bad(&format!(
-        "order = [[2, 0], [2, 1], [2, 2], [2, 3], [0, 0], [0, 1], [1, 0], [1, 1, 5]]\n{HEAD}"
-    ));
+    // Cut to its first two indices, this order is the default one and would load. (Its own
+    // folder: `bad` shares one between the tests of bad_files_get_clear_messages.)
+    let p = scratch("order-entry").join("pat.toml");
+    fs::write(
+        &p,
+        format!(
+            "order = [[2, 0], [2, 1], [2, 2], [2, 3], [0, 0], [0, 1], [1, 0], [1, 1, 5]]\n{HEAD}"
+        ),
+    )
+    .unwrap();
+    let e = PatternSetFile::load(&p).unwrap_err();
+    assert!(matches!(e, FormatError::Parse { .. }), "{e}");
+    let m = e.to_string();
+    assert!(m.contains("pat.toml: "), "{m}");
     assert!(
         m.contains("`order` must have exactly 2 values per entry, got 3"),
         "{m}"

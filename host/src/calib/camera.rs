@@ -6,9 +6,10 @@
 use super::CalibError;
 use super::corners::Board;
 use super::lens::{Lens, N_INTRINSICS, PARAM_NAMES};
-use super::linalg::{M3, V3, add, mm, mv, rodrigues, skew};
+use super::linalg::rodrigues;
 use super::lm::{self, Eval};
 use super::zhang;
+use crate::math::{Mat3, Vec3};
 
 /// The corners observed in one view.
 #[derive(Clone, Debug)]
@@ -56,9 +57,9 @@ pub struct ViewResult {
     /// Largest corner error, pixels.
     pub max: f64,
     /// Board → camera rotation (row-major).
-    pub rotation: M3,
+    pub rotation: Mat3,
     /// Board origin in the camera frame, mm.
-    pub translation: V3,
+    pub translation: Vec3,
     /// Residuals (projected − observed) per corner, pixels.
     #[serde(skip)]
     pub residuals: Vec<[f64; 2]>,
@@ -127,8 +128,8 @@ impl CameraCalibration {
 #[derive(Clone)]
 struct State {
     lens: Lens,
-    rot: Vec<M3>,
-    t: Vec<V3>,
+    rot: Vec<Mat3>,
+    t: Vec<Vec3>,
 }
 
 fn free_intrinsics(o: &CameraOptions) -> Vec<usize> {
@@ -142,7 +143,7 @@ fn free_intrinsics(o: &CameraOptions) -> Vec<usize> {
 }
 
 /// ∂(u, v)/∂X_c of the projection of a camera-frame point.
-pub(crate) fn d_point(d_xy: &[[f64; 2]; 2], xc: V3) -> [[f64; 3]; 2] {
+pub(crate) fn d_point(d_xy: &[[f64; 2]; 2], xc: Vec3) -> [[f64; 3]; 2] {
     let iz = 1.0 / xc[2];
     let (x, y) = (xc[0] * iz, xc[1] * iz);
     let a = [[iz, 0.0, -x * iz], [0.0, iz, -y * iz]];
@@ -176,15 +177,15 @@ fn bundle(
         for (vi, v) in views.iter().enumerate() {
             let (r, t) = (&s.rot[vi], s.t[vi]);
             for (o, c) in obj.iter().zip(&v.corners) {
-                let rx = mv(r, [o[0], o[1], 0.0]);
-                let xc = add(rx, t);
+                let rx = r.mul_vec(Vec3::new(o[0], o[1], 0.0));
+                let xc = rx + t;
                 if !(xc[2] > 1e-9) {
                     return None;
                 }
                 let ((u, vv), j) = s.lens.project_jac(xc[0] / xc[2], xc[1] / xc[2]);
                 let dp = d_point(&j.d_xy, xc);
                 // ∂X_c/∂δω = −[R X]×, ∂X_c/∂δt = I.
-                let sk = skew(rx);
+                let sk = Mat3::cross_matrix(rx);
                 for (row, res) in [(0usize, u - c[0]), (1, vv - c[1])] {
                     e.r.push(res);
                     for &k in free {
@@ -215,8 +216,8 @@ fn bundle(
         }
         for vi in 0..o.rot.len() {
             let b = nf + 6 * vi;
-            o.rot[vi] = mm(&rodrigues([d[b], d[b + 1], d[b + 2]]), &o.rot[vi]);
-            o.t[vi] = add(o.t[vi], [d[b + 3], d[b + 4], d[b + 5]]);
+            o.rot[vi] = rodrigues(Vec3::new(d[b], d[b + 1], d[b + 2])).mul_mat(&o.rot[vi]);
+            o.t[vi] = o.t[vi] + Vec3::new(d[b + 3], d[b + 4], d[b + 5]);
         }
         o
     };

@@ -16,6 +16,7 @@ use crate::io::image::{Pixels, read_gray, write_tiff_f32};
 use crate::io::image_set;
 use crate::io::import::{import_bouguet_file, import_opencv};
 use crate::io::pattern_file::PatternSetFile;
+use crate::math::Vec3;
 use fringe3d_core::decode::{DecodeConfig, Decoder};
 use fringe3d_core::phase_function::Axis;
 use rayon::prelude::*;
@@ -621,23 +622,50 @@ pub fn calibrate_reference_files(
 ) -> Result<ReferenceRun, CalibError> {
     let lens = Lens::from_model(&calibration.camera);
     let pose = match plane {
-        PlaneSource::Board { images, board, offset_mm } => {
+        PlaneSource::Board {
+            images,
+            board,
+            offset_mm,
+        } => {
             let mut all = Vec::new();
             for image in images {
                 let img = load_image(image)?;
                 if (img.width as u32, img.height as u32) != (lens.width, lens.height) {
-                    return Err(input(image, format!("{}x{} pixels, but the camera is {}x{}", img.width, img.height, lens.width, lens.height)));
+                    return Err(input(
+                        image,
+                        format!(
+                            "{}x{} pixels, but the camera is {}x{}",
+                            img.width, img.height, lens.width, lens.height
+                        ),
+                    ));
                 }
-                let d = detect(&img, board, detect_opts).map_err(|e| CalibError::Board { path: image.clone(), message: e.to_string() })?;
+                let d = detect(&img, board, detect_opts).map_err(|e| CalibError::Board {
+                    path: image.clone(),
+                    message: e.to_string(),
+                })?;
                 all.push(d.corners);
             }
-            ReferencePose::from_boards(&lens, board, &all, *offset_mm).map_err(|e| CalibError::Input {
-                what: images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "),
-                message: format!("board pose: {e}"),
+            ReferencePose::from_boards(&lens, board, &all, *offset_mm).map_err(|e| {
+                CalibError::Input {
+                    what: images
+                        .iter()
+                        .map(|p| p.display().to_string())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    message: format!("board pose: {e}"),
+                }
             })?
         }
-        PlaneSource::Given { point, normal } => ReferencePose::given(*point, *normal)
-            .ok_or_else(|| CalibError::Input { what: "--plane-point/--plane-normal".into(), message: "the normal must be non-zero and the plane must not pass through the camera centre".into() })?,
+        PlaneSource::Given { point, normal } => ReferencePose::given(
+            Vec3::from_array(*point),
+            Vec3::from_array(*normal),
+        )
+        .ok_or_else(|| CalibError::Input {
+            what: "--plane-point/--plane-normal".into(),
+            message:
+                "the normal must be non-zero and the plane must not pass through the camera centre"
+                    .into(),
+        })?,
     };
     let dec = decode_set(patterns, images)?;
     if (dec.width, dec.height) != (lens.width, lens.height) {
@@ -671,8 +699,8 @@ pub fn calibrate_reference_files(
     pf.save(&dir.join(pat_name))?;
     let mut cal = calibration.clone();
     cal.reference = Some(ReferencePlane {
-        point: pose.point,
-        normal: pose.normal,
+        point: pose.point.to_array(),
+        normal: pose.normal.to_array(),
         phase_map: PathBuf::from(map_name),
         pattern_set: Some(PathBuf::from(pat_name)),
     });

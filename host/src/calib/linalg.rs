@@ -1,140 +1,19 @@
-//! Small dense linear algebra for the calibration: 3-vectors and 3×3 matrices, rotations
-//! (Rodrigues, nearest rotation), a cyclic Jacobi eigensolver for small symmetric matrices and a
-//! Cholesky solver for the normal equations. Everything is f64 and allocation-light; the matrices
+//! Small dense linear algebra for the calibration: rotations over the host's [`Vec3`] and
+//! [`Mat3`] (Rodrigues, nearest rotation), a cyclic Jacobi eigensolver for small symmetric matrices
+//! and a Cholesky solver for the normal equations. Everything is f64 and allocation-light; the matrices
 //! here are at most a few hundred rows (the bundle adjustment's normal equations), which is why
 //! no linear-algebra crate is used (see `docs/calibration.md`).
 
-/// A 3-vector.
-pub type V3 = [f64; 3];
-/// A 3×3 matrix, row-major.
-pub type M3 = [[f64; 3]; 3];
-
-/// The identity.
-pub const I3: M3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-
-/// a · b.
-#[inline]
-pub fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// a × b.
-#[inline]
-pub fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-/// a + b.
-#[inline]
-pub fn add(a: V3, b: V3) -> V3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-/// a − b.
-#[inline]
-pub fn sub(a: V3, b: V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// s·a.
-#[inline]
-pub fn scale(a: V3, s: f64) -> V3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-
-/// |a|.
-#[inline]
-pub fn norm(a: V3) -> f64 {
-    dot(a, a).sqrt()
-}
-
-/// a / |a| (`None` for a zero or non-finite vector).
-pub fn normalize(a: V3) -> Option<V3> {
-    let n = norm(a);
-    (n > 0.0 && n.is_finite()).then(|| scale(a, 1.0 / n))
-}
-
-/// M·v.
-#[inline]
-pub fn mv(m: &M3, v: V3) -> V3 {
-    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
-}
-
-/// Mᵀ·v.
-#[inline]
-pub fn mtv(m: &M3, v: V3) -> V3 {
-    [
-        m[0][0] * v[0] + m[1][0] * v[1] + m[2][0] * v[2],
-        m[0][1] * v[0] + m[1][1] * v[1] + m[2][1] * v[2],
-        m[0][2] * v[0] + m[1][2] * v[1] + m[2][2] * v[2],
-    ]
-}
-
-/// A·B.
-pub fn mm(a: &M3, b: &M3) -> M3 {
-    let mut c = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            c[i][j] = a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j];
-        }
-    }
-    c
-}
-
-/// Aᵀ.
-pub fn transpose(a: &M3) -> M3 {
-    [
-        [a[0][0], a[1][0], a[2][0]],
-        [a[0][1], a[1][1], a[2][1]],
-        [a[0][2], a[1][2], a[2][2]],
-    ]
-}
-
-/// Column `j` of `a`.
-pub fn column(a: &M3, j: usize) -> V3 {
-    [a[0][j], a[1][j], a[2][j]]
-}
-
-/// det A.
-pub fn det3(a: &M3) -> f64 {
-    dot(a[0], cross(a[1], a[2]))
-}
-
-/// A⁻¹ (`None` if singular).
-pub fn inv3(a: &M3) -> Option<M3> {
-    let d = det3(a);
-    if !(d.abs() > 1e-300) || !d.is_finite() {
-        return None;
-    }
-    let c0 = cross(a[1], a[2]);
-    let c1 = cross(a[2], a[0]);
-    let c2 = cross(a[0], a[1]);
-    // The inverse's columns are the cofactor rows divided by det.
-    let inv = [
-        [c0[0] / d, c1[0] / d, c2[0] / d],
-        [c0[1] / d, c1[1] / d, c2[1] / d],
-        [c0[2] / d, c1[2] / d, c2[2] / d],
-    ];
-    Some(inv)
-}
+use crate::math::{Mat3, Vec3};
 
 /// Solve the symmetric positive-definite 3×3 system `A x = b` (`None` if singular).
-pub fn solve3(a: &M3, b: V3) -> Option<V3> {
-    inv3(a).map(|i| mv(&i, b))
-}
-
-/// The cross-product matrix `[v]×` (so `[v]× w = v × w`).
-pub fn skew(v: V3) -> M3 {
-    [[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]]
+pub fn solve3(a: &Mat3, b: Vec3) -> Option<Vec3> {
+    a.inverse().map(|i| i.mul_vec(b))
 }
 
 /// The rotation `exp([w]×)` of the rotation vector `w` (Rodrigues).
-pub fn rodrigues(w: V3) -> M3 {
-    let th2 = dot(w, w);
+pub fn rodrigues(w: Vec3) -> Mat3 {
+    let th2 = w.dot(w);
     let th = th2.sqrt();
     let (a, b) = if th < 1e-6 {
         // Series: sin θ/θ ≈ 1 − θ²/6, (1 − cos θ)/θ² ≈ 1/2 − θ²/24.
@@ -142,9 +21,9 @@ pub fn rodrigues(w: V3) -> M3 {
     } else {
         (th.sin() / th, (1.0 - th.cos()) / th2)
     };
-    let k = skew(w);
-    let k2 = mm(&k, &k);
-    let mut r = I3;
+    let k = Mat3::cross_matrix(w);
+    let k2 = k.mul_mat(&k);
+    let mut r = Mat3::IDENTITY;
     for i in 0..3 {
         for j in 0..3 {
             r[i][j] += a * k[i][j] + b * k2[i][j];
@@ -154,19 +33,19 @@ pub fn rodrigues(w: V3) -> M3 {
 }
 
 /// The rotation vector of a rotation matrix (inverse of [`rodrigues`], angle in [0, π]).
-pub fn rot_log(r: &M3) -> V3 {
+pub fn rot_log(r: &Mat3) -> Vec3 {
     let q = quat_from_rot(r);
-    let (w, v) = (q[0], [q[1], q[2], q[3]]);
-    let s = norm(v);
+    let (w, v) = (q[0], Vec3::new(q[1], q[2], q[3]));
+    let s = v.norm();
     if s < 1e-12 {
-        return scale(v, 2.0);
+        return v * 2.0;
     }
     let th = 2.0 * s.atan2(w);
-    scale(v, th / s)
+    v * (th / s)
 }
 
 /// Unit quaternion `[w, x, y, z]` (w ≥ 0) of a rotation matrix.
-pub fn quat_from_rot(r: &M3) -> [f64; 4] {
+pub fn quat_from_rot(r: &Mat3) -> [f64; 4] {
     let t = r[0][0] + r[1][1] + r[2][2];
     let q = if t > 0.0 {
         let s = (t + 1.0).sqrt() * 2.0;
@@ -207,10 +86,10 @@ pub fn quat_from_rot(r: &M3) -> [f64; 4] {
 }
 
 /// The rotation of a unit quaternion `[w, x, y, z]`.
-pub fn rot_from_quat(q: [f64; 4]) -> M3 {
+pub fn rot_from_quat(q: [f64; 4]) -> Mat3 {
     let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
     let [w, x, y, z] = [q[0] / n, q[1] / n, q[2] / n, q[3] / n];
-    [
+    Mat3([
         [
             1.0 - 2.0 * (y * y + z * z),
             2.0 * (x * y - w * z),
@@ -226,12 +105,12 @@ pub fn rot_from_quat(q: [f64; 4]) -> M3 {
             2.0 * (y * z + w * x),
             1.0 - 2.0 * (x * x + y * y),
         ],
-    ]
+    ])
 }
 
 /// The rotation nearest to `m` in the Frobenius norm (maximises `tr(Rᵀ M)`), by Horn's
 /// quaternion method: the eigenvector of the largest eigenvalue of a symmetric 4×4 matrix.
-pub fn nearest_rotation(m: &M3) -> M3 {
+pub fn nearest_rotation(m: &Mat3) -> Mat3 {
     let (sxx, sxy, sxz) = (m[0][0], m[0][1], m[0][2]);
     let (syx, syy, syz) = (m[1][0], m[1][1], m[1][2]);
     let (szx, szy, szz) = (m[2][0], m[2][1], m[2][2]);
@@ -411,26 +290,27 @@ mod tests {
             [2.0, 1.0, -0.5],
             [0.0, 3.1, 0.0],
         ] {
+            let w = Vec3::from_array(w);
             let r = rodrigues(w);
             let (e, d) = {
-                let rt = mm(&transpose(&r), &r);
+                let rt = r.transpose().mul_mat(&r);
                 let mut e: f64 = 0.0;
                 for i in 0..3 {
                     for j in 0..3 {
-                        e = e.max((rt[i][j] - I3[i][j]).abs());
+                        e = e.max((rt[i][j] - Mat3::IDENTITY[i][j]).abs());
                     }
                 }
-                (e, det3(&r))
+                (e, r.det())
             };
             assert!(e < 1e-14 && (d - 1.0).abs() < 1e-14);
             let back = rot_log(&r);
-            assert!(norm(sub(back, w)) < 1e-10, "{w:?} -> {back:?}");
+            assert!((back - w).norm() < 1e-10, "{w:?} -> {back:?}");
         }
     }
 
     #[test]
     fn nearest_rotation_recovers_a_rotation() {
-        let r = rodrigues([0.3, -0.7, 0.2]);
+        let r = rodrigues(Vec3::new(0.3, -0.7, 0.2));
         let mut m = r;
         m[0][1] += 1e-3;
         m[2][2] *= 1.01;
@@ -440,7 +320,7 @@ mod tests {
                 assert!((n[i][j] - r[i][j]).abs() < 1e-2);
             }
         }
-        assert!((det3(&n) - 1.0).abs() < 1e-12);
+        assert!((n.det() - 1.0).abs() < 1e-12);
         let exact = nearest_rotation(&r);
         for i in 0..3 {
             for j in 0..3 {
@@ -454,13 +334,9 @@ mod tests {
         let a = [4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0];
         let (vals, vecs) = sym_eigen(&a, 3);
         for k in 0..3 {
-            let v = [vecs[k], vecs[3 + k], vecs[6 + k]];
-            let av = [
-                dot([a[0], a[1], a[2]], v),
-                dot([a[3], a[4], a[5]], v),
-                dot([a[6], a[7], a[8]], v),
-            ];
-            assert!(norm(sub(av, scale(v, vals[k]))) < 1e-12);
+            let v = Vec3::new(vecs[k], vecs[3 + k], vecs[6 + k]);
+            let m = Mat3([[a[0], a[1], a[2]], [a[3], a[4], a[5]], [a[6], a[7], a[8]]]);
+            assert!((m.mul_vec(v) - v * vals[k]).norm() < 1e-12);
         }
         let inv = spd_inverse(&a, 3).unwrap();
         for i in 0..3 {

@@ -5,17 +5,18 @@
 use super::camera::d_point;
 use super::corners::Board;
 use super::lens::Lens;
-use super::linalg::{M3, V3, add, column, dot, mm, mv, rodrigues, scale, skew};
+use super::linalg::rodrigues;
 use super::lm::{self, Eval};
 use super::zhang;
+use crate::math::{Mat3, Vec3};
 
 /// A board's pose: board frame → camera frame, `X_c = R X_b + t`.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PlanePose {
     /// R (row-major).
-    pub rotation: M3,
+    pub rotation: Mat3,
     /// t: the board origin (centre of its squares) in the camera frame, mm.
-    pub translation: V3,
+    pub translation: Vec3,
     /// Covariance of the local parameters `(δω, δt)` (left rotation perturbation
     /// `R ← exp([δω]×) R`, radians; translation, mm), 6 × 6 row-major, from σ²(JᵀJ)⁻¹.
     #[serde(skip)]
@@ -28,25 +29,25 @@ pub struct PlanePose {
 
 impl PlanePose {
     /// The plane's unit normal, pointing towards the camera.
-    pub fn normal(&self) -> V3 {
-        let n = column(&self.rotation, 2);
-        if dot(n, self.translation) > 0.0 {
-            scale(n, -1.0)
+    pub fn normal(&self) -> Vec3 {
+        let n = self.rotation.column(2);
+        if n.dot(self.translation) > 0.0 {
+            n * -1.0
         } else {
             n
         }
     }
 
     /// A point of the plane (the board origin).
-    pub fn point(&self) -> V3 {
+    pub fn point(&self) -> Vec3 {
         self.translation
     }
 
     /// The pose moved by the local parameters `(δω, δt)`.
     pub fn perturbed(&self, d: &[f64; 6]) -> PlanePose {
         let mut p = self.clone();
-        p.rotation = mm(&rodrigues([d[0], d[1], d[2]]), &self.rotation);
-        p.translation = add(self.translation, [d[3], d[4], d[5]]);
+        p.rotation = rodrigues(Vec3::new(d[0], d[1], d[2])).mul_mat(&self.rotation);
+        p.translation = self.translation + Vec3::new(d[3], d[4], d[5]);
         p
     }
 
@@ -91,20 +92,20 @@ pub fn board_pose(
         .collect::<Result<_, _>>()?;
     let h = zhang::homography(&obj, &norm_pts).ok_or(PoseError::Degenerate)?;
     let (r0, t0) = zhang::pose_from_homography(&h).ok_or(PoseError::Degenerate)?;
-    let eval = |s: &(M3, V3), _j: bool| -> Option<Eval> {
+    let eval = |s: &(Mat3, Vec3), _j: bool| -> Option<Eval> {
         let mut e = Eval {
             width: 6,
             ..Default::default()
         };
         for (o, c) in obj.iter().zip(corners) {
-            let rx = mv(&s.0, [o[0], o[1], 0.0]);
-            let xc = add(rx, s.1);
+            let rx = s.0.mul_vec(Vec3::new(o[0], o[1], 0.0));
+            let xc = rx + s.1;
             if !(xc[2] > 1e-9) {
                 return None;
             }
             let ((u, v), j) = lens.project_jac(xc[0] / xc[2], xc[1] / xc[2]);
             let dp = d_point(&j.d_xy, xc);
-            let sk = skew(rx);
+            let sk = Mat3::cross_matrix(rx);
             for (row, res) in [(0usize, u - c[0]), (1, v - c[1])] {
                 e.r.push(res);
                 for a in 0..3 {
@@ -120,10 +121,10 @@ pub fn board_pose(
         }
         Some(e)
     };
-    let apply = |s: &(M3, V3), d: &[f64]| {
+    let apply = |s: &(Mat3, Vec3), d: &[f64]| {
         (
-            mm(&rodrigues([d[0], d[1], d[2]]), &s.0),
-            add(s.1, [d[3], d[4], d[5]]),
+            rodrigues(Vec3::new(d[0], d[1], d[2])).mul_mat(&s.0),
+            s.1 + Vec3::new(d[3], d[4], d[5]),
         )
     };
     let sol =
@@ -141,19 +142,19 @@ pub fn board_pose(
 
 /// The point where the viewing ray of pixel `(u, v)` meets the plane `(o, n)` (`None` if the
 /// pixel cannot be undistorted or the ray is parallel to the plane or meets it behind the camera).
-pub fn ray_plane(lens: &Lens, u: f64, v: f64, o: V3, n: V3) -> Option<V3> {
+pub fn ray_plane(lens: &Lens, u: f64, v: f64, o: Vec3, n: Vec3) -> Option<Vec3> {
     let (x, y) = lens.undistort(u, v)?;
-    ray_dir_plane([x, y, 1.0], o, n)
+    ray_dir_plane(Vec3::new(x, y, 1.0), o, n)
 }
 
 /// The point where the ray `s·d` (s > 0) meets the plane `(o, n)`.
-pub fn ray_dir_plane(d: V3, o: V3, n: V3) -> Option<V3> {
-    let den = dot(n, d);
+pub fn ray_dir_plane(d: Vec3, o: Vec3, n: Vec3) -> Option<Vec3> {
+    let den = n.dot(d);
     if den.abs() < 1e-12 {
         return None;
     }
-    let s = dot(n, o) / den;
-    (s > 0.0).then(|| scale(d, s))
+    let s = n.dot(o) / den;
+    (s > 0.0).then(|| d * s)
 }
 
 /// The poses of one board seen at several positions of a plate that is *translated without
@@ -173,7 +174,7 @@ pub fn translated_board_poses(
         .map(|c| board_pose(lens, board, c))
         .collect::<Result<_, _>>()?;
     // Start: the mean rotation.
-    let mut sum = [[0.0; 3]; 3];
+    let mut sum = Mat3([[0.0; 3]; 3]);
     for p in &single {
         for i in 0..3 {
             for j in 0..3 {
@@ -182,23 +183,23 @@ pub fn translated_board_poses(
         }
     }
     let r0 = super::linalg::nearest_rotation(&sum);
-    let t0: Vec<V3> = single.iter().map(|p| p.translation).collect();
+    let t0: Vec<Vec3> = single.iter().map(|p| p.translation).collect();
     let np = 3 + 3 * n;
-    let eval = |s: &(M3, Vec<V3>), _j: bool| -> Option<Eval> {
+    let eval = |s: &(Mat3, Vec<Vec3>), _j: bool| -> Option<Eval> {
         let mut e = Eval {
             width: 6,
             ..Default::default()
         };
         for (k, corners) in views.iter().enumerate() {
             for (o, c) in obj.iter().zip(corners) {
-                let rx = mv(&s.0, [o[0], o[1], 0.0]);
-                let xc = add(rx, s.1[k]);
+                let rx = s.0.mul_vec(Vec3::new(o[0], o[1], 0.0));
+                let xc = rx + s.1[k];
                 if !(xc[2] > 1e-9) {
                     return None;
                 }
                 let ((u, v), j) = lens.project_jac(xc[0] / xc[2], xc[1] / xc[2]);
                 let dp = d_point(&j.d_xy, xc);
-                let sk = skew(rx);
+                let sk = Mat3::cross_matrix(rx);
                 for (row, res) in [(0usize, u - c[0]), (1, v - c[1])] {
                     e.r.push(res);
                     for a in 0..3 {
@@ -215,12 +216,12 @@ pub fn translated_board_poses(
         }
         Some(e)
     };
-    let apply = |s: &(M3, Vec<V3>), d: &[f64]| {
-        let r = mm(&rodrigues([d[0], d[1], d[2]]), &s.0);
+    let apply = |s: &(Mat3, Vec<Vec3>), d: &[f64]| {
+        let r = rodrigues(Vec3::new(d[0], d[1], d[2])).mul_mat(&s.0);
         let t =
             s.1.iter()
                 .enumerate()
-                .map(|(k, t)| add(*t, [d[3 + 3 * k], d[4 + 3 * k], d[5 + 3 * k]]))
+                .map(|(k, t)| *t + Vec3::new(d[3 + 3 * k], d[4 + 3 * k], d[5 + 3 * k]))
                 .collect();
         (r, t)
     };

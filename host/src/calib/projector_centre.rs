@@ -18,8 +18,9 @@
 
 use super::CalibError;
 use super::lens::Lens;
-use super::linalg::{V3, dot, norm, scale, solve3, sub};
+use super::linalg::solve3;
 use super::pose::{PlanePose, ray_dir_plane};
+use crate::math::{Mat3, Vec3};
 use rayon::prelude::*;
 
 /// One plate position.
@@ -96,17 +97,17 @@ pub struct PairStats {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ProjectorCentre {
     /// P, camera frame, mm.
-    pub center: V3,
+    pub center: [f64; 3],
     /// Total standard deviation of P per axis, mm (lines + plate poses).
-    pub std: V3,
+    pub std: [f64; 3],
     /// Total covariance of P (row-major 3 × 3), mm².
     pub covariance: [f64; 9],
     /// Standard deviation from the lines (block jackknife), mm.
-    pub std_lines: V3,
+    pub std_lines: [f64; 3],
     /// Formal standard deviation `σ²A⁻¹` (treats every line as independent: optimistic), mm.
-    pub std_formal: V3,
+    pub std_formal: [f64; 3],
     /// Standard deviation from the plate-pose uncertainties, mm.
-    pub std_poses: V3,
+    pub std_poses: [f64; 3],
     /// Lines used.
     pub lines: usize,
     /// Lines rejected as outliers.
@@ -128,21 +129,21 @@ pub struct ProjectorCentre {
 #[derive(Clone, Copy, Debug)]
 struct Line {
     /// Ray directions (z = 1) of the S and T pixels.
-    ds: V3,
-    dt: V3,
-    s: V3,
-    t: V3,
+    ds: Vec3,
+    dt: Vec3,
+    s: Vec3,
+    t: Vec3,
     pair: usize,
     block: usize,
 }
 
-fn dir(l: &Line) -> V3 {
-    let d = sub(l.t, l.s);
-    scale(d, 1.0 / norm(d))
+fn dir(l: &Line) -> Vec3 {
+    let d = l.t - l.s;
+    d * (1.0 / d.norm())
 }
 
 /// Accumulate `Σ w (I − d dᵀ)` and `Σ w (I − d dᵀ) s`.
-fn accumulate(a: &mut [f64; 9], b: &mut V3, s: V3, d: V3, w: f64) {
+fn accumulate(a: &mut [f64; 9], b: &mut Vec3, s: Vec3, d: Vec3, w: f64) {
     for i in 0..3 {
         for j in 0..3 {
             let m = if i == j { 1.0 } else { 0.0 } - d[i] * d[j];
@@ -152,24 +153,28 @@ fn accumulate(a: &mut [f64; 9], b: &mut V3, s: V3, d: V3, w: f64) {
     }
 }
 
-fn solve(a: &[f64; 9], b: V3) -> Option<V3> {
-    let m = [[a[0], a[1], a[2]], [a[3], a[4], a[5]], [a[6], a[7], a[8]]];
-    solve3(&m, b)
+fn solve(a: &[f64; 9], b: Vec3) -> Option<Vec3> {
+    solve3(&mat(a), b)
 }
 
-fn distance(p: V3, s: V3, d: V3) -> f64 {
-    let q = sub(p, s);
-    norm(sub(q, scale(d, dot(q, d))))
+/// The row-major 3 × 3 matrix `a`.
+fn mat(a: &[f64; 9]) -> Mat3 {
+    Mat3([[a[0], a[1], a[2]], [a[3], a[4], a[5]], [a[6], a[7], a[8]]])
 }
 
-fn weight(p: V3, l: &Line) -> f64 {
-    let lever = norm(sub(p, l.s)) / norm(sub(l.t, l.s));
+fn distance(p: Vec3, s: Vec3, d: Vec3) -> f64 {
+    let q = p - s;
+    (q - d * q.dot(d)).norm()
+}
+
+fn weight(p: Vec3, l: &Line) -> f64 {
+    let lever = (p - l.s).norm() / (l.t - l.s).norm();
     1.0 / (lever * lever).max(1e-12)
 }
 
-fn intersect(lines: &[Line], keep: &[bool], weights: &[f64]) -> Option<V3> {
+fn intersect(lines: &[Line], keep: &[bool], weights: &[f64]) -> Option<Vec3> {
     let mut a = [0.0; 9];
-    let mut b = [0.0; 3];
+    let mut b = Vec3::ZERO;
     for ((l, &k), &w) in lines.iter().zip(keep).zip(weights) {
         if k {
             accumulate(&mut a, &mut b, l.s, dir(l), w);
@@ -392,7 +397,11 @@ pub fn check_parallel(
     let mut angles = Vec::new();
     for a in 0..plates.len() {
         for b in a + 1..plates.len() {
-            let c = dot(plates[a].pose.normal(), plates[b].pose.normal()).clamp(-1.0, 1.0);
+            let c = plates[a]
+                .pose
+                .normal()
+                .dot(plates[b].pose.normal())
+                .clamp(-1.0, 1.0);
             let ang = c.acos().to_degrees();
             angles.push((plates[a].name.clone(), plates[b].name.clone(), ang));
             if ang > max_deg {
@@ -403,11 +412,11 @@ pub fn check_parallel(
                     limit_deg: max_deg,
                 });
             }
-            let gap = dot(
-                plates[a].pose.normal(),
-                sub(plates[b].pose.point(), plates[a].pose.point()),
-            )
-            .abs();
+            let gap = plates[a]
+                .pose
+                .normal()
+                .dot(plates[b].pose.point() - plates[a].pose.point())
+                .abs();
             if gap < 5.0 {
                 return Err(CalibError::Input {
                     what: format!("plates {} and {}", plates[a].name, plates[b].name),
@@ -499,11 +508,11 @@ pub fn estimate(
                     let (tu, tv) = invert_bilinear(pt, &valid[b], pv, ph, g)?;
                     let (sx, sy) = lens.undistort(x as f64, y as f64)?;
                     let (tx, ty) = lens.undistort(tu, tv)?;
-                    let ds = [sx, sy, 1.0];
-                    let dt = [tx, ty, 1.0];
+                    let ds = Vec3::new(sx, sy, 1.0);
+                    let dt = Vec3::new(tx, ty, 1.0);
                     let s = ray_dir_plane(ds, os, ns)?;
                     let t = ray_dir_plane(dt, ot, nt)?;
-                    (norm(sub(t, s)) > 1e-6).then_some(Line {
+                    ((t - s).norm() > 1e-6).then_some(Line {
                         ds,
                         dt,
                         s,
@@ -613,7 +622,7 @@ pub fn estimate(
     }
     // Formal covariance.
     let mut a = [0.0; 9];
-    let mut bsum = [0.0; 3];
+    let mut bsum = Vec3::ZERO;
     let mut wss = 0.0;
     for (((l, &k), &wt), d) in lines.iter().zip(&keep).zip(&weights).zip(&dists) {
         if k {
@@ -622,14 +631,14 @@ pub fn estimate(
         }
     }
     let s2 = wss / (used as f64 - 3.0);
-    let inv_a = super::linalg::inv3(&[[a[0], a[1], a[2]], [a[3], a[4], a[5]], [a[6], a[7], a[8]]]);
+    let inv_a = mat(&a).inverse();
     let std_formal = inv_a
         .map(|m| [0, 1, 2].map(|i| (s2 * m[i][i]).max(0.0).sqrt()))
         .unwrap_or([f64::NAN; 3]);
     // Block jackknife.
     let nbl = nb * nb;
     let mut ab = vec![[0.0; 9]; nbl];
-    let mut bb = vec![[0.0; 3]; nbl];
+    let mut bb = vec![Vec3::ZERO; nbl];
     for ((l, &k), &wt) in lines.iter().zip(&keep).zip(&weights) {
         if k {
             accumulate(&mut ab[l.block], &mut bb[l.block], l.s, dir(l), wt);
@@ -641,7 +650,7 @@ pub fn estimate(
             continue;
         }
         let am: [f64; 9] = std::array::from_fn(|i| a[i] - ab[j][i]);
-        let bm: V3 = std::array::from_fn(|i| bsum[i] - bb[j][i]);
+        let bm = Vec3::from_array(std::array::from_fn(|i| bsum[i] - bb[j][i]));
         if let Some(pj) = solve(&am, bm) {
             reps.push(pj);
         }
@@ -649,9 +658,11 @@ pub fn estimate(
     let g = reps.len() as f64;
     let mut cov_lines = [0.0; 9];
     if reps.len() >= 2 {
-        let mean: V3 = std::array::from_fn(|i| reps.iter().map(|r| r[i]).sum::<f64>() / g);
+        let mean = Vec3::from_array(std::array::from_fn(|i| {
+            reps.iter().map(|r| r[i]).sum::<f64>() / g
+        }));
         for r in &reps {
-            let d = sub(*r, mean);
+            let d = *r - mean;
             for i in 0..3 {
                 for j in 0..3 {
                     cov_lines[i * 3 + j] += (g - 1.0) / g * d[i] * d[j];
@@ -660,10 +671,10 @@ pub fn estimate(
         }
     }
     // Plate poses, propagated: P re-solved with every pose parameter moved by ± its σ.
-    let resolve = |poses: &[PlanePose]| -> Option<V3> {
-        let planes: Vec<(V3, V3)> = poses.iter().map(|p| (p.normal(), p.point())).collect();
+    let resolve = |poses: &[PlanePose]| -> Option<Vec3> {
+        let planes: Vec<(Vec3, Vec3)> = poses.iter().map(|p| (p.normal(), p.point())).collect();
         let mut a = [0.0; 9];
-        let mut b = [0.0; 3];
+        let mut b = Vec3::ZERO;
         for ((l, &k), &wt) in lines.iter().zip(&keep).zip(&weights) {
             if !k {
                 continue;
@@ -671,8 +682,8 @@ pub fn estimate(
             let (sa, ta) = pair_of[l.pair];
             let s = ray_dir_plane(l.ds, planes[sa].1, planes[sa].0)?;
             let t = ray_dir_plane(l.dt, planes[ta].1, planes[ta].0)?;
-            let d = sub(t, s);
-            accumulate(&mut a, &mut b, s, scale(d, 1.0 / norm(d)), wt);
+            let d = t - s;
+            accumulate(&mut a, &mut b, s, d * (1.0 / d.norm()), wt);
         }
         solve(&a, b)
     };
@@ -765,7 +776,7 @@ pub fn estimate(
         zs.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
     ];
     Ok(ProjectorCentre {
-        center: p,
+        center: p.to_array(),
         std: sd(&cov),
         covariance: cov,
         std_lines: sd(&cov_lines),

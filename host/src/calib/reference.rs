@@ -3,16 +3,16 @@
 
 use super::corners::Board;
 use super::lens::Lens;
-use super::linalg::{V3, add, dot, normalize, scale, sub};
 use super::pose::{PlanePose, PoseError, board_pose};
+use crate::math::Vec3;
 
 /// A reference plane.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ReferencePose {
     /// A point O_R of the plane, camera frame, mm.
-    pub point: V3,
+    pub point: Vec3,
     /// Unit normal n_R, towards the camera.
-    pub normal: V3,
+    pub normal: Vec3,
     /// The board poses it came from (none when given).
     pub boards: Vec<PlanePose>,
     /// Standard deviation of the plane's distance from the camera centre along n_R, mm (from the
@@ -24,12 +24,12 @@ pub struct ReferencePose {
 
 impl ReferencePose {
     /// A plane given by a point and a normal (turned towards the camera).
-    pub fn given(point: V3, normal: V3) -> Option<ReferencePose> {
-        let mut n = normalize(normal)?;
-        if super::linalg::dot(n, point) > 0.0 {
-            n = scale(n, -1.0);
+    pub fn given(point: Vec3, normal: Vec3) -> Option<ReferencePose> {
+        let mut n = normal.try_normalized()?;
+        if n.dot(point) > 0.0 {
+            n = n * -1.0;
         }
-        (super::linalg::dot(n, point).abs() > 1e-6).then_some(ReferencePose {
+        (n.dot(point).abs() > 1e-6).then_some(ReferencePose {
             point,
             normal: n,
             boards: Vec::new(),
@@ -58,7 +58,7 @@ impl ReferencePose {
             .map(|c| board_pose(lens, board, c))
             .collect::<Result<_, _>>()?;
         // Per board: normal, tilt variance (rad²), distance variance (mm²).
-        let stats: Vec<(V3, f64, f64)> = poses
+        let stats: Vec<(Vec3, f64, f64)> = poses
             .iter()
             .map(|p| {
                 let n = p.normal();
@@ -77,24 +77,24 @@ impl ReferencePose {
                 (n, (var_rot - var_about_n).max(1e-18), var_d.max(1e-18))
             })
             .collect();
-        let mut nsum = [0.0; 3];
-        let mut wt = 0.0;
+        let mut nsum = Vec3::ZERO;
+        let mut wt: f64 = 0.0;
         for (n, vt, _) in &stats {
-            nsum = add(nsum, scale(*n, 1.0 / vt));
+            nsum = nsum + *n * (1.0 / vt);
             wt += 1.0 / vt;
         }
-        let n = normalize(nsum).ok_or(PoseError::Degenerate)?;
-        let (mut dsum, mut wd) = (0.0, 0.0);
-        let mut centroid = [0.0; 3];
+        let n = nsum.try_normalized().ok_or(PoseError::Degenerate)?;
+        let (mut dsum, mut wd): (f64, f64) = (0.0, 0.0);
+        let mut centroid = Vec3::ZERO;
         for (p, (_, _, vd)) in poses.iter().zip(&stats) {
-            dsum += dot(n, p.point()) / vd;
+            dsum += n.dot(p.point()) / vd;
             wd += 1.0 / vd;
-            centroid = add(centroid, scale(p.point(), 1.0 / poses.len() as f64));
+            centroid = centroid + p.point() * (1.0 / poses.len() as f64);
         }
         let d = dsum / wd;
         // Project the centroid onto the plane n·X = d, then move by the offset.
-        let on_plane = sub(centroid, scale(n, dot(n, centroid) - d));
-        let point = add(on_plane, scale(n, -offset_mm));
+        let on_plane = centroid - n * (n.dot(centroid) - d);
+        let point = on_plane + n * -offset_mm;
         Ok(ReferencePose {
             point,
             normal: n,

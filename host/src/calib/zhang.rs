@@ -3,14 +3,13 @@
 //! estimates it needs. These give the starting point of the bundle adjustment ([`super::camera`]);
 //! lens distortion is ignored here (it starts at zero).
 
-use super::linalg::{
-    M3, V3, cross, inv3, mm, mv, nearest_rotation, norm, scale, smallest_eigenvector,
-};
+use super::linalg::{nearest_rotation, smallest_eigenvector};
+use crate::math::{Mat3, Vec3};
 
 /// A homography: `[u, v, 1]ᵀ ∝ H [X, Y, 1]ᵀ`.
-pub type Homography = M3;
+pub type Homography = Mat3;
 
-fn normalizer(pts: &[[f64; 2]]) -> Option<M3> {
+fn normalizer(pts: &[[f64; 2]]) -> Option<Mat3> {
     let n = pts.len() as f64;
     let m = [
         pts.iter().map(|p| p[0]).sum::<f64>() / n,
@@ -25,7 +24,11 @@ fn normalizer(pts: &[[f64; 2]]) -> Option<M3> {
         return None;
     }
     let s = std::f64::consts::SQRT_2 / d;
-    Some([[s, 0.0, -s * m[0]], [0.0, s, -s * m[1]], [0.0, 0.0, 1.0]])
+    Some(Mat3([
+        [s, 0.0, -s * m[0]],
+        [0.0, s, -s * m[1]],
+        [0.0, 0.0, 1.0],
+    ]))
 }
 
 /// The homography taking plane points `src` to image points `dst` by the normalised DLT (Hartley),
@@ -39,8 +42,8 @@ pub fn homography(src: &[[f64; 2]], dst: &[[f64; 2]]) -> Option<Homography> {
     let td = normalizer(dst)?;
     let mut ata = [0.0; 81];
     for (s, d) in src.iter().zip(dst) {
-        let a = mv(&ts, [s[0], s[1], 1.0]);
-        let b = mv(&td, [d[0], d[1], 1.0]);
+        let a = ts.mul_vec(Vec3::new(s[0], s[1], 1.0));
+        let b = td.mul_vec(Vec3::new(d[0], d[1], 1.0));
         let (x, y) = (a[0], a[1]);
         let (u, v) = (b[0], b[1]);
         let r1 = [-x, -y, -1.0, 0.0, 0.0, 0.0, u * x, u * y, u];
@@ -52,18 +55,18 @@ pub fn homography(src: &[[f64; 2]], dst: &[[f64; 2]]) -> Option<Homography> {
         }
     }
     let (h, _) = smallest_eigenvector(&ata, 9);
-    let hn = [[h[0], h[1], h[2]], [h[3], h[4], h[5]], [h[6], h[7], h[8]]];
-    let h = mm(&inv3(&td)?, &mm(&hn, &ts));
+    let hn = Mat3([[h[0], h[1], h[2]], [h[3], h[4], h[5]], [h[6], h[7], h[8]]]);
+    let h = td.inverse()?.mul_mat(&hn.mul_mat(&ts));
     let s = if h[2][2].abs() > 1e-12 {
         1.0 / h[2][2]
     } else {
-        1.0 / norm(h[2])
+        1.0 / h.row(2).norm()
     };
-    let out = h.map(|row| row.map(|x| x * s));
-    out.iter().flatten().all(|x| x.is_finite()).then_some(out)
+    let out = Mat3(h.0.map(|row| row.map(|x| x * s)));
+    out.0.iter().flatten().all(|x| x.is_finite()).then_some(out)
 }
 
-fn vij(h: &M3, i: usize, j: usize) -> [f64; 6] {
+fn vij(h: &Mat3, i: usize, j: usize) -> [f64; 6] {
     // Columns of H: h_k = (H[0][k], H[1][k], H[2][k]).
     let a = [h[0][i], h[1][i], h[2][i]];
     let b = [h[0][j], h[1][j], h[2][j]];
@@ -88,12 +91,12 @@ pub fn intrinsics(
     centre: [f64; 2],
     half_size: f64,
 ) -> Option<[f64; 5]> {
-    let nrm: M3 = [
+    let nrm = Mat3([
         [1.0 / half_size, 0.0, -centre[0] / half_size],
         [0.0, 1.0 / half_size, -centre[1] / half_size],
         [0.0, 0.0, 1.0],
-    ];
-    let hn: Vec<M3> = hs.iter().map(|h| mm(&nrm, h)).collect();
+    ]);
+    let hn: Vec<Mat3> = hs.iter().map(|h| nrm.mul_mat(h)).collect();
     let closed = || -> Option<[f64; 5]> {
         let mut vtv = [0.0; 36];
         let mut add = |row: [f64; 6], w: f64| {
@@ -105,11 +108,8 @@ pub fn intrinsics(
         };
         for h in &hn {
             // Each homography's columns are scaled to unit norm for balance.
-            let s = 1.0
-                / norm([h[0][0], h[1][0], h[2][0]])
-                    .max(norm([h[0][1], h[1][1], h[2][1]]))
-                    .max(1e-300);
-            let h = h.map(|r| r.map(|x| x * s));
+            let s = 1.0 / h.column(0).norm().max(h.column(1).norm()).max(1e-300);
+            let h = Mat3(h.0.map(|r| r.map(|x| x * s)));
             let v12 = vij(&h, 0, 1);
             let v11 = vij(&h, 0, 0);
             let v22 = vij(&h, 1, 1);
@@ -179,42 +179,36 @@ pub fn intrinsics(
 /// The pose `(R, t)` of a plane (board frame: z = 0) from its homography `H = K [r1 r2 t]` to
 /// *normalized* image coordinates (`K = I`): the columns scaled by their mean norm, the rotation
 /// made orthonormal, the sign chosen so that the board is in front of the camera.
-pub fn pose_from_homography(h: &Homography) -> Option<(M3, V3)> {
-    let c = |k: usize| [h[0][k], h[1][k], h[2][k]];
-    let (h1, h2, h3) = (c(0), c(1), c(2));
-    let l = 2.0 / (norm(h1) + norm(h2));
+pub fn pose_from_homography(h: &Homography) -> Option<(Mat3, Vec3)> {
+    let (h1, h2, h3) = (h.column(0), h.column(1), h.column(2));
+    let l = 2.0 / (h1.norm() + h2.norm());
     if !l.is_finite() {
         return None;
     }
-    let sgn = if h3[2] < 0.0 { -1.0 } else { 1.0 };
-    let r1 = scale(h1, sgn * l);
-    let r2 = scale(h2, sgn * l);
-    let t = scale(h3, sgn * l);
-    let r3 = cross(r1, r2);
-    let m = [
-        [r1[0], r2[0], r3[0]],
-        [r1[1], r2[1], r3[1]],
-        [r1[2], r2[2], r3[2]],
-    ];
-    Some((nearest_rotation(&m), t))
+    let sgn = if h3.z < 0.0 { -1.0 } else { 1.0 };
+    let r1 = h1 * (sgn * l);
+    let r2 = h2 * (sgn * l);
+    let t = h3 * (sgn * l);
+    let r3 = r1.cross(r2);
+    Some((nearest_rotation(&Mat3::from_columns(r1, r2, r3)), t))
 }
 
 /// `K⁻¹ H`: a pixel homography turned into one to normalized coordinates (no distortion).
 pub fn normalize_homography(h: &Homography, k: [f64; 5]) -> Option<Homography> {
     let [fx, fy, g, u0, v0] = k;
-    let km = [[fx, g, u0], [0.0, fy, v0], [0.0, 0.0, 1.0]];
-    Some(mm(&inv3(&km)?, h))
+    let km = Mat3([[fx, g, u0], [0.0, fy, v0], [0.0, 0.0, 1.0]]);
+    Some(km.inverse()?.mul_mat(h))
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::linalg::{mv, rodrigues};
+    use super::super::linalg::rodrigues;
     use super::*;
 
     #[test]
     fn closed_form_recovers_a_distortion_free_camera() {
         let k = [1500.0, 1490.0, 0.0, 640.0, 500.0];
-        let km: M3 = [[k[0], k[2], k[3]], [0.0, k[1], k[4]], [0.0, 0.0, 1.0]];
+        let km = Mat3([[k[0], k[2], k[3]], [0.0, k[1], k[4]], [0.0, 0.0, 1.0]]);
         let board: Vec<[f64; 2]> = (0..7)
             .flat_map(|j| (0..10).map(move |i| [i as f64 * 25.0 - 112.5, j as f64 * 25.0 - 75.0]))
             .collect();
@@ -225,12 +219,12 @@ mod tests {
             ([0.1, -0.4, 0.2], [30.0, 30.0, 650.0]),
             ([-0.35, -0.2, 0.0], [0.0, 0.0, 700.0]),
         ] {
-            let r = rodrigues(w);
+            let r = rodrigues(Vec3::from_array(w));
             let img: Vec<[f64; 2]> = board
                 .iter()
                 .map(|p| {
-                    let x = mv(&r, [p[0], p[1], 0.0]);
-                    let q = mv(&km, [x[0] + t[0], x[1] + t[1], x[2] + t[2]]);
+                    let x = r.mul_vec(Vec3::new(p[0], p[1], 0.0));
+                    let q = km.mul_vec(Vec3::new(x[0] + t[0], x[1] + t[1], x[2] + t[2]));
                     [q[0] / q[2], q[1] / q[2]]
                 })
                 .collect();

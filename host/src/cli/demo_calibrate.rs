@@ -8,10 +8,11 @@ use crate::calib::camera::CameraOptions;
 use crate::calib::corners::{Board, DetectOptions};
 use crate::calib::files::{self, PlaneSource};
 use crate::calib::lens::{Lens, PARAM_NAMES};
-use crate::calib::linalg::{dot, norm, sub};
+use crate::calib::linalg::{nearest_rotation, rot_log};
 use crate::calib::projector_centre::ProjectorOptions;
 use crate::io::calibration::Calibration;
 use crate::io::image::{write_png_u8, write_png_u16};
+use crate::math::{Mat3, Vec3};
 use crate::render::dataset::{DatasetOptions, write_dataset};
 use crate::render::objects::Geometry;
 use crate::render::scene::{Overrides, Pose, SceneSpec};
@@ -329,10 +330,11 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         + (cam.lens.p[4] - truth_cam.p[4]).powi(2))
     .sqrt();
     let p_true = rig.translation;
-    let p_err = sub(pr.result.center, p_true);
-    let n_true = rig.reference_normal;
-    let plane_offset = dot(n_true, sub(rr.plane.point, rig.reference_point));
-    let plane_angle = dot(n_true, rr.plane.normal)
+    let p_err = Vec3::from_array(pr.result.center) - Vec3::from_array(p_true);
+    let n_true = Vec3::from_array(rig.reference_normal);
+    let plane_offset = n_true.dot(rr.plane.point - Vec3::from_array(rig.reference_point));
+    let plane_angle = n_true
+        .dot(rr.plane.normal)
         .clamp(-1.0, 1.0)
         .acos()
         .to_degrees();
@@ -342,7 +344,7 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         "camera": {"parameters": cam_j, "fx_relative_error": fx_rel, "fy_relative_error": fy_rel, "principal_point_error_px": pp_err,
                    "reprojection_rms_px": cam.rms, "sigma_px": cam.sigma, "views_used": cam.views.len(), "views_rejected": cam.rejected,
                    "corner_error_vs_truth_px": corner_truth},
-        "projector": {"estimate": pr.result.center, "truth": p_true, "error": p_err, "error_norm_mm": norm(p_err),
+        "projector": {"estimate": pr.result.center, "truth": p_true, "error": p_err, "error_norm_mm": p_err.norm(),
                       "std": pr.result.std, "lines": pr.result.lines, "rms_line_distance_mm": pr.result.rms_distance_mm,
                       "depth_range": pr.calibration.depth_range,
                       "depth_range_source": if o.volume_depth_range { "the rig's measurement volume (--depth-range)" } else { "the plates' z range padded by 10 %" }},
@@ -439,66 +441,61 @@ pub fn aligned_error(
             })
         })
     };
-    let mut pairs: Vec<([f64; 3], [f64; 3])> = Vec::new();
+    let mut pairs: Vec<(Vec3, Vec3)> = Vec::new();
     for i in 0..w * h {
         if cloud.validity[i] == 0 && truth.points[3 * i].is_finite() && interior(i) {
-            let p = [
+            let p = Vec3::new(
                 cloud.xyz[3 * i] as f64,
                 cloud.xyz[3 * i + 1] as f64,
                 cloud.xyz[3 * i + 2] as f64,
-            ];
-            let q = [
+            );
+            let q = Vec3::new(
                 truth.points[3 * i],
                 truth.points[3 * i + 1],
                 truth.points[3 * i + 2],
-            ];
+            );
             pairs.push((p, q));
         }
     }
     if pairs.len() < 10 {
         return None;
     }
-    let mut d0: Vec<f64> = pairs.iter().map(|(p, q)| norm(sub(*p, *q))).collect();
+    let mut d0: Vec<f64> = pairs.iter().map(|(p, q)| (*p - *q).norm()).collect();
     d0.sort_by(f64::total_cmp);
     let lim = 5.0 * d0[d0.len() / 2];
-    let fit: Vec<&([f64; 3], [f64; 3])> = pairs
+    let fit: Vec<&(Vec3, Vec3)> = pairs
         .iter()
-        .filter(|(p, q)| norm(sub(*p, *q)) <= lim.max(1e-9))
+        .filter(|(p, q)| (*p - *q).norm() <= lim.max(1e-9))
         .collect();
     let n = fit.len() as f64;
-    let mut pc = [0.0; 3];
-    let mut qc = [0.0; 3];
+    let mut pc = Vec3::ZERO;
+    let mut qc = Vec3::ZERO;
     for (p, q) in &fit {
         for k in 0..3 {
             pc[k] += p[k] / n;
             qc[k] += q[k] / n;
         }
     }
-    let mut m = [[0.0; 3]; 3];
+    let mut m = Mat3([[0.0; 3]; 3]);
     for (p, q) in &fit {
-        let (a, b) = (sub(*p, pc), sub(*q, qc));
+        let (a, b) = (*p - pc, *q - qc);
         for i in 0..3 {
             for j in 0..3 {
                 m[i][j] += b[i] * a[j];
             }
         }
     }
-    let r = crate::calib::linalg::nearest_rotation(&m);
-    let t = sub(qc, crate::calib::linalg::mv(&r, pc));
+    let r = nearest_rotation(&m);
+    let t = qc - r.mul_vec(pc);
     let mut d: Vec<f64> = pairs
         .iter()
-        .map(|(p, q)| {
-            norm(sub(
-                crate::calib::linalg::add(crate::calib::linalg::mv(&r, *p), t),
-                *q,
-            ))
-        })
+        .map(|(p, q)| (r.mul_vec(*p) + t - *q).norm())
         .collect();
     let rms = (d.iter().map(|x| x * x).sum::<f64>() / d.len() as f64).sqrt();
     d.sort_by(f64::total_cmp);
     let p95 = d[((d.len() - 1) as f64 * 0.95) as usize];
-    let angle = norm(crate::calib::linalg::rot_log(&r)).to_degrees();
-    Some((rms, p95, angle, norm(t)))
+    let angle = rot_log(&r).norm().to_degrees();
+    Some((rms, p95, angle, t.norm()))
 }
 
 fn summary(a: &Accuracy) -> Value {

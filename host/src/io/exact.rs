@@ -1,8 +1,8 @@
 //! Fixed-length arrays read exactly from TOML: serde's `[T; N]` takes the first `N` elements and
 //! the toml crate ignores the rest, so a `distortion` of 6 values or a `normal` of 4 would load
 //! with the extras silently dropped. The readers here refuse any other length with one error
-//! naming the key (`` `normal` must have exactly 3 values, got 4 ``), and count surplus elements
-//! without keeping them, so a 2 000 000-value array costs no memory.
+//! naming the key (`` `normal` must have exactly 3 values, got 4 ``); surplus elements are
+//! counted, not kept.
 
 use std::fmt;
 use std::marker::PhantomData;

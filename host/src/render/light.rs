@@ -32,6 +32,11 @@
 use fringe3d_core::pattern::PatternSet;
 use serde::{Deserialize, Serialize};
 
+mod kernels;
+
+pub use kernels::box_gauss;
+use kernels::{blur_1d, lagrange4, reach_of, tap_table, window};
+
 /// How the projector image is modelled.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
@@ -169,48 +174,6 @@ pub struct LightSet {
     reach: f64,
     gamma: f64,
     black: f64,
-}
-
-/// `½·[erf((x + ½)/(σ√2)) − erf((x − ½)/(σ√2))]`: the box ⊗ Gaussian kernel.
-#[inline]
-pub fn box_gauss(x: f64, sigma: f64) -> f64 {
-    let s = 1.0 / (sigma * std::f64::consts::SQRT_2);
-    0.5 * (libm::erf((x + 0.5) * s) - libm::erf((x - 0.5) * s))
-}
-
-/// The Gaussian blur of the indicator of `[−½, n − ½]` at `w`.
-#[inline]
-fn window(w: f64, n: u32, sigma: f64) -> f64 {
-    let hi = n as f64 - 0.5;
-    if sigma == 0.0 {
-        return if (-0.5..=hi).contains(&w) { 1.0 } else { 0.0 };
-    }
-    let r = 7.0 * sigma;
-    if w > -0.5 + r && w < hi - r {
-        return 1.0;
-    }
-    if w < -0.5 - r || w > hi + r {
-        return 0.0;
-    }
-    let s = 1.0 / (sigma * std::f64::consts::SQRT_2);
-    0.5 * (libm::erf((w + 0.5) * s) - libm::erf((w - hi) * s))
-}
-
-/// 4-point Lagrange weights at nodes −1, 0, 1, 2 for a fraction `f ∈ [0, 1)`.
-#[inline(always)]
-fn lagrange4(f: f64) -> [f64; 4] {
-    let (fm1, fm2, fp1) = (f - 1.0, f - 2.0, f + 1.0);
-    [
-        -f * fm1 * fm2 / 6.0,
-        fp1 * fm1 * fm2 / 2.0,
-        -fp1 * f * fm2 / 2.0,
-        fp1 * f * fm1 / 6.0,
-    ]
-}
-
-/// Kernel reach: beyond 7σ + ½ the kernel is below 1e-12.
-fn reach_of(sigma: f64) -> f64 {
-    7.0 * sigma + 0.5
 }
 
 impl LightSet {
@@ -715,161 +678,5 @@ fn pattern_profile(
     }
 }
 
-/// Kernel values `K(φ/m − k)` for each sub-pixel phase φ = 0..m and integer offsets within reach:
-/// `taps[φ] = (k_lo, values)` with values for k = k_lo, k_lo + 1, ….
-fn tap_table(sigma: f64, m: usize, reach: f64) -> Vec<(i64, Vec<f64>)> {
-    (0..m)
-        .map(|ph| {
-            let f = ph as f64 / m as f64;
-            let lo = (f - reach).ceil() as i64;
-            let hi = (f + reach).floor() as i64;
-            (
-                lo,
-                (lo..=hi).map(|k| box_gauss(f - k as f64, sigma)).collect(),
-            )
-        })
-        .collect()
-}
-
-/// Blur the staircase `v` (pixel i at position i) onto positions `t0 + q/m`, q = 0..len.
-/// `t0` must be an integer.
-fn blur_1d(v: &[f64], t0: f64, m: usize, len: usize, taps: &[(i64, Vec<f64>)]) -> Vec<f64> {
-    let n = v.len() as i64;
-    let t0 = t0 as i64;
-    (0..len)
-        .map(|q| {
-            let base = t0 + (q / m) as i64;
-            let (lo, ks) = &taps[q % m];
-            let mut acc = 0.0;
-            for (d, k) in ks.iter().enumerate() {
-                let i = base + lo + d as i64;
-                if i >= 0 && i < n {
-                    acc += v[i as usize] * k;
-                }
-            }
-            acc
-        })
-        .collect()
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use fringe3d_core::pattern::Output;
-    use fringe3d_core::phase_function::{Axis, PhaseFunction};
-
-    fn set(curvature: f64) -> PatternSet {
-        let out = Output {
-            width: 256,
-            height: 192,
-            i_min: 0.0,
-            i_max: 65535.0,
-        };
-        let mut f = PhaseFunction::centered(Axis::Xi, 256, 0.9 * std::f64::consts::TAU).unwrap();
-        if curvature != 0.0 {
-            f = f.curved(curvature, 95.5).unwrap();
-        }
-        // Finest level: 0.9·16 = 14.4 periods over 256 px (17.8 px period, as the default set).
-        PatternSet::paper_eight(f, 4.0, out).unwrap()
-    }
-
-    /// The defining sum Σ v_ij K(ξ − i) K(η − j) over every DMD pixel.
-    fn brute(s: &PatternSet, index: usize, sigma: f64, xi: f64, eta: f64) -> f64 {
-        let mut row = vec![0u16; 256];
-        let mut acc = 0.0;
-        for j in 0..192 {
-            let ky = box_gauss(eta - j as f64, sigma);
-            if ky < 1e-15 {
-                continue;
-            }
-            s.generate_row::<u16>(index, j, &mut row).unwrap();
-            for (i, &c) in row.iter().enumerate() {
-                acc += c as f64 / 65535.0 * box_gauss(xi - i as f64, sigma) * ky;
-            }
-        }
-        acc
-    }
-
-    /// Worst error (interior points ≥ 3σ + 2 inside the DMD, points near or beyond its edges).
-    fn worst(curvature: f64, sigma: f64) -> (f64, f64) {
-        let s = set(curvature);
-        let slides: Vec<Slide> = (0..s.image_count())
-            .map(|index| Slide::Pattern {
-                set: &s,
-                index,
-                bits: 16,
-            })
-            .collect();
-        let optics = Optics {
-            mode: ProjectorMode::Pixelated,
-            defocus: sigma,
-            gamma: 1.0,
-            black_level: 0.0,
-        };
-        let ls = LightSet::new(256, 192, &slides, optics).unwrap();
-        let mut out = vec![0.0; slides.len()];
-        let (mut w, mut we): (f64, f64) = (0.0, 0.0);
-        for k in 0..80 {
-            // Points all over the DMD, edges and beyond included.
-            let xi = -4.0 + 263.0 * ((k as f64 * 0.618_034) % 1.0);
-            let eta = -4.0 + 199.0 * ((k as f64 * 0.414_214 + 0.1) % 1.0);
-            ls.eval(xi, eta, &mut out);
-            let interior = ls.frame_margin(xi, eta) >= 3.0 * sigma + 2.0;
-            for i in [0, 3, 6] {
-                let e = (out[i] - brute(&s, i, sigma, xi, eta)).abs();
-                if interior {
-                    w = w.max(e);
-                } else {
-                    we = we.max(e);
-                }
-            }
-        }
-        (w, we)
-    }
-
-    #[test]
-    fn separable_table_matches_the_defining_sum() {
-        for sigma in [0.3, 1.0, 2.5] {
-            let (e, edge) = worst(0.0, sigma);
-            assert!(e < 2e-7 && edge < 2e-7, "σ = {sigma}: {e} {edge}");
-        }
-    }
-
-    #[test]
-    fn grid_and_direct_paths_match_the_defining_sum() {
-        // Curved fringes: σ ≥ 1 uses the ½-pixel grid, ½ ≤ σ < 1 the ¼-pixel grid, σ < ½ the
-        // direct sum. Near the DMD's edges (a unit step, blurred) the grid's cubic interpolation is
-        // less accurate; those points are never CLEAN in the renderer's mask.
-        for (sigma, tol, tol_edge) in [(1.0, 3e-5, 2e-3), (0.7, 3e-5, 2e-3), (0.3, 1e-7, 1e-7)] {
-            let (e, edge) = worst(0.0005, sigma);
-            eprintln!("σ = {sigma}: interior {e:.2e}, edges {edge:.2e}");
-            assert!(e < tol && edge < tol_edge, "σ = {sigma}: {e} {edge}");
-        }
-    }
-
-    #[test]
-    fn sharp_pixels_are_exact() {
-        let s = set(0.0);
-        let slides = [Slide::Pattern {
-            set: &s,
-            index: 0,
-            bits: 16,
-        }];
-        let optics = Optics {
-            mode: ProjectorMode::Pixelated,
-            defocus: 0.0,
-            gamma: 1.0,
-            black_level: 0.0,
-        };
-        let ls = LightSet::new(256, 192, &slides, optics).unwrap();
-        let mut row = vec![0u16; 256];
-        s.generate_row::<u16>(0, 7, &mut row).unwrap();
-        let mut out = [0.0];
-        for (i, &code) in row.iter().enumerate() {
-            ls.eval(i as f64 + 0.49, 7.3, &mut out);
-            assert_eq!(out[0], code as f64 / 65535.0);
-        }
-        ls.eval(-0.51, 7.0, &mut out);
-        assert_eq!(out[0], 0.0);
-    }
-}
+mod tests;

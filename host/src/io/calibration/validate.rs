@@ -3,17 +3,14 @@
 
 use super::schema::{CALIBRATION_VERSION, Calibration};
 use crate::io::camera_check::check_camera;
+use crate::math::Vec3;
 
-fn finite3(v: &[f64; 3]) -> bool {
-    v.iter().all(|x| x.is_finite())
+fn v3(a: &[f64; 3]) -> Vec3 {
+    Vec3::from_array(*a)
 }
 
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn norm(a: &[f64; 3]) -> f64 {
-    dot(a, a).sqrt()
+fn finite3(a: &[f64; 3]) -> bool {
+    v3(a).is_finite()
 }
 
 fn fmt3(v: &[f64; 3]) -> String {
@@ -44,7 +41,7 @@ impl Calibration {
         let p = &self.projector_centre;
         if !finite3(p) {
             errs.push(format!("projector_centre must be finite, got {}", fmt3(p)));
-        } else if norm(p) <= 1e-9 {
+        } else if v3(p).norm() <= 1e-9 {
             errs.push(
                 "projector_centre coincides with the camera centre: there is no baseline".into(),
             );
@@ -65,20 +62,20 @@ impl Calibration {
             }
             if !finite3(n) {
                 errs.push(format!("reference.normal must be finite, got {}", fmt3(n)));
-            } else if (norm(n) - 1.0).abs() > 1e-3 {
+            } else if (v3(n).norm() - 1.0).abs() > 1e-3 {
                 errs.push(format!(
                     "reference.normal must be a unit vector, got {} (length {})",
                     fmt3(n),
-                    norm(n)
+                    v3(n).norm()
                 ));
             } else if finite3(&r.point) {
-                let d_cam = dot(n, &r.point) / norm(n);
+                let d_cam = v3(n).dot(v3(&r.point)) / v3(n).norm();
                 if d_cam.abs() <= 1e-6 {
                     errs.push("reference plane passes through the camera centre".into());
                 }
                 if finite3(p) {
                     let d = [p[0] - r.point[0], p[1] - r.point[1], p[2] - r.point[2]];
-                    if (dot(n, &d) / norm(n)).abs() <= 1e-6 {
+                    if (v3(n).dot(v3(&d)) / v3(n).norm()).abs() <= 1e-6 {
                         errs.push("reference plane passes through the projector centre".into());
                     }
                 }
@@ -103,7 +100,7 @@ impl Calibration {
                 for i in 0..3 {
                     for j in 0..3 {
                         let e = if i == j { 1.0 } else { 0.0 };
-                        worst = worst.max((dot(&r[i], &r[j]) - e).abs());
+                        worst = worst.max((v3(&r[i]).dot(v3(&r[j])) - e).abs());
                     }
                 }
                 let det = r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
@@ -128,7 +125,7 @@ impl Calibration {
                 ));
             } else if finite3(p) {
                 let d = [t[0] - p[0], t[1] - p[1], t[2] - p[2]];
-                if norm(&d) > 1e-6 + 1e-9 * norm(p) {
+                if v3(&d).norm() > 1e-6 + 1e-9 * v3(p).norm() {
                     errs.push(format!(
                         "projector.translation {} differs from projector_centre {} (both are the projector centre, mm)",
                         fmt3(t),

@@ -1,0 +1,312 @@
+//! Step 4 of the detection: sub-pixel refinement of a corner, as the saddle point of the
+//! Gaussian-weighted samples ([`refine_saddle`]) or by fitting an X-junction model
+//! ([`refine_model`]).
+
+use super::{Image, dist};
+use crate::calib::{linalg, lm};
+
+/// Saddle point of `Σ_k G_σ(q − k) I(k)` near `q0` by Newton's method.
+pub fn refine_saddle(img: &Image, q0: [f64; 2], sigma: f64) -> Result<[f64; 2], &'static str> {
+    let r = (4.5 * sigma).ceil() as isize;
+    let s2 = sigma * sigma;
+    let mut q = q0;
+    for _ in 0..40 {
+        let (cx, cy) = (q[0].round() as isize, q[1].round() as isize);
+        if cx - r < 0 || cy - r < 0 || cx + r >= img.width as isize || cy + r >= img.height as isize
+        {
+            return Err("too close to the image border");
+        }
+        let mut mean = 0.0;
+        for y in cy - r..=cy + r {
+            for x in cx - r..=cx + r {
+                mean += img.at(x as usize, y as usize) as f64;
+            }
+        }
+        mean /= ((2 * r + 1) * (2 * r + 1)) as f64;
+        let (mut g0, mut g1, mut h00, mut h01, mut h11) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for y in cy - r..=cy + r {
+            let dy = q[1] - y as f64;
+            for x in cx - r..=cx + r {
+                let dx = q[0] - x as f64;
+                let w = (-(dx * dx + dy * dy) / (2.0 * s2)).exp();
+                let v = (img.at(x as usize, y as usize) as f64 - mean) * w;
+                g0 -= dx * v;
+                g1 -= dy * v;
+                h00 += (dx * dx / s2 - 1.0) * v;
+                h01 += dx * dy / s2 * v;
+                h11 += (dy * dy / s2 - 1.0) * v;
+            }
+        }
+        // Common factors 1/σ² (gradient) and 1/σ² (Hessian) cancel in the Newton step.
+        let det = h00 * h11 - h01 * h01;
+        if !(det < 0.0) {
+            return Err("not a saddle");
+        }
+        let mut d = [-(h11 * g0 - h01 * g1) / det, -(-h01 * g0 + h00 * g1) / det];
+        let l = (d[0] * d[0] + d[1] * d[1]).sqrt();
+        if !l.is_finite() {
+            return Err("singular");
+        }
+        if l > 0.5 {
+            d = [d[0] * 0.5 / l, d[1] * 0.5 / l];
+        }
+        q = [q[0] + d[0], q[1] + d[1]];
+        if l < 1e-6 {
+            return Ok(q);
+        }
+    }
+    Err("no convergence")
+}
+
+/// Smallest edge width β of the corner model, pixels: a step integrated over a box pixel has a
+/// profile of standard deviation √(1/12) = 0.29 px whatever its direction; a free β → 0 would
+/// leave the position of a step that falls on a pixel boundary undetermined within the pixel.
+const BETA_MIN: f64 = 0.3;
+
+/// Hessian of `Σ_k G_σ(q − k) I(k)` at `q` (up to a positive factor).
+pub(super) fn saddle_hessian(img: &Image, q: [f64; 2], sigma: f64) -> Option<[f64; 3]> {
+    let r = (4.5 * sigma).ceil() as isize;
+    let s2 = sigma * sigma;
+    let (cx, cy) = (q[0].round() as isize, q[1].round() as isize);
+    if cx - r < 0 || cy - r < 0 || cx + r >= img.width as isize || cy + r >= img.height as isize {
+        return None;
+    }
+    let (mut h00, mut h01, mut h11) = (0.0, 0.0, 0.0);
+    for y in cy - r..=cy + r {
+        let dy = q[1] - y as f64;
+        for x in cx - r..=cx + r {
+            let dx = q[0] - x as f64;
+            let w = (-(dx * dx + dy * dy) / (2.0 * s2)).exp();
+            let v = img.at(x as usize, y as usize) as f64 * w;
+            h00 += (dx * dx / s2 - 1.0) * v;
+            h01 += dx * dy / s2 * v;
+            h11 += (dy * dy / s2 - 1.0) * v;
+        }
+    }
+    Some([h00, h01, h11])
+}
+
+/// The two edge directions (angles of the lines, radians) of an X-junction from its Hessian: the
+/// asymptotes of the saddle's quadratic form.
+pub(super) fn edge_angles(h: [f64; 3]) -> Option<(f64, f64)> {
+    let [a, b, c] = h;
+    let tr = 0.5 * (a + c);
+    let disc = (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    let (la, lb) = (tr + disc, tr - disc);
+    if !(la > 0.0 && lb < 0.0) {
+        return None;
+    }
+    // Eigenvector of la.
+    let th = 0.5 * (2.0 * b).atan2(a - c);
+    let (ea, eb) = ([th.cos(), th.sin()], [-th.sin(), th.cos()]);
+    let k = (-lb / la).sqrt();
+    let t1 = [k * ea[0] + eb[0], k * ea[1] + eb[1]];
+    let t2 = [-k * ea[0] + eb[0], -k * ea[1] + eb[1]];
+    Some((t1[1].atan2(t1[0]), t2[1].atan2(t2[0])))
+}
+
+/// Sub-pixel corner by fitting an X-junction model to the pixels within `radius` of `q0`:
+///
+/// `I(p) ≈ c0 + c1·dx + c2·dy + (c3 + c4·dx + c5·dy)·E(n1·d)·E(n2·d)`, `d = p − q`,
+///
+/// with `E(x) = erf(x / (√2·β))` an edge of width β, `n_i` the normals of the two edges through
+/// q. The linear terms absorb the illumination gradient across the corner (additive ambient and
+/// multiplicative projector light), which otherwise shifts a saddle-point estimate by ~σ²·|∇L|/L.
+/// Model errors (edge profile, non-orthogonal blur) are point-symmetric about q and do not bias it.
+/// Levenberg–Marquardt over the 11 parameters; the window is re-centred once on the result.
+pub fn refine_model(
+    img: &Image,
+    q0: [f64; 2],
+    radius: f64,
+    angles: (f64, f64),
+) -> Result<[f64; 2], &'static str> {
+    let taper = 3.0f64.min(0.5 * radius);
+    // Pixels within `radius` of `c` with a cosine taper over the outer `taper` pixels (so that
+    // the estimate does not jump when a rim pixel enters or leaves the window).
+    let window = |c: [f64; 2]| -> Result<Vec<(f64, f64, f64, f64)>, &'static str> {
+        let r = radius.ceil() as isize;
+        let (cx, cy) = (c[0].round() as isize, c[1].round() as isize);
+        if cx - r < 0 || cy - r < 0 || cx + r >= img.width as isize || cy + r >= img.height as isize
+        {
+            return Err("too close to the image border");
+        }
+        let mut px = Vec::with_capacity(((2 * r + 1) * (2 * r + 1)) as usize);
+        for y in cy - r..=cy + r {
+            for x in cx - r..=cx + r {
+                let (dx, dy) = (x as f64 - c[0], y as f64 - c[1]);
+                let d = (dx * dx + dy * dy).sqrt();
+                if d < radius {
+                    let t = ((d - (radius - taper)) / taper).max(0.0);
+                    let w = if t > 0.0 {
+                        0.5 * (1.0 + (std::f64::consts::PI * t).cos())
+                    } else {
+                        1.0
+                    };
+                    px.push((
+                        x as f64,
+                        y as f64,
+                        img.at(x as usize, y as usize) as f64,
+                        w.sqrt(),
+                    ));
+                }
+            }
+        }
+        Ok(px)
+    };
+    let sq2 = std::f64::consts::SQRT_2;
+    let k_g = (2.0 / std::f64::consts::PI).sqrt();
+    // Model pieces for the nonlinear parameters (qx, qy, φ1, φ2, b).
+    let piece = |x: &[f64], p: &(f64, f64, f64, f64)| {
+        let (dx, dy) = (p.0 - x[0], p.1 - x[1]);
+        let (s1, c1) = x[2].sin_cos();
+        let (s2, c2) = x[3].sin_cos();
+        let beta = x[4];
+        let a1 = -s1 * dx + c1 * dy;
+        let a2 = -s2 * dx + c2 * dy;
+        let (e1, x1) = erf_exp(a1 / (sq2 * beta));
+        let (e2, x2) = erf_exp(a2 / (sq2 * beta));
+        let g1 = k_g / beta * x1;
+        let g2 = k_g / beta * x2;
+        (dx, dy, e1, e2, g1, g2, a1, a2, [c1, s1], [c2, s2], beta)
+    };
+    let mut q = q0;
+    let mut state: Option<Vec<f64>> = None;
+    for _pass in 0..2 {
+        let px = window(q)?;
+        let lo = px.iter().map(|p| p.2).fold(f64::INFINITY, f64::min);
+        let hi = px.iter().map(|p| p.2).fold(f64::NEG_INFINITY, f64::max);
+        let span = hi - lo;
+        if !(span > 0.0) {
+            return Err("flat window");
+        }
+        let mid = 0.5 * (hi + lo);
+        let px: Vec<(f64, f64, f64, f64)> = px
+            .into_iter()
+            .map(|p| (p.0, p.1, (p.2 - mid) / span, p.3))
+            .collect();
+        // Linear coefficients for a nonlinear guess (first pass).
+        let linear = |x: &[f64]| -> Option<[f64; 6]> {
+            let mut ata = [0.0; 36];
+            let mut atb = [0.0; 6];
+            for p in &px {
+                let (dx, dy, e1, e2, ..) = piece(x, p);
+                let s = e1 * e2;
+                let row = [1.0, dx, dy, s, s * dx, s * dy].map(|v| v * p.3);
+                for i in 0..6 {
+                    atb[i] += row[i] * p.2 * p.3;
+                    for j in 0..6 {
+                        ata[i * 6 + j] += row[i] * row[j];
+                    }
+                }
+            }
+            if !linalg::cholesky(&mut ata, 6) {
+                return None;
+            }
+            linalg::cholesky_solve(&ata, 6, &mut atb);
+            Some(atb)
+        };
+        let x0 = match state.take() {
+            // Re-centred window: the previous solution, its linear part re-solved for the new
+            // normalisation.
+            Some(mut x) => {
+                let l = linear(&x).ok_or("degenerate window")?;
+                x.truncate(5);
+                x.extend(l);
+                x
+            }
+            None => {
+                let mut x = vec![q[0], q[1], angles.0, angles.1, 0.7];
+                x.extend(linear(&x).ok_or("degenerate window")?);
+                x
+            }
+        };
+        let eval = |x: &Vec<f64>, _j: bool| -> Option<lm::Eval> {
+            if !(x[4] >= BETA_MIN && x[4] < 20.0) {
+                return None;
+            }
+            let mut e = lm::Eval {
+                width: 11,
+                ..Default::default()
+            };
+            e.r.reserve(px.len());
+            e.vals.reserve(11 * px.len());
+            e.cols.reserve(11 * px.len());
+            for p in &px {
+                let (dx, dy, e1, e2, g1, g2, a1, a2, t1, t2, beta) = piece(x, p);
+                let sw = p.3;
+                let s = e1 * e2;
+                let lin = x[8] + x[9] * dx + x[10] * dy;
+                e.r.push(sw * (x[5] + x[6] * dx + x[7] * dy + lin * s - p.2));
+                let (s1, c1) = (t1[1], t1[0]);
+                let (s2, c2) = (t2[1], t2[0]);
+                // ∂S/∂q = −(g1 e2 n1 + e1 g2 n2), n = (−sin φ, cos φ).
+                let dsq = [
+                    -(g1 * e2 * -s1 + e1 * g2 * -s2),
+                    -(g1 * e2 * c1 + e1 * g2 * c2),
+                ];
+                // ∂(n·d)/∂φ = −(cos φ·dx + sin φ·dy).
+                let ds1 = g1 * e2 * -(c1 * dx + s1 * dy);
+                let ds2 = e1 * g2 * -(c2 * dx + s2 * dy);
+                // ∂S/∂β · ∂β/∂b.
+                let dsb = -(g1 * e2 * a1 + e1 * g2 * a2) / beta;
+                e.vals.extend(
+                    [
+                        -x[6] - x[9] * s + lin * dsq[0],
+                        -x[7] - x[10] * s + lin * dsq[1],
+                        lin * ds1,
+                        lin * ds2,
+                        lin * dsb,
+                        1.0,
+                        dx,
+                        dy,
+                        s,
+                        s * dx,
+                        s * dy,
+                    ]
+                    .map(|v| v * sw),
+                );
+                e.cols.extend(0..11);
+            }
+            Some(e)
+        };
+        let apply =
+            |x: &Vec<f64>, d: &[f64]| x.iter().zip(d).map(|(a, b)| a + b).collect::<Vec<f64>>();
+        let sol = lm::solve(
+            x0,
+            11,
+            eval,
+            apply,
+            lm::Options {
+                max_iterations: 100,
+                cost_tolerance: 1e-12,
+                step_tolerance: 1e-9,
+            },
+        )
+        .ok_or("model fit failed")?;
+        let x = sol.state;
+        let nq = [x[0], x[1]];
+        if !(nq[0].is_finite() && nq[1].is_finite()) || dist(nq, q0) > 0.5 * radius {
+            return Err("model fit wandered off");
+        }
+        if x[8].abs() < 0.1 {
+            return Err("no contrast at the corner");
+        }
+        q = nq;
+        state = Some(x);
+    }
+    Ok(q)
+}
+
+/// `(erf(x), exp(−x²))` (Abramowitz & Stegun 7.1.26, |error| ≤ 1.5e-7).
+#[inline]
+fn erf_exp(x: f64) -> (f64, f64) {
+    let e = (-x * x).exp();
+    let a = x.abs();
+    let t = 1.0 / (1.0 + 0.327_591_1 * a);
+    let poly = t
+        * (0.254_829_592
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    let v = 1.0 - poly * e;
+    (if x < 0.0 { -v } else { v }, e)
+}
