@@ -28,9 +28,13 @@ use crate::phase_function::Axis;
 use crate::reconstruct::Setup;
 
 /// Lens distortion coefficients of eq 3, OpenCV order `[k1, k2, p1, p2, k3]` (= the paper's
-/// `[k1, k2, k3, k4, k5]`). Written (TOML, wire) as that five-element array.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(from = "[f64; 5]", into = "[f64; 5]")]
+/// `[k1, k2, k3, k4, k5]`). Written (TOML, wire) as that five-element array, and read as exactly
+/// five: serde's own `[f64; 5]` takes the first five elements of a longer TOML array and drops the
+/// rest, so the reader here counts what follows and refuses it
+/// (`` `distortion` must have exactly 5 values, got 6 ``). On the wire (postcard, a tuple) the
+/// bytes are those of `[f64; 5]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[serde(into = "[f64; 5]")]
 pub struct Distortion {
     /// Radial, r² (paper k1).
     pub k1: f64,
@@ -74,6 +78,45 @@ impl From<[f64; 5]> for Distortion {
 impl From<Distortion> for [f64; 5] {
     fn from(d: Distortion) -> Self {
         d.to_array()
+    }
+}
+
+impl<'de> Deserialize<'de> for Distortion {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_tuple(5, ExactFive).map(Distortion::from_array)
+    }
+}
+
+/// The visitor of [`Distortion`]: exactly five numbers, surplus elements counted (not kept) for
+/// the message.
+struct ExactFive;
+
+impl<'de> serde::de::Visitor<'de> for ExactFive {
+    type Value = [f64; 5];
+
+    fn expecting(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
+        f.write_str("an array of 5 numbers [k1, k2, p1, p2, k3]")
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<[f64; 5], A::Error> {
+        let mut a = [0.0; 5];
+        let mut n = 0usize;
+        for slot in a.iter_mut() {
+            match seq.next_element::<f64>()? {
+                Some(v) => *slot = v,
+                None => break,
+            }
+            n += 1;
+        }
+        while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+            n += 1;
+        }
+        if n != 5 {
+            return Err(serde::de::Error::custom(format_args!(
+                "`distortion` must have exactly 5 values, got {n}"
+            )));
+        }
+        Ok(a)
     }
 }
 
@@ -223,6 +266,40 @@ mod tests {
         assert_eq!(a, b);
         let back: Distortion = postcard::from_bytes(&a).unwrap_or_default();
         assert_eq!(back, d);
+    }
+
+    /// The exact reader, through serde's own sequence deserializer (what a TOML array looks
+    /// like to a visitor): five numbers load, any other count is refused with the count.
+    #[test]
+    fn distortion_is_read_as_exactly_five_numbers() {
+        extern crate std;
+        use serde::de::value::SeqDeserializer;
+        use std::string::{String, ToString};
+        /// An error that keeps its message (serde's own may not, without `alloc`).
+        #[derive(Debug)]
+        struct Message(String);
+        impl core::fmt::Display for Message {
+            fn fmt(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
+                f.write_str(&self.0)
+            }
+        }
+        impl std::error::Error for Message {}
+        impl serde::de::Error for Message {
+            fn custom<T: core::fmt::Display>(m: T) -> Self {
+                Message(m.to_string())
+            }
+        }
+        let read = |v: &[f64]| {
+            Distortion::deserialize(SeqDeserializer::<_, Message>::new(v.iter().copied()))
+        };
+        let five = [0.1, -0.2, 0.003, -0.004, 0.05];
+        assert_eq!(read(&five).ok(), Some(Distortion::from_array(five)));
+        for n in [0usize, 4, 6, 100] {
+            let v = [0.5; 100];
+            let e = read(&v[..n]).err().map(|e| std::format!("{e}"));
+            let want = std::format!("`distortion` must have exactly 5 values, got {n}");
+            assert_eq!(e.as_deref(), Some(want.as_str()), "{n} values");
+        }
     }
 
     #[test]

@@ -10,7 +10,7 @@ use crate::io::atomic::write_atomic;
 use crate::io::error::{FormatError, check_toml_version, read_text, toml_message};
 use crate::io::exact;
 use fringe3d_core::camera::CameraModel;
-use fringe3d_core::params::{CameraParams, Distortion, ProjectorParams, ScanGeometry};
+use fringe3d_core::params::{CameraParams, ProjectorParams, ScanGeometry};
 use fringe3d_core::phase_function::Axis;
 use fringe3d_core::reconstruct::Setup;
 
@@ -26,7 +26,6 @@ pub struct Calibration {
     /// Format version; [`CALIBRATION_VERSION`] (= 1).
     pub version: u32,
     /// The camera's intrinsic model.
-    #[serde(deserialize_with = "read_camera")]
     pub camera: CameraParams,
     /// The projector's centre of projection P (paper §6), camera frame, mm. Written
     /// `projector_centre`; files with the older spelling `projector_center` still load.
@@ -138,64 +137,24 @@ fn resolve(file: &Path, rel: &Path) -> PathBuf {
 
 // --- reading: the core's parameter types with exact array lengths --------------------------
 
-/// `[camera]` and `[projector.intrinsics]` as written: the fields of [`CameraParams`] in its
-/// order, `distortion` read exactly.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CameraTable {
-    width: u32,
-    height: u32,
-    fx: f64,
-    fy: f64,
-    cx: f64,
-    cy: f64,
-    #[serde(default)]
-    skew: f64,
-    #[serde(default, deserialize_with = "read_distortion")]
-    distortion: [f64; 5],
-}
-
-impl From<CameraTable> for CameraParams {
-    fn from(c: CameraTable) -> Self {
-        CameraParams {
-            width: c.width,
-            height: c.height,
-            fx: c.fx,
-            fy: c.fy,
-            cx: c.cx,
-            cy: c.cy,
-            skew: c.skew,
-            distortion: Distortion::from_array(c.distortion),
-        }
-    }
-}
-
 /// `[projector]` as written: the fields of [`ProjectorParams`], arrays read exactly.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ProjectorTable {
-    intrinsics: CameraTable,
+    intrinsics: CameraParams,
     #[serde(deserialize_with = "read_rotation")]
     rotation: [[f64; 3]; 3],
     #[serde(deserialize_with = "read_translation")]
     translation: [f64; 3],
 }
 
-fn read_camera<'de, D: Deserializer<'de>>(d: D) -> Result<CameraParams, D::Error> {
-    CameraTable::deserialize(d).map(CameraParams::from)
-}
-
 fn read_projector<'de, D: Deserializer<'de>>(d: D) -> Result<Option<ProjectorParams>, D::Error> {
     let p = Option::<ProjectorTable>::deserialize(d)?;
     Ok(p.map(|p| ProjectorParams {
-        intrinsics: p.intrinsics.into(),
+        intrinsics: p.intrinsics,
         rotation: p.rotation,
         translation: p.translation,
     }))
-}
-
-fn read_distortion<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 5], D::Error> {
-    exact::array(d, "distortion")
 }
 
 fn read_projector_centre<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
