@@ -23,9 +23,6 @@ pub mod pattern;
 
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::Vec3;
-use crate::phase_function::Axis;
-use crate::reconstruct::Setup;
 
 /// Lens distortion coefficients of eq 3, OpenCV order `[k1, k2, p1, p2, k3]` (= the paper's
 /// `[k1, k2, k3, k4, k5]`). Written (TOML, wire) as that five-element array, and read as exactly
@@ -221,32 +218,6 @@ pub struct ScanGeometry {
     pub depth_min: f64,
     /// Farthest accepted depth, mm, `> depth_min`.
     pub depth_max: f64,
-}
-
-impl ScanGeometry {
-    /// The reconstruction's set-up for phases monotonic along `axis` (the reconstructor checks
-    /// it).
-    pub fn setup(&self, axis: Axis) -> Setup {
-        Setup {
-            projector_centre: Vec3::from_array(self.projector_centre),
-            reference_point: Vec3::from_array(self.plane_point),
-            reference_normal: Vec3::from_array(self.plane_normal),
-            axis,
-            z_min: self.depth_min,
-            z_max: self.depth_max,
-        }
-    }
-
-    /// The geometry of a set-up (its axis aside).
-    pub fn from_setup(s: &Setup) -> Self {
-        ScanGeometry {
-            projector_centre: s.projector_centre.to_array(),
-            plane_point: s.reference_point.to_array(),
-            plane_normal: s.reference_normal.to_array(),
-            depth_min: s.z_min,
-            depth_max: s.z_max,
-        }
-    }
 }
 
 #[cfg(test)]

@@ -6,6 +6,7 @@ use super::error::ReconstructError;
 use crate::camera::CameraModel;
 use crate::geometry::Vec3;
 use crate::phase_function::Axis;
+use crate::params::ScanGeometry;
 
 /// The geometry of a scan: everything §6 needs besides the camera model and the reference phase.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -139,4 +140,32 @@ pub(super) fn analyse(
     let above = (above + 1).min(hgt as i64) as u32;
     let below = (below + 1).min(hgt as i64) as u32;
     Ok((Band { above, below }, max_len))
+}
+
+/// The conversions between the parameter vocabulary's geometry and the reconstruction's set-up
+/// (here, so that `params` stays below `reconstruct`).
+impl ScanGeometry {
+    /// The reconstruction's set-up for phases monotonic along `axis` (the reconstructor checks
+    /// it).
+    pub fn setup(&self, axis: Axis) -> Setup {
+        Setup {
+            projector_centre: Vec3::from_array(self.projector_centre),
+            reference_point: Vec3::from_array(self.plane_point),
+            reference_normal: Vec3::from_array(self.plane_normal),
+            axis,
+            z_min: self.depth_min,
+            z_max: self.depth_max,
+        }
+    }
+
+    /// The geometry of a set-up (its axis aside).
+    pub fn from_setup(s: &Setup) -> Self {
+        ScanGeometry {
+            projector_centre: s.projector_centre.to_array(),
+            plane_point: s.reference_point.to_array(),
+            plane_normal: s.reference_normal.to_array(),
+            depth_min: s.z_min,
+            depth_max: s.z_max,
+        }
+    }
 }
