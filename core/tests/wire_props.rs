@@ -417,9 +417,9 @@ proptest! {
         step in 1usize..700,
         cap in 0usize..300,
     ) {
-        let mut big = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+        let mut big = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
         let mut small_buf = vec![0u8; cap];
-        let mut small = FrameDecoder::new(&mut small_buf[..]);
+        let mut small = FrameReceiver::new(&mut small_buf[..]);
         for dec_is_small in [false, true] {
             let mut delivered = 0u32;
             let mut errors = 0u32;
@@ -464,7 +464,7 @@ proptest! {
         let mut scratch = vec![0u8; MAX_FRAME];
         let mut out = vec![0u8; MAX_ENCODED_FRAME];
         let n = emit_packet(&h, &msg, &mut scratch, &mut out).unwrap();
-        let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+        let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
         let mut got = 0;
         for piece in out[..n].chunks(step) {
             let mut rest = piece;
@@ -515,7 +515,7 @@ proptest! {
             }
             if line.is_empty() { break; }
         }
-        let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+        let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
         for &b in &line {
             if let Some(Ok(f)) = dec.push(b) {
                 prop_assert!(frames.iter().any(|s| s[..] == *f), "unsent frame delivered");

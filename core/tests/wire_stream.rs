@@ -36,7 +36,7 @@ fn chunk_packet(seq: u8, data: &[u8]) -> (Vec<u8>, Vec<u8>) {
 
 /// Feed `input` to a decoder in pieces of `step` bytes; collect frames and errors.
 fn run_decoder<B: AsRef<[u8]> + AsMut<[u8]>>(
-    dec: &mut FrameDecoder<B>,
+    dec: &mut FrameReceiver<B>,
     input: &[u8],
     step: usize,
 ) -> (Vec<Vec<u8>>, Vec<WireError>) {
@@ -71,7 +71,7 @@ fn byte_by_byte_and_in_chunks() {
     let expect: Vec<Vec<u8>> = packets.iter().map(|p| p.1.clone()).collect();
 
     // Byte by byte with push.
-    let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+    let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
     let mut frames = Vec::new();
     for &b in &line {
         if let Some(ev) = dec.push(b) {
@@ -86,7 +86,7 @@ fn byte_by_byte_and_in_chunks() {
     // In chunks of various sizes with feed.
     for step in [1, 2, 3, 7, 64, 255, 1000, line.len()] {
         let mut buf = vec![0u8; MAX_ENCODED_FRAME];
-        let mut dec = FrameDecoder::new(&mut buf[..]);
+        let mut dec = FrameReceiver::new(&mut buf[..]);
         let (frames, errors) = run_decoder(&mut dec, &line, step);
         assert_eq!(frames, expect, "step {step}");
         assert!(errors.is_empty());
@@ -117,7 +117,7 @@ fn garbage_is_skipped_and_counted() {
     line.push(0x00); // 40 bytes that decode fine but fail the CRC (or COBS)
     line.extend(&good);
     line.extend(&good);
-    let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+    let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
     let (frames, errors) = run_decoder(&mut dec, &line, 1);
     assert_eq!(frames, vec![frame.clone(), frame]);
     assert_eq!(errors.len(), 4, "{errors:?}");
@@ -136,7 +136,7 @@ fn empty_frames_are_ignored() {
     line.extend(&good);
     line.extend([0x00, 0x00]);
     line.extend(&good);
-    let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+    let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
     let (frames, errors) = run_decoder(&mut dec, &line, 5);
     assert_eq!(frames, vec![frame.clone(), frame]);
     assert!(errors.is_empty());
@@ -145,7 +145,7 @@ fn empty_frames_are_ignored() {
 
 #[test]
 fn runt_frame() {
-    let mut dec = FrameDecoder::new([0u8; 64]);
+    let mut dec = FrameReceiver::new([0u8; 64]);
     let (frames, errors) = run_decoder(&mut dec, &[0x03, 0x11, 0x22, 0x00], 1);
     assert!(frames.is_empty());
     assert_eq!(errors, vec![WireError::Truncated]);
@@ -158,7 +158,7 @@ fn oversized_frame_overflows_then_resyncs() {
     let mut line = vec![0x7E; 5000];
     line.push(0x00);
     line.extend(&good);
-    let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+    let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
     let (frames, errors) = run_decoder(&mut dec, &line, 333);
     assert_eq!(errors, vec![WireError::Overflow]);
     assert_eq!(frames, vec![frame.clone()]);
@@ -169,14 +169,14 @@ fn oversized_frame_overflows_then_resyncs() {
     let mut line = long.clone();
     line.extend(&good);
     let mut buf = [0u8; 32];
-    let mut dec = FrameDecoder::new(&mut buf[..]);
+    let mut dec = FrameReceiver::new(&mut buf[..]);
     assert_eq!(dec.pending(), 0);
     let (frames, errors) = run_decoder(&mut dec, &line, 1);
     assert_eq!(errors, vec![WireError::Overflow]);
     assert_eq!(frames, vec![frame]);
     // Exactly filling the buffer is fine.
     let mut buf = vec![0u8; good.len() - 1];
-    let mut dec = FrameDecoder::new(&mut buf[..]);
+    let mut dec = FrameReceiver::new(&mut buf[..]);
     let (frames, errors) = run_decoder(&mut dec, &good, 1);
     assert_eq!((frames.len(), errors.len()), (1, 0));
 }
@@ -191,7 +191,7 @@ fn corrupted_byte_reports_crc_and_next_frame_decodes() {
         bad[pos] = val;
         let mut line = bad;
         line.extend(&good2);
-        let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+        let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
         let (frames, errors) = run_decoder(&mut dec, &line, 1);
         assert_eq!(errors, vec![WireError::Crc], "pos {pos}");
         assert_eq!(frames, vec![frame2.clone()]);
@@ -202,7 +202,7 @@ fn corrupted_byte_reports_crc_and_next_frame_decodes() {
     bad[0] = 0x09;
     let mut line = bad;
     line.extend(&good2);
-    let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+    let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
     let (frames, errors) = run_decoder(&mut dec, &line, 4);
     assert_eq!(errors.len(), 1);
     assert_eq!(frames, vec![frame2.clone()]);
@@ -211,7 +211,7 @@ fn corrupted_byte_reports_crc_and_next_frame_decodes() {
     bad[4] = 0x00;
     let mut line = bad;
     line.extend(&good2);
-    let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+    let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
     let (frames, errors) = run_decoder(&mut dec, &line, 1);
     assert_eq!(errors.len(), 2, "{errors:?}");
     assert_eq!(frames, vec![frame2]);
@@ -220,7 +220,7 @@ fn corrupted_byte_reports_crc_and_next_frame_decodes() {
 #[test]
 fn reset_drops_partial_frame() {
     let (good, frame) = status_packet(1);
-    let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+    let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
     for &b in &good[..5] {
         assert!(dec.push(b).is_none());
     }
@@ -425,7 +425,7 @@ fn fault_injected_transfers_never_deliver_corrupt_frames() {
         let faults = link.stats().faults();
 
         // Receive in random-sized reads.
-        let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+        let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
         let mut next = 0usize; // index of the earliest sent frame that may still arrive
         let mut delivered = 0;
         let mut errors = 0;

@@ -307,7 +307,7 @@ fn check_vector(header: Header, msg: Message<'_>, payload: &[u8], crc: u32, line
     let (h, parsed) = parse_packet(&frame).unwrap();
     assert_eq!(h, full);
     assert_eq!(parsed, msg);
-    let mut sd = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+    let mut sd = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
     let mut got = None;
     for &b in line {
         if let Some(ev) = sd.push(b) {

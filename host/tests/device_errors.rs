@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use fringe3d::device::{Client, ClientOptions, DeviceError, SerialTransport, open_serial};
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::{
-    Capabilities, FirmwareVersion, FrameDecoder, MAX_ENCODED_FRAME, Message, Nak, NakCode, cobs,
+    Capabilities, FirmwareVersion, FrameReceiver, MAX_ENCODED_FRAME, Message, Nak, NakCode, cobs,
 };
 use serialport::{SerialPort, TTYPort};
 
@@ -37,7 +37,7 @@ fn fake(
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
     let h = std::thread::spawn(move || {
-        let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+        let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
         let mut buf = [0u8; 512];
         while !s.load(Ordering::Relaxed) {
             let n = match master.read(&mut buf) {

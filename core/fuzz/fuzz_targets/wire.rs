@@ -35,7 +35,7 @@ fuzz_target!(|data: &[u8]| {
     }
 
     // The stream decoder, fed in uneven pieces.
-    let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+    let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
     let mut rest = data;
     let mut step = 1;
     while !rest.is_empty() {

@@ -9,7 +9,7 @@
 //! | 6+payload_len | 4             | CRC-32C of bytes `0 .. 6+payload_len`, LE u32  |
 //!
 //! On the line it is COBS-encoded ([`super::cobs`]) and followed by one `0x00`. A receiver
-//! collects bytes up to each `0x00` ([`FrameDecoder`]), decodes them, checks the length and CRC,
+//! collects bytes up to each `0x00` ([`FrameReceiver`]), decodes them, checks the length and CRC,
 //! then parses the header ([`parse`]). Empty frames (two `0x00` in a row) are ignored, so a sender
 //! may send a lone `0x00` to make the receiver drop a partial frame (after a reconnect).
 
@@ -90,9 +90,9 @@ pub fn encode(frame: &[u8], out: &mut [u8]) -> Result<usize, WireError> {
     Ok(n + 1)
 }
 
-/// Counters kept by a [`FrameDecoder`]. All wrap on overflow.
+/// Counters kept by a [`FrameReceiver`]. All wrap on overflow.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct DecoderStats {
+pub struct ReceiverStats {
     /// Bytes received (including delimiters).
     pub bytes: u32,
     /// Frames delivered (COBS and CRC good).
@@ -103,11 +103,11 @@ pub struct DecoderStats {
     pub crc_errors: u32,
     /// Frames dropped for being shorter than [`MIN_FRAME`].
     pub runts: u32,
-    /// Frames dropped for being longer than the decoder's buffer.
+    /// Frames dropped for being longer than the receiver's buffer.
     pub overflows: u32,
 }
 
-impl DecoderStats {
+impl ReceiverStats {
     /// Total frames dropped for any reason.
     pub const fn errors(&self) -> u32 {
         self.cobs_errors
@@ -122,29 +122,29 @@ impl DecoderStats {
 ///
 /// Every run of bytes ended by a `0x00` yields exactly one event: the decoded frame, or the error
 /// that made it unusable ([`WireError::Cobs`], [`WireError::Truncated`], [`WireError::Crc`],
-/// [`WireError::Overflow`]); empty runs yield nothing. After an error the decoder is synchronised
-/// again at the next `0x00`. The frame slice borrows the decoder's buffer, so it must be consumed
+/// [`WireError::Overflow`]); empty runs yield nothing. After an error the receiver is synchronised
+/// again at the next `0x00`. The frame slice borrows the receiver's buffer, so it must be consumed
 /// (e.g. with [`parse_packet`](super::parse_packet)) before more bytes are pushed.
 ///
 /// The buffer `B` is anything that derefs to a byte slice, owned (`[u8; MAX_ENCODED_FRAME]`, for a
 /// `static`) or borrowed (`&mut [u8]`); frames longer than it are dropped as overflows. Use at
 /// least [`MAX_ENCODED_FRAME`] bytes to receive every legal frame.
 #[derive(Debug)]
-pub struct FrameDecoder<B> {
+pub struct FrameReceiver<B> {
     buf: B,
     len: usize,
     discarding: bool,
-    stats: DecoderStats,
+    stats: ReceiverStats,
 }
 
-impl<B: AsRef<[u8]> + AsMut<[u8]>> FrameDecoder<B> {
-    /// A decoder collecting into `buf`.
+impl<B: AsRef<[u8]> + AsMut<[u8]>> FrameReceiver<B> {
+    /// A receiver collecting into `buf`.
     pub const fn new(buf: B) -> Self {
-        FrameDecoder {
+        FrameReceiver {
             buf,
             len: 0,
             discarding: false,
-            stats: DecoderStats {
+            stats: ReceiverStats {
                 bytes: 0,
                 frames: 0,
                 cobs_errors: 0,
@@ -156,7 +156,7 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> FrameDecoder<B> {
     }
 
     /// The counters so far.
-    pub const fn stats(&self) -> &DecoderStats {
+    pub const fn stats(&self) -> &ReceiverStats {
         &self.stats
     }
 
@@ -190,8 +190,8 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> FrameDecoder<B> {
     /// of `input`.
     ///
     /// ```
-    /// # use fringe3d_core::wire::{FrameDecoder, MAX_ENCODED_FRAME};
-    /// let mut dec = FrameDecoder::new([0u8; MAX_ENCODED_FRAME]);
+    /// # use fringe3d_core::wire::{FrameReceiver, MAX_ENCODED_FRAME};
+    /// let mut dec = FrameReceiver::new([0u8; MAX_ENCODED_FRAME]);
     /// let mut input: &[u8] = &[0x03, 0x11, 0x22, 0x00];
     /// while !input.is_empty() {
     ///     let (used, event) = dec.feed(input);

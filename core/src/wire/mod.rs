@@ -8,8 +8,8 @@
 //! # Layers
 //!
 //! 1. **Line**: frames COBS-encoded ([`cobs`]), each followed by one `0x00`. A receiver feeds
-//!    bytes to a [`FrameDecoder`], which resynchronises at the next `0x00` after garbage or an
-//!    overlong frame and counts every kind of damage ([`DecoderStats`]).
+//!    bytes to a [`FrameReceiver`], which resynchronises at the next `0x00` after garbage or an
+//!    overlong frame and counts every kind of damage ([`ReceiverStats`]).
 //! 2. **Frame** ([`frame`]): [`Header`] + payload + CRC-32C ([`crc`]) over header and payload.
 //! 3. **Message** ([`message`]): the payload is the [postcard] encoding of the body of the
 //!    command named in the header, validated on both ends.
@@ -142,7 +142,7 @@ mod packet;
 pub mod setup;
 
 pub use desc::{DescError, image_index};
-pub use frame::{DecoderStats, FrameDecoder, MAX_ENCODED_FRAME, MAX_FRAME, MIN_FRAME};
+pub use frame::{ReceiverStats, FrameReceiver, MAX_ENCODED_FRAME, MAX_FRAME, MIN_FRAME};
 pub use header::{Flags, HEADER_LEN, Header, PROTOCOL_VERSION};
 pub use link::{FaultConfig, FaultInjector, FaultStats, Loopback, LoopbackError, XorShift64};
 pub use message::*;

@@ -121,7 +121,7 @@ pub fn emit_packet(
     frame::encode(&scratch[..end + CRC_LEN], out)
 }
 
-/// Parse a decoded frame (as yielded by [`FrameDecoder`](super::FrameDecoder)) into its header
+/// Parse a decoded frame (as yielded by [`FrameReceiver`](super::FrameReceiver)) into its header
 /// and message, borrowing bulk data from `frame`.
 ///
 /// Checks the length and CRC, the header ([`frame::parse`]), the command, the postcard body and

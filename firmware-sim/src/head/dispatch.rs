@@ -5,7 +5,7 @@ use embedded_io::{Read, ReadReady, Write};
 use fringe3d_core::wire::crc::Crc32c;
 use fringe3d_core::wire::frame;
 use fringe3d_core::wire::{
-    Ack, Flags, FrameDecoder, HeadErrors, Header, Invalid, LUT_ENTRY_LEN, MAX_ENCODED_FRAME,
+    Ack, Flags, FrameReceiver, HeadErrors, Header, Invalid, LUT_ENTRY_LEN, MAX_ENCODED_FRAME,
     MAX_LUT_ENTRIES, Message, Nak, NakCode, PROTOCOL_VERSION, Status, UploadAck, UploadTarget,
     ValidationStatus, WireError, check_header,
 };
@@ -20,7 +20,7 @@ use crate::hal::{BoardIo, HwError, Storage};
 /// The head's link side, borrowed apart from its board and memory: what answering frames needs.
 pub(super) struct Link<'a> {
     /// The receive side: the frame decoder over its buffer.
-    pub(super) rx: &'a mut FrameDecoder<[u8; MAX_ENCODED_FRAME]>,
+    pub(super) rx: &'a mut FrameReceiver<[u8; MAX_ENCODED_FRAME]>,
     /// The transmit side.
     pub(super) tx: &'a mut Tx,
     /// The state machine.

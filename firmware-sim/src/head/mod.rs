@@ -50,7 +50,7 @@ mod transmit;
 
 use embedded_io::{Read, ReadReady, Write};
 use fringe3d_core::wire::{
-    Capabilities, FrameDecoder, HeadErrors, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_LUT_ENTRIES,
+    Capabilities, FrameReceiver, HeadErrors, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_LUT_ENTRIES,
     PROTOCOL_VERSION, Status,
 };
 
@@ -78,7 +78,7 @@ pub struct Head<'m, B> {
     board: B,
     mem: HeadMemory<'m>,
     cfg: HeadConfig,
-    rx: FrameDecoder<[u8; MAX_ENCODED_FRAME]>,
+    rx: FrameReceiver<[u8; MAX_ENCODED_FRAME]>,
     tx: Tx,
     ctl: Control,
 }
@@ -138,7 +138,7 @@ impl<'m, B: BoardIo> Head<'m, B> {
             board,
             mem,
             cfg,
-            rx: FrameDecoder::new([0; MAX_ENCODED_FRAME]),
+            rx: FrameReceiver::new([0; MAX_ENCODED_FRAME]),
             tx: Tx::new(),
             ctl,
         };

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use embedded_io::{Error as _, ErrorKind};
 use fringe3d_core::wire::{
-    FrameDecoder, Header, MAX_ENCODED_FRAME, MAX_FRAME, Message, emit_packet,
+    FrameReceiver, Header, MAX_ENCODED_FRAME, MAX_FRAME, Message, emit_packet,
 };
 
 use super::{DeviceError, Transport};
@@ -34,7 +34,7 @@ pub struct LinkStats {
 /// Frames over a transport.
 pub struct Link<T> {
     io: T,
-    rx: FrameDecoder<Box<[u8]>>,
+    rx: FrameReceiver<Box<[u8]>>,
     buf: Box<[u8]>,
     pos: usize,
     len: usize,
@@ -76,7 +76,7 @@ impl<T: Transport> Link<T> {
     pub fn new(io: T) -> Self {
         Link {
             io,
-            rx: FrameDecoder::new(vec![0u8; MAX_ENCODED_FRAME].into_boxed_slice()),
+            rx: FrameReceiver::new(vec![0u8; MAX_ENCODED_FRAME].into_boxed_slice()),
             buf: vec![0u8; 4096].into_boxed_slice(),
             pos: 0,
             len: 0,
