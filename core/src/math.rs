@@ -49,7 +49,7 @@ pub const ATAN_FAST_COEFFS: [f32; 5] = [
 ///
 /// Reduces from the diagonal to `p = (|y| − |x|)/(|y| + |x|) ∈ [−1, 1]`, evaluates the odd
 /// [`ATAN_COEFFS`] there, and folds back with one sign flip: `atan2(|y|, x) = π/2 ± (atan p − π/4)`
-/// ([`unfold`]); no data-dependent branches, so a loop over a row vectorizes. Maximum absolute
+/// (`unfold`); no data-dependent branches, so a loop over a row vectorizes. Maximum absolute
 /// error against the exact atan2: 6.5e-7 rad (the unit tests measure it). The error is absolute,
 /// not relative: near 0 the result comes from `π/2 − (π/2 − θ)`. Odd in `y`, zeros included;
 /// `atan2(±0, +0) = ±0`, `atan2(±0, x < 0) = ±π`, `atan2(±0, −0) = ±π` as in IEEE; a NaN input

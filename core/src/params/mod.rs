@@ -23,7 +23,6 @@ pub mod pattern;
 
 use serde::{Deserialize, Serialize};
 
-
 /// Lens distortion coefficients of eq 3, OpenCV order `[k1, k2, p1, p2, k3]` (= the paper's
 /// `[k1, k2, k3, k4, k5]`). Written (TOML, wire) as that five-element array, and read as exactly
 /// five: serde's own `[f64; 5]` takes the first five elements of a longer TOML array and drops the
@@ -80,7 +79,8 @@ impl From<Distortion> for [f64; 5] {
 
 impl<'de> Deserialize<'de> for Distortion {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        d.deserialize_tuple(5, ExactFive).map(Distortion::from_array)
+        d.deserialize_tuple(5, ExactFive)
+            .map(Distortion::from_array)
     }
 }
 

@@ -5,8 +5,8 @@
 use super::error::ReconstructError;
 use crate::camera::CameraModel;
 use crate::geometry::Vec3;
-use crate::phase_function::Axis;
 use crate::params::ScanGeometry;
+use crate::phase_function::Axis;
 
 /// The geometry of a scan: everything §6 needs besides the camera model and the reference phase.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -142,7 +142,7 @@ mod packet;
 pub mod setup;
 
 pub use desc::{DescError, image_index};
-pub use frame::{ReceiverStats, FrameReceiver, MAX_ENCODED_FRAME, MAX_FRAME, MIN_FRAME};
+pub use frame::{FrameReceiver, MAX_ENCODED_FRAME, MAX_FRAME, MIN_FRAME, ReceiverStats};
 pub use header::{Flags, HEADER_LEN, Header, PROTOCOL_VERSION};
 pub use link::{FaultConfig, FaultInjector, FaultStats, Loopback, LoopbackError, XorShift64};
 pub use message::*;

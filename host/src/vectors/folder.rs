@@ -65,7 +65,7 @@ pub fn write(
     Ok(out.commit()?)
 }
 
-/// Generate the vectors of `opts` and write them to `dir` ([`generate`] then [`write()`]).
+/// Generate the vectors of `opts` and write them to `dir` ([`generate`](super::generate) then [`write()`]).
 /// Returns the vectors as written (the project-format files included).
 pub fn generate_into(
     opts: &VectorOptions,
@@ -272,7 +272,7 @@ pub fn first_difference(e: &VectorFile, got: &[u8]) -> String {
 }
 
 /// The raw array files of a decode and point stage, as they appear in the vectors (for comparing
-/// another driver's outputs by digest). Paths as in [`generate`].
+/// another driver's outputs by digest). Paths as in [`generate`](super::generate).
 pub fn stage_files(d: &DecodeStage, p: Option<&PointStage>) -> Vec<(String, Vec<u8>)> {
     let mut v = Vec::new();
     for (l, (wr, m)) in d.wrapped.iter().zip(&d.modulation_level).enumerate() {

@@ -12,7 +12,7 @@ use fringe3d_core::reconstruct::{Reconstructor, ReferenceRing};
 use fringe3d_core::validity::Validity;
 use std::path::{Path, PathBuf};
 
-/// The reference pipeline's inputs, resolved: what [`generate`] renders and what a test needs to
+/// The reference pipeline's inputs, resolved: what [`generate`](super::generate) renders and what a test needs to
 /// run other drivers (the desktop batch path) on the same data.
 pub struct Inputs {
     /// The rendered scene.

@@ -83,7 +83,7 @@ pub struct CameraSpec {
     /// Samples per pixel side at edges (default 9).
     #[serde(default = "d_edge_ss")]
     pub edge_supersample: u32,
-    /// Keys that belong to neither part (refused by [`SceneSpec::parse`]; `flatten` rules out
+    /// Keys that belong to neither part (refused by [`SceneSpec::parse`](super::SceneSpec::parse); `flatten` rules out
     /// serde's own `deny_unknown_fields`).
     #[serde(flatten, skip_serializing)]
     pub unknown: BTreeMap<String, toml::Value>,
@@ -145,7 +145,7 @@ pub struct ProjectorSpec {
     /// Pattern bits, 8 or 16 (default 16).
     #[serde(default = "d_bits16")]
     pub bits: u8,
-    /// Keys that belong to no part (refused by [`SceneSpec::parse`]).
+    /// Keys that belong to no part (refused by [`SceneSpec::parse`](super::SceneSpec::parse)).
     #[serde(flatten, skip_serializing)]
     pub unknown: BTreeMap<String, toml::Value>,
 }
