@@ -8,6 +8,7 @@ use super::projector_centre::{
     PlateObservation, ProjectorCentre, ProjectorOptions, check_parallel, estimate,
 };
 use super::reference::ReferencePose;
+use super::reference_fit::{ReferenceFit, fit_reference};
 use super::report::{nice_scale, view_picture};
 use super::{CalibError, pose};
 use crate::batch::decode_image_set;
@@ -604,12 +605,37 @@ pub struct ReferenceRun {
     pub calibration: Calibration,
     /// The phase map written.
     pub map_path: PathBuf,
-    /// Fraction of valid pixels in the map.
+    /// Fraction of valid pixels in the decoded capture.
     pub valid_fraction: f64,
+    /// The model fitted to the capture (its map is the one written); `None` with
+    /// [`MapSource::Raw`]. Its `phase` is emptied (the map is in the file).
+    pub fit: Option<ReferenceFit>,
+}
+
+/// How [`calibrate_reference_files`] works and what it writes.
+#[derive(Clone, Debug)]
+pub struct ReferenceOptions<'a> {
+    /// Board detection.
+    pub detect: DetectOptions,
+    /// File name of the phase map written beside the calibration.
+    pub map_name: &'a str,
+    /// The model's map or the decoded capture.
+    pub source: MapSource,
+}
+
+/// What `calibrate reference` writes as Φ_R.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MapSource {
+    /// The smooth model fitted to the decoded capture ([`fit_reference`]).
+    #[default]
+    Model,
+    /// The decoded capture itself (noisy; the behaviour before the model).
+    Raw,
 }
 
 /// Decode the reference plane's fringe set, find its pose, write the phase map (float TIFF,
-/// `map_name` beside `out`), a copy of the pattern-set file (`reference_patterns.toml`) and the
+/// `map_name` beside `out`: the fitted model's map, or the decoded capture with
+/// [`MapSource::Raw`]), a copy of the pattern-set file (`reference_patterns.toml`) and the
 /// calibration `out` (the given calibration with its `[reference]` set).
 pub fn calibrate_reference_files(
     calibration: &Calibration,
@@ -617,9 +643,9 @@ pub fn calibrate_reference_files(
     patterns: &Path,
     images: &[PathBuf],
     plane: &PlaneSource,
-    detect_opts: &DetectOptions,
-    map_name: &str,
+    opts: &ReferenceOptions<'_>,
 ) -> Result<ReferenceRun, CalibError> {
+    let (detect_opts, map_name, source) = (&opts.detect, opts.map_name, opts.source);
     let lens = Lens::from_model(&calibration.camera);
     let pose = match plane {
         PlaneSource::Board {
@@ -686,14 +712,28 @@ pub fn calibrate_reference_files(
             ),
         ));
     }
+    let mut pf = PatternSetFile::load(patterns)?;
+    let (map, fit) = match source {
+        MapSource::Raw => (dec.phase, None),
+        MapSource::Model => {
+            let set = pf.to_pattern_set()?;
+            let mut f = fit_reference(&set, &dec.phase, dec.width as usize, dec.height as usize)
+                .map_err(|e| {
+                    input(
+                        &dec.images[0],
+                        format!("the reference images do not give a reference model: {e}"),
+                    )
+                })?;
+            (std::mem::take(&mut f.phase), Some(f))
+        }
+    };
     let dir = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|e| input(dir, format!("cannot create: {e}")))?;
     let map_path = dir.join(map_name);
-    write_tiff_f32(&map_path, dec.width, dec.height, &dec.phase)?;
-    let mut pf = PatternSetFile::load(patterns)?;
+    write_tiff_f32(&map_path, dec.width, dec.height, &map)?;
     pf.images = None;
     let pat_name = "reference_patterns.toml";
     pf.save(&dir.join(pat_name))?;
@@ -710,6 +750,7 @@ pub fn calibrate_reference_files(
         calibration: cal,
         map_path,
         valid_fraction: dec.valid_fraction,
+        fit,
     })
 }
 

@@ -16,6 +16,7 @@ pub mod lm;
 pub mod pose;
 pub mod projector_centre;
 pub mod reference;
+pub mod reference_fit;
 pub mod report;
 pub mod zhang;
 

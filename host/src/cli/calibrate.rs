@@ -4,7 +4,7 @@
 use super::{Global, common};
 use crate::calib::camera::CameraOptions;
 use crate::calib::corners::{Board, DetectOptions};
-use crate::calib::files::{self, PlaneSource};
+use crate::calib::files::{self, MapSource, PlaneSource, ReferenceOptions};
 use crate::calib::lens::PARAM_NAMES;
 use crate::calib::projector_centre::ProjectorOptions;
 use crate::io::calibration::Calibration;
@@ -184,6 +184,10 @@ pub struct ReferenceArgs {
     /// File name of the phase map written beside OUT.
     #[arg(long, default_value = "reference_phase.tif")]
     pub map: String,
+    /// Write the decoded capture itself as the phase map instead of the smooth model fitted to
+    /// it (the model removes the capture's noise from every scan; see docs/reference-model.md).
+    #[arg(long)]
+    pub raw: bool,
 }
 
 /// Run `fringe3d calibrate`.
@@ -434,11 +438,23 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
         &a.patterns,
         &a.images,
         &plane,
-        &DetectOptions::default(),
-        &a.map,
+        &ReferenceOptions {
+            detect: DetectOptions::default(),
+            map_name: &a.map,
+            source: if a.raw {
+                MapSource::Raw
+            } else {
+                MapSource::Model
+            },
+        },
     )?;
+    let model = run.fit.as_ref().map(|f| {
+        json!({"spacing_px": f.spacing_px, "residual_rms_rad": f.residual_rms_rad,
+            "noise_rad": f.noise_rad, "structure_rad": f.structure_rad, "used": f.used,
+            "outliers": f.outliers, "candidates": f.candidates})
+    });
     let j = json!({"command": "calibrate reference", "out": out, "map": run.map_path, "valid_fraction": run.valid_fraction,
-        "plane": run.plane});
+        "plane": run.plane, "model": model});
     if g.json {
         outln!("{}", serde_json::to_string_pretty(&j)?);
     } else if !g.quiet {
@@ -455,9 +471,21 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
             p.tilt_std_deg
         );
         outln!(
-            "phase map: {:.1} % of the pixels valid",
+            "reference capture: {:.1} % of the pixels valid",
             100.0 * run.valid_fraction
         );
+        match &run.fit {
+            Some(f) => outln!(
+                "phase map: smooth model (cubic spline, knots every {} px) fitted to {} pixels ({} outliers dropped); residual {:.2e} rad RMS, noise {:.2e} rad, structure {:.2e} rad",
+                f.spacing_px,
+                f.used,
+                f.outliers,
+                f.residual_rms_rad,
+                f.noise_rad,
+                f.structure_rad
+            ),
+            None => outln!("phase map: the decoded capture (--raw)"),
+        }
         outln!(
             "wrote {} (with {} and reference_patterns.toml beside it)",
             out.display(),

@@ -313,8 +313,11 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
             board: cb_board,
             offset_mm: 0.0,
         },
-        &DetectOptions::default(),
-        "reference_phase.tif",
+        &files::ReferenceOptions {
+            detect: DetectOptions::default(),
+            map_name: "reference_phase.tif",
+            source: files::MapSource::Model,
+        },
     )?;
     tick("calibrate_reference", &mut lap);
 
