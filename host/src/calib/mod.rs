@@ -18,6 +18,7 @@ pub mod projector_centre;
 pub mod reference;
 pub mod reference_fit;
 pub mod report;
+pub mod virtual_reference;
 pub mod zhang;
 
 use std::path::PathBuf;

@@ -1,0 +1,112 @@
+//! A virtual reference (issue #17 item 2): Φ_R of a plane computed from the full projector model,
+//! for any pattern set, with no capture.
+//!
+//! Per camera pixel centre (u, v), in f64:
+//!
+//! 1. the ray `(x, y, 1)` of the camera lens (eqs 2-4 inverted: [`Lens::undistort`]);
+//! 2. its point `X = s·(x, y, 1)` on the plane `n·(X − O) = 0`, `s = n·O / n·(x, y, 1) > 0`;
+//! 3. in the projector frame `X_p = Rᵀ·(X − T)` ([`ProjectorParams`]: `X_cam = R·X_proj + T`);
+//! 4. the projector pixel `(ξ, η)` of its lens (§4.2, the projector as an inverted camera);
+//! 5. `Φ_R = c_K·Φ(ξ, η)`, the set's finest absolute phase there (eq 7,
+//!    [`PatternSet::finest_phase`]), the quantity the decoder returns.
+//!
+//! NaN where the ray misses the plane, the point is behind the projector, or `(ξ, η)` falls off the
+//! DMD (`[−0.5, W − 0.5] × [−0.5, H − 0.5]`). Every pixel is computed on its own with the same
+//! operations, so the map is the same bits on every run and thread count.
+
+use fringe3d_core::params::{CameraParams, ProjectorParams};
+use fringe3d_core::pattern::PatternSet;
+use rayon::prelude::*;
+
+use super::lens::Lens;
+
+/// Why there is no virtual reference.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum VirtualError {
+    /// The plane's normal is zero or not finite, or the plane passes through the camera centre.
+    #[error(
+        "the plane must have a finite non-zero normal and must not pass through the camera centre"
+    )]
+    Plane,
+    /// The projector's rotation is not a rotation.
+    #[error("the projector's rotation is not a rotation (|RᵀR − I| = {0:e})")]
+    Rotation(f64),
+    /// No pixel sees the plane lit by the projector.
+    #[error(
+        "no camera pixel sees a point of the plane that the projector lights: move the plane into both fields of view"
+    )]
+    Empty,
+}
+
+/// The virtual reference map of `set` on the plane through `point` with normal `normal` (camera
+/// frame, mm), for `camera` and `projector`: `camera.width × camera.height` phases, row-major.
+pub fn virtual_reference(
+    camera: &CameraParams,
+    projector: &ProjectorParams,
+    set: &PatternSet,
+    point: [f64; 3],
+    normal: [f64; 3],
+) -> Result<Vec<f32>, VirtualError> {
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let nn = dot(normal, normal);
+    let d = dot(normal, point);
+    if !(nn > 0.0 && nn.is_finite() && d.is_finite() && d.abs() > 1e-9 * nn.sqrt()) {
+        return Err(VirtualError::Plane);
+    }
+    let r = projector.rotation;
+    let mut err: f64 = 0.0;
+    for i in 0..3 {
+        for j in 0..3 {
+            let rtr: f64 = (0..3).map(|k| r[k][i] * r[k][j]).sum();
+            err = err.max((rtr - if i == j { 1.0 } else { 0.0 }).abs());
+        }
+    }
+    if !(err < 1e-6) {
+        return Err(VirtualError::Rotation(err));
+    }
+    let t = projector.translation;
+    let cam = Lens::from_model(camera);
+    let proj = Lens::from_model(&projector.intrinsics);
+    let (pw, ph) = (
+        f64::from(projector.intrinsics.width),
+        f64::from(projector.intrinsics.height),
+    );
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let mut map = vec![f32::NAN; w * h];
+    map.par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(v, row)| {
+            for (u, out) in row.iter_mut().enumerate() {
+                let Some((x, y)) = cam.undistort(u as f64, v as f64) else {
+                    continue;
+                };
+                let s = d / dot(normal, [x, y, 1.0]);
+                if !(s > 0.0 && s.is_finite()) {
+                    continue;
+                }
+                let q = [s * x - t[0], s * y - t[1], s - t[2]];
+                let xp = [
+                    r[0][0] * q[0] + r[1][0] * q[1] + r[2][0] * q[2],
+                    r[0][1] * q[0] + r[1][1] * q[1] + r[2][1] * q[2],
+                    r[0][2] * q[0] + r[1][2] * q[1] + r[2][2] * q[2],
+                ];
+                let Some((xi, eta)) = proj.project_point(xp) else {
+                    continue;
+                };
+                if (-0.5..=pw - 0.5).contains(&xi) && (-0.5..=ph - 0.5).contains(&eta) {
+                    *out = set.finest_phase(xi, eta) as f32;
+                }
+            }
+        });
+    if map.iter().all(|p| p.is_nan()) {
+        return Err(VirtualError::Empty);
+    }
+    Ok(map)
+}
+
+/// The default plane of a virtual reference: perpendicular to the camera's axis at the far end of
+/// the depth range (`z = depth_max`, normal towards the camera), so that the whole measurement
+/// volume lies on one side of it and the projector's footprint on it is the largest.
+pub fn default_plane(depth_range: [f64; 2]) -> ([f64; 3], [f64; 3]) {
+    ([0.0, 0.0, depth_range[1]], [0.0, 0.0, -1.0])
+}
