@@ -712,7 +712,7 @@ pub fn calibrate_reference_files(
             ),
         ));
     }
-    let mut pf = PatternSetFile::load(patterns)?;
+    let pf = PatternSetFile::load(patterns)?;
     let (map, fit) = match source {
         MapSource::Raw => (dec.phase, None),
         MapSource::Model => {
@@ -727,24 +727,14 @@ pub fn calibrate_reference_files(
             (std::mem::take(&mut f.phase), Some(f))
         }
     };
-    let dir = out
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| input(dir, format!("cannot create: {e}")))?;
-    let map_path = dir.join(map_name);
-    write_tiff_f32(&map_path, dec.width, dec.height, &map)?;
-    pf.images = None;
-    let pat_name = "reference_patterns.toml";
-    pf.save(&dir.join(pat_name))?;
-    let mut cal = calibration.clone();
-    cal.reference = Some(ReferencePlane {
-        point: pose.point.to_array(),
-        normal: pose.normal.to_array(),
-        phase_map: PathBuf::from(map_name),
-        pattern_set: Some(PathBuf::from(pat_name)),
-    });
-    cal.save(out)?;
+    let (cal, map_path) = write_reference(
+        calibration,
+        out,
+        pf,
+        map_name,
+        (dec.width, dec.height, &map),
+        (pose.point.to_array(), pose.normal.to_array()),
+    )?;
     Ok(ReferenceRun {
         plane: pose,
         calibration: cal,
@@ -752,6 +742,38 @@ pub fn calibrate_reference_files(
         valid_fraction: dec.valid_fraction,
         fit,
     })
+}
+
+/// Write a reference: the phase map `map_name` (float TIFF) and `reference_patterns.toml` beside
+/// `out`, then `out`, the calibration with its `[reference]` (`plane` = point, normal). Returns
+/// the calibration written and the map's path. Shared by the captured and the virtual reference.
+pub fn write_reference(
+    calibration: &Calibration,
+    out: &Path,
+    mut pattern_file: PatternSetFile,
+    map_name: &str,
+    (width, height, map): (u32, u32, &[f32]),
+    (point, normal): ([f64; 3], [f64; 3]),
+) -> Result<(Calibration, PathBuf), CalibError> {
+    let dir = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| input(dir, format!("cannot create: {e}")))?;
+    let map_path = dir.join(map_name);
+    write_tiff_f32(&map_path, width, height, map)?;
+    pattern_file.images = None;
+    let pat_name = "reference_patterns.toml";
+    pattern_file.save(&dir.join(pat_name))?;
+    let mut cal = calibration.clone();
+    cal.reference = Some(ReferencePlane {
+        point,
+        normal,
+        phase_map: PathBuf::from(map_name),
+        pattern_set: Some(PathBuf::from(pat_name)),
+    });
+    cal.save(out)?;
+    Ok((cal, map_path))
 }
 
 /// Read a float phase map (TIFF).

@@ -14,11 +14,19 @@
 //! DMD (`[−0.5, W − 0.5] × [−0.5, H − 0.5]`). Every pixel is computed on its own with the same
 //! operations, so the map is the same bits on every run and thread count.
 
+use std::path::{Path, PathBuf};
+
 use fringe3d_core::params::{CameraParams, ProjectorParams};
 use fringe3d_core::pattern::PatternSet;
 use rayon::prelude::*;
 
+use super::CalibError;
+use super::files::write_reference;
 use super::lens::Lens;
+use super::reference::ReferencePose;
+use crate::io::calibration::Calibration;
+use crate::io::pattern_file::PatternSetFile;
+use crate::math::Vec3;
 
 /// Why there is no virtual reference.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -109,4 +117,76 @@ pub fn virtual_reference(
 /// volume lies on one side of it and the projector's footprint on it is the largest.
 pub fn default_plane(depth_range: [f64; 2]) -> ([f64; 3], [f64; 3]) {
     ([0.0, 0.0, depth_range[1]], [0.0, 0.0, -1.0])
+}
+
+/// What [`virtual_reference_files`] wrote.
+#[derive(Clone, Debug)]
+pub struct VirtualRun {
+    /// The calibration written.
+    pub calibration: Calibration,
+    /// The phase map written.
+    pub map_path: PathBuf,
+    /// The plane (point, normal towards the camera), camera frame, mm.
+    pub plane: ([f64; 3], [f64; 3]),
+    /// Fraction of the pixels with a phase (the plane lit by the DMD there).
+    pub valid_fraction: f64,
+}
+
+/// `fringe3d calibrate reference --virtual`: compute the map of the pattern set in `patterns` on
+/// `plane` (default [`default_plane`]) from `calibration`'s camera and `[projector]`, and write it
+/// with [`write_reference`] (map and `reference_patterns.toml` beside `out`, then `out`).
+pub fn virtual_reference_files(
+    calibration: &Calibration,
+    calibration_path: &Path,
+    out: &Path,
+    patterns: &Path,
+    plane: Option<([f64; 3], [f64; 3])>,
+    map_name: &str,
+) -> Result<VirtualRun, CalibError> {
+    let err = |what: &Path, message: String| CalibError::Input {
+        what: what.display().to_string(),
+        message,
+    };
+    let projector = calibration.projector.as_ref().ok_or_else(|| {
+        err(
+            calibration_path,
+            "no [projector] section (the full projector model: intrinsics, distortion, pose): a virtual reference needs it; capture the plane instead".into(),
+        )
+    })?;
+    let pf = PatternSetFile::load(patterns)?;
+    let set = pf.to_pattern_set()?;
+    let (pw, ph) = (set.output().width, set.output().height);
+    let lens = &projector.intrinsics;
+    if (pw, ph) != (lens.width, lens.height) {
+        return Err(err(
+            patterns,
+            format!(
+                "patterns of {pw}x{ph}, but the calibration's projector is {}x{} ({})",
+                lens.width,
+                lens.height,
+                calibration_path.display()
+            ),
+        ));
+    }
+    let (point, normal) = plane.unwrap_or_else(|| default_plane(calibration.depth_range));
+    let pose = ReferencePose::given(Vec3::from_array(point), Vec3::from_array(normal)).ok_or_else(
+        || {
+            err(
+                calibration_path,
+                format!("virtual reference: {}", VirtualError::Plane),
+            )
+        },
+    )?;
+    let plane = (pose.point.to_array(), pose.normal.to_array());
+    let map = virtual_reference(&calibration.camera, projector, &set, plane.0, plane.1)
+        .map_err(|e| err(calibration_path, format!("virtual reference: {e}")))?;
+    let valid = map.iter().filter(|p| p.is_finite()).count();
+    let (w, h) = (calibration.camera.width, calibration.camera.height);
+    let (cal, map_path) = write_reference(calibration, out, pf, map_name, (w, h, &map), plane)?;
+    Ok(VirtualRun {
+        calibration: cal,
+        map_path,
+        plane,
+        valid_fraction: valid as f64 / map.len().max(1) as f64,
+    })
 }

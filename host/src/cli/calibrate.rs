@@ -154,7 +154,7 @@ is given (--plane-point and --plane-normal, camera frame, mm). Writes reference_
 reference_patterns.toml beside OUT and OUT itself (the calibration with its [reference] section)."
 )]
 pub struct ReferenceArgs {
-    /// The reference plane's fringe images, or one folder.
+    /// The reference plane's fringe images, or one folder (none with --virtual).
     pub images: Vec<PathBuf>,
     /// The pattern-set file of the reference images (scans must use the same set).
     #[arg(long, short = 'p')]
@@ -188,6 +188,11 @@ pub struct ReferenceArgs {
     /// it (the model removes the capture's noise from every scan; see docs/reference-model.md).
     #[arg(long)]
     pub raw: bool,
+    /// No capture: compute the map from the calibration's full projector model ([projector]) for
+    /// the pattern set of --patterns, on the plane of --plane-point/--plane-normal (default:
+    /// perpendicular to the camera's axis at the far end of the depth range). No IMAGES, no board.
+    #[arg(long = "virtual")]
+    pub virtual_map: bool,
 }
 
 /// Run `fringe3d calibrate`.
@@ -411,6 +416,9 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
 }
 
 fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
+    if a.virtual_map {
+        return virtual_reference(a, g);
+    }
     let cal = Calibration::load(&a.calibration)?;
     let imgs = !a.board_image.is_empty();
     let plane = match (imgs, &a.plane_point, &a.plane_normal) {
@@ -486,6 +494,56 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
             ),
             None => outln!("phase map: the decoded capture (--raw)"),
         }
+        outln!(
+            "wrote {} (with {} and reference_patterns.toml beside it)",
+            out.display(),
+            a.map
+        );
+    }
+    Ok(())
+}
+
+/// `calibrate reference --virtual`.
+fn virtual_reference(a: ReferenceArgs, g: Global) -> Result<()> {
+    if !a.images.is_empty() || !a.board_image.is_empty() || a.raw {
+        bail!(
+            "calibrate reference --virtual computes the map from the projector model: give no images, no --board-image and no --raw"
+        );
+    }
+    let plane = match (&a.plane_point, &a.plane_normal) {
+        (Some(p), Some(n)) => Some((parse3(p, "--plane-point")?, parse3(n, "--plane-normal")?)),
+        (None, None) => None,
+        _ => bail!(
+            "calibrate reference --virtual: give both --plane-point and --plane-normal, or neither"
+        ),
+    };
+    let cal = Calibration::load(&a.calibration)?;
+    let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
+    common::file_out(&out, "--out")?;
+    let run = crate::calib::virtual_reference::virtual_reference_files(
+        &cal,
+        &a.calibration,
+        &out,
+        &a.patterns,
+        plane,
+        &a.map,
+    )?;
+    let (p, n) = run.plane;
+    let j = json!({"command": "calibrate reference --virtual", "out": out, "map": run.map_path,
+        "valid_fraction": run.valid_fraction, "plane": {"point": p, "normal": n}});
+    if g.json {
+        outln!("{}", serde_json::to_string_pretty(&j)?);
+    } else if !g.quiet {
+        outln!(
+            "virtual reference on the plane through ({:.4}, {:.4}, {:.4}) mm, normal ({:.6}, {:.6}, {:.6}): {:.1} % of the pixels see it lit",
+            p[0],
+            p[1],
+            p[2],
+            n[0],
+            n[1],
+            n[2],
+            100.0 * run.valid_fraction
+        );
         outln!(
             "wrote {} (with {} and reference_patterns.toml beside it)",
             out.display(),
