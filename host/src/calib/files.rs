@@ -694,6 +694,8 @@ pub fn calibrate_reference_files(
     let map_path = dir.join(map_name);
     write_tiff_f32(&map_path, dec.width, dec.height, &dec.phase)?;
     let mut pf = PatternSetFile::load(patterns)?;
+    let digest = crate::io::calibration::pattern_digest(&pf.to_pattern_set()?)
+        .map_err(|m| input(patterns, m))?;
     pf.images = None;
     let pat_name = "reference_patterns.toml";
     pf.save(&dir.join(pat_name))?;
@@ -703,6 +705,7 @@ pub fn calibrate_reference_files(
         normal: pose.normal.to_array(),
         phase_map: PathBuf::from(map_name),
         pattern_set: Some(PathBuf::from(pat_name)),
+        pattern_digest: Some(digest),
     });
     cal.save(out)?;
     Ok(ReferenceRun {
