@@ -376,6 +376,11 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         .reference
         .as_ref()
         .expect("calibrate reference writes [reference]");
+    // ... with the digest of the pattern set the reference was captured with.
+    let digest =
+        fringe3d::io::calibration::pattern_file_digest(&data.reference.join("patterns.toml"))
+            .unwrap();
+    assert_eq!(r.pattern_digest.as_deref(), Some(digest.as_str()));
     let n = data.rig.reference_normal;
     let off = (0..3)
         .map(|k| n[k] * (r.point[k] - data.rig.reference_point[k]))

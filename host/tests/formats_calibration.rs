@@ -44,6 +44,7 @@ fn sample() -> Calibration {
             normal: [0.0, 0.0, -1.0],
             phase_map: PathBuf::from("reference/phase.tiff"),
             pattern_set: Some(PathBuf::from("patterns.toml")),
+            pattern_digest: Some(format!("sha256:{}", "0123456789abcdef".repeat(4))),
         }),
         depth_range: [650.0, 900.0],
         projector: Some(ProjectorParams {
@@ -92,6 +93,7 @@ point = [0.0, 0.0, 800.0]  # O_R, mm
 normal = [0.0, 0.0, -1.0]  # n_R, unit
 phase_map = "reference/phase.tiff"  # float32 TIFF, relative to this file
 pattern_set = "patterns.toml"
+pattern_digest = "sha256:0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef"  # the reference's pattern set (docs/formats.md)
 
 [projector]
 rotation = [[0.9682458365518543, 0.0, 0.25], [0.0, 1.0, 0.0], [-0.25, 0.0, 0.9682458365518543]]  # R, rows: X_cam = R * X_proj + T
@@ -327,6 +329,8 @@ fn sample_example() -> Calibration {
     c.camera.skew = 0.0;
     if let Some(r) = c.reference.as_mut() {
         r.pattern_set = Some(PathBuf::from("../patterns/paper8.toml"));
+        // The example predates the digest: it still loads.
+        r.pattern_digest = None;
     }
     c
 }

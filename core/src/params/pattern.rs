@@ -15,6 +15,11 @@ pub const MAX_SHIFTS: usize = crate::pattern::MAX_SHIFTS;
 /// Most knots of a [`Knots`] profile: the core's
 /// [`phase_function::MAX_KNOTS`](crate::phase_function::MAX_KNOTS).
 pub const MAX_KNOTS: usize = crate::phase_function::MAX_KNOTS;
+/// Longest [`PatternSetDesc::phase_encoding`], bytes: a description with a full knot profile and
+/// every level holding [`MAX_SHIFTS`] explicit shifts (postcard: sizes as varints of up to 3
+/// bytes, `u8` and enum tags 1 byte, `f64` 8 bytes, arrays without a length).
+pub const PHASE_ENCODING_MAX: usize =
+    32 + (19 + 24 * MAX_KNOTS) + 1 + MAX_LEVELS * (10 + 8 * MAX_SHIFTS);
 
 /// The projector axis along which the phase function is monotonic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -174,5 +179,100 @@ impl PatternSetDesc {
     /// Total number of patterns in the set.
     pub fn pattern_count(&self) -> usize {
         self.used_levels().iter().map(|l| l.shifts.count()).sum()
+    }
+
+    /// The description with the fields that do not change the decoded phase set to fixed
+    /// values: `bit_depth` 8, `i_min` 0, `i_max` 255. The phase of eqs 8-14 is a ratio of
+    /// intensity differences, so the gray levels `I_min`, `I_max` of eq 5 and the quantisation
+    /// cancel; the projector size, waveform, phase offset, phase function (axis, profile,
+    /// bending) and every level's scale `c_k` and shifts are kept. Two sets with equal
+    /// canonical descriptions give the same absolute phase for the same scene.
+    pub fn phase_canonical(&self) -> PatternSetDesc {
+        PatternSetDesc {
+            bit_depth: 8,
+            i_min: 0.0,
+            i_max: 255.0,
+            ..*self
+        }
+    }
+
+    /// The postcard (wire) encoding of [`PatternSetDesc::phase_canonical`] in `buf`: the bytes
+    /// a digest of "the pattern set that determines the phase" is taken over (a reference phase
+    /// map and a scan are comparable only when these bytes agree). `None` if `buf` is shorter
+    /// than the encoding ([`PHASE_ENCODING_MAX`] always suffices).
+    pub fn phase_encoding<'a>(&self, buf: &'a mut [u8]) -> Option<&'a [u8]> {
+        postcard::to_slice(&self.phase_canonical(), buf)
+            .ok()
+            .map(|b| &*b)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn full() -> PatternSetDesc {
+        let explicit = Level {
+            scale: 1.5,
+            shifts: Shifts::Explicit {
+                count: MAX_SHIFTS as u8,
+                radians: [0.25; MAX_SHIFTS],
+            },
+        };
+        PatternSetDesc {
+            width: u16::MAX,
+            height: u16::MAX,
+            bit_depth: 16,
+            i_min: 3.0,
+            i_max: 65000.0,
+            waveform: Waveform::Cosine,
+            phase_offset: 0.5,
+            phase: PhaseDesc {
+                axis: PatternAxis::Eta,
+                profile: PhaseProfile::Knots(Knots {
+                    count: MAX_KNOTS as u8,
+                    s: [1.0; MAX_KNOTS],
+                    phi: [2.0; MAX_KNOTS],
+                    slope: [3.0; MAX_KNOTS],
+                }),
+                curvature: 1e-4,
+                bend_center: 100.0,
+            },
+            level_count: MAX_LEVELS as u8,
+            levels: [explicit; MAX_LEVELS],
+        }
+    }
+
+    #[test]
+    fn the_largest_description_fits_exactly() {
+        let mut buf = [0u8; PHASE_ENCODING_MAX + 8];
+        let n = full().phase_encoding(&mut buf).map(|b| b.len());
+        assert_eq!(n, Some(PHASE_ENCODING_MAX));
+        let mut short = [0u8; PHASE_ENCODING_MAX - 1];
+        assert!(full().phase_encoding(&mut short).is_none());
+    }
+
+    #[test]
+    fn gray_levels_do_not_count_but_phase_parameters_do() {
+        let a = full();
+        let enc = |d: &PatternSetDesc| {
+            let mut buf = [0u8; PHASE_ENCODING_MAX];
+            let n = d.phase_encoding(&mut buf).map(|b| b.len()).unwrap_or(0);
+            (n, buf)
+        };
+        let mut b = a;
+        b.bit_depth = 8;
+        b.i_min = 0.0;
+        b.i_max = 200.0;
+        assert_eq!(enc(&a), enc(&b));
+        let mut c = a;
+        c.levels[1].scale = 1.25;
+        assert_ne!(enc(&a), enc(&c));
+        let mut d = a;
+        d.width -= 1;
+        assert_ne!(enc(&a), enc(&d));
+        let mut e = a;
+        e.waveform = Waveform::Sine;
+        assert_ne!(enc(&a), enc(&e));
     }
 }

@@ -755,6 +755,13 @@ pub fn write_reference(
     (width, height, map): (u32, u32, &[f32]),
     (point, normal): ([f64; 3], [f64; 3]),
 ) -> Result<(Calibration, PathBuf), CalibError> {
+    let digest =
+        crate::io::calibration::pattern_digest(&pattern_file.to_pattern_set()?).map_err(|m| {
+            CalibError::Input {
+                what: "the reference's pattern set".into(),
+                message: m,
+            }
+        })?;
     let dir = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -771,6 +778,7 @@ pub fn write_reference(
         normal,
         phase_map: PathBuf::from(map_name),
         pattern_set: Some(PathBuf::from(pat_name)),
+        pattern_digest: Some(digest),
     });
     cal.save(out)?;
     Ok((cal, map_path))

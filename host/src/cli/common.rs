@@ -2,6 +2,9 @@
 
 pub use crate::batch::Decoded;
 use crate::batch::decode_image_set;
+use crate::io::calibration::{
+    Calibration, PatternCheck, ScanPatterns, check_pattern_set, pattern_digest,
+};
 use crate::io::image_set::{self, ImageSet};
 use crate::io::pattern_file::PatternSetFile;
 use crate::scan::ScanCalibration;
@@ -97,6 +100,49 @@ pub fn load_set(path: &Path) -> Result<LoadedSet> {
         file,
         set,
     })
+}
+
+impl LoadedSet {
+    /// The set as a scan's side of the reference check: its digest, named by the file.
+    pub fn scan_patterns(&self) -> Result<ScanPatterns> {
+        let digest = pattern_digest(&self.set)
+            .map_err(|m| anyhow::anyhow!("{}: {m}", self.path.display()))?;
+        Ok(ScanPatterns {
+            source: format!("the scan's pattern set {}", self.path.display()),
+            digest,
+        })
+    }
+}
+
+/// Check that a scan's pattern set is the one the calibration's reference phase map was made
+/// with (`[reference] pattern_digest`, else the digest of its `pattern_set` file): refuse a
+/// mismatch with one error naming both sides; warn (unless quiet) when the calibration records
+/// neither, since nothing can be checked. Read before any output is written.
+pub fn check_reference_patterns(
+    calibration: &Path,
+    scan: &ScanPatterns,
+    quiet: bool,
+) -> Result<()> {
+    let cal = Calibration::load(calibration)?;
+    check_loaded_reference_patterns(&cal, calibration, scan, quiet)
+}
+
+/// [`check_reference_patterns`] with the calibration already loaded from `calibration`.
+pub fn check_loaded_reference_patterns(
+    cal: &Calibration,
+    calibration: &Path,
+    scan: &ScanPatterns,
+    quiet: bool,
+) -> Result<()> {
+    match check_pattern_set(cal, calibration, scan)? {
+        PatternCheck::Match | PatternCheck::NoReference => {}
+        PatternCheck::Unchecked(m) => {
+            if !quiet {
+                errln!("warning: {m}");
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The image files of a scan: an explicit ordered list, or one folder (the pattern file's

@@ -2,11 +2,70 @@
 
 use super::{Global, common};
 use crate::io::atomic::AtomicDir;
+use crate::io::calibration::is_digest;
 use crate::io::image::{write_png_u8, write_tiff_f32};
 use crate::io::preview;
-use anyhow::Result;
-use std::path::PathBuf;
+use anyhow::{Context, Result, bail};
+use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// The decode record's file name in a decode folder.
+pub const RECORD: &str = "decode.toml";
+
+/// The decode record's format version.
+pub const RECORD_VERSION: u32 = 1;
+
+/// `decode.toml`: what a decode folder's phase was decoded with, so that `fringe3d reconstruct`
+/// can check it against the calibration's reference (docs/formats.md).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DecodeRecord {
+    /// Format version, [`RECORD_VERSION`].
+    pub version: u32,
+    /// The pattern-set file as given to `fringe3d decode` (for messages only).
+    pub patterns: String,
+    /// Its digest (`io::calibration::pattern_digest`).
+    pub pattern_digest: String,
+}
+
+impl DecodeRecord {
+    /// The record of folder `dir`; `None` if it has none (a folder decoded by an older fringe3d).
+    pub fn read(dir: &Path) -> Result<Option<DecodeRecord>> {
+        let p = dir.join(RECORD);
+        if !p.exists() {
+            return Ok(None);
+        }
+        common::input_file(&p)?;
+        let text =
+            std::fs::read_to_string(&p).with_context(|| format!("{}: cannot read", p.display()))?;
+        let r: DecodeRecord = toml::from_str(&text).map_err(|e| {
+            anyhow::anyhow!("{}: not a decode record: {}", p.display(), e.message())
+        })?;
+        if r.version != RECORD_VERSION {
+            bail!(
+                "{}: decode record version {} (this build reads {RECORD_VERSION})",
+                p.display(),
+                r.version
+            );
+        }
+        if !is_digest(&r.pattern_digest) {
+            bail!(
+                "{}: pattern_digest must be \"sha256:\" and 64 lowercase hex digits, got \"{}\"",
+                p.display(),
+                r.pattern_digest
+            );
+        }
+        Ok(Some(r))
+    }
+
+    fn text(&self) -> Result<String> {
+        let body = toml::to_string(self).context("writing the decode record")?;
+        Ok(format!(
+            "# fringe3d decode record, version {RECORD_VERSION} (docs/formats.md): the pattern set this\n\
+             # folder's phase was decoded with; `fringe3d reconstruct` checks it against the reference.\n{body}"
+        ))
+    }
+}
 
 /// Arguments of `fringe3d decode`.
 #[derive(clap::Args, Debug)]
@@ -15,7 +74,8 @@ use std::time::Instant;
 IMAGES: the images in set order, or one folder (the pattern file's `images` names inside it, else\n\
 every PNG/TIFF/BMP sorted by name); none: the pattern file's own `images` list.\n\
 Writes phase.tif, modulation.tif, dc.tif (32-bit float TIFF; phase NaN where invalid),\n\
-validity.png (8-bit codes, see docs/formats.md) and preview.png (false colour)."
+validity.png (8-bit codes, see docs/formats.md), preview.png (false colour) and decode.toml\n\
+(the pattern set's digest, which `fringe3d reconstruct` checks against the reference)."
 )]
 pub struct DecodeArgs {
     /// The pattern-set file the images were captured with.
@@ -42,6 +102,12 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
     let t0 = Instant::now();
     common::dir_out(&a.out, "--out")?;
     let ls = common::load_set(&a.patterns)?;
+    let record = DecodeRecord {
+        version: RECORD_VERSION,
+        patterns: a.patterns.to_string_lossy().into_owned(),
+        pattern_digest: ls.scan_patterns()?.digest,
+    }
+    .text()?;
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;
     let mut cfg = common::decode_config(&imgs);
     if let Some(m) = a.min_modulation {
@@ -64,6 +130,8 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
         &preview::colourize(&d.phase, &d.validity),
     )
     .map_err(anyhow::Error::msg)?;
+    std::fs::write(dir.join(RECORD), record)
+        .with_context(|| format!("{}: cannot write", dir.join(RECORD).display()))?;
     let out = dir.commit()?;
     let hist = d.histogram();
     if g.json {
@@ -82,7 +150,7 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
             common::validity_summary(&hist)
         );
         outln!(
-            "wrote phase.tif, modulation.tif, dc.tif, validity.png, preview.png to {}",
+            "wrote phase.tif, modulation.tif, dc.tif, validity.png, preview.png, {RECORD} to {}",
             out.display()
         );
     }

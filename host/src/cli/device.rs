@@ -91,7 +91,8 @@ pub struct UploadArgs {
     #[arg(long)]
     pub parametric: bool,
     /// Calibration file: its camera, projector centre, reference plane and depth range, and the
-    /// reference phase map it names, go to the head (needed for point scans).
+    /// reference phase map it names, go to the head (needed for point scans). Its reference must
+    /// have been made with this pattern set (refused otherwise, before the port is opened).
     #[arg(long, short = 'c')]
     pub calibration: Option<PathBuf>,
     /// Exposure per pattern, µs (1 to 60000000).
@@ -325,6 +326,11 @@ fn bar(len: u64, msg: &str, quiet: bool) -> (indicatif::ProgressBar, impl FnMut(
 
 fn upload(a: UploadArgs, g: Global) -> Result<()> {
     let ls = common::load_set(&a.patterns)?;
+    // The head's reference and pattern set must match, as for `fringe3d scan`; checked before
+    // anything else (and before the line is touched).
+    if let Some(path) = &a.calibration {
+        common::check_reference_patterns(path, &ls.scan_patterns()?, g.quiet)?;
+    }
     let set = &ls.set;
     let desc = pattern_desc(set, ls.file.bit_depth())
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.patterns.display()))?;

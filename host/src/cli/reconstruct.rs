@@ -1,7 +1,9 @@
 //! `fringe3d reconstruct`: a decoded phase map + calibration → point cloud.
 
 use super::cloud_out::{self, CloudArgs, CloudOut, apply_edge_filter, write_cloud};
+use super::decode::{DecodeRecord, RECORD};
 use super::{Global, common};
+use crate::io::calibration::{Calibration, ScanPatterns};
 use crate::io::image::{Pixels, ReadLimits, read_gray_limited, read_header};
 use anyhow::{Result, bail};
 use fringe3d_core::phase_function::Axis;
@@ -13,7 +15,11 @@ use std::path::{Path, PathBuf};
     after_help = "Example:\n  fringe3d decode --patterns scan/patterns.toml scan/ --out decoded/\n  \
 fringe3d reconstruct --calibration scan/calibration.toml --decoded decoded/ -o cloud.ply\n\n\
 Reads phase.tif and validity.png (both required; and dc.tif, modulation.tif for the per-point\n\
-intensity and modulation, when present) from the decode folder."
+intensity and modulation, when present) from the decode folder.\n\
+The folder's decode.toml names the pattern set it was decoded with: one whose digest differs\n\
+from the reference's (the calibration's [reference] pattern_digest, or its pattern_set file's)\n\
+is refused. A folder without decode.toml (an older decode) is refused when the calibration\n\
+records a pattern_digest, else accepted with a warning."
 )]
 pub struct ReconstructArgs {
     /// The calibration file (TOML).
@@ -83,6 +89,47 @@ fn check_decoded(
     Ok(())
 }
 
+/// Check the pattern set a decode folder was decoded with (its [`RECORD`]) against the
+/// calibration's reference. A folder without a record (decoded by an older fringe3d) is refused
+/// when the calibration records a `pattern_digest` (a current calibration: decode again), and
+/// accepted with a warning when it does not (both files predate the check).
+fn check_record(cal: &Calibration, cal_path: &Path, decoded: &Path, quiet: bool) -> Result<()> {
+    match DecodeRecord::read(decoded)? {
+        Some(r) => {
+            let scan = ScanPatterns {
+                source: format!(
+                    "the decoded folder {} (decoded with {}, per its {RECORD})",
+                    decoded.display(),
+                    r.patterns
+                ),
+                digest: r.pattern_digest,
+            };
+            common::check_loaded_reference_patterns(cal, cal_path, &scan, quiet)
+        }
+        None => {
+            let recorded = cal
+                .reference
+                .as_ref()
+                .and_then(|r| r.pattern_digest.as_deref());
+            if let Some(d) = recorded {
+                bail!(
+                    "{}: no {RECORD} (decoded by an older fringe3d): the pattern set of its phase cannot be checked against the reference of {} (pattern_digest {d}); decode the images again with `fringe3d decode`",
+                    decoded.display(),
+                    cal_path.display()
+                );
+            }
+            if !quiet {
+                errln!(
+                    "warning: {}: no {RECORD} (decoded by an older fringe3d): the pattern set of its phase cannot be checked against the reference of {}",
+                    decoded.display(),
+                    cal_path.display()
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
 /// Run `fringe3d reconstruct`.
 pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
     let out = CloudOut::resolve(&a.cloud.out, a.cloud.format, "--out")?;
@@ -90,7 +137,7 @@ pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
         Some("eta") => Axis::Eta,
         Some(_) => Axis::Xi,
         None => {
-            let cal = crate::io::calibration::Calibration::load(&a.calibration)?;
+            let cal = Calibration::load(&a.calibration)?;
             match cal.reference.as_ref().and_then(|r| r.pattern_set.as_ref()) {
                 Some(ps) => {
                     let p = a.calibration.parent().unwrap_or(Path::new(".")).join(ps);
@@ -112,6 +159,7 @@ pub fn run(a: ReconstructArgs, g: Global) -> Result<()> {
             );
         }
     }
+    check_record(&cal.calibration, &a.calibration, &a.decoded, g.quiet)?;
     let phase = read_f32(&ppath, w, h)?;
     let (img, _) = read_gray_limited(&vpath, &ReadLimits::sized(w as u32, h as u32))?;
     let validity = match img.pixels {

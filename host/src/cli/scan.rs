@@ -12,7 +12,9 @@ use std::time::Instant;
     after_help = "Example:\n  fringe3d scan --patterns scan/patterns.toml --calibration scan/calibration.toml scan/ -o cloud.ply\n\n\
 IMAGES: the images in set order, or one folder (the pattern file's `images` names inside it, else\n\
 every PNG/TIFF/BMP sorted by name); none: the pattern file's own `images` list.\n\
-The calibration names the reference phase map (float TIFF) beside it; see docs/formats.md."
+The calibration names the reference phase map (float TIFF) beside it; see docs/formats.md.\n\
+The pattern set must be the reference's: a set whose digest differs from the calibration's\n\
+[reference] pattern_digest (or its pattern_set file's) is refused before anything is written."
 )]
 pub struct ScanArgs {
     /// The pattern-set file the images were captured with.
@@ -33,6 +35,7 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
     let t0 = Instant::now();
     let out = CloudOut::resolve(&a.cloud.out, a.cloud.format, "--out")?;
     let ls = common::load_set(&a.patterns)?;
+    common::check_reference_patterns(&a.calibration, &ls.scan_patterns()?, g.quiet)?;
     // The calibration (with its reference map) and the images load side by side.
     let (cal, imgs) = rayon::join(
         || common::load_calibration(&a.calibration, ls.set.axis()),

@@ -557,11 +557,16 @@ pub fn write_dataset(
         "fringe3d scene TOML (docs/render.md)",
         "the resolved scene; `fringe3d render --scene scene.toml` re-renders this dataset",
     )?;
-    let (map, pat) = match &reference_files {
-        Some((m, p)) => (Some(PathBuf::from(m)), Some(PathBuf::from(p))),
-        None => (None, None),
+    let (map, pat, digest) = match &reference_files {
+        Some((m, p)) => {
+            // The reference was decoded with (and patterns.toml describes) the scene's set.
+            let d = crate::io::calibration::pattern_digest(&scene.patterns)
+                .map_err(|m| RenderError::Decode(format!("reference pattern set: {m}")))?;
+            (Some(PathBuf::from(m)), Some(PathBuf::from(p)), Some(d))
+        }
+        None => (None, None, None),
     };
-    rig.calibration(map, pat)
+    rig.calibration(map, pat, digest)
         .save(&out.dir.join("calibration.toml"))?;
     out.adopt(
         "calibration.toml",

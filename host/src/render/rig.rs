@@ -159,11 +159,14 @@ impl Rig {
     }
 
     /// The true calibration of this rig. `reference_map` (relative to the calibration file) and
-    /// `pattern_set` name the reference files when a reference was rendered.
+    /// `pattern_set` name the reference files when a reference was rendered, `pattern_digest` is
+    /// the reference pattern set's digest
+    /// ([`pattern_digest`](fn@crate::io::calibration::pattern_digest)).
     pub fn calibration(
         &self,
         reference_map: Option<PathBuf>,
         pattern_set: Option<PathBuf>,
+        pattern_digest: Option<String>,
     ) -> Calibration {
         Calibration {
             version: 1,
@@ -174,6 +177,7 @@ impl Rig {
                 normal: self.reference_normal,
                 phase_map,
                 pattern_set,
+                pattern_digest,
             }),
             depth_range: self.depth_range,
             projector: Some(ProjectorParams {

@@ -67,9 +67,12 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
     let (frames, _truth) = scene.render_fringes(ropts)?;
     let (ref_frames, _) = scene.render_reference(ropts)?;
     let reference = decode_phase(&scene.patterns, &ref_frames)?;
+    let digest = crate::io::calibration::pattern_digest(&scene.patterns)
+        .map_err(|m| VectorsError::Options(format!("reference pattern set: {m}")))?;
     let cal = scene.rig.calibration(
         Some(PathBuf::from("reference_phase.tif")),
         Some(PathBuf::from("patterns.toml")),
+        Some(digest),
     );
     let calibration = ScanCalibration::from_parts(
         cal,

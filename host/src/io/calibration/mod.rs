@@ -16,6 +16,7 @@
 //!
 //! The file format is specified field by field in `docs/formats.md`.
 
+mod pattern_digest;
 mod schema;
 mod toml_writer;
 mod validate;
@@ -24,4 +25,8 @@ pub use super::camera_check::validate_camera;
 pub use super::error::FormatError;
 pub use super::import::{import_bouguet, import_bouguet_file, import_opencv};
 pub use fringe3d_core::params::{CameraParams, Distortion, ProjectorParams, ScanGeometry};
+pub use pattern_digest::{
+    DIGEST_PREFIX, PatternCheck, PatternSetError, ReferenceDigest, ScanPatterns, check_pattern_set,
+    is_digest, pattern_digest, pattern_file_digest,
+};
 pub use schema::{CALIBRATION_VERSION, Calibration, ReferencePlane};

@@ -62,6 +62,12 @@ pub struct ReferencePlane {
     /// The pattern-set file the reference was captured with (relative like `phase_map`); scans
     /// must use the same phase function and scales.
     pub pattern_set: Option<PathBuf>,
+    /// The digest of the pattern set the reference was captured with
+    /// ([`pattern_digest`](fn@super::pattern_digest)): `sha256:` and 64 lowercase hex digits.
+    /// `fringe3d scan`, `reconstruct` and `device upload` refuse a scan whose set differs
+    /// ([`check_pattern_set`](super::check_pattern_set)). Older files without it still load; the
+    /// check then uses `pattern_set`.
+    pub pattern_digest: Option<String>,
 }
 
 impl Calibration {

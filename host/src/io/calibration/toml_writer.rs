@@ -43,6 +43,13 @@ impl Calibration {
             if let Some(p) = &r.pattern_set {
                 let _ = writeln!(s, "pattern_set = {}", toml_str(p)?);
             }
+            if let Some(d) = &r.pattern_digest {
+                let _ = writeln!(
+                    s,
+                    "pattern_digest = {}  # the reference's pattern set (docs/formats.md)",
+                    toml::Value::String(d.clone())
+                );
+            }
         }
         if let Some(p) = &self.projector {
             s.push_str("\n[projector]\n");

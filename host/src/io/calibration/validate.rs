@@ -26,7 +26,8 @@ impl Calibration {
     /// - `projector_centre` is not the camera centre (no baseline otherwise);
     /// - `0 < depth_range[0] < depth_range[1]`;
     /// - reference: `| |n_R| − 1 | ≤ 1e-3`; the plane passes neither through the camera centre nor
-    ///   through the projector centre; `phase_map` is not empty;
+    ///   through the projector centre; `phase_map` is not empty; `pattern_digest`, when given, is
+    ///   `sha256:` and 64 lowercase hex digits;
     /// - projector: `rotation` orthonormal (`|RRᵀ − I| ≤ 1e-6` element-wise) with determinant +1;
     ///   `translation` equals `projector_centre` (within 1e-6 mm + 1e-9 relative).
     pub fn validate(&self) -> Result<(), String> {
@@ -88,6 +89,13 @@ impl Calibration {
                 .is_some_and(|s| s.as_os_str().is_empty())
             {
                 errs.push("reference.pattern_set, when given, must name a file".into());
+            }
+            if let Some(d) = &r.pattern_digest
+                && !super::pattern_digest::is_digest(d)
+            {
+                errs.push(format!(
+                    "reference.pattern_digest must be \"sha256:\" and 64 lowercase hex digits, got \"{d}\""
+                ));
             }
         }
         if let Some(pr) = &self.projector {
