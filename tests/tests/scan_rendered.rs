@@ -76,7 +76,6 @@ struct Scanned {
     modulation: Vec<f32>,
     acc: Accuracy,
     dataset: PathBuf,
-    cal: ScanCalibration,
     set: fringe3d_core::pattern::PatternSet,
 }
 
@@ -149,7 +148,6 @@ fn scan_with(scene: &Scene, dir: &Path, reference: Reference) -> Scanned {
         modulation: d.modulation,
         acc,
         dataset: ds,
-        cal,
         set: ls.set,
     }
 }
