@@ -188,7 +188,7 @@ pub struct ReferenceArgs {
     /// it (the model removes the capture's noise from every scan; see docs/reference-model.md).
     #[arg(long)]
     pub raw: bool,
-    /// No capture: compute the map from the calibration's full projector model ([projector]) for
+    /// No capture: compute the map from the calibration's full projector model (`[projector]`) for
     /// the pattern set of --patterns, on the plane of --plane-point/--plane-normal (default:
     /// perpendicular to the camera's axis at the far end of the depth range). No IMAGES, no board.
     #[arg(long = "virtual")]
