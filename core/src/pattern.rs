@@ -27,6 +27,11 @@ pub use crate::limits::{MAX_IMAGES, MAX_LEVELS, MAX_SHIFTS};
 /// [`PatternSet::validate`].
 pub const COARSE_MARGIN: f64 = 0.05;
 
+/// The largest magnitude of a phase shift or of the constant phase offset, radians: 2π. Any angle
+/// has an equal one within `[−2π, 2π]`; far outside it, `c_k·Φ + δ` loses Φ's bits to δ's
+/// exponent (at 1e300 every pattern comes out constant).
+pub const MAX_SHIFT_MAGNITUDE: f64 = core::f64::consts::TAU;
+
 /// Whether the fringe profile is written with sin (the paper, eq 5) or cos.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Convention {
@@ -49,7 +54,7 @@ pub enum PatternError {
     Scale(usize),
     /// Scale coefficients must strictly increase from level to level (coarse to fine).
     ScalesNotIncreasing(usize),
-    /// A shift of a level is not finite.
+    /// A shift of a level is not finite or lies outside ±[`MAX_SHIFT_MAGNITUDE`].
     Shift(usize),
     /// The shifts of a level cannot separate sin and cos (they are equal modulo π), or, for a
     /// level of 3 or more, cannot separate A, sin and cos.
@@ -63,6 +68,8 @@ pub enum PatternError {
     TooManyImages(usize),
     /// Projector size is zero, or the intensity range is not `0 ≤ I_min < I_max ≤ 65535`.
     Output,
+    /// The constant phase offset lies outside ±[`MAX_SHIFT_MAGNITUDE`] (2π).
+    PhaseOffset,
 }
 
 /// Coarse classes of [`PatternError`].
@@ -85,6 +92,7 @@ impl PatternError {
             Self::Function(_) => PatternErrorKind::Function,
             Self::ImageOrder | Self::TooManyImages(_) => PatternErrorKind::Order,
             Self::Output => PatternErrorKind::Output,
+            Self::PhaseOffset => PatternErrorKind::Function,
             _ => PatternErrorKind::Levels,
         }
     }
@@ -112,7 +120,10 @@ impl core::fmt::Display for PatternError {
                 f,
                 "level {l}: scale coefficients must strictly increase from the coarsest level to the finest"
             ),
-            Self::Shift(l) => write!(f, "level {l}: a phase shift is NaN or infinite"),
+            Self::Shift(l) => write!(
+                f,
+                "level {l}: a phase shift is NaN, infinite or outside [-2pi, 2pi]"
+            ),
             Self::DegenerateShifts(l) => write!(
                 f,
                 "level {l}: the phase shifts cannot separate the unknowns (shifts equal modulo pi?)"
@@ -130,6 +141,7 @@ impl core::fmt::Display for PatternError {
                 f,
                 "projector size must be non-zero and 0 <= I_min < I_max <= 65535"
             ),
+            Self::PhaseOffset => write!(f, "the phase offset must lie within [-2pi, 2pi]"),
         }
     }
 }
@@ -381,10 +393,14 @@ impl PatternSet {
         self
     }
 
-    /// Add a constant phase offset (radians) to every pattern.
+    /// Add a constant phase offset (radians, within ±[`MAX_SHIFT_MAGNITUDE`] = ±2π) to every
+    /// pattern.
     pub fn with_phase_offset(mut self, offset: f64) -> Result<Self, PatternError> {
         if !offset.is_finite() {
             return Err(PatternError::Function(PhaseFunctionError::NotFinite));
+        }
+        if !(-MAX_SHIFT_MAGNITUDE..=MAX_SHIFT_MAGNITUDE).contains(&offset) {
+            return Err(PatternError::PhaseOffset);
         }
         self.phase_offset = offset;
         Ok(self)
@@ -431,7 +447,8 @@ impl PatternSet {
             if i > 0 && l.scale <= self.levels[i - 1].scale {
                 return Err(PatternError::ScalesNotIncreasing(i));
             }
-            if l.shifts().iter().any(|s| !s.is_finite()) {
+            let bound = -MAX_SHIFT_MAGNITUDE..=MAX_SHIFT_MAGNITUDE;
+            if l.shifts().iter().any(|s| !bound.contains(s)) {
                 return Err(PatternError::Shift(i));
             }
             if level_estimator(l.shifts(), 0.0).is_none() {

@@ -29,6 +29,12 @@ pub enum Axis {
 /// The most knots a [`KnotProfile`] holds (fixed so that phase functions need no allocation).
 pub const MAX_KNOTS: usize = 16;
 
+/// The least phase range (radians) the coarsest level must span over the projector
+/// ([`PhaseFunction::check`]). Below it the coarsest patterns vary by less than 5 % of their gray
+/// range across the whole projector: nearly constant, useless as the absolute reference of
+/// eqs 12-13 (a tiny span, slope or scale coefficient gives that).
+pub const MIN_COARSE_SPAN: f64 = 0.1;
+
 /// Why a phase function or its parameters were refused.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PhaseFunctionError {
@@ -69,6 +75,23 @@ pub enum PhaseFunctionError {
         /// Highest phase of the coarsest level over the projector.
         max: f32,
     },
+    /// The coarsest level's phase spans less than [`MIN_COARSE_SPAN`] over the projector: its
+    /// patterns are nearly constant.
+    CoarseRangeTooSmall {
+        /// The coarsest level's phase range over the projector, radians.
+        span: f32,
+    },
+    /// The bend centre `w₀` lies outside the projector extended by its size on either side
+    /// (`−n ≤ w₀ ≤ 2n` for `n` pixels across the fringes).
+    BendCenter,
+    /// Curved fringes move by more than the projector's size along the fringe axis:
+    /// `|a|·(w − w₀)²` exceeds it at an end line.
+    BendTooLarge {
+        /// The largest displacement over the projector, pixels.
+        shift: f32,
+        /// The projector's size along the fringe axis, pixels.
+        size: u32,
+    },
 }
 
 impl PhaseFunctionError {
@@ -83,7 +106,12 @@ impl PhaseFunctionError {
             | Self::SegmentNotMonotonic(_) => PhaseFunctionErrorKind::InvalidParameter,
             Self::NotMonotonic { .. } => PhaseFunctionErrorKind::NotMonotonic,
             Self::Discontinuous { .. } => PhaseFunctionErrorKind::Discontinuous,
-            Self::CoarseRangeExceeded { .. } => PhaseFunctionErrorKind::Range,
+            Self::CoarseRangeExceeded { .. } | Self::CoarseRangeTooSmall { .. } => {
+                PhaseFunctionErrorKind::Range
+            }
+            Self::BendCenter | Self::BendTooLarge { .. } => {
+                PhaseFunctionErrorKind::InvalidParameter
+            }
         }
     }
 }
@@ -128,6 +156,20 @@ impl core::fmt::Display for PhaseFunctionError {
             Self::CoarseRangeExceeded { min, max } => write!(
                 f,
                 "coarsest level spans [{min:.4}, {max:.4}] rad; it must stay inside (-pi, pi) with a margin"
+            ),
+            Self::CoarseRangeTooSmall { span } => write!(
+                f,
+                "coarsest level spans only {span:.3e} rad across the projector; it needs at least \
+                 {MIN_COARSE_SPAN} rad, else its patterns are nearly constant"
+            ),
+            Self::BendCenter => write!(
+                f,
+                "bend centre must lie within [-n, 2n] for n projector pixels across the fringes"
+            ),
+            Self::BendTooLarge { shift, size } => write!(
+                f,
+                "curvature moves the fringes by {shift:.4e} pixels; at most the projector's {size} \
+                 pixels along the fringe axis"
             ),
         }
     }
@@ -384,7 +426,10 @@ impl PhaseFunction {
     /// - continuous: the finest level's phase (`c_max·Φ`) changes by at most π/2 between adjacent
     ///   pixels along the axis (at least 4 projector pixels per fringe period), so the projected
     ///   fringes are resolvable;
-    /// - the coarsest level's phase (`c_min·Φ`) stays inside `(−π + margin, π − margin)`.
+    /// - the coarsest level's phase (`c_min·Φ`) stays inside `(−π + margin, π − margin)` and spans
+    ///   at least [`MIN_COARSE_SPAN`];
+    /// - the bend stays within the projector: the centre `w₀` within `[−n, 2n]` (`n` pixels across
+    ///   the fringes) and the displacement `|a|·(w − w₀)²` at most the size along the axis.
     ///
     /// Every pixel is visited (the projector grid is small: a megapixel takes a few ms); for
     /// straight fringes one line, which every other line equals. Returns the coarsest level's
@@ -401,6 +446,26 @@ impl PhaseFunction {
             Axis::Xi => (width, height),
             Axis::Eta => (height, width),
         };
+        let across_size = f64::from(n_across);
+        let w0 = self.bend_center;
+        if !(w0 >= -across_size && w0 <= 2.0 * across_size) {
+            return Err(PhaseFunctionError::BendCenter);
+        }
+        // The displacement a·(w − w₀)² is largest in magnitude at an end line (w₀ may lie outside).
+        let (d0, d1) = (w0, across_size - 1.0 - w0);
+        let d2 = if d0 * d0 > d1 * d1 { d0 * d0 } else { d1 * d1 };
+        let a = if self.curvature < 0.0 {
+            -self.curvature
+        } else {
+            self.curvature
+        };
+        let shift = a * d2;
+        if !(shift <= f64::from(n_along)) {
+            return Err(PhaseFunctionError::BendTooLarge {
+                shift: shift as f32,
+                size: n_along,
+            });
+        }
         // Straight fringes (no curvature): every line across is the same function of the
         // coordinate along, so the first line decides (same values, same first error).
         let n_across = if self.curvature == 0.0 {
@@ -441,6 +506,11 @@ impl PhaseFunction {
             return Err(PhaseFunctionError::CoarseRangeExceeded {
                 min: lo as f32,
                 max: hi as f32,
+            });
+        }
+        if !(hi - lo >= MIN_COARSE_SPAN) {
+            return Err(PhaseFunctionError::CoarseRangeTooSmall {
+                span: (hi - lo) as f32,
             });
         }
         Ok((lo, hi))

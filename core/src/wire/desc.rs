@@ -120,7 +120,8 @@ fn pattern_invalid(e: PatternError) -> Invalid {
         PatternError::ShiftCount(..)
         | PatternError::Shift(_)
         | PatternError::DegenerateShifts(_)
-        | PatternError::NoDcLevel => Invalid::Shifts,
+        | PatternError::NoDcLevel
+        | PatternError::PhaseOffset => Invalid::Shifts,
         PatternError::Output => Invalid::Intensity,
     }
 }

@@ -76,12 +76,16 @@ pub fn decode_f64(bytes: &[u8]) -> Result<(Vec<usize>, Vec<f64>), String> {
         .filter(|t| !t.is_empty())
         .map(|t| t.parse::<usize>().map_err(|_| "bad shape".to_string()))
         .collect::<Result<_, _>>()?;
-    let n: usize = shape.iter().product();
+    // A shape whose size overflows cannot fit the file (checked: no overflow panic).
+    let bytes_needed = shape
+        .iter()
+        .try_fold(8usize, |a, &d| a.checked_mul(d))
+        .ok_or("the shape's size overflows")?;
     let body = &bytes[start + hl..];
-    if body.len() < n * 8 {
+    if body.len() < bytes_needed {
         return Err("truncated data".into());
     }
-    let data = body[..n * 8]
+    let data = body[..bytes_needed]
         .chunks_exact(8)
         .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
         .collect();

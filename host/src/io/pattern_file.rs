@@ -26,8 +26,12 @@
 use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
-use fringe3d_core::pattern::{Convention, ImageId, Level, LevelPreset, Output, PatternSet};
-use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
+use fringe3d_core::pattern::{
+    Convention, ImageId, Level, LevelPreset, MAX_SHIFT_MAGNITUDE, Output, PatternError, PatternSet,
+};
+use fringe3d_core::phase_function::{
+    Axis, KnotProfile, MIN_COARSE_SPAN, PhaseFunction, PhaseFunctionError, Profile,
+};
 
 use super::atomic::write_atomic;
 use super::error::{FormatError, check_toml_version, read_text, toml_message};
@@ -296,6 +300,28 @@ impl PatternSetFile {
         }
     }
 
+    /// A core refusal of the whole set, naming the keys that decide it.
+    fn set_error(&self, e: PatternError) -> FormatError {
+        let keys = match e {
+            PatternError::Function(PhaseFunctionError::CoarseRangeTooSmall { .. }) => format!(
+                " (raise phase.span / phase.slope / the knot slopes, or the coarsest scale; \
+                 the coarsest level must span at least {MIN_COARSE_SPAN} rad)"
+            ),
+            PatternError::Function(PhaseFunctionError::CoarseRangeExceeded { .. }) => {
+                " (phase.span / phase.slope / the knots, or the coarsest scale)".to_string()
+            }
+            PatternError::Function(PhaseFunctionError::BendTooLarge { .. }) => {
+                " (phase.curvature: the bend must stay within the projector)".to_string()
+            }
+            PatternError::Function(PhaseFunctionError::BendCenter) => {
+                " (phase.bend_center: within [-n, 2n] for n projector pixels across the fringes)"
+                    .to_string()
+            }
+            _ => String::new(),
+        };
+        self.err(format!("pattern set: {e}{keys}"))
+    }
+
     /// Build the pattern set the file describes, applying defaults. Problems found here or by the
     /// core (e.g. a non-monotonic phase function) become [`FormatError::Invalid`] naming the file
     /// and the problem.
@@ -309,17 +335,18 @@ impl PatternSetFile {
         let output = self.output()?;
         let function = self.function(&output)?;
         let levels = self.levels()?;
-        let core = |what: &str, e: &dyn std::fmt::Display| self.err(format!("{what}: {e}"));
-        let mut set =
-            PatternSet::new(function, &levels, output).map_err(|e| core("pattern set", &e))?;
+        let mut set = PatternSet::new(function, &levels, output).map_err(|e| self.set_error(e))?;
         set = set.with_convention(match self.convention.unwrap_or(ConventionName::Sine) {
             ConventionName::Sine => Convention::Sine,
             ConventionName::Cosine => Convention::Cosine,
         });
         let offset = self.phase_offset.unwrap_or(0.0);
-        set = set
-            .with_phase_offset(offset)
-            .map_err(|_| self.err(format!("phase_offset must be finite, got {offset}")))?;
+        set = set.with_phase_offset(offset).map_err(|_| {
+            self.err(format!(
+                "phase_offset must be finite and within [-2pi, 2pi] = [-{MAX_SHIFT_MAGNITUDE}, \
+                 {MAX_SHIFT_MAGNITUDE}] radians (any angle has an equal one there), got {offset:?}"
+            ))
+        })?;
         if let Some(order) = &self.order {
             let mut ids = Vec::with_capacity(order.len());
             for (i, &[l, s]) in order.iter().enumerate() {
@@ -546,9 +573,28 @@ impl PatternSetFile {
                         }
                         Level::n_step(l.scale, n as usize)
                     } else if let Some(s) = &l.shifts {
+                        let bound = -MAX_SHIFT_MAGNITUDE..=MAX_SHIFT_MAGNITUDE;
+                        if let Some((j, v)) =
+                            s.iter().enumerate().find(|(_, v)| !bound.contains(*v))
+                        {
+                            return Err(self.err(format!(
+                                "levels[{i}].shifts[{j}] must be finite and within [-2pi, 2pi] = \
+                                 [-{MAX_SHIFT_MAGNITUDE}, {MAX_SHIFT_MAGNITUDE}] radians, got {v:?}"
+                            )));
+                        }
                         Level::with_shifts(l.scale, s)
                     } else {
                         let deg = l.shifts_deg.as_deref().unwrap_or(&[]);
+                        if let Some((j, v)) = deg
+                            .iter()
+                            .enumerate()
+                            .find(|(_, v)| !(-360.0..=360.0).contains(*v))
+                        {
+                            return Err(self.err(format!(
+                                "levels[{i}].shifts_deg[{j}] must be finite and within [-360, 360] \
+                                 degrees, got {v:?}"
+                            )));
+                        }
                         let rad: Vec<f64> = deg.iter().map(|d| d * PI / 180.0).collect();
                         Level::with_shifts(l.scale, &rad)
                     };
