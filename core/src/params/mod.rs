@@ -243,21 +243,42 @@ mod tests {
     /// like to a visitor): five numbers load, any other count is refused with the count.
     #[test]
     fn distortion_is_read_as_exactly_five_numbers() {
-        extern crate std;
+        use core::fmt::{self, Write};
         use serde::de::value::SeqDeserializer;
-        use std::string::{String, ToString};
-        /// An error that keeps its message (serde's own may not, without `alloc`).
-        #[derive(Debug)]
-        struct Message(String);
-        impl core::fmt::Display for Message {
-            fn fmt(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
-                f.write_str(&self.0)
+        /// A message in a fixed buffer (no allocation in the core, tests included).
+        #[derive(Debug, PartialEq)]
+        struct Message {
+            buf: [u8; 96],
+            len: usize,
+        }
+        impl Message {
+            fn of(args: fmt::Arguments) -> Message {
+                let mut m = Message {
+                    buf: [0; 96],
+                    len: 0,
+                };
+                let _ = m.write_fmt(args);
+                m
             }
         }
-        impl std::error::Error for Message {}
+        impl Write for Message {
+            fn write_str(&mut self, s: &str) -> fmt::Result {
+                let end = self.len + s.len();
+                let dst = self.buf.get_mut(self.len..end).ok_or(fmt::Error)?;
+                dst.copy_from_slice(s.as_bytes());
+                self.len = end;
+                Ok(())
+            }
+        }
+        impl fmt::Display for Message {
+            fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(core::str::from_utf8(&self.buf[..self.len]).map_err(|_| fmt::Error)?)
+            }
+        }
+        impl serde::de::StdError for Message {}
         impl serde::de::Error for Message {
-            fn custom<T: core::fmt::Display>(m: T) -> Self {
-                Message(m.to_string())
+            fn custom<T: fmt::Display>(m: T) -> Self {
+                Message::of(format_args!("{m}"))
             }
         }
         let read = |v: &[f64]| {
@@ -267,9 +288,10 @@ mod tests {
         assert_eq!(read(&five).ok(), Some(Distortion::from_array(five)));
         for n in [0usize, 4, 6, 100] {
             let v = [0.5; 100];
-            let e = read(&v[..n]).err().map(|e| std::format!("{e}"));
-            let want = std::format!("`distortion` must have exactly 5 values, got {n}");
-            assert_eq!(e.as_deref(), Some(want.as_str()), "{n} values");
+            let want = Message::of(format_args!(
+                "`distortion` must have exactly 5 values, got {n}"
+            ));
+            assert_eq!(read(&v[..n]).err(), Some(want), "{n} values");
         }
     }
 
