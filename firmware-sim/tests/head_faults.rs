@@ -141,13 +141,7 @@ fn a_cut_line_fails_clearly_the_upload_resumes_and_nothing_unconfirmed_is_used()
         opts(),
     )
     .unwrap();
-    c.define_pattern_set(0, &d).unwrap();
-    c.configure_sequence(
-        0,
-        false,
-        &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
-    )
-    .unwrap();
+    define_and_configure(&mut c, &set, &d);
 
     // Unplug a third of the way through.
     let sent = c.link().stats().bytes_sent;

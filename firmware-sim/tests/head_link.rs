@@ -372,13 +372,7 @@ fn the_head_runs_in_static_buffers() {
         opts(),
     )
     .unwrap();
-    c.define_pattern_set(0, &d).unwrap();
-    c.configure_sequence(
-        0,
-        false,
-        &capture_sequence(&set, &d, EXPOSURE_US, DARK_US).unwrap(),
-    )
-    .unwrap();
+    define_and_configure(&mut c, &set, &d);
     let out = c
         .scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})
         .unwrap();

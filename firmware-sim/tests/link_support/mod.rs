@@ -3,7 +3,8 @@
 #![allow(dead_code)]
 
 use fringe3d::batch::{FrameOut, Isa, decode_frames};
-use fringe3d::device::ClientOptions;
+use fringe3d::device::desc::capture_sequence;
+use fringe3d::device::{Client, ClientOptions, Transport};
 use fringe3d_core::decode::{DecodeConfig, Decoder};
 use fringe3d_core::math::canonical;
 use fringe3d_core::pattern::{Output, PatternSet};
@@ -124,4 +125,15 @@ pub fn head<'m, 'w, R: RowSink>(
 
 pub fn plan() -> MemoryPlan {
     MemoryPlan::new(CW as usize, CH as usize, PW as usize, 3, 8)
+}
+
+/// Define set 0 from `d` and configure sequence 0 for it (the first steps of every session).
+pub fn define_and_configure<T: Transport>(c: &mut Client<T>, set: &PatternSet, d: &PatternSetDesc) {
+    c.define_pattern_set(0, d).unwrap();
+    c.configure_sequence(
+        0,
+        false,
+        &capture_sequence(set, d, EXPOSURE_US, DARK_US).unwrap(),
+    )
+    .unwrap();
 }
