@@ -77,9 +77,16 @@ impl ScanCalibration {
         };
         calibration.validate().map_err(invalid)?;
         let (cam, setup) = calibration.core_setup(axis).map_err(invalid)?;
+        let margin = calibration
+            .reference
+            .as_ref()
+            .map(|r| r.margin())
+            .unwrap_or_default();
         let recon = Reconstructor::new(&cam, &setup)
+            .and_then(|r| r.with_margin(margin))
             .map_err(|e| invalid(format!("reconstruction set-up: {e}")))?;
-        let (w, h) = (recon.width(), recon.height());
+        // The map: the image plus its margin.
+        let (w, h) = (recon.map_width(), recon.map_height());
         if reference_phase.len() != w * h {
             return Err(ScanError::Size {
                 what: "reference phase map".into(),
@@ -120,8 +127,23 @@ impl ScanCalibration {
                 path: path.to_path_buf(),
                 message: "no [reference] section with a phase_map".into(),
             })?;
-        // The declared size first: nothing is decoded from a map of another size.
-        let (cw, ch) = (cal.camera.width, cal.camera.height);
+        // The declared size first (the image plus the margin): nothing is decoded from a map of
+        // another size.
+        let m = cal
+            .reference
+            .as_ref()
+            .map(|r| r.margin())
+            .unwrap_or_default();
+        let cw = cal
+            .camera
+            .width
+            .saturating_add(m.left)
+            .saturating_add(m.right);
+        let ch = cal
+            .camera
+            .height
+            .saturating_add(m.top)
+            .saturating_add(m.bottom);
         let hdr = read_header(&map_path)?;
         if (hdr.width, hdr.height) != (cw, ch) {
             return Err(ScanError::Size {
@@ -139,7 +161,7 @@ impl ScanCalibration {
                 message: "the reference phase map must be a 32-bit float TIFF".into(),
             });
         };
-        let (w, h) = (cal.camera.width as usize, cal.camera.height as usize);
+        let (w, h) = (cw as usize, ch as usize);
         if (img.width as usize, img.height as usize) != (w, h) {
             return Err(ScanError::Size {
                 what: map_path.display().to_string(),
@@ -193,7 +215,8 @@ impl ScanCalibration {
             });
         }
         // Prepared once at set-up: a shared view, no copy.
-        let map = ReferenceMap::from_prepared(&self.reference_phase, w, h).map_err(|e| {
+        let (mw, mh) = (self.recon.map_width(), self.recon.map_height());
+        let map = ReferenceMap::from_prepared(&self.reference_phase, mw, mh).map_err(|e| {
             ScanError::Invalid {
                 path: self.source.clone(),
                 message: format!("reference map: {e}"),

@@ -45,6 +45,7 @@ fn sample() -> Calibration {
             phase_map: PathBuf::from("reference/phase.tiff"),
             pattern_set: Some(PathBuf::from("patterns.toml")),
             pattern_digest: Some(format!("sha256:{}", "0123456789abcdef".repeat(4))),
+            margin: None,
         }),
         depth_range: [650.0, 900.0],
         projector: Some(ProjectorParams {
@@ -744,5 +745,24 @@ fn short_arrays_are_refused_naming_the_key() {
         ),
         "distortion",
         "must have exactly 5 values, got 4",
+    );
+}
+
+#[test]
+fn a_margin_round_trips_and_is_bounded() {
+    let d = scratch("margin");
+    let p = d.join("calib.toml");
+    let mut c = sample();
+    c.reference.as_mut().unwrap().margin = Some([12, 3, 0, 7]);
+    c.save(&p).unwrap();
+    let text = fs::read_to_string(&p).unwrap();
+    assert!(text.contains("margin = [12, 3, 0, 7]"), "{text}");
+    assert_eq!(Calibration::load(&p).unwrap(), c);
+    let big = text.replace("margin = [12, 3, 0, 7]", "margin = [12, 3, 5000, 7]");
+    fs::write(&p, big).unwrap();
+    let e = Calibration::load(&p).unwrap_err().to_string();
+    assert!(
+        e.contains("reference.margin") && e.contains("calib.toml"),
+        "{e}"
     );
 }

@@ -124,8 +124,8 @@ fn scan_with(scene: &Scene, dir: &Path, reference: Reference) -> Scanned {
                 .as_ref()
                 .expect("the rendered calibration holds the projector"),
             &scene.patterns,
-            r.point,
-            r.normal,
+            (r.point, r.normal),
+            fringe3d_core::reconstruct::Margin::ZERO,
         )
         .expect("virtual reference");
         let path = ds.join("reference_phase.tif");

@@ -1,6 +1,7 @@
 //! Why a reconstructor could not be built or run ([`ReconstructError`], [`ReconstructErrorKind`]).
 
 use super::MAX_BAND_ROWS;
+use super::setup::MAX_MARGIN;
 #[cfg(doc)]
 use crate::phase_function::Axis;
 
@@ -31,6 +32,8 @@ pub enum ReconstructError {
         /// Rows needed.
         rows: u32,
     },
+    /// A side of the reference map's margin exceeds [`MAX_MARGIN`].
+    Margin,
     /// The ring has fewer rows than the band needs.
     BandTooSmall {
         /// Rows needed.
@@ -74,6 +77,7 @@ impl ReconstructError {
             | Self::ProjectorCentre
             | Self::AxisMismatch { .. }
             | Self::BandTooLarge { .. }
+            | Self::Margin
             | Self::BandTooSmall { .. } => ReconstructErrorKind::Setup,
             Self::BufferTooSmall | Self::Length | Self::Row => ReconstructErrorKind::Argument,
             Self::NotResident { .. } | Self::Sequence => ReconstructErrorKind::Stream,
@@ -98,6 +102,9 @@ impl core::fmt::Display for ReconstructError {
             ),
             Self::BandTooLarge { rows } => {
                 write!(f, "the geometry needs a band of {rows} reference rows (max {MAX_BAND_ROWS})")
+            }
+            Self::Margin => {
+                write!(f, "a side of the reference map's margin exceeds {MAX_MARGIN} pixels")
             }
             Self::BandTooSmall { needed, given } => {
                 write!(f, "reference ring holds {given} rows, the geometry needs {needed}")

@@ -322,16 +322,20 @@ fn chunk<G: CellGather>(
 ) {
     let c = *r.consts();
     let n = phase.len().min(LANES);
-    let wu = r.width();
+    // The reference is read in map coordinates: image pixel (u, v) is map sample
+    // (u + left, v + top) ([`super::Margin`]; without a margin, the same numbers).
+    let m = r.margin();
+    let wu = r.map_width();
     let gr = Grid {
         w: wu as f32,
-        last_row: rr.last_image_row as f32,
+        last_row: rr.last_row as f32,
         first: rr.first as f32,
         band_len: rr.len as f32,
     };
-    let vi = v as i32;
-    let vf = v as f32;
-    let u0 = c0 as f32;
+    let vi = (v + m.top) as i32;
+    let vf = vi as f32;
+    let cm = c0 + m.left as usize;
+    let um = cm as f32;
 
     let mut x = [0f32; LANES];
     let mut y = [0f32; LANES];
@@ -373,17 +377,17 @@ fn chunk<G: CellGather>(
 
     // Pass 1 (vector): per-pixel geometry, the sample at the pixel itself, the slope there, and
     // the first step.
-    let rv = window(rr.get(vi as i64), c0, wu);
-    let rw = window_wide(rr.get(vi as i64), c0, wu);
+    let rv = window(rr.get(vi as i64), cm, wu);
+    let rw = window_wide(rr.get(vi as i64), cm, wu);
     let up = if vi == 0 {
         [CANONICAL_NAN; LANES + 2]
     } else {
-        window(rr.get(vi as i64 - 1), c0, wu)
+        window(rr.get(vi as i64 - 1), cm, wu)
     };
-    let dn = if vi as i64 == rr.last_image_row {
+    let dn = if vi as i64 == rr.last_row {
         [CANONICAL_NAN; LANES + 2]
     } else {
-        window(rr.get(vi as i64 + 1), c0, wu)
+        window(rr.get(vi as i64 + 1), cm, wu)
     };
     let mut a = [0f32; LANES];
     let mut ex = [0f32; LANES];
@@ -426,7 +430,7 @@ fn chunk<G: CellGather>(
             };
             let gv = (dn[i + 1] - up[i + 1]) * 0.5;
             let gv = if vi == 0 { dn[i + 1] - rv[i + 1] } else { gv };
-            let gv = if vi as i64 == rr.last_image_row {
+            let gv = if vi as i64 == rr.last_row {
                 rv[i + 1] - up[i + 1]
             } else {
                 gv
@@ -458,7 +462,7 @@ fn chunk<G: CellGather>(
         &c,
         lane,
         &t1,
-        u0,
+        um,
         vf,
         &gr,
         rr,
@@ -485,7 +489,7 @@ fn chunk<G: CellGather>(
         &c,
         lane,
         &t2,
-        u0,
+        um,
         vf,
         &gr,
         rr,
@@ -540,7 +544,7 @@ fn chunk<G: CellGather>(
             &c,
             lane,
             &t3,
-            u0,
+            um,
             vf,
             &gr,
             rr,
@@ -589,7 +593,7 @@ fn chunk<G: CellGather>(
                 &c,
                 lane,
                 tt,
-                u0,
+                um,
                 vf,
                 &gr,
                 rr,
@@ -612,7 +616,7 @@ fn chunk<G: CellGather>(
             continue;
         }
         let l = lane.get(i);
-        let ui = u0 + LANE_F[i];
+        let ui = um + LANE_F[i];
         let eval = |tt: f32| sample(&c, rr, &gr, l, ui, vf, tt, phi[i]).0;
         if !vector2 && st2[i] {
             let tc = t3[i];

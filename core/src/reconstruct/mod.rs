@@ -46,11 +46,21 @@
 //! *Stage 2*, for lanes the fast path did not settle (a far crossing on a curved or noisy phase):
 //! one more evaluation and Newton step, same acceptance.
 //! *Fallback*, for the remaining few (invalid reference on the way, crossing outside the depth
-//! range or the image): the ends of the depth interval are sampled; a phase outside them is
+//! range or the map): the ends of the depth interval are sampled; a phase outside them is
 //! [`Validity::OutOfDepth`]; otherwise the closest valid bracket is bisected a fixed number of times
 //! ([`Reconstructor::fallback_bisections`], from the longest segment) and polished by two
 //! regula-falsi steps. Every stage has a fixed count, so the work per pixel is bounded
 //! (≤ 1 + 2 + 1 + 2 + bisections + 2 samples).
+//!
+//! # A map wider than the image
+//! A point nearer than the reference plane has its reference crossing displaced along the
+//! epipolar line, and near the image border that crossing can lie outside the image. The
+//! reference map may therefore extend past the image by a [`Margin`]
+//! ([`Reconstructor::with_margin`]; [`Reconstructor::margin_needed`] measures how far this
+//! geometry's search segments reach). The kernel reads the map in its own coordinates (image
+//! pixel `(u, v)` is map sample `(u + left, v + top)`); rings, maps and
+//! [`Reconstructor::rows_needed`] count map rows. A map with margin comes from a model (a fitted
+//! or virtual reference), since a capture ends at the image.
 //!
 //! Samples are taken in coordinates relative to the pixel: the distorted offset
 //! `D(m + t·e) − D(m)` is computed in a difference form that stays exact to f32 rounding of the
@@ -132,7 +142,7 @@ pub use error::{ReconstructError, ReconstructErrorKind};
 pub use gather::{CellGather, ScalarGather};
 pub use reconstructor::Reconstructor;
 pub use reference_rows::{ReferenceMap, ReferenceRing, ReferenceRows};
-pub use setup::{Band, Setup};
+pub use setup::{Band, MAX_MARGIN, Margin, Setup};
 pub use triangulate::triangulate_eq16_18;
 
 use crate::camera::ROW_KNOT_STEP;

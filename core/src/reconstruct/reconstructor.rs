@@ -4,9 +4,10 @@
 
 use super::MAX_BAND_ROWS;
 use super::error::ReconstructError;
-use super::setup::{Band, Consts, Setup, analyse};
+use super::setup::{Band, Consts, MAX_MARGIN, Margin, Setup, analyse};
 use crate::camera::CameraModel;
 use crate::geometry::Plane;
+use crate::geometry::Vec3;
 
 /// A reconstructor for one calibration and depth range: validated, with its band and constants.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -17,6 +18,12 @@ pub struct Reconstructor {
     pub(super) c: Consts,
     pub(super) bisections: u32,
     pub(super) max_segment_px: f32,
+    /// The reference map's margin past the image.
+    pub(super) margin: Margin,
+    /// The margin the search segments need ([`Reconstructor::margin_needed`]).
+    pub(super) reach: Margin,
+    /// The plane's unit normal, `h_R` and `H` (for a re-analysis with another margin).
+    pub(super) plane: (Vec3, f64, f64),
 }
 
 impl Reconstructor {
@@ -84,7 +91,8 @@ impl Reconstructor {
                 ]
             },
         };
-        let (band, max_segment_px) = analyse(camera, s, n, h_r, h)?;
+        let a = analyse(camera, s, n, h_r, h, Margin::ZERO)?;
+        let (band, max_segment_px) = (a.band, a.max_len);
         if band.rows() > MAX_BAND_ROWS as u32 {
             return Err(ReconstructError::BandTooLarge { rows: band.rows() });
         }
@@ -102,7 +110,56 @@ impl Reconstructor {
             c,
             bisections,
             max_segment_px: max_segment_px as f32,
+            margin: Margin::ZERO,
+            reach: a.reach,
+            plane: (n, h_r, h),
         })
+    }
+
+    /// This reconstructor for a reference map with margin `margin` past the image ([`Margin`]):
+    /// the map it reads is [`Reconstructor::map_width`] × [`Reconstructor::map_height`] samples
+    /// and its rows are numbered from the map's top (row `top` is image row 0), in
+    /// [`Reconstructor::rows_needed`], a [`ReferenceRing`](super::ReferenceRing) and a
+    /// [`ReferenceMap`](super::ReferenceMap) alike. The band is measured again over the wider
+    /// map. A side above [`MAX_MARGIN`] is [`ReconstructError::Margin`]. With
+    /// [`Margin::ZERO`] it is the reconstructor [`Reconstructor::new`] made, bit for bit.
+    pub fn with_margin(mut self, margin: Margin) -> Result<Self, ReconstructError> {
+        if margin.to_array().iter().any(|&m| m > MAX_MARGIN) {
+            return Err(ReconstructError::Margin);
+        }
+        let (n, h_r, h) = self.plane;
+        let a = analyse(&self.cam, &self.setup, n, h_r, h, margin)?;
+        if a.band.rows() > MAX_BAND_ROWS as u32 {
+            return Err(ReconstructError::BandTooLarge {
+                rows: a.band.rows(),
+            });
+        }
+        self.band = a.band;
+        self.margin = margin;
+        Ok(self)
+    }
+
+    /// The reference map's margin past the image ([`Reconstructor::with_margin`]).
+    pub fn margin(&self) -> Margin {
+        self.margin
+    }
+
+    /// The margin this geometry's search segments need, so that every pixel's search over the
+    /// whole depth range stays on the map: how far the segments reach past each side of the
+    /// image (measured on the set-up grid), plus the bilinear neighbour and two pixels for the
+    /// grid's sub-sampling, each side capped at [`MAX_MARGIN`].
+    pub fn margin_needed(&self) -> Margin {
+        self.reach
+    }
+
+    /// Width of the reference map: the image's plus the left and right margins.
+    pub fn map_width(&self) -> usize {
+        self.width() + self.margin.left as usize + self.margin.right as usize
+    }
+
+    /// Height of the reference map: the image's plus the top and bottom margins.
+    pub fn map_height(&self) -> usize {
+        self.height() + self.margin.top as usize + self.margin.bottom as usize
     }
 
     /// The camera model.
@@ -140,19 +197,21 @@ impl Reconstructor {
         self.bisections
     }
 
-    /// Bytes of a ring of `rows` rows for this image width: `rows × width × (4 + 1)`.
+    /// Bytes of a ring of `rows` rows of the reference map: `rows × map_width × (4 + 1)`.
     pub fn ring_bytes(&self, rows: u32) -> usize {
         (rows as usize)
-            .saturating_mul(self.width())
+            .saturating_mul(self.map_width())
             .saturating_mul(5)
     }
 
-    /// Reference rows `first..=last` that row `v` reads (clipped to the image).
+    /// Reference map rows `first..=last` that image row `v` reads (clipped to the map; map row
+    /// `top + v` is image row `v`, so without a margin these are image rows).
     pub fn rows_needed(&self, v: u32) -> (u32, u32) {
-        let h = self.cam.height();
+        let last = (self.map_height() as u32).saturating_sub(1);
+        let vm = v.saturating_add(self.margin.top);
         (
-            v.saturating_sub(self.band.above),
-            (v.saturating_add(self.band.below)).min(h - 1),
+            vm.saturating_sub(self.band.above),
+            (vm.saturating_add(self.band.below)).min(last),
         )
     }
 

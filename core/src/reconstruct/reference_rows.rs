@@ -14,17 +14,17 @@ use crate::validity::Validity;
 /// Rows are stored with every invalid sample replaced by the canonical NaN, so the kernel detects
 /// invalid reference data by NaN propagation through the interpolation.
 pub trait ReferenceRows {
-    /// Image width.
+    /// Map width: the image's plus its margin ([`Reconstructor::map_width`]).
     fn width(&self) -> usize;
-    /// Image height.
+    /// Map height: the image's plus its margin ([`Reconstructor::map_height`]).
     fn height(&self) -> usize;
     /// Rows the storage can hold at once.
     fn capacity_rows(&self) -> u32;
     /// All stored samples (NaN-encoded phase).
     fn storage(&self) -> &[f32];
-    /// Where image row `r` starts in [`ReferenceRows::storage`], or `None` if it is not held.
+    /// Where map row `r` starts in [`ReferenceRows::storage`], or `None` if it is not held.
     fn row_offset(&self, r: u32) -> Option<usize>;
-    /// The stored phase of image row `r`, or `None` if it is not held.
+    /// The stored phase of map row `r`, or `None` if it is not held.
     fn row(&self, r: u32) -> Option<&[f32]> {
         let o = self.row_offset(r)?;
         self.storage().get(o..o + self.width())
@@ -51,8 +51,10 @@ fn encode_row(dst: &mut [f32], dst_validity: &mut [u8], phase: &[f32], validity:
 
 /// A ring of reference rows over caller buffers, for streaming (push rows in order 0, 1, 2, …).
 ///
-/// Holds the last `capacity` pushed rows; `capacity = phase.len() / width` must be at least
-/// [`Band::rows`] (checked at construction). Row `r` lives in slot `r mod capacity`.
+/// Rows are the reference map's ([`Reconstructor::map_width`] wide, numbered from the map's
+/// top, [`Reconstructor::with_margin`]). Holds the last `capacity` pushed rows;
+/// `capacity = phase.len() / map_width` must be at least [`Band::rows`] (checked at
+/// construction). Row `r` lives in slot `r mod capacity`.
 #[derive(Debug)]
 pub struct ReferenceRing<'a> {
     phase: &'a mut [f32],
@@ -64,8 +66,8 @@ pub struct ReferenceRing<'a> {
 }
 
 impl<'a> ReferenceRing<'a> {
-    /// A ring for `recon`'s image over `phase` (f32 per sample) and `validity` (u8 per sample).
-    /// Its capacity is `phase.len() / width` rows; fewer than the band needs is
+    /// A ring for `recon`'s reference map over `phase` (f32 per sample) and `validity` (u8 per
+    /// sample). Its capacity is `phase.len() / map_width` rows; fewer than the band needs is
     /// [`ReconstructError::BandTooSmall`]; a `validity` buffer shorter than the rows used is
     /// [`ReconstructError::BufferTooSmall`].
     pub fn new(
@@ -73,8 +75,8 @@ impl<'a> ReferenceRing<'a> {
         phase: &'a mut [f32],
         validity: &'a mut [u8],
     ) -> Result<Self, ReconstructError> {
-        let width = recon.width();
-        let height = recon.height();
+        let width = recon.map_width();
+        let height = recon.map_height();
         let capacity = (phase.len() / width).min(height) as u32;
         let needed = recon.band().rows().min(height as u32);
         if capacity < needed {
@@ -130,7 +132,7 @@ impl<'a> ReferenceRing<'a> {
         self.pushed = 0;
     }
 
-    /// The stored validity codes of image row `r`, if held.
+    /// The stored validity codes of map row `r`, if held.
     pub fn validity_row(&self, r: u32) -> Option<&[u8]> {
         let slot = self.slot(r)?;
         self.validity.get(slot..slot + self.width)

@@ -10,7 +10,7 @@ pub(super) struct RefRows<'a> {
     pub(super) data: &'a [f32],
     pub(super) offs: [u32; MAX_BAND_ROWS],
     pub(super) first: i64,
-    pub(super) last_image_row: i64,
+    pub(super) last_row: i64,
     /// Rows set (`offs[..len]`).
     pub(super) len: usize,
     /// The offsets as a formula, when they follow one (always for [`super::ReferenceMap`] and
@@ -40,12 +40,12 @@ impl Affine {
 }
 
 impl<'a> RefRows<'a> {
-    pub(super) fn new(data: &'a [f32], first: i64, last_image_row: i64) -> Self {
+    pub(super) fn new(data: &'a [f32], first: i64, last_row: i64) -> Self {
         RefRows {
             data,
             offs: [u32::MAX; MAX_BAND_ROWS],
             first,
-            last_image_row,
+            last_row,
             len: 0,
             affine: None,
         }
@@ -94,7 +94,7 @@ impl<'a> RefRows<'a> {
         }
     }
 
-    /// Image row `r` (from its start to the end of storage; the caller indexes columns only
+    /// Map row `r` (from its start to the end of storage; the caller indexes columns only
     /// below the width), or an empty slice outside the band.
     #[inline(always)]
     pub(super) fn get(&self, r: i64) -> &'a [f32] {

@@ -19,7 +19,10 @@ impl Reconstructor {
     /// codes and non-finite phases marked `Valid` become [`Validity::PhaseOutOfRange`]); a pixel
     /// whose phase is not found gets [`Validity::NoCrossing`], [`Validity::OutOfDepth`],
     /// [`Validity::ReferenceInvalid`] or [`Validity::Degenerate`]. Every invalid pixel's point is
-    /// the canonical NaN. `reference` must hold the rows [`Reconstructor::rows_needed`] returns.
+    /// the canonical NaN. `reference` is the [`Reconstructor::map_width`] ×
+    /// [`Reconstructor::map_height`] map (the image plus the margin of
+    /// [`Reconstructor::with_margin`]) and must hold the rows [`Reconstructor::rows_needed`]
+    /// returns.
     ///
     /// Always inlined with its kernel: a host may call it from a `#[target_feature(enable =
     /// "avx2")]` function to get 8-wide vectors; the results are the same bits (no FMA is enabled
@@ -95,7 +98,7 @@ impl Reconstructor {
     }
 
     /// Whole-frame batch: [`Reconstructor::reconstruct_row`] for every row, with the whole
-    /// reference map. Same bits as streaming. `phase`/`validity` are `width × height` row-major,
+    /// reference map (with its margin). Same bits as streaming. `phase`/`validity` are `width × height` row-major,
     /// `out_xyz` is `3 × width × height`, `out_validity` `width × height`.
     pub fn reconstruct_frame(
         &self,
@@ -149,10 +152,11 @@ impl Reconstructor {
         {
             return Err(ReconstructError::Length);
         }
-        if reference.width() != w || reference.height() != self.height() {
+        let (mw, mh) = (self.map_width(), self.map_height());
+        if reference.width() != mw || reference.height() != mh {
             return Err(ReconstructError::Length);
         }
-        if reference.capacity_rows() < self.band.rows().min(self.cam.height()) {
+        if reference.capacity_rows() < self.band.rows().min(mh as u32) {
             return Err(ReconstructError::BandTooSmall {
                 needed: self.band.rows(),
                 given: reference.capacity_rows(),
@@ -160,17 +164,17 @@ impl Reconstructor {
         }
         let (first, last) = self.rows_needed(v);
         let data = reference.storage();
-        let mut table = RefRows::new(data, first as i64, self.cam.height() as i64 - 1);
+        let mut table = RefRows::new(data, first as i64, mh as i64 - 1);
         for r in first..=last {
             let off = reference
                 .row_offset(r)
                 .ok_or(ReconstructError::NotResident { row: r })?;
-            if data.get(off..off + w).is_none() {
+            if data.get(off..off + mw).is_none() {
                 return Err(ReconstructError::BufferTooSmall);
             }
             table.set((r - first) as usize, off);
         }
-        table.finish(w);
+        table.finish(mw);
         kernel::row(
             gather,
             self,

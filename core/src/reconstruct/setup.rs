@@ -41,6 +41,71 @@ impl Band {
     }
 }
 
+/// How far the reference phase map extends past the image on each side, pixels (issue #17 item 3):
+/// the map is `(left + width + right) × (top + height + bottom)` samples, its sample `(i, j)` at
+/// image pixel `(i − left, j − top)`. A map wider than the image keeps the epipolar search of a
+/// pixel near the image border on the map when its reference crossing lies outside the image (a
+/// point near the camera); [`crate::reconstruct::Reconstructor::margin_needed`] measures the
+/// margin a geometry needs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Margin {
+    /// Columns left of column 0.
+    pub left: u32,
+    /// Rows above row 0.
+    pub top: u32,
+    /// Columns right of the last column.
+    pub right: u32,
+    /// Rows below the last row.
+    pub bottom: u32,
+}
+
+impl Margin {
+    /// No margin: the map covers the image exactly.
+    pub const ZERO: Margin = Margin {
+        left: 0,
+        top: 0,
+        right: 0,
+        bottom: 0,
+    };
+
+    /// The same margin on every side.
+    pub const fn uniform(px: u32) -> Margin {
+        Margin {
+            left: px,
+            top: px,
+            right: px,
+            bottom: px,
+        }
+    }
+
+    /// The margin as `[left, top, right, bottom]`.
+    pub const fn to_array(self) -> [u32; 4] {
+        [self.left, self.top, self.right, self.bottom]
+    }
+
+    /// A margin from `[left, top, right, bottom]`.
+    pub const fn from_array(a: [u32; 4]) -> Margin {
+        Margin {
+            left: a[0],
+            top: a[1],
+            right: a[2],
+            bottom: a[3],
+        }
+    }
+}
+
+/// Largest margin on any side ([`Margin`]), pixels: bounds the map's memory, and keeps the lens
+/// model within a sane distance of the image it was calibrated on.
+pub const MAX_MARGIN: u32 = 1024;
+
+/// What the set-up analysis measures: the band of reference rows, the longest search segment
+/// (distorted pixels), and how far the segments reach past the image.
+pub(super) struct Analysis {
+    pub(super) band: Band,
+    pub(super) max_len: f64,
+    pub(super) reach: Margin,
+}
+
 /// f32 constants of the per-pixel kernel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Consts {
@@ -64,21 +129,28 @@ pub(super) struct Consts {
 const SETUP_GRID: u32 = 16;
 const SETUP_SEGMENT_SAMPLES: u32 = 17;
 
-/// Walk the image on a grid: check the geometry and measure the band and the longest segment.
+/// Walk the image on a grid: check the geometry and measure the band (over a reference map with
+/// margin `m`), the longest segment and the segments' reach past the image.
 pub(super) fn analyse(
     cam: &CameraModel,
     s: &Setup,
     n: Vec3,
     h_r: f64,
     h: f64,
-) -> Result<(Band, f64), ReconstructError> {
+    m: Margin,
+) -> Result<Analysis, ReconstructError> {
     let w = cam.width();
     let hgt = cam.height();
     let p = s.projector_centre;
     let (wf, hf) = ((w - 1) as f64, (hgt - 1) as f64);
+    // The map's extent in image pixel coordinates.
+    let (u_lo, v_lo) = (-(m.left as f64), -(m.top as f64));
+    let (u_hi, v_hi) = (wf + m.right as f64, hf + m.bottom as f64);
     let mut above: i64 = 1;
     let mut below: i64 = 1;
     let mut max_len: f64 = 0.0;
+    // Farthest sample positions past each side of the image (pixels, ≥ 0).
+    let mut reach = [0f64; 4];
     let grid =
         |len: u32| (0..=len.div_ceil(SETUP_GRID)).map(move |k| (k * SETUP_GRID).min(len - 1));
     for v in grid(hgt) {
@@ -123,8 +195,14 @@ pub(super) fn analyse(
                     len += libm::sqrt(du * du + dv * dv);
                 }
                 prev = Some(q);
-                if !(q[0] >= 0.0 && q[0] <= wf && q[1] >= 0.0 && q[1] <= hf) {
-                    continue; // outside the image: never sampled
+                if q[0].is_finite() && q[1].is_finite() {
+                    reach[0] = reach[0].max(-q[0]);
+                    reach[1] = reach[1].max(-q[1]);
+                    reach[2] = reach[2].max(q[0] - wf);
+                    reach[3] = reach[3].max(q[1] - hf);
+                }
+                if !(q[0] >= u_lo && q[0] <= u_hi && q[1] >= v_lo && q[1] <= v_hi) {
+                    continue; // outside the map: never sampled
                 }
                 let r0 = libm::floor(q[1]) as i64;
                 above = above.max(v as i64 - r0);
@@ -136,10 +214,29 @@ pub(super) fn analyse(
             max_len = max_len.max(len);
         }
     }
-    // One row of margin for the grid sub-sampling.
-    let above = (above + 1).min(hgt as i64) as u32;
-    let below = (below + 1).min(hgt as i64) as u32;
-    Ok((Band { above, below }, max_len))
+    // One row of margin for the grid sub-sampling; no more rows than the map has.
+    let map_h = hgt as i64 + m.top as i64 + m.bottom as i64;
+    let above = (above + 1).min(map_h) as u32;
+    let below = (below + 1).min(map_h) as u32;
+    // The reach, plus the bilinear neighbour and two pixels for the grid sub-sampling, capped.
+    let side = |r: f64| {
+        let px = libm::ceil(r) + 3.0;
+        if px > 3.0 {
+            (px.min(MAX_MARGIN as f64)) as u32
+        } else {
+            0
+        }
+    };
+    Ok(Analysis {
+        band: Band { above, below },
+        max_len,
+        reach: Margin {
+            left: side(reach[0]),
+            top: side(reach[1]),
+            right: side(reach[2]),
+            bottom: side(reach[3]),
+        },
+    })
 }
 
 /// The conversions between the parameter vocabulary's geometry and the reconstruction's set-up

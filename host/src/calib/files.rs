@@ -734,6 +734,7 @@ pub fn calibrate_reference_files(
         map_name,
         (dec.width, dec.height, &map),
         (pose.point.to_array(), pose.normal.to_array()),
+        fringe3d_core::reconstruct::Margin::ZERO,
     )?;
     Ok(ReferenceRun {
         plane: pose,
@@ -744,9 +745,10 @@ pub fn calibrate_reference_files(
     })
 }
 
-/// Write a reference: the phase map `map_name` (float TIFF) and `reference_patterns.toml` beside
-/// `out`, then `out`, the calibration with its `[reference]` (`plane` = point, normal). Returns
-/// the calibration written and the map's path. Shared by the captured and the virtual reference.
+/// Write a reference: the phase map `map_name` (float TIFF, `width × height` including the
+/// `margin` past the image) and `reference_patterns.toml` beside `out`, then `out`, the
+/// calibration with its `[reference]` (`plane` = point, normal). Returns the calibration written
+/// and the map's path. Shared by the captured and the virtual reference.
 pub fn write_reference(
     calibration: &Calibration,
     out: &Path,
@@ -754,6 +756,7 @@ pub fn write_reference(
     map_name: &str,
     (width, height, map): (u32, u32, &[f32]),
     (point, normal): ([f64; 3], [f64; 3]),
+    margin: fringe3d_core::reconstruct::Margin,
 ) -> Result<(Calibration, PathBuf), CalibError> {
     let digest =
         crate::io::calibration::pattern_digest(&pattern_file.to_pattern_set()?).map_err(|m| {
@@ -779,6 +782,7 @@ pub fn write_reference(
         phase_map: PathBuf::from(map_name),
         pattern_set: Some(PathBuf::from(pat_name)),
         pattern_digest: Some(digest),
+        margin: (margin != fringe3d_core::reconstruct::Margin::ZERO).then(|| margin.to_array()),
     });
     cal.save(out)?;
     Ok((cal, map_path))

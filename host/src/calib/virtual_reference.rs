@@ -1,7 +1,8 @@
 //! A virtual reference (issue #17 item 2): Φ_R of a plane computed from the full projector model,
 //! for any pattern set, with no capture.
 //!
-//! Per camera pixel centre (u, v), in f64:
+//! Per sample of the map, at camera pixel centre (u, v) (the map may extend past the image by a
+//! [`Margin`]: sample (i, j) is pixel (i − left, j − top)), in f64:
 //!
 //! 1. the ray `(x, y, 1)` of the camera lens (eqs 2-4 inverted: [`Lens::undistort`]);
 //! 2. its point `X = s·(x, y, 1)` on the plane `n·(X − O) = 0`, `s = n·O / n·(x, y, 1) > 0`;
@@ -16,8 +17,10 @@
 
 use std::path::{Path, PathBuf};
 
-use fringe3d_core::params::{CameraParams, ProjectorParams};
+use fringe3d_core::camera::CameraModel;
+use fringe3d_core::params::{CameraParams, ProjectorParams, ScanGeometry};
 use fringe3d_core::pattern::PatternSet;
+use fringe3d_core::reconstruct::{Margin, Reconstructor};
 use rayon::prelude::*;
 
 use super::CalibError;
@@ -47,13 +50,14 @@ pub enum VirtualError {
 }
 
 /// The virtual reference map of `set` on the plane through `point` with normal `normal` (camera
-/// frame, mm), for `camera` and `projector`: `camera.width × camera.height` phases, row-major.
+/// frame, mm), for `camera` and `projector`, extending `margin` past the image:
+/// `(left + width + right) × (top + height + bottom)` phases, row-major.
 pub fn virtual_reference(
     camera: &CameraParams,
     projector: &ProjectorParams,
     set: &PatternSet,
-    point: [f64; 3],
-    normal: [f64; 3],
+    (point, normal): ([f64; 3], [f64; 3]),
+    margin: Margin,
 ) -> Result<Vec<f32>, VirtualError> {
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let nn = dot(normal, normal);
@@ -79,13 +83,16 @@ pub fn virtual_reference(
         f64::from(projector.intrinsics.width),
         f64::from(projector.intrinsics.height),
     );
-    let (w, h) = (camera.width as usize, camera.height as usize);
+    let w = (camera.width + margin.left + margin.right) as usize;
+    let h = (camera.height + margin.top + margin.bottom) as usize;
+    let (l, t0) = (f64::from(margin.left), f64::from(margin.top));
     let mut map = vec![f32::NAN; w * h];
     map.par_chunks_mut(w.max(1))
         .enumerate()
-        .for_each(|(v, row)| {
-            for (u, out) in row.iter_mut().enumerate() {
-                let Some((x, y)) = cam.undistort(u as f64, v as f64) else {
+        .for_each(|(j, row)| {
+            for (i, out) in row.iter_mut().enumerate() {
+                let (u, v) = (i as f64 - l, j as f64 - t0);
+                let Some((x, y)) = cam.undistort(u, v) else {
                     continue;
                 };
                 let s = d / dot(normal, [x, y, 1.0]);
@@ -119,6 +126,27 @@ pub fn default_plane(depth_range: [f64; 2]) -> ([f64; 3], [f64; 3]) {
     ([0.0, 0.0, depth_range[1]], [0.0, 0.0, -1.0])
 }
 
+/// The margin a reference map needs past the image for `calibration`'s camera, projector centre
+/// and depth range with the reference on `plane`, for phases along the axis of `set`
+/// ([`Reconstructor::margin_needed`]). `Err` with the reconstruction's reason when the geometry
+/// cannot be reconstructed at all.
+pub fn margin_needed(
+    calibration: &Calibration,
+    set: &PatternSet,
+    plane: ([f64; 3], [f64; 3]),
+) -> Result<Margin, String> {
+    let cam = CameraModel::new(calibration.camera).map_err(|e| format!("camera: {e:?}"))?;
+    let g = ScanGeometry {
+        projector_centre: calibration.projector_centre,
+        plane_point: plane.0,
+        plane_normal: plane.1,
+        depth_min: calibration.depth_range[0],
+        depth_max: calibration.depth_range[1],
+    };
+    let r = Reconstructor::new(&cam, &g.setup(set.axis())).map_err(|e| e.to_string())?;
+    Ok(r.margin_needed())
+}
+
 /// What [`virtual_reference_files`] wrote.
 #[derive(Clone, Debug)]
 pub struct VirtualRun {
@@ -128,19 +156,24 @@ pub struct VirtualRun {
     pub map_path: PathBuf,
     /// The plane (point, normal towards the camera), camera frame, mm.
     pub plane: ([f64; 3], [f64; 3]),
-    /// Fraction of the pixels with a phase (the plane lit by the DMD there).
+    /// Fraction of the image's pixels with a phase (the plane lit by the DMD there).
     pub valid_fraction: f64,
+    /// The map's margin past the image.
+    pub margin: Margin,
 }
 
 /// `fringe3d calibrate reference --virtual`: compute the map of the pattern set in `patterns` on
-/// `plane` (default [`default_plane`]) from `calibration`'s camera and `[projector]`, and write it
-/// with [`write_reference`] (map and `reference_patterns.toml` beside `out`, then `out`).
+/// `plane` (default [`default_plane`]) from `calibration`'s camera and `[projector]`, extending
+/// `margin` past the image (`None`: the margin the geometry needs, [`margin_needed`]), and
+/// write it with [`write_reference`] (map and `reference_patterns.toml` beside `out`, then
+/// `out`).
 pub fn virtual_reference_files(
     calibration: &Calibration,
     calibration_path: &Path,
     out: &Path,
     patterns: &Path,
     plane: Option<([f64; 3], [f64; 3])>,
+    margin: Option<Margin>,
     map_name: &str,
 ) -> Result<VirtualRun, CalibError> {
     let err = |what: &Path, message: String| CalibError::Input {
@@ -178,15 +211,62 @@ pub fn virtual_reference_files(
         },
     )?;
     let plane = (pose.point.to_array(), pose.normal.to_array());
-    let map = virtual_reference(&calibration.camera, projector, &set, plane.0, plane.1)
+    let margin = match margin {
+        Some(m) => m,
+        None => margin_needed(calibration, &set, plane).map_err(|m| {
+            err(
+                calibration_path,
+                format!("virtual reference: the scan geometry with this plane: {m}"),
+            )
+        })?,
+    };
+    if margin
+        .to_array()
+        .iter()
+        .any(|&m| m > fringe3d_core::reconstruct::MAX_MARGIN)
+    {
+        return Err(err(
+            calibration_path,
+            format!(
+                "virtual reference: a margin of at most {} pixels per side, got {:?}",
+                fringe3d_core::reconstruct::MAX_MARGIN,
+                margin.to_array()
+            ),
+        ));
+    }
+    let map = virtual_reference(&calibration.camera, projector, &set, plane, margin)
         .map_err(|e| err(calibration_path, format!("virtual reference: {e}")))?;
-    let valid = map.iter().filter(|p| p.is_finite()).count();
     let (w, h) = (calibration.camera.width, calibration.camera.height);
-    let (cal, map_path) = write_reference(calibration, out, pf, map_name, (w, h, &map), plane)?;
+    let (mw, mh) = (
+        w + margin.left + margin.right,
+        h + margin.top + margin.bottom,
+    );
+    // The lit fraction of the image itself (the margin aside).
+    let valid = map
+        .chunks(mw as usize)
+        .skip(margin.top as usize)
+        .take(h as usize)
+        .map(|r| {
+            r[margin.left as usize..(margin.left + w) as usize]
+                .iter()
+                .filter(|p| p.is_finite())
+                .count()
+        })
+        .sum::<usize>();
+    let (cal, map_path) = write_reference(
+        calibration,
+        out,
+        pf,
+        map_name,
+        (mw, mh, &map),
+        plane,
+        margin,
+    )?;
     Ok(VirtualRun {
         calibration: cal,
         map_path,
         plane,
-        valid_fraction: valid as f64 / map.len().max(1) as f64,
+        valid_fraction: valid as f64 / (w as usize * h as usize).max(1) as f64,
+        margin,
     })
 }

@@ -193,6 +193,31 @@ pub struct ReferenceArgs {
     /// perpendicular to the camera's axis at the far end of the depth range). No IMAGES, no board.
     #[arg(long = "virtual")]
     pub virtual_map: bool,
+    /// With --virtual: how far the map extends past the image, pixels: "auto" (what the depth
+    /// range and the geometry need, so that every pixel's search stays on the map), one number
+    /// for every side, or "LEFT,TOP,RIGHT,BOTTOM". 0 for a head (its maps are image-sized).
+    #[arg(long, value_name = "auto|N|L,T,R,B", default_value = "auto")]
+    pub margin: String,
+}
+
+/// `--margin`: `None` for auto.
+fn parse_margin(s: &str) -> Result<Option<fringe3d_core::reconstruct::Margin>> {
+    use fringe3d_core::reconstruct::Margin;
+    if s.trim() == "auto" {
+        return Ok(None);
+    }
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<u32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| {
+            anyhow::anyhow!("--margin: \"auto\", N or L,T,R,B (whole pixels), got \"{s}\"")
+        })?;
+    match v[..] {
+        [n] => Ok(Some(Margin::uniform(n))),
+        [l, t, r, b] => Ok(Some(Margin::from_array([l, t, r, b]))),
+        _ => bail!("--margin: \"auto\", N or L,T,R,B (whole pixels), got \"{s}\""),
+    }
 }
 
 /// Run `fringe3d calibrate`.
@@ -419,6 +444,11 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
     if a.virtual_map {
         return virtual_reference(a, g);
     }
+    if a.margin != "auto" {
+        bail!(
+            "calibrate reference: --margin applies to --virtual maps only (a capture ends at the image)"
+        );
+    }
     let cal = Calibration::load(&a.calibration)?;
     let imgs = !a.board_image.is_empty();
     let plane = match (imgs, &a.plane_point, &a.plane_normal) {
@@ -517,6 +547,7 @@ fn virtual_reference(a: ReferenceArgs, g: Global) -> Result<()> {
             "calibrate reference --virtual: give both --plane-point and --plane-normal, or neither"
         ),
     };
+    let margin = parse_margin(&a.margin)?;
     let cal = Calibration::load(&a.calibration)?;
     let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
     common::file_out(&out, "--out")?;
@@ -526,11 +557,13 @@ fn virtual_reference(a: ReferenceArgs, g: Global) -> Result<()> {
         &out,
         &a.patterns,
         plane,
+        margin,
         &a.map,
     )?;
     let (p, n) = run.plane;
     let j = json!({"command": "calibrate reference --virtual", "out": out, "map": run.map_path,
-        "valid_fraction": run.valid_fraction, "plane": {"point": p, "normal": n}});
+        "valid_fraction": run.valid_fraction, "plane": {"point": p, "normal": n},
+        "margin": run.margin.to_array()});
     if g.json {
         outln!("{}", serde_json::to_string_pretty(&j)?);
     } else if !g.quiet {
@@ -543,6 +576,14 @@ fn virtual_reference(a: ReferenceArgs, g: Global) -> Result<()> {
             n[1],
             n[2],
             100.0 * run.valid_fraction
+        );
+        let m = run.margin;
+        outln!(
+            "the map extends past the image by {} px left, {} top, {} right, {} bottom",
+            m.left,
+            m.top,
+            m.right,
+            m.bottom
         );
         outln!(
             "wrote {} (with {} and reference_patterns.toml beside it)",

@@ -386,6 +386,15 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
             let axis = set.axis();
             let sc = common::load_calibration(path, axis)
                 .with_context(|| format!("{}: preparing the reconstruction", path.display()))?;
+            if sc.recon.margin() != fringe3d_core::reconstruct::Margin::ZERO {
+                anyhow::bail!(
+                    "{}: its reference map extends past the image (margin {:?}); the head's \
+                     wire protocol carries image-sized maps only: make the reference for the \
+                     head with `calibrate reference --margin 0`",
+                    path.display(),
+                    sc.recon.margin().to_array()
+                );
+            }
             let w =
                 wire_calibration(&cal).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
             let map = phase_map_bytes(&sc.reference_phase, sc.width());

@@ -178,6 +178,7 @@ impl Rig {
                 phase_map,
                 pattern_set,
                 pattern_digest,
+                margin: None,
             }),
             depth_range: self.depth_range,
             projector: Some(ProjectorParams {

@@ -68,6 +68,19 @@ pub struct ReferencePlane {
     /// ([`check_pattern_set`](super::check_pattern_set)). Older files without it still load; the
     /// check then uses `pattern_set`.
     pub pattern_digest: Option<String>,
+    /// How far the phase map extends past the image, `[left, top, right, bottom]` pixels
+    /// ([`Margin`](fringe3d_core::reconstruct::Margin)): the map is then
+    /// `(left + width + right) × (top + height + bottom)`, its sample `(i, j)` at image pixel
+    /// `(i − left, j − top)`. Absent: no margin (a map of the image's size).
+    #[serde(default)]
+    pub margin: Option<[u32; 4]>,
+}
+
+impl ReferencePlane {
+    /// The phase map's margin past the image (zero when absent).
+    pub fn margin(&self) -> fringe3d_core::reconstruct::Margin {
+        fringe3d_core::reconstruct::Margin::from_array(self.margin.unwrap_or([0; 4]))
+    }
 }
 
 impl Calibration {

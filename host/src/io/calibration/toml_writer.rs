@@ -43,6 +43,13 @@ impl Calibration {
             if let Some(p) = &r.pattern_set {
                 let _ = writeln!(s, "pattern_set = {}", toml_str(p)?);
             }
+            if let Some(m) = r.margin.filter(|m| m.iter().any(|&x| x > 0)) {
+                let _ = writeln!(
+                    s,
+                    "margin = [{}, {}, {}, {}]  # the map past the image: left, top, right, bottom, pixels",
+                    m[0], m[1], m[2], m[3]
+                );
+            }
             if let Some(d) = &r.pattern_digest {
                 let _ = writeln!(
                     s,

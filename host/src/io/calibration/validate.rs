@@ -90,6 +90,15 @@ impl Calibration {
             {
                 errs.push("reference.pattern_set, when given, must name a file".into());
             }
+            if let Some(m) = r.margin
+                && m.iter()
+                    .any(|&x| x > fringe3d_core::reconstruct::MAX_MARGIN)
+            {
+                errs.push(format!(
+                    "reference.margin: each side at most {} pixels, got {m:?}",
+                    fringe3d_core::reconstruct::MAX_MARGIN
+                ));
+            }
             if let Some(d) = &r.pattern_digest
                 && !super::pattern_digest::is_digest(d)
             {

@@ -1,0 +1,262 @@
+//! A reference map wider than the image (issue #17 item 3): on a surface near the camera that
+//! fills the image, every fully lit pixel whose true point lies in the depth range reconstructs
+//! when the map has the margin the geometry needs; without a margin, every one whose true
+//! reference crossing lies on the map still does. Truth: the analytic rig of
+//! `reconstruct_support`.
+// Integration tests are std: std f64 maths is the independent truth here.
+#![allow(clippy::disallowed_methods)]
+
+#[path = "reconstruct_support.rs"]
+mod support;
+
+use fringe3d_core::Validity;
+use fringe3d_core::reconstruct::{
+    MAX_MARGIN, Margin, ReconstructError, Reconstructor, ReferenceMap, ReferenceRing,
+};
+use support::*;
+
+const W: usize = 1280;
+const H: usize = 1024;
+
+/// The reference map of `rig` over the image and margin `m`: map sample (i, j) is image pixel
+/// (i − left, j − top), ray-cast against the reference plane.
+fn reference_with_margin(rig: &Rig, m: Margin) -> (Vec<f32>, Vec<u8>, usize, usize) {
+    let (mw, mh) = (
+        W + (m.left + m.right) as usize,
+        H + (m.top + m.bottom) as usize,
+    );
+    let plane = Surface::Plane {
+        p: rig.ref_point,
+        n: rig.ref_normal,
+    };
+    let mut phase = vec![f32::NAN; mw * mh];
+    let mut validity = vec![Validity::Dark as u8; mw * mh];
+    for j in 0..mh {
+        for i in 0..mw {
+            let (u, v) = (i as f64 - m.left as f64, j as f64 - m.top as f64);
+            let d = rig.ray(u, v);
+            let Some(l) = plane.hit([0.0; 3], d) else {
+                continue;
+            };
+            if let Some(ph) = rig.phase_at(mul(d, l)) {
+                phase[j * mw + i] = ph as f32;
+                validity[j * mw + i] = Validity::Valid as u8;
+            }
+        }
+    }
+    (phase, validity, mw, mh)
+}
+
+/// A plane near the near end of the volume filling the whole image.
+fn near_scene(rig: &Rig) -> PhaseMap {
+    let s = Surface::Plane {
+        p: [0.0, 0.0, rig.z_range[0] + 15.0],
+        n: unit([0.04, -0.03, -1.0]),
+    };
+    render(rig, &[s], Bounds::EVERYWHERE, 0..H)
+}
+
+/// The camera pixel of the reference crossing of point `x`: where the projector ray through `x`
+/// meets the reference plane, imaged.
+fn crossing_pixel(rig: &Rig, x: V3) -> Option<(f64, f64)> {
+    let d = sub(x, rig.p);
+    let den = dot(rig.ref_normal, d);
+    let l = dot(rig.ref_normal, sub(rig.ref_point, rig.p)) / den;
+    rig.cam.project(add(rig.p, mul(d, l)))
+}
+
+/// Whether the whole search segment of the pixel with ray `d` lies on lit reference: every point
+/// of the ray in the depth range is lit by the projector at least 3 projector pixels inside its
+/// image (a point and its reference crossing share the projector ray). Pixels at the edge of the
+/// projector's light cross unlit reference on the way: a loss no map avoids, counted apart.
+fn well_lit(rig: &Rig, d: V3) -> bool {
+    let (w, h) = (rig.proj.width as f64, rig.proj.height as f64);
+    (0..=25).all(|k| {
+        let z = rig.z_range[0] + (rig.z_range[1] - rig.z_range[0]) * k as f64 / 25.0;
+        let x = mul(d, z / d[2]);
+        rig.proj
+            .project(rig.projector_frame(x))
+            .is_some_and(|(xi, eta)| xi >= 3.0 && xi <= w - 4.0 && eta >= 3.0 && eta <= h - 4.0)
+    })
+}
+
+struct Run {
+    xyz: Vec<f32>,
+    codes: Vec<u8>,
+}
+
+fn batch(recon: &Reconstructor, map: &ReferenceMap<'_>, obj: &PhaseMap) -> Run {
+    let mut xyz = vec![0f32; 3 * W * H];
+    let mut codes = vec![0u8; W * H];
+    recon
+        .reconstruct_frame(map, &obj.phase, &obj.validity, &mut xyz, &mut codes)
+        .unwrap();
+    Run { xyz, codes }
+}
+
+fn err_mm(run: &Run, obj: &PhaseMap, i: usize) -> f64 {
+    let t = obj.truth[i].unwrap();
+    let p = &run.xyz[3 * i..3 * i + 3];
+    norm(sub([p[0] as f64, p[1] as f64, p[2] as f64], t))
+}
+
+#[test]
+fn a_map_with_the_needed_margin_covers_every_pixel_near_the_camera() {
+    let rig = Rig::default_rig();
+    let recon = Reconstructor::new(&rig.cam.model(), &rig.setup()).unwrap();
+    assert_eq!(recon.with_margin(Margin::ZERO).unwrap(), recon);
+    let need = recon.margin_needed();
+    // This rig's projector sits to the right: near points' crossings move left.
+    assert!(need.left > 20, "needed margin {need:?}");
+    let wide = recon.with_margin(need).unwrap();
+    assert_eq!(wide.margin(), need);
+    let obj = near_scene(&rig);
+
+    // Without a margin (today's map).
+    let (mut p0, v0, _, _) = reference_with_margin(&rig, Margin::ZERO);
+    let m0 = ReferenceMap::prepare(&mut p0, &v0, W, H).unwrap();
+    let r0 = batch(&recon, &m0, &obj);
+    // With the margin.
+    let (mut p1, v1, mw, mh) = reference_with_margin(&rig, need);
+    assert_eq!((mw, mh), (wide.map_width(), wide.map_height()));
+    let m1 = ReferenceMap::prepare(&mut p1, &v1, mw, mh).unwrap();
+    let r1 = batch(&wide, &m1, &obj);
+
+    let (mut inside, mut lost0, mut on_map, mut lost_on_map, mut lost1) = (0, 0, 0, 0, 0);
+    let mut at_light_edge = 0;
+    let mut worst = 0f64;
+    for i in 0..W * H {
+        let Some(t) = obj.truth[i] else { continue };
+        if !(t[2] >= rig.z_range[0] && t[2] <= rig.z_range[1]) {
+            continue;
+        }
+        if !well_lit(&rig, t) {
+            at_light_edge += 1;
+            continue;
+        }
+        inside += 1;
+        let valid0 = r0.codes[i] == Validity::Valid as u8;
+        lost0 += !valid0 as usize;
+        // Crossing inside the unwidened map, a pixel from its edge (the bilinear cell).
+        if let Some((cu, cv)) = crossing_pixel(&rig, t)
+            && cu >= 1.0
+            && cu <= W as f64 - 2.0
+            && cv >= 1.0
+            && cv <= H as f64 - 2.0
+        {
+            on_map += 1;
+            lost_on_map += !valid0 as usize;
+        }
+        if r1.codes[i] == Validity::Valid as u8 {
+            worst = worst.max(err_mm(&r1, &obj, i));
+        } else {
+            lost1 += 1;
+        }
+    }
+    eprintln!(
+        "margin {need:?}: {inside} pixels in depth ({at_light_edge} more at the edge of the \
+         projector's light); no margin loses {lost0} ({lost_on_map} of \
+         the {on_map} whose crossing is on the map), with the margin {lost1}; worst error \
+         {:.2} µm",
+        worst * 1e3
+    );
+    assert!(inside > W * H * 7 / 10);
+    assert!(
+        lost0 > 1000,
+        "the scene must need the margin ({lost0} lost)"
+    );
+    assert_eq!(
+        lost_on_map, 0,
+        "no-crossing although the crossing is on the map"
+    );
+    assert_eq!(lost1, 0, "pixels lost with the needed margin");
+    assert!(worst < 1e-3, "worst error {} µm", worst * 1e3);
+    // The margin changes nothing where the search stayed on the image: the same bits.
+    for i in 0..W * H {
+        if r0.codes[i] == Validity::Valid as u8 {
+            let b = |r: &Run| [0, 1, 2].map(|k| r.xyz[3 * i + k].to_bits());
+            let (a, c) = (b(&r0), b(&r1));
+            if a != c {
+                // Pixels whose first step read the map's margin may differ by rounding only.
+                assert!(err_mm(&r1, &obj, i) < 1e-3, "pixel {i}: {a:?} vs {c:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn streaming_with_a_margin_equals_batch_bit_for_bit() {
+    let rig = Rig::default_rig();
+    let need = Reconstructor::new(&rig.cam.model(), &rig.setup())
+        .unwrap()
+        .margin_needed();
+    let wide = Reconstructor::new(&rig.cam.model(), &rig.setup())
+        .unwrap()
+        .with_margin(need)
+        .unwrap();
+    let obj = near_scene(&rig);
+    let (p1, v1, mw, mh) = reference_with_margin(&rig, need);
+    let mut prep = p1.clone();
+    let map = ReferenceMap::prepare(&mut prep, &v1, mw, mh).unwrap();
+    let b = batch(&wide, &map, &obj);
+
+    let rows = wide.band().rows() as usize;
+    assert_eq!(wide.ring_bytes(rows as u32), rows * mw * 5);
+    let narrow = Reconstructor::new(&rig.cam.model(), &rig.setup()).unwrap();
+    eprintln!(
+        "ring: {} rows × {mw} = {} B with the margin {need:?}, {} rows × {W} = {} B without",
+        rows,
+        wide.ring_bytes(rows as u32),
+        narrow.band().rows(),
+        narrow.ring_bytes(narrow.band().rows())
+    );
+    let mut rp = vec![0f32; rows * mw];
+    let mut rv = vec![0u8; rows * mw];
+    let mut ring = ReferenceRing::new(&wide, &mut rp, &mut rv).unwrap();
+    let mut xyz = vec![0f32; 3 * W];
+    let mut codes = vec![0u8; W];
+    for v in 0..H {
+        let (_, last) = wide.rows_needed(v as u32);
+        while ring.rows_pushed() <= last {
+            let r = ring.rows_pushed() as usize;
+            ring.push_row(&p1[r * mw..(r + 1) * mw], &v1[r * mw..(r + 1) * mw])
+                .unwrap();
+        }
+        let s = v * W..(v + 1) * W;
+        wide.reconstruct_row(
+            &ring,
+            v as u32,
+            &obj.phase[s.clone()],
+            &obj.validity[s.clone()],
+            &mut xyz,
+            &mut codes,
+        )
+        .unwrap();
+        assert_eq!(codes, b.codes[s.clone()], "row {v}");
+        let bits = |x: &[f32]| x.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&xyz), bits(&b.xyz[3 * s.start..3 * s.end]), "row {v}");
+    }
+}
+
+#[test]
+fn maps_of_the_wrong_size_and_huge_margins_are_refused() {
+    let rig = Rig::default_rig();
+    let recon = Reconstructor::new(&rig.cam.model(), &rig.setup()).unwrap();
+    assert_eq!(
+        recon.with_margin(Margin::uniform(MAX_MARGIN + 1)).err(),
+        Some(ReconstructError::Margin)
+    );
+    let wide = recon.with_margin(Margin::uniform(8)).unwrap();
+    // An image-sized map for a reconstructor expecting a margin.
+    let mut p = vec![0f32; W * H];
+    let map = ReferenceMap::prepare(&mut p, &vec![0u8; W * H], W, H).unwrap();
+    let (mut xyz, mut codes) = (vec![0f32; 3 * W], vec![0u8; W]);
+    let row = vec![0f32; W];
+    let val = vec![0u8; W];
+    assert_eq!(
+        wide.reconstruct_row(&map, 0, &row, &val, &mut xyz, &mut codes),
+        Err(ReconstructError::Length)
+    );
+    // Rows count from the map's top.
+    assert_eq!(wide.rows_needed(0).0, 8 - wide.band().above.min(8));
+}
