@@ -1,7 +1,6 @@
 //! Why a reconstructor could not be built or run ([`ReconstructError`], [`ReconstructErrorKind`]).
 
-use super::MAX_BAND_ROWS;
-use super::setup::MAX_MARGIN;
+use super::{MAX_BAND_ROWS, MAX_MARGIN};
 #[cfg(doc)]
 use crate::phase_function::Axis;
 

@@ -142,7 +142,7 @@ pub use error::{ReconstructError, ReconstructErrorKind};
 pub use gather::{CellGather, ScalarGather};
 pub use reconstructor::Reconstructor;
 pub use reference_rows::{ReferenceMap, ReferenceRing, ReferenceRows};
-pub use setup::{Band, MAX_MARGIN, Margin, Setup};
+pub use setup::{Band, Margin, Setup};
 pub use triangulate::triangulate_eq16_18;
 
 use crate::camera::ROW_KNOT_STEP;
@@ -161,5 +161,9 @@ pub const ACCEPT_LAST_STEP_PX: f32 = 3e-3;
 
 /// Pixels per chunk of the row kernel (one knot span of the camera's row inverse).
 pub const LANES: usize = ROW_KNOT_STEP;
+/// Largest margin of the reference map past the image on any side ([`Margin`]), pixels: bounds
+/// the map's memory, and keeps the lens model within a sane distance of the image it was
+/// calibrated on.
+pub const MAX_MARGIN: u32 = 1024;
 /// Largest band of reference rows a reconstructor accepts.
 pub const MAX_BAND_ROWS: usize = 512;

@@ -2,9 +2,9 @@
 //! ([`Reconstructor::new`]), with its band of reference rows and the kernel's constants. Its row
 //! API is in `row`.
 
-use super::MAX_BAND_ROWS;
 use super::error::ReconstructError;
-use super::setup::{Band, Consts, MAX_MARGIN, Margin, Setup, analyse};
+use super::setup::{Band, Consts, Margin, Setup, analyse};
+use super::{MAX_BAND_ROWS, MAX_MARGIN};
 use crate::camera::CameraModel;
 use crate::geometry::Plane;
 use crate::geometry::Vec3;

@@ -2,6 +2,7 @@
 //! set-up analysis that validates it against the camera on a grid of pixels, plus the f32
 //! constants the per-pixel kernel takes from it.
 
+use super::MAX_MARGIN;
 use super::error::ReconstructError;
 use crate::camera::CameraModel;
 use crate::geometry::Vec3;
@@ -93,10 +94,6 @@ impl Margin {
         }
     }
 }
-
-/// Largest margin on any side ([`Margin`]), pixels: bounds the map's memory, and keeps the lens
-/// model within a sane distance of the image it was calibrated on.
-pub const MAX_MARGIN: u32 = 1024;
 
 /// What the set-up analysis measures: the band of reference rows, the longest search segment
 /// (distorted pixels), and how far the segments reach past the image.
