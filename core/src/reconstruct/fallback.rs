@@ -25,49 +25,27 @@ pub(super) fn fallback<F: Fn(f32) -> f32>(
         }
         (ta, ga, tb, gb) = (tlo, glo, thi, ghi);
     } else {
-        // With a monotonic phase, the valid samples below the phase lie on one side of those at or
-        // above it: the innermost pair brackets the crossing.
-        let mut cands = [(0f32, CANONICAL_NAN); 8];
+        let mut cands = [(0f32, CANONICAL_NAN); 10];
         cands[0] = (tlo, glo);
         cands[1] = (thi, ghi);
-        for (dst, src) in cands[2..].iter_mut().zip(known) {
+        for (dst, src) in cands[2..8].iter_mut().zip(known) {
             *dst = *src;
         }
-        let (mut neg_lo, mut neg_hi) = ((f32::INFINITY, 0f32), (f32::NEG_INFINITY, 0f32));
-        let (mut pos_lo, mut pos_hi) = ((f32::INFINITY, 0f32), (f32::NEG_INFINITY, 0f32));
-        let mut any = false;
-        for &(tc, gc) in &cands {
-            if !gc.is_finite() || !(tlo..=thi).contains(&tc) {
-                continue;
+        let found = match bracket(&cands[..8], tlo, thi) {
+            Err(Validity::NoCrossing) => {
+                // Every valid sample has the same sign: the crossing may lie between them and an
+                // end of the interval that is off the map (or on an invalid patch). Clip the
+                // interval to the valid samples' extent: from the valid sample nearest to each
+                // invalid end, bisect towards it on validity (the same fixed count as the
+                // bracket's bisection, so within a quarter pixel of where the map ends), and
+                // look again with the last valid sample found.
+                cands[8] = clip(&eval, &cands[..8], tlo, thi, glo, bisections, true);
+                cands[9] = clip(&eval, &cands[..8], tlo, thi, ghi, bisections, false);
+                bracket(&cands, tlo, thi)
             }
-            any = true;
-            let (lo, hi) = if gc < 0.0 {
-                (&mut neg_lo, &mut neg_hi)
-            } else {
-                (&mut pos_lo, &mut pos_hi)
-            };
-            if tc < lo.0 {
-                *lo = (tc, gc);
-            }
-            if tc > hi.0 {
-                *hi = (tc, gc);
-            }
-        }
-        let have = neg_lo.0.is_finite() && pos_lo.0.is_finite();
-        if !have {
-            return Err(if any {
-                Validity::NoCrossing
-            } else {
-                Validity::ReferenceInvalid
-            });
-        }
-        if neg_hi.0 < pos_lo.0 {
-            (ta, ga, tb, gb) = (neg_hi.0, neg_hi.1, pos_lo.0, pos_lo.1);
-        } else if pos_hi.0 < neg_lo.0 {
-            (ta, ga, tb, gb) = (neg_lo.0, neg_lo.1, pos_hi.0, pos_hi.1);
-        } else {
-            return Err(Validity::NoCrossing); // not monotonic along the segment
-        }
+            other => other,
+        };
+        (ta, ga, tb, gb) = found?;
     }
     // Orient so that ga < 0 ≤ gb.
     if ga >= 0.0 {
@@ -107,4 +85,86 @@ pub(super) fn fallback<F: Fn(f32) -> f32>(
     } else {
         Err(Validity::NoCrossing)
     }
+}
+
+/// The innermost bracket `(ta, ga, tb, gb)` of the crossing among the valid samples `cands`
+/// inside `[tlo, thi]`: with a monotonic phase, the valid samples below the phase lie on one side
+/// of those at or above it. `NoCrossing` when all have one sign (or they are not monotonic),
+/// `ReferenceInvalid` when none is valid.
+fn bracket(cands: &[(f32, f32)], tlo: f32, thi: f32) -> Result<(f32, f32, f32, f32), Validity> {
+    let (mut neg_lo, mut neg_hi) = ((f32::INFINITY, 0f32), (f32::NEG_INFINITY, 0f32));
+    let (mut pos_lo, mut pos_hi) = ((f32::INFINITY, 0f32), (f32::NEG_INFINITY, 0f32));
+    let mut any = false;
+    for &(tc, gc) in cands {
+        if !gc.is_finite() || !(tlo..=thi).contains(&tc) {
+            continue;
+        }
+        any = true;
+        let (lo, hi) = if gc < 0.0 {
+            (&mut neg_lo, &mut neg_hi)
+        } else {
+            (&mut pos_lo, &mut pos_hi)
+        };
+        if tc < lo.0 {
+            *lo = (tc, gc);
+        }
+        if tc > hi.0 {
+            *hi = (tc, gc);
+        }
+    }
+    if !(neg_lo.0.is_finite() && pos_lo.0.is_finite()) {
+        return Err(if any {
+            Validity::NoCrossing
+        } else {
+            Validity::ReferenceInvalid
+        });
+    }
+    if neg_hi.0 < pos_lo.0 {
+        Ok((neg_hi.0, neg_hi.1, pos_lo.0, pos_lo.1))
+    } else if pos_hi.0 < neg_lo.0 {
+        Ok((neg_lo.0, neg_lo.1, pos_hi.0, pos_hi.1))
+    } else {
+        Err(Validity::NoCrossing) // not monotonic along the segment
+    }
+}
+
+/// The last valid sample towards the low (`low`) or high end of `[tlo, thi]` whose own sample
+/// `g_end` is invalid: `steps` bisections on validity between the valid sample nearest to that
+/// end and the end. `(0, NaN)` when the end is valid or no sample is.
+fn clip<F: Fn(f32) -> f32>(
+    eval: &F,
+    cands: &[(f32, f32)],
+    tlo: f32,
+    thi: f32,
+    g_end: f32,
+    steps: u32,
+    low: bool,
+) -> (f32, f32) {
+    const NONE: (f32, f32) = (0.0, CANONICAL_NAN);
+    if g_end.is_finite() {
+        return NONE;
+    }
+    let mut anchor = NONE;
+    for &(tc, gc) in cands {
+        if gc.is_finite()
+            && (tlo..=thi).contains(&tc)
+            && (!anchor.1.is_finite() || (tc < anchor.0) == low)
+        {
+            anchor = (tc, gc);
+        }
+    }
+    if !anchor.1.is_finite() {
+        return NONE;
+    }
+    let (mut good, mut bad) = (anchor, if low { tlo } else { thi });
+    for _ in 0..steps {
+        let tm = 0.5 * (good.0 + bad);
+        let gm = eval(tm);
+        if gm.is_finite() {
+            good = (tm, gm);
+        } else {
+            bad = tm;
+        }
+    }
+    good
 }

@@ -49,8 +49,11 @@
 //! range or the map): the ends of the depth interval are sampled; a phase outside them is
 //! [`Validity::OutOfDepth`]; otherwise the closest valid bracket is bisected a fixed number of times
 //! ([`Reconstructor::fallback_bisections`], from the longest segment) and polished by two
-//! regula-falsi steps. Every stage has a fixed count, so the work per pixel is bounded
-//! (≤ 1 + 2 + 1 + 2 + bisections + 2 samples).
+//! regula-falsi steps. When an end is off the map (or on invalid reference) and the valid samples
+//! do not bracket the crossing, the interval is first clipped to the map: from the valid sample
+//! nearest to that end, the same number of bisections on validity find where the map ends, and
+//! the last valid sample joins the candidates. Every stage has a fixed count, so the work per
+//! pixel is bounded (≤ 1 + 2 + 1 + 2 + 3 × bisections + 2 samples).
 //!
 //! # A map wider than the image
 //! A point nearer than the reference plane has its reference crossing displaced along the
