@@ -303,7 +303,8 @@ fn with_a_noisy_map_the_search_clips_to_the_map_instead_of_giving_up() {
     for i in 0..W * H {
         let Some(t) = obj.truth[i] else { continue };
         // 2 mm inside the depth range: 0.05 rad of noise moves points by ~0.2 mm.
-        if !(t[2] >= rig.z_range[0] + 2.0 && t[2] <= rig.z_range[1] - 2.0) || !well_lit(&rig, t) {
+        let in_depth = t[2] >= rig.z_range[0] + 2.0 && t[2] <= rig.z_range[1] - 2.0;
+        if !(in_depth && well_lit(&rig, t)) {
             continue;
         }
         let valid = r0.codes[i] == Validity::Valid as u8;
