@@ -26,7 +26,9 @@ pub fn import_opencv(path: &Path, width: u32, height: u32) -> Result<CameraParam
 fn opencv_camera(root: &Node, width: u32, height: u32) -> Result<CameraParams, String> {
     let find = |names: &[&'static str]| names.iter().find_map(|&n| root.get(n).map(|v| (n, v)));
     let (kname, k) = find(&["camera_matrix", "cameraMatrix", "K"])
-        .ok_or("no camera matrix (looked for camera_matrix, cameraMatrix, K)")?;
+        .ok_or(
+            "no camera matrix (looked for camera_matrix, cameraMatrix, K, and for the stereo keys M1, cameraMatrix1, Kc)",
+        )?;
     let k = matrix_values(k).map_err(|m| format!("{kname}: {m}"))?;
     if k.len() != 9 {
         return Err(format!("{kname} has {} values, expected 9 (3x3)", k.len()));
