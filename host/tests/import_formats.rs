@@ -175,6 +175,12 @@ fn every_format_reproduces_the_rig() {
         &import_rig(&f, None, RigSizes::default()).unwrap(),
         RigFormat::OpenCv,
     );
+    // `--camera-from` takes camera 1.
+    same_camera(
+        &rig.camera,
+        &import_any_camera(&f, None).unwrap(),
+        "opencv camera-from",
+    );
 
     // OpenCV XML, cameraMatrix1/..., an 8-coefficient D2 with zero k4..k6, sizes from options.
     let mut s = String::from("<?xml version=\"1.0\"?>\n<opencv_storage>\n");
