@@ -181,6 +181,15 @@ fn every_format_reproduces_the_rig() {
         &import_any_camera(&f, None).unwrap(),
         "opencv camera-from",
     );
+    // ... also of a camera-only file with the stereo names (M1, D1).
+    let text = opencv_yaml(&rig);
+    let g = t.0.join("camera_m1.yml");
+    std::fs::write(&g, &text[..text.find("M2:").unwrap()]).unwrap();
+    same_camera(
+        &rig.camera,
+        &import_any_camera(&g, None).unwrap(),
+        "M1/D1 camera file",
+    );
 
     // OpenCV XML, cameraMatrix1/..., an 8-coefficient D2 with zero k4..k6, sizes from options.
     let mut s = String::from("<?xml version=\"1.0\"?>\n<opencv_storage>\n");

@@ -13,7 +13,8 @@ pub(crate) fn is_bouguet_stereo(text: &str) -> bool {
 
 /// Parse `Calib_Results_stereo.m`: `fc_left`, `cc_left`, `alpha_c_left` (default 0), `kc_left`
 /// (4 or 5 values) and the same with `_right`; the pose `om` (Rodrigues vector) or `R`, and `T`,
-/// which the toolbox defines by `XR = R·XL + T` (`R = rodrigues(om)`; its `stereo_triangulation.m`);
+/// which the toolbox defines by `XR = R·XL + T` (`R = rodrigues(om)`; see its
+/// `stereo_triangulation.m`);
 /// sizes `nx`, `ny` (the left camera's) and `nx_right`, `ny_right` if present. `KK` matrices are
 /// ignored: `fc`, `cc`, `alpha_c` are the toolbox's parameters (see [`super::import_bouguet`]).
 pub(crate) fn parse_bouguet_stereo(text: &str) -> Result<ParsedRig, String> {

@@ -5,7 +5,8 @@
 //! - A full camera + projector calibration ([`import_rig`]): OpenCV stereo files, SLStudio's
 //!   `calibration.xml`, SLMaster's `caliInfo.yml` ([`stereo_fs`]) and Bouguet's
 //!   `Calib_Results_stereo.m` ([`bouguet_stereo`]); all state the projector's pose as
-//!   `x_p = R·x_c + T`, which becomes fringe3d's `X_cam = Rᵀ·X_proj + P` with `P = −Rᵀ·T` ([`rig`]).
+//!   `x_p = R·x_c + T`, which becomes fringe3d's `X_cam = Rᵀ·X_proj + P` with `P = −Rᵀ·T`
+//!   ([`rig`]).
 //! - The way back: [`export_opencv_stereo`].
 //!
 //! Each maps onto [`CameraParams`] without pixel shifts, validates the result like a calibration
