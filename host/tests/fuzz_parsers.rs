@@ -8,7 +8,8 @@
 //! mutation reaches the parser behind the checksum), and for the TOML files number tokens
 //! replaced by extreme values. Every input must give `Ok` or `Err`: a panic fails the test and
 //! leaves the input in the temp folder. Errors must name the file; an image accepted must fit the
-//! pixel cap it was read with (the memory bound).
+//! pixel cap it was read with (the memory bound). The importers of other tools' calibrations
+//! (OpenCV camera and stereo files, SLStudio, SLMaster, Bouguet's stereo script) are fuzzed too.
 //!
 //! `FRINGE3D_FUZZ_ITERS` sets the mutated inputs per parser (default 1000); `FRINGE3D_FUZZ_SEED`
 //! the seed. Each test prints its count and time (`cargo test --test fuzz_parsers -- --nocapture`).
@@ -20,6 +21,9 @@ use fringe3d::io::calibration::Calibration;
 use fringe3d::io::image::{
     ReadLimits, decode_gray_limited, encode_png_u8, encode_png_u16, encode_tiff_f32,
     read_gray_limited, read_header,
+};
+use fringe3d::io::import::{
+    RigSizes, import_any_camera, import_opencv, import_rig, opencv_stereo_yaml,
 };
 use fringe3d::io::npy;
 use fringe3d::io::pattern_file::PatternSetFile;
@@ -399,8 +403,19 @@ fn fuzz_text<T, E: std::fmt::Display>(
     seeds: &[String],
     load: impl Fn(&Path) -> Result<T, E>,
 ) {
+    fuzz_text_as(parser, "toml", salt, seeds, load);
+}
+
+/// [`fuzz_text`] with the fuzzed file named `fuzzed-PARSER.EXT` (importers look at the extension).
+fn fuzz_text_as<T, E: std::fmt::Display>(
+    parser: &str,
+    ext: &str,
+    salt: u64,
+    seeds: &[String],
+    load: impl Fn(&Path) -> Result<T, E>,
+) {
     let tmp = Tmp::new(parser);
-    let path = tmp.0.join(format!("fuzzed-{parser}.toml"));
+    let path = tmp.0.join(format!("fuzzed-{parser}.{ext}"));
     for s in seeds {
         std::fs::write(&path, s).unwrap();
         if let Err(e) = load(&path) {
@@ -423,7 +438,7 @@ fn fuzz_text<T, E: std::fmt::Display>(
             Err(e) => {
                 let m = e.to_string();
                 assert!(
-                    m.contains(&format!("fuzzed-{parser}.toml")),
+                    m.contains(&format!("fuzzed-{parser}.{ext}")),
                     "input {i}: no file named: {m}"
                 );
             }
@@ -436,6 +451,82 @@ fn fuzz_text<T, E: std::fmt::Display>(
 fn calibration_toml() {
     let seed = std::fs::read_to_string(examples().join("calibration/calib.toml")).unwrap();
     fuzz_text("calibration", 2, &[seed], Calibration::load);
+}
+
+#[test]
+fn opencv_camera_files() {
+    let seeds: Vec<String> = ["opencv.yml", "opencv.xml"]
+        .iter()
+        .map(|f| std::fs::read_to_string(examples().join("calibration").join(f)).unwrap())
+        .collect();
+    fuzz_text_as("opencv-camera", "yml", 7, &seeds, |p| {
+        import_opencv(p, 640, 480)
+    });
+}
+
+/// Seeds of every full-calibration format, from the example calibration's rig: the exporter's
+/// OpenCV YAML and, by renaming its keys, SLStudio's and SLMaster's; a Bouguet stereo script.
+fn stereo_seeds() -> (Vec<String>, String) {
+    let cal = Calibration::load(&examples().join("calibration/calib.toml")).unwrap();
+    let yml = opencv_stereo_yaml(&cal).unwrap();
+    let rename = |pairs: &[(&str, &str)]| {
+        let mut t = yml.clone();
+        for (a, b) in pairs {
+            t = t.replace(&format!("\n{a}: "), &format!("\n{b}: "));
+        }
+        t
+    };
+    let sl = rename(&[
+        ("M1", "Kc"),
+        ("D1", "kc"),
+        ("M2", "Kp"),
+        ("D2", "kp"),
+        ("R", "Rp"),
+        ("T", "Tp"),
+    ])
+    .replace("fringe3d_", "x_");
+    let slm = rename(&[("M2", "M4"), ("D2", "D4"), ("R", "Rlp"), ("T", "Tlp")])
+        .replace("fringe3d_", "x_");
+    let c = &cal.camera;
+    let p = cal.projector.as_ref().unwrap();
+    let pi = &p.intrinsics;
+    let d = |v: [f64; 5]| format!("[ {} ; {} ; {} ; {} ; {} ]", v[0], v[1], v[2], v[3], v[4]);
+    let m = format!(
+        "% stereo\nfc_left = [ {} ; {} ];\ncc_left = [ {} ; {} ];\nalpha_c_left = {};\nkc_left = {};\n\
+         fc_right = [ {} ; {} ];\ncc_right = [ {} ; {} ];\nalpha_c_right = {};\nkc_right = {};\n\
+         om = [ 0.0 ; -0.25268 ; 0.0 ];\nT = [ 200.0 ; 0.0 ; -30.0 ];\nnx = 640;\nny = 480;\nnx_right = 1024;\nny_right = 768;\n",
+        c.fx,
+        c.fy,
+        c.cx,
+        c.cy,
+        c.skew,
+        d(c.distortion.to_array()),
+        pi.fx,
+        pi.fy,
+        pi.cx,
+        pi.cy,
+        pi.skew,
+        d(pi.distortion.to_array()),
+    );
+    (vec![yml, sl, slm], m)
+}
+
+#[test]
+fn stereo_calibrations() {
+    let (fs_seeds, m) = stereo_seeds();
+    let sizes = RigSizes {
+        camera: Some((640, 480)),
+        projector: Some((1024, 768)),
+    };
+    fuzz_text_as("stereo-fs", "yml", 8, &fs_seeds, |p| {
+        import_rig(p, None, sizes)
+    });
+    fuzz_text_as("stereo-camera", "yml", 9, &fs_seeds[2..], |p| {
+        import_any_camera(p, Some((640, 480)))
+    });
+    fuzz_text_as("bouguet-stereo", "m", 10, &[m], |p| {
+        import_rig(p, None, sizes)
+    });
 }
 
 #[test]

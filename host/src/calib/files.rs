@@ -15,7 +15,7 @@ use crate::batch::decode_image_set;
 use crate::io::calibration::{Calibration, CameraParams, ReferencePlane};
 use crate::io::image::{Pixels, read_gray, write_tiff_f32};
 use crate::io::image_set;
-use crate::io::import::{import_bouguet_file, import_opencv};
+use crate::io::import::import_any_camera;
 use crate::io::pattern_file::PatternSetFile;
 use crate::math::Vec3;
 use fringe3d_core::decode::{DecodeConfig, Decoder};
@@ -283,24 +283,23 @@ pub fn write_camera_report(
 }
 
 /// A camera model from a file: a fringe3d calibration (`.toml`, its `[camera]`), an OpenCV
-/// `cv::FileStorage` file (`.yml`, `.yaml`, `.xml`, `.json`) or Bouguet's `Calib_Results.m`.
-/// `size` (the images' size) fills in a size the file does not state and is checked against one
-/// it does.
+/// `cv::FileStorage` file (`.yml`, `.yaml`, `.xml`, `.json`), Bouguet's `Calib_Results.m`, or
+/// camera 1 of a full calibration from another tool (OpenCV stereo, SLStudio, SLMaster, Bouguet's
+/// `Calib_Results_stereo.m`; see [`crate::io::import::import_any_camera`]). `size` (the images'
+/// size) fills in a size the file does not state and is checked against one it does.
 pub fn load_camera(path: &Path, size: Option<(u32, u32)>) -> Result<CameraParams, CalibError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    let (w, h) = size.unwrap_or((0, 0));
     let cam = match ext.as_str() {
         "toml" => Calibration::load(path)?.camera,
-        "m" => import_bouguet_file(path, w.max(1), h.max(1))?,
-        "yml" | "yaml" | "xml" | "json" => import_opencv(path, w.max(1), h.max(1))?,
+        "m" | "yml" | "yaml" | "xml" | "json" => import_any_camera(path, size)?,
         _ => {
             return Err(input(
                 path,
-                "unknown camera file type: use a fringe3d calibration (.toml), an OpenCV file (.yml, .yaml, .xml, .json) or Bouguet's Calib_Results.m",
+                "unknown camera file type: use a fringe3d calibration (.toml), an OpenCV, SLStudio or SLMaster file (.yml, .yaml, .xml, .json) or Bouguet's Calib_Results.m / Calib_Results_stereo.m",
             ));
         }
     };

@@ -20,7 +20,10 @@ fringe3d calibrate projector plates/plate_* --camera-from camera.yml --board 9x7
 fringe3d calibrate reference ref/ --patterns ref/patterns.toml --calibration calibration.toml --board-image ref/board.png --board 11x8 --square 25\n\n\
 The result is calibration.toml with reference_phase.tif beside it, as `fringe3d scan` reads them.\n\
 Camera intrinsics calibrated elsewhere: `--camera-from` takes an OpenCV file (.yml/.yaml/.xml/.json),\n\
-Bouguet's Calib_Results.m or a fringe3d calibration (.toml) instead of `calibrate camera`'s output.")]
+Bouguet's Calib_Results.m or a fringe3d calibration (.toml) instead of `calibrate camera`'s output,\n\
+or camera 1 of a stereo-style calibration (OpenCV stereo, SLStudio, SLMaster, Calib_Results_stereo.m).\n\
+Camera AND projector calibrated elsewhere: `fringe3d calibrate import FILE -o calibration.toml`, then\n\
+`calibrate reference` (also --virtual).")]
 pub struct CalibrateArgs {
     /// The step.
     #[command(subcommand)]
@@ -37,6 +40,11 @@ pub enum Step {
     Projector(ProjectorArgs),
     /// The reference plane's pose and phase map (paper §6); completes the calibration file.
     Reference(ReferenceArgs),
+    /// A full camera + projector calibration from another tool (OpenCV stereo, SLStudio,
+    /// SLMaster, Bouguet) as a fringe3d calibration (no reference yet).
+    Import(super::calibrate_import::ImportArgs),
+    /// A fringe3d calibration with its [projector] as an OpenCV stereo YAML file.
+    Export(super::calibrate_import::ExportArgs),
 }
 
 /// The checkerboard.
@@ -128,7 +136,7 @@ pub struct ProjectorArgs {
     #[arg(long, short = 'o', default_value = "calibration.toml")]
     pub out: PathBuf,
     /// Depth range of the measurement volume "MIN,MAX" in mm (default: the plates' z range ± 10 %).
-    #[arg(long, value_name = "MIN,MAX")]
+    #[arg(long, value_name = "MIN,MAX", allow_hyphen_values = true)]
     pub depth_range: Option<String>,
     /// Sample every N-th pixel of each plate.
     #[arg(long, default_value_t = 2)]
@@ -173,13 +181,13 @@ pub struct ReferenceArgs {
     #[command(flatten)]
     pub board: BoardArgs,
     /// Board thickness: its printed face lies this far in front of the reference surface, mm.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub board_offset: f64,
     /// A point of the plane "X,Y,Z" (camera frame, mm), instead of a board image.
-    #[arg(long, value_name = "X,Y,Z")]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub plane_point: Option<String>,
     /// The plane's normal "X,Y,Z", with --plane-point.
-    #[arg(long, value_name = "X,Y,Z")]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub plane_normal: Option<String>,
     /// File name of the phase map written beside OUT.
     #[arg(long, default_value = "reference_phase.tif")]
@@ -226,6 +234,8 @@ pub fn run(a: CalibrateArgs, g: Global) -> Result<()> {
         Step::Camera(c) => camera(c, g),
         Step::Projector(p) => projector(p, g),
         Step::Reference(r) => reference(r, g),
+        Step::Import(i) => super::calibrate_import::import(i, g),
+        Step::Export(e) => super::calibrate_import::export(e, g),
     }
 }
 
@@ -343,6 +353,7 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
         .patterns_h
         .clone()
         .unwrap_or_else(|| base.join("patterns_h.toml"));
+    check_plate_inputs(&a, &set_v, &set_h)?;
     // The image size, to complete camera files that do not state it.
     let size = crate::io::image::read_gray(&a.plates[0].join("board.png"))
         .ok()
@@ -440,7 +451,59 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
     Ok(())
 }
 
+/// The inputs of `calibrate projector`, checked before any work, each missing one named with the
+/// option or argument that fixes it.
+fn check_plate_inputs(a: &ProjectorArgs, set_v: &Path, set_h: &Path) -> Result<()> {
+    for (set, opt, given) in [
+        (set_v, "--patterns-v", a.patterns_v.is_some()),
+        (set_h, "--patterns-h", a.patterns_h.is_some()),
+    ] {
+        if !set.is_file() {
+            if given {
+                bail!("{opt} {}: no such pattern-set file", set.display());
+            }
+            bail!(
+                "{}: no such pattern-set file (the default of {opt}: {} beside the plate folders); give {opt} FILE",
+                set.display(),
+                set.file_name().and_then(|n| n.to_str()).unwrap_or("")
+            );
+        }
+    }
+    for plate in &a.plates {
+        if !plate.is_dir() {
+            bail!(
+                "{}: not a folder; PLATES are the plate-position folders, each holding v/, h/ and board.png",
+                plate.display()
+            );
+        }
+        for (sub, what) in [
+            ("v", "vertical-fringe images (the set of --patterns-v)"),
+            ("h", "horizontal-fringe images (the set of --patterns-h)"),
+        ] {
+            if !plate.join(sub).is_dir() {
+                bail!(
+                    "{}: no {sub}/ folder (the {what}); each PLATES folder holds v/, h/ and board.png",
+                    plate.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
+    if !a.patterns.is_file() {
+        bail!(
+            "--patterns {}: no such pattern-set file (the set the reference plane's images were captured with)",
+            a.patterns.display()
+        );
+    }
+    if !a.calibration.is_file() {
+        bail!(
+            "--calibration {}: no such file (the calibration from `calibrate projector` or `calibrate import`)",
+            a.calibration.display()
+        );
+    }
     if a.virtual_map {
         return virtual_reference(a, g);
     }

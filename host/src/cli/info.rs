@@ -3,6 +3,7 @@
 use super::{Global, common};
 use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, read_gray};
+use crate::io::import::{ForeignKind, detect, import_any_camera, inspect_rig};
 use crate::io::input::{MAX_TEXT_BYTES, read_text_limited};
 use anyhow::{Context, Result, bail};
 use serde_json::json;
@@ -13,6 +14,7 @@ use std::path::{Path, PathBuf};
 #[command(
     after_help = "Examples:\n  fringe3d info demo-out/dataset          # a dataset folder (manifest.json)\n  \
 fringe3d info calibration.toml          # a calibration\n  fringe3d info examples/patterns/paper8.toml\n  \
+fringe3d info stereo.yml                # another tool's calibration (OpenCV, SLStudio, SLMaster, Bouguet)\n  \
 fringe3d info phase.tif                 # an image or float map"
 )]
 pub struct InfoArgs {
@@ -48,8 +50,9 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
         match ext.as_str() {
             "toml" => toml_info(p)?,
             "png" | "tif" | "tiff" | "bmp" => image_info(p)?,
+            "yml" | "yaml" | "xml" | "json" | "m" => foreign_info(p)?,
             _ => bail!(
-                "{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif or .bmp)",
+                "{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif, .bmp, or another tool's calibration: .yml, .yaml, .xml, .json, .m)",
                 p.display()
             ),
         }
@@ -77,6 +80,12 @@ fn toml_info(p: &Path) -> Result<serde_json::Value> {
             o.insert(
                 "reference_map_exists".into(),
                 json!(reference.as_ref().map(|r| r.is_file())),
+            );
+            o.insert("baseline_mm".into(), json!(norm(&c.projector_centre)));
+            o.insert("reference_present".into(), json!(c.reference.is_some()));
+            o.insert(
+                "projector_model_present".into(),
+                json!(c.projector.is_some()),
             );
         }
         Ok(v)
@@ -109,6 +118,66 @@ fn toml_info(p: &Path) -> Result<serde_json::Value> {
             "{}: neither a calibration ([camera]) nor a pattern set ([projector])",
             p.display()
         )
+    }
+}
+
+fn norm(v: &[f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Another tool's calibration: a full camera + projector calibration (what `calibrate import`
+/// would make of it) or a camera alone (what `--camera-from` reads).
+fn foreign_info(p: &Path) -> Result<serde_json::Value> {
+    common::input_file(p)?;
+    match detect(p, None)? {
+        ForeignKind::Rig(format) => {
+            let (rig, [cam_size, proj_size]) = inspect_rig(p)?;
+            let pr = &rig.projector;
+            let mut projector = serde_json::to_value(pr.intrinsics)?;
+            if let Some(o) = projector.as_object_mut() {
+                o.insert("size_in_file".into(), json!(proj_size));
+            }
+            let mut camera = serde_json::to_value(rig.camera)?;
+            if let Some(o) = camera.as_object_mut() {
+                o.insert("size_in_file".into(), json!(cam_size));
+            }
+            let mut note = Vec::new();
+            if !cam_size {
+                note.push("the camera's size is not in the file (shown: twice the principal point); `calibrate import` needs --camera-size");
+            }
+            if !proj_size {
+                note.push("the projector's size is not in the file (shown: twice the principal point); `calibrate import` needs --projector-size");
+            }
+            Ok(json!({
+                "kind": "full calibration (camera + projector)",
+                "format": format.name(),
+                "camera": camera,
+                "projector": projector,
+                "projector_rotation": pr.rotation,
+                "projector_centre": pr.translation,
+                "baseline_mm": norm(&pr.translation),
+                "depth_range": rig.depth_range,
+                "reference_present": false,
+                "notes": note,
+                "next": "fringe3d calibrate import FILE -o calibration.toml, then fringe3d calibrate reference",
+            }))
+        }
+        kind => {
+            let cam = import_any_camera(p, None)?;
+            let what = if kind == ForeignKind::BouguetCamera {
+                "Bouguet Calib_Results.m"
+            } else {
+                "opencv"
+            };
+            Ok(json!({
+                "kind": "camera",
+                "format": what,
+                "camera": cam,
+                "projector": null,
+                "reference_present": false,
+                "next": "fringe3d calibrate projector PLATES... --camera-from FILE",
+            }))
+        }
     }
 }
 

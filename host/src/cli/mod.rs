@@ -16,6 +16,7 @@ macro_rules! errln {
 }
 
 pub mod calibrate;
+pub mod calibrate_import;
 pub mod cloud_out;
 pub mod common;
 pub mod decode;
@@ -62,7 +63,8 @@ pub enum Command {
     Scan(scan::ScanArgs),
     /// Render a synthetic fringe-projection dataset with ground truth.
     Render(render::RenderArgs),
-    /// Calibrate the camera, the projector centre or the reference plane (paper §7).
+    /// Calibrate the camera, the projector centre or the reference plane (paper §7); import or
+    /// export a full calibration of another tool.
     Calibrate(calibrate::CalibrateArgs),
     /// Render a built-in scene, scan it and report the accuracy against ground truth.
     Demo(demo::DemoArgs),

@@ -59,9 +59,51 @@ pub fn scan_timeout_s(s: &str) -> Result<f64, String> {
     }
 }
 
+/// An image size `WxH` (also `W,H` or `W×H`), each 1 to 1 000 000 px.
+pub fn size_wh(s: &str) -> Result<(u32, u32), String> {
+    let t = s.trim();
+    let (w, h) = t
+        .split_once(['x', 'X', ',', '×'])
+        .ok_or_else(|| format!("`{t}` is not a size: expected WxH, e.g. 1280x800"))?;
+    let w = whole(w, 1, 1_000_000, " px").map_err(|m| format!("width: {m}"))?;
+    let h = whole(h, 1, 1_000_000, " px").map_err(|m| format!("height: {m}"))?;
+    Ok((w as u32, h as u32))
+}
+
+/// A range `MIN,MAX` of two finite numbers with `0 < MIN < MAX` (a depth range, mm).
+pub fn min_max(s: &str) -> Result<[f64; 2], String> {
+    let v: Vec<&str> = s.split(',').map(str::trim).collect();
+    let [a, b] = v[..] else {
+        return Err(format!("`{s}`: expected two numbers MIN,MAX"));
+    };
+    let num = |x: &str| {
+        x.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("`{x}` is not a finite number"))
+    };
+    let (a, b) = (num(a)?, num(b)?);
+    if !(a > 0.0 && a < b) {
+        return Err(format!("must satisfy 0 < MIN < MAX, got {a},{b}"));
+    }
+    Ok([a, b])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sizes_and_ranges() {
+        assert_eq!(size_wh("912x1140"), Ok((912, 1140)));
+        assert_eq!(size_wh(" 8,6 "), Ok((8, 6)));
+        assert!(size_wh("0x5").unwrap_err().contains("width"));
+        assert!(size_wh("12").unwrap_err().contains("WxH"));
+        assert_eq!(min_max("500, 900"), Ok([500.0, 900.0]));
+        assert!(min_max("900,500").unwrap_err().contains("MIN < MAX"));
+        assert!(min_max("-1,5").unwrap_err().contains("0 < MIN"));
+        assert!(min_max("1,nan").is_err());
+    }
 
     #[test]
     fn ranges_are_enforced_with_the_range_in_the_message() {

@@ -11,11 +11,12 @@ use fringe3d_core::params::CameraParams;
 /// maps of `rows`/`cols`/`dt`/`data`), XML (`<opencv_storage>`, `type_id="opencv-matrix"`) or
 /// JSON — as written by OpenCV's calibration sample and `calibrateCamera` users.
 ///
-/// Keys (first found wins): the camera matrix `camera_matrix` (or `cameraMatrix`, `K`), the
-/// distortion `distortion_coefficients` (or `dist_coeffs`, `distCoeffs`, `D`). The camera matrix
-/// must be `[fx s cx; 0 fy cy; 0 0 1]`; `skew = s / fx`. Distortion may have 4 (`k3 = 0`), 5, 8, 12
-/// or 14 coefficients; beyond the fifth (`k4 k5 k6 s1 s2 s3 s4 τx τy`) all must be zero, as
-/// fringe3d's model has only `[k1, k2, p1, p2, k3]`. `image_width`/`image_height`, if present,
+/// Keys (first found wins): the camera matrix `camera_matrix` (or `cameraMatrix`, `K`, and camera
+/// 1's `M1`, `cameraMatrix1`, `Kc` of a camera-only file with stereo-style names), the distortion
+/// `distortion_coefficients` (or `dist_coeffs`, `distCoeffs`, `D`, `D1`, `distCoeffs1`, `kc`).
+/// The camera matrix must be `[fx s cx; 0 fy cy; 0 0 1]`; `skew = s / fx`. Distortion may have 4
+/// (`k3 = 0`), 5, 8, 12 or 14 coefficients; beyond the fifth (`k4 k5 k6 s1 s2 s3 s4 τx τy`) all
+/// must be zero, as fringe3d's model has only `[k1, k2, p1, p2, k3]`. `image_width`/`image_height`, if present,
 /// override `width`/`height`. OpenCV's pixel convention is ours. The result is validated.
 pub fn import_opencv(path: &Path, width: u32, height: u32) -> Result<CameraParams, FormatError> {
     let text = read_text(path)?;
@@ -25,8 +26,15 @@ pub fn import_opencv(path: &Path, width: u32, height: u32) -> Result<CameraParam
 
 fn opencv_camera(root: &Node, width: u32, height: u32) -> Result<CameraParams, String> {
     let find = |names: &[&'static str]| names.iter().find_map(|&n| root.get(n).map(|v| (n, v)));
-    let (kname, k) = find(&["camera_matrix", "cameraMatrix", "K"])
-        .ok_or("no camera matrix (looked for camera_matrix, cameraMatrix, K)")?;
+    let (kname, k) = find(&[
+        "camera_matrix",
+        "cameraMatrix",
+        "K",
+        "M1",
+        "cameraMatrix1",
+        "Kc",
+    ])
+    .ok_or("no camera matrix (looked for camera_matrix, cameraMatrix, K, M1, cameraMatrix1, Kc)")?;
     let k = matrix_values(k).map_err(|m| format!("{kname}: {m}"))?;
     if k.len() != 9 {
         return Err(format!("{kname} has {} values, expected 9 (3x3)", k.len()));
@@ -38,8 +46,16 @@ fn opencv_camera(root: &Node, width: u32, height: u32) -> Result<CameraParams, S
             k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7], k[8]
         ));
     }
-    let (dname, d) = find(&["distortion_coefficients", "dist_coeffs", "distCoeffs", "D"])
-        .ok_or("no distortion coefficients (looked for distortion_coefficients, dist_coeffs, distCoeffs, D)")?;
+    let (dname, d) = find(&[
+        "distortion_coefficients",
+        "dist_coeffs",
+        "distCoeffs",
+        "D",
+        "D1",
+        "distCoeffs1",
+        "kc",
+    ])
+    .ok_or("no distortion coefficients (looked for distortion_coefficients, dist_coeffs, distCoeffs, D, D1, distCoeffs1, kc)")?;
     let d = matrix_values(d).map_err(|m| format!("{dname}: {m}"))?;
     if ![4, 5, 8, 12, 14].contains(&d.len()) {
         return Err(format!(

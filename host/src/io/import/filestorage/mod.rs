@@ -68,7 +68,7 @@ pub(super) fn matrix_values(n: &Node) -> Result<Vec<f64>, String> {
                 }
             };
             if let (Some(r), Some(c)) = (dim("rows")?, dim("cols")?)
-                && r * c != v.len()
+                && r.checked_mul(c) != Some(v.len())
             {
                 return Err(format!(
                     "rows x cols = {r} x {c} but data has {} values",
