@@ -130,18 +130,13 @@ fn clipped_area(poly: &[[f64; 2]], x0: f64, x1: f64, y0: f64, y1: f64) -> f64 {
     0.5 * s.abs()
 }
 
-/// An exactly box-integrated fronto-parallel board (no renderer): `cols × rows` squares of `sq`
-/// pixels centred at `c`, turned by `angle`; dark/light levels, σ = 1 noise, 8-bit rounding.
-fn exact(
-    w: usize,
-    h: usize,
-    cols: i64,
-    rows: i64,
-    sq: f64,
-    c: [f64; 2],
-    angle: f64,
-    seed: u64,
-) -> (Image, Vec<[f64; 2]>) {
+/// An exactly box-integrated fronto-parallel `board` (no renderer) in a 640 × 512 image: squares
+/// of 27.9 px (as the renders above) centred near the image centre, turned by `angle` degrees; the
+/// renders' dark/light levels, σ = 1 noise, 8-bit rounding.
+fn exact(board: &Board, angle: f64, seed: u64) -> (Image, Vec<[f64; 2]>) {
+    let (w, h) = (640usize, 512usize);
+    let (cols, rows) = (board.cols as i64, board.rows as i64);
+    let (sq, c) = (27.9, [320.3, 255.7]);
     let (s, co) = angle.to_radians().sin_cos();
     // board (squares) -> pixel
     let fwd = |x: f64, y: f64| {
@@ -274,16 +269,7 @@ fn exact_corners_are_flat_across_board_angles() {
         .into_iter()
         .enumerate()
     {
-        let (img, truth) = exact(
-            640,
-            512,
-            board.cols as i64,
-            board.rows as i64,
-            27.9,
-            [320.3, 255.7],
-            a,
-            500 + k as u64,
-        );
+        let (img, truth) = exact(&board, a, 500 + k as u64);
         let d = detect(&img, &board, &DetectOptions::default()).unwrap();
         views.push((a, compare(&d.corners, &truth)));
     }
@@ -292,7 +278,7 @@ fn exact_corners_are_flat_across_board_angles() {
 
 fn angles() -> Vec<f64> {
     let mut a: Vec<f64> = (0..=6).map(|k| k as f64 * 0.5).collect();
-    a.extend([5.0, 8.0, 12.0, 17.0, 22.5, 28.0, 33.0, 38.0, 42.0]);
+    a.extend([5.0, 8.0, 12.0, 17.0, 22.5, 28.0, 33.0, 38.0]);
     a.extend((0..=6).map(|k| 42.0 + k as f64 * 0.5));
     a
 }
@@ -310,16 +296,7 @@ fn experiment() {
             "render12" => render(&sc, a, [0.0, 0.0], 12, 100 + k as u64),
             "render64" => render(&sc, a, [0.0, 0.0], 64, 100 + k as u64),
             "tilt12" => render(&sc, a, [6.0, -5.0], 12, 100 + k as u64),
-            _ => exact(
-                640,
-                512,
-                board.cols as i64,
-                board.rows as i64,
-                27.9,
-                [320.3, 255.7],
-                a,
-                100 + k as u64,
-            ),
+            _ => exact(&board, a, 100 + k as u64),
         };
         let t0 = std::time::Instant::now();
         let d = detect(&img, &board, &DetectOptions::default()).unwrap();
