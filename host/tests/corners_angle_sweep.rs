@@ -283,8 +283,8 @@ fn angles() -> Vec<f64> {
     a
 }
 
-/// The full sweep with timing, one image source per run:
-/// `SWEEP=render12|render64|tilt12|exact cargo test -p fringe3d --test corners_angle_sweep -- --ignored --nocapture`.
+/// The full sweep with timing, one image source per run (`SWEEP=render12|render64|tilt12|exact`):
+/// `SWEEP=exact cargo test -p fringe3d --test corners_angle_sweep -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn experiment() {

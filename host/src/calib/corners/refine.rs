@@ -76,7 +76,8 @@ const W_EPS: f64 = 1e-3;
 /// density, `F₁ = ∫F₀`, `F₂ = ∫F₁`.
 #[inline]
 fn gauss_antiderivatives(x: f64, beta: f64) -> [f64; 4] {
-    // Beyond 8.5 β the CDF is 0 or 1 to 1e-16 (most of a window's pixels are that far from an edge).
+    // Beyond 8.5 β the CDF is 0 or 1 to 1e-16 (most pixels of a window are that far from an
+    // edge).
     if x > 8.5 * beta {
         return [0.5 * (x * x + beta * beta), x, 1.0, 0.0];
     }
@@ -206,8 +207,9 @@ pub(super) fn edge_angles(h: [f64; 3]) -> Option<(f64, f64)> {
 /// `I(p) ≈ c0 + c1·dx + c2·dy + (c3 + c4·dx + c5·dy)·E(n1·d)·E(n2·d)`, `d = p − q`,
 ///
 /// with `E` a straight edge integrated over the box pixel and blurred by a Gaussian β ([`edge`]),
-/// `n_i` the normals of the two edges through q. The linear terms absorb the illumination gradient across the corner (additive ambient and
-/// multiplicative projector light), which otherwise shifts a saddle-point estimate by ~σ²·|∇L|/L.
+/// `n_i` the normals of the two edges through q. The linear terms absorb the illumination
+/// gradient across the corner (additive ambient and multiplicative projector light), which
+/// otherwise shifts a saddle-point estimate by ~σ²·|∇L|/L.
 /// The remaining model error (the pixel integral of the product `E₁·E₂` taken as the product of
 /// the integrals, exact for edges along the pixel axes) is point-symmetric about q and confined to
 /// the pixels at the corner.
