@@ -13,11 +13,15 @@
 //!    right-handed in the image (the board is seen from its printed side), and the square at the
 //!    board origin (x min, y min) is dark; when both end squares have the same colour the board is
 //!    symmetric under a half turn and that ambiguity is reported (harmless for calibration).
-//! 4. **Refinement**: each corner is moved to the saddle point of `F(q) = Σ_k G_σ(q − k) I(k)`
-//!    (the raw samples `I(k)` at integer pixel centres, weighted by a continuous Gaussian centred at
-//!    `q`) by Newton's method on `∇F = 0`. A pixel-integrated X-junction is point-symmetric about
-//!    its corner, so for straight edges this saddle is the corner up to sampling (aliasing) effects,
-//!    whatever the angle between the edges; σ = 0.15 × the local corner spacing (1–4 px).
+//! 4. **Refinement**: each corner is first moved to the saddle point of
+//!    `F(q) = Σ_k G_σ(q − k) I(k)` (the raw samples `I(k)` at integer pixel centres, weighted by a
+//!    continuous Gaussian centred at `q`) by Newton's method on `∇F = 0`, σ = 0.08 × the local
+//!    corner spacing (1–4 px); then (default, [`Refinement::Model`]) an X-junction model is fitted
+//!    to the pixels around it: two straight edges, each integrated over the box pixel and blurred
+//!    by a Gaussian, with linear illumination terms ([`refine_model`]). Modelling the pixel
+//!    integral exactly keeps the corner unbiased at every board angle: with an erf edge profile
+//!    instead, edges within ~3° of the pixel axes biased corners by up to 0.04 px (issue #18,
+//!    `host/tests/corners_angle_sweep.rs`).
 //!
 //! Noise: at the saddle, δq ≈ σ_noise / (1.6·C) per axis for a contrast C between the squares,
 //! independent of σ (for 8-bit images with C ≈ 190 gray levels and σ_noise = 1: ~0.003 px).

@@ -279,6 +279,8 @@ pub fn write_camera_report(
     let rp = dir.join("report.json");
     crate::io::atomic::write_atomic(&rp, |w| w.write_all(text.as_bytes()))
         .map_err(|e| input(&rp, e.to_string()))?;
+    super::report::write_corners_json(dir, board, (dv.width, dv.height), &dv.views, cal)
+        .map_err(|m| input(&dir.join("corners.json"), m))?;
     Ok(j)
 }
 

@@ -1,8 +1,12 @@
 //! Pictures for the calibration reports: a view with its detected corners and magnified residual
-//! vectors, a phase-map overview.
+//! vectors, a phase-map overview; and the camera report's `corners.json` (the detected corners of
+//! every view with their reprojection residuals, layout in `docs/formats.md`).
 
+use super::camera::{CameraCalibration, View};
+use super::corners::Board;
 use crate::io::preview::write_rgb_png;
-use std::path::Path;
+use serde_json::json;
+use std::path::{Path, PathBuf};
 
 /// An RGB8 canvas.
 pub struct Canvas {
@@ -156,4 +160,79 @@ pub fn view_picture(
     c.line([10.0, y - 3.0], [10.0, y + 3.0], [255, 230, 0]);
     c.line([10.0 + len, y - 3.0], [10.0 + len, y + 3.0], [255, 230, 0]);
     c
+}
+
+/// `corners.json` of a camera report: per detected view (used or left out) its image, and per
+/// inner corner its board index `(i, j)`, board position (mm), detected pixel `(u, v)` (pixel
+/// centres at integer coordinates) and reprojection residual (projected − detected; `null` for a
+/// view left out of the calibration).
+pub fn corners_json(
+    board: &Board,
+    size: (u32, u32),
+    views: &[View],
+    cal: &CameraCalibration,
+) -> serde_json::Value {
+    let (ni, nj) = board.inner();
+    let obj = board.object_points();
+    let out: Vec<serde_json::Value> = views
+        .iter()
+        .map(|v| {
+            let used = cal.views.iter().find(|r| r.name == v.name);
+            let image = Path::new(&v.name)
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_else(|| v.name.clone());
+            let corners: Vec<serde_json::Value> = v
+                .corners
+                .iter()
+                .enumerate()
+                .map(|(k, uv)| {
+                    let res = used
+                        .and_then(|r| r.residuals.get(k))
+                        .map(|r| json!([r[0], r[1]]));
+                    json!({
+                        "i": k % ni,
+                        "j": k / ni,
+                        "index": k,
+                        "board_mm": obj.get(k).map(|p| [p[0], p[1]]),
+                        "uv": [uv[0], uv[1]],
+                        "residual": res,
+                    })
+                })
+                .collect();
+            json!({
+                "image": image,
+                "path": v.name,
+                "used": used.is_some(),
+                "rms_px": used.map(|r| r.rms),
+                "corners": corners,
+            })
+        })
+        .collect();
+    json!({
+        "format": "fringe3d camera corners",
+        "version": 1,
+        "pixel_convention": "pixel centres at integer coordinates, (0, 0) = centre of the top-left pixel, u right, v down",
+        "residual": "projected - detected, pixels",
+        "image_size": [size.0, size.1],
+        "board": {"cols": board.cols, "rows": board.rows, "square_mm": board.square, "inner_corners": [ni, nj]},
+        "corner_order": "row by row, i fastest: index = j * inner_corners[0] + i",
+        "views": out,
+    })
+}
+
+/// Write [`corners_json`] as `dir/corners.json` (atomically); returns its path.
+pub fn write_corners_json(
+    dir: &Path,
+    board: &Board,
+    size: (u32, u32),
+    views: &[View],
+    cal: &CameraCalibration,
+) -> Result<PathBuf, String> {
+    let j = corners_json(board, size, views, cal);
+    let text = serde_json::to_string_pretty(&j).map_err(|e| e.to_string())?;
+    let p = dir.join("corners.json");
+    crate::io::atomic::write_atomic(&p, |w| w.write_all(text.as_bytes()))
+        .map_err(|e| e.to_string())?;
+    Ok(p)
 }

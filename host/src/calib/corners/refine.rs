@@ -58,10 +58,107 @@ pub fn refine_saddle(img: &Image, q0: [f64; 2], sigma: f64) -> Result<[f64; 2], 
     Err("no convergence")
 }
 
-/// Smallest edge width β of the corner model, pixels: a step integrated over a box pixel has a
-/// profile of standard deviation √(1/12) = 0.29 px whatever its direction; a free β → 0 would
-/// leave the position of a step that falls on a pixel boundary undetermined within the pixel.
-const BETA_MIN: f64 = 0.3;
+/// Smallest optical blur β of the corner model, pixels. The pixel's own box integration is
+/// modelled exactly (see [`edge`]), so β only stands for blur beyond it and may be near 0.
+const BETA_MIN: f64 = 0.05;
+
+/// The blur β for the model parameter `b`: smooth, never below [`BETA_MIN`] (a bound the fit
+/// would otherwise run into on images without optical blur).
+#[inline]
+fn blur(b: f64) -> f64 {
+    (BETA_MIN * BETA_MIN + b * b).sqrt()
+}
+
+/// Below this width a box factor of [`edge`] is replaced by its limit (a derivative).
+const W_EPS: f64 = 1e-3;
+
+/// `[F₂, F₁, F₀, F₋₁](x)` for a Gaussian of standard deviation β: `F₀` its CDF, `F₋₁` its
+/// density, `F₁ = ∫F₀`, `F₂ = ∫F₁`.
+#[inline]
+fn gauss_antiderivatives(x: f64, beta: f64) -> [f64; 4] {
+    // Beyond 8.5 β the CDF is 0 or 1 to 1e-16 (most pixels of a window are that far from an
+    // edge).
+    if x > 8.5 * beta {
+        return [0.5 * (x * x + beta * beta), x, 1.0, 0.0];
+    }
+    if x < -8.5 * beta {
+        return [0.0; 4];
+    }
+    let (e, ex) = erf_exp(x / (std::f64::consts::SQRT_2 * beta));
+    let cdf = 0.5 * (1.0 + e);
+    let g = ex / (beta * (2.0 * std::f64::consts::PI).sqrt());
+    let b2 = beta * beta;
+    let f1 = x * cdf + b2 * g;
+    let f2 = 0.5 * ((x * x + b2) * cdf + x * b2 * g);
+    [f2, f1, cdf, g]
+}
+
+/// A straight edge integrated over a unit box pixel, then blurred by a Gaussian β, at signed
+/// distance `a` from the edge whose unit normal is `(−sin φ, cos φ)` = `(−sn, cs)`: the step
+/// convolved with the projection of the pixel box onto the normal (two boxes of widths |sin φ| and
+/// |cos φ|) and the Gaussian, in closed form by finite differences of `F₂`. Returns
+/// `[E, ∂E/∂a, ∂E/∂φ at fixed a, ∂E/∂β]` with `E ∈ [−1, 1]`.
+///
+/// Unlike an erf profile this is exact for any edge direction: a box-integrated edge along a
+/// pixel axis is a linear ramp one pixel wide, and an erf fitted to its samples lands off by up to
+/// ~0.05 px depending on where the edge falls within the pixel — the same error along the whole
+/// edge, so it does not average out (issue #18: corners biased on boards near axis alignment).
+#[inline]
+fn edge(a: f64, sn: f64, cs: f64, beta: f64) -> [f64; 4] {
+    let (w1, w2) = (sn.abs(), cs.abs());
+    // Per box factor: shifts and weights of the difference quotient (w ≥ W_EPS) or of its limit,
+    // a derivative (one point, one F level lower).
+    let factor = |w: f64| -> ([f64; 2], [f64; 2], usize, usize) {
+        if w >= W_EPS {
+            ([0.5 * w, -0.5 * w], [1.0 / w, -1.0 / w], 2, 0)
+        } else {
+            ([0.0, 0.0], [1.0, 0.0], 1, 1)
+        }
+    };
+    let (sh1, wt1, n1, o1) = factor(w1);
+    let (sh2, wt2, n2, o2) = factor(w2);
+    let mut f = [[0.0; 4]; 4];
+    for i in 0..n1 {
+        for j in 0..n2 {
+            f[i * 2 + j] = gauss_antiderivatives(a + sh1[i] + sh2[j], beta);
+        }
+    }
+    // P⁽ᵐ⁾ = Σ wt1·wt2·F_{2−m−o1−o2}; index into [F₂, F₁, F₀, F₋₁] = m + o1 + o2.
+    let p = |m: usize| -> f64 {
+        let mut s = 0.0;
+        for i in 0..n1 {
+            for j in 0..n2 {
+                s += wt1[i] * wt2[j] * f[i * 2 + j][m + o1 + o2];
+            }
+        }
+        s
+    };
+    let (p0, p1, p2) = (p(0), p(1), p(2));
+    // ∂P/∂w for a difference-quotient factor: [mean of the one-level-lower F at ±w/2 − P]/w.
+    let mut dw1 = 0.0;
+    if n1 == 2 {
+        let mut s = 0.0;
+        for i in 0..2 {
+            for j in 0..n2 {
+                s += 0.5 * wt2[j] * f[i * 2 + j][1 + o2];
+            }
+        }
+        dw1 = (s - p0) / w1;
+    }
+    let mut dw2 = 0.0;
+    if n2 == 2 {
+        let mut s = 0.0;
+        for i in 0..n1 {
+            for j in 0..2 {
+                s += 0.5 * wt1[i] * f[i * 2 + j][1 + o1];
+            }
+        }
+        dw2 = (s - p0) / w2;
+    }
+    // w1 = |sin φ|, w2 = |cos φ|.
+    let dphi = dw1 * sn.signum() * cs - dw2 * cs.signum() * sn;
+    [2.0 * p0 - 1.0, 2.0 * p1, 2.0 * dphi, 2.0 * beta * p2]
+}
 
 /// Hessian of `Σ_k G_σ(q − k) I(k)` at `q` (up to a positive factor).
 pub(super) fn saddle_hessian(img: &Image, q: [f64; 2], sigma: f64) -> Option<[f64; 3]> {
@@ -109,10 +206,13 @@ pub(super) fn edge_angles(h: [f64; 3]) -> Option<(f64, f64)> {
 ///
 /// `I(p) ≈ c0 + c1·dx + c2·dy + (c3 + c4·dx + c5·dy)·E(n1·d)·E(n2·d)`, `d = p − q`,
 ///
-/// with `E(x) = erf(x / (√2·β))` an edge of width β, `n_i` the normals of the two edges through
-/// q. The linear terms absorb the illumination gradient across the corner (additive ambient and
-/// multiplicative projector light), which otherwise shifts a saddle-point estimate by ~σ²·|∇L|/L.
-/// Model errors (edge profile, non-orthogonal blur) are point-symmetric about q and do not bias it.
+/// with `E` a straight edge integrated over the box pixel and blurred by a Gaussian β ([`edge`]),
+/// `n_i` the normals of the two edges through q. The linear terms absorb the illumination
+/// gradient across the corner (additive ambient and multiplicative projector light), which
+/// otherwise shifts a saddle-point estimate by ~σ²·|∇L|/L.
+/// The remaining model error (the pixel integral of the product `E₁·E₂` taken as the product of
+/// the integrals, exact for edges along the pixel axes) is point-symmetric about q and confined to
+/// the pixels at the corner.
 /// Levenberg–Marquardt over the 11 parameters; the window is re-centred once on the result.
 pub fn refine_model(
     img: &Image,
@@ -153,21 +253,17 @@ pub fn refine_model(
         }
         Ok(px)
     };
-    let sq2 = std::f64::consts::SQRT_2;
-    let k_g = (2.0 / std::f64::consts::PI).sqrt();
-    // Model pieces for the nonlinear parameters (qx, qy, φ1, φ2, b).
+    // Model pieces for the nonlinear parameters (qx, qy, φ1, φ2, b), β = √(β_min² + b²).
     let piece = |x: &[f64], p: &(f64, f64, f64, f64)| {
         let (dx, dy) = (p.0 - x[0], p.1 - x[1]);
         let (s1, c1) = x[2].sin_cos();
         let (s2, c2) = x[3].sin_cos();
-        let beta = x[4];
         let a1 = -s1 * dx + c1 * dy;
         let a2 = -s2 * dx + c2 * dy;
-        let (e1, x1) = erf_exp(a1 / (sq2 * beta));
-        let (e2, x2) = erf_exp(a2 / (sq2 * beta));
-        let g1 = k_g / beta * x1;
-        let g2 = k_g / beta * x2;
-        (dx, dy, e1, e2, g1, g2, a1, a2, [c1, s1], [c2, s2], beta)
+        let beta = blur(x[4]);
+        let e1 = edge(a1, s1, c1, beta);
+        let e2 = edge(a2, s2, c2, beta);
+        (dx, dy, e1, e2, [c1, s1], [c2, s2])
     };
     let mut q = q0;
     let mut state: Option<Vec<f64>> = None;
@@ -190,7 +286,7 @@ pub fn refine_model(
             let mut atb = [0.0; 6];
             for p in &px {
                 let (dx, dy, e1, e2, ..) = piece(x, p);
-                let s = e1 * e2;
+                let s = e1[0] * e2[0];
                 let row = [1.0, dx, dy, s, s * dx, s * dy].map(|v| v * p.3);
                 for i in 0..6 {
                     atb[i] += row[i] * p.2 * p.3;
@@ -215,13 +311,14 @@ pub fn refine_model(
                 x
             }
             None => {
-                let mut x = vec![q[0], q[1], angles.0, angles.1, 0.7];
+                let b0 = (0.5f64 * 0.5 - BETA_MIN * BETA_MIN).sqrt();
+                let mut x = vec![q[0], q[1], angles.0, angles.1, b0];
                 x.extend(linear(&x).ok_or("degenerate window")?);
                 x
             }
         };
         let eval = |x: &Vec<f64>, _j: bool| -> Option<lm::Eval> {
-            if !(x[4] >= BETA_MIN && x[4] < 20.0) {
+            if !(x[4].abs() < 20.0) {
                 return None;
             }
             let mut e = lm::Eval {
@@ -232,23 +329,21 @@ pub fn refine_model(
             e.vals.reserve(11 * px.len());
             e.cols.reserve(11 * px.len());
             for p in &px {
-                let (dx, dy, e1, e2, g1, g2, a1, a2, t1, t2, beta) = piece(x, p);
+                let (dx, dy, e1, e2, t1, t2) = piece(x, p);
                 let sw = p.3;
-                let s = e1 * e2;
+                let s = e1[0] * e2[0];
                 let lin = x[8] + x[9] * dx + x[10] * dy;
                 e.r.push(sw * (x[5] + x[6] * dx + x[7] * dy + lin * s - p.2));
                 let (s1, c1) = (t1[1], t1[0]);
                 let (s2, c2) = (t2[1], t2[0]);
-                // ∂S/∂q = −(g1 e2 n1 + e1 g2 n2), n = (−sin φ, cos φ).
-                let dsq = [
-                    -(g1 * e2 * -s1 + e1 * g2 * -s2),
-                    -(g1 * e2 * c1 + e1 * g2 * c2),
-                ];
-                // ∂(n·d)/∂φ = −(cos φ·dx + sin φ·dy).
-                let ds1 = g1 * e2 * -(c1 * dx + s1 * dy);
-                let ds2 = e1 * g2 * -(c2 * dx + s2 * dy);
+                let (g1, g2) = (e1[1] * e2[0], e1[0] * e2[1]);
+                // ∂S/∂q = −(g1 n1 + g2 n2), n = (−sin φ, cos φ), g_i = ∂S/∂a_i.
+                let dsq = [-(g1 * -s1 + g2 * -s2), -(g1 * c1 + g2 * c2)];
+                // ∂a/∂φ = −(cos φ·dx + sin φ·dy); plus the box widths' dependence on φ.
+                let ds1 = g1 * -(c1 * dx + s1 * dy) + e1[2] * e2[0];
+                let ds2 = g2 * -(c2 * dx + s2 * dy) + e1[0] * e2[2];
                 // ∂S/∂β · ∂β/∂b.
-                let dsb = -(g1 * e2 * a1 + e1 * g2 * a2) / beta;
+                let dsb = (e1[3] * e2[0] + e1[0] * e2[3]) * x[4] / blur(x[4]);
                 e.vals.extend(
                     [
                         -x[6] - x[9] * s + lin * dsq[0],
@@ -309,4 +404,54 @@ fn erf_exp(x: f64) -> (f64, f64) {
                 + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
     let v = 1.0 - poly * e;
     (if x < 0.0 { -v } else { v }, e)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`edge`] against a brute-force pixel integral of an erf edge (300 × 300 midpoint samples
+    /// of the box), and its derivatives against central differences.
+    #[test]
+    fn edge_is_the_box_integral_of_a_blurred_step() {
+        let n = 300;
+        for &beta in &[0.25, 0.6] {
+            for &phi in &[0.0, 4e-4, 0.3, std::f64::consts::FRAC_PI_4, 1.2, -0.7, 2.5] {
+                let (sn, cs) = f64::sin_cos(phi);
+                for &a in &[-1.2, -0.3, 0.0, 0.2, 0.9] {
+                    let mut sum = 0.0;
+                    for i in 0..n {
+                        for j in 0..n {
+                            let t = (i as f64 + 0.5) / n as f64 - 0.5;
+                            let s = (j as f64 + 0.5) / n as f64 - 0.5;
+                            let x = a + (-sn * t + cs * s);
+                            sum += erf_exp(x / (std::f64::consts::SQRT_2 * beta)).0;
+                        }
+                    }
+                    let want = sum / (n * n) as f64;
+                    let e = edge(a, sn, cs, beta);
+                    assert!(
+                        (e[0] - want).abs() < 2e-5,
+                        "a {a} φ {phi} β {beta}: {} vs {want}",
+                        e[0]
+                    );
+                    let h = 1e-5;
+                    let da =
+                        (edge(a + h, sn, cs, beta)[0] - edge(a - h, sn, cs, beta)[0]) / (2.0 * h);
+                    let (sp, cp) = f64::sin_cos(phi + h);
+                    let (sm, cm) = f64::sin_cos(phi - h);
+                    let dphi = (edge(a, sp, cp, beta)[0] - edge(a, sm, cm, beta)[0]) / (2.0 * h);
+                    let db =
+                        (edge(a, sn, cs, beta + h)[0] - edge(a, sn, cs, beta - h)[0]) / (2.0 * h);
+                    for (k, fd) in [(1, da), (2, dphi), (3, db)] {
+                        assert!(
+                            (e[k] - fd).abs() < 1e-4 * (1.0 + fd.abs()),
+                            "a {a} φ {phi} β {beta}: derivative {k} {} vs {fd}",
+                            e[k]
+                        );
+                    }
+                }
+            }
+        }
+    }
 }
