@@ -27,12 +27,19 @@ fn bench_dir() -> PathBuf {
 }
 
 /// Build the bench for `target`; `Err` with the reason when the toolchain lacks the target.
+///
+/// With more codegen units and no debug info than the bench's own release profile (whose
+/// instruction counts `run.sh` reports): the core is rebuilt for each target at every change, and
+/// this halves that time in CI; the digests must not depend on code generation anyway, which is
+/// what this test checks.
 fn build(target: &str) -> Result<PathBuf, String> {
     let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arith-bench");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let out = Command::new(cargo)
         .current_dir(bench_dir()) // its .cargo/config.toml (linker script flags) applies
         .args(["build", "--release", "--target", target])
+        .args(["--config", "profile.release.codegen-units=16"])
+        .args(["--config", "profile.release.debug=false"])
         .env("CARGO_TARGET_DIR", &target_dir)
         .env_remove("RUSTFLAGS")
         .env_remove("CARGO_ENCODED_RUSTFLAGS")

@@ -3,7 +3,7 @@
 //! curved pattern sets, plus seeded Gaussian phase noise. The fit must remove nearly all the
 //! noise, measure it, and refuse captures that no smooth plane map explains.
 
-use fringe3d::calib::reference_fit::{FitError, Transfer, fit_reference};
+use fringe3d::calib::reference_fit::{FitError, NOISE_FLOOR_RAD, Transfer, fit_reference};
 use fringe3d_core::pattern::{Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
 
@@ -164,6 +164,41 @@ fn the_fit_removes_the_noise_for_every_pattern_family() {
         let covered = fit.phase.iter().filter(|p| p.is_finite()).count();
         assert!(covered >= lit);
     }
+}
+
+/// A noise-free capture (a clean render) is modelled, not refused: its σ is far below what the
+/// spline represents of the lenses, so the outlier and structure tests use the noise floor
+/// (`NOISE_FLOOR_RAD`), and the map stays within it of the truth. A bumpy plate is still refused
+/// at that floor.
+#[test]
+fn a_noise_free_capture_is_modelled_and_a_noise_free_bump_refused() {
+    for (name, set) in [("linear", linear()), ("curved", curved())] {
+        let (exact, clean) = capture(&set, 0.0, 7);
+        let fit = fit_reference(&set, &clean, W, H).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let err = rms_error(&fit.phase, &exact, &clean);
+        eprintln!(
+            "{name} noise-free: fitted {err:.2e} rad, noise {:.2e}, structure {:.2e}, {} outliers",
+            fit.noise_rad, fit.structure_rad, fit.outliers
+        );
+        assert!(
+            fit.outliers * 100 < fit.used,
+            "{name}: {} outliers",
+            fit.outliers
+        );
+        assert!(err < NOISE_FLOOR_RAD, "{name}: {err}");
+    }
+    let set = linear();
+    let (_, mut bumpy) = capture(&set, 0.0, 7);
+    for (p, x) in bumpy.iter_mut().enumerate() {
+        let (u, v) = ((p % W) as f64, (p / W) as f64);
+        *x += (3e-3 * (u / 40.0 * std::f64::consts::TAU).sin() * (v / 40.0).cos()) as f32;
+    }
+    let r = fit_reference(&set, &bumpy, W, H);
+    assert!(
+        matches!(r, Err(FitError::Structure { .. })),
+        "{:?}",
+        r.map(|f| (f.structure_rad, f.noise_rad))
+    );
 }
 
 #[test]

@@ -39,6 +39,13 @@ use super::linalg::{cholesky, cholesky_solve};
 pub const SPACINGS_PX: [u32; 3] = [256, 128, 64];
 /// A coarser spacing is kept while its residual RMS is within this factor of the finest one's.
 pub const SPACING_TOLERANCE: f64 = 1.005;
+/// The smallest noise the outlier and structure tests assume, rad: a noise-free capture (a 16-bit
+/// render without noise) has σ ≈ 1e-5 rad, below what a spline of modest knot spacing represents
+/// of the lens and projector (≈ 1.8e-4 rad of structure on a synthetic plane), and every pixel
+/// would look like an outlier. 5e-4 rad of map error is
+/// 1e-4 of a 16-pixel fringe (about a micrometre of depth); a capture that clean gains
+/// nothing from the model (`--raw` keeps it exactly).
+pub const NOISE_FLOOR_RAD: f64 = 5e-4;
 /// Pixels off by more than this many robust standard deviations are outliers.
 pub const OUTLIER_SIGMAS: f64 = 6.0;
 /// Reweighting rounds of the robust start (each one least-squares fit at the finest spacing).
@@ -507,7 +514,7 @@ pub fn fit_reference(
     let sigma0 = robust_sigma(&r);
     let mut outliers = 0usize;
     for (w, e) in weight.iter_mut().zip(&r) {
-        if *w > 0.0 && !(e.abs() <= OUTLIER_SIGMAS * sigma0.max(1e-9)) {
+        if *w > 0.0 && !(e.abs() <= OUTLIER_SIGMAS * sigma0.max(NOISE_FLOOR_RAD)) {
             *w = 0.0;
             outliers += 1;
         }
@@ -515,7 +522,7 @@ pub fn fit_reference(
     if outliers as f64 > MAX_OUTLIER_FRACTION * valid as f64 {
         return Err(FitError::Outliers {
             percent: 100.0 * outliers as f64 / valid as f64,
-            sigma: sigma0,
+            sigma: sigma0.max(NOISE_FLOOR_RAD),
         });
     }
     // Every spacing on the inliers; keep the coarsest within the tolerance of the finest.
@@ -535,10 +542,10 @@ pub fn fit_reference(
     let (spacing_px, spline, r, residual_rms_rad) = fits.swap_remove(pick);
     let noise_rad = white_sigma(&r, width);
     let (structure_rad, (u, v)) = structure(&r, width, height);
-    if structure_rad > MAX_STRUCTURE_OF_NOISE * noise_rad {
+    if structure_rad > MAX_STRUCTURE_OF_NOISE * noise_rad.max(NOISE_FLOOR_RAD) {
         return Err(FitError::Structure {
             structure: structure_rad,
-            sigma: noise_rad,
+            sigma: noise_rad.max(NOISE_FLOOR_RAD),
             u,
             v,
         });
