@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use fringe3d::io::calibration::{
     Calibration, CameraParams, Distortion, FormatError, ProjectorParams, ReferencePlane,
-    import_bouguet, import_bouguet_file, import_opencv,
 };
+use fringe3d::io::import::{import_bouguet, import_bouguet_file, import_opencv};
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!(

@@ -1,8 +1,8 @@
 //! Calibration files: the camera model, the projector centre and the reference plane the
 //! reconstruction needs (paper §6), in a documented TOML file. The schema and reading are in
 //! `schema`, the checks in `validate`, the writer in `toml_writer`; the importers for OpenCV
-//! `cv::FileStorage` files and Bouguet's toolbox live in [`crate::io::import`] and are
-//! re-exported here, as are the core's parameter types the file embeds.
+//! `cv::FileStorage` files and Bouguet's toolbox live in [`crate::io::import`] (which builds on
+//! this module); the core's parameter types the file embeds are re-exported here.
 //!
 //! # Conventions
 //! - Frame: the camera's, as in OpenCV — origin at the centre of projection, x right, y down,
@@ -23,7 +23,6 @@ mod validate;
 
 pub use super::camera_check::validate_camera;
 pub use super::error::FormatError;
-pub use super::import::{import_bouguet, import_bouguet_file, import_opencv};
 pub use fringe3d_core::params::{CameraParams, Distortion, ProjectorParams, ScanGeometry};
 pub use pattern_digest::{
     DIGEST_PREFIX, PatternCheck, PatternSetError, ReferenceDigest, ScanPatterns, check_pattern_set,
