@@ -43,7 +43,7 @@ pub enum Step {
     /// A full camera + projector calibration from another tool (OpenCV stereo, SLStudio,
     /// SLMaster, Bouguet) as a fringe3d calibration (no reference yet).
     Import(super::calibrate_import::ImportArgs),
-    /// A fringe3d calibration with its [projector] as an OpenCV stereo YAML file.
+    /// A fringe3d calibration with its `[projector]` as an OpenCV stereo YAML file.
     Export(super::calibrate_import::ExportArgs),
 }
 

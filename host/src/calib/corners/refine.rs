@@ -59,7 +59,7 @@ pub fn refine_saddle(img: &Image, q0: [f64; 2], sigma: f64) -> Result<[f64; 2], 
 }
 
 /// Smallest optical blur β of the corner model, pixels. The pixel's own box integration is
-/// modelled exactly (see [`edge`]), so β only stands for blur beyond it and may be near 0.
+/// modelled exactly (see `edge`), so β only stands for blur beyond it and may be near 0.
 const BETA_MIN: f64 = 0.05;
 
 /// The blur β for the model parameter `b`: smooth, never below [`BETA_MIN`] (a bound the fit
@@ -69,7 +69,7 @@ fn blur(b: f64) -> f64 {
     (BETA_MIN * BETA_MIN + b * b).sqrt()
 }
 
-/// Below this width a box factor of [`edge`] is replaced by its limit (a derivative).
+/// Below this width a box factor of `edge` is replaced by its limit (a derivative).
 const W_EPS: f64 = 1e-3;
 
 /// `[F₂, F₁, F₀, F₋₁](x)` for a Gaussian of standard deviation β: `F₀` its CDF, `F₋₁` its
@@ -206,7 +206,7 @@ pub(super) fn edge_angles(h: [f64; 3]) -> Option<(f64, f64)> {
 ///
 /// `I(p) ≈ c0 + c1·dx + c2·dy + (c3 + c4·dx + c5·dy)·E(n1·d)·E(n2·d)`, `d = p − q`,
 ///
-/// with `E` a straight edge integrated over the box pixel and blurred by a Gaussian β ([`edge`]),
+/// with `E` a straight edge integrated over the box pixel and blurred by a Gaussian β (`edge`),
 /// `n_i` the normals of the two edges through q. The linear terms absorb the illumination
 /// gradient across the corner (additive ambient and multiplicative projector light), which
 /// otherwise shifts a saddle-point estimate by ~σ²·|∇L|/L.
@@ -410,7 +410,7 @@ fn erf_exp(x: f64) -> (f64, f64) {
 mod tests {
     use super::*;
 
-    /// [`edge`] against a brute-force pixel integral of an erf edge (300 × 300 midpoint samples
+    /// `edge` against a brute-force pixel integral of an erf edge (300 × 300 midpoint samples
     /// of the box), and its derivatives against central differences.
     #[test]
     fn edge_is_the_box_integral_of_a_blurred_step() {

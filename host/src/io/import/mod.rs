@@ -3,8 +3,8 @@
 //! - A camera alone: OpenCV's `cv::FileStorage` files (YAML, XML, JSON; [`opencv`]) and Bouguet's
 //!   Camera Calibration Toolbox for Matlab (`Calib_Results.m`; [`bouguet`]).
 //! - A full camera + projector calibration ([`import_rig`]): OpenCV stereo files, SLStudio's
-//!   `calibration.xml`, SLMaster's `caliInfo.yml` ([`stereo_fs`]) and Bouguet's
-//!   `Calib_Results_stereo.m` ([`bouguet_stereo`]); all state the projector's pose as
+//!   `calibration.xml`, SLMaster's `caliInfo.yml` (`stereo_fs`) and Bouguet's
+//!   `Calib_Results_stereo.m` (`bouguet_stereo`); all state the projector's pose as
 //!   `x_p = R·x_c + T`, which becomes fringe3d's `X_cam = Rᵀ·X_proj + P` with `P = −Rᵀ·T`
 //!   ([`rig`]).
 //! - The way back: [`export_opencv_stereo`].

@@ -1,4 +1,4 @@
-//! What every full-calibration importer shares: a lens as a file states it ([`Lens`]), the
+//! What every full-calibration importer shares: a lens as a file states it (`Lens`), the
 //! stereo pose convention `x_p = R·x_c + T` turned into fringe3d's projector pose, and the
 //! finished, validated [`ImportedRig`].
 
