@@ -26,26 +26,37 @@ fn bench_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("arith-bench")
 }
 
-/// Build the bench for `target`; `Err` with the reason when the toolchain lacks the target.
+fn target_dir() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("arith-bench")
+}
+
+/// `cargo build --release` of the bench for `targets` at once.
 ///
 /// With more codegen units and no debug info than the bench's own release profile (whose
 /// instruction counts `run.sh` reports): the core is rebuilt for each target at every change, and
 /// this halves that time in CI; the digests must not depend on code generation anyway, which is
 /// what this test checks.
-fn build(target: &str) -> Result<PathBuf, String> {
-    let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("arith-bench");
+fn cargo_build(targets: &[&str]) -> std::io::Result<std::process::Output> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let out = Command::new(cargo)
-        .current_dir(bench_dir()) // its .cargo/config.toml (linker script flags) applies
-        .args(["build", "--release", "--target", target])
-        .args(["--config", "profile.release.codegen-units=16"])
+    let mut c = Command::new(cargo);
+    c.current_dir(bench_dir()) // its .cargo/config.toml (linker script flags) applies
+        .args(["build", "--release"]);
+    for t in targets {
+        c.args(["--target", t]);
+    }
+    c.args(["--config", "profile.release.codegen-units=16"])
         .args(["--config", "profile.release.debug=false"])
-        .env("CARGO_TARGET_DIR", &target_dir)
+        .env("CARGO_TARGET_DIR", target_dir())
         .env_remove("RUSTFLAGS")
         .env_remove("CARGO_ENCODED_RUSTFLAGS")
         .env_remove("CARGO_BUILD_TARGET")
         .output()
-        .map_err(|e| format!("cannot run cargo: {e}"))?;
+}
+
+/// Build the bench for `target`; `Err` with the reason when the toolchain lacks the target.
+fn build(target: &str) -> Result<PathBuf, String> {
+    let target_dir = target_dir();
+    let out = cargo_build(&[target]).map_err(|e| format!("cannot run cargo: {e}"))?;
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
         if err.contains("target may not be installed")
@@ -133,10 +144,14 @@ fn every_backend_gives_the_same_bits_on_cortex_m3_and_m4f() {
             ));
         }
     }
-    for (target, machine, cpu, default) in [
+    let boards = [
         ("thumbv7m-none-eabi", "mps2-an385", "cortex-m3", "fixed"),
         ("thumbv7em-none-eabihf", "mps2-an386", "cortex-m4", "f32"),
-    ] {
+    ];
+    // Both targets in one cargo run first (its jobs share the cores); if that fails (a target
+    // not installed), the per-target builds below say which.
+    let _ = cargo_build(&boards.map(|b| b.0));
+    for (target, machine, cpu, default) in boards {
         let elf = match build(target) {
             Ok(e) => e,
             Err(why) => {
