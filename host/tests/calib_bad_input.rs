@@ -11,36 +11,12 @@ use fringe3d::render::Scene;
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::scene::{Overrides, SceneSpec};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+#[path = "cli_support/mod.rs"]
+mod cli_support;
+use cli_support::{Tmp, fringe3d, s};
 
 const SIZE: (u32, u32) = (320, 256);
-
-struct Tmp(PathBuf);
-impl Tmp {
-    fn new(tag: &str) -> Tmp {
-        let p =
-            std::env::temp_dir().join(format!("fringe3d-calib-bad-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        Tmp(p)
-    }
-}
-impl Drop for Tmp {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn fringe3d(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fringe3d"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// Run and expect success.
 fn ok(args: &[&str]) -> String {
@@ -158,7 +134,7 @@ fn no_files(dir: &Path, what: &str) {
 
 #[test]
 fn camera_too_few_views_and_boards_not_found() {
-    let t = Tmp::new("camera");
+    let t = Tmp::new("calib-bad-camera");
     let cb = t.0.join("cb");
     render("checkerboard", &cb, |s| s.board.as_mut().unwrap().count = 3);
     let out = t.0.join("out");
@@ -236,7 +212,7 @@ fn camera_too_few_views_and_boards_not_found() {
 
 #[test]
 fn plates_not_parallel() {
-    let t = Tmp::new("tilted");
+    let t = Tmp::new("calib-bad-tilted");
     let pl = t.0.join("plates");
     // Two positions, the second turned by 6 degrees about the vertical.
     render("plates", &pl, |s| {
@@ -280,7 +256,7 @@ fn plates_not_parallel() {
 
 #[test]
 fn plate_and_reference_errors() {
-    let t = Tmp::new("plates");
+    let t = Tmp::new("calib-bad-plates");
     let pl = t.0.join("plates");
     render("plates", &pl, |_| {});
     let cam = pl.join("calibration.toml");

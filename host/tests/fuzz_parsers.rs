@@ -35,6 +35,10 @@ use fringe3d_core::wire::{
     PatternSetDesc, parse_packet,
 };
 
+#[path = "cli_support/mod.rs"]
+mod cli_support;
+use cli_support::Tmp;
+
 /// SplitMix64: small, seeded, reproducible.
 struct Rng(u64);
 
@@ -65,22 +69,6 @@ fn seed(salt: u64) -> u64 {
         .and_then(|s| s.parse().ok())
         .unwrap_or(0x0F3D_F022);
     base ^ salt.wrapping_mul(0x9E37_79B9_7F4A_7C15)
-}
-
-/// A scratch folder for one parser, with the pid in its name; removed at the end.
-struct Tmp(PathBuf);
-impl Tmp {
-    fn new(name: &str) -> Tmp {
-        let p = std::env::temp_dir().join(format!("fringe3d-fuzz-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        Tmp(p)
-    }
-}
-impl Drop for Tmp {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
 }
 
 /// While alive, marks the input being parsed: if the parser panics, the input is saved and named.
@@ -338,7 +326,7 @@ fn bmp(w: u32, h: u32, bpp: u16) -> Vec<u8> {
 #[test]
 fn images_png_tiff_bmp() {
     let seeds = image_seeds();
-    let tmp = Tmp::new("images");
+    let tmp = Tmp::new("fuzz-images");
     let path = tmp.0.join("fuzzed-image");
     let lim = ReadLimits {
         max_pixels: CAP,
@@ -414,7 +402,7 @@ fn fuzz_text_as<T, E: std::fmt::Display>(
     seeds: &[String],
     load: impl Fn(&Path) -> Result<T, E>,
 ) {
-    let tmp = Tmp::new(parser);
+    let tmp = Tmp::new(&format!("fuzz-{parser}"));
     let path = tmp.0.join(format!("fuzzed-{parser}.{ext}"));
     for s in seeds {
         std::fs::write(&path, s).unwrap();

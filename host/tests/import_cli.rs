@@ -9,39 +9,10 @@ use fringe3d::io::calibration::Calibration;
 use fringe3d::scan::{PointCloud, ScanCalibration};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-struct Tmp(PathBuf);
-impl Tmp {
-    fn new(tag: &str) -> Tmp {
-        let p = std::env::temp_dir().join(format!("fringe3d-impcli-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        Tmp(p)
-    }
-}
-impl Drop for Tmp {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn fringe3d(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fringe3d"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn run(args: &[&str]) -> String {
-    let out = fringe3d(args);
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
+#[path = "cli_support/mod.rs"]
+mod cli_support;
+use cli_support::{Tmp, fringe3d, run, s};
 
 /// The command fails with one error line holding every `must`.
 fn fails(args: &[&str], must: &[&str]) -> String {
@@ -52,10 +23,6 @@ fn fails(args: &[&str], must: &[&str]) -> String {
         assert!(err.contains(m), "{args:?}: `{m}` not in: {err}");
     }
     err
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 fn render(dir: &Path) {
@@ -138,7 +105,7 @@ fn slstudio_xml(c: &Calibration, sizes: bool) -> String {
 
 #[test]
 fn export_import_scan_and_a_virtual_reference() {
-    let t = Tmp::new("roundtrip");
+    let t = Tmp::new("impcli-roundtrip");
     let ds = t.0.join("ds");
     render(&ds);
     let native_path = ds.join("calibration.toml");
@@ -245,7 +212,7 @@ fn export_import_scan_and_a_virtual_reference() {
 
 #[test]
 fn bad_imports_are_one_clear_error_and_nothing_written() {
-    let t = Tmp::new("bad");
+    let t = Tmp::new("impcli-bad");
     let ds = t.0.join("ds");
     run(&[
         "render",
@@ -361,7 +328,7 @@ fn bad_imports_are_one_clear_error_and_nothing_written() {
 
 #[test]
 fn missing_calibration_inputs_are_named_with_the_option_that_fixes_them() {
-    let t = Tmp::new("inputs");
+    let t = Tmp::new("impcli-inputs");
     let plates: Vec<PathBuf> = (0..2).map(|k| t.0.join(format!("plate_{k:02}"))).collect();
     for p in &plates {
         std::fs::create_dir_all(p.join("h")).unwrap();

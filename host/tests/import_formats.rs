@@ -11,22 +11,11 @@ use fringe3d::render::rig::Rig;
 use fringe3d::render::scene::SceneSpec;
 use fringe3d_core::params::CameraParams;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-struct Tmp(PathBuf);
-impl Tmp {
-    fn new(tag: &str) -> Tmp {
-        let p = std::env::temp_dir().join(format!("fringe3d-import-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        Tmp(p)
-    }
-}
-impl Drop for Tmp {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+#[path = "cli_support/mod.rs"]
+mod cli_support;
+use cli_support::Tmp;
 
 fn truth() -> Rig {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes/skewed_rig.toml");
@@ -160,7 +149,7 @@ fn opencv_yaml(rig: &Rig) -> String {
 
 #[test]
 fn every_format_reproduces_the_rig() {
-    let t = Tmp::new("formats");
+    let t = Tmp::new("import-formats");
     let rig = truth();
     let (r, tv) = stereo_pose(&rig);
     let (c, p) = (&rig.camera, &rig.projector);
@@ -354,7 +343,7 @@ fn error(dir: &Path, name: &str, text: &str, sizes: RigSizes) -> String {
 
 #[test]
 fn bad_inputs_name_the_file_and_the_key() {
-    let t = Tmp::new("bad");
+    let t = Tmp::new("import-bad");
     let rig = truth();
     let good = opencv_yaml(&rig);
     let none = RigSizes::default();

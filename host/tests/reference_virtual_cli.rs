@@ -6,35 +6,11 @@ use fringe3d::accuracy;
 use fringe3d::calib::files::read_phase_map;
 use fringe3d::cli::common;
 use fringe3d::scan::ScanCalibration;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-struct Tmp(PathBuf);
-impl Drop for Tmp {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn fringe3d(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fringe3d"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn run(args: &[&str]) {
-    let out = fringe3d(args);
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+#[path = "cli_support/mod.rs"]
+mod cli_support;
+use cli_support::{Tmp, fringe3d, run, s};
 
 /// Interior RMS error of the scan of `ds` with `calibration` (the library path of `fringe3d scan`),
 /// mm, and the interior points compared. The CLI's `scan` is exercised on the same files too.
@@ -64,8 +40,7 @@ fn scan_rms(ds: &Path, calibration: &Path, out: &Path) -> (f64, usize) {
 
 #[test]
 fn a_virtual_reference_through_the_cli() {
-    let t = Tmp(std::env::temp_dir().join(format!("fringe3d-virtual-{}", std::process::id())));
-    let _ = std::fs::remove_dir_all(&t.0);
+    let t = Tmp::new("virtual");
     let ds = t.0.join("ds");
     run(&[
         "render",
@@ -197,8 +172,7 @@ fn a_virtual_reference_through_the_cli() {
 
 #[test]
 fn misuse_of_virtual_is_one_clear_error_and_nothing_written() {
-    let t = Tmp(std::env::temp_dir().join(format!("fringe3d-virtual-bad-{}", std::process::id())));
-    let _ = std::fs::remove_dir_all(&t.0);
+    let t = Tmp::new("virtual-bad");
     let ds = t.0.join("ds");
     run(&[
         "render",

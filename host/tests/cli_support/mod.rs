@@ -1,0 +1,50 @@
+//! What the CLI and file-format tests share: a scratch folder removed on drop, and the
+//! `fringe3d` binary run with arguments.
+#![allow(dead_code)] // each test file uses its own subset
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A scratch folder `fringe3d-TAG-PID` under the system's temp dir, created empty and removed
+/// when dropped.
+pub struct Tmp(pub PathBuf);
+
+impl Tmp {
+    /// An empty scratch folder for `tag`.
+    pub fn new(tag: &str) -> Tmp {
+        let p = std::env::temp_dir().join(format!("fringe3d-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&p);
+        std::fs::create_dir_all(&p).unwrap();
+        Tmp(p)
+    }
+}
+
+impl Drop for Tmp {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Run the `fringe3d` binary with `args`.
+pub fn fringe3d(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// Run it and expect success; its stdout.
+pub fn run(args: &[&str]) -> String {
+    let out = fringe3d(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// A path as the `&str` argument the binary takes.
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
