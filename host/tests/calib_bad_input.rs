@@ -1,5 +1,5 @@
 //! `fringe3d calibrate` on bad input, through the binary: too few views, a board that is not in
-//! the image, plates that are not parallel, plate phase maps that do not overlap, a camera for
+//! the image, plate poses whose corners are coplanar, plate phase maps that do not overlap, a camera for
 //! another image size, reference images that do not decode. Each must fail with a non-zero exit
 //! and one message naming the images (or plate folders) concerned, and write nothing. A positive
 //! control on the same data shows each failure comes from the defect, not from the data.
@@ -211,7 +211,7 @@ fn camera_too_few_views_and_boards_not_found() {
 }
 
 #[test]
-fn plates_not_parallel() {
+fn plates_not_parallel_calibrate_without_the_line_method() {
     let t = Tmp::new("calib-bad-tilted");
     let pl = t.0.join("plates");
     // Two positions, the second turned by 6 degrees about the vertical.
@@ -223,12 +223,13 @@ fn plates_not_parallel() {
     let out = t.0.join("out");
     let cal = out.join("calibration.toml");
     let (p0, p1) = (pl.join("plate_00"), pl.join("plate_01"));
-    let err = fails(
-        &[
+    let args = |a: &Path, b: &Path| -> Vec<String> {
+        [
+            "--json",
             "calibrate",
             "projector",
-            s(&p0),
-            s(&p1),
+            s(a),
+            s(b),
             "--camera-from",
             s(&pl.join("calibration.toml")),
             "--board",
@@ -237,21 +238,45 @@ fn plates_not_parallel() {
             "30",
             "-o",
             s(&cal),
-        ],
-        &["not parallel", "plate_00", "plate_01", "degrees"],
+        ]
+        .iter()
+        .map(|x| x.to_string())
+        .collect()
+    };
+    // Turned plates are freely posed boards to the full projector model: calibrated, with the
+    // line method of §7 (which needs a translation) skipped and the reason reported.
+    let a = args(&p0, &p1);
+    let j: serde_json::Value =
+        serde_json::from_str(&ok(&a.iter().map(String::as_str).collect::<Vec<_>>())).unwrap();
+    let why = j["line_method_skipped"].as_str().unwrap_or_default();
+    assert!(
+        why.contains("not parallel") && why.contains("plate_00") && why.contains("plate_01"),
+        "{why}"
     );
     // The angle reported is the one rendered (6 degrees, to the board-pose accuracy).
-    let ang: f64 = err
+    let ang: f64 = why
         .split("differ by ")
         .nth(1)
         .and_then(|r| r.split(' ').next())
         .and_then(|x| x.parse().ok())
-        .unwrap_or_else(|| panic!("no angle in {err}"));
+        .unwrap_or_else(|| panic!("no angle in {why}"));
     assert!(
         (ang - 6.0).abs() < 0.3,
-        "angle {ang} (rendered 6 degrees): {err}"
+        "angle {ang} (rendered 6 degrees): {why}"
     );
-    no_files(&out, "not parallel");
+    assert!(cal.is_file());
+    // One pose given twice: every corner on one plane, no projector model; named, nothing written.
+    let out2 = t.0.join("out2");
+    let cal2 = out2.join("calibration.toml");
+    let mut b = args(&p0, &p0);
+    let k = b.len() - 1;
+    b[k] = s(&cal2).to_string();
+    b.remove(0);
+    fails(
+        &b.iter().map(String::as_str).collect::<Vec<_>>(),
+        &["coplanar", "plate_00"],
+    );
+    no_files(&out2, "coplanar");
 }
 
 #[test]
@@ -361,14 +386,20 @@ fn plate_and_reference_errors() {
             }
         }
     }
+    // (The full projector model needs no overlap, but poses with too few board corners lit are
+    // left out, each named with its count.)
     fails(
         &refs(&proj(&[&left, &right], &cam, &cal)),
-        &["do not overlap", "left", "right"],
+        &[
+            "too few usable views",
+            "left: 0 corners with projector coordinates",
+            "right: 6 corners",
+        ],
     );
     no_files(&out, "no overlap");
-    // Control: the same masked folders with their partner unmasked do overlap.
+    // Control: the same plates unmasked calibrate.
     ok(&refs(&proj(
-        &[&left, &plates[2]],
+        &[&plates[0], &plates[2]],
         &cam,
         &t.0.join("good2").join("calibration.toml"),
     )));

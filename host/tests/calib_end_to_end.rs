@@ -337,7 +337,7 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         &std::fs::read_to_string(cal_dir.join("calibration_projector.json")).unwrap(),
     )
     .unwrap();
-    let pstd: Vec<f64> = pj["estimate"]["std"]
+    let pstd: Vec<f64> = pj["projector_centre_std"]
         .as_array()
         .unwrap()
         .iter()
@@ -346,6 +346,27 @@ fn calibrate_from_rendered_files_noisy_8bit() {
     assert!(
         pstd.iter().all(|&x| x > 0.0 && x < 0.2),
         "P's stated uncertainty {pstd:?}"
+    );
+    // The plates are parallel: the line method of §7 ran too and agrees with the model.
+    let agree = &pj["line_method_agreement"];
+    let (d, sd) = (
+        agree["difference_mm"].as_f64().unwrap(),
+        agree["combined_std_mm"].as_f64().unwrap(),
+    );
+    let pl: Vec<f64> = pj["line_method"]["center"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    println!(
+        "line method: P {:.4} mm from the truth; {d:.4} mm from the model ({:.2} σ)",
+        dist([pl[0], pl[1], pl[2]], data.rig.translation),
+        d / sd
+    );
+    assert!(
+        d <= 4.0 * sd + 1e-3,
+        "line method {d} mm from the model, σ {sd}"
     );
 
     // 3. Reference plane, from three board images lying on it.

@@ -4,9 +4,7 @@
 use super::camera::{CameraCalibration, CameraOptions, Rejected, View, calibrate};
 use super::corners::{Board, DetectOptions, Detection, Image, detect};
 use super::lens::Lens;
-use super::projector_centre::{
-    PlateObservation, ProjectorCentre, ProjectorOptions, check_parallel, estimate,
-};
+use super::projector_centre::PlateObservation;
 use super::reference::ReferencePose;
 use super::reference_fit::{ReferenceFit, fit_reference};
 use super::report::{nice_scale, view_picture};
@@ -27,7 +25,7 @@ use std::path::{Path, PathBuf};
 /// A progress callback: called with the number of work items just finished.
 pub type Progress<'a> = &'a (dyn Fn(u64) + Sync);
 
-fn input(what: &Path, message: impl Into<String>) -> CalibError {
+pub(crate) fn input(what: &Path, message: impl Into<String>) -> CalibError {
     CalibError::Input {
         what: what.display().to_string(),
         message: message.into(),
@@ -459,121 +457,6 @@ pub fn load_plate(
         },
         det.corners,
     ))
-}
-
-/// The result of [`calibrate_projector_files`].
-#[derive(Clone, Debug)]
-pub struct ProjectorRun {
-    /// The estimate.
-    pub result: ProjectorCentre,
-    /// The calibration file's content (camera, P, depth range; no reference yet).
-    pub calibration: Calibration,
-    /// Per plate: folder, plane point, normal, board RMS and valid phase fractions.
-    pub plates: Vec<serde_json::Value>,
-}
-
-/// Check that two pattern-set files are a vertical (phase along ξ) and a horizontal (along η) set.
-fn check_axes(set_v: &Path, set_h: &Path) -> Result<(), CalibError> {
-    let av = PatternSetFile::load(set_v)?.to_pattern_set()?.axis();
-    let ah = PatternSetFile::load(set_h)?.to_pattern_set()?.axis();
-    if av != Axis::Xi {
-        return Err(input(
-            set_v,
-            "this pattern set has its phase along η (horizontal fringes); --patterns-v needs vertical fringes (phase along ξ)",
-        ));
-    }
-    if ah != Axis::Eta {
-        return Err(input(
-            set_h,
-            "this pattern set has its phase along ξ (vertical fringes); --patterns-h needs horizontal fringes (phase along η)",
-        ));
-    }
-    Ok(())
-}
-
-/// Estimate P from plate folders (see [`load_plate`]) with a calibrated camera, and build the
-/// calibration file's content. `depth_range` defaults to the plate points' z range padded by
-/// 10 % of its span.
-#[allow(clippy::too_many_arguments)]
-pub fn calibrate_projector_files(
-    camera: &CameraParams,
-    plate_dirs: &[PathBuf],
-    set_v: &Path,
-    set_h: &Path,
-    board: &Board,
-    detect_opts: &DetectOptions,
-    opts: &ProjectorOptions,
-    depth_range: Option<[f64; 2]>,
-    progress: Progress<'_>,
-) -> Result<ProjectorRun, CalibError> {
-    check_axes(set_v, set_h)?;
-    let lens = Lens::from_model(camera);
-    if plate_dirs.len() < 2 {
-        return Err(CalibError::Input {
-            what: "projector calibration".into(),
-            message: format!(
-                "{} plate position(s) given; at least two are needed (paper §7)",
-                plate_dirs.len()
-            ),
-        });
-    }
-    let mut plates = Vec::new();
-    let mut corners = Vec::new();
-    for d in plate_dirs {
-        let (p, c) = load_plate(d, &lens, board, set_v, set_h, detect_opts)?;
-        plates.push(p);
-        corners.push(c);
-        progress(1);
-    }
-    // Parallelism from the independent board poses.
-    let angles = check_parallel(&plates, opts.max_plate_angle_deg)?;
-    let independent: Vec<pose::PlanePose> = plates.iter().map(|p| p.pose.clone()).collect();
-    let mut result = if opts.translated {
-        let (poses, cov) = pose::translated_board_poses(&lens, board, &corners).map_err(|e| {
-            CalibError::Degenerate {
-                what: format!("joint board fit of the plate positions: {e}"),
-            }
-        })?;
-        for (p, q) in plates.iter_mut().zip(poses) {
-            p.pose = q;
-        }
-        estimate(&lens, &plates, opts, Some(&cov))?
-    } else {
-        estimate(&lens, &plates, opts, None)?
-    };
-    result.plate_angles_deg = angles;
-    let dr = depth_range.unwrap_or_else(|| {
-        let [a, b] = result.z_range;
-        let pad = 0.1 * (b - a).max(10.0);
-        [(a - pad).max(1.0), b + pad]
-    });
-    let calibration = Calibration {
-        version: 1,
-        camera: *camera,
-        projector_centre: result.center,
-        reference: None,
-        depth_range: dr,
-        projector: None,
-    };
-    calibration.validate().map_err(|m| CalibError::Degenerate {
-        what: format!("the resulting calibration: {m}"),
-    })?;
-    let summary = plates
-        .iter()
-        .zip(&independent)
-        .map(|(p, ind)| {
-            let fv = p.phase_v.iter().filter(|x| x.is_finite()).count() as f64 / p.phase_v.len().max(1) as f64;
-            let fh = p.phase_h.iter().filter(|x| x.is_finite()).count() as f64 / p.phase_h.len().max(1) as f64;
-            json!({"plate": p.name, "plane_point": p.pose.point(), "plane_normal": p.pose.normal(), "board_rms_px": p.pose.rms,
-                   "pose_std": p.pose.std(), "valid_v": fv, "valid_h": fh,
-                   "independent_fit": {"plane_point": ind.point(), "plane_normal": ind.normal(), "board_rms_px": ind.rms}})
-        })
-        .collect();
-    Ok(ProjectorRun {
-        result,
-        calibration,
-        plates: summary,
-    })
 }
 
 /// Where the reference plane's pose comes from.

@@ -9,12 +9,16 @@
 
 pub mod camera;
 pub mod corners;
+pub mod dlt;
 pub mod files;
 pub mod lens;
 pub mod linalg;
 pub mod lm;
 pub mod pose;
 pub mod projector_centre;
+pub mod projector_coords;
+pub mod projector_files;
+pub mod projector_model;
 pub mod reference;
 pub mod reference_fit;
 pub mod report;

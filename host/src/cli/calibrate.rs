@@ -7,6 +7,8 @@ use crate::calib::corners::{Board, DetectOptions};
 use crate::calib::files::{self, MapSource, PlaneSource, ReferenceOptions};
 use crate::calib::lens::PARAM_NAMES;
 use crate::calib::projector_centre::ProjectorOptions;
+use crate::calib::projector_files::{self, ProjectorFileOptions};
+use crate::calib::projector_model::{Freedom, ModelOptions};
 use crate::io::calibration::Calibration;
 use anyhow::{Context, Result, bail};
 use serde_json::json;
@@ -107,16 +109,20 @@ pub struct CameraArgs {
 /// Arguments of `fringe3d calibrate projector`.
 #[derive(clap::Args, Debug)]
 #[command(
-    after_help = "Example:\n  fringe3d calibrate projector data/plates/plate_00 data/plates/plate_01 data/plates/plate_02 \\\n      \
---camera-from camera.yml --board 9x7 --square 30 -o calibration.toml\n\n\
-PLATES: one folder per plate position (far to near or any order), each holding v/ (the images of the\n\
-vertical-fringe set, phase along ξ), h/ (horizontal fringes, phase along η) and board.png (the board\n\
-printed on the plate, same pose). The positions must be parallel (the plate translated, not turned).\n\
-Writes the calibration file (camera, projector_centre P, depth_range; no reference yet) and\n\
-OUT's name with `_projector.json` (P's uncertainty, line residuals, per-pair statistics)."
+    after_help = "Examples:\n  fringe3d calibrate projector data/boards/plate_00 data/boards/plate_01 data/boards/plate_02 data/boards/plate_03 \\\n      \
+--camera-from camera.yml --board 9x7 --square 30 -o calibration.toml\n  \
+fringe3d calibrate projector data/plates/plate_0* --camera-from camera.yml --board 9x7 --square 30\n\n\
+POSES: one folder per board pose (tilted freely, as for a camera calibration) or per plate position\n\
+(the plate translated to parallel positions, paper §7), each holding v/ (the images of the\n\
+vertical-fringe set, phase along ξ), h/ (horizontal fringes, phase along η) and board.png (the board,\n\
+same pose, under uniform light). Each board corner's projector pixel comes from the two phase maps\n\
+around it; the full projector model (intrinsics, skew, distortion, pose) is fitted jointly with the\n\
+board poses. Parallel plates also give P by the line method of §7, reported as a cross-check.\n\
+Writes the calibration file (camera, [projector], projector_centre P = its centre, depth_range; no\n\
+reference yet) and OUT's name with `_projector.json` (uncertainties, residuals, per-pose figures)."
 )]
 pub struct ProjectorArgs {
-    /// Plate-position folders (two or more).
+    /// Board-pose or plate-position folders (two or more).
     #[arg(required = true)]
     pub plates: Vec<PathBuf>,
     /// The camera: an OpenCV file (.yml/.yaml/.xml/.json, e.g. from `calibrate camera`), Bouguet's
@@ -145,9 +151,26 @@ pub struct ProjectorArgs {
     #[arg(long, default_value_t = 2.0)]
     pub max_plate_angle: f64,
     /// Fit each plate position's board pose on its own instead of one rotation shared by all
-    /// positions (use when the plate was not moved by pure translation).
+    /// positions in the line method's cross-check (parallel plates only).
     #[arg(long)]
     pub independent_plates: bool,
+    /// The camera's intrinsics: held as given (`fixed`), or adjusted jointly with the projector
+    /// (`refine`: needs boards tilted between poses).
+    #[arg(long, value_parser = ["fixed", "refine"], default_value = "fixed")]
+    pub camera_intrinsics: String,
+    /// Hold the projector's skew at 0.
+    #[arg(long)]
+    pub projector_fix_skew: bool,
+    /// Fit the projector's k3 too (held at 0 by default: a projector's field is narrow, and a
+    /// free k3 extrapolates badly beyond the corners the boards covered).
+    #[arg(long)]
+    pub projector_free_k3: bool,
+    /// Hold the projector's tangential distortion (p1, p2) at 0.
+    #[arg(long)]
+    pub projector_fix_tangential: bool,
+    /// Radius of the window around each corner whose phases are interpolated, camera pixels.
+    #[arg(long, default_value_t = 5)]
+    pub corner_window: usize,
 }
 
 /// Arguments of `fringe3d calibrate reference`.
@@ -374,15 +397,33 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
         }
         None => None,
     };
-    let opts = ProjectorOptions {
-        stride: a.stride.max(1),
-        max_plate_angle_deg: a.max_plate_angle,
-        translated: !a.independent_plates,
-        ..Default::default()
+    if !(2..=50).contains(&a.corner_window) {
+        bail!(
+            "--corner-window {}: expected 2 to 50 pixels",
+            a.corner_window
+        );
+    }
+    let opts = ProjectorFileOptions {
+        lines: ProjectorOptions {
+            stride: a.stride.max(1),
+            max_plate_angle_deg: a.max_plate_angle,
+            translated: !a.independent_plates,
+            ..Default::default()
+        },
+        model: ModelOptions {
+            refine_camera: a.camera_intrinsics == "refine",
+            projector: Freedom {
+                fix_skew: a.projector_fix_skew,
+                fix_k3: !a.projector_free_k3,
+                fix_tangential: a.projector_fix_tangential,
+            },
+            ..Default::default()
+        },
+        corner_radius: a.corner_window,
     };
-    let pb = common::progress(a.plates.len() as u64, "plates", g.quiet || g.json);
+    let pb = common::progress(a.plates.len() as u64, "poses", g.quiet || g.json);
     let inc = |n: u64| pb.inc(n);
-    let run = files::calibrate_projector_files(
+    let run = projector_files::calibrate_projector_files(
         &camera,
         &a.plates,
         &set_v,
@@ -396,50 +437,81 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
     pb.finish_and_clear();
     make_parent(&a.out)?;
     run.calibration.save(&a.out)?;
+    let m = &run.model;
+    let agreement = run
+        .agreement()
+        .map(|(d, s)| json!({"difference_mm": d, "combined_std_mm": s}));
     let report = json!({"command": "calibrate projector", "out": a.out, "camera_from": a.camera_from,
-        "projector_centre": run.result.center, "depth_range": run.calibration.depth_range,
-        "estimate": run.result, "plates": run.plates});
+        "projector_centre": run.calibration.projector_centre, "projector_centre_std": m.std_translation(),
+        "depth_range": run.calibration.depth_range,
+        "camera_intrinsics": a.camera_intrinsics,
+        "model": m.to_json(),
+        "line_method": run.lines, "line_method_skipped": run.lines_skipped, "line_method_agreement": agreement,
+        "plates": run.plates});
     let rp = sibling(&a.out, "_projector.json");
     let text = serde_json::to_string_pretty(&report)?;
     crate::io::atomic::write_atomic(&rp, |w| w.write_all(text.as_bytes()))?;
     if g.json {
         outln!("{text}");
     } else if !g.quiet {
-        let r = &run.result;
-        let [x, y, z] = r.center;
+        let (p, sp) = (&m.projector.p, &m.std_projector);
         outln!(
-            "P = ({x:.4}, {y:.4}, {z:.4}) mm ± ({:.4}, {:.4}, {:.4}) mm (lines {:.4}/{:.4}/{:.4}, plate poses {:.4}/{:.4}/{:.4})",
-            r.std[0],
-            r.std[1],
-            r.std[2],
-            r.std_lines[0],
-            r.std_lines[1],
-            r.std_lines[2],
-            r.std_poses[0],
-            r.std_poses[1],
-            r.std_poses[2]
+            "projector {}x{}: fx {:.3} ± {:.3}, fy {:.3} ± {:.3}, cx {:.3} ± {:.3}, cy {:.3} ± {:.3} px, skew {:.2e}, k1 {:.5}, k2 {:.5}, p1 {:.2e}, p2 {:.2e}, k3 {:.5}",
+            m.projector.width,
+            m.projector.height,
+            p[0],
+            sp[0],
+            p[1],
+            sp[1],
+            p[3],
+            sp[3],
+            p[4],
+            sp[4],
+            p[2],
+            p[5],
+            p[6],
+            p[7],
+            p[8],
+            p[9]
         );
+        let [x, y, z] = run.calibration.projector_centre;
+        let st = m.std_translation();
         outln!(
-            "{} lines ({} rejected): distance from P RMS {:.4} mm, median {:.4} mm, max {:.4} mm",
-            r.lines,
-            r.rejected,
-            r.rms_distance_mm,
-            r.median_distance_mm,
-            r.max_distance_mm
+            "P = ({x:.4}, {y:.4}, {z:.4}) mm ± ({:.4}, {:.4}, {:.4}) mm; reprojection RMS: projector {:.4} px ({} corners, {} dropped), camera {:.4} px",
+            st[0],
+            st[1],
+            st[2],
+            m.rms_projector_px,
+            m.projector_corners[0],
+            m.projector_corners[1],
+            m.rms_camera_px
         );
-        for p in &r.pairs {
+        for v in &m.views {
             outln!(
-                "  {} -> {}: {} of {} sampled pixels matched, {} used, RMS {:.4} mm",
-                p.s,
-                p.t,
-                p.matched,
-                p.sampled,
-                p.used,
-                p.rms_distance_mm
+                "  {}: {} corners, projector RMS {:.4} px, camera RMS {:.4} px",
+                v.name,
+                v.projector_corners,
+                v.rms_projector_px,
+                v.rms_camera_px
             );
         }
-        for (a_, b_, ang) in &r.plate_angles_deg {
-            outln!("  angle between {a_} and {b_}: {ang:.4} degrees");
+        match (&run.lines, run.agreement()) {
+            (Some(r), Some((d, s))) => {
+                let [x, y, z] = r.center;
+                outln!(
+                    "line method of §7 (parallel plates): P = ({x:.4}, {y:.4}, {z:.4}) mm ± ({:.4}, {:.4}, {:.4}) mm from {} lines; differs from the model's by {d:.4} mm ({:.1} σ)",
+                    r.std[0],
+                    r.std[1],
+                    r.std[2],
+                    r.lines,
+                    d / s.max(1e-300)
+                );
+            }
+            _ => {
+                if let Some(why) = &run.lines_skipped {
+                    outln!("line method of §7 not run: {why}");
+                }
+            }
         }
         outln!(
             "depth range [{:.1}, {:.1}] mm",

@@ -9,7 +9,7 @@ use crate::calib::corners::{Board, DetectOptions};
 use crate::calib::files::{self, PlaneSource};
 use crate::calib::lens::{Lens, PARAM_NAMES};
 use crate::calib::linalg::{nearest_rotation, rot_log};
-use crate::calib::projector_centre::ProjectorOptions;
+use crate::calib::projector_files::{self, ProjectorFileOptions};
 use crate::io::calibration::Calibration;
 use crate::io::image::{write_png_u8, write_png_u16};
 use crate::math::{Mat3, Vec3};
@@ -286,14 +286,14 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
     say("calibration demo 4/6: calibrate projector ...");
     let pl_board = data.plate_board;
     let camera = files::load_camera(&cam_file, Some((cam.lens.width, cam.lens.height)))?;
-    let pr = files::calibrate_projector_files(
+    let pr = projector_files::calibrate_projector_files(
         &camera,
         &data.plate_dirs,
         &pl_dir.join("patterns_v.toml"),
         &pl_dir.join("patterns_h.toml"),
         &pl_board,
         &DetectOptions::default(),
-        &ProjectorOptions::default(),
+        &ProjectorFileOptions::default(),
         o.volume_depth_range.then_some(rig.depth_range),
         &|_| {},
     )?;
@@ -333,7 +333,15 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         + (cam.lens.p[4] - truth_cam.p[4]).powi(2))
     .sqrt();
     let p_true = rig.translation;
-    let p_err = Vec3::from_array(pr.result.center) - Vec3::from_array(p_true);
+    let p_est = pr.calibration.projector_centre;
+    let p_err = Vec3::from_array(p_est) - Vec3::from_array(p_true);
+    let proj_truth = Lens::from_model(&rig.projector);
+    let mut proj_j = serde_json::Map::new();
+    for (k, n) in PARAM_NAMES.iter().enumerate() {
+        proj_j.insert(n.to_string(), json!({"estimate": pr.model.projector.p[k], "std": pr.model.std_projector[k], "truth": proj_truth.p[k], "error": pr.model.projector.p[k] - proj_truth.p[k]}));
+    }
+    let lines_p = pr.lines.as_ref().map(|l| json!({"estimate": l.center, "std": l.std, "lines": l.lines,
+        "rms_line_distance_mm": l.rms_distance_mm, "error_norm_mm": (Vec3::from_array(l.center) - Vec3::from_array(p_true)).norm()}));
     let n_true = Vec3::from_array(rig.reference_normal);
     let plane_offset = n_true.dot(rr.plane.point - Vec3::from_array(rig.reference_point));
     let plane_angle = n_true
@@ -347,8 +355,9 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         "camera": {"parameters": cam_j, "fx_relative_error": fx_rel, "fy_relative_error": fy_rel, "principal_point_error_px": pp_err,
                    "reprojection_rms_px": cam.rms, "sigma_px": cam.sigma, "views_used": cam.views.len(), "views_rejected": cam.rejected,
                    "corner_error_vs_truth_px": corner_truth},
-        "projector": {"estimate": pr.result.center, "truth": p_true, "error": p_err, "error_norm_mm": p_err.norm(),
-                      "std": pr.result.std, "lines": pr.result.lines, "rms_line_distance_mm": pr.result.rms_distance_mm,
+        "projector": {"estimate": p_est, "truth": p_true, "error": p_err, "error_norm_mm": p_err.norm(),
+                      "std": pr.model.std_translation(), "intrinsics": proj_j,
+                      "rms_projector_px": pr.model.rms_projector_px, "line_method": lines_p,
                       "depth_range": pr.calibration.depth_range,
                       "depth_range_source": if o.volume_depth_range { "the rig's measurement volume (--depth-range)" } else { "the plates' z range padded by 10 %" }},
         "reference": {"point": rr.plane.point, "normal": rr.plane.normal, "truth_point": rig.reference_point, "truth_normal": n_true,

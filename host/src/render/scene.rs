@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// The names of the built-in scenes.
-pub const BUILTIN_SCENES: [&str; 8] = [
+pub const BUILTIN_SCENES: [&str; 9] = [
     "sphere",
     "ballbar",
     "steps",
@@ -25,6 +25,7 @@ pub const BUILTIN_SCENES: [&str; 8] = [
     "reference",
     "checkerboard",
     "plates",
+    "boards",
 ];
 
 mod builtin;

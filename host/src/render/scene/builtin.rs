@@ -223,6 +223,41 @@ pub(super) fn builtin(name: &str) -> Option<SceneSpec> {
                 ],
             });
         }
+        "boards" => {
+            // The projector's calibration from freely posed boards (issue #18 item 2): a plates
+            // data set whose "plates" are the board tilted by up to 25° about both axes, at
+            // depths across the measurement volume (each pose: v/, h/ and board.png).
+            s.kind = DatasetKind::Plates;
+            s.board = Some(BoardSpec {
+                square: 30.0,
+                cols: 9,
+                rows: 7,
+                dark: d_dark(),
+                light: d_light(),
+                margin: d_margin(),
+                count: 0,
+                poses: Vec::new(),
+                supersample: d_board_ss(),
+            });
+            let pose = |c: [f64; 3], e: [f64; 3]| Pose {
+                center: c,
+                euler_deg: e,
+            };
+            s.plates = Some(PlatesSpec {
+                size: [330.0, 270.0],
+                albedo: 0.8,
+                positions: vec![
+                    pose([0.0, 0.0, 700.0], [20.0, 3.0, 5.0]),
+                    pose([10.0, 5.0, 690.0], [-20.0, 5.0, -5.0]),
+                    pose([0.0, 10.0, 650.0], [2.0, 25.0, 0.0]),
+                    pose([-10.0, 0.0, 630.0], [5.0, -25.0, 10.0]),
+                    pose([-25.0, 15.0, 580.0], [15.0, 20.0, -3.0]),
+                    pose([25.0, -15.0, 560.0], [-15.0, -20.0, -10.0]),
+                    pose([0.0, 0.0, 600.0], [22.0, -15.0, 4.0]),
+                    pose([0.0, 5.0, 530.0], [-10.0, 12.0, 20.0]),
+                ],
+            });
+        }
         _ => return None,
     }
     Some(s)
