@@ -7,6 +7,7 @@ use super::lens::Lens;
 use super::projector_centre::PlateObservation;
 use super::reference::ReferencePose;
 use super::reference_fit::{ReferenceFit, fit_reference};
+use super::reference_physical::{PhysicalFit, fit_physical};
 use super::report::{nice_scale, view_picture};
 use super::{CalibError, pose};
 use crate::batch::decode_image_set;
@@ -494,7 +495,16 @@ pub struct ReferenceRun {
     /// The model fitted to the capture (its map is the one written); `None` with
     /// [`MapSource::Raw`]. Its `phase` is emptied (the map is in the file).
     pub fit: Option<ReferenceFit>,
+    /// The plane fitted to the capture through the calibration's projector model (when it has
+    /// one): the flatness and pose check.
+    pub physical: Option<PhysicalFit>,
 }
+
+/// The largest angle between the plane the fringes show (through the projector model) and the
+/// pose from the board or given, degrees.
+pub const MAX_POSE_ANGLE_DEG: f64 = 0.2;
+/// The largest distance between them at the plane's point, mm.
+pub const MAX_POSE_OFFSET_MM: f64 = 0.5;
 
 /// How [`calibrate_reference_files`] works and what it writes.
 #[derive(Clone, Debug)]
@@ -505,6 +515,9 @@ pub struct ReferenceOptions<'a> {
     pub map_name: &'a str,
     /// The model's map or the decoded capture.
     pub source: MapSource,
+    /// With a projector model: the largest deviation from a plane the plate may show, mm
+    /// ([`super::reference_physical::FLATNESS_MM`] by default).
+    pub flatness_limit_mm: f64,
 }
 
 /// What `calibrate reference` writes as Φ_R.
@@ -597,6 +610,40 @@ pub fn calibrate_reference_files(
         ));
     }
     let pf = PatternSetFile::load(patterns)?;
+    // With the full projector model: the plane from the fringes, against the pose used, and
+    // the plate's flatness.
+    let physical = match &calibration.projector {
+        Some(proj) => {
+            let set = pf.to_pattern_set()?;
+            let f = fit_physical(
+                &calibration.camera,
+                proj,
+                &set,
+                &dec.phase,
+                (dec.width as usize, dec.height as usize),
+                (pose.point.to_array(), pose.normal.to_array()),
+            )
+            .map_err(|e| input(&dec.images[0], format!("the reference plate: {e}")))?;
+            f.check_flat(opts.flatness_limit_mm)
+                .map_err(|e| input(&dec.images[0], format!("the reference plate: {e}")))?;
+            if f.angle_deg > MAX_POSE_ANGLE_DEG || f.offset_mm.abs() > MAX_POSE_OFFSET_MM {
+                return Err(input(
+                    &dec.images[0],
+                    format!(
+                        "the fringes put the reference plane {:+.3} mm and {:.3} degrees away from the pose {} (limits {MAX_POSE_OFFSET_MM} mm, {MAX_POSE_ANGLE_DEG} degrees): the plate was moved or tilted away from it, or the board does not lie on it",
+                        f.offset_mm,
+                        f.angle_deg,
+                        match plane {
+                            PlaneSource::Board { .. } => "of the board images",
+                            PlaneSource::Given { .. } => "given",
+                        }
+                    ),
+                ));
+            }
+            Some(f)
+        }
+        None => None,
+    };
     let (map, fit) = match source {
         MapSource::Raw => (dec.phase, None),
         MapSource::Model => {
@@ -626,6 +673,7 @@ pub fn calibrate_reference_files(
         map_path,
         valid_fraction: dec.valid_fraction,
         fit,
+        physical,
     })
 }
 

@@ -21,6 +21,7 @@ pub mod projector_files;
 pub mod projector_model;
 pub mod reference;
 pub mod reference_fit;
+pub mod reference_physical;
 pub mod report;
 pub mod virtual_reference;
 pub mod zhang;

@@ -66,24 +66,8 @@ pub fn virtual_reference(
     if !(nn > 0.0 && nn.is_finite() && d.is_finite() && d.abs() > 1e-9 * nn.sqrt()) {
         return Err(VirtualError::Plane);
     }
-    let r = projector.rotation;
-    let mut err: f64 = 0.0;
-    for i in 0..3 {
-        for j in 0..3 {
-            let rtr: f64 = (0..3).map(|k| r[k][i] * r[k][j]).sum();
-            err = err.max((rtr - if i == j { 1.0 } else { 0.0 }).abs());
-        }
-    }
-    if !(err < 1e-6) {
-        return Err(VirtualError::Rotation(err));
-    }
-    let t = projector.translation;
+    let pp = PlaneProjector::new(projector)?;
     let cam = Lens::from_model(camera);
-    let proj = Lens::from_model(&projector.intrinsics);
-    let (pw, ph) = (
-        f64::from(projector.intrinsics.width),
-        f64::from(projector.intrinsics.height),
-    );
     let w = (camera.width + margin.left + margin.right) as usize;
     let h = (camera.height + margin.top + margin.bottom) as usize;
     let (l, t0) = (f64::from(margin.left), f64::from(margin.top));
@@ -93,24 +77,11 @@ pub fn virtual_reference(
         .for_each(|(j, row)| {
             for (i, out) in row.iter_mut().enumerate() {
                 let (u, v) = (i as f64 - l, j as f64 - t0);
-                let Some((x, y)) = cam.undistort(u, v) else {
-                    continue;
-                };
-                let s = d / dot(normal, [x, y, 1.0]);
-                if !(s > 0.0 && s.is_finite()) {
-                    continue;
-                }
-                let q = [s * x - t[0], s * y - t[1], s - t[2]];
-                let xp = [
-                    r[0][0] * q[0] + r[1][0] * q[1] + r[2][0] * q[2],
-                    r[0][1] * q[0] + r[1][1] * q[1] + r[2][1] * q[2],
-                    r[0][2] * q[0] + r[1][2] * q[1] + r[2][2] * q[2],
-                ];
-                let Some((xi, eta)) = proj.project_point(xp) else {
-                    continue;
-                };
-                if (-0.5..=pw - 0.5).contains(&xi) && (-0.5..=ph - 0.5).contains(&eta) {
-                    *out = set.finest_phase(xi, eta) as f32;
+                if let Some(p) = cam
+                    .undistort(u, v)
+                    .and_then(|ray| pp.phase(set, ray, (normal, d)))
+                {
+                    *out = p as f32;
                 }
             }
         });
@@ -119,6 +90,67 @@ pub fn virtual_reference(
         return Err(VirtualError::Empty);
     }
     Ok(map)
+}
+
+/// The projector lighting a plane: steps 2-5 of the module doc for one camera ray.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PlaneProjector {
+    lens: Lens,
+    r: [[f64; 3]; 3],
+    t: [f64; 3],
+    size: (f64, f64),
+}
+
+impl PlaneProjector {
+    /// The projector of `p`, whose rotation must be one.
+    pub(crate) fn new(p: &ProjectorParams) -> Result<PlaneProjector, VirtualError> {
+        let r = p.rotation;
+        let mut err: f64 = 0.0;
+        for i in 0..3 {
+            for j in 0..3 {
+                let rtr: f64 = (0..3).map(|k| r[k][i] * r[k][j]).sum();
+                err = err.max((rtr - if i == j { 1.0 } else { 0.0 }).abs());
+            }
+        }
+        if !(err < 1e-6) {
+            return Err(VirtualError::Rotation(err));
+        }
+        Ok(PlaneProjector {
+            lens: Lens::from_model(&p.intrinsics),
+            r,
+            t: p.translation,
+            size: (
+                f64::from(p.intrinsics.width),
+                f64::from(p.intrinsics.height),
+            ),
+        })
+    }
+
+    /// The finest phase of `set` on the plane `normal·X = d` along the undistorted camera ray
+    /// `(x, y, 1)`; `None` where the ray misses the plane, the point is behind the projector or
+    /// its pixel is off the DMD.
+    pub(crate) fn phase(
+        &self,
+        set: &PatternSet,
+        (x, y): (f64, f64),
+        (normal, d): ([f64; 3], f64),
+    ) -> Option<f64> {
+        let s = d / (normal[0] * x + normal[1] * y + normal[2]);
+        if !(s > 0.0 && s.is_finite()) {
+            return None;
+        }
+        let (r, t) = (&self.r, self.t);
+        let q = [s * x - t[0], s * y - t[1], s - t[2]];
+        let xp = [
+            r[0][0] * q[0] + r[1][0] * q[1] + r[2][0] * q[2],
+            r[0][1] * q[0] + r[1][1] * q[1] + r[2][1] * q[2],
+            r[0][2] * q[0] + r[1][2] * q[1] + r[2][2] * q[2],
+        ];
+        let (xi, eta) = self.lens.project_point(xp)?;
+        let (pw, ph) = self.size;
+        ((-0.5..=pw - 0.5).contains(&xi) && (-0.5..=ph - 0.5).contains(&eta))
+            .then(|| set.finest_phase(xi, eta))
+    }
 }
 
 /// Camera pixels of the virtual map dropped along the edge of the projector's light.

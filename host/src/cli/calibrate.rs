@@ -215,6 +215,10 @@ pub struct ReferenceArgs {
     /// File name of the phase map written beside OUT.
     #[arg(long, default_value = "reference_phase.tif")]
     pub map: String,
+    /// With a calibration holding the projector model: the largest deviation from a plane the
+    /// reference plate may show, mm (the fringes, through the model, measure its flatness).
+    #[arg(long, default_value_t = crate::calib::reference_physical::FLATNESS_MM, value_name = "MM")]
+    pub flatness_limit: f64,
     /// Write the decoded capture itself as the phase map instead of the smooth model fitted to
     /// it (the model removes the capture's noise from every scan; see docs/reference-model.md).
     #[arg(long)]
@@ -564,6 +568,12 @@ fn check_plate_inputs(a: &ProjectorArgs, set_v: &Path, set_h: &Path) -> Result<(
 }
 
 fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
+    if !(a.flatness_limit > 0.0 && a.flatness_limit <= 1000.0) {
+        bail!(
+            "--flatness-limit {}: expected a positive number of millimetres (at most 1000)",
+            a.flatness_limit
+        );
+    }
     if !a.patterns.is_file() {
         bail!(
             "--patterns {}: no such pattern-set file (the set the reference plane's images were captured with)",
@@ -619,6 +629,7 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
             } else {
                 MapSource::Model
             },
+            flatness_limit_mm: a.flatness_limit,
         },
     )?;
     let model = run.fit.as_ref().map(|f| {
@@ -627,7 +638,7 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
             "outliers": f.outliers, "candidates": f.candidates})
     });
     let j = json!({"command": "calibrate reference", "out": out, "map": run.map_path, "valid_fraction": run.valid_fraction,
-        "plane": run.plane, "model": model});
+        "plane": run.plane, "model": model, "projector_model_check": run.physical});
     if g.json {
         outln!("{}", serde_json::to_string_pretty(&j)?);
     } else if !g.quiet {
@@ -658,6 +669,18 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
                 f.structure_rad
             ),
             None => outln!("phase map: the decoded capture (--raw)"),
+        }
+        if let Some(f) = &run.physical {
+            outln!(
+                "through the projector model: the fringes put the plane {:+.4} mm and {:.4} degrees from that pose; flat to {:+.4} mm (worst {BLOCK}-px block, around pixel ({}, {})); residual {:.2e} rad RMS",
+                f.offset_mm,
+                f.angle_deg,
+                f.worst_block_mm,
+                f.worst_block_at.0,
+                f.worst_block_at.1,
+                f.residual_rms_rad,
+                BLOCK = crate::calib::reference_physical::BLOCK_PX,
+            );
         }
         outln!(
             "wrote {} (with {} and reference_patterns.toml beside it)",
