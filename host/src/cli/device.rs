@@ -586,7 +586,7 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
     };
     if g.json {
         say(serde_json::json!({"command": "device scan", "port": a.port.port, "protocol_version": PROTOCOL_VERSION, "width": w, "first_row": r.first_row,
-                "rows": rows, "points": valid, "rescans": r.rescans, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
+                "rows": rows, "points": valid, "rescans": r.rescans, "stale_rows_dropped": r.stale_rows, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
             .to_string());
     } else if !g.quiet {
         say(format!(
@@ -603,6 +603,12 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
                 String::new()
             }
         ));
+        if r.stale_rows > 0 {
+            say(format!(
+                "dropped {} rows of an earlier scan still in flight (not of this scan: not written)",
+                r.stale_rows
+            ));
+        }
         if let (Some(n), Some(out)) = (valid, &cloud) {
             say(format!("wrote {n} points to {}", out.describe()));
         }

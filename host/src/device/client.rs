@@ -12,7 +12,10 @@
 //!   BeginUpload with its current offset. The upload ends with ConfirmUpload; the head uses the
 //!   data only if the CRC-32C of what it stored equals the digest.
 //! - A scan streams rows; rows lost on the line are requested again (a Scan of the missing rows)
-//!   until every row is in, at most [`ClientOptions::retries`] times.
+//!   until every row is in, at most [`ClientOptions::retries`] times. Every Scan request carries
+//!   a fresh scan identity that the head copies into each row and its ScanDone; rows and
+//!   ScanDones of any other scan (an earlier one still in flight) are dropped and counted
+//!   ([`ScanOutcome::stale_rows`]), never assembled.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -89,6 +92,9 @@ pub struct ScanOutcome {
     pub point_validity: Option<Vec<u8>>,
     /// Scans of missing rows sent after the first.
     pub rescans: u32,
+    /// Frames of other scans (rows or ScanDones with another scan identity: an earlier scan's,
+    /// still in flight) received and dropped.
+    pub stale_rows: u64,
     /// Bytes received during the scan.
     pub wire_bytes: u64,
     /// Wall time, seconds.

@@ -57,6 +57,7 @@ impl<T: Transport> Client<T> {
             seen: HashSet::new(),
             need: [if phase { w } else { 0 }, if points { w } else { 0 }],
             done_rows: 0,
+            stale: 0,
         };
         let mut ranges = vec![(first, rows)];
         let mut rescans = 0u32;
@@ -93,6 +94,7 @@ impl<T: Transport> Client<T> {
             xyz: acc.xyz,
             point_validity: acc.point_validity,
             rescans,
+            stale_rows: acc.stale,
             wire_bytes: self.link.stats().bytes_received - recv0,
             seconds: t0.elapsed().as_secs_f64(),
         })
@@ -111,7 +113,10 @@ impl<T: Transport> Client<T> {
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<(), DeviceError> {
         let what = "Scan";
+        // A fresh identity per request: only rows carrying it belong to this stream.
+        let scan_id = self.link.next_scan_id();
         let msg = Message::Scan(ScanRequest {
+            scan_id,
             output,
             first_row: first,
             row_count: count,
@@ -153,6 +158,15 @@ impl<T: Transport> Client<T> {
                     }
                     Got::Frame { seq, msg } => (seq, msg),
                 };
+                // Rows and ScanDones of another scan (an earlier one, still in flight): dropped,
+                // whatever their seq (a seq has 8 bits and restarts with every process).
+                if let Message::ResultRow(fringe3d_core::wire::ResultRow { scan_id: id, .. })
+                | Message::ScanDone(fringe3d_core::wire::ScanDone { scan_id: id, .. }) = m
+                    && id != scan_id
+                {
+                    acc.stale += 1;
+                    continue;
+                }
                 if !seqs.contains(&seq) {
                     continue;
                 }
@@ -211,6 +225,7 @@ struct Assembly {
     seen: HashSet<(u8, u16, u16)>,
     need: [usize; 2],
     done_rows: usize,
+    stale: u64,
 }
 
 impl Assembly {
