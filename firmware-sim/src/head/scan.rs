@@ -68,7 +68,12 @@ pub(super) fn run<B: BoardIo, T: Read + ReadReady + Write>(
                 HeadErrors::INTERNAL as u16,
             )
         }
-        Err(ScanFail::Link(e)) => Err(e),
+        Err(ScanFail::Link(e)) => {
+            // The port failed (on a desktop board: nobody read the line for too long). The scan
+            // ends here: the head leaves Scanning, with the link error bit set.
+            ctl.errors |= HeadErrors::LINK;
+            Err(e)
+        }
     }
 }
 
