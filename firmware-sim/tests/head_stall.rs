@@ -99,7 +99,6 @@ fn a_scan_nobody_reads_ends_after_the_stall_limit_and_the_head_serves_again() {
     );
     // What the head had queued is stale now; drop it.
     while tx_out.dequeue().is_some() {}
-    drop(port);
 
     // A new host finds the head ready and scans (the scan identity keeps any leftover row of
     // the abandoned scan out of the new result).
