@@ -228,6 +228,13 @@ impl<T: Transport> Client<T> {
         self.link.into_transport()
     }
 
+    /// Stop waiting once `flag` is set (Ctrl-C): requests then fail with
+    /// [`DeviceError::Interrupted`], and a scan first aborts itself on the head
+    /// ([`super::interrupt`]).
+    pub fn set_interrupt(&mut self, flag: std::sync::Arc<std::sync::atomic::AtomicBool>) {
+        self.link.set_interrupt(Some(flag));
+    }
+
     /// The options.
     pub fn options(&self) -> &ClientOptions {
         &self.opts

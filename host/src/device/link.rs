@@ -6,8 +6,8 @@
 //! the same process) does not reuse the numbers of the last one, so answers still in flight
 //! from an earlier session are not taken for answers to this one (issue #21 item 1).
 
-use std::sync::OnceLock;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use embedded_io::{Error as _, ErrorKind};
@@ -47,6 +47,7 @@ pub struct Link<T> {
     len: usize,
     seq: u8,
     scan_id: u32,
+    interrupt: Option<Arc<AtomicBool>>,
     scratch: Box<[u8]>,
     out: Box<[u8]>,
     stats: LinkStats,
@@ -114,6 +115,7 @@ impl<T: Transport> Link<T> {
             len: 0,
             seq: start as u8,
             scan_id: (start >> 32) as u32,
+            interrupt: None,
             scratch: vec![0u8; MAX_FRAME].into_boxed_slice(),
             out: vec![0u8; MAX_ENCODED_FRAME].into_boxed_slice(),
             stats: LinkStats::default(),
@@ -143,6 +145,12 @@ impl<T: Transport> Link<T> {
     /// The counters, mutably (the client counts retries and naks here).
     pub fn stats_mut(&mut self) -> &mut LinkStats {
         &mut self.stats
+    }
+
+    /// Check `flag` while waiting for frames: once it is set, [`Link::recv`] fails with
+    /// [`DeviceError::Interrupted`] (`None`: never). Returns the flag checked before.
+    pub fn set_interrupt(&mut self, flag: Option<Arc<AtomicBool>>) -> Option<Arc<AtomicBool>> {
+        std::mem::replace(&mut self.interrupt, flag)
     }
 
     /// The next scan identity (for a Scan request; its rows and ScanDone echo it).
@@ -214,6 +222,16 @@ impl<T: Transport> Link<T> {
     /// before `deadline`. Damaged frames are counted and skipped.
     pub fn recv(&mut self, what: &str, deadline: Instant) -> Result<Option<Vec<u8>>, DeviceError> {
         loop {
+            if self
+                .interrupt
+                .as_ref()
+                .is_some_and(|f| f.load(Ordering::SeqCst))
+            {
+                return Err(DeviceError::Interrupted {
+                    what: what.to_string(),
+                    note: String::new(),
+                });
+            }
             while self.pos < self.len {
                 let (used, event) = self.rx.feed(&self.buf[self.pos..self.len]);
                 self.pos += used;

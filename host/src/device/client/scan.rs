@@ -17,7 +17,39 @@ impl<T: Transport> Client<T> {
     /// head's depth-edge filter when `edge_filter` says so (`fringe3d scan` filters at 80° by
     /// default); the head filters each row with its true neighbours, so the rows of a partial
     /// scan or a re-request equal those of a whole-image scan.
+    ///
+    /// Interrupted (the flag of [`Client::set_interrupt`] set), the scan sends Abort to the head
+    /// (one short exchange, while the flag is ignored) and fails with
+    /// [`DeviceError::Interrupted`], saying whether the head confirmed the abort.
     pub fn scan(
+        &mut self,
+        output: ScanOutput,
+        first_row: u16,
+        row_count: u16,
+        edge_filter: EdgeFilterMode,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<ScanOutcome, DeviceError> {
+        match self.scan_rows(output, first_row, row_count, edge_filter, progress) {
+            Err(DeviceError::Interrupted { what, .. }) => {
+                let flag = self.link.set_interrupt(None);
+                let retries = std::mem::replace(&mut self.opts.retries, 1);
+                let aborted = self.abort();
+                self.opts.retries = retries;
+                self.link.set_interrupt(flag);
+                let note = match aborted {
+                    Ok(()) => "; the head's scan was aborted".to_string(),
+                    Err(e) => format!(
+                        "; the head did not confirm the abort ({e}): run `fringe3d device abort` \
+                         before the next scan"
+                    ),
+                };
+                Err(DeviceError::Interrupted { what, note })
+            }
+            r => r,
+        }
+    }
+
+    fn scan_rows(
         &mut self,
         output: ScanOutput,
         first_row: u16,
