@@ -22,10 +22,10 @@ use std::time::{Duration, Instant};
 
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::{
-    BeginPhaseMap, BeginUpload, Calibration, Capabilities, DefinePatternSet, FirmwareVersion,
-    Hello, LutEntry, LutTable, Message, Nak, NakCode, PHASE_MAP_BYTES_PER_PIXEL, PROTOCOL_VERSION,
-    Packet, PatternSetDesc, Sequence, Status, UploadAck, UploadChunk, UploadTarget,
-    ValidationStatus, WireError, check_header, frame,
+    BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, DefinePatternSet,
+    FirmwareVersion, Hello, LutEntry, LutTable, Message, Nak, NakCode, PHASE_MAP_BYTES_PER_PIXEL,
+    PROTOCOL_VERSION, Packet, PatternSetDesc, Sequence, Status, UploadAck, UploadChunk,
+    UploadTarget, ValidationStatus, WireError, check_header, frame,
 };
 
 use super::{DeviceError, Link, Transport, nak_reason};
@@ -128,6 +128,27 @@ fn classify(f: &[u8]) -> Got<'_> {
             Ok(msg) if check_header(&h, &msg).is_ok() => Got::Frame { seq: h.seq, msg },
             _ => Got::Damaged,
         },
+    }
+}
+
+/// `true` if `m` is of a kind that answers a `req` request (its Ack or Nak naming `req`, or the
+/// reply of its kind). Frames of another kind that carry the awaited `seq` — answers of an
+/// earlier session still in flight — are not taken for the answer.
+fn answers(req: Command, m: &Message<'_>) -> bool {
+    match m {
+        Message::Nak(n) => n.command == req as u8,
+        Message::Ack(a) => a.command == req as u8,
+        Message::Capabilities(_) => req == Command::Hello,
+        Message::Status(_) => req == Command::GetStatus,
+        Message::Validation(_) => req == Command::ValidateSequence,
+        Message::UploadAck(_) => matches!(
+            req,
+            Command::BeginUpload
+                | Command::BeginPhaseMapUpload
+                | Command::UploadChunk
+                | Command::QueryUpload
+        ),
+        _ => false,
     }
 }
 
@@ -295,7 +316,7 @@ impl<T: Transport> Client<T> {
                         });
                     }
                     Got::Damaged => self.link.stats_mut().bad_frames += 1,
-                    Got::Frame { seq: s, .. } if s != seq => {}
+                    Got::Frame { seq: s, msg: m } if s != seq || !answers(msg.command(), &m) => {}
                     Got::Frame {
                         msg: Message::Nak(nak),
                         ..
@@ -530,7 +551,15 @@ impl<T: Transport> Client<T> {
                     }
                     Got::Damaged => self.link.stats_mut().bad_frames += 1,
                     Got::Frame { seq, msg } => {
-                        if let Some(pos) = inflight.iter().position(|(s, _)| *s == seq) {
+                        let ours = match msg {
+                            Message::UploadAck(a) => a.target == target,
+                            ref m => answers(Command::UploadChunk, m),
+                        };
+                        if let Some(pos) = inflight
+                            .iter()
+                            .position(|(s, _)| *s == seq)
+                            .filter(|_| ours)
+                        {
                             let expected = inflight[pos].1;
                             inflight.drain(..=pos);
                             match msg {

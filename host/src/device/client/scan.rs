@@ -210,6 +210,8 @@ impl<T: Transport> Client<T> {
                         progress(acc.done_rows as u64, acc.rows as u64);
                     }
                     Message::ScanDone(_) => return Ok(()),
+                    // A Nak of another command under this seq: an earlier session's, not ours.
+                    Message::Nak(n) if n.command != Command::Scan as u8 => {}
                     Message::Nak(n) if n.code == NakCode::Busy && seqs.len() > 1 => started = true,
                     Message::Nak(n)
                         if matches!(n.code, NakCode::Crc | NakCode::Framing) && !started =>
