@@ -126,7 +126,7 @@ impl<T> Chaotic<T> {
         }
         let old = self.pool[self.rng.below(self.pool.len() as u32) as usize].clone();
         let (h, msg) = parse_packet(&old).ok()?;
-        let mut data = Vec::new();
+        let mut data: Vec<u8>;
         let msg = match msg {
             Message::ResultRow(ResultRow { scan_id: id, .. })
             | Message::ScanDone(ScanDone { scan_id: id, .. })
