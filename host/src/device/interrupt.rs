@@ -2,10 +2,10 @@
 //! process dies, so that an interrupted `device scan` does not leave the head scanning (issue #21
 //! item 10).
 //!
-//! A [`Client`](super::Client) given an interrupt flag ([`Client::set_interrupt`]
-//! (super::Client::set_interrupt)) checks it while it waits for frames; once the flag is set, a
-//! scan sends Abort to the head (one short exchange) and fails with
-//! [`DeviceError::Interrupted`](super::DeviceError::Interrupted). The `fringe3d` binary wires
+//! A [`Client`](super::Client) given an interrupt flag
+//! ([`Client::set_interrupt`](super::Client::set_interrupt)) checks it while it waits for
+//! frames; once the flag is set, a scan sends Abort to the head (one short exchange) and fails
+//! with [`DeviceError::Interrupted`](super::DeviceError::Interrupted). The `fringe3d` binary wires
 //! SIGINT, SIGTERM and SIGHUP to [`process_flag`] through [`on_signal`], which waits (a bounded
 //! time) for the commands in progress ([`Busy`] guards) to finish their abort before the process
 //! exits.
