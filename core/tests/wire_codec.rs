@@ -163,7 +163,7 @@ fn header_layout() {
     let mut out = [0u8; HEADER_LEN];
     assert_eq!(h.emit(&mut out), Ok(6));
     // version, flags (bit 0 + bit 3), seq, command, length LE.
-    assert_eq!(out, [0x02, 0x09, 0xA5, 0x12, 0x02, 0x01]);
+    assert_eq!(out, [0x03, 0x09, 0xA5, 0x12, 0x02, 0x01]);
     assert_eq!(Header::parse(&out), Ok(h));
 
     assert_eq!(Flags::WRITE.bits(), 0x01);
@@ -182,17 +182,22 @@ fn header_rejects() {
         Header::parse(&[0x01, 0, 0, 0, 0, 0]),
         Err(WireError::Version(1))
     );
+    // Version 2 (before the scan identity) is refused too.
     assert_eq!(
-        Header::parse(&[0x02, 0x10, 0, 0, 0, 0]),
+        Header::parse(&[0x02, 0, 0, 0, 0, 0]),
+        Err(WireError::Version(2))
+    );
+    assert_eq!(
+        Header::parse(&[0x03, 0x10, 0, 0, 0, 0]),
         Err(WireError::ReservedFlags)
     );
     // 4097 = 0x1001 > MAX_PAYLOAD.
     assert_eq!(
-        Header::parse(&[0x02, 0, 0, 0, 0x01, 0x10]),
+        Header::parse(&[0x03, 0, 0, 0, 0x01, 0x10]),
         Err(WireError::Length)
     );
     assert_eq!(
-        Header::parse(&[0x02, 0, 0, 0, 0]),
+        Header::parse(&[0x03, 0, 0, 0, 0]),
         Err(WireError::Truncated)
     );
     let h = Header {
@@ -315,12 +320,14 @@ fn enum_wire_values() {
         .enumerate()
     {
         let m = Message::Scan(ScanRequest {
+            scan_id: 300,
             output,
             first_row: 1,
             row_count: 2,
             edge_filter: EdgeFilterMode::Off,
         });
-        assert_eq!(enc(m, &mut b), vec![i as u8, 1, 2, 0]);
+        // scan_id 300 = varint AC 02 first.
+        assert_eq!(enc(m, &mut b), vec![0xAC, 0x02, i as u8, 1, 2, 0]);
     }
     assert_eq!(
         enc(Message::QueryUpload(UploadTarget::PatternSet(7)), &mut b),

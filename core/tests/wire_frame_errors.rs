@@ -123,16 +123,33 @@ fn frame_level_errors() {
     assert!(parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x20, &seq)).is_ok());
     // Enum index out of range (ScanOutput [3], EdgeFilterMode [2]).
     assert_eq!(
-        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x30, &[3, 0, 0, 0])),
+        parse_packet(&raw_frame(
+            PROTOCOL_VERSION,
+            0x01,
+            0,
+            0x30,
+            &[7, 3, 0, 0, 0]
+        )),
         Err(WireError::Payload)
     );
     assert_eq!(
-        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x30, &[1, 0, 0, 2])),
+        parse_packet(&raw_frame(
+            PROTOCOL_VERSION,
+            0x01,
+            0,
+            0x30,
+            &[7, 1, 0, 0, 2]
+        )),
         Err(WireError::Payload)
     );
-    // A version-1 Scan body (no edge-filter field) is a truncated version-2 body.
+    // A version-1 Scan body (no edge-filter field, no scan id) is a truncated version-3 body.
     assert_eq!(
         parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x30, &[1, 0, 0])),
+        Err(WireError::Payload)
+    );
+    // So is a version-2 body (no scan id): Points, rows 0.., filter Off.
+    assert_eq!(
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x01, 0, 0x30, &[1, 0, 0, 0])),
         Err(WireError::Payload)
     );
     // Header length disagreeing with the frame, with a valid CRC.

@@ -201,6 +201,7 @@ fn random_message<'a>(
         10 => Message::Start,
         11 => Message::Stop,
         12 => Message::Scan(ScanRequest {
+            scan_id: r.next_u32(),
             output: [ScanOutput::Phase, ScanOutput::Points, ScanOutput::Both][r.below(3) as usize],
             first_row: r.next_u32() as u16,
             row_count: r.next_u32() as u16,
@@ -297,6 +298,7 @@ fn random_message<'a>(
                 *b = Validity::ALL[r.below(Validity::ALL.len() as u32) as usize] as u8;
             }
             Message::ResultRow(ResultRow {
+                scan_id: r.next_u32(),
                 row: r.next_u32() as u16,
                 first_col,
                 kind,
@@ -304,6 +306,7 @@ fn random_message<'a>(
             })
         }
         _ => Message::ScanDone(ScanDone {
+            scan_id: r.next_u32(),
             rows: r.next_u32() as u16,
             valid: r.next_u32(),
         }),

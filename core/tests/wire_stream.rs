@@ -361,6 +361,7 @@ fn transfer_message<'a>(rng: &mut XorShift64, data: &'a [u8], row: &'a mut Vec<u
             row.resize(n * RowKind::Points.stride(), 0);
             let d = ResultRow::write_data(RowKind::Points, &values, &validity, row).unwrap();
             Message::ResultRow(ResultRow {
+                scan_id: rng.next_u32(),
                 row: rng.below(2000) as u16,
                 first_col: 0,
                 kind: RowKind::Points,

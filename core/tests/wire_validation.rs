@@ -527,6 +527,7 @@ fn row_and_bitfield_rules() {
     .unwrap()
     .to_vec();
     let row = ResultRow {
+        scan_id: 1,
         row: 0,
         first_col: 0,
         kind: RowKind::Points,
@@ -622,6 +623,7 @@ fn row_and_bitfield_rules() {
 #[test]
 fn scan_request_rules() {
     let req = |edge_filter| ScanRequest {
+        scan_id: 0,
         output: ScanOutput::Points,
         first_row: 0,
         row_count: 0,
@@ -645,8 +647,9 @@ fn scan_request_rules() {
         req(EdgeFilterMode::MaxAngle(f64::NAN)).validate(),
         invalid(Invalid::NotFinite)
     );
-    // An out-of-range angle on the wire is refused on decode: [1] Points, 0, 0, [1] 90.0.
-    let mut p = vec![0x01, 0x00, 0x00, 0x01];
+    // An out-of-range angle on the wire is refused on decode: scan_id 9, [1] Points, 0, 0,
+    // [1] 90.0.
+    let mut p = vec![0x09, 0x01, 0x00, 0x00, 0x01];
     p.extend(90.0f64.to_le_bytes());
     assert_eq!(
         Message::decode(Command::Scan as u8, &p),

@@ -5,8 +5,11 @@
 //! dequeues bytes from the TX queue into the UART. The main loop holds the other ends, wrapped in
 //! a [`QueuePort`] that implements the `embedded-io` traits the head is written against. On the
 //! desktop the "interrupts" are two threads moving bytes between the queues and a PTY.
-
-use core::convert::Infallible;
+//!
+//! A transmitter that makes no progress (the host stopped reading, and the line applies back
+//! pressure, as a PTY or USB CDC does) is given up on when the [`Wait`] says so: the write fails
+//! with [`PortError::Stalled`], and the head ends what it was sending (a scan ends, the head leaves Scanning)
+//! instead of waiting for good (issue #21 item 10).
 
 use embedded_io::{ErrorType, Read, ReadReady, Write, WriteReady};
 use heapless::spsc::{Consumer, Producer};
@@ -21,8 +24,10 @@ pub type ByteQueue = heapless::spsc::Queue<u8, QUEUE_LEN>;
 pub trait Wait {
     /// The RX queue is empty and a read must block: wait a little.
     fn rx_empty(&mut self);
-    /// The TX queue is full: wait for the transmit interrupt to drain it.
-    fn tx_full(&mut self);
+    /// The TX queue is full: wait for the transmit interrupt to drain it. `false` gives up: the
+    /// transmitter has made no progress for too long, and the write fails
+    /// ([`PortError::Stalled`]).
+    fn tx_full(&mut self) -> bool;
     /// Bytes were put into the TX queue (wake the transmitter).
     fn tx_written(&mut self) {}
 }
@@ -36,8 +41,30 @@ impl Wait for Spin {
         core::hint::spin_loop();
     }
 
-    fn tx_full(&mut self) {
+    fn tx_full(&mut self) -> bool {
         core::hint::spin_loop();
+        true
+    }
+}
+
+/// Why a [`QueuePort`] write failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PortError {
+    /// The TX queue stayed full for longer than the [`Wait`] allows: nobody reads the line.
+    Stalled,
+}
+
+impl core::fmt::Display for PortError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("the transmitter made no progress (nobody reads the line)")
+    }
+}
+
+impl core::error::Error for PortError {}
+
+impl embedded_io::Error for PortError {
+    fn kind(&self) -> embedded_io::ErrorKind {
+        embedded_io::ErrorKind::TimedOut
     }
 }
 
@@ -61,11 +88,11 @@ impl<'q, W: Wait> QueuePort<'q, W> {
 }
 
 impl<W> ErrorType for QueuePort<'_, W> {
-    type Error = Infallible;
+    type Error = PortError;
 }
 
 impl<W: Wait> Read for QueuePort<'_, W> {
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, PortError> {
         if buf.is_empty() {
             return Ok(0);
         }
@@ -89,13 +116,13 @@ impl<W: Wait> Read for QueuePort<'_, W> {
 }
 
 impl<W: Wait> ReadReady for QueuePort<'_, W> {
-    fn read_ready(&mut self) -> Result<bool, Infallible> {
+    fn read_ready(&mut self) -> Result<bool, PortError> {
         Ok(self.rx.ready())
     }
 }
 
 impl<W: Wait> Write for QueuePort<'_, W> {
-    fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, PortError> {
         if buf.is_empty() {
             return Ok(0);
         }
@@ -111,18 +138,20 @@ impl<W: Wait> Write for QueuePort<'_, W> {
                 self.wait.tx_written();
                 return Ok(n);
             }
-            self.wait.tx_full();
+            if !self.wait.tx_full() {
+                return Err(PortError::Stalled);
+            }
         }
     }
 
-    fn flush(&mut self) -> Result<(), Infallible> {
+    fn flush(&mut self) -> Result<(), PortError> {
         self.wait.tx_written();
         Ok(())
     }
 }
 
 impl<W: Wait> WriteReady for QueuePort<'_, W> {
-    fn write_ready(&mut self) -> Result<bool, Infallible> {
+    fn write_ready(&mut self) -> Result<bool, PortError> {
         Ok(self.tx.ready())
     }
 }

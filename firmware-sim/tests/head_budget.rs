@@ -92,7 +92,9 @@ fn link_budget_at_921600_baud() {
             for b in &mut d[n * 12..] {
                 *b = 1;
             }
+            // The longest scan id (a 5-byte varint).
             let m = Message::ResultRow(ResultRow {
+                scan_id: u32::MAX,
                 row: row as u16,
                 first_col: c0 as u16,
                 kind: RowKind::Points,
@@ -103,6 +105,7 @@ fn link_budget_at_921600_baud() {
         }
     }
     let done = Message::ScanDone(ScanDone {
+        scan_id: u32::MAX,
         rows: h as u16,
         valid: (w * h) as u32,
     });

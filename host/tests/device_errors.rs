@@ -128,7 +128,7 @@ fn a_silent_line_times_out_with_a_hint() {
 
 #[test]
 fn another_protocol_version_is_reported_as_such() {
-    // An old head (protocol 1) cannot parse our version-2 Hello: it answers, in its own version,
+    // An old head (protocol 1) cannot parse our version-3 Hello: it answers, in its own version,
     // Nak Version naming the version it speaks.
     let (io, stop, h) = fake(|f| {
         let nak = Nak {
@@ -141,22 +141,22 @@ fn another_protocol_version_is_reported_as_such() {
     let e = Client::connect(io, quick()).err().expect("version 1");
     let m = e.to_string();
     assert!(
-        matches!(e, DeviceError::Version { device: 1, host: 2 }),
+        matches!(e, DeviceError::Version { device: 1, host: 3 }),
         "{m}"
     );
     assert!(
-        m.contains("protocol version 1") && m.contains("version 2") && m.contains("update"),
+        m.contains("protocol version 1") && m.contains("version 3") && m.contains("update"),
         "{m}"
     );
     stop.store(true, Ordering::Relaxed);
     h.join().unwrap();
 
-    // A newer head (protocol 3) answering Capabilities in its version.
+    // A newer head (protocol 4) answering Capabilities in its version.
     let (io, stop, h) = fake(|f| {
         let caps = Capabilities {
-            protocol_version: 3,
+            protocol_version: 4,
             firmware: FirmwareVersion {
-                major: 3,
+                major: 4,
                 minor: 0,
                 patch: 0,
             },
@@ -169,12 +169,12 @@ fn another_protocol_version_is_reported_as_such() {
             max_sets: 1,
             max_lut_entries: 1,
         };
-        frame_with_version(3, f[2], &Message::Capabilities(caps))
+        frame_with_version(4, f[2], &Message::Capabilities(caps))
     });
-    let e = Client::connect(io, quick()).err().expect("version 3");
+    let e = Client::connect(io, quick()).err().expect("version 4");
     let m = e.to_string();
     assert!(
-        matches!(e, DeviceError::Version { device: 3, host: 2 }),
+        matches!(e, DeviceError::Version { device: 4, host: 3 }),
         "{m}"
     );
     stop.store(true, Ordering::Relaxed);

@@ -4,8 +4,11 @@
 //! phases and points bit for bit with what the desktop computes from the same images
 //! (`batch::decode_frames` through `cli::common::decode`, then
 //! `scan::ScanCalibration::reconstruct` and the depth-edge filter, the path of `fringe3d scan`).
-//! The CLI's start / stop / abort drive the trigger sequence. Then the cable is pulled
-//! mid-upload: a clear error, and the upload resumes on the new port.
+//! `fringe3d device scan --out` writes an organized PLY equal, vertex for vertex, to the one
+//! `fringe3d scan --organized` writes from the images. A scan interrupted mid-stream (the
+//! client's interrupt flag, as Ctrl-C sets it) is aborted on the head: it stops streaming and
+//! the next scan works. The CLI's start / stop / abort drive the trigger sequence. Then the cable
+//! is pulled mid-upload: a clear error, and the upload resumes on the new port.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -138,6 +141,69 @@ fn opts() -> ClientOptions {
 
 fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| canonical(*x).to_bits()).collect()
+}
+
+/// A binary little-endian PLY: its header, and per vertex the bytes of each named property.
+struct Ply {
+    header: String,
+    count: usize,
+    props: Vec<(String, usize, usize)>,
+    stride: usize,
+    body: Vec<u8>,
+}
+
+impl Ply {
+    fn read(path: &Path) -> Ply {
+        let bytes = std::fs::read(path).unwrap();
+        let end = bytes
+            .windows(11)
+            .position(|w| w == b"end_header\n")
+            .expect("PLY header")
+            + 11;
+        let header = std::str::from_utf8(&bytes[..end]).unwrap().to_string();
+        assert!(
+            header.contains("format binary_little_endian 1.0"),
+            "{header}"
+        );
+        let (mut count, mut props, mut at) = (0usize, Vec::new(), 0usize);
+        for line in header.lines() {
+            match line.split_whitespace().collect::<Vec<_>>().as_slice() {
+                ["element", "vertex", n] => count = n.parse().unwrap(),
+                ["property", ty, name] => {
+                    let size = match *ty {
+                        "uchar" => 1,
+                        "ushort" => 2,
+                        "uint" | "float" => 4,
+                        _ => panic!("PLY property type {ty}"),
+                    };
+                    props.push((name.to_string(), at, size));
+                    at += size;
+                }
+                _ => {}
+            }
+        }
+        assert_eq!(bytes.len(), end + count * at, "PLY body size");
+        Ply {
+            header,
+            count,
+            props,
+            stride: at,
+            body: bytes[end..].to_vec(),
+        }
+    }
+
+    /// The bytes of property `name` of every vertex, concatenated.
+    fn column(&self, name: &str) -> Vec<u8> {
+        let &(_, at, size) = self
+            .props
+            .iter()
+            .find(|p| p.0 == name)
+            .unwrap_or_else(|| panic!("no property {name}: {}", self.header));
+        self.body
+            .chunks_exact(self.stride)
+            .flat_map(|v| v[at..at + size].to_vec())
+            .collect()
+    }
 }
 
 #[test]
@@ -302,6 +368,86 @@ fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplu
     ])
     .unwrap();
     assert!(std::fs::metadata(&ply).unwrap().len() > 12 * cloud.valid_count() as u64);
+    // Organized, with validity codes, and equal vertex for vertex to what `fringe3d scan
+    // --organized` writes from the images (the head streams no intensity or modulation).
+    let batch = root.join("batch.ply");
+    fringe3d::cli::run([
+        "fringe3d",
+        "--quiet",
+        "scan",
+        "-p",
+        patterns.to_str().unwrap(),
+        "-c",
+        calib.to_str().unwrap(),
+        "--organized",
+        "-o",
+        batch.to_str().unwrap(),
+    ])
+    .unwrap();
+    let (dev, bat) = (Ply::read(&ply), Ply::read(&batch));
+    assert_eq!(dev.count, w * CAM.1 as usize, "one vertex per pixel");
+    assert!(
+        dev.header.contains(&format!("obj_info num_cols {w}"))
+            && dev.header.contains("property uchar validity"),
+        "{}",
+        dev.header
+    );
+    assert_eq!(bat.count, dev.count);
+    for name in ["x", "y", "z", "u", "v", "validity"] {
+        assert!(
+            dev.column(name) == bat.column(name),
+            "PLY property {name} differs"
+        );
+    }
+    assert_eq!(dev.column("validity"), cloud.validity);
+
+    // Ctrl-C mid-scan (the interrupt flag the CLI's signal handler sets): the client aborts the
+    // head's scan, which stops streaming; the head is not left scanning.
+    let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    let flag = Arc::new(AtomicBool::new(false));
+    c.set_interrupt(flag.clone());
+    let rows_before = c.status().unwrap().rows_sent;
+    let f = flag.clone();
+    let e = c
+        .scan(
+            ScanOutput::Both,
+            0,
+            0,
+            EdgeFilterMode::MaxAngle(80.0),
+            &mut |done, _| {
+                if done >= 8 {
+                    f.store(true, Ordering::SeqCst);
+                }
+            },
+        )
+        .unwrap_err();
+    let m = e.to_string();
+    assert!(
+        matches!(e, DeviceError::Interrupted { .. }) && m.contains("the head's scan was aborted"),
+        "{m}"
+    );
+    flag.store(false, Ordering::SeqCst);
+    drop(c);
+    let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    let st = c.status().unwrap();
+    assert_ne!(st.state, HeadState::Scanning);
+    assert!(
+        st.rows_sent - rows_before < CAM.1,
+        "the head stopped streaming: {} of {} rows sent",
+        st.rows_sent - rows_before,
+        CAM.1
+    );
+    let again = c
+        .scan(
+            ScanOutput::Points,
+            0,
+            0,
+            EdgeFilterMode::MaxAngle(80.0),
+            &mut |_, _| {},
+        )
+        .unwrap();
+    assert!(bits(again.xyz.as_ref().unwrap()) == bits(&cloud.xyz));
+    drop(c);
 
     // The trigger sequence from the CLI: once (back to ready by itself), then repeating until
     // stop; abort clears it too.

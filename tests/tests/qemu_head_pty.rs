@@ -8,8 +8,8 @@
 //! into the head's PSRAM store, calibration, reference phase map) and `fringe3d device scan`
 //! (points to a PLY, phase to a float TIFF) against it. The scan must be bit-identical (canonical
 //! NaN) to what the desktop computes from the same images — the decode and reconstruction of
-//! `fringe3d scan` (`cli::common::decode`, `ScanCalibration::reconstruct`) — and the PLY must hold
-//! exactly the desktop's valid points.
+//! `fringe3d scan` (`cli::common::decode`, `ScanCalibration::reconstruct`) — and the PLY, organized
+//! (one vertex per pixel with its validity code), must hold exactly the desktop's points and codes.
 //!
 //! Skips with a notice when `qemu-system-arm` or the `thumbv7em-none-eabihf` target is missing,
 //! unless `FRINGE3D_REQUIRE_QEMU` is set (`.ci/run` sets it): then it fails.
@@ -208,8 +208,8 @@ fn write_frames(dataset: &Path, out: &Path) {
     std::fs::write(out, f).unwrap();
 }
 
-/// The vertices of a binary little-endian PLY: (u, v, [x, y, z]).
-fn read_ply(path: &Path) -> Vec<(u32, u32, [f32; 3])> {
+/// The vertices of a binary little-endian PLY: (u, v, [x, y, z], validity).
+fn read_ply(path: &Path) -> Vec<(u32, u32, [f32; 3], u8)> {
     let bytes = std::fs::read(path).unwrap();
     let end = bytes
         .windows(11)
@@ -262,6 +262,8 @@ fn read_ply(path: &Path) -> Vec<(u32, u32, [f32; 3])> {
     };
     let (x, y, z) = (offset("x").0, offset("y").0, offset("z").0);
     let (u, v) = (offset("u"), offset("v"));
+    let (q, ty) = offset("validity");
+    assert!(ty.starts_with("uchar"), "{ty}");
     bytes[end..]
         .chunks_exact(stride)
         .map(|b| {
@@ -269,6 +271,7 @@ fn read_ply(path: &Path) -> Vec<(u32, u32, [f32; 3])> {
                 idx_at(b, &u),
                 idx_at(b, &v),
                 [f32_at(b, x), f32_at(b, y), f32_at(b, z)],
+                b[q],
             )
         })
         .collect()
@@ -397,7 +400,8 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         w * h
     );
 
-    // Points: each PLY holds exactly the desktop's valid points, bit for bit.
+    // Points: each PLY is organized (a vertex per pixel, row-major, with its validity code) and
+    // holds exactly the desktop's points and codes, bit for bit.
     let mut filtered = cloud.clone();
     fringe3d::scan::filter_edges(&mut filtered, &sc.edge_filter(80.0).unwrap());
     assert!(
@@ -409,28 +413,28 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         (&ply_raw, &cloud, "unfiltered"),
     ] {
         let pts = read_ply(path);
+        assert_eq!(pts.len(), w * h, "{what}: organized, one vertex per pixel");
         assert_eq!(
-            pts.len(),
+            pts.iter().filter(|p| p.3 == 0).count(),
             desk.valid_count(),
             "{what} valid points: emulated head vs desktop"
         );
-        let mut seen = vec![false; w * h];
-        for (u, v, xyz) in &pts {
-            let i = *v as usize * w + *u as usize;
-            assert!(
-                (*u as usize) < w && (*v as usize) < h && !seen[i],
-                "{what}: pixel ({u}, {v})"
-            );
-            seen[i] = true;
+        for (i, (u, v, xyz, code)) in pts.iter().enumerate() {
             assert_eq!(
-                desk.validity[i], 0,
-                "{what}: the head has a point at ({u}, {v}), the desktop none"
+                (*u as usize, *v as usize),
+                (i % w, i / w),
+                "{what}: vertex {i}"
             );
-            assert_eq!(
-                bits(xyz),
-                bits(&desk.xyz[3 * i..3 * i + 3]),
-                "{what}: point at ({u}, {v})"
-            );
+            assert_eq!(*code, desk.validity[i], "{what}: validity at ({u}, {v})");
+            if *code == 0 {
+                assert_eq!(
+                    bits(xyz),
+                    bits(&desk.xyz[3 * i..3 * i + 3]),
+                    "{what}: point at ({u}, {v})"
+                );
+            } else {
+                assert!(xyz.iter().all(|c| c.is_nan()), "{what}: ({u}, {v}) not NaN");
+            }
         }
     }
 

@@ -34,7 +34,7 @@
 //!
 //! | offset   | size | field                                                    |
 //! |---------:|-----:|----------------------------------------------------------|
-//! | 0        | 1    | protocol version = 2 ([`PROTOCOL_VERSION`])              |
+//! | 0        | 1    | protocol version = 3 ([`PROTOCOL_VERSION`])              |
 //! | 1        | 1    | flags (below)                                            |
 //! | 2        | 1    | sequence number                                          |
 //! | 3        | 1    | command id (table below)                                 |
@@ -52,12 +52,17 @@
 //!
 //! ## Exchange
 //!
-//! The host numbers its requests with a rolling `seq`; every answer echoes it. A read request
+//! The host numbers its requests with a rolling `seq` (starting, per process, from a value that
+//! is not the same every time: a new process does not reuse the numbers of the last); every
+//! answer echoes it. A read request
 //! (W = 0) is always answered by its reply in the table below, or a Nak. A write request is
 //! answered by its reply, or a Nak, if it has REPLY_WANTED; without it, only a failure is answered
 //! (Nak), so bursts of chunks need not wait. A Scan is answered by a stream: Ack, then
 //! [`ResultRow`]s, then [`ScanDone`], all with the Scan's `seq` and all but ScanDone with
-//! MORE_FOLLOWS.
+//! MORE_FOLLOWS. Each row and the ScanDone also carry the Scan's `scan_id`, which the host
+//! chooses afresh for every scan: a host accepts only rows of the scan it asked for, so rows
+//! of an earlier scan still in flight (adapter or driver buffers, a host killed mid-scan) are
+//! dropped, never assembled into the new result. A `seq` (8 bits) alone cannot tell them apart.
 //!
 //! Uploads: BeginUpload / BeginPhaseMapUpload → UploadAck{next_offset: 0}; UploadChunks, each at
 //! the head's current offset → UploadAck{next_offset}; after an interruption, QueryUpload →
@@ -88,7 +93,7 @@
 //! | `0x21` | ValidateSequence    | 0 | (empty)                                                                     | Validation |
 //! | `0x22` | Start               | 1 | (empty)                                                                     | Ack |
 //! | `0x23` | Stop                | 1 | (empty)                                                                     | Ack |
-//! | `0x30` | Scan                | 1 | output `[0]` Phase `[1]` Points `[2]` Both, first_row u16, row_count u16, edge filter `[0]` Off `[1]` MaxAngle f64 (degrees, `0 < a < 90`) | Ack, rows, ScanDone |
+//! | `0x30` | Scan                | 1 | scan_id u32, output `[0]` Phase `[1]` Points `[2]` Both, first_row u16, row_count u16, edge filter `[0]` Off `[1]` MaxAngle f64 (degrees, `0 < a < 90`) | Ack, rows, ScanDone |
 //! | `0x31` | Abort               | 1 | (empty)                                                                     | Ack |
 //! | `0x32` | GetStatus           | 0 | (empty)                                                                     | Status |
 //! | `0x80` | Capabilities        | 0 | protocol_version u8, fw major u8, minor u8, patch u8, sensor_width u16, sensor_height u16, projector_width u16, projector_height u16, free_memory u32, max_chunk u16, max_sets u8, max_lut_entries u16 | |
@@ -97,8 +102,8 @@
 //! | `0x83` | UploadAck           | 0 | target T, next_offset u32                                                   | |
 //! | `0x84` | Validation          | 0 | status u32 ([`ValidationStatus`] bits)                                      | |
 //! | `0x85` | Status              | 0 | state `[0]` Idle `[1]` Uploading `[2]` Ready `[3]` Running `[4]` Scanning `[5]` Fault, errors u32 ([`HeadErrors`] bits), rx_frames u32, rx_errors u32, tx_frames u32, rows_sent u32 | |
-//! | `0x86` | ResultRow           | 0 | row u16, first_col u16, kind `[0]` Phase `[1]` Points, data bytes           | |
-//! | `0x87` | ScanDone            | 0 | rows u16, valid u32                                                         | |
+//! | `0x86` | ResultRow           | 0 | scan_id u32, row u16, first_col u16, kind `[0]` Phase `[1]` Points, data bytes | |
+//! | `0x87` | ScanDone            | 0 | scan_id u32, rows u16, valid u32                                            | |
 //!
 //! `T` ([`UploadTarget`]) is `[0] set_id u8` (a pattern set) or `[1]` (the reference phase map).
 //!
@@ -120,11 +125,12 @@
 //! column. Pattern image uploads: one byte per pixel, row-major, images in order.
 //!
 //! Worked example: GetStatus (`0x32`), seq 7, REPLY_WANTED, empty payload. Header
-//! `02 02 07 32 00 00`; CRC-32C of those six bytes `0x3B0D6F48`, sent LE: decoded frame
-//! `02 02 07 32 00 00 48 6F 0D 3B`; COBS and delimiter: `05 02 02 07 32 01 05 48 6F 0D 3B 00`.
+//! `03 02 07 32 00 00`; CRC-32C of those six bytes `0xD43D0451`, sent LE: decoded frame
+//! `03 02 07 32 00 00 51 04 3D D4`; COBS and delimiter: `05 03 02 07 32 01 05 51 04 3D D4 00`.
 //!
 //! Version history: 1 carried the pattern set (linear phase only) and the calibration as f32 and
-//! had no edge-filter field in Scan. A head and a host of different versions refuse each other's
+//! had no edge-filter field in Scan. 2 had no `scan_id` in Scan, ResultRow and ScanDone (rows of
+//! an earlier scan still in flight were taken for the new scan's; issue #21 item 1). A head and a host of different versions refuse each other's
 //! frames: the head answers a frame of another version with Nak Version (detail: its version),
 //! which the host reports as such.
 //! `core/tests/wire_vectors.rs` spells out more, one per kind of body.

@@ -1,13 +1,15 @@
 //! `fringe3d-head`: the simulated scan head on a pseudo-terminal.
 //!
 //! ```text
-//! fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N]
+//! fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N] [--tx-stall-s S]
 //! ```
 //!
 //! DATASET is a dataset folder (or its `patterns.toml`): the pattern-set file lists the camera
 //! image of every pattern, which the simulated camera replays whatever the head projects. The
 //! head prints `PTY /dev/pts/N`; use that path as `fringe3d device --port`. `--link PATH` also
-//! makes a symlink to it. Stop with Ctrl-C.
+//! makes a symlink to it. `--tx-stall-s S` (default 10): when the host stops reading for S
+//! seconds while the head sends (a scan nobody reads), the head ends the scan (it leaves
+//! Scanning). Stop with Ctrl-C.
 
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -16,14 +18,14 @@ use std::sync::atomic::AtomicBool;
 
 use fringe3d_core::pattern::MAX_LEVELS;
 use fringe3d_core::reconstruct::MAX_BAND_ROWS;
-use fringe3d_head::desktop::{OwnedMemory, Pty, Replay, serve, sim_board};
+use fringe3d_head::desktop::{OwnedMemory, Pty, Replay, TX_STALL, serve_with, sim_board};
 use fringe3d_head::port::QUEUE_LEN;
 use fringe3d_head::sim::{FrameSource, NoSink, SimWorld};
 use fringe3d_head::{Head, HeadConfig, MemoryPlan};
 
 fn usage() -> ExitCode {
     eprintln!(
-        "usage: fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N]"
+        "usage: fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N] [--tx-stall-s S]"
     );
     eprintln!(
         "  DATASET: a dataset folder (its patterns.toml lists the camera images) or a pattern-set file"
@@ -37,6 +39,7 @@ fn main() -> ExitCode {
     let mut link: Option<PathBuf> = None;
     let mut readout_us: u32 = 1_000;
     let mut store_mib: usize = 64;
+    let mut stall = TX_STALL;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--link" => link = args.next().map(PathBuf::from),
@@ -46,6 +49,15 @@ fn main() -> ExitCode {
             },
             "--pattern-store-mib" => match args.next().and_then(|v| v.parse().ok()) {
                 Some(v) => store_mib = v,
+                None => return usage(),
+            },
+            "--tx-stall-s" => match args
+                .next()
+                .and_then(|v| v.parse::<f64>().ok())
+                .filter(|s| *s > 0.0 && *s <= 86_400.0)
+                .and_then(|s| std::time::Duration::try_from_secs_f64(s).ok())
+            {
+                Some(v) => stall = v,
                 None => return usage(),
             },
             "-h" | "--help" => {
@@ -119,7 +131,7 @@ fn main() -> ExitCode {
     let _ = std::io::stdout().flush();
     let stop = AtomicBool::new(false);
     let mut rows_seen = 0;
-    serve(&mut head, &pty, &stop, |head| {
+    serve_with(&mut head, &pty, &stop, stall, |head| {
         let st = head.status();
         if st.rows_sent != rows_seen && st.state != fringe3d_core::wire::HeadState::Scanning {
             rows_seen = st.rows_sent;

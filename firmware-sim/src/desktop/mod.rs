@@ -10,7 +10,7 @@ mod pty;
 mod replay;
 
 pub use inprocess::{Device, HeadPort, InProcess, VecSink};
-pub use pty::{Pty, ServeReport, serve};
+pub use pty::{Pty, ServeReport, TX_STALL, serve, serve_with};
 pub use replay::{Replay, wire_index};
 
 use crate::hal::{HwError, Storage};

@@ -11,7 +11,7 @@ use std::prelude::rust_2024::*;
 use std::os::fd::AsRawFd;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use nix::fcntl::OFlag;
 use nix::poll::{PollFd, PollFlags, poll};
@@ -75,9 +75,16 @@ pub struct ServeReport {
     pub link_errors: u64,
 }
 
-/// Waiting strategy of the desktop main loop: park, and wake the TX "interrupt" thread.
+/// How long the head's transmitter may make no progress (the host stopped reading the PTY)
+/// before the head gives up on what it sends (a scan ends): [`serve`]'s default.
+pub const TX_STALL: Duration = Duration::from_secs(10);
+
+/// Waiting strategy of the desktop main loop: park, and wake the TX "interrupt" thread; give up
+/// on a transmitter that made no progress for `stall`.
 struct ThreadWait {
     tx_thread: thread::Thread,
+    stall: Duration,
+    full_since: Option<Instant>,
 }
 
 impl Wait for ThreadWait {
@@ -85,22 +92,43 @@ impl Wait for ThreadWait {
         thread::park_timeout(Duration::from_millis(1));
     }
 
-    fn tx_full(&mut self) {
+    fn tx_full(&mut self) -> bool {
+        let since = *self.full_since.get_or_insert_with(Instant::now);
+        if since.elapsed() >= self.stall {
+            self.full_since = None;
+            return false;
+        }
         self.tx_thread.unpark();
         thread::yield_now();
+        true
     }
 
     fn tx_written(&mut self) {
+        self.full_since = None;
         self.tx_thread.unpark();
     }
 }
 
-/// Serve `head` on `pty` until `stop` is set. `on_pass` is called after every busy main-loop pass
-/// (to report progress or memory).
+/// Serve `head` on `pty` until `stop` is set, giving up on a stalled transmitter after
+/// [`TX_STALL`]. `on_pass` is called after every busy main-loop pass (to report progress or
+/// memory).
 pub fn serve<D: Device>(
     head: &mut D,
     pty: &Pty,
     stop: &AtomicBool,
+    on_pass: impl FnMut(&mut D),
+) -> ServeReport {
+    serve_with(head, pty, stop, TX_STALL, on_pass)
+}
+
+/// [`serve`] with the transmitter's stall limit `stall`: when the host stops reading for that
+/// long while the head sends (a scan nobody reads), the head's write fails and the scan ends
+/// (the head leaves Scanning and sets its link error bit; the serve loop goes on).
+pub fn serve_with<D: Device>(
+    head: &mut D,
+    pty: &Pty,
+    stop: &AtomicBool,
+    stall: Duration,
     mut on_pass: impl FnMut(&mut D),
 ) -> ServeReport {
     let fd = pty.master.as_raw_fd();
@@ -178,6 +206,8 @@ pub fn serve<D: Device>(
             tx_in,
             ThreadWait {
                 tx_thread: tx.thread().clone(),
+                stall,
+                full_since: None,
             },
         );
         while !stop.load(Ordering::Relaxed) {

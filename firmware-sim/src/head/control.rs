@@ -84,6 +84,7 @@ impl Lut {
 #[derive(Clone, Copy, Debug)]
 pub(super) struct PendingScan {
     pub(super) seq: u8,
+    pub(super) scan_id: u32,
     pub(super) output: ScanOutput,
     pub(super) first: u16,
     pub(super) count: u16,

@@ -10,7 +10,9 @@
 //! [`crate::port`]). Each call handles every complete frame received so far, then advances a
 //! running sequence by one entry, or runs a requested scan to its end. A scan keeps serving the
 //! link between frames and rows: status requests are answered, Abort stops it, anything else is
-//! refused with Nak Busy.
+//! refused with Nak Busy. A port error while the scan sends (on the desktop board: the host
+//! stopped reading for the port's stall limit, `desktop::TX_STALL`) ends the scan too, so a scan
+//! nobody reads does not keep the head busy for good.
 //!
 //! # State machine (reported by Status)
 //! ```text
@@ -20,6 +22,7 @@
 //!   Idle ──ValidateSequence (projection bits clear)──► Ready
 //!   Ready ──Start──► Running ──Stop / last entry (once)──► Ready
 //!   Ready ──Scan──► Scanning ──ScanDone / Abort──► Ready
+//!   Scanning ──port failure (a board's stalled transmitter: nobody reads)──► as before the Scan
 //!   Running/Scanning ──hardware fault──► Fault ──Abort──► Idle
 //! ```
 //! Any change of the set, the sequence or an upload drops the validation (back to Idle). While a

@@ -94,6 +94,7 @@ pub(super) fn plan_scan(
     };
     Ok(PendingScan {
         seq,
+        scan_id: req.scan_id,
         output: req.output,
         first,
         count,

@@ -13,7 +13,7 @@ use super::control::PendingScan;
 use super::dispatch::Link;
 use super::error::{LinkError, ScanFail, hw_bit};
 use super::sequence::{Lines, entry};
-use super::transmit::Tx;
+use super::transmit::{Stream, Tx};
 use crate::hal::{BoardIo, Camera, HwError, Projector, Storage};
 use crate::memory::HeadMemory;
 
@@ -44,7 +44,11 @@ pub(super) fn run<B: BoardIo, T: Read + ReadReady + Write>(
             tx.reply(
                 io,
                 sc.seq,
-                Message::ScanDone(ScanDone { rows, valid }),
+                Message::ScanDone(ScanDone {
+                    scan_id: sc.scan_id,
+                    rows,
+                    valid,
+                }),
                 false,
             )
         }
@@ -64,7 +68,12 @@ pub(super) fn run<B: BoardIo, T: Read + ReadReady + Write>(
                 HeadErrors::INTERNAL as u16,
             )
         }
-        Err(ScanFail::Link(e)) => Err(e),
+        Err(ScanFail::Link(e)) => {
+            // The port failed (on a desktop board: nobody read the line for too long). The scan
+            // ends here: the head leaves Scanning, with the link error bit set.
+            ctl.errors |= HeadErrors::LINK;
+            Err(e)
+        }
     }
 }
 
@@ -173,6 +182,10 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
         ),
         None => (sc.first, end),
     };
+    let stream = Stream {
+        seq: sc.seq,
+        scan_id: sc.scan_id,
+    };
     let mut valid = 0u32;
     let mut sent = 0u16;
     for y in lo..hi {
@@ -192,7 +205,7 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
         .map_err(|_| ScanFail::Internal)?;
         if wanted(y) && matches!(sc.output, ScanOutput::Phase | ScanOutput::Both) {
             link.tx
-                .rows(io, sc.seq, y, RowKind::Phase, phase_row, validity_row, None)?;
+                .rows(io, stream, y, RowKind::Phase, phase_row, validity_row, None)?;
         }
         let (Some(rc), Some(ring)) = (recon, ring.as_mut()) else {
             if wanted(y) {
@@ -233,7 +246,7 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
             valid += emit_points(
                 link.tx,
                 io,
-                sc.seq,
+                stream,
                 t,
                 h,
                 filter,
@@ -254,7 +267,7 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
             valid += emit_points(
                 link.tx,
                 io,
-                sc.seq,
+                stream,
                 t,
                 h,
                 filter,
@@ -287,7 +300,7 @@ fn count_valid(codes: &[u8]) -> u32 {
 fn emit_points<T: Write>(
     tx: &mut Tx,
     io: &mut T,
-    seq: u8,
+    stream: Stream,
     t: u16,
     h: usize,
     filter: Option<EdgeFilter>,
@@ -307,7 +320,7 @@ fn emit_points<T: Write>(
     let t = t as usize;
     let cur = slot(t);
     let Some(f) = filter else {
-        tx.rows(io, seq, t as u16, RowKind::Points, cur.0, cur.1, None)?;
+        tx.rows(io, stream, t as u16, RowKind::Points, cur.0, cur.1, None)?;
         return Ok(count_valid(cur.1));
     };
     let above = (t > 0).then(|| slot(t - 1));
@@ -317,7 +330,7 @@ fn emit_points<T: Write>(
     }
     tx.rows(
         io,
-        seq,
+        stream,
         t as u16,
         RowKind::Points,
         cur.0,

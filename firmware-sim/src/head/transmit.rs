@@ -10,6 +10,15 @@ use fringe3d_core::wire::{
 
 use super::error::{LinkError, io_err};
 
+/// Which scan's stream a row belongs to: the Scan's `seq` and its `scan_id`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Stream {
+    /// The Scan request's sequence number (every frame of the answer echoes it).
+    pub(super) seq: u8,
+    /// The Scan request's identity (every row and the ScanDone carry it).
+    pub(super) scan_id: u32,
+}
+
 /// The transmit side: frame buffers and a counter.
 pub(super) struct Tx {
     scratch: [u8; MAX_FRAME],
@@ -79,7 +88,7 @@ impl Tx {
     pub(super) fn rows<T: Write>(
         &mut self,
         io: &mut T,
-        seq: u8,
+        stream: Stream,
         row: u16,
         kind: RowKind,
         values: &[f32],
@@ -114,12 +123,13 @@ impl Tx {
                 .ok_or(LinkError::Wire(WireError::BufferTooSmall))?;
             codes.copy_from_slice(&validity[c0..c1]);
             let msg = Message::ResultRow(ResultRow {
+                scan_id: stream.scan_id,
                 row,
                 first_col: c0 as u16,
                 kind,
                 data: &self.row[..m * stride],
             });
-            let mut h = Header::for_message(&msg, seq);
+            let mut h = Header::for_message(&msg, stream.seq);
             h.flags = h.flags.with(Flags::MORE_FOLLOWS, true);
             let len =
                 emit_packet(&h, &msg, &mut self.scratch, &mut self.out).map_err(LinkError::Wire)?;

@@ -7,7 +7,9 @@ use crate::device::desc::{
     capture_sequence, fidelity, pattern_bytes, pattern_desc, phase_map_bytes, render_pattern,
     wire_calibration,
 };
-use crate::device::{Client, ClientOptions, DeviceError, SerialTransport, nak_reason, open_serial};
+use crate::device::{
+    Client, ClientOptions, DeviceError, SerialTransport, interrupt, nak_reason, open_serial,
+};
 use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, ReadLimits, read_gray_limited, write_tiff_f32};
 use crate::io::ply::{PlyOptions, PointRow};
@@ -46,7 +48,8 @@ pub enum DeviceCommand {
     /// Start the configured trigger sequence: the head projects it (and triggers the camera as
     /// configured) once, or until `stop` if it was uploaded with `--repeat`. Nothing is streamed.
     Start(PortArgs),
-    /// Stop a running sequence after its current entry (refused while a scan streams: use abort).
+    /// Stop a running sequence after its current entry (refused while a scan streams: use
+    /// `abort`).
     Stop(PortArgs),
     /// Abort whatever runs (a sequence or a scan) and clear a fault; the head returns to ready
     /// (or idle after a fault).
@@ -127,8 +130,10 @@ pub struct ScanArgs {
     /// What to stream.
     #[arg(long, value_enum, default_value_t = OutputKind::Points)]
     pub output: OutputKind,
-    /// Point cloud file (PLY, or .xyz for plain "x y z" text; valid points only), or - for
-    /// standard output (the summary then goes to standard error).
+    /// Point cloud file, or - for standard output (the summary then goes to standard error).
+    /// PLY: organized, one vertex per camera pixel of the scanned rows (x, y, z, u, v and the
+    /// validity code; x y z NaN where invalid), as `fringe3d scan --organized` writes it; .xyz:
+    /// plain "x y z" text of the valid points.
     #[arg(long, short = 'o')]
     pub out: Option<PathBuf>,
     /// Cloud format (default: by the extension of --out, which must then be .ply or .xyz; PLY for -).
@@ -534,15 +539,20 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
         EdgeFilterMode::MaxAngle(a.max_angle)
     };
     let mut c = connect(&a.port, Some(a.scan_timeout_s))?;
+    // Ctrl-C (SIGINT, SIGTERM, SIGHUP) from here on aborts the head's scan before the process
+    // exits: the signal handler waits for this guard.
+    let busy = interrupt::Busy::enter();
+    c.set_interrupt(interrupt::process_flag());
     let (pb, mut cb) = bar(0, "rows", g.quiet);
     let r = c.scan(output, a.first_row, a.rows, edge_filter, &mut cb);
     pb.finish_and_clear();
+    drop(busy);
     let r = match r {
         Err(DeviceError::Refused {
             code: NakCode::Busy,
             ..
         }) => bail!(
-            "the head is busy (a sequence or another scan runs): `fringe3d device` cannot scan until it is stopped"
+            "the head is busy: a sequence runs or another scan streams; `fringe3d device abort` ends either (`fringe3d device stop` ends a running sequence only), then scan again"
         ),
         r => r?,
     };
@@ -562,7 +572,9 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
             modulation: false,
             ..Default::default()
         };
-        valid = Some(cloud_out::write_rows(out, w, rows, row, opts, false)?);
+        // Organized (the XYZ format keeps the valid points only, as for `fringe3d scan`).
+        cloud_out::write_rows(out, w, rows, row, opts, true)?;
+        valid = Some(codes.iter().filter(|&&c| c == 0).count() as u64);
     }
     if let (Some(path), Some(phase)) = (&a.phase_out, &r.phase) {
         write_tiff_f32(path, w as u32, rows as u32, phase)?;
@@ -586,7 +598,7 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
     };
     if g.json {
         say(serde_json::json!({"command": "device scan", "port": a.port.port, "protocol_version": PROTOCOL_VERSION, "width": w, "first_row": r.first_row,
-                "rows": rows, "points": valid, "rescans": r.rescans, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
+                "rows": rows, "points": valid, "rescans": r.rescans, "stale_rows_dropped": r.stale_rows, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
             .to_string());
     } else if !g.quiet {
         say(format!(
@@ -603,8 +615,22 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
                 String::new()
             }
         ));
+        if r.stale_rows > 0 {
+            say(format!(
+                "dropped {} rows of an earlier scan still in flight (not of this scan: not written)",
+                r.stale_rows
+            ));
+        }
         if let (Some(n), Some(out)) = (valid, &cloud) {
-            say(format!("wrote {n} points to {}", out.describe()));
+            let grid = if out.format == CloudFormat::Ply {
+                format!(" (organized, {w} x {rows} vertices)")
+            } else {
+                String::new()
+            };
+            say(format!(
+                "wrote {n} valid points to {}{grid}",
+                out.describe()
+            ));
         }
         if let Some(p) = &a.phase_out {
             say(format!("wrote the phase map to {}", p.display()));

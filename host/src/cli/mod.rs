@@ -161,6 +161,8 @@ fn install_signal_cleanup() {
                 .name("signals".into())
                 .spawn(move || {
                     if let Some(sig) = signals.forever().next() {
+                        // A `device scan` in progress aborts the head's scan first.
+                        crate::device::interrupt::on_signal();
                         crate::io::atomic::clean_up_for_exit();
                         let _ = signal_hook::low_level::emulate_default_handler(sig);
                         std::process::exit(128 + sig);

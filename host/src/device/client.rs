@@ -12,17 +12,20 @@
 //!   BeginUpload with its current offset. The upload ends with ConfirmUpload; the head uses the
 //!   data only if the CRC-32C of what it stored equals the digest.
 //! - A scan streams rows; rows lost on the line are requested again (a Scan of the missing rows)
-//!   until every row is in, at most [`ClientOptions::retries`] times.
+//!   until every row is in, at most [`ClientOptions::retries`] times. Every Scan request carries
+//!   a fresh scan identity that the head copies into each row and its ScanDone; rows and
+//!   ScanDones of any other scan (an earlier one still in flight) are dropped and counted
+//!   ([`ScanOutcome::stale_rows`]), never assembled.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::{
-    BeginPhaseMap, BeginUpload, Calibration, Capabilities, DefinePatternSet, FirmwareVersion,
-    Hello, LutEntry, LutTable, Message, Nak, NakCode, PHASE_MAP_BYTES_PER_PIXEL, PROTOCOL_VERSION,
-    Packet, PatternSetDesc, Sequence, Status, UploadAck, UploadChunk, UploadTarget,
-    ValidationStatus, WireError, check_header, frame,
+    BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, DefinePatternSet,
+    FirmwareVersion, Hello, LutEntry, LutTable, Message, Nak, NakCode, PHASE_MAP_BYTES_PER_PIXEL,
+    PROTOCOL_VERSION, Packet, PatternSetDesc, Sequence, Status, UploadAck, UploadChunk,
+    UploadTarget, ValidationStatus, WireError, check_header, frame,
 };
 
 use super::{DeviceError, Link, Transport, nak_reason};
@@ -89,6 +92,9 @@ pub struct ScanOutcome {
     pub point_validity: Option<Vec<u8>>,
     /// Scans of missing rows sent after the first.
     pub rescans: u32,
+    /// Frames of other scans (rows or ScanDones with another scan identity: an earlier scan's,
+    /// still in flight) received and dropped.
+    pub stale_rows: u64,
     /// Bytes received during the scan.
     pub wire_bytes: u64,
     /// Wall time, seconds.
@@ -122,6 +128,27 @@ fn classify(f: &[u8]) -> Got<'_> {
             Ok(msg) if check_header(&h, &msg).is_ok() => Got::Frame { seq: h.seq, msg },
             _ => Got::Damaged,
         },
+    }
+}
+
+/// `true` if `m` is of a kind that answers a `req` request (its Ack or Nak naming `req`, or the
+/// reply of its kind). Frames of another kind that carry the awaited `seq` — answers of an
+/// earlier session still in flight — are not taken for the answer.
+fn answers(req: Command, m: &Message<'_>) -> bool {
+    match m {
+        Message::Nak(n) => n.command == req as u8,
+        Message::Ack(a) => a.command == req as u8,
+        Message::Capabilities(_) => req == Command::Hello,
+        Message::Status(_) => req == Command::GetStatus,
+        Message::Validation(_) => req == Command::ValidateSequence,
+        Message::UploadAck(_) => matches!(
+            req,
+            Command::BeginUpload
+                | Command::BeginPhaseMapUpload
+                | Command::UploadChunk
+                | Command::QueryUpload
+        ),
+        _ => false,
     }
 }
 
@@ -222,6 +249,13 @@ impl<T: Transport> Client<T> {
         self.link.into_transport()
     }
 
+    /// Stop waiting once `flag` is set (Ctrl-C): requests then fail with
+    /// [`DeviceError::Interrupted`], and a scan first aborts itself on the head
+    /// ([`super::interrupt`]).
+    pub fn set_interrupt(&mut self, flag: std::sync::Arc<std::sync::atomic::AtomicBool>) {
+        self.link.set_interrupt(Some(flag));
+    }
+
     /// The options.
     pub fn options(&self) -> &ClientOptions {
         &self.opts
@@ -282,7 +316,7 @@ impl<T: Transport> Client<T> {
                         });
                     }
                     Got::Damaged => self.link.stats_mut().bad_frames += 1,
-                    Got::Frame { seq: s, .. } if s != seq => {}
+                    Got::Frame { seq: s, msg: m } if s != seq || !answers(msg.command(), &m) => {}
                     Got::Frame {
                         msg: Message::Nak(nak),
                         ..
@@ -517,7 +551,15 @@ impl<T: Transport> Client<T> {
                     }
                     Got::Damaged => self.link.stats_mut().bad_frames += 1,
                     Got::Frame { seq, msg } => {
-                        if let Some(pos) = inflight.iter().position(|(s, _)| *s == seq) {
+                        let ours = match msg {
+                            Message::UploadAck(a) => a.target == target,
+                            ref m => answers(Command::UploadChunk, m),
+                        };
+                        if let Some(pos) = inflight
+                            .iter()
+                            .position(|(s, _)| *s == seq)
+                            .filter(|_| ours)
+                        {
                             let expected = inflight[pos].1;
                             inflight.drain(..=pos);
                             match msg {

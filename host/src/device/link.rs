@@ -1,7 +1,14 @@
 //! Frames over a [`Transport`]: the core's `wire` emitters and stream decoder (the code the head
-//! runs), sequence numbers, receiving with a deadline, and counters.
+//! runs), sequence numbers and scan identities, receiving with a deadline, and counters.
+//!
+//! Sequence numbers and scan identities start, for every link, from a value drawn from the
+//! time, the process id and a per-process link counter: a new process (or a new connection in
+//! the same process) does not reuse the numbers of the last one, so answers still in flight
+//! from an earlier session are not taken for answers to this one (issue #21 item 1).
 
-use std::time::Instant;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use embedded_io::{Error as _, ErrorKind};
 use fringe3d_core::wire::{
@@ -39,9 +46,34 @@ pub struct Link<T> {
     pos: usize,
     len: usize,
     seq: u8,
+    scan_id: u32,
+    interrupt: Option<Arc<AtomicBool>>,
     scratch: Box<[u8]>,
     out: Box<[u8]>,
     stats: LinkStats,
+}
+
+/// SplitMix64's finaliser: a well-mixed 64-bit value from any input.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE5_E9B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// A fresh starting point for a link's numbers: the process's seed (time and process id, drawn
+/// once) mixed with a per-process count of links.
+fn link_seed() -> u64 {
+    static SEED: OnceLock<u64> = OnceLock::new();
+    static LINKS: AtomicU64 = AtomicU64::new(0);
+    let seed = *SEED.get_or_init(|| {
+        let t = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map(|d| d.as_nanos() as u64)
+            .unwrap_or(0);
+        mix(t ^ (u64::from(std::process::id()) << 32))
+    });
+    mix(seed ^ LINKS.fetch_add(1, Ordering::Relaxed))
 }
 
 /// How long a write may make no progress before the device counts as gone.
@@ -74,13 +106,16 @@ fn gone<E: embedded_io::Error>(what: &str, e: E) -> DeviceError {
 impl<T: Transport> Link<T> {
     /// A link over `io`.
     pub fn new(io: T) -> Self {
+        let start = link_seed();
         Link {
             io,
             rx: FrameReceiver::new(vec![0u8; MAX_ENCODED_FRAME].into_boxed_slice()),
             buf: vec![0u8; 4096].into_boxed_slice(),
             pos: 0,
             len: 0,
-            seq: 0,
+            seq: start as u8,
+            scan_id: (start >> 32) as u32,
+            interrupt: None,
             scratch: vec![0u8; MAX_FRAME].into_boxed_slice(),
             out: vec![0u8; MAX_ENCODED_FRAME].into_boxed_slice(),
             stats: LinkStats::default(),
@@ -110,6 +145,18 @@ impl<T: Transport> Link<T> {
     /// The counters, mutably (the client counts retries and naks here).
     pub fn stats_mut(&mut self) -> &mut LinkStats {
         &mut self.stats
+    }
+
+    /// Check `flag` while waiting for frames: once it is set, [`Link::recv`] fails with
+    /// [`DeviceError::Interrupted`] (`None`: never). Returns the flag checked before.
+    pub fn set_interrupt(&mut self, flag: Option<Arc<AtomicBool>>) -> Option<Arc<AtomicBool>> {
+        std::mem::replace(&mut self.interrupt, flag)
+    }
+
+    /// The next scan identity (for a Scan request; its rows and ScanDone echo it).
+    pub fn next_scan_id(&mut self) -> u32 {
+        self.scan_id = self.scan_id.wrapping_add(1);
+        self.scan_id
     }
 
     /// The next sequence number.
@@ -175,6 +222,16 @@ impl<T: Transport> Link<T> {
     /// before `deadline`. Damaged frames are counted and skipped.
     pub fn recv(&mut self, what: &str, deadline: Instant) -> Result<Option<Vec<u8>>, DeviceError> {
         loop {
+            if self
+                .interrupt
+                .as_ref()
+                .is_some_and(|f| f.load(Ordering::SeqCst))
+            {
+                return Err(DeviceError::Interrupted {
+                    what: what.to_string(),
+                    note: String::new(),
+                });
+            }
             while self.pos < self.len {
                 let (used, event) = self.rx.feed(&self.buf[self.pos..self.len]);
                 self.pos += used;

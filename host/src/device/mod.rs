@@ -6,6 +6,7 @@
 //!   `serialport` and `embedded-io-adapters`), or any `embedded-io` byte stream ([`Transport`]);
 //! - [`link`]: frames on a transport: sequence numbers, emit, receive with a deadline, counters;
 //! - [`client`]: the commands — [`Client::connect`], uploads, sequence, scans;
+//! - [`interrupt`]: Ctrl-C during a scan aborts it on the head before the process exits;
 //! - [`desc`]: desktop data in wire form: pattern sets (with the check that the head will rebuild
 //!   the very same set), calibrations, trigger tables, image and phase-map bytes.
 //!
@@ -13,6 +14,7 @@
 
 pub mod client;
 pub mod desc;
+pub mod interrupt;
 pub mod link;
 pub mod transport;
 
@@ -111,6 +113,14 @@ pub enum DeviceError {
         /// Re-requests made.
         attempts: u32,
     },
+    /// The command was interrupted (Ctrl-C, or the interrupt flag set).
+    #[error("interrupted during {what}{note}")]
+    Interrupted {
+        /// What was going on.
+        what: String,
+        /// What became of the head's scan, if one ran.
+        note: String,
+    },
     /// The device broke the protocol (an answer of the wrong kind).
     #[error("protocol error: {0}")]
     Protocol(String),
@@ -147,9 +157,9 @@ pub fn nak_reason(code: NakCode, detail: u16) -> String {
             Some(why) => format!("a field is out of range ({})", why.name()),
             None => format!("a field is out of range (code {detail})"),
         },
-        NakCode::Busy => {
-            "the device is busy (a sequence or scan runs; stop or abort it first)".into()
-        }
+        NakCode::Busy => "the device is busy: a sequence runs or a scan streams (`fringe3d device \
+             abort` ends either; `fringe3d device stop` ends a running sequence only)"
+            .into(),
         NakCode::NotReady => {
             "not allowed in the device's current state (a fault? send abort)".into()
         }

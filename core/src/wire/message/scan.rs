@@ -28,8 +28,15 @@ pub enum EdgeFilterMode {
 }
 
 /// Host → head: run the configured sequence, decode, stream rows.
+///
+/// `scan_id` names the scan: the head copies it into every [`ResultRow`] and the [`ScanDone`] it
+/// streams in answer, so a host can tell this scan's rows from rows of an earlier scan still in
+/// flight (adapter or driver buffers, a host killed mid-scan). The host picks it; it should not
+/// repeat between scans (protocol version 3).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ScanRequest {
+    /// The scan's identity, echoed in its rows and its ScanDone.
+    pub scan_id: u32,
     /// What to stream.
     pub output: ScanOutput,
     /// First camera row to stream.
@@ -85,6 +92,8 @@ impl RowKind {
 /// final [`ScanDone`], row frames carry [`Flags::MORE_FOLLOWS`](crate::wire::Flags::MORE_FOLLOWS).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ResultRow<'a> {
+    /// The [`ScanRequest::scan_id`] of the scan the row belongs to.
+    pub scan_id: u32,
     /// Camera row.
     pub row: u16,
     /// Column of the segment's first value.
@@ -170,6 +179,8 @@ impl<'a> ResultRow<'a> {
 /// Head → host: the scan finished (after its last [`ResultRow`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ScanDone {
+    /// The [`ScanRequest::scan_id`] of the scan that finished.
+    pub scan_id: u32,
     /// Rows streamed.
     pub rows: u16,
     /// Valid pixels (phase) or points over all rows.

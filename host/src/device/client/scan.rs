@@ -17,7 +17,39 @@ impl<T: Transport> Client<T> {
     /// head's depth-edge filter when `edge_filter` says so (`fringe3d scan` filters at 80° by
     /// default); the head filters each row with its true neighbours, so the rows of a partial
     /// scan or a re-request equal those of a whole-image scan.
+    ///
+    /// Interrupted (the flag of [`Client::set_interrupt`] set), the scan sends Abort to the head
+    /// (one short exchange, while the flag is ignored) and fails with
+    /// [`DeviceError::Interrupted`], saying whether the head confirmed the abort.
     pub fn scan(
+        &mut self,
+        output: ScanOutput,
+        first_row: u16,
+        row_count: u16,
+        edge_filter: EdgeFilterMode,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<ScanOutcome, DeviceError> {
+        match self.scan_rows(output, first_row, row_count, edge_filter, progress) {
+            Err(DeviceError::Interrupted { what, .. }) => {
+                let flag = self.link.set_interrupt(None);
+                let retries = std::mem::replace(&mut self.opts.retries, 1);
+                let aborted = self.abort();
+                self.opts.retries = retries;
+                self.link.set_interrupt(flag);
+                let note = match aborted {
+                    Ok(()) => "; the head's scan was aborted".to_string(),
+                    Err(e) => format!(
+                        "; the head did not confirm the abort ({e}): run `fringe3d device abort` \
+                         before the next scan"
+                    ),
+                };
+                Err(DeviceError::Interrupted { what, note })
+            }
+            r => r,
+        }
+    }
+
+    fn scan_rows(
         &mut self,
         output: ScanOutput,
         first_row: u16,
@@ -57,6 +89,7 @@ impl<T: Transport> Client<T> {
             seen: HashSet::new(),
             need: [if phase { w } else { 0 }, if points { w } else { 0 }],
             done_rows: 0,
+            stale: 0,
         };
         let mut ranges = vec![(first, rows)];
         let mut rescans = 0u32;
@@ -93,6 +126,7 @@ impl<T: Transport> Client<T> {
             xyz: acc.xyz,
             point_validity: acc.point_validity,
             rescans,
+            stale_rows: acc.stale,
             wire_bytes: self.link.stats().bytes_received - recv0,
             seconds: t0.elapsed().as_secs_f64(),
         })
@@ -111,7 +145,10 @@ impl<T: Transport> Client<T> {
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<(), DeviceError> {
         let what = "Scan";
+        // A fresh identity per request: only rows carrying it belong to this stream.
+        let scan_id = self.link.next_scan_id();
         let msg = Message::Scan(ScanRequest {
+            scan_id,
             output,
             first_row: first,
             row_count: count,
@@ -153,6 +190,15 @@ impl<T: Transport> Client<T> {
                     }
                     Got::Frame { seq, msg } => (seq, msg),
                 };
+                // Rows and ScanDones of another scan (an earlier one, still in flight): dropped,
+                // whatever their seq (a seq has 8 bits and restarts with every process).
+                if let Message::ResultRow(fringe3d_core::wire::ResultRow { scan_id: id, .. })
+                | Message::ScanDone(fringe3d_core::wire::ScanDone { scan_id: id, .. }) = m
+                    && id != scan_id
+                {
+                    acc.stale += 1;
+                    continue;
+                }
                 if !seqs.contains(&seq) {
                     continue;
                 }
@@ -164,6 +210,8 @@ impl<T: Transport> Client<T> {
                         progress(acc.done_rows as u64, acc.rows as u64);
                     }
                     Message::ScanDone(_) => return Ok(()),
+                    // A Nak of another command under this seq: an earlier session's, not ours.
+                    Message::Nak(n) if n.command != Command::Scan as u8 => {}
                     Message::Nak(n) if n.code == NakCode::Busy && seqs.len() > 1 => started = true,
                     Message::Nak(n)
                         if matches!(n.code, NakCode::Crc | NakCode::Framing) && !started =>
@@ -211,6 +259,7 @@ struct Assembly {
     seen: HashSet<(u8, u16, u16)>,
     need: [usize; 2],
     done_rows: usize,
+    stale: u64,
 }
 
 impl Assembly {
