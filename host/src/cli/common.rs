@@ -95,6 +95,9 @@ pub struct LoadedSet {
 pub fn load_set(path: &Path) -> Result<LoadedSet> {
     let file = PatternSetFile::load(path)?;
     let set = file.to_pattern_set()?;
+    if let Some(note) = file.implicit_order_note() {
+        errln!("note: {note}");
+    }
     Ok(LoadedSet {
         path: path.to_path_buf(),
         file,

@@ -36,8 +36,15 @@ use fringe3d_core::phase_function::{
 use super::atomic::write_atomic;
 use super::error::{FormatError, check_toml_version, read_text, toml_message};
 
-/// The pattern-set file format version this build reads and writes.
+/// The pattern-set file format version this build writes. It reads this and
+/// [`PATTERN_FILE_VERSION_LISTED`].
 pub const PATTERN_FILE_VERSION: u32 = 1;
+
+/// The format version in which explicit `[[levels]]` without `order` are projected in the listed
+/// order (each level's shifts in turn, levels as listed). In version 1 they mean the built-in
+/// order (see `order` in docs/formats.md), which [`PatternSetFile::implicit_order_note`] points out
+/// where it differs from the listed one.
+pub const PATTERN_FILE_VERSION_LISTED: u32 = 2;
 
 /// The default span of `kind = "centered"` (and of a file without `[phase]`): 0.9·2π radians.
 pub const DEFAULT_SPAN: f64 = 0.9 * TAU;
@@ -53,7 +60,8 @@ pub const DEFAULT_RATIO: f64 = 8.0;
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PatternSetFile {
-    /// Format version, [`PATTERN_FILE_VERSION`] (= 1).
+    /// Format version: [`PATTERN_FILE_VERSION`] (= 1) or [`PATTERN_FILE_VERSION_LISTED`] (= 2,
+    /// where explicit `[[levels]]` without `order` are in the listed order).
     pub version: u32,
     /// Sine (the paper's eq 5) or cosine convention; default sine.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -271,7 +279,10 @@ impl PatternSetFile {
     /// [`PatternSetFile::to_pattern_set`]).
     pub fn load(path: &Path) -> Result<PatternSetFile, FormatError> {
         let text = read_text(path)?;
-        check_toml_version(path, &text, PATTERN_FILE_VERSION)?;
+        // Version 2 differs only in the default order of explicit [[levels]].
+        if check_toml_version(path, &text, PATTERN_FILE_VERSION_LISTED).is_err() {
+            check_toml_version(path, &text, PATTERN_FILE_VERSION)?;
+        }
         let mut f: PatternSetFile =
             toml::from_str(&text).map_err(|e| FormatError::parse(path, toml_message(&e)))?;
         f.source = Some(path.to_path_buf());
@@ -326,9 +337,9 @@ impl PatternSetFile {
     /// core (e.g. a non-monotonic phase function) become [`FormatError::Invalid`] naming the file
     /// and the problem.
     pub fn to_pattern_set(&self) -> Result<PatternSet, FormatError> {
-        if self.version != PATTERN_FILE_VERSION {
+        if self.version != PATTERN_FILE_VERSION && self.version != PATTERN_FILE_VERSION_LISTED {
             return Err(self.err(format!(
-                "version must be {PATTERN_FILE_VERSION}, got {}",
+                "version must be {PATTERN_FILE_VERSION} or {PATTERN_FILE_VERSION_LISTED}, got {}",
                 self.version
             )));
         }
@@ -347,6 +358,15 @@ impl PatternSetFile {
                  {MAX_SHIFT_MAGNITUDE}] radians (any angle has an equal one there), got {offset:?}"
             ))
         })?;
+        if self.order.is_none()
+            && self.levels.is_some()
+            && self.version == PATTERN_FILE_VERSION_LISTED
+        {
+            let ids = listed_order(&set);
+            set = set
+                .with_order(&ids)
+                .map_err(|e| self.err(format!("the listed order: {e}")))?;
+        }
         if let Some(order) = &self.order {
             let mut ids = Vec::with_capacity(order.len());
             for (i, &[l, s]) in order.iter().enumerate() {
@@ -612,6 +632,35 @@ impl PatternSetFile {
         }
     }
 
+    /// A note for a version-1 file with explicit `[[levels]]` and no `order` whose images are
+    /// therefore taken in the built-in order, when that differs from the listed order (the one a
+    /// reader of the file would assume). `None` otherwise.
+    pub fn implicit_order_note(&self) -> Option<String> {
+        if self.version != PATTERN_FILE_VERSION || self.order.is_some() || self.levels.is_none() {
+            return None;
+        }
+        let set = self.to_pattern_set().ok()?;
+        let listed = listed_order(&set);
+        if set.order() == listed.as_slice() {
+            return None;
+        }
+        let show = |ids: &[ImageId]| {
+            ids.iter()
+                .map(|i| format!("[{}, {}]", i.level, i.shift))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let name = self
+            .source
+            .as_deref()
+            .map_or_else(|| "<pattern set>".to_string(), |p| p.display().to_string());
+        Some(format!(
+            "{name}: version 1 with [[levels]] and no `order`: the images are taken in the built-in order [{}], not in the listed order [{}]; write `order = [...]` to say which, or `version = {PATTERN_FILE_VERSION_LISTED}` for the listed order (docs/formats.md)",
+            show(set.order()),
+            show(&listed)
+        ))
+    }
+
     /// The file describing `set`, with every value explicit (projector gray levels and bit depth,
     /// phase function parameters, convention, offset). Levels are written as a preset when they are
     /// exactly one; a level's shifts as `steps` when they are exactly those of eq 14, else in
@@ -674,8 +723,14 @@ impl PatternSetFile {
                     .collect(),
             )
         };
+        // A version-1 file: without `order` its images are in the built-in order. Write the
+        // order when the set's differs, and for explicit [[levels]] also when the built-in order
+        // differs from the listed one (so that no reader has to know the built-in rule).
         let default_order = PatternSet::new(*f, levels, *o)
-            .map(|d| d.order() == set.order())
+            .map(|d| {
+                d.order() == set.order()
+                    && (level_sections.is_none() || listed_order(&d).as_slice() == d.order())
+            })
             .unwrap_or(false);
         let order = (!default_order).then(|| {
             set.order()
@@ -739,4 +794,18 @@ impl PatternSetFile {
                 .collect()
         })
     }
+}
+
+/// The listed order of a set's images: each level's shifts in turn, levels coarse to fine.
+pub fn listed_order(set: &PatternSet) -> Vec<ImageId> {
+    set.levels()
+        .iter()
+        .enumerate()
+        .flat_map(|(l, lv)| {
+            (0..lv.len()).map(move |s| ImageId {
+                level: l as u8,
+                shift: s as u8,
+            })
+        })
+        .collect()
 }
