@@ -134,3 +134,63 @@ fn single_and_multi_threaded_scans_are_identical() {
         );
     }
 }
+
+/// `scan` takes the decoder's thresholds that `decode` has (issue #19 item 5): a stricter minimum
+/// modulation flags more pixels low-modulation (the validity counts of `--json`), and values
+/// outside their meaningful range are one clear error with nothing written.
+#[test]
+fn scan_takes_the_decode_thresholds() {
+    let t = Tmp(std::env::temp_dir().join(format!("fringe3d-cli-thr-{}", std::process::id())));
+    let _ = std::fs::remove_dir_all(&t.0);
+    let ds = t.0.join("ds");
+    let ds_s = ds.to_str().unwrap();
+    run(&[
+        "render", "-q", "--scene", "ballbar", "--size", "160x128", "--noise", "1", "--bits", "8",
+        "--out", ds_s,
+    ]);
+    let (set, cal) = (ds.join("patterns.toml"), ds.join("calibration.toml"));
+    let scan = |out: &str, extra: &[&str]| {
+        let mut a = vec![
+            "--json",
+            "scan",
+            "--patterns",
+            set.to_str().unwrap(),
+            "--calibration",
+            cal.to_str().unwrap(),
+            ds_s,
+        ];
+        let o = t.0.join(out);
+        let o = o.to_str().unwrap().to_string();
+        a.extend(["-o", &o]);
+        a.extend(extra);
+        Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+            .args(&a)
+            .output()
+            .unwrap()
+    };
+    let counts = |o: &std::process::Output| -> (u64, u64) {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (
+            j["validity"]["low-modulation"].as_u64().unwrap(),
+            j["validity"]["valid"].as_u64().unwrap(),
+        )
+    };
+    let (low0, valid0) = counts(&scan("a.ply", &[]));
+    let (low1, valid1) = counts(&scan("b.ply", &["--min-modulation", "60"]));
+    assert!(
+        low1 > low0 && valid1 < valid0,
+        "{low0}/{valid0} vs {low1}/{valid1}"
+    );
+    for (args, msg) in [
+        (["--min-modulation", "300"], "0 to 255 camera codes"),
+        (["--range-tolerance", "5"], "at most π radians"),
+        (["--saturation", "0"], "more than 0"),
+        (["--unwrap-tolerance", "NaN"], "--unwrap-tolerance"),
+    ] {
+        let o = scan("bad.ply", &args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(msg), "{args:?}: {err}");
+        assert!(!t.0.join("bad.ply").exists());
+    }
+}

@@ -217,6 +217,76 @@ pub fn decode_config(imgs: &ImageSet) -> DecodeConfig {
     DecodeConfig::for_bit_depth(imgs.bits as u32)
 }
 
+/// The decoder's thresholds a user may set (`decode` and `scan`); each absent one keeps the
+/// bit depth's default ([`DecodeConfig::for_bit_depth`]).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ThresholdArgs {
+    /// Minimum modulation B, camera codes (default: 2 % of full scale, at least 12 codes for
+    /// 8-bit images).
+    #[arg(long, value_name = "CODES")]
+    pub min_modulation: Option<f32>,
+    /// Saturation level, camera codes (default: full scale of the images' bit depth).
+    #[arg(long, value_name = "CODES")]
+    pub saturation: Option<f32>,
+    /// Dark level: pixels whose DC term is below it are dark, camera codes (default: 2 % of
+    /// full scale).
+    #[arg(long, value_name = "CODES")]
+    pub dark_level: Option<f32>,
+    /// Largest accepted unwrapping residual, radians (default: 2π/3).
+    #[arg(long, value_name = "RAD")]
+    pub unwrap_tolerance: Option<f32>,
+    /// How far the coarsest phase may lie outside the set's range, radians (default: 0.15).
+    #[arg(long, value_name = "RAD")]
+    pub range_tolerance: Option<f32>,
+}
+
+impl ThresholdArgs {
+    /// The bit depth's defaults with the given thresholds applied; each checked against its
+    /// meaningful range (codes within the images' full scale, radians within (0, π]).
+    pub fn config(&self, imgs: &ImageSet) -> Result<DecodeConfig> {
+        let mut cfg = decode_config(imgs);
+        let full = ((1u64 << imgs.bits.clamp(1, 16)) - 1) as f32;
+        let codes = |v: Option<f32>, name: &str, lo_open: bool| -> Result<Option<f32>> {
+            match v {
+                Some(x) if x.is_finite() && (x > 0.0 || (!lo_open && x == 0.0)) && x <= full => {
+                    Ok(Some(x))
+                }
+                Some(x) => anyhow::bail!(
+                    "--{name} {x}: expected {} to {full} camera codes ({}-bit images)",
+                    if lo_open { "more than 0" } else { "0" },
+                    imgs.bits
+                ),
+                None => Ok(None),
+            }
+        };
+        let rad = |v: Option<f32>, name: &str| -> Result<Option<f32>> {
+            match v {
+                Some(x) if x.is_finite() && x > 0.0 && x <= std::f32::consts::PI => Ok(Some(x)),
+                Some(x) => {
+                    anyhow::bail!("--{name} {x}: expected more than 0 and at most π radians")
+                }
+                None => Ok(None),
+            }
+        };
+        if let Some(x) = codes(self.min_modulation, "min-modulation", false)? {
+            cfg.min_modulation = x;
+        }
+        if let Some(x) = codes(self.saturation, "saturation", true)? {
+            cfg.saturation_level = x;
+        }
+        if let Some(x) = codes(self.dark_level, "dark-level", false)? {
+            cfg.dark_level = x;
+        }
+        if let Some(x) = rad(self.unwrap_tolerance, "unwrap-tolerance")? {
+            cfg.unwrap_tolerance = x;
+        }
+        if let Some(x) = rad(self.range_tolerance, "range-tolerance")? {
+            cfg.range_tolerance = x;
+        }
+        Ok(cfg)
+    }
+}
+
 /// Decode a loaded set on all threads of rayon's pool with the best kernel variant.
 pub fn decode(set: &PatternSet, imgs: &ImageSet, cfg: DecodeConfig) -> Result<Decoded> {
     let d = Decoder::new(set, cfg).map_err(|e| anyhow::anyhow!("decoder: {e}"))?;

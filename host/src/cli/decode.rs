@@ -86,12 +86,9 @@ pub struct DecodeArgs {
     /// Output folder (must not exist or be empty, unless --overwrite).
     #[arg(long, short = 'o')]
     pub out: PathBuf,
-    /// Minimum modulation B, camera codes (default: 2 % of full scale).
-    #[arg(long)]
-    pub min_modulation: Option<f32>,
-    /// Saturation level, camera codes (default: full scale of the images' bit depth).
-    #[arg(long)]
-    pub saturation: Option<f32>,
+    /// The decoder's thresholds.
+    #[command(flatten)]
+    pub thresholds: common::ThresholdArgs,
     /// Replace the output folder if it exists.
     #[arg(long)]
     pub overwrite: bool,
@@ -109,13 +106,7 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
     }
     .text()?;
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;
-    let mut cfg = common::decode_config(&imgs);
-    if let Some(m) = a.min_modulation {
-        cfg.min_modulation = m;
-    }
-    if let Some(s) = a.saturation {
-        cfg.saturation_level = s;
-    }
+    let cfg = a.thresholds.config(&imgs)?;
     let dir = AtomicDir::create(&a.out, a.overwrite)?;
     let d = common::decode(&ls.set, &imgs, cfg)?;
     let (w, h) = (imgs.width, imgs.height);

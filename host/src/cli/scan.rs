@@ -28,6 +28,9 @@ pub struct ScanArgs {
     /// Output.
     #[command(flatten)]
     pub cloud: CloudArgs,
+    /// The decoder's thresholds.
+    #[command(flatten)]
+    pub thresholds: common::ThresholdArgs,
 }
 
 /// Run `fringe3d scan`.
@@ -54,7 +57,7 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
         );
     }
     let t_load = t0.elapsed();
-    let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs))?;
+    let d = common::decode(&ls.set, &imgs, a.thresholds.config(&imgs)?)?;
     let t_decode = t0.elapsed();
     let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
     apply_edge_filter(&a.cloud, &cal, &mut cloud)?;
