@@ -199,3 +199,78 @@ fn a_device_speaking_garbage_is_not_mistaken_for_a_head() {
     stop.store(true, Ordering::Relaxed);
     h.join().unwrap();
 }
+
+/// A reference map wider than the image (issue #17 item 3) cannot travel on the wire: `device
+/// upload` refuses it by name before the line is touched; the same reference without a margin
+/// passes that check and only then meets the (missing) port.
+#[test]
+fn a_reference_wider_than_the_image_is_refused_before_the_line() {
+    let dir = std::env::temp_dir().join(format!("fringe3d-dev-margin-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let cli = |args: &[&str]| {
+        let mut a = vec!["fringe3d", "--quiet"];
+        a.extend(args);
+        fringe3d::cli::run(a)
+    };
+    let ds = dir.join("ds");
+    cli(&[
+        "render",
+        "--scene",
+        "sphere",
+        "--size",
+        "160x128",
+        "--bits",
+        "8",
+        "--pattern-bits",
+        "8",
+        "--out",
+        &s(&ds),
+    ])
+    .unwrap();
+    let (set, cal) = (
+        s(&ds.join("patterns.toml")),
+        s(&ds.join("calibration.toml")),
+    );
+    let port = "/dev/fringe3d-no-such-port";
+    for (margin, wide) in [("auto", true), ("0", false)] {
+        let out = dir.join(format!("v{margin}/calibration.toml"));
+        cli(&[
+            "calibrate",
+            "reference",
+            "--virtual",
+            "-p",
+            &set,
+            "-c",
+            &cal,
+            "--margin",
+            margin,
+            "-o",
+            &s(&out),
+        ])
+        .unwrap();
+        let e = cli(&[
+            "device",
+            "upload",
+            "--port",
+            port,
+            "--patterns",
+            &set,
+            "--calibration",
+            &s(&out),
+        ])
+        .unwrap_err();
+        let m = format!("{e:#}");
+        if wide {
+            assert!(
+                m.contains("extends past the image")
+                    && m.contains("--margin 0")
+                    && !m.contains(port),
+                "{m}"
+            );
+        } else {
+            assert!(m.contains(port) && !m.contains("margin"), "{m}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
