@@ -79,6 +79,17 @@ fn refused(a: &[&str], must: &[&str], out: &Path) {
     );
 }
 
+/// The reference plate bulging `height` mm towards the camera (a Gaussian of σ = 120 mm).
+fn bulge(s: &mut SceneSpec, height: f64) {
+    s.objects[0].shape = Shape::HeightField {
+        center: [0.0, 0.0, 730.0],
+        euler_deg: [180.0, 0.0, 0.0],
+        size: [900.0, 700.0],
+        base: 0.0,
+        bumps: vec![[0.0, 0.0, height, 120.0]],
+    };
+}
+
 #[test]
 fn the_projector_model_checks_the_plate() {
     let t = Tmp::new("reference-physical");
@@ -120,15 +131,7 @@ fn the_projector_model_checks_the_plate() {
 
     // A plate bulging 1.2 mm towards the camera over ~250 mm (a Gaussian height field).
     let bent = t.0.join("bent");
-    render(&bent, |s| {
-        s.objects[0].shape = Shape::HeightField {
-            center: [0.0, 0.0, 730.0],
-            euler_deg: [180.0, 0.0, 0.0],
-            size: [900.0, 700.0],
-            base: 0.0,
-            bumps: vec![[0.0, 0.0, 1.2, 120.0]],
-        };
-    });
+    render(&bent, |s| bulge(s, 1.2));
     let o4 = t.0.join("bent_out/calibration.toml");
     refused(
         &args(
@@ -145,15 +148,7 @@ fn the_projector_model_checks_the_plate() {
     // calibrated over less than the whole DMD; a tighter limit, for a model calibrated over the
     // whole field, refuses it.
     let gentle = t.0.join("gentle");
-    render(&gentle, |s| {
-        s.objects[0].shape = Shape::HeightField {
-            center: [0.0, 0.0, 730.0],
-            euler_deg: [180.0, 0.0, 0.0],
-            size: [900.0, 700.0],
-            base: 0.0,
-            bumps: vec![[0.0, 0.0, 0.3, 120.0]],
-        };
-    });
+    render(&gentle, |s| bulge(s, 0.3));
     let gcal = gentle.join("calibration.toml");
     let o6 = t.0.join("gentle_out/calibration.toml");
     let j: Value =

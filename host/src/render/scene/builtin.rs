@@ -192,17 +192,7 @@ pub(super) fn builtin(name: &str) -> Option<SceneSpec> {
         }
         "plates" => {
             s.kind = DatasetKind::Plates;
-            s.board = Some(BoardSpec {
-                square: 30.0,
-                cols: 9,
-                rows: 7,
-                dark: d_dark(),
-                light: d_light(),
-                margin: d_margin(),
-                count: 0,
-                poses: Vec::new(),
-                supersample: d_board_ss(),
-            });
+            s.board = Some(plate_board());
             let e = [8.0, -12.0, 0.0];
             s.plates = Some(PlatesSpec {
                 size: [420.0, 340.0],
@@ -228,17 +218,7 @@ pub(super) fn builtin(name: &str) -> Option<SceneSpec> {
             // data set whose "plates" are the board tilted by up to 25° about both axes, at
             // depths across the measurement volume (each pose: v/, h/ and board.png).
             s.kind = DatasetKind::Plates;
-            s.board = Some(BoardSpec {
-                square: 30.0,
-                cols: 9,
-                rows: 7,
-                dark: d_dark(),
-                light: d_light(),
-                margin: d_margin(),
-                count: 0,
-                poses: Vec::new(),
-                supersample: d_board_ss(),
-            });
+            s.board = Some(plate_board());
             let pose = |c: [f64; 3], e: [f64; 3]| Pose {
                 center: c,
                 euler_deg: e,
@@ -261,4 +241,19 @@ pub(super) fn builtin(name: &str) -> Option<SceneSpec> {
         _ => return None,
     }
     Some(s)
+}
+
+/// The 9 × 7 board of 30 mm squares printed on the calibration plates (plates and boards scenes).
+fn plate_board() -> BoardSpec {
+    BoardSpec {
+        square: 30.0,
+        cols: 9,
+        rows: 7,
+        dark: d_dark(),
+        light: d_light(),
+        margin: d_margin(),
+        count: 0,
+        poses: Vec::new(),
+        supersample: d_board_ss(),
+    }
 }
