@@ -14,6 +14,7 @@ pub mod files;
 pub mod lens;
 pub mod linalg;
 pub mod lm;
+pub mod plane_projector;
 pub mod pose;
 pub mod projector_centre;
 pub mod projector_coords;

@@ -494,8 +494,8 @@ pub fn calibrate(
             )
         })?;
         let per = problem.split(&s.residuals);
-        let (rc, nc) = rms2(per.iter().flat_map(|(c, _)| c.iter().copied()));
-        let (rp, np) = rms2(per.iter().flat_map(|(_, p)| p.iter().map(|x| x.1)));
+        let rc = rms2(per.iter().flat_map(|(c, _)| c.iter().copied())).0;
+        let rp = rms2(per.iter().flat_map(|(_, p)| p.iter().map(|x| x.1))).0;
         let dof =
             (s.residuals.len() as f64 - problem.n() as f64).max(1.0) / s.residuals.len() as f64;
         let sc = (rc / 2f64.sqrt() / dof.sqrt()).max(1e-6);
@@ -515,7 +515,6 @@ pub fn calibrate(
                 }
             }
         }
-        let _ = (nc, np);
         problem.weight = new_weight;
         sol = Some(s);
         if !changed && round >= 1 {

@@ -20,7 +20,7 @@ use fringe3d_core::pattern::PatternSet;
 use rayon::prelude::*;
 
 use super::lens::Lens;
-use super::virtual_reference::{PlaneProjector, VirtualError};
+use super::plane_projector::{PlaneProjector, VirtualError};
 use crate::math::Vec3;
 
 /// Side of the blocks over which the flatness residuals are averaged, pixels.
