@@ -215,10 +215,11 @@ pub struct ReferenceArgs {
     /// File name of the phase map written beside OUT.
     #[arg(long, default_value = "reference_phase.tif")]
     pub map: String,
-    /// With a calibration holding the projector model: the largest deviation from a plane the
-    /// reference plate may show, mm (the fringes, through the model, measure its flatness).
-    #[arg(long, default_value_t = crate::calib::reference_physical::FLATNESS_MM, value_name = "MM")]
-    pub flatness_limit: f64,
+    /// With a calibration holding the projector model: refuse a reference plate that deviates
+    /// from a plane by more than this, mm (the fringes, through the model, measure its flatness).
+    /// Without it the deviation is reported, and a warning printed above 0.5 mm.
+    #[arg(long, value_name = "MM")]
+    pub flatness_limit: Option<f64>,
     /// Write the decoded capture itself as the phase map instead of the smooth model fitted to
     /// it (the model removes the capture's noise from every scan; see docs/reference-model.md).
     #[arg(long)]
@@ -568,11 +569,10 @@ fn check_plate_inputs(a: &ProjectorArgs, set_v: &Path, set_h: &Path) -> Result<(
 }
 
 fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
-    if !(a.flatness_limit > 0.0 && a.flatness_limit <= 1000.0) {
-        bail!(
-            "--flatness-limit {}: expected a positive number of millimetres (at most 1000)",
-            a.flatness_limit
-        );
+    if let Some(l) = a.flatness_limit
+        && !(l > 0.0 && l <= 1000.0)
+    {
+        bail!("--flatness-limit {l}: expected a positive number of millimetres (at most 1000)");
     }
     if !a.patterns.is_file() {
         bail!(
@@ -639,6 +639,19 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
     });
     let j = json!({"command": "calibrate reference", "out": out, "map": run.map_path, "valid_fraction": run.valid_fraction,
         "plane": run.plane, "model": model, "projector_model_check": run.physical});
+    if let Some(f) = &run.physical {
+        if !g.quiet
+            && a.flatness_limit.is_none()
+            && f.worst_block_mm.abs() > crate::calib::reference_physical::FLATNESS_MM
+        {
+            errln!(
+                "warning: through the projector model the plate deviates from a plane by {:+.3} mm around pixel ({}, {}): the plate is bent there, or the projector model extrapolates beyond what its calibration poses covered (--flatness-limit MM refuses such a plate)",
+                f.worst_block_mm,
+                f.worst_block_at.0,
+                f.worst_block_at.1
+            );
+        }
+    }
     if g.json {
         outln!("{}", serde_json::to_string_pretty(&j)?);
     } else if !g.quiet {

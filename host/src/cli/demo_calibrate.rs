@@ -317,7 +317,7 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
             detect: DetectOptions::default(),
             map_name: "reference_phase.tif",
             source: files::MapSource::Model,
-            flatness_limit_mm: crate::calib::reference_physical::FLATNESS_MM,
+            flatness_limit_mm: None,
         },
     )?;
     tick("calibrate_reference", &mut lap);
