@@ -639,18 +639,17 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
     });
     let j = json!({"command": "calibrate reference", "out": out, "map": run.map_path, "valid_fraction": run.valid_fraction,
         "plane": run.plane, "model": model, "projector_model_check": run.physical});
-    if let Some(f) = &run.physical {
-        if !g.quiet
-            && a.flatness_limit.is_none()
-            && f.worst_block_mm.abs() > crate::calib::reference_physical::FLATNESS_MM
-        {
-            errln!(
-                "warning: through the projector model the plate deviates from a plane by {:+.3} mm around pixel ({}, {}): the plate is bent there, or the projector model extrapolates beyond what its calibration poses covered (--flatness-limit MM refuses such a plate)",
-                f.worst_block_mm,
-                f.worst_block_at.0,
-                f.worst_block_at.1
-            );
-        }
+    if let Some(f) = &run.physical
+        && !g.quiet
+        && a.flatness_limit.is_none()
+        && f.worst_block_mm.abs() > crate::calib::reference_physical::FLATNESS_MM
+    {
+        errln!(
+            "warning: through the projector model the plate deviates from a plane by {:+.3} mm around pixel ({}, {}): the plate is bent there, or the projector model extrapolates beyond what its calibration poses covered (--flatness-limit MM refuses such a plate)",
+            f.worst_block_mm,
+            f.worst_block_at.0,
+            f.worst_block_at.1
+        );
     }
     if g.json {
         outln!("{}", serde_json::to_string_pretty(&j)?);
