@@ -130,14 +130,7 @@ fn a_busy_head_names_the_command_that_ends_what_runs() {
     let world = SimWorld::new(READOUT_NS);
     let mut mem = OwnedMemory::new(plan());
     let h = head(&world, &mut mem, &set, &d, NoSink);
-    let mut c = Client::connect(
-        InProcess::new(h, FaultConfig::NONE, FaultConfig::NONE, 32),
-        opts(),
-    )
-    .unwrap();
-    c.define_pattern_set(0, &d).unwrap();
-    let data = pattern_bytes(&set, &d, |i| render_pattern(&set, i)).unwrap();
-    c.upload_patterns(0, &d, &data, &mut |_, _| {}).unwrap();
+    let mut c = connect_uploaded(h, 32, &set, &d);
     // A repeating sequence keeps the head busy until stopped or aborted.
     c.configure_sequence(
         0,

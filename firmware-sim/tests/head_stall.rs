@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use embedded_io::ErrorKind;
 use fringe3d::device::Client;
-use fringe3d::device::desc::{pattern_bytes, pattern_desc, render_pattern};
+use fringe3d::device::desc::pattern_desc;
 use fringe3d_core::wire::{
     EdgeFilterMode, FaultConfig, HeadErrors, HeadState, MAX_ENCODED_FRAME, MAX_FRAME, Message,
     Packet, ScanOutput, ScanRequest, emit_packet,
@@ -49,14 +49,7 @@ fn a_scan_nobody_reads_ends_after_the_stall_limit_and_the_head_serves_again() {
     let world = SimWorld::new(READOUT_NS);
     let mut mem = OwnedMemory::new(plan());
     let h = head(&world, &mut mem, &set, &d, NoSink);
-    let mut c = Client::connect(
-        InProcess::new(h, FaultConfig::NONE, FaultConfig::NONE, 10),
-        opts(),
-    )
-    .unwrap();
-    c.define_pattern_set(0, &d).unwrap();
-    let data = pattern_bytes(&set, &d, |i| render_pattern(&set, i)).unwrap();
-    c.upload_patterns(0, &d, &data, &mut |_, _| {}).unwrap();
+    let mut c = connect_uploaded(h, 10, &set, &d);
     define_and_configure(&mut c, &set, &d);
     let mut head = c.into_transport().device;
 

@@ -4,13 +4,15 @@
 
 use fringe3d::batch::{FrameOut, Isa, decode_frames};
 use fringe3d::device::desc::capture_sequence;
+use fringe3d::device::desc::{pattern_bytes, render_pattern};
 use fringe3d::device::{Client, ClientOptions, Transport};
 use fringe3d_core::decode::{DecodeConfig, Decoder};
 use fringe3d_core::math::canonical;
 use fringe3d_core::pattern::{Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, PhaseFunction};
+use fringe3d_core::wire::FaultConfig;
 use fringe3d_core::wire::PatternSetDesc;
-use fringe3d_head::desktop::{OwnedMemory, SimHead, sim_board};
+use fringe3d_head::desktop::{Device, InProcess, OwnedMemory, SimHead, sim_board};
 use fringe3d_head::sim::{DirectView, FrameSource, RowSink, SimWorld};
 use fringe3d_head::{Head, HeadConfig, MemoryPlan};
 use std::time::Duration;
@@ -136,4 +138,24 @@ pub fn define_and_configure<T: Transport>(c: &mut Client<T>, set: &PatternSet, d
         &capture_sequence(set, d, EXPOSURE_US, DARK_US).unwrap(),
     )
     .unwrap();
+}
+
+/// A client of `device` over a clean in-process link (`seed` for the link's fault generator),
+/// with set 0 defined from `d` and the patterns of `set` uploaded (rendered as `fringe3d
+/// patterns` does).
+pub fn connect_uploaded<D: Device>(
+    device: D,
+    seed: u64,
+    set: &PatternSet,
+    d: &PatternSetDesc,
+) -> Client<InProcess<D>> {
+    let mut c = Client::connect(
+        InProcess::new(device, FaultConfig::NONE, FaultConfig::NONE, seed),
+        opts(),
+    )
+    .unwrap();
+    c.define_pattern_set(0, d).unwrap();
+    let data = pattern_bytes(set, d, |i| render_pattern(set, i)).unwrap();
+    c.upload_patterns(0, d, &data, &mut |_, _| {}).unwrap();
+    c
 }
