@@ -611,11 +611,11 @@ pub fn calibrate_reference_files(
         ));
     }
     let pf = PatternSetFile::load(patterns)?;
+    let set = pf.to_pattern_set()?;
     // With the full projector model: the plane from the fringes, against the pose used, and
     // the plate's flatness.
     let physical = match &calibration.projector {
         Some(proj) => {
-            let set = pf.to_pattern_set()?;
             let f = fit_physical(
                 &calibration.camera,
                 proj,
@@ -650,7 +650,6 @@ pub fn calibrate_reference_files(
     let (map, fit) = match source {
         MapSource::Raw => (dec.phase, None),
         MapSource::Model => {
-            let set = pf.to_pattern_set()?;
             let mut f = fit_reference(&set, &dec.phase, dec.width as usize, dec.height as usize)
                 .map_err(|e| {
                     input(

@@ -170,19 +170,19 @@ pub fn calibrate_projector_files(
     // The line method, when the poses are parallel plates.
     let (lines, lines_skipped) = match check_parallel(&plates, opts.lines.max_plate_angle_deg) {
         Ok(angles) => {
-            let mut ps = plates.clone();
             let r =
                 if opts.lines.translated {
                     let (poses, cov) = pose::translated_board_poses(&lens, board, &corners)
                         .map_err(|e| CalibError::Degenerate {
                             what: format!("joint board fit of the plate positions: {e}"),
                         })?;
-                    for (p, q) in ps.iter_mut().zip(poses) {
+                    // The joint poses replace the independent ones (the summary reports them).
+                    for (p, q) in plates.iter_mut().zip(poses) {
                         p.pose = q;
                     }
-                    projector_centre::estimate(&lens, &ps, &opts.lines, Some(&cov))
+                    projector_centre::estimate(&lens, &plates, &opts.lines, Some(&cov))
                 } else {
-                    projector_centre::estimate(&lens, &ps, &opts.lines, None)
+                    projector_centre::estimate(&lens, &plates, &opts.lines, None)
                 };
             match r {
                 Ok(mut r) => {
