@@ -9,3 +9,8 @@ pub const MAX_LEVELS: usize = 6;
 pub const MAX_SHIFTS: usize = 16;
 /// The most images a set holds.
 pub const MAX_IMAGES: usize = 32;
+/// Knots per level of a phase-error table ([`crate::decode::PhaseCorrection`]), over one period
+/// of the wrapped phase.
+pub const CORRECTION_KNOTS: usize = 32;
+/// The unit of a phase-error table's knots: 2⁻¹³ rad (1.2e-4 rad; an i16 spans ±4 rad).
+pub const CORRECTION_LSB: f64 = 1.0 / 8192.0;

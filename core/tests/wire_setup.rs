@@ -15,7 +15,7 @@ use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
 use fringe3d_core::reconstruct::{Reconstructor, Setup};
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::setup::{
-    MAX_SETUP_BLOB, MAX_SETUP_PAYLOAD, SETUP_CRC_LEN, SETUP_HEADER_LEN,
+    MAX_SETUP_BLOB, MAX_SETUP_PAYLOAD, SETUP_CRC_LEN, SETUP_HEADER_LEN, SETUP_VERSION,
 };
 use fringe3d_core::wire::*;
 
@@ -136,7 +136,7 @@ fn raw_blob(s: &HeadSetup) -> Vec<u8> {
 /// Header and CRC around `payload`.
 fn seal(payload: &[u8]) -> Vec<u8> {
     let mut b = b"F3DS".to_vec();
-    b.extend_from_slice(&[1, 0]);
+    b.extend_from_slice(&[SETUP_VERSION, 0]);
     b.extend_from_slice(&(payload.len() as u16).to_le_bytes());
     b.extend_from_slice(payload);
     let crc = crc32c(&b);
@@ -147,8 +147,8 @@ fn seal(payload: &[u8]) -> Vec<u8> {
 /// The hand-laid blob of [`small_setup`].
 #[rustfmt::skip]
 const SMALL_BLOB: &[u8] = &[
-    // header: magic F3DS, version 1, reserved 0, payload length 373 (LE)
-    0x46, 0x33, 0x44, 0x53, 0x01, 0x00, 0x75, 0x01,
+    // header: magic F3DS, version 2, reserved 0, payload length 374 (LE)
+    0x46, 0x33, 0x44, 0x53, 0x02, 0x00, 0x76, 0x01,
     // frames: width 4, height 3, sample_bits 12, sample_bytes 2
     0x04, 0x03, 0x0C, 0x02,
     // patterns: width 8, height 2, bit_depth 8
@@ -227,6 +227,61 @@ const SMALL_BLOB: &[u8] = &[
     // edge filter: focal_px 100.0, max_angle_deg 80.0
     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x59, 0x40,
     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x54, 0x40,
+    // correction: none (version 2's field 8)
+    0x00,
+    // CRC-32C 0xDC7A212B (LE)
+    0x2B, 0x21, 0x7A, 0xDC,
+];
+
+/// [`SMALL_BLOB`] as format version 1 wrote it (no field 8): still read, as no correction.
+const SMALL_BLOB_V1: &[u8] = &[
+    // header: magic F3DS, version 1, reserved 0, payload length 373 (LE)
+    0x46, 0x33, 0x44, 0x53, 0x01, 0x00, 0x75, 0x01,
+    // frames: width 4, height 3, sample_bits 12, sample_bytes 2
+    0x04, 0x03, 0x0C, 0x02, // patterns: width 8, height 2, bit_depth 8
+    0x08, 0x02, 0x08, // i_min 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // i_max 255.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0xE0, 0x6F, 0x40, // waveform [0] sine
+    0x00, // phase_offset 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // phase: axis [0] xi, profile [0] linear
+    0x00, 0x00, // origin 3.5
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x40, // slope 0.5
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xE0, 0x3F, // curvature 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // bend_center 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // level_count 1
+    0x01, // level 0: scale 1.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF0, 0x3F, // shifts [0] uniform n 3, count 3
+    0x00, 0x03, 0x03, // levels 1-5: unused (scale 0.0, [0] 0 0)
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // capture order: count 3, patterns 2 0 1, 29 x 0
+    0x03, 0x02, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00,
+    // thresholds: dark 80.0, saturation 4095.0, min_modulation 82.0, unwrap_tolerance 2.0,
+    // range_tolerance 0.25 (f32)
+    0x00, 0x00, 0xA0, 0x42, 0x00, 0xF0, 0x7F, 0x45, 0x00, 0x00, 0xA4, 0x42, 0x00, 0x00, 0x00, 0x40,
+    0x00, 0x00, 0x80, 0x3E, // camera: width 4, height 3
+    0x04, 0x03, // fx 100.0, fy 100.0, cx 1.5, cy 1.0, skew 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x59, 0x40, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x59, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF8, 0x3F, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF0, 0x3F,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // distortion 5 x 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // projector_centre 200, 0, 0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x69, 0x40, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // plane_point 0, 0, 700
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0xE0, 0x85, 0x40, // plane_normal 0, 0, -1
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF0, 0xBF, // depth_min 500.0, depth_max 900.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x40, 0x7F, 0x40, 0x00, 0x00, 0x00, 0x00, 0x00, 0x20, 0x8C, 0x40,
+    // axis [0] xi
+    0x00, // edge filter: focal_px 100.0, max_angle_deg 80.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x59, 0x40, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x54, 0x40,
     // CRC-32C 0xE39447BE (LE)
     0xBE, 0x47, 0x94, 0xE3,
 ];
@@ -302,6 +357,7 @@ fn small_setup() -> HeadSetup {
             focal_px: 100.0,
             max_angle_deg: 80.0,
         },
+        correction: None,
     }
 }
 
@@ -310,6 +366,11 @@ fn the_small_blob_is_laid_out_as_documented() {
     let s = small_setup();
     assert_eq!(emit(&s), SMALL_BLOB);
     assert_eq!(HeadSetup::parse(SMALL_BLOB), Ok(s));
+    assert_eq!(
+        HeadSetup::parse(SMALL_BLOB_V1),
+        Ok(s),
+        "version 1 still reads"
+    );
     // The capture order maps wire pattern indices to the core's images.
     let set = s.pattern_set().expect("a valid 3-step set");
     let shift = |k: u8| ImageId { level: 0, shift: k };
@@ -351,9 +412,9 @@ fn round_trips_rebuild_the_desktop_objects_exactly() {
 #[test]
 fn emit_needs_room() {
     let s = small_setup();
-    let mut out = [0u8; 385];
-    assert_eq!(s.emit(&mut out), Ok(385));
-    for n in [0, 11, 12, 100, 384] {
+    let mut out = [0u8; 386];
+    assert_eq!(s.emit(&mut out), Ok(386));
+    for n in [0, 11, 12, 100, 385] {
         let mut short = vec![0u8; n];
         assert_eq!(
             s.emit(&mut short),
@@ -374,13 +435,14 @@ fn header_errors_are_named() {
     assert_eq!(HeadSetup::parse(&good[..11]), Err(SetupError::Truncated));
     assert_eq!(HeadSetup::parse(&[]), Err(SetupError::Truncated));
     assert_eq!(with(&|b| b[0] = b'G'), Err(SetupError::Magic));
-    assert_eq!(with(&|b| b[4] = 2), Err(SetupError::Version(2)));
+    assert_eq!(with(&|b| b[4] = 3), Err(SetupError::Version(3)));
+    assert_eq!(with(&|b| b[4] = 0), Err(SetupError::Version(0)));
     assert_eq!(with(&|b| b[5] = 1), Err(SetupError::Reserved));
     assert_eq!(with(&|b| b[6] += 1), Err(SetupError::Length));
     assert_eq!(with(&|b| b.push(0)), Err(SetupError::Length));
-    assert_eq!(with(&|b| b[7] = 0x08), Err(SetupError::Length)); // 2165 > MAX_SETUP_PAYLOAD
+    assert_eq!(with(&|b| b[7] = 0x10), Err(SetupError::Length)); // 4214 > MAX_SETUP_PAYLOAD
     assert_eq!(with(&|b| b[40] ^= 1), Err(SetupError::Crc));
-    assert_eq!(with(&|b| b[384] ^= 0x80), Err(SetupError::Crc));
+    assert_eq!(with(&|b| b[385] ^= 0x80), Err(SetupError::Crc));
     // Past the CRC: a byte too many, and a payload that is not a set-up.
     let payload = &good[SETUP_HEADER_LEN..good.len() - SETUP_CRC_LEN];
     let mut longer = payload.to_vec();
@@ -559,10 +621,57 @@ fn the_largest_set_up_fits_the_payload_limit() {
     }; MAX_LEVELS];
     s.calibration.camera.width = u32::MAX;
     s.calibration.camera.height = u32::MAX;
+    s.correction = Some(SetupCorrection {
+        levels: MAX_LEVELS as u8,
+        knots: [[-12_000; 32]; MAX_LEVELS],
+    });
     let mut buf = [0u8; 4 * MAX_SETUP_PAYLOAD];
     let n = postcard::to_slice(&s, &mut buf).expect("postcard").len();
     assert!(n <= MAX_SETUP_PAYLOAD, "{n} bytes");
-    assert!(n > 1400, "{n} bytes: not the worst case");
+    assert!(n > 1900, "{n} bytes: not the worst case");
+}
+
+#[test]
+fn a_correction_table_travels_bit_for_bit_and_is_checked() {
+    use fringe3d_core::decode::PhaseCorrection;
+    let set = paper_set();
+    let mut c = PhaseCorrection::zero(3);
+    for (l, row) in c.delta.iter_mut().take(3).enumerate() {
+        for (j, d) in row.iter_mut().enumerate() {
+            *d = (80 * (l as i32 + 1) * (j as i32 - 10)) as i16;
+        }
+    }
+    let s = head_setup(&set, 16, 12)
+        .with_correction(&c)
+        .expect("a sane table");
+    let blob = emit(&s);
+    let back = HeadSetup::parse(&blob).expect("parse");
+    assert_eq!(back, s);
+    let cfg = DecodeConfig::for_bit_depth(12);
+    let want = Decoder::new(&set, cfg)
+        .unwrap()
+        .with_correction(&c)
+        .unwrap();
+    assert_eq!(back.decoder(), Ok(want));
+    // A table for another level count, or with a knot out of range, is refused both ways.
+    let bad = PhaseCorrection::zero(2);
+    assert_eq!(
+        head_setup(&set, 16, 12).with_correction(&bad),
+        Err(SetupError::Correction)
+    );
+    let mut wrong = s;
+    wrong.correction = Some(SetupCorrection::from(&bad));
+    assert_eq!(
+        HeadSetup::parse(&raw_blob(&wrong)),
+        Err(SetupError::Correction)
+    );
+    let mut nan = c;
+    nan.delta[1][5] = PhaseCorrection::MAX_DELTA + 1;
+    wrong.correction = Some(SetupCorrection::from(&nan));
+    assert_eq!(
+        HeadSetup::parse(&raw_blob(&wrong)),
+        Err(SetupError::Correction)
+    );
 }
 
 /// xorshift64*, seeded.

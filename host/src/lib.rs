@@ -15,5 +15,6 @@ pub mod gather;
 pub mod io;
 pub mod math;
 pub mod render;
+pub mod response;
 pub mod scan;
 pub mod vectors;

@@ -66,6 +66,7 @@ fn sample() -> Calibration {
             ],
             translation: [-200.0, 0.0, 30.0],
         }),
+        projector_response: None,
     }
 }
 
@@ -765,4 +766,42 @@ fn a_margin_round_trips_and_is_bounded() {
         e.contains("reference.margin") && e.contains("calib.toml"),
         "{e}"
     );
+}
+
+// --- [projector_response] ---------------------------------------------------------------------
+
+#[test]
+fn projector_response_round_trips_and_bad_tables_are_refused() {
+    use fringe3d::io::calibration::ProjectorResponse;
+    let dir = scratch("response");
+    let path = dir.join("cal.toml");
+    let mut c = sample();
+    let levels: Vec<f64> = (0..=8).map(|k| k as f64 / 8.0).collect();
+    c.projector_response = Some(ProjectorResponse {
+        response: levels.iter().map(|x: &f64| x.powf(2.2)).collect(),
+        levels,
+        gamma: 2.2,
+    });
+    c.save(&path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.contains("[projector_response]"), "{text}");
+    assert_eq!(Calibration::load(&path).unwrap(), c);
+    for (bad, what) in [
+        ("response = [0.0, 0.5, 0.4, 1.0]", "must increase"),
+        ("response = [0.0, 0.5, 0.9]", "same length"),
+        ("response = [0.1, 0.5, 0.7, 1.0]", "from 0 to 1"),
+    ] {
+        let t = format!(
+            "{}\n[projector_response]\ngamma = 2.0\nlevels = [0.0, 0.3, 0.6, 1.0]\n{bad}\n",
+            std::fs::read_to_string(&path)
+                .unwrap()
+                .split("\n[projector_response]")
+                .next()
+                .unwrap()
+        );
+        let p = dir.join("bad.toml");
+        std::fs::write(&p, t).unwrap();
+        let e = Calibration::load(&p).unwrap_err().to_string();
+        assert!(e.contains(what) && e.contains("bad.toml"), "{bad}: {e}");
+    }
 }

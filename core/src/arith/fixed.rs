@@ -29,7 +29,7 @@
 use super::cordic::cordic_atan2;
 use super::{Arith, LevelCoefs, Limits, Plan, Sealed, max_unsaturated};
 use crate::decode_error::DecodeError;
-use crate::limits::MAX_SHIFTS;
+use crate::limits::{CORRECTION_KNOTS, MAX_SHIFTS};
 use crate::sample::Sample;
 use crate::unwrap::{consistent_turns, unwrap_step_turns};
 use fixed::types::{I8F24, I16F16, U8F24};
@@ -330,6 +330,25 @@ impl Arith for Fixed {
     #[inline(always)]
     fn dc_at_least(a: i32, threshold: i32) -> bool {
         a >= threshold
+    }
+
+    #[inline(always)]
+    fn correct(p: I8F24, table: &[i16; CORRECTION_KNOTS]) -> I8F24 {
+        // u = p + ½ turn in 2^-24 turn, clamped to one period; knot j = u·K >> 24 and the
+        // fraction in Q(24 − log2 K).
+        const SHIFT: u32 = 24 - CORRECTION_KNOTS.trailing_zeros();
+        const _: () = assert!(CORRECTION_KNOTS.is_power_of_two());
+        let u = (p.to_bits() as i64 + (1 << 23)).clamp(0, 1 << 24);
+        let j = ((u >> SHIFT) as usize).min(CORRECTION_KNOTS - 1);
+        let f = u - ((j as i64) << SHIFT);
+        let next = if j + 1 == CORRECTION_KNOTS { 0 } else { j + 1 };
+        // Knots from 2^-13 rad to 2^-24 turn: × 2^10/π, as × round(2^26/π) >> 16 (exact integer
+        // arithmetic, within one 2^-24 turn).
+        const RAD13_TO_Q24: i64 = 21_361_415;
+        let q24 = |k: i16| (k as i64 * RAD13_TO_Q24) >> 16;
+        let (a, b) = (q24(table[j]), q24(table[next]));
+        let delta = a + (((b - a) * f) >> SHIFT);
+        I8F24::from_bits((p.to_bits() as i64 - delta) as i32)
     }
 
     #[inline(always)]

@@ -3,6 +3,7 @@
 
 use super::{Arith, LevelCoefs, Limits, Plan, Sealed};
 use crate::decode_error::DecodeError;
+use crate::limits::{CORRECTION_KNOTS, CORRECTION_LSB};
 use crate::math;
 use crate::sample::Sample;
 use crate::unwrap::{consistent, unwrap_step};
@@ -286,6 +287,21 @@ impl<K: FloatKernels> Arith for K {
     #[inline(always)]
     fn dc_at_least(a: f32, threshold: f32) -> bool {
         a >= threshold
+    }
+
+    #[inline(always)]
+    fn correct(p: f32, table: &[i16; CORRECTION_KNOTS]) -> f32 {
+        const SCALE: f32 = CORRECTION_KNOTS as f32 / core::f32::consts::TAU;
+        const LSB: f32 = CORRECTION_LSB as f32;
+        let t = (p + core::f32::consts::PI) * SCALE;
+        // NaN and the rounding just below −π both land on knot 0.
+        let t = if t >= 0.0 { t } else { 0.0 };
+        let j = (t as usize).min(CORRECTION_KNOTS - 1);
+        let f = t - j as f32;
+        let next = if j + 1 == CORRECTION_KNOTS { 0 } else { j + 1 };
+        // i16 → f32 and the power-of-two scale are exact.
+        let (a, b) = (table[j] as f32 * LSB, table[next] as f32 * LSB);
+        p - (a + f * (b - a))
     }
 
     #[inline(always)]

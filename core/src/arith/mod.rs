@@ -62,7 +62,7 @@ pub type TargetDefault = F32Accurate;
 use crate::decode_config::DecodeConfig;
 use crate::decode_error::DecodeError;
 use crate::estimator::LevelEstimator;
-use crate::limits::MAX_SHIFTS;
+use crate::limits::{CORRECTION_KNOTS, MAX_SHIFTS};
 use crate::sample::Sample;
 use core::fmt::Debug;
 
@@ -262,6 +262,11 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     fn mag_at_least(m: Self::Mag, threshold: Self::Mag) -> bool;
     /// `a ≥ threshold` (false for NaN).
     fn dc_at_least(a: Self::Acc, threshold: Self::Acc) -> bool;
+
+    /// `p` minus the periodic linear interpolation at `p` of `table`, knots in
+    /// [`crate::decode::CORRECTION_LSB`] units ([`crate::decode::PhaseCorrection`] gives the
+    /// formula).
+    fn correct(p: Self::Phase, table: &[i16; CORRECTION_KNOTS]) -> Self::Phase;
 
     // ---- outputs ----
 

@@ -2,6 +2,7 @@
 //! tools, golden vectors, benchmarks, the parity workload ([`super::parity`]).
 
 use super::buffers::RowOut;
+use super::correction::PhaseCorrection;
 use super::decoder::Decoder;
 use crate::arith::{Backend, F32Accurate, F32Fast, F32Micromath, Fixed, FixedFormat};
 use crate::decode_config::DecodeConfig;
@@ -46,6 +47,16 @@ impl AnyDecoder {
             Backend::F32Fast => AnyDecoder::F32Fast(Decoder::with_arith(set, config)?),
             Backend::F32Micromath => AnyDecoder::F32Micromath(Decoder::with_arith(set, config)?),
             Backend::Fixed => AnyDecoder::Fixed(Decoder::with_arith(set, config)?),
+        })
+    }
+
+    /// [`Decoder::with_correction`] in this backend.
+    pub fn with_correction(self, c: &PhaseCorrection) -> Result<Self, DecodeError> {
+        Ok(match self {
+            AnyDecoder::F32Accurate(d) => AnyDecoder::F32Accurate(d.with_correction(c)?),
+            AnyDecoder::F32Fast(d) => AnyDecoder::F32Fast(d.with_correction(c)?),
+            AnyDecoder::F32Micromath(d) => AnyDecoder::F32Micromath(d.with_correction(c)?),
+            AnyDecoder::Fixed(d) => AnyDecoder::Fixed(d.with_correction(c)?),
         })
     }
 

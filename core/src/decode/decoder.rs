@@ -8,7 +8,7 @@ use crate::arith::{Arith, F32Accurate, Limits, Plan};
 use crate::decode_config::DecodeConfig;
 use crate::decode_error::DecodeError;
 use crate::estimator::{LevelEstimator, level_estimator};
-use crate::limits::{MAX_IMAGES, MAX_LEVELS, MAX_SHIFTS};
+use crate::limits::{CORRECTION_KNOTS, MAX_IMAGES, MAX_LEVELS, MAX_SHIFTS};
 use crate::pattern::PatternSet;
 
 /// Per-image coefficients, in image order.
@@ -59,6 +59,9 @@ pub struct Decoder<A: Arith = F32Accurate> {
     /// kind [`KIND_QUAD_EXACT`] and whose coarser ones are both of kind [`KIND_PAIR_UNIT`] or
     /// both [`KIND_QUAD_EXACT`]; [`FUSED_NONE`] otherwise.
     pub(super) fused: u8,
+    /// The phase-error table of every level (knots of 2⁻¹³ rad), if any
+    /// ([`Self::with_correction`]).
+    pub(super) correction: Option<[[i16; CORRECTION_KNOTS]; MAX_LEVELS]>,
 }
 
 /// Pixels side by side in [`Decoder::fused_rows`] (pass 1 of the paper's and the 12-pattern
@@ -187,6 +190,7 @@ impl<A: Arith> Decoder<A> {
             level_order: [0; MAX_LEVELS],
             dc_level: dc_level.map(|l| l as u8),
             fused: FUSED_NONE,
+            correction: None,
         };
         let order = dc_level
             .into_iter()

@@ -63,6 +63,7 @@ impl<A: Arith> Decoder<A> {
             for l in 0..self.n_levels {
                 self.polar_into(l, &pad(st.s[l]), &pad(st.c[l]), &mut blk, &mut mo);
             }
+            self.correct_block(&mut blk);
             self.unwrap_block::<T, 1>(
                 &blk,
                 &sat_b,
@@ -95,6 +96,7 @@ impl<A: Arith> Decoder<A> {
                     mo,
                 );
             }
+            self.correct_block(&mut blk);
             let o = BlockOut {
                 phase: block_mut(out.phase, r.clone())?,
                 modulation: mo,

@@ -11,7 +11,8 @@ use crate::sample::Sample;
 
 impl<A: Arith> Decoder<A> {
     /// Wrapped phase φ^(k) ∈ [−π, π] (eqs 9, 11) and modulation B of one level from a complete
-    /// state, for diagnostics, golden vectors and noise studies. Same operations as [`Self::finish`].
+    /// state, for diagnostics, golden vectors and noise studies. Same operations as [`Self::finish`]
+    /// (with the phase-error table, if any, [`Self::with_correction`]).
     pub fn finish_level(
         &self,
         st: &State<'_, A::Acc>,
@@ -34,7 +35,7 @@ impl<A: Arith> Decoder<A> {
         for i in 0..n {
             let (s, c) = A::level_sc(st.s[level][i], st.c[level][i], ad, bd, st.dc[i], fmt);
             let (w, _, b) = A::polar_fine(s, c, fmt);
-            wrapped[i] = A::phase_out(w);
+            wrapped[i] = A::phase_out(self.correct_one(level, w));
             modulation[i] = b;
         }
         Ok(())

@@ -49,6 +49,7 @@
 //! | `fused` | the row driver's pass 1 for the paper's and the 12-pattern sets (one loop, lanes) |
 //! | `accumulate` | frame-sequential accumulation ([`Decoder::accumulate`]) |
 //! | `finish` | pass 1 from planes, pass 2 (unwrapping, validity, outputs: [`Decoder::finish`]) |
+//! | `correction` | [`PhaseCorrection`]: the per-level phase-error table (projector gamma) |
 //! | `level` | one level's wrapped phase ([`Decoder::finish_level`], [`Decoder::decode_row_level`]) |
 //! | `buffers` | [`RowOut`], [`State`], [`DecodeScratch`] and the per-block arrays |
 //! | `any` | [`AnyDecoder`]: a decoder of any backend chosen at run time ([`Backend`]) |
@@ -61,6 +62,7 @@
 mod accumulate;
 mod any;
 mod buffers;
+mod correction;
 mod decoder;
 mod finish;
 mod fused;
@@ -71,6 +73,7 @@ mod row;
 
 pub use any::AnyDecoder;
 pub use buffers::{DecodeScratch, RowOut, State};
+pub use correction::{CORRECTION_KNOTS, CORRECTION_LSB, PhaseCorrection};
 pub use decoder::Decoder;
 
 pub use crate::decode_config::DecodeConfig;

@@ -194,6 +194,7 @@ impl<A: Arith> Decoder<A> {
                 }
             }
         }
+        self.correct_block(blk);
         let sat = self.limits.saturation;
         self.unwrap_block::<P, N>(blk, &peak, |p| A::saturated(A::input(p), sat), out);
         Ok(())

@@ -154,7 +154,8 @@ pub use link::{FaultConfig, FaultInjector, FaultStats, Loopback, LoopbackError, 
 pub use message::*;
 pub use packet::{Packet, check_header, emit_packet, parse_packet};
 pub use setup::{
-    CaptureOrder, DecodeThresholds, EdgeFilterParams, FrameFormat, HeadSetup, SetupError,
+    CaptureOrder, DecodeThresholds, EdgeFilterParams, FrameFormat, HeadSetup, SetupCorrection,
+    SetupError,
 };
 
 /// Largest payload of one frame, bytes.

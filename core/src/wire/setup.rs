@@ -14,9 +14,9 @@
 //! | offset  | size | field                                                             |
 //! |--------:|-----:|-------------------------------------------------------------------|
 //! | 0       | 4    | magic `F3DS` ([`SETUP_MAGIC`])                                    |
-//! | 4       | 1    | format version = 1 ([`SETUP_VERSION`])                            |
+//! | 4       | 1    | format version = 2 ([`SETUP_VERSION`]; 1 is still read)           |
 //! | 5       | 1    | reserved, 0                                                       |
-//! | 6       | 2    | payload length `L`, u16 LE, `L <= 2048` ([`MAX_SETUP_PAYLOAD`])   |
+//! | 6       | 2    | payload length `L`, u16 LE, `L <= 4096` ([`MAX_SETUP_PAYLOAD`])   |
 //! | 8       | `L`  | payload: the postcard encoding of a [`HeadSetup`]                 |
 //! | 8 + `L` | 4    | CRC-32C ([`crc`](super::crc)) of bytes `0 .. 8+L`, u32 LE          |
 //!
@@ -31,7 +31,11 @@
 //! 4. [`DecodeThresholds`]: 5 × f32;
 //! 5. [`Calibration`]: as in UploadCalibration;
 //! 6. the reconstruction's axis, [`PatternAxis`] `[0]` ξ `[1]` η;
-//! 7. [`EdgeFilterParams`]: focal_px f64, max_angle_deg f64.
+//! 7. [`EdgeFilterParams`]: focal_px f64, max_angle_deg f64;
+//! 8. (version 2) the projector-response correction, an `Option` (one byte 0 = none, 1 = some)
+//!    of [`SetupCorrection`]: levels u8, then 6 × 32 × i16 knots (zigzag varints, 2⁻¹³ rad;
+//!    unused levels 0) — the decoder's [`PhaseCorrection`] (docs/gamma.md). A version-1 blob has no field 8 and
+//!    means "no correction".
 //!
 //! Everything is checked on [`HeadSetup::emit`] and [`HeadSetup::parse`] ([`HeadSetup::validate`]);
 //! what only the whole set can tell (monotonic phase, coarse range, …) is checked when the head
@@ -44,7 +48,7 @@ use super::desc::DescError;
 use super::message::{Calibration, PatternAxis, PatternSetDesc};
 use super::{Invalid, WireError};
 use crate::camera::CameraModel;
-use crate::decode::{DecodeConfig, Decoder};
+use crate::decode::{CORRECTION_KNOTS, DecodeConfig, Decoder, PhaseCorrection};
 use crate::filter::EdgeFilter;
 use crate::params::CameraParams;
 use crate::pattern::{ImageId, MAX_IMAGES, PatternSet};
@@ -52,14 +56,14 @@ use crate::reconstruct::{Reconstructor, Setup};
 
 /// First four bytes of a set-up blob.
 pub const SETUP_MAGIC: [u8; 4] = *b"F3DS";
-/// The blob format version this core writes and reads.
-pub const SETUP_VERSION: u8 = 1;
+/// The blob format version this core writes (it also reads version 1: no correction field).
+pub const SETUP_VERSION: u8 = 2;
 /// Bytes before the payload: magic, version, reserved, length.
 pub const SETUP_HEADER_LEN: usize = 8;
 /// Bytes of the trailing CRC-32C.
 pub const SETUP_CRC_LEN: usize = 4;
-/// Largest payload (the largest valid set-up is about 1.5 KiB).
-pub const MAX_SETUP_PAYLOAD: usize = 2048;
+/// Largest payload (the largest valid set-up is about 1.5 KiB, 2.1 KiB with a correction).
+pub const MAX_SETUP_PAYLOAD: usize = 4096;
 /// Largest blob: header, payload, CRC.
 pub const MAX_SETUP_BLOB: usize = SETUP_HEADER_LEN + MAX_SETUP_PAYLOAD + SETUP_CRC_LEN;
 /// Highest projector bit depth a set-up's pattern set may have (the core's 16-bit output).
@@ -104,6 +108,9 @@ pub enum SetupError {
     Decoder,
     /// The core refused the camera model or the reconstruction set-up (the wire's code).
     Reconstruction(Invalid),
+    /// The phase-correction table is for another level count, or a knot is not finite or too
+    /// large ([`PhaseCorrection::is_sane`]).
+    Correction,
 }
 
 impl SetupError {
@@ -128,6 +135,7 @@ impl SetupError {
             SetupError::PatternSet(_) => "set-up: the core refused the pattern set",
             SetupError::Decoder => "set-up: the decoder refused the pattern set",
             SetupError::Reconstruction(_) => "set-up: the core refused the calibration",
+            SetupError::Correction => "set-up: bad phase-correction table",
         }
     }
 }
@@ -136,7 +144,7 @@ impl core::fmt::Display for SetupError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(self.what())?;
         match self {
-            SetupError::Version(v) => write!(f, " {v} (this core reads {SETUP_VERSION})"),
+            SetupError::Version(v) => write!(f, " {v} (this core reads 1 to {SETUP_VERSION})"),
             SetupError::Invalid(why)
             | SetupError::PatternSet(why)
             | SetupError::Reconstruction(why) => write!(f, " ({})", why.name()),
@@ -360,6 +368,91 @@ pub struct HeadSetup {
     pub axis: PatternAxis,
     /// The depth-edge filter.
     pub edge_filter: EdgeFilterParams,
+    /// The decoder's phase-error table for the projector's response, if any (version 2).
+    pub correction: Option<SetupCorrection>,
+}
+
+/// [`PhaseCorrection`] as the blob carries it (field 8; the same values, f32 bit for bit).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SetupCorrection {
+    /// Levels the table covers.
+    pub levels: u8,
+    /// Knots per level, 2⁻¹³ rad ([`crate::decode::CORRECTION_LSB`]).
+    pub knots: [[i16; CORRECTION_KNOTS]; crate::limits::MAX_LEVELS],
+}
+
+impl SetupCorrection {
+    /// Knot `j` of level `l` (2⁻¹³ rad).
+    pub fn knot(&self, l: usize, j: usize) -> i16 {
+        self.knots[l % crate::limits::MAX_LEVELS][j % CORRECTION_KNOTS]
+    }
+
+    /// [`PhaseCorrection::is_sane`] of the same table (without building it).
+    pub fn is_sane(&self) -> bool {
+        let m = PhaseCorrection::MAX_DELTA;
+        (1..=crate::limits::MAX_LEVELS).contains(&(self.levels as usize))
+            && self.knots[..self.levels as usize]
+                .iter()
+                .flatten()
+                .all(|d| (-m..=m).contains(d))
+    }
+}
+
+impl From<&PhaseCorrection> for SetupCorrection {
+    fn from(c: &PhaseCorrection) -> Self {
+        SetupCorrection {
+            levels: c.levels,
+            knots: c.delta,
+        }
+    }
+}
+
+impl From<&SetupCorrection> for PhaseCorrection {
+    fn from(c: &SetupCorrection) -> Self {
+        PhaseCorrection {
+            levels: c.levels,
+            delta: c.knots,
+        }
+    }
+}
+
+/// Decode a payload of `version` (1: fields 1-7; 2: and field 8). Version 2 decodes straight
+/// into the result (no copy of the fields on the way: a head's set-up stack is tight).
+#[inline(never)]
+fn payload_fields(version: u8, payload: &[u8]) -> Result<HeadSetup, SetupError> {
+    if version >= 2 {
+        return match postcard::take_from_bytes::<HeadSetup>(payload) {
+            Ok((s, [])) => Ok(s),
+            Ok(_) => Err(SetupError::TrailingBytes),
+            Err(_) => Err(SetupError::Payload),
+        };
+    }
+    match postcard::take_from_bytes::<HeadSetupV1>(payload) {
+        Ok((v, [])) => Ok(HeadSetup {
+            frames: v.frames,
+            patterns: v.patterns,
+            capture_order: v.capture_order,
+            thresholds: v.thresholds,
+            calibration: v.calibration,
+            axis: v.axis,
+            edge_filter: v.edge_filter,
+            correction: None,
+        }),
+        Ok(_) => Err(SetupError::TrailingBytes),
+        Err(_) => Err(SetupError::Payload),
+    }
+}
+
+/// The payload of a version-1 blob (fields 1-7).
+#[derive(Deserialize)]
+struct HeadSetupV1 {
+    frames: FrameFormat,
+    patterns: PatternSetDesc,
+    capture_order: CaptureOrder,
+    thresholds: DecodeThresholds,
+    calibration: Calibration,
+    axis: PatternAxis,
+    edge_filter: EdgeFilterParams,
 }
 
 impl HeadSetup {
@@ -387,9 +480,18 @@ impl HeadSetup {
             calibration: Calibration::from_core(camera, setup).map_err(desc_error)?,
             axis: setup.axis.into(),
             edge_filter,
+            correction: None,
         };
         s.validate()?;
         Ok(s)
+    }
+
+    /// This set-up with the decoder's phase-error table `c` (field 8), checked like
+    /// [`HeadSetup::parse`].
+    pub fn with_correction(mut self, c: &PhaseCorrection) -> Result<Self, SetupError> {
+        self.correction = Some(c.into());
+        self.validate()?;
+        Ok(self)
     }
 
     /// Check every field and their agreement (frame size = camera size, capture order a
@@ -406,7 +508,13 @@ impl HeadSetup {
         if u32::from(self.frames.width) != c.width || u32::from(self.frames.height) != c.height {
             return Err(SetupError::ImageSize);
         }
-        self.edge_filter.validate()
+        self.edge_filter.validate()?;
+        match &self.correction {
+            Some(c) if !c.is_sane() || c.levels != self.patterns.level_count => {
+                Err(SetupError::Correction)
+            }
+            _ => Ok(()),
+        }
     }
 
     /// Validate, then write the blob into `out`; returns its length.
@@ -453,7 +561,7 @@ impl HeadSetup {
         if head[..4] != SETUP_MAGIC {
             return Err(SetupError::Magic);
         }
-        if head[4] != SETUP_VERSION {
+        if !(1..=SETUP_VERSION).contains(&head[4]) {
             return Err(SetupError::Version(head[4]));
         }
         if head[5] != 0 {
@@ -469,11 +577,7 @@ impl HeadSetup {
         if crc32c(blob.get(..end).ok_or(SetupError::Truncated)?) != want {
             return Err(SetupError::Crc);
         }
-        let s: HeadSetup = match postcard::take_from_bytes(payload) {
-            Ok((s, [])) => s,
-            Ok(_) => return Err(SetupError::TrailingBytes),
-            Err(_) => return Err(SetupError::Payload),
-        };
+        let s = payload_fields(head[4], payload)?;
         s.validate()?;
         Ok(s)
     }
@@ -497,12 +601,37 @@ impl HeadSetup {
             .map_err(SetupError::PatternSet)
     }
 
-    /// The decoder of the pattern set with the thresholds ([`Decoder::new`]).
+    /// The decoder of the pattern set with the thresholds ([`Decoder::new`]) and the
+    /// phase-error table, if any ([`Decoder::with_correction`]).
     pub fn decoder(&self) -> Result<Decoder, SetupError> {
         // Borrowed from the result, not moved out of it: one set on the stack, not two.
         let set = self.pattern_set();
         let set = set.as_ref().map_err(|e| *e)?;
-        Decoder::new(set, self.thresholds.into()).map_err(|_| SetupError::Decoder)
+        let mut d = Decoder::new(set, self.thresholds.into()).map_err(|_| SetupError::Decoder)?;
+        if let Some(c) = &self.correction {
+            d.set_correction_knots(c.levels, |l, j| c.knot(l, j))
+                .map_err(|_| SetupError::Correction)?;
+        }
+        Ok(d)
+    }
+
+    /// [`Self::decoder`] built into `slot` (e.g. a head's `static`): no copy of the decoder on
+    /// the caller's stack, which on a head is the set-up's deepest. On error `slot` is `None`.
+    #[inline(never)]
+    pub fn decoder_into(&self, slot: &mut Option<Decoder>) -> Result<(), SetupError> {
+        *slot = None;
+        let set = self.pattern_set();
+        let set = set.as_ref().map_err(|e| *e)?;
+        let d = slot
+            .insert(Decoder::new(set, self.thresholds.into()).map_err(|_| SetupError::Decoder)?);
+        if let Some(c) = &self.correction
+            && d.set_correction_knots(c.levels, |l, j| c.knot(l, j))
+                .is_err()
+        {
+            *slot = None;
+            return Err(SetupError::Correction);
+        }
+        Ok(())
     }
 
     /// The camera model ([`CameraModel::new`]).

@@ -99,6 +99,10 @@ struct Buffers {
     filtered: [u8; MAX_W],
 }
 
+/// The decoder, built in place by the set-up (a static, not a stack copy: with its
+/// phase-correction table it is 1.1 KB).
+static mut DECODER: Option<fringe3d_core::decode::Decoder> = None;
+
 static mut BUFFERS: Buffers = Buffers {
     images: [0; MAX_IMAGES * MAX_W],
     phase: [0.0; MAX_W],
@@ -218,13 +222,17 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
     drop(pf);
     let mut ticks = Ticks::default();
     let mut st = params::SetupTicks::default();
+    // SAFETY: the only reference ever made to DECODER (main runs once and never returns).
+    let slot = unsafe { &mut *core::ptr::addr_of_mut!(DECODER) };
     let p = params::parse(
         &bytes_of(&b.ring_phase[..])[..plen],
         &|| clock.now(),
         &mut st,
+        slot,
     )?;
     (ticks.setup_decoder, ticks.setup_reconstructor) = (st.decoder, st.reconstructor);
-    let (dec, recon) = (&p.decoder, &p.recon);
+    let dec = slot.as_ref().ok_or(Fail("no decoder"))?;
+    let recon = &p.recon;
     // Stack of the set-up (parsing, pattern-set validation, camera model, band analysis), then
     // a fresh paint for the streaming loop.
     let stack_setup = measure::stack_high_water();

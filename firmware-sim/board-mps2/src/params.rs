@@ -30,8 +30,6 @@ pub struct Params {
     pub bits: u32,
     /// Bytes per sample in `images.*` (1 or 2).
     pub sample_bytes: usize,
-    /// The decoder of the pattern set with the thresholds.
-    pub decoder: Decoder,
     /// The reconstructor of the camera model and geometry.
     pub recon: Reconstructor,
     /// The depth-edge filter.
@@ -47,32 +45,35 @@ pub struct SetupTicks {
     pub reconstructor: u32,
 }
 
-/// Parse `setup.bin` and build the decoder and reconstructor; `now` reads a down-counter for
-/// the ticks of each step. The pattern set and camera model live only in the frames of the two
-/// steps, so the set-up's stack stays small.
+/// Parse `setup.bin` and build the decoder (into `decoder_slot`, a static's: no copy of it on
+/// the stack) and the reconstructor; `now` reads a down-counter for the ticks of each step. The
+/// pattern set and camera model live only in the frames of the two steps, so the set-up's stack
+/// stays small.
 #[inline(never)]
 pub fn parse(
     b: &[u8],
     now: &dyn Fn() -> u32,
     ticks: &mut SetupTicks,
+    decoder_slot: &mut Option<Decoder>,
 ) -> Result<Params, ParamsError> {
     // Borrowed from the result, not moved out of it (the set-up is 1.7 KB).
     let setup = load(b);
     let s = setup.as_ref().map_err(|e| ParamsError::from(*e))?;
-    let t = now();
-    let decoder = decoder(s)?;
-    ticks.decoder = t.wrapping_sub(now());
+    // The reconstructor first: its band analysis is the set-up's deepest call, and the decoder
+    // (with its phase-correction table) is not on the stack yet.
     let t = now();
     let recon = reconstructor(s)?;
     let filter = s.edge_filter()?;
     ticks.reconstructor = t.wrapping_sub(now());
+    let t = now();
+    s.decoder_into(decoder_slot)?;
+    ticks.decoder = t.wrapping_sub(now());
     Ok(Params {
         width: s.frames.width as usize,
         height: s.frames.height as usize,
         images: s.image_count(),
         bits: s.frames.sample_bits as u32,
         sample_bytes: s.frames.sample_bytes as usize,
-        decoder,
         recon,
         filter,
     })
@@ -82,13 +83,6 @@ pub fn parse(
 #[inline(never)]
 fn load(b: &[u8]) -> Result<HeadSetup, SetupError> {
     HeadSetup::parse(b)
-}
-
-/// The pattern set and its decoder (its own stack frame: the set is validated over the whole
-/// projector here).
-#[inline(never)]
-fn decoder(s: &HeadSetup) -> Result<Decoder, SetupError> {
-    s.decoder()
 }
 
 /// The camera model, the geometry and the reconstructor (its own stack frame).

@@ -11,13 +11,14 @@ use super::reference_physical::{PhysicalFit, fit_physical};
 use super::report::{nice_scale, view_picture};
 use super::{CalibError, pose};
 use crate::batch::decode_image_set;
-use crate::io::calibration::{Calibration, CameraParams, ReferencePlane};
+use crate::io::calibration::{Calibration, CameraParams, ProjectorResponse, ReferencePlane};
 use crate::io::image::{Pixels, read_gray, write_tiff_f32};
 use crate::io::image_set;
 use crate::io::import::import_any_camera;
 use crate::io::pattern_file::PatternSetFile;
 use crate::math::Vec3;
-use fringe3d_core::decode::{DecodeConfig, Decoder};
+use fringe3d_core::decode::{DecodeConfig, Decoder, PhaseCorrection};
+use fringe3d_core::pattern::PatternSet;
 use fringe3d_core::phase_function::Axis;
 use rayon::prelude::*;
 use serde_json::json;
@@ -341,6 +342,16 @@ pub struct DecodedSet {
 /// `images` list; one folder → the set file's names inside it, else every image of the folder
 /// sorted by name; else the files in set order.
 pub fn decode_set(set_path: &Path, images: &[PathBuf]) -> Result<DecodedSet, CalibError> {
+    decode_set_with(set_path, images, None)
+}
+
+/// [`decode_set`] correcting each level's phase for the projector's measured `response`
+/// (unless the set file says its patterns are pre-distorted: [`response_table_for`]).
+pub fn decode_set_with(
+    set_path: &Path,
+    images: &[PathBuf],
+    response: Option<&ProjectorResponse>,
+) -> Result<DecodedSet, CalibError> {
     let file = PatternSetFile::load(set_path)?;
     let set = file.to_pattern_set()?;
     let n = set.image_count();
@@ -356,8 +367,13 @@ pub fn decode_set(set_path: &Path, images: &[PathBuf]) -> Result<DecodedSet, Cal
         list => (list.to_vec(), "the images given".to_string()),
     };
     let imgs = image_set::load(&paths, n, &what)?;
-    let dec = Decoder::new(&set, DecodeConfig::for_bit_depth(imgs.bits as u32))
+    let mut dec = Decoder::new(&set, DecodeConfig::for_bit_depth(imgs.bits as u32))
         .map_err(|e| input(set_path, format!("decoder: {e}")))?;
+    if let Some(t) = response_table_for(&file, &set, response).map_err(|m| input(set_path, m))? {
+        dec = dec
+            .with_correction(&t)
+            .map_err(|e| input(set_path, format!("gamma correction: {e}")))?;
+    }
     let (w, h) = (imgs.width as usize, imgs.height as usize);
     let decoded = decode_image_set(&dec, &imgs).map_err(|e| {
         input(
@@ -591,7 +607,7 @@ pub fn calibrate_reference_files(
                     .into(),
         })?,
     };
-    let dec = decode_set(patterns, images)?;
+    let dec = decode_set_with(patterns, images, calibration.projector_response.as_ref())?;
     if (dec.width, dec.height) != (lens.width, lens.height) {
         return Err(input(
             &dec.images[0],
@@ -728,5 +744,21 @@ pub fn read_phase_map(path: &Path) -> Result<(u32, u32, Vec<f32>), CalibError> {
     match g.pixels {
         Pixels::F32(v) => Ok((g.width, g.height, v)),
         _ => Err(input(path, "not a 32-bit float image")),
+    }
+}
+
+/// The decoder's phase-error table for `set` under the measured `response`: `None` without a
+/// response, for a linear one, or when the set file's patterns were written pre-distorted
+/// (`[projector] response_compensated = true`), whose light needs no correction.
+pub fn response_table_for(
+    file: &PatternSetFile,
+    set: &PatternSet,
+    response: Option<&ProjectorResponse>,
+) -> Result<Option<PhaseCorrection>, String> {
+    match response {
+        Some(r) if !r.is_linear() && file.projector.response_compensated != Some(true) => {
+            Ok(Some(crate::response::table::phase_correction(set, r)?.0))
+        }
+        _ => Ok(None),
     }
 }

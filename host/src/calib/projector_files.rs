@@ -215,6 +215,7 @@ pub fn calibrate_projector_files(
         reference: None,
         depth_range: dr,
         projector: Some(params),
+        projector_response: None,
     };
     calibration.validate().map_err(|m| CalibError::Degenerate {
         what: format!("the resulting calibration: {m}"),

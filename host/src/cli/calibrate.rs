@@ -43,6 +43,9 @@ pub enum Step {
     /// The reference plane's pose and phase map (paper §6); completes the calibration file.
     Reference(ReferenceArgs),
     /// A full camera + projector calibration from another tool (OpenCV stereo, SLStudio,
+    /// The projector's response (gamma) from captures of the reference plane under uniform
+    /// gray levels: the calibration's `[projector_response]` (docs/gamma.md).
+    Gamma(super::calibrate_gamma::GammaArgs),
     /// SLMaster, Bouguet) as a fringe3d calibration (no reference yet).
     Import(super::calibrate_import::ImportArgs),
     /// A fringe3d calibration with its `[projector]` as an OpenCV stereo YAML file.
@@ -262,6 +265,7 @@ pub fn run(a: CalibrateArgs, g: Global) -> Result<()> {
         Step::Camera(c) => camera(c, g),
         Step::Projector(p) => projector(p, g),
         Step::Reference(r) => reference(r, g),
+        Step::Gamma(x) => super::calibrate_gamma::run(x, g),
         Step::Import(i) => super::calibrate_import::import(i, g),
         Step::Export(e) => super::calibrate_import::export(e, g),
     }

@@ -105,6 +105,7 @@ pub fn import(a: ImportArgs, g: Global) -> Result<()> {
         reference: None,
         depth_range,
         projector: Some(rig.projector),
+        projector_response: None,
     };
     cal.validate()
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.file.display()))?;

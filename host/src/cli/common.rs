@@ -9,7 +9,7 @@ use crate::io::image_set::{self, ImageSet};
 use crate::io::pattern_file::PatternSetFile;
 use crate::scan::ScanCalibration;
 use anyhow::{Context, Result, bail};
-use fringe3d_core::decode::{DecodeConfig, Decoder};
+use fringe3d_core::decode::{DecodeConfig, Decoder, PhaseCorrection};
 use fringe3d_core::pattern::PatternSet;
 use fringe3d_core::phase_function::Axis;
 use fringe3d_core::validity::Validity;
@@ -289,7 +289,22 @@ impl ThresholdArgs {
 
 /// Decode a loaded set on all threads of rayon's pool with the best kernel variant.
 pub fn decode(set: &PatternSet, imgs: &ImageSet, cfg: DecodeConfig) -> Result<Decoded> {
-    let d = Decoder::new(set, cfg).map_err(|e| anyhow::anyhow!("decoder: {e}"))?;
+    decode_corrected(set, imgs, cfg, None)
+}
+
+/// [`decode`] with a phase-error table for the projector's response ([`response_correction`]).
+pub fn decode_corrected(
+    set: &PatternSet,
+    imgs: &ImageSet,
+    cfg: DecodeConfig,
+    correction: Option<&PhaseCorrection>,
+) -> Result<Decoded> {
+    let mut d = Decoder::new(set, cfg).map_err(|e| anyhow::anyhow!("decoder: {e}"))?;
+    if let Some(c) = correction {
+        d = d
+            .with_correction(c)
+            .map_err(|e| anyhow::anyhow!("gamma correction: {e}"))?;
+    }
     decode_image_set(&d, imgs)
         .map_err(|e| anyhow::anyhow!("decode: {e}"))
         .context("decoding the image set")
@@ -336,4 +351,13 @@ pub fn progress(len: u64, msg: &str, quiet: bool) -> indicatif::ProgressBar {
     // Draw only after a second: quick runs print no bar at all.
     pb.enable_steady_tick(std::time::Duration::from_millis(1000));
     pb
+}
+
+/// The phase-error table a decode of `ls` needs for the projector response recorded in the
+/// calibration `cal_path` (`[projector_response]`, docs/gamma.md); `None` without one, or when
+/// the set's patterns were written pre-distorted.
+pub fn response_correction(cal_path: &Path, ls: &LoadedSet) -> Result<Option<PhaseCorrection>> {
+    let cal = Calibration::load(cal_path)?;
+    crate::calib::files::response_table_for(&ls.file, &ls.set, cal.projector_response.as_ref())
+        .map_err(|m| anyhow::anyhow!("{}: projector response: {m}", cal_path.display()))
 }

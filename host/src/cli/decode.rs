@@ -92,6 +92,10 @@ pub struct DecodeArgs {
     /// Replace the output folder if it exists.
     #[arg(long)]
     pub overwrite: bool,
+    /// Correct the phase for the projector response this calibration records
+    /// (`[projector_response]`, from `calibrate gamma`; docs/gamma.md).
+    #[arg(long, short = 'c', value_name = "CALIBRATION")]
+    pub calibration: Option<PathBuf>,
 }
 
 /// Run `fringe3d decode`.
@@ -105,10 +109,14 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
         pattern_digest: ls.scan_patterns()?.digest,
     }
     .text()?;
+    let corr = match &a.calibration {
+        Some(c) => common::response_correction(c, &ls)?,
+        None => None,
+    };
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;
     let cfg = a.thresholds.config(&imgs)?;
     let dir = AtomicDir::create(&a.out, a.overwrite)?;
-    let d = common::decode(&ls.set, &imgs, cfg)?;
+    let d = common::decode_corrected(&ls.set, &imgs, cfg, corr.as_ref())?;
     let (w, h) = (imgs.width, imgs.height);
     write_tiff_f32(&dir.join("phase.tif"), w, h, &d.phase)?;
     write_tiff_f32(&dir.join("modulation.tif"), w, h, &d.modulation)?;

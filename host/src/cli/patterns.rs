@@ -2,6 +2,7 @@
 
 use super::{Global, common};
 use crate::io::atomic::AtomicDir;
+use crate::io::calibration::Calibration;
 use crate::io::image::{write_png_u8, write_png_u16};
 use anyhow::Result;
 use std::path::PathBuf;
@@ -11,7 +12,9 @@ use std::path::PathBuf;
 #[command(
     after_help = "Example:\n  fringe3d patterns --patterns examples/patterns/paper8.toml --out patterns/\n\n\
 Writes pattern_00.png ... (one per image, in projection order, 8- or 16-bit by the file's\n\
-projector.bit_depth unless --bits is given) and patterns.toml: the set with its image list."
+projector.bit_depth unless --bits is given) and patterns.toml: the set with its image list.\n\
+Projector gamma (docs/gamma.md): `--gray 17` writes uniform gray images to measure it with\n\
+`calibrate gamma`; `--response calibration.toml` then writes the set pre-distorted through it."
 )]
 pub struct PatternsArgs {
     /// The pattern-set file (TOML, see docs/formats.md).
@@ -26,6 +29,15 @@ pub struct PatternsArgs {
     /// Replace the output folder if it exists.
     #[arg(long)]
     pub overwrite: bool,
+    /// Pre-distort: write every code through the inverse of this calibration's measured
+    /// projector response (`calibrate gamma`), so the projected light is sinusoidal. The written
+    /// patterns.toml says so (`response_compensated`), and decoding then applies no correction.
+    #[arg(long, value_name = "CALIBRATION")]
+    pub response: Option<PathBuf>,
+    /// Instead of the set's patterns, write N uniform gray images (codes evenly spaced from 0 to
+    /// full scale: gray_00.png …) for `calibrate gamma`.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(5..=256), conflicts_with = "response")]
+    pub gray: Option<u32>,
 }
 
 /// Run `fringe3d patterns`.
@@ -46,8 +58,63 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
             o.i_max
         );
     }
+    let response = match &a.response {
+        Some(p) => {
+            let cal = Calibration::load(p)?;
+            Some(cal.projector_response.ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{}: no [projector_response]: run `fringe3d calibrate gamma` first",
+                    p.display()
+                )
+            })?)
+        }
+        None => None,
+    };
+    let full = if bits == 8 { 255.0 } else { 65535.0 };
+    // A code through the inverse response (identity without one).
+    let through = |c: f64| match &response {
+        Some(r) => (r.inverse(c / full) * full).round(),
+        None => c,
+    };
     let dir = AtomicDir::create(&a.out, a.overwrite)?;
     let (w, h) = (o.width as usize, o.height as usize);
+    if let Some(n) = a.gray {
+        let codes = crate::response::gray_codes(n as usize, full as u32);
+        let mut names = Vec::new();
+        for (k, &c) in codes.iter().enumerate() {
+            let name = format!("gray_{k:02}.png");
+            if bits == 8 {
+                write_png_u8(&dir.join(&name), o.width, o.height, &vec![c as u8; w * h])?;
+            } else {
+                write_png_u16(
+                    &dir.join(&name),
+                    o.width,
+                    o.height,
+                    &vec![c as u16; w * h],
+                    16,
+                )?;
+            }
+            names.push(name);
+        }
+        let out = dir.commit()?;
+        if g.json {
+            outln!(
+                "{}",
+                serde_json::json!({"command": "patterns", "out": out, "gray": names, "codes": codes, "bits": bits})
+            );
+        } else if !g.quiet {
+            outln!(
+                "wrote {n} uniform {bits}-bit gray images (codes {}) to {}: capture each on the reference plane, then `fringe3d calibrate gamma`",
+                codes
+                    .iter()
+                    .map(|c| c.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                out.display()
+            );
+        }
+        return Ok(());
+    }
     let pb = common::progress(set.image_count() as u64, "patterns", g.quiet);
     let mut names = Vec::new();
     for i in 0..set.image_count() {
@@ -59,12 +126,18 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
                 set.generate_row(i, y as u32, row)
                     .map_err(|e| anyhow::anyhow!("{e}"))?;
             }
+            if response.is_some() {
+                img.iter_mut().for_each(|c| *c = through(*c as f64) as u8);
+            }
             write_png_u8(&path, o.width, o.height, &img)?;
         } else {
             let mut img = vec![0u16; w * h];
             for (y, row) in img.chunks_exact_mut(w).enumerate() {
                 set.generate_row(i, y as u32, row)
                     .map_err(|e| anyhow::anyhow!("{e}"))?;
+            }
+            if response.is_some() {
+                img.iter_mut().for_each(|c| *c = through(*c as f64) as u16);
             }
             write_png_u16(&path, o.width, o.height, &img, 16)?;
         }
@@ -74,6 +147,9 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
     pb.finish_and_clear();
     let mut f = ls.file.clone();
     f.images = Some(names.clone());
+    if response.is_some() {
+        f.projector.response_compensated = Some(true);
+    }
     f.save(&dir.join("patterns.toml"))?;
     let out = dir.commit()?;
     if g.json {

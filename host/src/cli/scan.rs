@@ -57,7 +57,8 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
         );
     }
     let t_load = t0.elapsed();
-    let d = common::decode(&ls.set, &imgs, a.thresholds.config(&imgs)?)?;
+    let corr = common::response_correction(&a.calibration, &ls)?;
+    let d = common::decode_corrected(&ls.set, &imgs, a.thresholds.config(&imgs)?, corr.as_ref())?;
     let t_decode = t0.elapsed();
     let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
     apply_edge_filter(&a.cloud, &cal, &mut cloud)?;

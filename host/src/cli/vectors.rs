@@ -37,6 +37,10 @@ pub struct VectorsArgs {
     /// Steepest surface the depth-edge filter accepts, degrees from facing the camera.
     #[arg(long, default_value_t = 80.0)]
     pub max_angle: f64,
+    /// The projector's gamma (default: linear): the decoder, and the head through the set-up
+    /// blob, then apply the response's phase-error table (docs/gamma.md).
+    #[arg(long)]
+    pub gamma: Option<f64>,
     /// Replace an existing, non-empty output folder.
     #[arg(long)]
     pub overwrite: bool,
@@ -73,6 +77,7 @@ pub fn run(a: VectorsArgs, g: Global) -> Result<()> {
         noise: a.noise,
         seed: a.seed,
         max_angle_deg: a.max_angle,
+        gamma: a.gamma,
     };
     let say = |s: String| {
         if !g.quiet && !g.json {

@@ -6,7 +6,7 @@ use super::board::{BoardTruth, board_object, board_truth, random_poses};
 use super::engine::{Frames, MASK_HIT, MASK_IN_FRAME, MASK_LIT, Sensor, Truth};
 use super::objects::{Geometry, Prim};
 use super::scene::{BoardLight, DatasetKind, FringeAxis, ReferenceMode};
-use super::{RenderError, RenderOptions, Scene, Slide, decode_phase};
+use super::{RenderError, RenderOptions, Scene, Slide, decode_phase_corrected};
 use crate::io::atomic::AtomicDir;
 use crate::io::image::{encode_png_u8, encode_png_u16, encode_tiff_f32};
 use crate::io::npy;
@@ -354,7 +354,11 @@ pub fn write_dataset(
             (ReferenceMode::Images, Some((f, t))) => (f, t),
             _ => return Ok(()),
         };
-        let decoded = decode_phase(&scene.patterns, frames)?;
+        let decoded = decode_phase_corrected(
+            &scene.patterns,
+            frames,
+            scene.true_correction(&scene.patterns)?.as_ref(),
+        )?;
         let (w, h) = (frames.width, frames.height);
         out.tiff("reference_phase.tif", w, h, &decoded, "reference plane phase map decoded from its own render by the core decoder (what a user gets); NaN = invalid")?;
         let tp = lit_phase(&scene.patterns, truth);
@@ -389,6 +393,29 @@ pub fn write_dataset(
             )?;
             write_truth(&mut out, "truth", Some(&scene.patterns), &truth)?;
             reference(&mut out, Some((&frames, &truth)))?;
+            let n_gray = spec.projector.gray_levels as usize;
+            if n_gray > 0 {
+                // Uniform gray levels on the reference plane (noise stream 2), for
+                // `fringe3d calibrate gamma`.
+                let full = if scene.pattern_bits == 8 { 255 } else { 65535 };
+                let codes = crate::response::gray_codes(n_gray, full);
+                let slides: Vec<Slide> = codes
+                    .iter()
+                    .map(|&c| Slide::Uniform(c as f64 / full as f64))
+                    .collect();
+                let (f, _) = scene.render_slides(&scene.reference_geometry(), &slides, 2, ropts)?;
+                out.ensure_dir("gray")?;
+                for k in 0..codes.len() {
+                    out.image(
+                        &format!("gray/gray_{k:02}.png"),
+                        &f,
+                        k,
+                        "camera image of the reference plane under a uniform gray level (codes: manifest extra.gray_codes)",
+                    )?;
+                }
+                images += codes.len();
+                extra.insert("gray_codes".into(), json!(codes));
+            }
             extra.insert(
                 "images".into(),
                 serde_json::Value::Array(image_list(&scene.patterns, "")),
@@ -566,8 +593,9 @@ pub fn write_dataset(
         }
         None => (None, None, None),
     };
-    rig.calibration(map, pat, digest)
-        .save(&out.dir.join("calibration.toml"))?;
+    let mut cal = rig.calibration(map, pat, digest);
+    cal.projector_response = scene.true_response();
+    cal.save(&out.dir.join("calibration.toml"))?;
     out.adopt(
         "calibration.toml",
         "fringe3d calibration TOML (docs/formats.md)",

@@ -154,6 +154,27 @@ impl Scene {
         self.spec.projector.optics()
     }
 
+    /// The projector's true normalised response, when it is not linear (gamma ≠ 1): what a
+    /// perfect `fringe3d calibrate gamma` measures ([`crate::response::power_law`]).
+    pub fn true_response(&self) -> Option<crate::io::calibration::ProjectorResponse> {
+        let g = self.spec.projector.gamma;
+        (g != 1.0).then(|| crate::response::power_law(g))
+    }
+
+    /// The phase-error table of `set` under [`Self::true_response`] (`None` for a linear
+    /// projector).
+    pub fn true_correction(
+        &self,
+        set: &PatternSet,
+    ) -> Result<Option<fringe3d_core::decode::PhaseCorrection>, RenderError> {
+        match self.true_response() {
+            Some(r) => crate::response::table::phase_correction(set, &r)
+                .map(|(t, _)| Some(t))
+                .map_err(RenderError::Decode),
+            None => Ok(None),
+        }
+    }
+
     /// Render `slides` onto `geometry` with this scene's rig, sensor and photometry: one camera
     /// image per slide. `stream` separates the noise of several renders with one seed — give every
     /// call a different one (e.g. a frame counter), or their noise repeats. The automatic exposure
@@ -252,8 +273,23 @@ impl Scene {
 /// Decode rendered frames with the core's decoder (thresholds for the frames' bit depth):
 /// the finest absolute phase per pixel, NaN where invalid.
 pub fn decode_phase(set: &PatternSet, frames: &Frames) -> Result<Vec<f32>, RenderError> {
-    let dec = Decoder::new(set, DecodeConfig::for_bit_depth(frames.bits as u32))
+    decode_phase_corrected(set, frames, None)
+}
+
+/// [`decode_phase`] with a phase-error table for the projector's response (what
+/// `fringe3d calibrate reference` does with a calibration holding `[projector_response]`).
+pub fn decode_phase_corrected(
+    set: &PatternSet,
+    frames: &Frames,
+    correction: Option<&fringe3d_core::decode::PhaseCorrection>,
+) -> Result<Vec<f32>, RenderError> {
+    let mut dec = Decoder::new(set, DecodeConfig::for_bit_depth(frames.bits as u32))
         .map_err(|e| RenderError::Decode(e.to_string()))?;
+    if let Some(c) = correction {
+        dec = dec
+            .with_correction(c)
+            .map_err(|e| RenderError::Decode(format!("gamma correction: {e}")))?;
+    }
     let (w, h) = (frames.width as usize, frames.height as usize);
     if frames.images.len() != set.image_count() {
         return Err(RenderError::Decode(format!(

@@ -186,6 +186,7 @@ impl Rig {
                 rotation: self.rotation,
                 translation: self.translation,
             }),
+            projector_response: None,
         }
     }
 }

@@ -355,6 +355,12 @@ impl SceneSpec {
         if !(s.noise.is_finite() && s.noise >= 0.0) {
             return Err(self.invalid(format!("camera.noise must be >= 0, got {}", s.noise)));
         }
+        let g = self.projector.gray_levels;
+        if g != 0 && !(5..=256).contains(&g) {
+            return Err(self.invalid(format!(
+                "projector.gray_levels must be 0 (none) or 5..256, got {g}"
+            )));
+        }
         if !(self.reference.albedo.is_finite() && (0.0..=1.0).contains(&self.reference.albedo)) {
             return Err(self.invalid("reference.albedo must be in [0, 1]"));
         }

@@ -21,7 +21,12 @@ pub fn generate_from(inp: &Inputs) -> Result<GoldenVectors, VectorsError> {
     let cal = &inp.calibration;
     let recon = &cal.recon;
     let (w, h) = (recon.width(), recon.height());
-    let dec = Decoder::new(&set, inp.decode_config).map_err(|e| kernel("decoder set-up", e))?;
+    let mut dec = Decoder::new(&set, inp.decode_config).map_err(|e| kernel("decoder set-up", e))?;
+    if let Some(c) = &inp.correction {
+        dec = dec
+            .with_correction(c)
+            .map_err(|e| kernel("decoder set-up", e))?;
+    }
     // 8-bit cameras get u8 files and the u8 kernel; deeper ones u16.
     let (sample, image_bytes, d) = if inp.bits == 8 {
         let f8: Vec<Vec<u8>> = inp

@@ -143,7 +143,7 @@ pub(super) fn manifest_info(
     m.insert(
         "pipeline".into(),
         json!([
-            "decode: for every row y, Decoder::new(pattern_set, decode_config).decode_row(rows y of every image) -> phase, modulation, dc, validity; decode_row_level(rows, k) -> wrapped_level{k}, modulation_level{k}",
+            "decode: for every row y, Decoder::new(pattern_set, decode_config) (.with_correction(table) when input/setup.bin carries the projector-response table).decode_row(rows y of every image) -> phase, modulation, dc, validity; decode_row_level(rows, k) -> wrapped_level{k}, modulation_level{k}",
             "reconstruct: Reconstructor::new(camera, setup); a ReferenceRing of band.rows reference rows (pushed in order, invalid samples as canonical NaN); reconstruct_row(ring, v, phase row, validity row) -> points, validity",
             "edge filter: EdgeFilter::new(focal_px, max_angle_deg).filter_row(row above, row, row below) on the reconstructed points and codes -> filter/validity; points whose filtered code != 0 become canonical NaN",
         ]),

@@ -119,6 +119,9 @@ pub struct VectorOptions {
     pub seed: Option<u64>,
     /// Steepest accepted surface of the depth-edge filter, degrees from facing the camera.
     pub max_angle_deg: f64,
+    /// The projector's gamma (`None`: the scene's, linear). With a gamma the decoder (and the
+    /// head, through the set-up blob) applies the response's phase-error table.
+    pub gamma: Option<f64>,
 }
 
 impl Default for VectorOptions {
@@ -130,6 +133,7 @@ impl Default for VectorOptions {
             noise: None,
             seed: None,
             max_angle_deg: 80.0,
+            gamma: None,
         }
     }
 }

@@ -2,10 +2,10 @@
 //! decode and reconstruct whole frames one row at a time, as a streaming head does.
 
 use super::{DecodeStage, PointStage, VectorOptions, VectorsError, kernel};
-use crate::render::scene::Overrides;
-use crate::render::{RenderOptions, Scene, decode_phase};
+use crate::render::scene::{Overrides, SceneSpec};
+use crate::render::{RenderOptions, Scene, decode_phase_corrected};
 use crate::scan::ScanCalibration;
-use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut, Sample};
+use fringe3d_core::decode::{DecodeConfig, Decoder, PhaseCorrection, RowOut, Sample};
 use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::math::CANONICAL_NAN;
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceRing};
@@ -31,6 +31,8 @@ pub struct Inputs {
     pub edge_focal_px: f64,
     /// Its steepest accepted surface, degrees.
     pub edge_max_angle_deg: f64,
+    /// The decoder's phase-error table for the projector's gamma, if any.
+    pub correction: Option<PhaseCorrection>,
 }
 
 /// Render the scene of `opts` and set up its calibration (no decoding of the object yet).
@@ -62,11 +64,24 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
         size: Some(opts.size),
         ..Overrides::default()
     };
-    let scene = Scene::builtin(&opts.scene, &o)?;
+    if let Some(g) = opts.gamma
+        && !(g.is_finite() && g > 0.0 && g <= 10.0)
+    {
+        return Err(VectorsError::Options(format!(
+            "gamma {g}: must be in (0, 10]"
+        )));
+    }
+    let mut spec = SceneSpec::builtin(&opts.scene).map_err(crate::render::RenderError::from)?;
+    spec.apply(&o);
+    if let Some(g) = opts.gamma {
+        spec.projector.gamma = g;
+    }
+    let scene = Scene::new(spec, None)?;
+    let correction = scene.true_correction(&scene.patterns)?;
     let ropts = RenderOptions::default();
     let (frames, _truth) = scene.render_fringes(ropts)?;
     let (ref_frames, _) = scene.render_reference(ropts)?;
-    let reference = decode_phase(&scene.patterns, &ref_frames)?;
+    let reference = decode_phase_corrected(&scene.patterns, &ref_frames, correction.as_ref())?;
     let digest = crate::io::calibration::pattern_digest(&scene.patterns)
         .map_err(|m| VectorsError::Options(format!("reference pattern set: {m}")))?;
     let cal = scene.rig.calibration(
@@ -92,6 +107,7 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
         edge_filter,
         edge_focal_px,
         edge_max_angle_deg: opts.max_angle_deg,
+        correction,
     })
 }
 

@@ -38,6 +38,10 @@ pub(super) fn setup_bytes(
         },
     )
     .map_err(|e| kernel(stage, e))?;
+    let setup = match &inp.correction {
+        Some(c) => setup.with_correction(c).map_err(|e| kernel(stage, e))?,
+        None => setup,
+    };
     let same = setup.pattern_set().as_ref() == Ok(set)
         && setup.decoder().as_ref() == Ok(dec)
         && setup.reconstructor().as_ref() == Ok(recon)

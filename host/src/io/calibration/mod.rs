@@ -17,6 +17,7 @@
 //! The file format is specified field by field in `docs/formats.md`.
 
 mod pattern_digest;
+mod response;
 mod schema;
 mod toml_writer;
 mod validate;
@@ -28,4 +29,5 @@ pub use pattern_digest::{
     DIGEST_PREFIX, PatternCheck, PatternSetError, ReferenceDigest, ScanPatterns, check_pattern_set,
     is_digest, pattern_digest, pattern_file_digest,
 };
+pub use response::ProjectorResponse;
 pub use schema::{CALIBRATION_VERSION, Calibration, ReferencePlane};

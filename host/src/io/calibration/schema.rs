@@ -40,6 +40,11 @@ pub struct Calibration {
     /// The full projector model, when known (synthetic data); not needed to scan.
     #[serde(default, deserialize_with = "read_projector")]
     pub projector: Option<ProjectorParams>,
+    /// The projector's measured response (gamma), when calibrated (`fringe3d calibrate gamma`):
+    /// `scan`, `decode` and `calibrate reference` then correct the phase for it, `patterns
+    /// --response` pre-distorts patterns through it.
+    #[serde(default)]
+    pub projector_response: Option<super::ProjectorResponse>,
 }
 
 /// The reference plane of paper §6 and its phase map.

@@ -71,6 +71,18 @@ impl Calibration {
             s.push('\n');
             camera_toml(&mut s, "projector.intrinsics", &p.intrinsics);
         }
+        if let Some(r) = &self.projector_response {
+            s.push_str(
+                "\n[projector_response]  # light r(x) for pattern value x = code / full scale\n",
+            );
+            let _ = writeln!(
+                s,
+                "gamma = {}  # the closest power law x^gamma (for reading)",
+                num(r.gamma)
+            );
+            let _ = writeln!(s, "levels = {}  # x, 0..1", arr(&r.levels));
+            let _ = writeln!(s, "response = {}  # r(x), 0..1", arr(&r.response));
+        }
         Ok(s)
     }
 }

@@ -53,6 +53,11 @@ impl Calibration {
                 "depth_range must satisfy 0 < z_min < z_max (mm), got [{z0}, {z1}]"
             ));
         }
+        if let Some(r) = &self.projector_response
+            && let Err(m) = r.validate()
+        {
+            errs.push(m);
+        }
         if let Some(r) = &self.reference {
             let n = &r.normal;
             if !finite3(&r.point) {

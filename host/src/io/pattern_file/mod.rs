@@ -192,6 +192,11 @@ pub struct ProjectorSection {
     /// Bits per pattern pixel, 8 or 16; default 8.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bit_depth: Option<u8>,
+    /// `true`: the images were written through the inverse of the projector's measured response
+    /// (`fringe3d patterns --response`), so the light is already sinusoidal and decoding applies
+    /// no gamma correction. Default false.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub response_compensated: Option<bool>,
 }
 
 /// `axis = "xi" | "eta"`.

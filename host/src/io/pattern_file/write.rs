@@ -103,6 +103,7 @@ impl PatternSetFile {
                 i_min: Some(o.i_min),
                 i_max: Some(o.i_max),
                 bit_depth: Some(bit_depth),
+                response_compensated: None,
             },
             phase: Some(phase),
             levels: level_sections,

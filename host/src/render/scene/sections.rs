@@ -36,6 +36,9 @@ pub(super) fn d_ss() -> u32 {
 pub(super) fn d_edge_ss() -> u32 {
     9
 }
+fn is_zero_u32(v: &u32) -> bool {
+    *v == 0
+}
 pub(super) fn d_gamma() -> f64 {
     1.0
 }
@@ -145,6 +148,11 @@ pub struct ProjectorSpec {
     /// Pattern bits, 8 or 16 (default 16).
     #[serde(default = "d_bits16")]
     pub bits: u8,
+    /// Fringe datasets: also capture the reference plane under this many uniform gray levels
+    /// (`gray/gray_NN.png`, codes as `fringe3d patterns --gray N` writes them) for
+    /// `fringe3d calibrate gamma`; 0 (default): none.
+    #[serde(default, skip_serializing_if = "is_zero_u32")]
+    pub gray_levels: u32,
     /// Keys that belong to no part (refused by [`SceneSpec::parse`](super::SceneSpec::parse)).
     #[serde(flatten, skip_serializing)]
     pub unknown: BTreeMap<String, toml::Value>,

@@ -1,0 +1,142 @@
+//! `fringe3d calibrate gamma`: the projector's response from captures of the reference plane under
+//! uniform gray levels (`fringe3d patterns --gray N` writes them), into the calibration's
+//! `[projector_response]` (docs/gamma.md).
+
+use super::{Global, common};
+use crate::io::calibration::Calibration;
+use crate::io::image_set::{self, Frames};
+use crate::response::estimate::estimate;
+use crate::response::gray_codes;
+use crate::response::table::phase_correction;
+use anyhow::{Context, Result, bail};
+use std::path::PathBuf;
+
+/// Arguments of `fringe3d calibrate gamma`.
+#[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Example:\n  fringe3d patterns --gray 17 -o gray/      # project these onto the reference plane, capture each\n  \
+fringe3d calibrate gamma -c calibration.toml captures/gray/ -p scan/patterns.toml\n\n\
+IMAGES: the captures in level order, or one folder (every PNG/TIFF/BMP sorted by name). The levels are\n\
+--levels (projector codes), default N evenly spaced codes from 0 to full scale (what --gray N writes).\n\
+Black (0) and full white must be among them. The camera's exposure must stay fixed and leave white\n\
+unsaturated. Writes [projector_response] into the calibration: `scan`, `decode` and `calibrate\n\
+reference` then correct the phase for it, and `patterns --response` pre-distorts patterns through it."
+)]
+pub struct GammaArgs {
+    /// The captures of the gray levels, or one folder.
+    #[arg(required = true)]
+    pub images: Vec<PathBuf>,
+    /// The calibration to add the response to.
+    #[arg(long, short = 'c')]
+    pub calibration: PathBuf,
+    /// Output calibration (default: update --calibration in place).
+    #[arg(long, short = 'o')]
+    pub out: Option<PathBuf>,
+    /// The projector codes of the captures, comma-separated, in image order (default: N evenly
+    /// spaced from 0 to full scale).
+    #[arg(long, value_delimiter = ',')]
+    pub levels: Vec<u32>,
+    /// Bits of the projector's codes (8 or 16): full scale is 2^bits − 1.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub projector_bits: u8,
+    /// Also report the phase error the response makes in this pattern set, per level, and what
+    /// the decoder's correction leaves of it.
+    #[arg(long, short = 'p')]
+    pub patterns: Option<PathBuf>,
+}
+
+/// Run `fringe3d calibrate gamma`.
+pub fn run(a: GammaArgs, g: Global) -> Result<()> {
+    let mut cal = Calibration::load(&a.calibration)?;
+    let paths = match a.images.as_slice() {
+        [d] if d.is_dir() => image_set::list_folder(d)?,
+        p => p.to_vec(),
+    };
+    let full = ((1u64 << a.projector_bits) - 1) as u32;
+    let codes = if a.levels.is_empty() {
+        gray_codes(paths.len(), full)
+    } else {
+        a.levels.clone()
+    };
+    if codes.len() != paths.len() {
+        bail!(
+            "--levels lists {} codes for {} images ({})",
+            codes.len(),
+            paths.len(),
+            paths[0].display()
+        );
+    }
+    if let Some(c) = codes.iter().find(|&&c| c > full) {
+        bail!(
+            "--levels: code {c} exceeds the {}-bit full scale {full}",
+            a.projector_bits
+        );
+    }
+    let set = image_set::load(&paths, paths.len(), "the gray captures")?;
+    let (cam_w, cam_h) = (cal.camera.width, cal.camera.height);
+    if (set.width, set.height) != (cam_w, cam_h) {
+        bail!(
+            "{}: the captures are {}x{} but the calibrated camera ({}) is {}x{}",
+            paths[0].display(),
+            set.width,
+            set.height,
+            a.calibration.display(),
+            cam_w,
+            cam_h
+        );
+    }
+    let frames: Vec<Vec<u16>> = match &set.frames {
+        Frames::U8(v) => v
+            .iter()
+            .map(|i| i.iter().map(|&x| x as u16).collect())
+            .collect(),
+        Frames::U16(v) => v.clone(),
+    };
+    let imgs: Vec<&[u16]> = frames.iter().map(|f| f.as_slice()).collect();
+    let levels: Vec<f64> = codes.iter().map(|&c| c as f64 / full as f64).collect();
+    let saturation = ((1u64 << set.bits) - 1) as f64;
+    let (resp, report) = estimate(&levels, &imgs, saturation)
+        .map_err(|m| anyhow::anyhow!("{} and the other gray captures: {m}", paths[0].display()))?;
+    let per_level = match &a.patterns {
+        Some(p) => {
+            let ls = common::load_set(p)?;
+            let (_, errs) = phase_correction(&ls.set, &resp)
+                .map_err(|m| anyhow::anyhow!("{}: {m}", p.display()))?;
+            Some(errs)
+        }
+        None => None,
+    };
+    cal.projector_response = Some(resp.clone());
+    let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
+    cal.save(&out)
+        .with_context(|| format!("{}: cannot write the calibration", out.display()))?;
+    if g.json {
+        outln!(
+            "{}",
+            serde_json::json!({"command": "calibrate gamma", "out": out, "gamma": resp.gamma,
+                "levels": resp.levels, "response": resp.response, "report": report,
+                "phase_error": per_level})
+        );
+    } else if !g.quiet {
+        outln!(
+            "projector response from {} levels over {} pixels: closest power law gamma {:.3} (table off it by {:.4} RMS); nonlinearity {:.1} % of full scale",
+            resp.levels.len(),
+            report.pixels,
+            resp.gamma,
+            report.power_law_rms,
+            100.0 * report.nonlinearity
+        );
+        if let Some(errs) = &per_level {
+            for (l, e) in errs.iter().enumerate() {
+                outln!(
+                    "  level {l}: phase error {:.4} rad RMS ({:.4} max) uncorrected, {:.4} after the decoder's table",
+                    e.rms_rad,
+                    e.max_rad,
+                    e.residual_rms_rad
+                );
+            }
+        }
+        outln!("wrote [projector_response] to {}", out.display());
+    }
+    Ok(())
+}
