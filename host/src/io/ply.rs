@@ -30,6 +30,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use super::atomic::AtomicFile;
 use super::error::FormatError;
 
+mod encode;
+pub use encode::{Encoded, RowEncoder};
+use encode::{check_row, check_xyz_row, encode_row_body, encode_vertex, encode_xyz};
+
 /// PLY body encoding.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum PlyEncoding {
@@ -309,59 +313,18 @@ impl PlyWriter {
     /// Write one camera row. Organized: every pixel, rows strictly in order `0..height`, each of
     /// exactly `width` pixels. Unorganized: only the pixels whose validity is 0, any row order.
     pub fn write_row(&mut self, row: &PointRow<'_>) -> Result<(), FormatError> {
-        let n = row.xyz.len();
-        let need = |name: &str, len: usize, used: bool| -> Result<(), FormatError> {
-            if used && len != n {
-                return Err(self.invalid(format!(
-                    "row {}: {name} has {len} values, xyz has {n}",
-                    row.v
-                )));
-            }
-            Ok(())
-        };
-        need("validity", row.validity.len(), true)?;
-        need("intensity", row.intensity.len(), self.opts.intensity)?;
-        need("modulation", row.modulation.len(), self.opts.modulation)?;
-        if let Some((w, h)) = self.organized {
-            if row.v != self.rows || self.rows >= h {
-                return Err(self.invalid(format!(
-                    "organized cloud: got row {}, expected row {} of {h}",
-                    row.v,
-                    self.rows.min(h)
-                )));
-            }
-            if n != w as usize {
-                return Err(
-                    self.invalid(format!("row {}: {n} pixels, the cloud is {w} wide", row.v))
-                );
-            }
-        }
-        if self.opts.pixel
-            && self.opts.pixel_type == PixelIndexType::UShort
-            && (row.v > 65535 || n > 65536)
-        {
-            return Err(self.invalid(format!(
-                "row {}: pixel indices do not fit ushort; use PixelIndexType::UInt",
-                row.v
-            )));
-        }
-        let organized = self.organized.is_some();
-        for i in 0..n {
-            let code = row.validity[i];
-            if code != 0 && !organized {
-                continue;
-            }
-            let xyz = if code == 0 { row.xyz[i] } else { [f32::NAN; 3] };
-            let p = PlyPoint {
-                xyz,
-                intensity: row.intensity.get(i).copied().unwrap_or(0.0),
-                modulation: row.modulation.get(i).copied().unwrap_or(0.0),
-                u: i as u32,
-                v: row.v,
-            };
-            self.put(&p, code)?;
-        }
+        check_row(&self.path, &self.opts, self.organized, self.rows, row)?;
+        self.count += encode_row_body(
+            &self.opts,
+            self.organized.is_some(),
+            row,
+            &mut self.pending,
+            &mut self.line,
+        );
         self.rows += 1;
+        if self.pending.len() >= PENDING_BYTES {
+            self.flush_pending()?;
+        }
         Ok(())
     }
 
@@ -386,85 +349,52 @@ impl PlyWriter {
     }
 
     fn put(&mut self, p: &PlyPoint, code: u8) -> Result<(), FormatError> {
-        let o = &self.opts;
-        let res = match o.encoding {
-            PlyEncoding::BinaryLittleEndian => {
-                let mut buf = [0u8; 32];
-                let mut k = 0;
-                let mut push = |b: &[u8]| {
-                    buf[k..k + b.len()].copy_from_slice(b);
-                    k += b.len();
-                };
-                for c in p.xyz {
-                    push(&c.to_le_bytes());
-                }
-                if o.intensity {
-                    push(&p.intensity.to_le_bytes());
-                }
-                if o.modulation {
-                    push(&p.modulation.to_le_bytes());
-                }
-                if o.pixel {
-                    match o.pixel_type {
-                        PixelIndexType::UShort => {
-                            push(&(p.u as u16).to_le_bytes());
-                            push(&(p.v as u16).to_le_bytes());
-                        }
-                        PixelIndexType::UInt => {
-                            push(&p.u.to_le_bytes());
-                            push(&p.v.to_le_bytes());
-                        }
-                    }
-                }
-                if self.organized.is_some() {
-                    push(&[code]);
-                }
-                self.pending.extend_from_slice(&buf[..k]);
-                if self.pending.len() >= PENDING_BYTES {
-                    self.flush_pending()?;
-                }
-                Ok(())
-            }
-            PlyEncoding::Ascii => {
-                use std::fmt::Write as _;
-                let l = &mut self.line;
-                l.clear();
-                let mut first = true;
-                let mut f = |v: f32| {
-                    if !first {
-                        l.push(' ');
-                    }
-                    first = false;
-                    if v.is_nan() {
-                        l.push_str("nan");
-                    } else {
-                        let _ = write!(l, "{v}");
-                    }
-                };
-                for c in p.xyz {
-                    f(c);
-                }
-                if o.intensity {
-                    f(p.intensity);
-                }
-                if o.modulation {
-                    f(p.modulation);
-                }
-                if o.pixel {
-                    let _ = write!(l, " {} {}", p.u, p.v);
-                }
-                if self.organized.is_some() {
-                    let _ = write!(l, " {code}");
-                }
-                l.push('\n');
-                match &mut self.body {
-                    Body::Direct => self.out.write_all(l.as_bytes()),
-                    Body::Scratch(s) => s.out.write_all(l.as_bytes()),
-                }
-            }
-        };
-        res.map_err(|e| FormatError::io(&self.path, "cannot write", e))?;
+        encode_vertex(
+            &self.opts,
+            self.organized.is_some(),
+            p,
+            code,
+            &mut self.pending,
+            &mut self.line,
+        );
         self.count += 1;
+        if self.pending.len() >= PENDING_BYTES {
+            self.flush_pending()?;
+        }
+        Ok(())
+    }
+
+    /// An encoder of rows for this file, to run on other threads: what it produces,
+    /// [`PlyWriter::write_encoded`] appends, byte for byte what [`PlyWriter::write_row`] writes
+    /// for the same rows.
+    pub fn row_encoder(&self) -> RowEncoder {
+        RowEncoder::Ply {
+            path: self.path.clone(),
+            opts: self.opts.clone(),
+            organized: self.organized,
+        }
+    }
+
+    /// Append rows encoded by this writer's [`PlyWriter::row_encoder`]. Organized: the blocks
+    /// must come in row order, each starting at the next row.
+    pub fn write_encoded(&mut self, e: &Encoded) -> Result<(), FormatError> {
+        if let Some((_, h)) = self.organized
+            && (e.first_row != self.rows || self.rows.saturating_add(e.rows) > h)
+        {
+            return Err(self.invalid(format!(
+                "organized cloud: got rows from {}, expected row {} of {h}",
+                e.first_row,
+                self.rows.min(h)
+            )));
+        }
+        self.flush_pending()?;
+        let res = match &mut self.body {
+            Body::Direct => self.out.write_all(&e.bytes),
+            Body::Scratch(s) => s.out.write_all(&e.bytes),
+        };
+        res.map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
+        self.count += e.vertices;
+        self.rows += e.rows;
         Ok(())
     }
 
@@ -593,9 +523,8 @@ impl XyzWriter {
 
     /// Write one point.
     pub fn write_point(&mut self, xyz: [f32; 3]) -> Result<(), FormatError> {
-        use std::fmt::Write as _;
         self.line.clear();
-        let _ = writeln!(self.line, "{} {} {}", xyz[0], xyz[1], xyz[2]);
+        encode_xyz(xyz, &mut self.line);
         self.out
             .write_all(self.line.as_bytes())
             .map_err(|e| FormatError::io(&self.path, "cannot write", e))?;
@@ -605,22 +534,29 @@ impl XyzWriter {
 
     /// Write the valid pixels (validity 0) of a row.
     pub fn write_row(&mut self, row: &PointRow<'_>) -> Result<(), FormatError> {
-        if row.validity.len() != row.xyz.len() {
-            return Err(FormatError::invalid(
-                &self.path,
-                format!(
-                    "row {}: validity has {} values, xyz has {}",
-                    row.v,
-                    row.validity.len(),
-                    row.xyz.len()
-                ),
-            ));
-        }
+        check_xyz_row(&self.path, row)?;
         for (p, &c) in row.xyz.iter().zip(row.validity) {
             if c == 0 {
                 self.write_point(*p)?;
             }
         }
+        Ok(())
+    }
+
+    /// An encoder of rows for this file, to run on other threads: what it produces,
+    /// [`XyzWriter::write_encoded`] appends, byte for byte what [`XyzWriter::write_row`] writes.
+    pub fn row_encoder(&self) -> RowEncoder {
+        RowEncoder::Xyz {
+            path: self.path.clone(),
+        }
+    }
+
+    /// Append rows encoded by this writer's [`XyzWriter::row_encoder`].
+    pub fn write_encoded(&mut self, e: &Encoded) -> Result<(), FormatError> {
+        self.out
+            .write_all(&e.bytes)
+            .map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
+        self.count += e.vertices;
         Ok(())
     }
 

@@ -1,0 +1,258 @@
+//! The streaming `scan` (one pass over bands of rows) writes the file the whole-frame path writes,
+//! byte for byte: every output form (binary and ASCII PLY, organized or not, XYZ, with and without
+//! the edge filter), 8- and 16-bit images, 1 and 2 threads through the binary, and through the
+//! library band heights that do not divide the image height (1, 7, 37 rows), several windows and
+//! thread counts. The reference is `cli::scan::run_whole_frame`, the former whole-frame `scan`.
+
+use clap::Parser;
+use fringe3d::cli::cloud_out::{CloudFormat, CloudSink};
+use fringe3d::cli::scan::run_whole_frame;
+use fringe3d::cli::{Cli, Command as Cmd, Global, common};
+use fringe3d::scan::ScanError;
+use fringe3d::scan::stream::{StreamConfig, stream_image_set};
+use fringe3d_core::decode::Decoder;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+struct Tmp(PathBuf);
+impl Drop for Tmp {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    let out = Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The `scan` arguments for dataset `ds`, output `out` and the extra options.
+fn scan_args(ds: &Path, out: &Path, extra: &[&str]) -> Vec<String> {
+    let mut a: Vec<String> = [
+        "scan",
+        "-q",
+        "--patterns",
+        ds.join("patterns.toml").to_str().unwrap(),
+        "--calibration",
+        ds.join("calibration.toml").to_str().unwrap(),
+        ds.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    a.extend(extra.iter().map(|s| s.to_string()));
+    a
+}
+
+/// The whole-frame `scan`, in this process.
+fn whole_frame(ds: &Path, out: &Path, extra: &[&str]) -> Vec<u8> {
+    let mut argv = vec!["fringe3d".to_string()];
+    argv.extend(scan_args(ds, out, extra));
+    let cli = Cli::try_parse_from(&argv).unwrap();
+    let Cmd::Scan(a) = cli.command else {
+        panic!("not a scan")
+    };
+    run_whole_frame(
+        a,
+        Global {
+            quiet: true,
+            json: false,
+        },
+    )
+    .unwrap();
+    std::fs::read(out).unwrap()
+}
+
+/// One rendered dataset: 250 rows (a prime number of bands fits no thread count evenly).
+fn render(root: &Path, name: &str, bits: &str) -> PathBuf {
+    let ds = root.join(name);
+    run(&[
+        "render",
+        "-q",
+        "--scene",
+        "steps",
+        "--size",
+        "312x250",
+        "--noise",
+        "1",
+        "--supersample",
+        "1",
+        "--bits",
+        bits,
+        "--out",
+        ds.to_str().unwrap(),
+    ]);
+    ds
+}
+
+const FORMS: [(&str, &[&str]); 6] = [
+    ("bin.ply", &[]),
+    ("org.ply", &["--organized"]),
+    ("ascii.ply", &["--ascii"]),
+    ("ascii-org.ply", &["--ascii", "--organized"]),
+    ("cloud.xyz", &[]),
+    ("nofilter.ply", &["--organized", "--no-edge-filter"]),
+];
+
+#[test]
+fn the_binary_streams_the_whole_frame_bytes() {
+    let t = Tmp(std::env::temp_dir().join(format!("fringe3d-stream-{}", std::process::id())));
+    let _ = std::fs::remove_dir_all(&t.0);
+    std::fs::create_dir_all(&t.0).unwrap();
+    for bits in ["8", "12"] {
+        let ds = render(&t.0, &format!("ds{bits}"), bits);
+        for (name, extra) in FORMS {
+            let reference = whole_frame(&ds, &t.0.join(format!("whole-{bits}-{name}")), extra);
+            assert!(reference.len() > 1000, "{name}: a real cloud");
+            for j in ["1", "2"] {
+                let out = t.0.join(format!("stream-{bits}-{j}-{name}"));
+                let mut a = vec!["-j".to_string(), j.to_string()];
+                a.extend(scan_args(&ds, &out, extra));
+                let a: Vec<&str> = a.iter().map(|s| s.as_str()).collect();
+                run(&a);
+                let got = std::fs::read(&out).unwrap();
+                assert!(
+                    got == reference,
+                    "{bits}-bit, -j {j}, {name}: the streamed file differs from the whole-frame one ({} vs {} bytes)",
+                    got.len(),
+                    reference.len()
+                );
+            }
+        }
+        // The edge filter flags something on this scene, so the halo rows matter.
+        let org = std::fs::read(t.0.join(format!("whole-{bits}-org.ply"))).unwrap();
+        let nof = std::fs::read(t.0.join(format!("whole-{bits}-nofilter.ply"))).unwrap();
+        assert!(org != nof, "the edge filter changed nothing: a weak test");
+    }
+}
+
+#[test]
+fn odd_bands_windows_and_thread_counts_give_the_same_bytes() {
+    let t = Tmp(std::env::temp_dir().join(format!("fringe3d-bands-{}", std::process::id())));
+    let _ = std::fs::remove_dir_all(&t.0);
+    std::fs::create_dir_all(&t.0).unwrap();
+    let ds = render(&t.0, "ds", "8");
+    let set = common::load_set(&ds.join("patterns.toml")).unwrap();
+    let cal = common::load_calibration(&ds.join("calibration.toml"), set.set.axis()).unwrap();
+    let imgs = common::load_images(&set, &[ds.clone()], true).unwrap();
+    let decoder = Decoder::new(&set.set, common::decode_config(&imgs)).unwrap();
+    for (name, extra) in [FORMS[0], FORMS[1], FORMS[5]] {
+        let reference = whole_frame(&ds, &t.0.join(format!("whole-{name}")), extra);
+        let mut argv = vec!["fringe3d".to_string()];
+        argv.extend(scan_args(&ds, &t.0.join("unused.ply"), extra));
+        let Cmd::Scan(a) = Cli::try_parse_from(&argv).unwrap().command else {
+            panic!("not a scan")
+        };
+        let filter = (!a.cloud.no_edge_filter).then(|| cal.edge_filter(a.cloud.max_angle).unwrap());
+        for (threads, band_rows, window) in
+            [(1, 7, 1), (2, 7, 0), (3, 1, 2), (2, 37, 1), (1, 250, 0)]
+        {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let out =
+                t.0.join(format!("lib-{threads}-{band_rows}-{window}-{name}"));
+            let stats = pool.install(|| {
+                let mut sink = CloudSink::create(
+                    &a.cloud,
+                    CloudFormat::Ply,
+                    &out,
+                    cal.width(),
+                    cal.height(),
+                    vec![format!("fringe3d scan of {}", a.patterns.display())],
+                )
+                .unwrap();
+                let cfg = StreamConfig {
+                    band_rows,
+                    window,
+                    edge_filter: filter,
+                    ..StreamConfig::default()
+                };
+                let enc = sink.encoder();
+                let stats = stream_image_set(&cal, &decoder, &imgs, &enc, &cfg, |e| {
+                    sink.write(e).map_err(ScanError::from)
+                })
+                .unwrap();
+                sink.finish().unwrap();
+                stats
+            });
+            assert_eq!(stats.band_rows, band_rows.min(250));
+            assert_eq!(stats.bands, 250usize.div_ceil(band_rows));
+            assert_eq!(stats.histogram.iter().sum::<usize>(), 312 * 250);
+            let got = std::fs::read(&out).unwrap();
+            assert!(
+                got == reference,
+                "{name}: {threads} threads, bands of {band_rows} rows, window {window}: differs"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_failing_sink_stops_the_pass_and_writes_nothing() {
+    let t = Tmp(std::env::temp_dir().join(format!("fringe3d-sinkerr-{}", std::process::id())));
+    let _ = std::fs::remove_dir_all(&t.0);
+    std::fs::create_dir_all(&t.0).unwrap();
+    let ds = render(&t.0, "ds", "8");
+    let set = common::load_set(&ds.join("patterns.toml")).unwrap();
+    let cal = common::load_calibration(&ds.join("calibration.toml"), set.set.axis()).unwrap();
+    let imgs = common::load_images(&set, &[ds.clone()], true).unwrap();
+    let decoder = Decoder::new(&set.set, common::decode_config(&imgs)).unwrap();
+    let mut argv = vec!["fringe3d".to_string()];
+    let out = t.0.join("never.ply");
+    argv.extend(scan_args(&ds, &out, &[]));
+    let Cmd::Scan(a) = Cli::try_parse_from(&argv).unwrap().command else {
+        panic!("not a scan")
+    };
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let res = pool.install(|| {
+            let mut sink =
+                CloudSink::create(&a.cloud, CloudFormat::Ply, &out, 312, 250, vec![]).unwrap();
+            let enc = sink.encoder();
+            let mut calls = 0;
+            let cfg = StreamConfig {
+                band_rows: 10,
+                window: 1,
+                ..StreamConfig::default()
+            };
+            let r = stream_image_set(&cal, &decoder, &imgs, &enc, &cfg, |e| {
+                calls += 1;
+                if calls == 3 {
+                    return Err(ScanError::Invalid {
+                        path: out.clone(),
+                        message: "disk full (test)".into(),
+                    });
+                }
+                sink.write(e).map_err(ScanError::from)
+            });
+            (r, calls)
+        });
+        let (r, calls) = res;
+        let e = r.expect_err("the sink's error is the pass's");
+        assert!(e.to_string().contains("disk full (test)"), "{e}");
+        assert_eq!(calls, 3, "no band is handed over after the error");
+        assert!(!out.exists(), "nothing written");
+        let left: Vec<_> = std::fs::read_dir(&t.0)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name())
+            .filter(|n| n != "ds")
+            .collect();
+        assert!(left.is_empty(), "temporary files left: {left:?}");
+    }
+}
