@@ -256,3 +256,49 @@ fn a_failing_sink_stops_the_pass_and_writes_nothing() {
         assert!(left.is_empty(), "temporary files left: {left:?}");
     }
 }
+
+/// The bounded unorganized PLY writer of the streaming scan gives the file of the writer that
+/// knows the count up front, whether the count fills the header's room (as many digits as the
+/// bound) or not (the vertices are moved forward), in both encodings.
+#[test]
+fn bounded_ply_equals_the_counted_one() {
+    use fringe3d::io::ply::{PlyEncoding, PlyOptions, PlyPoint, PlyWriter};
+    let t = Tmp(std::env::temp_dir().join(format!("fringe3d-bounded-{}", std::process::id())));
+    let _ = std::fs::remove_dir_all(&t.0);
+    std::fs::create_dir_all(&t.0).unwrap();
+    let points: Vec<PlyPoint> = (0..70_000u32)
+        .map(|i| PlyPoint {
+            xyz: [i as f32 * 0.5, -(i as f32), 600.0 + (i % 97) as f32],
+            intensity: (i % 255) as f32,
+            modulation: (i % 31) as f32,
+            u: i % 300,
+            v: i / 300,
+        })
+        .collect();
+    for enc in [PlyEncoding::BinaryLittleEndian, PlyEncoding::Ascii] {
+        let opts = PlyOptions {
+            encoding: enc,
+            ..PlyOptions::default()
+        };
+        for (n, max) in [(70_000, 99_999), (70_000, 100_000), (7, 10_000_000), (0, 5)] {
+            let counted = t.0.join("counted.ply");
+            let mut w = PlyWriter::create_with_count(&counted, n as u64, opts.clone()).unwrap();
+            w.write_points(&points[..n]).unwrap();
+            w.finish().unwrap();
+            let bounded = t.0.join("bounded.ply");
+            let mut w = PlyWriter::create_bounded(&bounded, max, opts.clone()).unwrap();
+            w.write_points(&points[..n]).unwrap();
+            assert_eq!(w.finish().unwrap(), n as u64);
+            assert!(
+                std::fs::read(&counted).unwrap() == std::fs::read(&bounded).unwrap(),
+                "{enc:?}: {n} points, bound {max}"
+            );
+        }
+        // More points than the bound: refused, nothing written.
+        let over = t.0.join("over.ply");
+        let mut w = PlyWriter::create_bounded(&over, 9, opts.clone()).unwrap();
+        w.write_points(&points[..10]).unwrap();
+        assert!(w.finish().is_err());
+        assert!(!over.exists());
+    }
+}

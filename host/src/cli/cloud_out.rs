@@ -242,8 +242,8 @@ pub fn ply_options(args: &CloudArgs, comments: Vec<String>) -> PlyOptions {
 /// An open cloud file fed with blocks of rows encoded on other threads (the streaming scan):
 /// the same file, byte for byte, as [`write_cloud`] writes for the same rows.
 pub enum CloudSink {
-    /// PLY, organized or not (unorganized: the vertices wait in a scratch file until their count,
-    /// which the header carries, is known).
+    /// PLY, organized or not (unorganized: behind room for the header, whose vertex count is
+    /// known at the end; see [`PlyWriter::create_bounded`]).
     Ply(PlyWriter),
     /// XYZ text.
     Xyz(XyzWriter),
@@ -266,7 +266,7 @@ impl CloudSink {
                 CloudSink::Ply(if args.organized {
                     PlyWriter::create_organized(path, width as u32, height as u32, opts)?
                 } else {
-                    PlyWriter::create(path, opts)?
+                    PlyWriter::create_bounded(path, (width * height) as u64, opts)?
                 })
             }
         })

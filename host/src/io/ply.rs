@@ -169,6 +169,15 @@ enum Body {
     Direct,
     /// Unorganized: vertices go to a scratch file until the count is known.
     Scratch(Scratch),
+    /// Unorganized with a bound on the count: the vertices go straight into the file behind room
+    /// for the longest header the bound allows (`start` bytes); [`PlyWriter::finish`] writes the
+    /// header there, moving the vertices forward if it is shorter.
+    Reserved {
+        /// Where the vertices start.
+        start: u64,
+        /// The bound.
+        max: u64,
+    },
 }
 
 /// A streaming, atomic PLY writer. Create it with [`PlyWriter::create`] (unorganized) or
@@ -262,6 +271,39 @@ impl PlyWriter {
             organized: Some((width, height)),
             out,
             body: Body::Direct,
+            rows: 0,
+            count: 0,
+            announced: None,
+            line: String::new(),
+            pending: Vec::new(),
+        })
+    }
+
+    /// An unorganized cloud of at most `max_count` vertices whose count is not known before
+    /// writing (a streaming scan): the vertices go straight into the (atomic) target behind room
+    /// for the header, without the scratch file of [`PlyWriter::create`]. When the count has as
+    /// many digits as `max_count` the header fills that room exactly; otherwise
+    /// [`PlyWriter::finish`] moves the vertices forward by the difference (a few bytes), a copy
+    /// within the file. The file is the same either way. `finish` refuses (and writes nothing)
+    /// if more than `max_count` vertices were written.
+    pub fn create_bounded(
+        path: &Path,
+        max_count: u64,
+        opts: PlyOptions,
+    ) -> Result<PlyWriter, FormatError> {
+        let mut out = AtomicFile::create(path)?;
+        let room = header(&opts, None, max_count);
+        out.write_all(room.as_bytes())
+            .map_err(|e| FormatError::io(path, "cannot write", e))?;
+        Ok(PlyWriter {
+            path: path.to_path_buf(),
+            opts,
+            organized: None,
+            out,
+            body: Body::Reserved {
+                start: room.len() as u64,
+                max: max_count,
+            },
             rows: 0,
             count: 0,
             announced: None,
@@ -389,7 +431,7 @@ impl PlyWriter {
         }
         self.flush_pending()?;
         let res = match &mut self.body {
-            Body::Direct => self.out.write_all(&e.bytes),
+            Body::Direct | Body::Reserved { .. } => self.out.write_all(&e.bytes),
             Body::Scratch(s) => s.out.write_all(&e.bytes),
         };
         res.map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
@@ -401,7 +443,7 @@ impl PlyWriter {
     /// Hand the pending binary vertices to the file.
     fn flush_pending(&mut self) -> Result<(), FormatError> {
         let res = match &mut self.body {
-            Body::Direct => self.out.write_all(&self.pending),
+            Body::Direct | Body::Reserved { .. } => self.out.write_all(&self.pending),
             Body::Scratch(s) => s.out.write_all(&self.pending),
         };
         self.pending.clear();
@@ -430,6 +472,18 @@ impl PlyWriter {
         }
         let path = self.path.clone();
         let ioe = |e| FormatError::io(&path, "cannot write", e);
+        if let Body::Reserved { start, max } = self.body {
+            if self.count > max {
+                return Err(self.invalid(format!(
+                    "{} vertices written, at most {max} expected",
+                    self.count
+                )));
+            }
+            let head = header(&self.opts, None, self.count);
+            let tmp = self.out.temp_path().to_path_buf();
+            let f = self.out.get_file().map_err(ioe)?;
+            place_header(f, &tmp, head.as_bytes(), start).map_err(ioe)?;
+        }
         if let Body::Scratch(s) = &mut self.body {
             let head = header(&self.opts, None, self.count);
             self.out.write_all(head.as_bytes()).map_err(ioe)?;
@@ -444,6 +498,35 @@ impl PlyWriter {
         out.commit()?;
         Ok(count)
     }
+}
+
+/// Write `head` in front of the vertices that start at `start` in `f` (the file at `path`,
+/// opened for writing only): in place when it is `start` bytes long, else after moving the
+/// vertices forward to end right behind it, and cutting the file there.
+fn place_header(f: &mut File, path: &Path, head: &[u8], start: u64) -> io::Result<()> {
+    let len = head.len() as u64;
+    if len > start {
+        return Err(io::Error::other("the header outgrew its room"));
+    }
+    if len < start {
+        let mut src = File::open(path)?;
+        src.seek(SeekFrom::Start(start))?;
+        f.seek(SeekFrom::Start(len))?;
+        let mut buf = vec![0u8; 1 << 20];
+        let mut end = len;
+        loop {
+            let n = io::Read::read(&mut src, &mut buf)?;
+            if n == 0 {
+                break;
+            }
+            f.write_all(&buf[..n])?;
+            end += n as u64;
+        }
+        f.set_len(end)?;
+    }
+    f.seek(SeekFrom::Start(0))?;
+    f.write_all(head)?;
+    f.flush()
 }
 
 /// The PLY header.
