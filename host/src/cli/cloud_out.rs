@@ -259,15 +259,22 @@ impl CloudSink {
         height: usize,
         comments: Vec<String>,
     ) -> Result<CloudSink> {
+        // The data goes to disk while the rest is computed; the fsync before the rename stays.
         Ok(match format {
-            CloudFormat::Xyz => CloudSink::Xyz(XyzWriter::create(path)?),
+            CloudFormat::Xyz => {
+                let mut w = XyzWriter::create(path)?;
+                w.sync_early()?;
+                CloudSink::Xyz(w)
+            }
             CloudFormat::Ply => {
                 let opts = ply_options(args, comments);
-                CloudSink::Ply(if args.organized {
+                let mut w = if args.organized {
                     PlyWriter::create_organized(path, width as u32, height as u32, opts)?
                 } else {
                     PlyWriter::create_bounded(path, (width * height) as u64, opts)?
-                })
+                };
+                w.sync_early()?;
+                CloudSink::Ply(w)
             }
         })
     }

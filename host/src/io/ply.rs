@@ -31,8 +31,10 @@ use super::atomic::AtomicFile;
 use super::error::FormatError;
 
 mod encode;
+mod flush;
 pub use encode::{Encoded, RowEncoder};
 use encode::{check_row, check_xyz_row, encode_row_body, encode_vertex, encode_xyz};
+use flush::EarlySync;
 
 /// PLY body encoding.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -184,6 +186,8 @@ enum Body {
 /// [`PlyWriter::create_organized`], feed rows or points, then [`PlyWriter::finish`]. Dropping it
 /// unfinished (or any error) leaves the target untouched and removes the temporary files.
 pub struct PlyWriter {
+    /// Early write-back ([`PlyWriter::sync_early`]); stopped before `out` is committed or dropped.
+    early: Option<EarlySync>,
     path: PathBuf,
     opts: PlyOptions,
     organized: Option<(u32, u32)>,
@@ -219,6 +223,7 @@ impl PlyWriter {
         let scratch = Scratch::beside(path)
             .map_err(|e| FormatError::io(path, "cannot create a scratch file beside it", e))?;
         Ok(PlyWriter {
+            early: None,
             path: path.to_path_buf(),
             opts,
             organized: None,
@@ -266,6 +271,7 @@ impl PlyWriter {
         out.write_all(header.as_bytes())
             .map_err(|e| FormatError::io(path, "cannot write", e))?;
         Ok(PlyWriter {
+            early: None,
             path: path.to_path_buf(),
             opts,
             organized: Some((width, height)),
@@ -296,6 +302,7 @@ impl PlyWriter {
         out.write_all(room.as_bytes())
             .map_err(|e| FormatError::io(path, "cannot write", e))?;
         Ok(PlyWriter {
+            early: None,
             path: path.to_path_buf(),
             opts,
             organized: None,
@@ -325,6 +332,7 @@ impl PlyWriter {
         out.write_all(header(&opts, None, count).as_bytes())
             .map_err(|e| FormatError::io(path, "cannot write", e))?;
         Ok(PlyWriter {
+            early: None,
             path: path.to_path_buf(),
             opts,
             organized: None,
@@ -435,8 +443,25 @@ impl PlyWriter {
             Body::Scratch(s) => s.out.write_all(&e.bytes),
         };
         res.map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
+        if let (Some(s), Body::Direct | Body::Reserved { .. }) = (&mut self.early, &self.body) {
+            s.wrote(e.bytes.len() as u64, &mut self.out)
+                .map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
+        }
         self.count += e.vertices;
         self.rows += e.rows;
+        Ok(())
+    }
+
+    /// Write the data back to disk in the background as it is written with
+    /// [`PlyWriter::write_encoded`], so that the `fsync` of [`PlyWriter::finish`] (which stays)
+    /// has little left to do. For files written while the rest is still being computed.
+    pub fn sync_early(&mut self) -> Result<(), FormatError> {
+        if self.early.is_none() {
+            self.early = Some(
+                EarlySync::start(&mut self.out)
+                    .map_err(|e| FormatError::io(&self.path, "cannot start the sync thread", e))?,
+            );
+        }
         Ok(())
     }
 
@@ -454,6 +479,9 @@ impl PlyWriter {
     /// cloud must have received all its rows.
     pub fn finish(mut self) -> Result<u64, FormatError> {
         self.flush_pending()?;
+        if let Some(s) = &mut self.early {
+            s.stop();
+        }
         if let Some((_, h)) = self.organized
             && self.rows != h
         {
@@ -578,6 +606,8 @@ fn header(o: &PlyOptions, organized: Option<(u32, u32)>, count: u64) -> String {
 /// A streaming, atomic XYZ text writer: one `x y z` line per valid point (mm, camera frame),
 /// floats in their shortest exact decimal form.
 pub struct XyzWriter {
+    /// Early write-back ([`XyzWriter::sync_early`]); stopped before `out` is committed or dropped.
+    early: Option<EarlySync>,
     path: PathBuf,
     out: AtomicFile,
     count: u64,
@@ -597,6 +627,7 @@ impl XyzWriter {
     /// Start writing `path`.
     pub fn create(path: &Path) -> Result<XyzWriter, FormatError> {
         Ok(XyzWriter {
+            early: None,
             path: path.to_path_buf(),
             out: AtomicFile::create(path)?,
             count: 0,
@@ -639,12 +670,30 @@ impl XyzWriter {
         self.out
             .write_all(&e.bytes)
             .map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
+        if let Some(s) = &mut self.early {
+            s.wrote(e.bytes.len() as u64, &mut self.out)
+                .map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
+        }
         self.count += e.vertices;
         Ok(())
     }
 
+    /// [`PlyWriter::sync_early`] for XYZ files.
+    pub fn sync_early(&mut self) -> Result<(), FormatError> {
+        if self.early.is_none() {
+            self.early = Some(
+                EarlySync::start(&mut self.out)
+                    .map_err(|e| FormatError::io(&self.path, "cannot start the sync thread", e))?,
+            );
+        }
+        Ok(())
+    }
+
     /// Complete the file and move it into place; returns the number of points.
-    pub fn finish(self) -> Result<u64, FormatError> {
+    pub fn finish(mut self) -> Result<u64, FormatError> {
+        if let Some(s) = &mut self.early {
+            s.stop();
+        }
         let n = self.count;
         self.out.commit()?;
         Ok(n)
