@@ -490,7 +490,7 @@ pub fn decode_rows<P: Sample>(
     let n = out.phase.len();
     if frames.len() != d.image_count()
         || width == 0
-        || n % width != 0
+        || !n.is_multiple_of(width)
         || out.modulation.len() != n
         || out.dc.len() != n
         || out.validity.len() != n
@@ -527,7 +527,7 @@ pub fn reconstruct_rows(
     let w = recon.width();
     let n = phase.len();
     if w == 0
-        || n % w != 0
+        || !n.is_multiple_of(w)
         || validity.len() != n
         || out.xyz.len() != 3 * n
         || out.validity.len() != n

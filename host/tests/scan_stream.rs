@@ -144,7 +144,7 @@ fn odd_bands_windows_and_thread_counts_give_the_same_bytes() {
     let ds = render(&t.0, "ds", "8");
     let set = common::load_set(&ds.join("patterns.toml")).unwrap();
     let cal = common::load_calibration(&ds.join("calibration.toml"), set.set.axis()).unwrap();
-    let imgs = common::load_images(&set, &[ds.clone()], true).unwrap();
+    let imgs = common::load_images(&set, std::slice::from_ref(&ds), true).unwrap();
     let decoder = Decoder::new(&set.set, common::decode_config(&imgs)).unwrap();
     for (name, extra) in [FORMS[0], FORMS[1], FORMS[5]] {
         let reference = whole_frame(&ds, &t.0.join(format!("whole-{name}")), extra);
@@ -207,7 +207,7 @@ fn a_failing_sink_stops_the_pass_and_writes_nothing() {
     let ds = render(&t.0, "ds", "8");
     let set = common::load_set(&ds.join("patterns.toml")).unwrap();
     let cal = common::load_calibration(&ds.join("calibration.toml"), set.set.axis()).unwrap();
-    let imgs = common::load_images(&set, &[ds.clone()], true).unwrap();
+    let imgs = common::load_images(&set, std::slice::from_ref(&ds), true).unwrap();
     let decoder = Decoder::new(&set.set, common::decode_config(&imgs)).unwrap();
     let mut argv = vec!["fringe3d".to_string()];
     let out = t.0.join("never.ply");

@@ -37,7 +37,7 @@ const BAND_PIXELS: usize = 1 << 16;
 /// How a streaming scan runs.
 #[derive(Clone, Debug)]
 pub struct StreamConfig {
-    /// Rows per band; 0: about [`BAND_PIXELS`] pixels, and at least four bands per thread.
+    /// Rows per band; 0: about 65 536 pixels a band, and at least four bands per thread.
     pub band_rows: usize,
     /// Bands computed ahead of the one being written; 0: the thread count plus two.
     pub window: usize,

@@ -160,6 +160,10 @@ pub(super) fn encode_row_body(
     line: &mut String,
 ) -> u64 {
     let mut count = 0;
+    if opts.encoding == PlyEncoding::BinaryLittleEndian {
+        // At most 29 bytes a vertex: one growth per row, not one per block of vertices.
+        out.reserve(29 * row.xyz.len());
+    }
     for i in 0..row.xyz.len() {
         let code = row.validity[i];
         if code != 0 && !organized {
