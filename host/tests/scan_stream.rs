@@ -302,3 +302,65 @@ fn bounded_ply_equals_the_counted_one() {
         assert!(!over.exists());
     }
 }
+
+/// Rows written whole (the streaming scan's binary fast path) give the bytes of the same points
+/// written one by one (the per-vertex encoder), for every vertex layout.
+#[test]
+fn binary_rows_equal_points_written_one_by_one() {
+    use fringe3d::io::ply::{PixelIndexType, PlyOptions, PlyPoint, PlyWriter, PointRow};
+    let t = Tmp(std::env::temp_dir().join(format!("fringe3d-rows-{}", std::process::id())));
+    let _ = std::fs::remove_dir_all(&t.0);
+    std::fs::create_dir_all(&t.0).unwrap();
+    let (w, h) = (97usize, 5usize);
+    let xyz: Vec<[f32; 3]> = (0..w * h)
+        .map(|i| [i as f32 * 0.25, -(i as f32), 500.0 + (i % 13) as f32 * 0.1])
+        .collect();
+    let a: Vec<f32> = (0..w * h).map(|i| (i % 200) as f32 + 0.5).collect();
+    let b: Vec<f32> = (0..w * h).map(|i| (i % 50) as f32 * 0.125).collect();
+    let codes: Vec<u8> = (0..w * h).map(|i| if i % 7 == 3 { 2 } else { 0 }).collect();
+    for (intensity, modulation, pixel, pixel_type) in [
+        (true, true, true, PixelIndexType::UShort),
+        (true, false, true, PixelIndexType::UInt),
+        (false, true, false, PixelIndexType::UShort),
+        (false, false, true, PixelIndexType::UShort),
+    ] {
+        let opts = PlyOptions {
+            intensity,
+            modulation,
+            pixel,
+            pixel_type,
+            ..PlyOptions::default()
+        };
+        let rows = t.0.join("rows.ply");
+        let mut wr = PlyWriter::create(&rows, opts.clone()).unwrap();
+        for v in 0..h {
+            let r = v * w..(v + 1) * w;
+            wr.write_row(&PointRow {
+                v: v as u32,
+                xyz: &xyz[r.clone()],
+                intensity: if intensity { &a[r.clone()] } else { &[] },
+                modulation: if modulation { &b[r.clone()] } else { &[] },
+                validity: &codes[r],
+            })
+            .unwrap();
+        }
+        wr.finish().unwrap();
+        let points: Vec<PlyPoint> = (0..w * h)
+            .filter(|&i| codes[i] == 0)
+            .map(|i| PlyPoint {
+                xyz: xyz[i],
+                intensity: if intensity { a[i] } else { 0.0 },
+                modulation: if modulation { b[i] } else { 0.0 },
+                u: (i % w) as u32,
+                v: (i / w) as u32,
+            })
+            .collect();
+        let one = t.0.join("points.ply");
+        let mut wr = PlyWriter::create(&one, opts).unwrap();
+        wr.write_points(&points).unwrap();
+        wr.finish().unwrap();
+        let (x, y) = (std::fs::read(&rows).unwrap(), std::fs::read(&one).unwrap());
+        assert!(x.len() > 1000);
+        assert!(x == y, "{intensity} {modulation} {pixel} {pixel_type:?}");
+    }
+}

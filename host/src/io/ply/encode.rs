@@ -159,11 +159,10 @@ pub(super) fn encode_row_body(
     out: &mut Vec<u8>,
     line: &mut String,
 ) -> u64 {
-    let mut count = 0;
     if opts.encoding == PlyEncoding::BinaryLittleEndian {
-        // At most 29 bytes a vertex: one growth per row, not one per block of vertices.
-        out.reserve(29 * row.xyz.len());
+        return encode_binary_row(opts, organized, row, out);
     }
+    let mut count = 0;
     for i in 0..row.xyz.len() {
         let code = row.validity[i];
         if code != 0 && !organized {
@@ -181,6 +180,73 @@ pub(super) fn encode_row_body(
         count += 1;
     }
     count
+}
+
+/// [`encode_row_body`] for binary PLY: the row's vertices laid out in one block of fixed-size
+/// records, each field written as [`encode_vertex`] writes it (the same bytes).
+fn encode_binary_row(
+    opts: &PlyOptions,
+    organized: bool,
+    row: &PointRow<'_>,
+    out: &mut Vec<u8>,
+) -> u64 {
+    let n = row.xyz.len();
+    let count = if organized {
+        n
+    } else {
+        row.validity.iter().filter(|&&c| c == 0).count()
+    };
+    let pixel = match (opts.pixel, opts.pixel_type) {
+        (false, _) => 0,
+        (true, PixelIndexType::UShort) => 4,
+        (true, PixelIndexType::UInt) => 8,
+    };
+    let size = 12
+        + 4 * usize::from(opts.intensity)
+        + 4 * usize::from(opts.modulation)
+        + pixel
+        + usize::from(organized);
+    let start = out.len();
+    out.resize(start + count * size, 0);
+    let mut recs = out[start..].chunks_exact_mut(size);
+    for i in 0..n {
+        let code = row.validity[i];
+        if code != 0 && !organized {
+            continue;
+        }
+        let Some(r) = recs.next() else { break };
+        let xyz = if code == 0 { row.xyz[i] } else { [f32::NAN; 3] };
+        r[0..4].copy_from_slice(&xyz[0].to_le_bytes());
+        r[4..8].copy_from_slice(&xyz[1].to_le_bytes());
+        r[8..12].copy_from_slice(&xyz[2].to_le_bytes());
+        let mut k = 12;
+        if opts.intensity {
+            let v = row.intensity.get(i).copied().unwrap_or(0.0);
+            r[k..k + 4].copy_from_slice(&v.to_le_bytes());
+            k += 4;
+        }
+        if opts.modulation {
+            let v = row.modulation.get(i).copied().unwrap_or(0.0);
+            r[k..k + 4].copy_from_slice(&v.to_le_bytes());
+            k += 4;
+        }
+        match pixel {
+            4 => {
+                r[k..k + 2].copy_from_slice(&(i as u16).to_le_bytes());
+                r[k + 2..k + 4].copy_from_slice(&(row.v as u16).to_le_bytes());
+            }
+            8 => {
+                r[k..k + 4].copy_from_slice(&(i as u32).to_le_bytes());
+                r[k + 4..k + 8].copy_from_slice(&row.v.to_le_bytes());
+            }
+            _ => {}
+        }
+        k += pixel;
+        if organized {
+            r[k] = code;
+        }
+    }
+    count as u64
 }
 
 /// Append one vertex to `out` (`line` is scratch for ASCII); `code` is written for organized
