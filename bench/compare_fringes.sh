@@ -30,21 +30,33 @@ t_scan=$( { time $bin scan -q --patterns "$work/ds/patterns.toml" \
 t_decode=$( { time $bin decode -q --patterns "$work/ds/patterns.toml" "$work/ds" \
     --out "$work/dec"; } 2>&1 )
 
-# fringes, configured once for both timings below: the 12 images of the dataset, loaded, and a
-# decoder for them.
+# The set's image order, as fringe3d reads it: (level, shift) of each image file. The built-in
+# order of the 12-image preset is the finest level first (levels with a DC term, finest first;
+# docs/formats.md), while `fringes` takes its frames set by set in the order of its frequencies
+# `v`, declared ascending below: the images are handed over coarse to fine, each level's shifts
+# in order, from this list (handing the files in name order gave `fringes` the finest level as
+# its coarsest).
+$bin --json info "$work/ds/patterns.toml" > "$work/set.json"
+
+# fringes, configured once for both timings below: the 12 images of the dataset, loaded coarse to
+# fine, and a decoder for them.
 cat > "$work/fringes_setup.py" <<'PY'
-import sys, glob, numpy as np
+import sys, json, os, numpy as np
 from PIL import Image
 import fringes as frng
 
 def load(folder):
-    files = sorted(glob.glob(folder + "/img_*.png"))
+    info = json.load(open(os.path.join(os.path.dirname(folder), "set.json")))
+    # (level, shift) -> file; levels are numbered coarse (0) to fine (2).
+    by_id = {tuple(o): f for o, f in zip(info["order"], info["image_files"])}
+    files = [by_id[k] for k in sorted(by_id)]
+    assert len(files) == 12 and sorted(by_id)[0] == (0, 0), sorted(by_id)
     I = np.stack([np.asarray(Image.open(f)) for f in files])[..., None]   # (T, Y, X, 1)
     f = frng.Fringes()
     f.X, f.Y = I.shape[2], I.shape[1]
     f.D = 1                  # one direction (vertical fringes); the default 2 expects 24 frames
     f.K, f.N = 3, 4
-    f.v = [0.9, 7.2, 57.6]   # periods across the projector, as fringe3d's 12-image preset
+    f.v = [0.9, 7.2, 57.6]   # periods across the projector, coarse to fine, as the frames above
     assert f.T == I.shape[0], (f.T, I.shape)
     return f, I
 PY

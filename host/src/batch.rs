@@ -348,6 +348,8 @@ pub struct PointsOut<'a> {
 struct ReconFrame<'a> {
     recon: &'a Reconstructor,
     map: &'a ReferenceMap<'a>,
+    /// The camera row of `phase[0]` and `validity[0]`.
+    base: usize,
     phase: &'a [f32],
     validity: &'a [u8],
 }
@@ -374,6 +376,7 @@ pub fn reconstruct_frame(
     let f = ReconFrame {
         recon,
         map,
+        base: 0,
         phase,
         validity,
     };
@@ -405,7 +408,7 @@ fn recon_rows<G: CellGather>(
     let w = f.recon.width();
     for (j, (o, ov)) in xyz.chunks_mut(3 * w).zip(codes.chunks_mut(w)).enumerate() {
         let v = v0 + j;
-        let r = v * w..(v + 1) * w;
+        let r = (v - f.base) * w..(v - f.base + 1) * w;
         f.recon.reconstruct_row_gather(
             g,
             f.map,
@@ -471,6 +474,75 @@ fn recon_rows_dispatch(
         },
         _ => recon_rows(ScalarGather, f, v0, xyz, codes),
     }
+}
+
+/// Decode the rows `y0..` of a set (`frames[i]` is image `i`, `width` pixels wide, whole
+/// frames) into band buffers (`out`: as many whole rows as they hold) on the calling thread, with
+/// the kernel variant `isa`: the rows of [`decode_frames`], bit for bit.
+pub fn decode_rows<P: Sample>(
+    d: &Decoder,
+    frames: &[&[P]],
+    width: usize,
+    y0: usize,
+    out: FrameOut<'_>,
+    isa: Isa,
+) -> Result<(), DecodeError> {
+    let n = out.phase.len();
+    if frames.len() != d.image_count()
+        || width == 0
+        || !n.is_multiple_of(width)
+        || out.modulation.len() != n
+        || out.dc.len() != n
+        || out.validity.len() != n
+    {
+        return Err(DecodeError::Length);
+    }
+    rows_dispatch(
+        isa,
+        d,
+        frames,
+        width,
+        y0,
+        RowsOut {
+            phase: out.phase,
+            modulation: out.modulation,
+            dc: out.dc,
+            validity: out.validity,
+        },
+    )
+}
+
+/// Reconstruct the camera rows `v0..` from band buffers (`phase`, `validity`: whole rows
+/// starting at row `v0`; `out` as many rows) on the calling thread, with the kernel variant
+/// `isa`: the rows of [`reconstruct_frame`], bit for bit.
+pub fn reconstruct_rows(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    v0: usize,
+    phase: &[f32],
+    validity: &[u8],
+    out: PointsOut<'_>,
+    isa: Isa,
+) -> Result<(), ReconstructError> {
+    let w = recon.width();
+    let n = phase.len();
+    if w == 0
+        || !n.is_multiple_of(w)
+        || validity.len() != n
+        || out.xyz.len() != 3 * n
+        || out.validity.len() != n
+        || v0 + n / w > recon.height()
+    {
+        return Err(ReconstructError::Length);
+    }
+    let f = ReconFrame {
+        recon,
+        map,
+        base: v0,
+        phase,
+        validity,
+    };
+    recon_rows_dispatch(isa, &f, v0, out.xyz, out.validity)
 }
 
 #[cfg(test)]

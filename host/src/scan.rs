@@ -3,7 +3,8 @@
 //!
 //! Rows are reconstructed by the core's row kernel with the whole reference map as the band
 //! ([`ReferenceMap`]), exactly as [`Reconstructor::reconstruct_frame`] and the streaming head do,
-//! so the points are bit-identical whatever the thread count.
+//! so the points are bit-identical whatever the thread count. [`stream`] runs the whole scan
+//! (decode to the file's bytes) in one pass over bands of rows, without whole-frame buffers.
 
 use crate::batch::{Isa, PointsOut as BatchOut};
 use crate::io::calibration::Calibration;
@@ -14,6 +15,8 @@ use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use fringe3d_core::validity::Validity;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+
+pub mod stream;
 
 /// Why a scan could not be set up or run. Messages name the file.
 #[derive(Debug, thiserror::Error)]
@@ -32,6 +35,9 @@ pub enum ScanError {
         /// What is wrong.
         message: String,
     },
+    /// Decoding failed (buffers that do not fit the set: a caller's error).
+    #[error("decode: {0}")]
+    Decode(fringe3d_core::decode::DecodeError),
     /// Input maps have the wrong size.
     #[error("{what}: {got_w}x{got_h} pixels, but the calibrated camera is {w}x{h}")]
     Size {

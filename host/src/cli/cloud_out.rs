@@ -5,7 +5,10 @@
 //! folder and copied out once it is whole, so an error never leaves half a cloud in a pipe.
 
 use crate::io::atomic::{AtomicDir, check_file_target};
-use crate::io::ply::{PlyEncoding, PlyOptions, PlyWriter, PointRow, XyzWriter};
+use crate::io::error::FormatError;
+use crate::io::ply::{
+    Encoded, PlyEncoding, PlyOptions, PlyWriter, PointRow, RowEncoder, XyzWriter,
+};
 use crate::scan::PointCloud;
 use anyhow::{Context, Result, bail};
 use std::io::Write;
@@ -220,7 +223,12 @@ pub fn write_cloud(
         modulation: &modulation[v * w..(v + 1) * w],
         validity: &cloud.validity[v * w..(v + 1) * w],
     };
-    let opts = PlyOptions {
+    write_rows(out, w, h, row, ply_options(args, comments), args.organized)
+}
+
+/// The PLY options `args` ask for, with header `comments`.
+pub fn ply_options(args: &CloudArgs, comments: Vec<String>) -> PlyOptions {
+    PlyOptions {
         encoding: if args.ascii {
             PlyEncoding::Ascii
         } else {
@@ -228,8 +236,72 @@ pub fn write_cloud(
         },
         comments,
         ..PlyOptions::default()
-    };
-    write_rows(out, w, h, row, opts, args.organized)
+    }
+}
+
+/// An open cloud file fed with blocks of rows encoded on other threads (the streaming scan):
+/// the same file, byte for byte, as [`write_cloud`] writes for the same rows.
+pub enum CloudSink {
+    /// PLY, organized or not (unorganized: behind room for the header, whose vertex count is
+    /// known at the end; see [`PlyWriter::create_bounded`]).
+    Ply(PlyWriter),
+    /// XYZ text.
+    Xyz(XyzWriter),
+}
+
+impl CloudSink {
+    /// Start writing a `width × height` cloud in `format` at `path` as `args` say.
+    pub fn create(
+        args: &CloudArgs,
+        format: CloudFormat,
+        path: &Path,
+        width: usize,
+        height: usize,
+        comments: Vec<String>,
+    ) -> Result<CloudSink> {
+        // The data goes to disk while the rest is computed; the fsync before the rename stays.
+        Ok(match format {
+            CloudFormat::Xyz => {
+                let mut w = XyzWriter::create(path)?;
+                w.sync_early()?;
+                CloudSink::Xyz(w)
+            }
+            CloudFormat::Ply => {
+                let opts = ply_options(args, comments);
+                let mut w = if args.organized {
+                    PlyWriter::create_organized(path, width as u32, height as u32, opts)?
+                } else {
+                    PlyWriter::create_bounded(path, (width * height) as u64, opts)?
+                };
+                w.sync_early()?;
+                CloudSink::Ply(w)
+            }
+        })
+    }
+
+    /// The encoder of this file's rows.
+    pub fn encoder(&self) -> RowEncoder {
+        match self {
+            CloudSink::Ply(w) => w.row_encoder(),
+            CloudSink::Xyz(w) => w.row_encoder(),
+        }
+    }
+
+    /// Append a block of encoded rows.
+    pub fn write(&mut self, e: &Encoded) -> Result<(), FormatError> {
+        match self {
+            CloudSink::Ply(w) => w.write_encoded(e),
+            CloudSink::Xyz(w) => w.write_encoded(e),
+        }
+    }
+
+    /// Complete the file and move it into place; returns the number of vertices.
+    pub fn finish(self) -> Result<u64, FormatError> {
+        match self {
+            CloudSink::Ply(w) => w.finish(),
+            CloudSink::Xyz(w) => w.finish(),
+        }
+    }
 }
 
 /// Print a summary line: to standard output, or to standard error when the cloud itself goes to

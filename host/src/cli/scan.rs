@@ -1,8 +1,11 @@
 //! `fringe3d scan`: images + calibration → point cloud, in one go (nothing written in between).
 
-use super::cloud_out::{self, CloudArgs, CloudOut, apply_edge_filter, write_cloud};
+use super::cloud_out::{self, CloudArgs, CloudOut, CloudSink, apply_edge_filter, write_cloud};
 use super::{Global, common};
-use anyhow::Result;
+use crate::scan::ScanError;
+use crate::scan::stream::{StreamConfig, stream_image_set};
+use anyhow::{Context, Result, anyhow};
+use fringe3d_core::decode::Decoder;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -33,8 +36,26 @@ pub struct ScanArgs {
     pub thresholds: common::ThresholdArgs,
 }
 
-/// Run `fringe3d scan`.
+/// Run `fringe3d scan`: one streaming pass over bands of rows
+/// ([`crate::scan::stream`]), the file written while later rows are still being computed.
 pub fn run(a: ScanArgs, g: Global) -> Result<()> {
+    run_with(a, g, Pipeline::Stream)
+}
+
+/// `fringe3d scan` the whole-frame way: decode the whole frame, reconstruct it, filter it, then
+/// write it. The same file, byte for byte, as [`run`]; kept as the reference that
+/// `host/tests/scan_stream.rs` compares the streaming pass with.
+pub fn run_whole_frame(a: ScanArgs, g: Global) -> Result<()> {
+    run_with(a, g, Pipeline::WholeFrame)
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Pipeline {
+    Stream,
+    WholeFrame,
+}
+
+fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
     let t0 = Instant::now();
     let out = CloudOut::resolve(&a.cloud.out, a.cloud.format, "--out")?;
     let ls = common::load_set(&a.patterns)?;
@@ -57,29 +78,70 @@ pub fn run(a: ScanArgs, g: Global) -> Result<()> {
         );
     }
     let t_load = t0.elapsed();
+    let comments = vec![format!("fringe3d scan of {}", a.patterns.display())];
+    let config = a.thresholds.config(&imgs)?;
     let corr = common::response_correction(&a.calibration, &ls)?;
-    let d = common::decode_corrected(&ls.set, &imgs, a.thresholds.config(&imgs)?, corr.as_ref())?;
-    let t_decode = t0.elapsed();
-    let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
-    apply_edge_filter(&a.cloud, &cal, &mut cloud)?;
-    let t_recon = t0.elapsed();
-    let n = write_cloud(
-        &a.cloud,
-        &out,
-        &cloud,
-        &d.dc,
-        &d.modulation,
-        vec![format!("fringe3d scan of {}", a.patterns.display())],
-    )?;
-    let hist = common::histogram(&cloud.validity);
+    let (n, hist, seconds) = if pipeline == Pipeline::WholeFrame {
+        let d = common::decode_corrected(&ls.set, &imgs, config, corr.as_ref())?;
+        let t_decode = t0.elapsed();
+        let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
+        apply_edge_filter(&a.cloud, &cal, &mut cloud)?;
+        let t_recon = t0.elapsed();
+        let n = write_cloud(&a.cloud, &out, &cloud, &d.dc, &d.modulation, comments)?;
+        let seconds = serde_json::json!({"load": t_load.as_secs_f64(),
+            "decode": (t_decode - t_load).as_secs_f64(),
+            "reconstruct": (t_recon - t_decode).as_secs_f64(),
+            "total": t0.elapsed().as_secs_f64()});
+        (n, common::histogram(&cloud.validity), seconds)
+    } else {
+        let mut decoder = Decoder::new(&ls.set, config).map_err(|e| anyhow!("decoder: {e}"))?;
+        if let Some(c) = &corr {
+            decoder = decoder
+                .with_correction(c)
+                .map_err(|e| anyhow!("gamma correction: {e}"))?;
+        }
+        let cfg = StreamConfig {
+            edge_filter: match a.cloud.no_edge_filter {
+                true => None,
+                false => Some(cal.edge_filter(a.cloud.max_angle)?),
+            },
+            ..StreamConfig::default()
+        };
+        let (w, h) = (cal.width(), cal.height());
+        let mut done = None;
+        let n = out.deliver(|file| {
+            let mut sink = CloudSink::create(&a.cloud, out.format, file, w, h, comments)?;
+            let encoder = sink.encoder();
+            let stats = stream_image_set(&cal, &decoder, &imgs, &encoder, &cfg, |e| {
+                sink.write(e).map_err(ScanError::from)
+            })
+            .context("scanning the image set")?;
+            let t = Instant::now();
+            let n = sink.finish()?;
+            done = Some((stats, t.elapsed()));
+            Ok(n)
+        })?;
+        let (stats, finish) = done.ok_or_else(|| anyhow!("the cloud was not written"))?;
+        // Worker steps are thread time summed over the workers; the rest is wall time.
+        let steps = &stats.steps;
+        let seconds = serde_json::json!({"load": t_load.as_secs_f64(),
+            "decode": steps.decode.as_secs_f64(),
+            "reconstruct": steps.reconstruct.as_secs_f64(),
+            "filter": steps.filter.as_secs_f64(),
+            "encode": steps.encode.as_secs_f64(),
+            "stream": stats.wall.as_secs_f64(),
+            "write": stats.write.as_secs_f64(),
+            "finish": finish.as_secs_f64(),
+            "total": t0.elapsed().as_secs_f64()});
+        (n, stats.histogram, seconds)
+    };
     common::warn_if_empty(&hist, &out.describe(), g.quiet);
     if g.json {
         cloud_out::say(
             &out,
-            &serde_json::json!({"command": "scan", "out": a.cloud.out, "points": n, "width": cloud.width, "height": cloud.height,
+            &serde_json::json!({"command": "scan", "out": a.cloud.out, "points": n, "width": imgs.width, "height": imgs.height,
                 "validity": common::validity_json(&hist),
-                "seconds": {"load": t_load.as_secs_f64(), "decode": (t_decode - t_load).as_secs_f64(),
-                            "reconstruct": (t_recon - t_decode).as_secs_f64(), "total": t0.elapsed().as_secs_f64()}})
+                "seconds": seconds})
             .to_string(),
         );
     } else if !g.quiet {

@@ -30,6 +30,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use super::atomic::AtomicFile;
 use super::error::FormatError;
 
+mod encode;
+mod flush;
+pub use encode::{Encoded, RowEncoder};
+use encode::{check_row, check_xyz_row, encode_row_body, encode_vertex, encode_xyz};
+use flush::EarlySync;
+
 /// PLY body encoding.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum PlyEncoding {
@@ -165,12 +171,23 @@ enum Body {
     Direct,
     /// Unorganized: vertices go to a scratch file until the count is known.
     Scratch(Scratch),
+    /// Unorganized with a bound on the count: the vertices go straight into the file behind room
+    /// for the longest header the bound allows (`start` bytes); [`PlyWriter::finish`] writes the
+    /// header there, moving the vertices forward if it is shorter.
+    Reserved {
+        /// Where the vertices start.
+        start: u64,
+        /// The bound.
+        max: u64,
+    },
 }
 
 /// A streaming, atomic PLY writer. Create it with [`PlyWriter::create`] (unorganized) or
 /// [`PlyWriter::create_organized`], feed rows or points, then [`PlyWriter::finish`]. Dropping it
 /// unfinished (or any error) leaves the target untouched and removes the temporary files.
 pub struct PlyWriter {
+    /// Early write-back ([`PlyWriter::sync_early`]); stopped before `out` is committed or dropped.
+    early: Option<EarlySync>,
     path: PathBuf,
     opts: PlyOptions,
     organized: Option<(u32, u32)>,
@@ -206,6 +223,7 @@ impl PlyWriter {
         let scratch = Scratch::beside(path)
             .map_err(|e| FormatError::io(path, "cannot create a scratch file beside it", e))?;
         Ok(PlyWriter {
+            early: None,
             path: path.to_path_buf(),
             opts,
             organized: None,
@@ -253,11 +271,46 @@ impl PlyWriter {
         out.write_all(header.as_bytes())
             .map_err(|e| FormatError::io(path, "cannot write", e))?;
         Ok(PlyWriter {
+            early: None,
             path: path.to_path_buf(),
             opts,
             organized: Some((width, height)),
             out,
             body: Body::Direct,
+            rows: 0,
+            count: 0,
+            announced: None,
+            line: String::new(),
+            pending: Vec::new(),
+        })
+    }
+
+    /// An unorganized cloud of at most `max_count` vertices whose count is not known before
+    /// writing (a streaming scan): the vertices go straight into the (atomic) target behind room
+    /// for the header, without the scratch file of [`PlyWriter::create`]. When the count has as
+    /// many digits as `max_count` the header fills that room exactly; otherwise
+    /// [`PlyWriter::finish`] moves the vertices forward by the difference (a few bytes), a copy
+    /// within the file. The file is the same either way. `finish` refuses (and writes nothing)
+    /// if more than `max_count` vertices were written.
+    pub fn create_bounded(
+        path: &Path,
+        max_count: u64,
+        opts: PlyOptions,
+    ) -> Result<PlyWriter, FormatError> {
+        let mut out = AtomicFile::create(path)?;
+        let room = header(&opts, None, max_count);
+        out.write_all(room.as_bytes())
+            .map_err(|e| FormatError::io(path, "cannot write", e))?;
+        Ok(PlyWriter {
+            early: None,
+            path: path.to_path_buf(),
+            opts,
+            organized: None,
+            out,
+            body: Body::Reserved {
+                start: room.len() as u64,
+                max: max_count,
+            },
             rows: 0,
             count: 0,
             announced: None,
@@ -279,6 +332,7 @@ impl PlyWriter {
         out.write_all(header(&opts, None, count).as_bytes())
             .map_err(|e| FormatError::io(path, "cannot write", e))?;
         Ok(PlyWriter {
+            early: None,
             path: path.to_path_buf(),
             opts,
             organized: None,
@@ -309,59 +363,18 @@ impl PlyWriter {
     /// Write one camera row. Organized: every pixel, rows strictly in order `0..height`, each of
     /// exactly `width` pixels. Unorganized: only the pixels whose validity is 0, any row order.
     pub fn write_row(&mut self, row: &PointRow<'_>) -> Result<(), FormatError> {
-        let n = row.xyz.len();
-        let need = |name: &str, len: usize, used: bool| -> Result<(), FormatError> {
-            if used && len != n {
-                return Err(self.invalid(format!(
-                    "row {}: {name} has {len} values, xyz has {n}",
-                    row.v
-                )));
-            }
-            Ok(())
-        };
-        need("validity", row.validity.len(), true)?;
-        need("intensity", row.intensity.len(), self.opts.intensity)?;
-        need("modulation", row.modulation.len(), self.opts.modulation)?;
-        if let Some((w, h)) = self.organized {
-            if row.v != self.rows || self.rows >= h {
-                return Err(self.invalid(format!(
-                    "organized cloud: got row {}, expected row {} of {h}",
-                    row.v,
-                    self.rows.min(h)
-                )));
-            }
-            if n != w as usize {
-                return Err(
-                    self.invalid(format!("row {}: {n} pixels, the cloud is {w} wide", row.v))
-                );
-            }
-        }
-        if self.opts.pixel
-            && self.opts.pixel_type == PixelIndexType::UShort
-            && (row.v > 65535 || n > 65536)
-        {
-            return Err(self.invalid(format!(
-                "row {}: pixel indices do not fit ushort; use PixelIndexType::UInt",
-                row.v
-            )));
-        }
-        let organized = self.organized.is_some();
-        for i in 0..n {
-            let code = row.validity[i];
-            if code != 0 && !organized {
-                continue;
-            }
-            let xyz = if code == 0 { row.xyz[i] } else { [f32::NAN; 3] };
-            let p = PlyPoint {
-                xyz,
-                intensity: row.intensity.get(i).copied().unwrap_or(0.0),
-                modulation: row.modulation.get(i).copied().unwrap_or(0.0),
-                u: i as u32,
-                v: row.v,
-            };
-            self.put(&p, code)?;
-        }
+        check_row(&self.path, &self.opts, self.organized, self.rows, row)?;
+        self.count += encode_row_body(
+            &self.opts,
+            self.organized.is_some(),
+            row,
+            &mut self.pending,
+            &mut self.line,
+        );
         self.rows += 1;
+        if self.pending.len() >= PENDING_BYTES {
+            self.flush_pending()?;
+        }
         Ok(())
     }
 
@@ -386,92 +399,76 @@ impl PlyWriter {
     }
 
     fn put(&mut self, p: &PlyPoint, code: u8) -> Result<(), FormatError> {
-        let o = &self.opts;
-        let res = match o.encoding {
-            PlyEncoding::BinaryLittleEndian => {
-                let mut buf = [0u8; 32];
-                let mut k = 0;
-                let mut push = |b: &[u8]| {
-                    buf[k..k + b.len()].copy_from_slice(b);
-                    k += b.len();
-                };
-                for c in p.xyz {
-                    push(&c.to_le_bytes());
-                }
-                if o.intensity {
-                    push(&p.intensity.to_le_bytes());
-                }
-                if o.modulation {
-                    push(&p.modulation.to_le_bytes());
-                }
-                if o.pixel {
-                    match o.pixel_type {
-                        PixelIndexType::UShort => {
-                            push(&(p.u as u16).to_le_bytes());
-                            push(&(p.v as u16).to_le_bytes());
-                        }
-                        PixelIndexType::UInt => {
-                            push(&p.u.to_le_bytes());
-                            push(&p.v.to_le_bytes());
-                        }
-                    }
-                }
-                if self.organized.is_some() {
-                    push(&[code]);
-                }
-                self.pending.extend_from_slice(&buf[..k]);
-                if self.pending.len() >= PENDING_BYTES {
-                    self.flush_pending()?;
-                }
-                Ok(())
-            }
-            PlyEncoding::Ascii => {
-                use std::fmt::Write as _;
-                let l = &mut self.line;
-                l.clear();
-                let mut first = true;
-                let mut f = |v: f32| {
-                    if !first {
-                        l.push(' ');
-                    }
-                    first = false;
-                    if v.is_nan() {
-                        l.push_str("nan");
-                    } else {
-                        let _ = write!(l, "{v}");
-                    }
-                };
-                for c in p.xyz {
-                    f(c);
-                }
-                if o.intensity {
-                    f(p.intensity);
-                }
-                if o.modulation {
-                    f(p.modulation);
-                }
-                if o.pixel {
-                    let _ = write!(l, " {} {}", p.u, p.v);
-                }
-                if self.organized.is_some() {
-                    let _ = write!(l, " {code}");
-                }
-                l.push('\n');
-                match &mut self.body {
-                    Body::Direct => self.out.write_all(l.as_bytes()),
-                    Body::Scratch(s) => s.out.write_all(l.as_bytes()),
-                }
-            }
-        };
-        res.map_err(|e| FormatError::io(&self.path, "cannot write", e))?;
+        encode_vertex(
+            &self.opts,
+            self.organized.is_some(),
+            p,
+            code,
+            &mut self.pending,
+            &mut self.line,
+        );
         self.count += 1;
+        if self.pending.len() >= PENDING_BYTES {
+            self.flush_pending()?;
+        }
+        Ok(())
+    }
+
+    /// An encoder of rows for this file, to run on other threads: what it produces,
+    /// [`PlyWriter::write_encoded`] appends, byte for byte what [`PlyWriter::write_row`] writes
+    /// for the same rows.
+    pub fn row_encoder(&self) -> RowEncoder {
+        RowEncoder::Ply {
+            path: self.path.clone(),
+            opts: self.opts.clone(),
+            organized: self.organized,
+        }
+    }
+
+    /// Append rows encoded by this writer's [`PlyWriter::row_encoder`]. Organized: the blocks
+    /// must come in row order, each starting at the next row.
+    pub fn write_encoded(&mut self, e: &Encoded) -> Result<(), FormatError> {
+        if let Some((_, h)) = self.organized
+            && (e.first_row != self.rows || self.rows.saturating_add(e.rows) > h)
+        {
+            return Err(self.invalid(format!(
+                "organized cloud: got rows from {}, expected row {} of {h}",
+                e.first_row,
+                self.rows.min(h)
+            )));
+        }
+        self.flush_pending()?;
+        let res = match &mut self.body {
+            Body::Direct | Body::Reserved { .. } => self.out.write_all(&e.bytes),
+            Body::Scratch(s) => s.out.write_all(&e.bytes),
+        };
+        res.map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
+        if let (Some(s), Body::Direct | Body::Reserved { .. }) = (&mut self.early, &self.body) {
+            s.wrote(e.bytes.len() as u64, &mut self.out)
+                .map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
+        }
+        self.count += e.vertices;
+        self.rows += e.rows;
+        Ok(())
+    }
+
+    /// Write the data back to disk in the background as it is written with
+    /// [`PlyWriter::write_encoded`], so that the `fsync` of [`PlyWriter::finish`] (which stays)
+    /// has little left to do. For files written while the rest is still being computed.
+    pub fn sync_early(&mut self) -> Result<(), FormatError> {
+        if self.early.is_none() {
+            self.early = Some(
+                EarlySync::start(&mut self.out)
+                    .map_err(|e| FormatError::io(&self.path, "cannot start the sync thread", e))?,
+            );
+        }
         Ok(())
     }
 
     /// Hand the pending binary vertices to the file.
     fn flush_pending(&mut self) -> Result<(), FormatError> {
         let res = match &mut self.body {
-            Body::Direct => self.out.write_all(&self.pending),
+            Body::Direct | Body::Reserved { .. } => self.out.write_all(&self.pending),
             Body::Scratch(s) => s.out.write_all(&self.pending),
         };
         self.pending.clear();
@@ -482,6 +479,9 @@ impl PlyWriter {
     /// cloud must have received all its rows.
     pub fn finish(mut self) -> Result<u64, FormatError> {
         self.flush_pending()?;
+        if let Some(s) = &mut self.early {
+            s.stop();
+        }
         if let Some((_, h)) = self.organized
             && self.rows != h
         {
@@ -500,6 +500,18 @@ impl PlyWriter {
         }
         let path = self.path.clone();
         let ioe = |e| FormatError::io(&path, "cannot write", e);
+        if let Body::Reserved { start, max } = self.body {
+            if self.count > max {
+                return Err(self.invalid(format!(
+                    "{} vertices written, at most {max} expected",
+                    self.count
+                )));
+            }
+            let head = header(&self.opts, None, self.count);
+            let tmp = self.out.temp_path().to_path_buf();
+            let f = self.out.get_file().map_err(ioe)?;
+            place_header(f, &tmp, head.as_bytes(), start).map_err(ioe)?;
+        }
         if let Body::Scratch(s) = &mut self.body {
             let head = header(&self.opts, None, self.count);
             self.out.write_all(head.as_bytes()).map_err(ioe)?;
@@ -514,6 +526,35 @@ impl PlyWriter {
         out.commit()?;
         Ok(count)
     }
+}
+
+/// Write `head` in front of the vertices that start at `start` in `f` (the file at `path`,
+/// opened for writing only): in place when it is `start` bytes long, else after moving the
+/// vertices forward to end right behind it, and cutting the file there.
+fn place_header(f: &mut File, path: &Path, head: &[u8], start: u64) -> io::Result<()> {
+    let len = head.len() as u64;
+    if len > start {
+        return Err(io::Error::other("the header outgrew its room"));
+    }
+    if len < start {
+        let mut src = File::open(path)?;
+        src.seek(SeekFrom::Start(start))?;
+        f.seek(SeekFrom::Start(len))?;
+        let mut buf = vec![0u8; 1 << 20];
+        let mut end = len;
+        loop {
+            let n = io::Read::read(&mut src, &mut buf)?;
+            if n == 0 {
+                break;
+            }
+            f.write_all(&buf[..n])?;
+            end += n as u64;
+        }
+        f.set_len(end)?;
+    }
+    f.seek(SeekFrom::Start(0))?;
+    f.write_all(head)?;
+    f.flush()
 }
 
 /// The PLY header.
@@ -565,6 +606,8 @@ fn header(o: &PlyOptions, organized: Option<(u32, u32)>, count: u64) -> String {
 /// A streaming, atomic XYZ text writer: one `x y z` line per valid point (mm, camera frame),
 /// floats in their shortest exact decimal form.
 pub struct XyzWriter {
+    /// Early write-back ([`XyzWriter::sync_early`]); stopped before `out` is committed or dropped.
+    early: Option<EarlySync>,
     path: PathBuf,
     out: AtomicFile,
     count: u64,
@@ -584,6 +627,7 @@ impl XyzWriter {
     /// Start writing `path`.
     pub fn create(path: &Path) -> Result<XyzWriter, FormatError> {
         Ok(XyzWriter {
+            early: None,
             path: path.to_path_buf(),
             out: AtomicFile::create(path)?,
             count: 0,
@@ -593,9 +637,8 @@ impl XyzWriter {
 
     /// Write one point.
     pub fn write_point(&mut self, xyz: [f32; 3]) -> Result<(), FormatError> {
-        use std::fmt::Write as _;
         self.line.clear();
-        let _ = writeln!(self.line, "{} {} {}", xyz[0], xyz[1], xyz[2]);
+        encode_xyz(xyz, &mut self.line);
         self.out
             .write_all(self.line.as_bytes())
             .map_err(|e| FormatError::io(&self.path, "cannot write", e))?;
@@ -605,17 +648,7 @@ impl XyzWriter {
 
     /// Write the valid pixels (validity 0) of a row.
     pub fn write_row(&mut self, row: &PointRow<'_>) -> Result<(), FormatError> {
-        if row.validity.len() != row.xyz.len() {
-            return Err(FormatError::invalid(
-                &self.path,
-                format!(
-                    "row {}: validity has {} values, xyz has {}",
-                    row.v,
-                    row.validity.len(),
-                    row.xyz.len()
-                ),
-            ));
-        }
+        check_xyz_row(&self.path, row)?;
         for (p, &c) in row.xyz.iter().zip(row.validity) {
             if c == 0 {
                 self.write_point(*p)?;
@@ -624,8 +657,43 @@ impl XyzWriter {
         Ok(())
     }
 
+    /// An encoder of rows for this file, to run on other threads: what it produces,
+    /// [`XyzWriter::write_encoded`] appends, byte for byte what [`XyzWriter::write_row`] writes.
+    pub fn row_encoder(&self) -> RowEncoder {
+        RowEncoder::Xyz {
+            path: self.path.clone(),
+        }
+    }
+
+    /// Append rows encoded by this writer's [`XyzWriter::row_encoder`].
+    pub fn write_encoded(&mut self, e: &Encoded) -> Result<(), FormatError> {
+        self.out
+            .write_all(&e.bytes)
+            .map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
+        if let Some(s) = &mut self.early {
+            s.wrote(e.bytes.len() as u64, &mut self.out)
+                .map_err(|err| FormatError::io(&self.path, "cannot write", err))?;
+        }
+        self.count += e.vertices;
+        Ok(())
+    }
+
+    /// [`PlyWriter::sync_early`] for XYZ files.
+    pub fn sync_early(&mut self) -> Result<(), FormatError> {
+        if self.early.is_none() {
+            self.early = Some(
+                EarlySync::start(&mut self.out)
+                    .map_err(|e| FormatError::io(&self.path, "cannot start the sync thread", e))?,
+            );
+        }
+        Ok(())
+    }
+
     /// Complete the file and move it into place; returns the number of points.
-    pub fn finish(self) -> Result<u64, FormatError> {
+    pub fn finish(mut self) -> Result<u64, FormatError> {
+        if let Some(s) = &mut self.early {
+            s.stop();
+        }
         let n = self.count;
         self.out.commit()?;
         Ok(n)

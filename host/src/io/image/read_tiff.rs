@@ -74,20 +74,26 @@ pub(super) fn decode(
     };
     macro_rules! reduce {
         ($v:expr, $conv:expr) => {{
-            let v = $v;
+            let mut v = $v;
             if v.len() < n * channels {
                 return Err(short());
             }
-            (0..n)
-                .map(|i| {
-                    let s = &v[i * channels..];
-                    if color {
-                        $conv(luma(s[0] as f64, s[1] as f64, s[2] as f64))
-                    } else {
-                        s[0]
-                    }
-                })
-                .collect::<Vec<_>>()
+            if channels == 1 {
+                // Gray (a reference phase map): the decoded samples as they are, not a copy.
+                v.truncate(n);
+                v
+            } else {
+                (0..n)
+                    .map(|i| {
+                        let s = &v[i * channels..];
+                        if color {
+                            $conv(luma(s[0] as f64, s[1] as f64, s[2] as f64))
+                        } else {
+                            s[0]
+                        }
+                    })
+                    .collect::<Vec<_>>()
+            }
         }};
     }
     let (pixels, bits) = match data {

@@ -1,0 +1,463 @@
+//! The streaming scan: decode, reconstruction (paper §6), the depth-edge filter and the encoding
+//! of the output file in one pass over bands of rows, bands in parallel, the file written in row
+//! order while later bands are still being computed.
+//!
+//! Each band of rows `y0..y1` is computed by one worker on its own scratch buffers: the rows
+//! `y0 − 1 .. y1 + 1` (one halo row each side, for the edge filter) are decoded
+//! ([`crate::batch::decode_rows`]) and reconstructed ([`crate::batch::reconstruct_rows`]) with the
+//! same kernels and the same reference map as the whole-frame path, the rows `y0..y1` filtered
+//! ([`EdgeFilter::filter_row`], which reads its neighbours' *input* codes, so a halo row gives the
+//! same codes as the whole frame) and encoded by the writer's [`RowEncoder`]. A writer thread
+//! hands the encoded bands to the sink in order. At most `window` bands are computed ahead of the
+//! one being written, so the memory beyond the input images and the reference map is
+//! O(`window` × band), whatever the image size: no full-frame intermediate exists.
+//!
+//! The file is the whole-frame path's byte for byte (`host/tests/scan_stream.rs`).
+
+use super::{ScanCalibration, ScanError};
+use crate::batch::{FrameOut, Isa, PointsOut, decode_rows, reconstruct_rows};
+use crate::io::image_set::{Frames, ImageSet};
+use crate::io::ply::{Encoded, PointRow, RowEncoder};
+use fringe3d_core::decode::{Decoder, Sample};
+use fringe3d_core::filter::EdgeFilter;
+use fringe3d_core::reconstruct::ReferenceMap;
+use fringe3d_core::validity::Validity;
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Condvar, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+/// Number of validity codes.
+const CODES: usize = Validity::ALL.len();
+
+/// Pixels per band when [`StreamConfig::band_rows`] is 0: enough rows to make the two halo rows
+/// a few per cent of the work, few enough that a band's buffers stay around a megabyte or two.
+const BAND_PIXELS: usize = 1 << 16;
+
+/// How a streaming scan runs.
+#[derive(Clone, Debug)]
+pub struct StreamConfig {
+    /// Rows per band; 0: about 65 536 pixels a band, and at least four bands per thread.
+    pub band_rows: usize,
+    /// Bands computed ahead of the one being written; 0: the thread count plus two.
+    pub window: usize,
+    /// The depth-edge filter, or `None` to keep every point.
+    pub edge_filter: Option<EdgeFilter>,
+    /// The kernel variant (the same bits whichever).
+    pub isa: Isa,
+}
+
+impl Default for StreamConfig {
+    fn default() -> Self {
+        StreamConfig {
+            band_rows: 0,
+            window: 0,
+            edge_filter: None,
+            isa: Isa::detect(),
+        }
+    }
+}
+
+/// Thread time spent in each step, summed over the workers (seconds of one core each).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepTimes {
+    /// Decoding (halo rows included).
+    pub decode: Duration,
+    /// Reconstruction (halo rows included).
+    pub reconstruct: Duration,
+    /// The depth-edge filter.
+    pub filter: Duration,
+    /// Encoding the file's bytes.
+    pub encode: Duration,
+}
+
+impl StepTimes {
+    fn add(&mut self, o: &StepTimes) {
+        self.decode += o.decode;
+        self.reconstruct += o.reconstruct;
+        self.filter += o.filter;
+        self.encode += o.encode;
+    }
+}
+
+/// What a streaming scan did.
+#[derive(Clone, Debug)]
+pub struct StreamStats {
+    /// Pixels per validity code after the edge filter (index: `Validity as u8`).
+    pub histogram: [usize; CODES],
+    /// Worker time per step, summed over the threads.
+    pub steps: StepTimes,
+    /// Time the writer thread spent in the sink (handing bytes to the file).
+    pub write: Duration,
+    /// Wall time of the whole pass.
+    pub wall: Duration,
+    /// Rows per band.
+    pub band_rows: usize,
+    /// Number of bands.
+    pub bands: usize,
+    /// Worker threads.
+    pub threads: usize,
+}
+
+/// One computed band, waiting to be written.
+struct BandOut {
+    enc: Encoded,
+    histogram: [usize; CODES],
+}
+
+/// What the workers and the writer share.
+struct State {
+    ready: BTreeMap<usize, BandOut>,
+    /// Bands handed to the sink so far.
+    written: usize,
+    stop: bool,
+    error: Option<ScanError>,
+    steps: StepTimes,
+    /// Encoded blocks handed back by the writer, for reuse.
+    spare: Vec<Encoded>,
+}
+
+struct Shared {
+    state: Mutex<State>,
+    cv: Condvar,
+}
+
+impl Shared {
+    fn lock(&self) -> MutexGuard<'_, State> {
+        // A poisoned lock means a worker panicked; the panic is re-raised by the scope.
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn fail(&self, e: ScanError) {
+        let mut s = self.lock();
+        s.stop = true;
+        s.error.get_or_insert(e);
+        self.cv.notify_all();
+    }
+}
+
+/// Stops the pass when a worker or the writer unwinds, so that nobody waits for it forever.
+struct StopOnPanic<'a>(&'a Shared);
+
+impl Drop for StopOnPanic<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            let mut s = self.0.lock();
+            s.stop = true;
+            self.0.cv.notify_all();
+        }
+    }
+}
+
+/// A worker's buffers, reused band after band.
+#[derive(Default)]
+struct Scratch {
+    phase: Vec<f32>,
+    modulation: Vec<f32>,
+    dc: Vec<f32>,
+    decoded: Vec<u8>,
+    xyz: Vec<f32>,
+    codes: Vec<u8>,
+    filtered: Vec<u8>,
+}
+
+/// What every band of one scan reads.
+struct Job<'a, P> {
+    cal: &'a ScanCalibration,
+    map: &'a ReferenceMap<'a>,
+    decoder: &'a Decoder,
+    frames: &'a [&'a [P]],
+    encoder: &'a RowEncoder,
+    filter: Option<EdgeFilter>,
+    isa: Isa,
+    band_rows: usize,
+}
+
+impl<P: Sample> Job<'_, P> {
+    /// Compute band `b` into `out` (cleared first).
+    fn band(
+        &self,
+        b: usize,
+        s: &mut Scratch,
+        out: &mut BandOut,
+        t: &mut StepTimes,
+    ) -> Result<(), ScanError> {
+        let (w, h) = (self.cal.width(), self.cal.height());
+        let y0 = b * self.band_rows;
+        let y1 = (y0 + self.band_rows).min(h);
+        let halo = usize::from(self.filter.is_some());
+        let (a, z) = (y0.saturating_sub(halo), (y1 + halo).min(h));
+        let n = (z - a) * w;
+        s.phase.resize(n, 0.0);
+        s.modulation.resize(n, 0.0);
+        s.dc.resize(n, 0.0);
+        s.decoded.resize(n, 0);
+        s.xyz.resize(3 * n, 0.0);
+        s.codes.resize(n, 0);
+        let t0 = Instant::now();
+        decode_rows(
+            self.decoder,
+            self.frames,
+            w,
+            a,
+            FrameOut {
+                phase: &mut s.phase[..n],
+                modulation: &mut s.modulation[..n],
+                dc: &mut s.dc[..n],
+                validity: &mut s.decoded[..n],
+            },
+            self.isa,
+        )
+        .map_err(ScanError::Decode)?;
+        let t1 = Instant::now();
+        reconstruct_rows(
+            &self.cal.recon,
+            self.map,
+            a,
+            &s.phase[..n],
+            &s.decoded[..n],
+            PointsOut {
+                xyz: &mut s.xyz[..3 * n],
+                validity: &mut s.codes[..n],
+            },
+            self.isa,
+        )
+        .map_err(|e| ScanError::Invalid {
+            path: self.cal.source.clone(),
+            message: format!("reconstruction: {e}"),
+        })?;
+        let t2 = Instant::now();
+        // Row `y` of the band's buffers starts at `(y - a) * w`.
+        let row = |y: usize| (y - a) * w..(y - a + 1) * w;
+        let codes: &[u8] = match &self.filter {
+            Some(f) => {
+                s.filtered.resize((y1 - y0) * w, 0);
+                let (xyz, val) = (&s.xyz, &s.codes);
+                let input = |y: usize| {
+                    let r = row(y);
+                    (&xyz[3 * r.start..3 * r.end], &val[r])
+                };
+                for (y, o) in (y0..y1).zip(s.filtered.chunks_exact_mut(w)) {
+                    let above = (y > 0).then(|| input(y - 1));
+                    let below = (y + 1 < h).then(|| input(y + 1));
+                    f.filter_row(above, input(y), below, o);
+                }
+                &s.filtered
+            }
+            None => &s.codes[row(y0).start..row(y1 - 1).end],
+        };
+        let t3 = Instant::now();
+        out.enc.clear(y0 as u32);
+        out.histogram = [0; CODES];
+        for c in codes {
+            out.histogram[(*c as usize).min(CODES - 1)] += 1;
+        }
+        let (xyz, _) = s.xyz.as_chunks::<3>();
+        for (y, c) in (y0..y1).zip(codes.chunks_exact(w)) {
+            let r = row(y);
+            self.encoder.encode_row(
+                &PointRow {
+                    v: y as u32,
+                    xyz: &xyz[r.clone()],
+                    intensity: &s.dc[r.clone()],
+                    modulation: &s.modulation[r],
+                    validity: c,
+                },
+                &mut out.enc,
+            )?;
+        }
+        let t4 = Instant::now();
+        t.add(&StepTimes {
+            decode: t1 - t0,
+            reconstruct: t2 - t1,
+            filter: t3 - t2,
+            encode: t4 - t3,
+        });
+        Ok(())
+    }
+}
+
+/// Rows per band for `threads` workers (see [`StreamConfig::band_rows`]).
+fn auto_band_rows(w: usize, h: usize, threads: usize) -> usize {
+    let by_size = (BAND_PIXELS / w.max(1)).max(4);
+    let by_threads = h.div_ceil(4 * threads.max(1)).max(4);
+    by_size.min(by_threads).min(h).max(1)
+}
+
+/// Scan a loaded image set in one streaming pass (see the module doc): every band's encoded
+/// rows go to `sink` in row order, on a writer thread. On any error (the sink's included) no
+/// further band is handed to the sink and the first error is returned.
+pub fn stream_image_set(
+    cal: &ScanCalibration,
+    decoder: &Decoder,
+    imgs: &ImageSet,
+    encoder: &RowEncoder,
+    cfg: &StreamConfig,
+    sink: impl FnMut(&Encoded) -> Result<(), ScanError> + Send,
+) -> Result<StreamStats, ScanError> {
+    match &imgs.frames {
+        Frames::U8(f) => {
+            let fr: Vec<&[u8]> = f.iter().map(|v| v.as_slice()).collect();
+            stream_frames(cal, decoder, &fr, encoder, cfg, sink)
+        }
+        Frames::U16(f) => {
+            let fr: Vec<&[u16]> = f.iter().map(|v| v.as_slice()).collect();
+            stream_frames(cal, decoder, &fr, encoder, cfg, sink)
+        }
+    }
+}
+
+/// [`stream_image_set`] over frames in memory (`frames[i]` is image `i` of the set, whole, of the
+/// calibrated camera's size); the workers run on rayon's current pool.
+pub fn stream_frames<P: Sample + Sync>(
+    cal: &ScanCalibration,
+    decoder: &Decoder,
+    frames: &[&[P]],
+    encoder: &RowEncoder,
+    cfg: &StreamConfig,
+    mut sink: impl FnMut(&Encoded) -> Result<(), ScanError> + Send,
+) -> Result<StreamStats, ScanError> {
+    let t0 = Instant::now();
+    let (w, h) = (cal.width(), cal.height());
+    if frames.iter().any(|f| f.len() != w * h) || frames.len() != decoder.image_count() {
+        return Err(ScanError::Decode(
+            fringe3d_core::decode::DecodeError::Length,
+        ));
+    }
+    let map = ReferenceMap::from_prepared(
+        &cal.reference_phase,
+        cal.recon.map_width(),
+        cal.recon.map_height(),
+    )
+    .map_err(|e| ScanError::Invalid {
+        path: cal.source.clone(),
+        message: format!("reference map: {e}"),
+    })?;
+    let threads = rayon::current_num_threads().max(1);
+    let band_rows = match cfg.band_rows {
+        0 => auto_band_rows(w, h, threads),
+        r => r.min(h).max(1),
+    };
+    let bands = h.div_ceil(band_rows);
+    let window = match cfg.window {
+        0 => threads + 2,
+        n => n,
+    };
+    let job = Job {
+        cal,
+        map: &map,
+        decoder,
+        frames,
+        encoder,
+        filter: cfg.edge_filter,
+        isa: cfg.isa,
+        band_rows,
+    };
+    let shared = Shared {
+        state: Mutex::new(State {
+            ready: BTreeMap::new(),
+            written: 0,
+            stop: false,
+            error: None,
+            steps: StepTimes::default(),
+            spare: Vec::new(),
+        }),
+        cv: Condvar::new(),
+    };
+    let next = AtomicUsize::new(0);
+    let worker = || {
+        let _guard = StopOnPanic(&shared);
+        let mut scratch = Scratch::default();
+        let mut steps = StepTimes::default();
+        loop {
+            let b = next.fetch_add(1, Ordering::Relaxed);
+            if b >= bands {
+                break;
+            }
+            let mut out = {
+                let mut s = shared.lock();
+                while b >= s.written + window && !s.stop {
+                    s = shared.cv.wait(s).unwrap_or_else(|e| e.into_inner());
+                }
+                if s.stop {
+                    break;
+                }
+                BandOut {
+                    enc: s.spare.pop().unwrap_or_default(),
+                    histogram: [0; CODES],
+                }
+            };
+            match job.band(b, &mut scratch, &mut out, &mut steps) {
+                Ok(()) => {
+                    let mut s = shared.lock();
+                    s.ready.insert(b, out);
+                    shared.cv.notify_all();
+                }
+                Err(e) => {
+                    shared.fail(e);
+                    break;
+                }
+            }
+        }
+        shared.lock().steps.add(&steps);
+    };
+    let writer = || {
+        let _guard = StopOnPanic(&shared);
+        let mut histogram = [0usize; CODES];
+        let mut busy = Duration::ZERO;
+        for b in 0..bands {
+            let out = {
+                let mut s = shared.lock();
+                loop {
+                    if let Some(o) = s.ready.remove(&b) {
+                        break o;
+                    }
+                    if s.stop {
+                        return (histogram, busy);
+                    }
+                    s = shared.cv.wait(s).unwrap_or_else(|e| e.into_inner());
+                }
+            };
+            let t = Instant::now();
+            let res = sink(&out.enc);
+            busy += t.elapsed();
+            if let Err(e) = res {
+                shared.fail(e);
+                return (histogram, busy);
+            }
+            for (a, c) in histogram.iter_mut().zip(out.histogram) {
+                *a += c;
+            }
+            let mut s = shared.lock();
+            s.written = b + 1;
+            s.spare.push(out.enc);
+            shared.cv.notify_all();
+        }
+        (histogram, busy)
+    };
+    // The writer gets a thread of its own, outside rayon's pool: it waits for bands, and a pool
+    // thread that waits would starve the workers of a one-thread pool.
+    let (histogram, write) = std::thread::scope(|ts| {
+        let wr = ts.spawn(writer);
+        rayon::scope(|s| {
+            for _ in 0..threads.min(bands) {
+                s.spawn(|_| worker());
+            }
+        });
+        wr.join()
+    })
+    .unwrap_or_else(|p| std::panic::resume_unwind(p));
+    let st = shared.state.into_inner().unwrap_or_else(|e| e.into_inner());
+    if let Some(e) = st.error {
+        return Err(e);
+    }
+    Ok(StreamStats {
+        histogram,
+        steps: st.steps,
+        write,
+        wall: t0.elapsed(),
+        band_rows,
+        bands,
+        threads,
+    })
+}
