@@ -105,7 +105,7 @@ fn qemu_example_matches_the_golden_vectors() {
     }
 
     // Each call's measured stack is there, non-zero and inside the painted 48 KiB.
-    for key in ["setup", "decode_row", "reconstruct_row"] {
+    for key in ["setup", "decode_row", "push_row", "reconstruct_row"] {
         let bytes: usize = value(&console, key)
             .and_then(|s| s.parse().ok())
             .unwrap_or_else(|| panic!("no stack figure for {key}"));

@@ -83,7 +83,7 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
     let mut frames = File::open("input/images.u16")?;
     let mut reference = File::open("input/reference_phase.f32")?;
     let mut digests = [Digest::default(); 4];
-    let (mut decode_stack, mut reconstruct_stack) = (0, 0);
+    let (mut decode_stack, mut push_stack, mut reconstruct_stack) = (0, 0, 0);
 
     // 3. Per camera row: decode, top up the ring, reconstruct.
     for v in 0..h {
@@ -113,8 +113,10 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
                     Validity::ReferenceInvalid
                 } as u8;
             }
-            ring.push_row(&b.reference_row[..w], &b.reference_validity[..w])
-                .map_err(|_| "reference ring push failed")?;
+            let (row, codes) = (&b.reference_row[..w], &b.reference_validity[..w]);
+            let (r, used) = stack::measure(|| ring.push_row(row, codes));
+            r.map_err(|_| "reference ring push failed")?;
+            push_stack = push_stack.max(used);
         }
 
         let (phase, validity) = (&b.phase[..w], &b.validity[..w]);
@@ -135,9 +137,19 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
     let _ = writeln!(Console, "scan {w}x{h}, {n} images, band {ring_rows} rows");
     let _ = writeln!(Console, "digest phase={p:016x} validity={q:016x}");
     let _ = writeln!(Console, "digest points={x:016x} point_validity={xq:016x}");
+    let sizes = (
+        size_of_val(&decoder),
+        size_of_val(&recon),
+        size_of::<Buffers>(),
+    );
     let _ = writeln!(
         Console,
-        "stack_bytes setup={setup_stack} decode_row={decode_stack} reconstruct_row={reconstruct_stack}"
+        "sizeof decoder={} reconstructor={} buffers={}",
+        sizes.0, sizes.1, sizes.2
+    );
+    let _ = writeln!(
+        Console,
+        "stack_bytes setup={setup_stack} decode_row={decode_stack} push_row={push_stack} reconstruct_row={reconstruct_stack}"
     );
     Ok(())
 }
