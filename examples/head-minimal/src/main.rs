@@ -1,7 +1,8 @@
 //! The smallest scan head around `fringe3d-core` (docs/integration.md): load the set-up blob,
 //! then per camera row decode the images' rows and reconstruct the row's points, with every
 //! buffer in one `static`. It runs under `qemu-system-arm -M mps2-an386` (Cortex-M4F) in a
-//! golden-vectors folder (`fringe3d vectors`, docs/golden-vectors.md), reads the frames and the
+//! golden-vectors folder of a 16-bit camera (`fringe3d vectors`, docs/golden-vectors.md; an
+//! 8-bit camera's rows are `&[u8]`, the same calls), reads the frames and the
 //! reference map through semihosting (standing for a head's frame store), and prints digests of
 //! its outputs that `tests/tests/qemu_example.rs` compares with the desktop's files.
 #![no_std]
@@ -97,7 +98,8 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
             dc: &mut b.dc[..w],
             validity: &mut b.validity[..w],
         };
-        let (r, used) = stack::measure(|| decoder.decode_row_with(&mut b.scratch, &rows[..n], out));
+        let rows = rows.get(..n).ok_or("too many images")?;
+        let (r, used) = stack::measure(|| decoder.decode_row_with(&mut b.scratch, rows, out));
         r.map_err(|_| "decode_row failed")?;
         decode_stack = decode_stack.max(used);
 
