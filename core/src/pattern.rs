@@ -323,17 +323,16 @@ impl PatternSet {
             // (`get`, `take`: `levels.len() <= MAX_LEVELS` was checked above; no panic path is
             // compiled in.)
             for (i, l) in levels.iter().enumerate() {
-                if l.has_dc() == dc_pass {
-                    if let Some(slot) = idx.get_mut(m) {
-                        *slot = i;
-                        m += 1;
-                    }
+                if l.has_dc() != dc_pass {
+                    continue;
+                }
+                if let Some(slot) = idx.get_mut(m) {
+                    *slot = i;
+                    m += 1;
                 }
             }
-            if dc_pass {
-                if let Some(used) = idx.get_mut(..m) {
-                    used.reverse();
-                }
+            if let Some(used) = idx.get_mut(..m).filter(|_| dc_pass) {
+                used.reverse();
             }
             for &li in idx.iter().take(m) {
                 let Some(level) = levels.get(li) else {
