@@ -101,9 +101,12 @@ pub fn level_estimator(shifts: &[f64], offset: f64) -> Option<LevelEstimator> {
         for (i, xi) in x.iter_mut().enumerate() {
             *xi = inv[i][0] * r[0] + inv[i][1] * r[1] + inv[i][2] * r[2];
         }
-        est.w[k] = snap(x[0]);
-        est.a[k] = snap(x[1]);
-        est.b[k] = snap(x[2]);
+        // `get_mut`: k < n <= MAX_SHIFTS; no panic path is compiled in.
+        let (Some(w), Some(a), Some(b)) = (est.w.get_mut(k), est.a.get_mut(k), est.b.get_mut(k))
+        else {
+            return None;
+        };
+        (*w, *a, *b) = (snap(x[0]), snap(x[1]), snap(x[2]));
     }
     Some(est)
 }

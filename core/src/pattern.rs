@@ -320,17 +320,25 @@ impl PatternSet {
             let dc_pass = pass == 0;
             let mut idx = [0usize; MAX_LEVELS];
             let mut m = 0;
+            // (`get`, `take`: `levels.len() <= MAX_LEVELS` was checked above; no panic path is
+            // compiled in.)
             for (i, l) in levels.iter().enumerate() {
-                if l.has_dc() == dc_pass {
-                    idx[m] = i;
+                if l.has_dc() != dc_pass {
+                    continue;
+                }
+                if let Some(slot) = idx.get_mut(m) {
+                    *slot = i;
                     m += 1;
                 }
             }
-            if dc_pass {
-                idx[..m].reverse();
+            if let Some(used) = idx.get_mut(..m).filter(|_| dc_pass) {
+                used.reverse();
             }
-            for &li in &idx[..m] {
-                for s in 0..levels[li].n.min(MAX_SHIFTS) {
+            for &li in idx.iter().take(m) {
+                let Some(level) = levels.get(li) else {
+                    continue;
+                };
+                for s in 0..level.n.min(MAX_SHIFTS) {
                     if k < MAX_IMAGES {
                         order[k] = ImageId {
                             level: li as u8,
@@ -412,14 +420,21 @@ impl PatternSet {
             return Err(PatternError::ImageOrder);
         }
         let mut seen = [[false; MAX_SHIFTS]; MAX_LEVELS];
+        // (`get`, `zip`: the same checks with no panic path compiled in.)
         for id in order {
             let (l, s) = (id.level as usize, id.shift as usize);
-            if l >= self.n_levels || s >= self.levels[l].n || seen[l][s] {
+            let shifts = self.levels().get(l).map_or(0, |lv| lv.n);
+            let Some(slot) = seen.get_mut(l).and_then(|r| r.get_mut(s)) else {
+                return Err(PatternError::ImageOrder);
+            };
+            if s >= shifts || *slot {
                 return Err(PatternError::ImageOrder);
             }
-            seen[l][s] = true;
+            *slot = true;
         }
-        self.order[..order.len()].copy_from_slice(order);
+        for (d, s) in self.order.iter_mut().zip(order) {
+            *d = *s;
+        }
         Ok(self)
     }
 
@@ -480,7 +495,8 @@ impl PatternSet {
 
     /// The levels, coarse to fine.
     pub fn levels(&self) -> &[Level] {
-        &self.levels[..self.n_levels]
+        // `get`: `n_levels <= MAX_LEVELS` always; no panic path is compiled in.
+        self.levels.get(..self.n_levels).unwrap_or(&[])
     }
 
     /// Number of images in the set.
@@ -499,7 +515,7 @@ impl PatternSet {
 
     /// The image order.
     pub fn order(&self) -> &[ImageId] {
-        &self.order[..self.n_images]
+        self.order.get(..self.n_images).unwrap_or(&[])
     }
 
     /// The sine/cosine convention.

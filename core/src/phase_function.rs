@@ -273,7 +273,8 @@ impl KnotProfile {
 
     /// Evaluate at `x` (cubic Hermite inside, linear extension outside).
     pub fn eval(&self, x: f64) -> f64 {
-        let n = self.n;
+        // A profile has 2 to MAX_KNOTS knots; the clamp only tells the compiler (no panic path).
+        let n = self.n.clamp(1, MAX_KNOTS);
         if x <= self.s[0] {
             return self.phi[0] + self.slope[0] * (x - self.s[0]);
         }

@@ -139,6 +139,8 @@ impl Arith for Fixed {
     const ZERO: i32 = 0;
     const COEF_ZERO: i32 = 0;
     const MAG_MAX: u32 = u32::MAX;
+    const PHASE_ZERO: I8F24 = I8F24::ZERO;
+    const MAG_ZERO: u32 = 0;
 
     fn format(plan: &Plan<'_>) -> Result<FixedFormat, DecodeError> {
         let v = max_unsaturated(plan.config);

@@ -144,6 +144,8 @@ impl<K: FloatKernels> Arith for K {
     const ZERO: f32 = 0.0;
     const COEF_ZERO: f32 = 0.0;
     const MAG_MAX: f32 = f32::INFINITY;
+    const PHASE_ZERO: f32 = 0.0;
+    const MAG_ZERO: f32 = 0.0;
 
     fn format(_plan: &Plan<'_>) -> Result<(), DecodeError> {
         Ok(())

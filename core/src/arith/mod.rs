@@ -151,6 +151,10 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     const COEF_ZERO: Self::Coef;
     /// A modulation measure above every real one (start of the per-pixel minimum).
     const MAG_MAX: Self::Mag;
+    /// The zero phase (= `Phase::default()`, usable in `const` contexts).
+    const PHASE_ZERO: Self::Phase;
+    /// The zero modulation measure (= `Mag::default()`, usable in `const` contexts).
+    const MAG_ZERO: Self::Mag;
 
     // ---- construction (once per decoder) ----
 

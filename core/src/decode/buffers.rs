@@ -52,8 +52,8 @@ pub struct State<'a, T = f32> {
 pub struct DecodeScratch<A: Arith = F32Accurate>(pub(super) Block<A>);
 
 impl<A: Arith> DecodeScratch<A> {
-    /// A cleared scratch.
-    pub fn new() -> Self {
+    /// A cleared scratch. A `const fn`, so a head can keep one in a `static`.
+    pub const fn new() -> Self {
         DecodeScratch(Block::new())
     }
 }
@@ -75,11 +75,12 @@ pub(super) struct Block<A: Arith> {
 }
 
 impl<A: Arith> Block<A> {
-    pub(super) fn new() -> Self {
+    /// Zeroes everywhere (the backends' `ZERO`s equal their types' `default()`).
+    pub(super) const fn new() -> Self {
         Block {
             dc: [A::ZERO; BLOCK],
-            wrapped: [[A::Phase::default(); BLOCK]; MAX_LEVELS],
-            mag: [[A::Mag::default(); BLOCK]; MAX_LEVELS],
+            wrapped: [[A::PHASE_ZERO; BLOCK]; MAX_LEVELS],
+            mag: [[A::MAG_ZERO; BLOCK]; MAX_LEVELS],
         }
     }
 }

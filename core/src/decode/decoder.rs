@@ -147,7 +147,8 @@ impl<A: Arith> Decoder<A> {
         // The DC level: most shifts, finest on ties.
         let mut dc_level = None;
         for (i, l) in levels.iter().enumerate() {
-            if l.has_dc() && dc_level.is_none_or(|d: usize| l.len() >= levels[d].len()) {
+            let dc_len = dc_level.and_then(|d: usize| levels.get(d)).map(|d| d.len());
+            if l.has_dc() && dc_len.is_none_or(|d| l.len() >= d) {
                 dc_level = Some(i);
             }
         }
@@ -211,26 +212,37 @@ impl<A: Arith> Decoder<A> {
         for (k, id) in set.order().iter().enumerate() {
             let l = id.level as usize;
             let s = id.shift as usize;
-            let c = coefs[l].ok_or(DecodeError::Degenerate(id.level))?;
+            let c = coefs
+                .get(l)
+                .copied()
+                .flatten()
+                .ok_or(DecodeError::Degenerate(id.level))?;
+            // `get`: a valid order's shifts are < the level's count <= MAX_SHIFTS (no panic path).
+            let (Some(&ca), Some(&cb), Some(&cw)) = (c.a.get(s), c.b.get(s), c.w.get(s)) else {
+                return Err(DecodeError::Degenerate(id.level));
+            };
             let w = if dc_level == Some(l) {
-                c.w[s]
+                cw
             } else {
                 A::COEF_ZERO
             };
             let mut mode = [SKIP; 3];
-            for (m, (k, plane)) in
-                mode.iter_mut()
-                    .zip([(c.a[s], 1 + 2 * l), (c.b[s], 2 + 2 * l), (w, 0)])
+            for (m, (k, plane)) in mode
+                .iter_mut()
+                .zip([(ca, 1 + 2 * l), (cb, 2 + 2 * l), (w, 0)])
             {
                 if !A::is_zero(k) {
                     *m = if d.untouched[plane] { INIT } else { ACC };
                     d.untouched[plane] = false;
                 }
             }
-            d.images[k] = ImageCoef {
+            let Some(image) = d.images.get_mut(k) else {
+                return Err(DecodeError::ImageCount);
+            };
+            *image = ImageCoef {
                 level: id.level,
-                a: c.a[s],
-                b: c.b[s],
+                a: ca,
+                b: cb,
                 w,
                 mode,
             };
@@ -243,7 +255,10 @@ impl<A: Arith> Decoder<A> {
             }
         }
         for l in 0..n_levels {
-            d.level_images[l].kind = d.level_kind(l);
+            let kind = d.level_kind(l);
+            if let Some(li) = d.level_images.get_mut(l) {
+                li.kind = kind;
+            }
         }
         let kinds = [
             d.level_images[0].kind,
@@ -264,8 +279,22 @@ impl<A: Arith> Decoder<A> {
     /// [`KIND_GENERIC`]). Skipping a zero product changes no bit: it adds ±0 to a sum that
     /// started at +0 and so is never −0 (and 0 in the integer backends).
     fn level_kind(&self, l: usize) -> u8 {
-        let li = &self.level_images[l];
-        let coef = |j: usize| self.images[li.idx[j] as usize];
+        // `get`: l < n_levels and every index < n_images; the fallbacks are never taken, and no
+        // panic path is compiled in.
+        let Some(li) = self.level_images.get(l) else {
+            return KIND_GENERIC;
+        };
+        let none = ImageCoef {
+            level: 0,
+            a: A::COEF_ZERO,
+            b: A::COEF_ZERO,
+            w: A::COEF_ZERO,
+            mode: [SKIP; 3],
+        };
+        let coef = |j: usize| {
+            let i = li.idx.get(j).map_or(usize::MAX, |&i| i as usize);
+            self.images.get(i).copied().unwrap_or(none)
+        };
         let z = |k: A::Coef| A::is_zero(k);
         let kind = match li.n {
             2 if !z(coef(0).a)

@@ -113,7 +113,6 @@ impl<A: Arith> Decoder<A> {
         rows: &[&[P]],
         out: RowOut<'_>,
     ) -> Result<(), DecodeError> {
-        let n = out.phase.len();
         let first = rows
             .first()
             .and_then(|r| r.first())
@@ -121,8 +120,12 @@ impl<A: Arith> Decoder<A> {
             .ok_or(DecodeError::Length)?;
         let mut padded = [[first; BLOCK]; MAX_IMAGES];
         let mut refs: [&[P]; MAX_IMAGES] = [&[]; MAX_IMAGES];
+        // Element-wise copies (zip) rather than `copy_from_slice`: the caller checked the
+        // lengths, and no length-mismatch panic path is compiled in.
         for ((p, r), slot) in padded.iter_mut().zip(rows).zip(refs.iter_mut()) {
-            p[..n].copy_from_slice(r);
+            for (d, s) in p.iter_mut().zip(r.iter()) {
+                *d = *s;
+            }
             *slot = &p[..];
         }
         let (mut ph, mut mo, mut dc) = ([0.0f32; BLOCK], [0.0f32; BLOCK], [0.0f32; BLOCK]);
@@ -133,11 +136,12 @@ impl<A: Arith> Decoder<A> {
             dc: &mut dc,
             validity: &mut va,
         };
-        self.decode_block::<P, N>(&mut scratch.0, &refs[..rows.len()], 0, o)?;
-        out.phase.copy_from_slice(&ph[..n]);
-        out.modulation.copy_from_slice(&mo[..n]);
-        out.dc.copy_from_slice(&dc[..n]);
-        out.validity.copy_from_slice(&va[..n]);
+        let refs = refs.get(..rows.len()).ok_or(DecodeError::ImageCount)?;
+        self.decode_block::<P, N>(&mut scratch.0, refs, 0, o)?;
+        copy(out.phase, &ph);
+        copy(out.modulation, &mo);
+        copy(out.dc, &dc);
+        copy(out.validity, &va);
         Ok(())
     }
 
@@ -188,9 +192,8 @@ impl<A: Arith> Decoder<A> {
             )?,
             _ => {
                 blk.dc = [A::ZERO; BLOCK];
-                for k in 0..self.n_levels {
-                    let l = self.level_order[k] as usize;
-                    self.level_from_rows(l, rows, start, blk, out.modulation)?;
+                for &l in self.level_order.iter().take(self.n_levels) {
+                    self.level_from_rows(l as usize, rows, start, blk, out.modulation)?;
                 }
             }
         }
@@ -260,7 +263,7 @@ impl<A: Arith> Decoder<A> {
                 // in image order from +0, then the same polar pass as the frame-sequential path.
                 let mut sp = [A::ZERO; BLOCK];
                 let mut cp = [A::ZERO; BLOCK];
-                for &k in &li.idx[..li.n as usize] {
+                for &k in li.idx.iter().take(li.n as usize) {
                     let coef = self.images.get(k as usize).ok_or(DecodeError::Sequence)?;
                     let row = row_of(k)?;
                     for i in 0..BLOCK {
@@ -421,4 +424,11 @@ fn peak_of<P: Sample, const N: usize>(
         *p = m;
     }
     Ok(peak)
+}
+
+/// `dst[i] = src[i]` for every `i` of both (the short-row path's lengths are checked before).
+fn copy<T: Copy>(dst: &mut [T], src: &[T]) {
+    for (d, s) in dst.iter_mut().zip(src) {
+        *d = *s;
+    }
 }

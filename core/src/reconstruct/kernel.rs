@@ -57,20 +57,16 @@ pub(super) fn row<G: CellGather>(
         let cr = crossings
             .as_deref_mut()
             .and_then(|c| c.get_mut(2 * c0..2 * (c0 + n)));
-        chunk(
-            g,
-            &mut lane,
-            r,
-            rr,
-            knots,
-            v,
-            c0,
-            &phase[c0..c0 + n],
-            &validity[c0..c0 + n],
-            &mut out_xyz[3 * c0..3 * (c0 + n)],
-            &mut out_validity[c0..c0 + n],
-            cr,
-        );
+        // The caller checked the lengths: these are never `None` (and compile no panic path).
+        let (Some(p), Some(q), Some(xyz), Some(out_q)) = (
+            phase.get(c0..c0 + n),
+            validity.get(c0..c0 + n),
+            out_xyz.get_mut(3 * c0..3 * (c0 + n)),
+            out_validity.get_mut(c0..c0 + n),
+        ) else {
+            return;
+        };
+        chunk(g, &mut lane, r, rr, knots, v, c0, p, q, xyz, out_q, cr);
         c0 += n;
     }
 }
@@ -617,7 +613,8 @@ fn chunk<G: CellGather>(
         }
         let l = lane.get(i);
         let ui = um + LANE_F[i];
-        let eval = |tt: f32| sample(&c, rr, &gr, l, ui, vf, tt, phi[i]).0;
+        let phi_i = phi[i];
+        let eval = |tt: f32| sample(&c, rr, &gr, l, ui, vf, tt, phi_i).0;
         if !vector2 && st2[i] {
             let tc = t3[i];
             let (gc, sc) = sample(&c, rr, &gr, l, ui, vf, tc, phi[i]);

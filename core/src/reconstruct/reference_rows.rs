@@ -77,7 +77,8 @@ impl<'a> ReferenceRing<'a> {
     ) -> Result<Self, ReconstructError> {
         let width = recon.map_width();
         let height = recon.map_height();
-        let capacity = (phase.len() / width).min(height) as u32;
+        // `checked_div`: a reconstructor's map is never 0 wide, and no panic path is compiled in.
+        let capacity = phase.len().checked_div(width).unwrap_or(0).min(height) as u32;
         let needed = recon.band().rows().min(height as u32);
         if capacity < needed {
             return Err(ReconstructError::BandTooSmall {
@@ -110,7 +111,10 @@ impl<'a> ReferenceRing<'a> {
         if self.pushed as usize >= self.height {
             return Err(ReconstructError::Sequence);
         }
-        let slot = (self.pushed % self.capacity) as usize * self.width;
+        let Some(slot) = self.pushed.checked_rem(self.capacity) else {
+            return Err(ReconstructError::BufferTooSmall);
+        };
+        let slot = slot as usize * self.width;
         let (Some(d), Some(dv)) = (
             self.phase.get_mut(slot..slot + self.width),
             self.validity.get_mut(slot..slot + self.width),

@@ -1,0 +1,197 @@
+//! The smallest scan head around `fringe3d-core` (docs/integration.md): load the set-up blob,
+//! then per camera row decode the images' rows and reconstruct the row's points, with every
+//! buffer in one `static`. It runs under `qemu-system-arm -M mps2-an386` (Cortex-M4F) in a
+//! golden-vectors folder of a 16-bit camera (`fringe3d vectors`, docs/golden-vectors.md; an
+//! 8-bit camera's rows are `&[u8]`, the same calls), reads the frames and the
+//! reference map through semihosting (standing for a head's frame store), and prints digests of
+//! its outputs that `tests/tests/qemu_example.rs` compares with the desktop's files.
+#![no_std]
+#![no_main]
+
+mod host;
+mod stack;
+
+use core::fmt::Write as _;
+use cortex_m_rt::entry;
+use fringe3d_core::decode::parity::Digest;
+use fringe3d_core::decode::{DecodeScratch, RowOut};
+use fringe3d_core::reconstruct::ReferenceRing;
+use fringe3d_core::validity::Validity;
+use fringe3d_core::wire::HeadSetup;
+use host::{Console, File};
+
+/// Widest image, most images per set and most reference rows (the band) this build holds.
+const MAX_W: usize = 640;
+const MAX_IMAGES: usize = 8;
+const RING_ROWS: usize = 16;
+
+/// Every per-pixel buffer: (2·N + 4·4 + 1 + 4·3 + 1 + 5·B)·W bytes, plus the decoder's scratch.
+struct Buffers {
+    blob: [u8; fringe3d_core::wire::setup::MAX_SETUP_BLOB],
+    images: [[u16; MAX_W]; MAX_IMAGES],
+    phase: [f32; MAX_W],
+    modulation: [f32; MAX_W],
+    dc: [f32; MAX_W],
+    validity: [u8; MAX_W],
+    ring_phase: [f32; RING_ROWS * MAX_W],
+    ring_validity: [u8; RING_ROWS * MAX_W],
+    reference_row: [f32; MAX_W],
+    reference_validity: [u8; MAX_W],
+    xyz: [f32; 3 * MAX_W],
+    point_validity: [u8; MAX_W],
+    scratch: DecodeScratch,
+}
+
+static mut BUFFERS: Buffers = Buffers {
+    blob: [0; fringe3d_core::wire::setup::MAX_SETUP_BLOB],
+    images: [[0; MAX_W]; MAX_IMAGES],
+    phase: [0.0; MAX_W],
+    modulation: [0.0; MAX_W],
+    dc: [0.0; MAX_W],
+    validity: [0; MAX_W],
+    ring_phase: [0.0; RING_ROWS * MAX_W],
+    ring_validity: [0; RING_ROWS * MAX_W],
+    reference_row: [0.0; MAX_W],
+    reference_validity: [0; MAX_W],
+    xyz: [0.0; 3 * MAX_W],
+    point_validity: [0; MAX_W],
+    scratch: DecodeScratch::new(), // a `const fn`
+};
+
+fn run(b: &mut Buffers) -> Result<(), &'static str> {
+    // 1. The set-up blob → decoder and reconstructor (parsed and checked by the core).
+    let mut file = File::open("input/setup.bin")?;
+    let blob = b.blob.get_mut(..file.len()).ok_or("setup.bin too large")?;
+    file.read_at(0, blob)?;
+    let (objects, setup_stack) = stack::measure(|| {
+        let setup = HeadSetup::parse(blob)?;
+        Ok::<_, fringe3d_core::wire::SetupError>((setup.decoder()?, setup.reconstructor()?))
+    });
+    let (decoder, recon) = objects.map_err(|e| e.what())?;
+    let (w, h, n) = (recon.width(), recon.height(), decoder.image_count());
+    let ring_rows = (recon.band().rows() as usize).min(h);
+    if w > MAX_W || n > MAX_IMAGES || ring_rows > RING_ROWS || recon.map_width() != w {
+        return Err("the scan does not fit this build's buffers");
+    }
+
+    // 2. The reference ring over the band's rows, fed in order from the reference map.
+    let mut ring = ReferenceRing::new(
+        &recon,
+        &mut b.ring_phase[..ring_rows * w],
+        &mut b.ring_validity[..ring_rows * w],
+    )
+    .map_err(|_| "reference ring refused")?;
+    let mut frames = File::open("input/images.u16")?;
+    let mut reference = File::open("input/reference_phase.f32")?;
+    let mut digests = [Digest::default(); 4];
+    let (mut decode_stack, mut push_stack, mut reconstruct_stack) = (0, 0, 0);
+
+    // 3. Per camera row: decode, top up the ring, reconstruct.
+    for v in 0..h {
+        for (i, row) in b.images.iter_mut().take(n).enumerate() {
+            frames.read_at(2 * (i * h + v) * w, bytes_of(&mut row[..w]))?;
+        }
+        let rows: [&[u16]; MAX_IMAGES] = core::array::from_fn(|i| &b.images[i][..w]);
+        let out = RowOut {
+            phase: &mut b.phase[..w],
+            modulation: &mut b.modulation[..w],
+            dc: &mut b.dc[..w],
+            validity: &mut b.validity[..w],
+        };
+        let rows = rows.get(..n).ok_or("too many images")?;
+        let (r, used) = stack::measure(|| decoder.decode_row_with(&mut b.scratch, rows, out));
+        r.map_err(|_| "decode_row failed")?;
+        decode_stack = decode_stack.max(used);
+
+        let (_, last) = recon.rows_needed(v as u32);
+        while ring.rows_pushed() <= last {
+            let r = ring.rows_pushed() as usize;
+            reference.read_at(4 * r * w, bytes_of(&mut b.reference_row[..w]))?;
+            for (q, p) in b.reference_validity.iter_mut().zip(&b.reference_row[..w]) {
+                let valid = p.is_finite();
+                *q = if valid {
+                    Validity::Valid
+                } else {
+                    Validity::ReferenceInvalid
+                } as u8;
+            }
+            let (row, codes) = (&b.reference_row[..w], &b.reference_validity[..w]);
+            let (r, used) = stack::measure(|| ring.push_row(row, codes));
+            r.map_err(|_| "reference ring push failed")?;
+            push_stack = push_stack.max(used);
+        }
+
+        let (phase, validity) = (&b.phase[..w], &b.validity[..w]);
+        let (xyz, point_validity) = (&mut b.xyz[..3 * w], &mut b.point_validity[..w]);
+        let (r, used) = stack::measure(|| {
+            recon.reconstruct_row(&ring, v as u32, phase, validity, xyz, point_validity)
+        });
+        r.map_err(|_| "reconstruct_row failed")?;
+        reconstruct_stack = reconstruct_stack.max(used);
+
+        digests[0].f32s(phase);
+        digests[1].bytes(validity);
+        digests[2].f32s(xyz);
+        digests[3].bytes(point_validity);
+    }
+
+    let [p, q, x, xq] = digests.map(|d| d.0);
+    let _ = writeln!(Console, "scan {w}x{h}, {n} images, band {ring_rows} rows");
+    let _ = writeln!(Console, "digest phase={p:016x} validity={q:016x}");
+    let _ = writeln!(Console, "digest points={x:016x} point_validity={xq:016x}");
+    let sizes = (
+        size_of_val(&decoder),
+        size_of_val(&recon),
+        size_of::<Buffers>(),
+    );
+    let _ = writeln!(
+        Console,
+        "sizeof decoder={} reconstructor={} buffers={}",
+        sizes.0, sizes.1, sizes.2
+    );
+    let _ = writeln!(
+        Console,
+        "stack_bytes setup={setup_stack} decode_row={decode_stack} push_row={push_stack} reconstruct_row={reconstruct_stack}"
+    );
+    Ok(())
+}
+
+/// The bytes of a row of u16 or f32 samples (plain numbers: every bit pattern is valid).
+fn bytes_of<T: Copy>(s: &mut [T]) -> &mut [u8] {
+    let len = core::mem::size_of_val(s);
+    // SAFETY: only used on u16 and f32 slices, whose every byte pattern is a valid value.
+    unsafe { core::slice::from_raw_parts_mut(s.as_mut_ptr().cast(), len) }
+}
+
+#[entry]
+fn main() -> ! {
+    // SAFETY: the only reference ever made to BUFFERS (main never returns).
+    let buffers = unsafe { &mut *core::ptr::addr_of_mut!(BUFFERS) };
+    match run(buffers) {
+        Ok(()) => host::exit(true),
+        Err(why) => {
+            let _ = writeln!(Console, "fringe3d-head-minimal: error: {why}");
+            host::exit(false)
+        }
+    }
+}
+
+/// A panic prints and fails the run...
+#[cfg(not(feature = "no-panic"))]
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    let _ = writeln!(Console, "fringe3d-head-minimal: panic: {info}");
+    host::exit(false)
+}
+
+/// ...or, with the `no-panic` feature, refers to a symbol that exists nowhere: the link fails
+/// unless no panic path survived optimisation.
+#[cfg(feature = "no-panic")]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    unsafe extern "C" {
+        fn fringe3d_a_panic_path_survived() -> !;
+    }
+    // SAFETY: never linked; reaching this line is a link error, not a run-time one.
+    unsafe { fringe3d_a_panic_path_survived() }
+}

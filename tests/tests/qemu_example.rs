@@ -1,0 +1,118 @@
+//! The integrator's example (`examples/head-minimal`, docs/integration.md) on an emulated
+//! Cortex-M4F (QEMU `mps2-an386`): it decodes and reconstructs the golden-vector scan and prints
+//! FNV-1a digests of its phase, validity, point and point-validity rows, which must equal the
+//! digests of the desktop's golden files. Also checks the stack figures it reports.
+//!
+//! Skips with a notice when `qemu-system-arm` or the `thumbv7em-none-eabihf` target is missing;
+//! `FRINGE3D_REQUIRE_QEMU=1` (set by `.ci/run`) turns the skip into a failure.
+
+use fringe3d::vectors::{self, VectorOptions};
+use fringe3d_core::decode::parity::Digest;
+use fringe3d_tests::qemu::{TARGET, board_target_dir, repo, skip_without_tools};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Build the example (release, its own workspace) and return its ELF.
+fn build_example() -> PathBuf {
+    let target_dir = board_target_dir().with_file_name("head-minimal");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .args(["build", "--release", "--target", TARGET])
+        .current_dir(repo().join("examples/head-minimal"))
+        .env("CARGO_TARGET_DIR", &target_dir)
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS")
+        .env_remove("CARGO_BUILD_TARGET")
+        .output()
+        .expect("run cargo for the example");
+    assert!(
+        out.status.success(),
+        "example build failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    target_dir
+        .join(TARGET)
+        .join("release/fringe3d-head-minimal")
+}
+
+/// Run the example in the vectors folder `dir`; returns its console output.
+fn run_qemu(elf: &Path, dir: &Path) -> String {
+    let mut child = Command::new("qemu-system-arm")
+        .args(["-M", "mps2-an386", "-cpu", "cortex-m4", "-display", "none"])
+        .args([
+            "-monitor",
+            "none",
+            "-semihosting-config",
+            "enable=on,target=native",
+        ])
+        .arg("-kernel")
+        .arg(elf)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start qemu-system-arm");
+    let deadline = Instant::now() + Duration::from_secs(300);
+    while child.try_wait().expect("wait for qemu").is_none() {
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("the example did not finish within 300 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().expect("qemu output");
+    let console =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "the example failed ({}):\n{console}",
+        out.status
+    );
+    console
+}
+
+fn value<'a>(console: &'a str, key: &str) -> Option<&'a str> {
+    console
+        .split_whitespace()
+        .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('='))
+}
+
+#[test]
+fn qemu_example_matches_the_golden_vectors() {
+    if skip_without_tools("qemu_example_matches_the_golden_vectors") {
+        return;
+    }
+    let elf = build_example();
+    let dir = std::env::temp_dir().join(format!("fringe3d-qemu-example-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    vectors::generate_into(&VectorOptions::default(), &dir, false).expect("vectors");
+    let console = run_qemu(&elf, &dir);
+    println!("{console}");
+
+    for (key, path) in [
+        ("phase", "decode/phase.f32"),
+        ("validity", "decode/validity.u8"),
+        ("points", "reconstruct/points.f32"),
+        ("point_validity", "reconstruct/validity.u8"),
+    ] {
+        let mut d = Digest::default();
+        d.bytes(&std::fs::read(dir.join(path)).expect("golden file"));
+        let want = format!("{:016x}", d.0);
+        assert_eq!(value(&console, key), Some(want.as_str()), "{path} differs");
+    }
+
+    // Each call's measured stack is there, non-zero and inside the painted 48 KiB.
+    for key in ["setup", "decode_row", "push_row", "reconstruct_row"] {
+        let bytes: usize = value(&console, key)
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("no stack figure for {key}"));
+        assert!(
+            bytes > 0 && bytes < 48 * 1024,
+            "{key}: {bytes} bytes of stack"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
