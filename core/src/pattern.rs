@@ -475,8 +475,9 @@ impl PatternSet {
         if any_two && !any_dc {
             return Err(PatternError::NoDcLevel);
         }
-        let c_min = self.levels[0].scale;
-        let c_max = self.levels[self.n_levels - 1].scale;
+        // `n_levels` is in 1..=MAX_LEVELS here (checked above); `get` keeps a panic path out.
+        let scale = |i: usize| self.levels.get(i).map_or(0.0, |l| l.scale);
+        let (c_min, c_max) = (scale(0), scale(self.n_levels.wrapping_sub(1)));
         self.coarse_range = self
             .function
             .check(o.width, o.height, c_min, c_max, COARSE_MARGIN)?;

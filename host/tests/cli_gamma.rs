@@ -199,6 +199,34 @@ fn patterns_write_gray_levels_and_predistorted_sets() {
     }
     let text = std::fs::read_to_string(pre.join("patterns.toml")).unwrap();
     assert!(text.contains("response_compensated = true"), "{text}");
+    // A head cannot render pre-distorted patterns itself, nor apply the table over the serial
+    // link: `device upload` refuses both before touching the port.
+    let port = tmp.0.join("no-such-port");
+    let out = fringe3d(&[
+        "device",
+        "upload",
+        "--port",
+        s(&port),
+        "-p",
+        s(&pre.join("patterns.toml")),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--images"), "{err}");
+    let out = fringe3d(&[
+        "device",
+        "upload",
+        "--port",
+        s(&port),
+        "-p",
+        s(&set),
+        "-c",
+        s(&tmp_ds),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("projector_response"),
+        "{err}"
+    );
     // A calibration without a response is refused, naming it.
     let out = fringe3d(&[
         "patterns",

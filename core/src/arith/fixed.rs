@@ -343,7 +343,8 @@ impl Arith for Fixed {
         let u = (p.to_bits() as i64 + (1 << 23)).clamp(0, 1 << 24);
         let j = ((u >> SHIFT) as usize).min(CORRECTION_KNOTS - 1);
         let f = u - ((j as i64) << SHIFT);
-        let next = if j + 1 == CORRECTION_KNOTS { 0 } else { j + 1 };
+        // Masks: `j` unchanged, `next` wraps, and no bounds check.
+        let (j, next) = (j & (CORRECTION_KNOTS - 1), (j + 1) & (CORRECTION_KNOTS - 1));
         // Knots from 2^-13 rad to 2^-24 turn: × 2^10/π, as × round(2^26/π) >> 16 (exact integer
         // arithmetic, within one 2^-24 turn).
         const RAD13_TO_Q24: i64 = 21_361_415;

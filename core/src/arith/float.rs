@@ -300,7 +300,10 @@ impl<K: FloatKernels> Arith for K {
         let t = if t >= 0.0 { t } else { 0.0 };
         let j = (t as usize).min(CORRECTION_KNOTS - 1);
         let f = t - j as f32;
-        let next = if j + 1 == CORRECTION_KNOTS { 0 } else { j + 1 };
+        // Masks (K is a power of two): `j` unchanged, `next` wraps, and no bounds check.
+        const MASK: usize = CORRECTION_KNOTS - 1;
+        const _: () = assert!(CORRECTION_KNOTS.is_power_of_two());
+        let (j, next) = (j & MASK, (j + 1) & MASK);
         // i16 → f32 and the power-of-two scale are exact.
         let (a, b) = (table[j] as f32 * LSB, table[next] as f32 * LSB);
         p - (a + f * (b - a))

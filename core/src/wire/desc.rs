@@ -263,7 +263,10 @@ impl PatternSetDesc {
         // Each `with_*` moves the whole set (1.4 KB of a head's set-up stack): call them only
         // when they change it, and change the set inside the result rather than moving it out
         // (the order is applied here too, for the same reason).
-        let mut built = PatternSet::new(function, &levels[..n], output);
+        // `n` > MAX_LEVELS is refused by `validate_up_to` before; `get` keeps a panic path out
+        // of a head's set-up all the same (the core's constructor refuses an empty set).
+        let used = levels.get(..n).unwrap_or(&[]);
+        let mut built = PatternSet::new(function, used, output);
         if let Ok(set) = &mut built {
             if set.convention() != convention {
                 *set = set.with_convention(convention);

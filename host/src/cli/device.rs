@@ -335,6 +335,21 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
     // anything else (and before the line is touched).
     if let Some(path) = &a.calibration {
         common::check_reference_patterns(path, &ls.scan_patterns()?, g.quiet)?;
+        // The serial protocol carries no phase-correction table (the set-up blob does): a head
+        // would decode this projector's light uncorrected. Refuse rather than scan worse.
+        if common::response_correction(path, &ls)?.is_some() {
+            bail!(
+                "{}: the calibration records a non-linear projector response ([projector_response])                  that the head's serial protocol cannot carry yet; upload patterns pre-distorted                  through it (`fringe3d patterns --response {} ...`, whose set file says                  response_compensated = true), or scan on the desktop (docs/gamma.md)",
+                path.display(),
+                path.display()
+            );
+        }
+    }
+    if ls.file.projector.response_compensated == Some(true) && a.images.is_none() {
+        bail!(
+            "{}: its patterns are pre-distorted through a projector response              (response_compensated = true), which the head's own rendering cannot reproduce:              upload the written images with --images DIR",
+            a.patterns.display()
+        );
     }
     let set = &ls.set;
     let desc = pattern_desc(set, ls.file.bit_depth())
