@@ -604,15 +604,9 @@ impl HeadSetup {
     /// The decoder of the pattern set with the thresholds ([`Decoder::new`]) and the
     /// phase-error table, if any ([`Decoder::with_correction`]).
     pub fn decoder(&self) -> Result<Decoder, SetupError> {
-        // Borrowed from the result, not moved out of it: one set on the stack, not two.
-        let set = self.pattern_set();
-        let set = set.as_ref().map_err(|e| *e)?;
-        let mut d = Decoder::new(set, self.thresholds.into()).map_err(|_| SetupError::Decoder)?;
-        if let Some(c) = &self.correction {
-            d.set_correction_knots(c.levels, |l, j| c.knot(l, j))
-                .map_err(|_| SetupError::Correction)?;
-        }
-        Ok(d)
+        let mut slot = None;
+        self.decoder_into(&mut slot)?;
+        slot.ok_or(SetupError::Decoder)
     }
 
     /// [`Self::decoder`] built into `slot` (e.g. a head's `static`): no copy of the decoder on

@@ -456,13 +456,7 @@ impl PlyWriter {
     /// [`PlyWriter::write_encoded`], so that the `fsync` of [`PlyWriter::finish`] (which stays)
     /// has little left to do. For files written while the rest is still being computed.
     pub fn sync_early(&mut self) -> Result<(), FormatError> {
-        if self.early.is_none() {
-            self.early = Some(
-                EarlySync::start(&mut self.out)
-                    .map_err(|e| FormatError::io(&self.path, "cannot start the sync thread", e))?,
-            );
-        }
-        Ok(())
+        EarlySync::ensure(&mut self.early, &mut self.out, &self.path)
     }
 
     /// Hand the pending binary vertices to the file.
@@ -680,13 +674,7 @@ impl XyzWriter {
 
     /// [`PlyWriter::sync_early`] for XYZ files.
     pub fn sync_early(&mut self) -> Result<(), FormatError> {
-        if self.early.is_none() {
-            self.early = Some(
-                EarlySync::start(&mut self.out)
-                    .map_err(|e| FormatError::io(&self.path, "cannot start the sync thread", e))?,
-            );
-        }
-        Ok(())
+        EarlySync::ensure(&mut self.early, &mut self.out, &self.path)
     }
 
     /// Complete the file and move it into place; returns the number of points.

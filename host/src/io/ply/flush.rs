@@ -41,6 +41,20 @@ impl EarlySync {
         })
     }
 
+    /// Start `slot`'s thread for `out` (the file at `path`) unless it runs already.
+    pub(super) fn ensure(
+        slot: &mut Option<EarlySync>,
+        out: &mut AtomicFile,
+        path: &std::path::Path,
+    ) -> Result<(), crate::io::error::FormatError> {
+        if slot.is_none() {
+            *slot = Some(EarlySync::start(out).map_err(|e| {
+                crate::io::error::FormatError::io(path, "cannot start the sync thread", e)
+            })?);
+        }
+        Ok(())
+    }
+
     /// `n` more bytes were written to `out`: every [`STEP`] bytes, hand them to the kernel and
     /// ask for a sync.
     pub(super) fn wrote(&mut self, n: u64, out: &mut AtomicFile) -> io::Result<()> {
