@@ -53,7 +53,7 @@ fn scan_accuracy(ds: &Path, calibration: &Path) -> (f64, usize) {
     let ls = common::load_set(&ds.join("patterns.toml")).unwrap();
     let cal = ScanCalibration::load(calibration, ls.set.axis()).unwrap();
     let imgs = common::load_images(&ls, &[], true).unwrap();
-    let corr = common::response_correction(calibration, &ls).unwrap();
+    let corr = common::response_correction(&cal.calibration, calibration, &ls).unwrap();
     let d = common::decode_corrected(&ls.set, &imgs, common::decode_config(&imgs), corr.as_ref())
         .unwrap();
     let cloud = cal.reconstruct(&d.phase, &d.validity, true).unwrap();

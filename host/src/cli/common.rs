@@ -354,10 +354,13 @@ pub fn progress(len: u64, msg: &str, quiet: bool) -> indicatif::ProgressBar {
 }
 
 /// The phase-error table a decode of `ls` needs for the projector response recorded in the
-/// calibration `cal_path` (`[projector_response]`, docs/gamma.md); `None` without one, or when
-/// the set's patterns were written pre-distorted.
-pub fn response_correction(cal_path: &Path, ls: &LoadedSet) -> Result<Option<PhaseCorrection>> {
-    let cal = Calibration::load(cal_path)?;
+/// calibration `cal` (read from `cal_path`; `[projector_response]`, docs/gamma.md); `None`
+/// without one, or when the set's patterns were written pre-distorted.
+pub fn response_correction(
+    cal: &Calibration,
+    cal_path: &Path,
+    ls: &LoadedSet,
+) -> Result<Option<PhaseCorrection>> {
     crate::calib::files::response_table_for(&ls.file, &ls.set, cal.projector_response.as_ref())
         .map_err(|m| anyhow::anyhow!("{}: projector response: {m}", cal_path.display()))
 }

@@ -2,7 +2,7 @@
 
 use super::{Global, common};
 use crate::io::atomic::AtomicDir;
-use crate::io::calibration::is_digest;
+use crate::io::calibration::{Calibration, is_digest};
 use crate::io::image::{write_png_u8, write_tiff_f32};
 use crate::io::preview;
 use anyhow::{Context, Result, bail};
@@ -110,7 +110,7 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
     }
     .text()?;
     let corr = match &a.calibration {
-        Some(c) => common::response_correction(c, &ls)?,
+        Some(c) => common::response_correction(&Calibration::load(c)?, c, &ls)?,
         None => None,
     };
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;

@@ -337,7 +337,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
         common::check_reference_patterns(path, &ls.scan_patterns()?, g.quiet)?;
         // The serial protocol carries no phase-correction table (the set-up blob does): a head
         // would decode this projector's light uncorrected. Refuse rather than scan worse.
-        if common::response_correction(path, &ls)?.is_some() {
+        if common::response_correction(&Calibration::load(path)?, path, &ls)?.is_some() {
             bail!(
                 "{}: the calibration records a non-linear projector response ([projector_response])                  that the head's serial protocol cannot carry yet; upload patterns pre-distorted                  through it (`fringe3d patterns --response {} ...`, whose set file says                  response_compensated = true), or scan on the desktop (docs/gamma.md)",
                 path.display(),

@@ -80,7 +80,7 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
     let t_load = t0.elapsed();
     let comments = vec![format!("fringe3d scan of {}", a.patterns.display())];
     let config = a.thresholds.config(&imgs)?;
-    let corr = common::response_correction(&a.calibration, &ls)?;
+    let corr = common::response_correction(&cal.calibration, &a.calibration, &ls)?;
     let (n, hist, seconds) = if pipeline == Pipeline::WholeFrame {
         let d = common::decode_corrected(&ls.set, &imgs, config, corr.as_ref())?;
         let t_decode = t0.elapsed();

@@ -217,24 +217,41 @@ impl std::fmt::Debug for PlyWriter {
 }
 
 impl PlyWriter {
-    /// An unorganized cloud at `path`: valid points only.
-    pub fn create(path: &Path, opts: PlyOptions) -> Result<PlyWriter, FormatError> {
-        let out = AtomicFile::create(path)?;
-        let scratch = Scratch::beside(path)
-            .map_err(|e| FormatError::io(path, "cannot create a scratch file beside it", e))?;
-        Ok(PlyWriter {
+    /// A writer that has written nothing past its header yet.
+    fn fresh(
+        path: &Path,
+        opts: PlyOptions,
+        organized: Option<(u32, u32)>,
+        out: AtomicFile,
+        body: Body,
+    ) -> PlyWriter {
+        PlyWriter {
             early: None,
             path: path.to_path_buf(),
             opts,
-            organized: None,
+            organized,
             out,
-            body: Body::Scratch(scratch),
+            body,
             rows: 0,
             count: 0,
             announced: None,
             line: String::new(),
             pending: Vec::new(),
-        })
+        }
+    }
+
+    /// An unorganized cloud at `path`: valid points only.
+    pub fn create(path: &Path, opts: PlyOptions) -> Result<PlyWriter, FormatError> {
+        let out = AtomicFile::create(path)?;
+        let scratch = Scratch::beside(path)
+            .map_err(|e| FormatError::io(path, "cannot create a scratch file beside it", e))?;
+        Ok(PlyWriter::fresh(
+            path,
+            opts,
+            None,
+            out,
+            Body::Scratch(scratch),
+        ))
     }
 
     /// An organized cloud of `width × height` vertices at `path`: one per camera pixel, written
@@ -270,19 +287,13 @@ impl PlyWriter {
         );
         out.write_all(header.as_bytes())
             .map_err(|e| FormatError::io(path, "cannot write", e))?;
-        Ok(PlyWriter {
-            early: None,
-            path: path.to_path_buf(),
+        Ok(PlyWriter::fresh(
+            path,
             opts,
-            organized: Some((width, height)),
+            Some((width, height)),
             out,
-            body: Body::Direct,
-            rows: 0,
-            count: 0,
-            announced: None,
-            line: String::new(),
-            pending: Vec::new(),
-        })
+            Body::Direct,
+        ))
     }
 
     /// An unorganized cloud of at most `max_count` vertices whose count is not known before
@@ -301,22 +312,16 @@ impl PlyWriter {
         let room = header(&opts, None, max_count);
         out.write_all(room.as_bytes())
             .map_err(|e| FormatError::io(path, "cannot write", e))?;
-        Ok(PlyWriter {
-            early: None,
-            path: path.to_path_buf(),
+        Ok(PlyWriter::fresh(
+            path,
             opts,
-            organized: None,
+            None,
             out,
-            body: Body::Reserved {
+            Body::Reserved {
                 start: room.len() as u64,
                 max: max_count,
             },
-            rows: 0,
-            count: 0,
-            announced: None,
-            line: String::new(),
-            pending: Vec::new(),
-        })
+        ))
     }
 
     /// An unorganized cloud whose vertex count is known before writing: the header goes out at
@@ -332,17 +337,8 @@ impl PlyWriter {
         out.write_all(header(&opts, None, count).as_bytes())
             .map_err(|e| FormatError::io(path, "cannot write", e))?;
         Ok(PlyWriter {
-            early: None,
-            path: path.to_path_buf(),
-            opts,
-            organized: None,
-            out,
-            body: Body::Direct,
-            rows: 0,
-            count: 0,
             announced: Some(count),
-            line: String::new(),
-            pending: Vec::new(),
+            ..PlyWriter::fresh(path, opts, None, out, Body::Direct)
         })
     }
 

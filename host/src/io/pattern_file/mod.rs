@@ -222,7 +222,7 @@ pub enum PhaseKind {
 }
 
 /// `[phase]`: the phase function `Φ(ξ, η) = g(t + curvature·(w − bend_center)²)`.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PhaseSection {
     /// The axis along which Φ increases; default `xi`.
@@ -443,19 +443,7 @@ impl PatternSetFile {
     }
 
     fn function(&self, o: &Output) -> Result<PhaseFunction, FormatError> {
-        let default = PhaseSection {
-            axis: None,
-            kind: None,
-            origin: None,
-            slope: None,
-            span: None,
-            positions: None,
-            slopes: None,
-            phases: None,
-            phase0: None,
-            curvature: None,
-            bend_center: None,
-        };
+        let default = PhaseSection::default();
         let ph = self.phase.as_ref().unwrap_or(&default);
         let axis = match ph.axis.unwrap_or(AxisName::Xi) {
             AxisName::Xi => Axis::Xi,

@@ -23,16 +23,9 @@ impl PatternSetFile {
         };
         let mut phase = PhaseSection {
             axis: Some(axis),
-            kind: None,
-            origin: None,
-            slope: None,
-            span: None,
-            positions: None,
-            slopes: None,
-            phases: None,
-            phase0: None,
             curvature: Some(f.curvature()),
             bend_center: Some(f.bend_center()),
+            ..PhaseSection::default()
         };
         match f.profile() {
             Profile::Linear { origin, slope } => {
