@@ -73,6 +73,31 @@ pub fn board_target_dir() -> PathBuf {
         .unwrap_or_else(|| repo().join("target/board-mps2"))
 }
 
+/// The `--config` that makes the firmware's bytes independent of where the checkout and the cargo
+/// home are. The panic locations in `.rodata` name source files, and cargo hands rustc absolute
+/// paths for the crates outside the board's workspace (the core, registry crates); remapped to
+/// `/fringe3d` and `/cargo`, the flash the firmware reports is the same on every machine and
+/// docs/firmware.md's figures reproduce. `tools/firmware_figures.py` builds with the same flags
+/// (`path_independent_config`), so it and these tests share one build.
+pub fn path_independent_config() -> String {
+    let cargo_home = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")))
+        .unwrap_or_else(|| PathBuf::from("/root/.cargo"));
+    let quote = |s: String| format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""));
+    let flags = [
+        quote(format!(
+            "--remap-path-prefix={}=/fringe3d",
+            repo().display()
+        )),
+        quote(format!(
+            "--remap-path-prefix={}=/cargo",
+            cargo_home.display()
+        )),
+    ];
+    format!("target.{TARGET}.rustflags=[{}]", flags.join(", "))
+}
+
 /// Build the board crate's binary `bin` (release, for [`TARGET`]) and return the ELF's path.
 /// Panics with cargo's output when the build fails (these are test helpers).
 pub fn build_firmware(bin: &str) -> PathBuf {
@@ -80,6 +105,8 @@ pub fn build_firmware(bin: &str) -> PathBuf {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let out = Command::new(cargo)
         .args(["build", "--release", "--target", TARGET, "--bin", bin])
+        .arg("--config")
+        .arg(path_independent_config())
         .current_dir(repo().join(BOARD))
         .env("CARGO_TARGET_DIR", &target_dir)
         .env_remove("RUSTFLAGS")
