@@ -18,7 +18,9 @@ pub struct DecodeConfig {
     /// Largest accepted unwrapping residual, radians ([`crate::unwrap::consistent`]).
     pub unwrap_tolerance: f32,
     /// How far (radians) the coarsest phase may lie outside the range the set produces before the
-    /// pixel is [`Validity::PhaseOutOfRange`].
+    /// pixel is [`Validity::PhaseOutOfRange`]; also the half-width of the band around the coarse
+    /// level's wrap seam where pixels are refused when the range reaches it (a coarse level of one
+    /// whole period: [`crate::arith::Plan::accepted_coarse`]).
     pub range_tolerance: f32,
 }
 

@@ -8,7 +8,7 @@ pub const MAX_LEVELS: usize = 6;
 /// The most phase shifts one level holds.
 pub const MAX_SHIFTS: usize = 16;
 /// The most images a set holds.
-pub const MAX_IMAGES: usize = 32;
+pub const MAX_IMAGES: usize = 64;
 /// Knots per level of a phase-error table ([`crate::decode::PhaseCorrection`]), over one period
 /// of the wrapped phase.
 pub const CORRECTION_KNOTS: usize = 32;

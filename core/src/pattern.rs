@@ -24,8 +24,12 @@ use crate::phase_function::{Axis, PhaseFunction, PhaseFunctionError};
 pub use crate::limits::{MAX_IMAGES, MAX_LEVELS, MAX_SHIFTS};
 
 /// Margin (radians) kept between the coarsest level's phase range and ±π by
-/// [`PatternSet::validate`].
-pub const COARSE_MARGIN: f64 = 0.05;
+/// [`PatternSet::validate`]: none. The range must lie strictly inside (−π, π), so a coarse level
+/// may span one whole period across the projector (`PhaseFunction::centered` with span 2π gives
+/// ±π·(1 − 1/n)); the decoder guards the wrap seam itself, refusing pixels whose coarse phase
+/// lies within the range tolerance of it ([`crate::arith::Plan::accepted_coarse`]). Until issue
+/// #20 it was 0.05 rad, which made users shrink the declared projector.
+pub const COARSE_MARGIN: f64 = 0.0;
 
 /// The largest magnitude of a phase shift or of the constant phase offset, radians: 2π. Any angle
 /// has an equal one within `[−2π, 2π]`; far outside it, `c_k·Φ + δ` loses Φ's bits to δ's

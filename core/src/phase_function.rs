@@ -155,7 +155,7 @@ impl core::fmt::Display for PhaseFunctionError {
             ),
             Self::CoarseRangeExceeded { min, max } => write!(
                 f,
-                "coarsest level spans [{min:.4}, {max:.4}] rad; it must stay inside (-pi, pi) with a margin"
+                "coarsest level spans [{min:.4}, {max:.4}] rad; it must stay strictly inside (-pi, pi): at most one period across the projector"
             ),
             Self::CoarseRangeTooSmall { span } => write!(
                 f,

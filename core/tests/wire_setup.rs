@@ -147,6 +147,93 @@ fn seal(payload: &[u8]) -> Vec<u8> {
 /// The hand-laid blob of [`small_setup`].
 #[rustfmt::skip]
 const SMALL_BLOB: &[u8] = &[
+    // header: magic F3DS, version 3, reserved 0, payload length 345 (LE)
+    0x46, 0x33, 0x44, 0x53, 0x03, 0x00, 0x59, 0x01,
+    // frames: width 4, height 3, sample_bits 12, sample_bytes 2
+    0x04, 0x03, 0x0C, 0x02,
+    // patterns: width 8, height 2, bit_depth 8
+    0x08, 0x02, 0x08,
+    // i_min 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // i_max 255.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0xE0, 0x6F, 0x40,
+    // waveform [0] sine
+    0x00,
+    // phase_offset 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // phase: axis [0] xi, profile [0] linear
+    0x00, 0x00,
+    // origin 3.5
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x40,
+    // slope 0.5
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xE0, 0x3F,
+    // curvature 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // bend_center 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // level_count 1
+    0x01,
+    // level 0: scale 1.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF0, 0x3F,
+    // shifts [0] uniform n 3, count 3
+    0x00, 0x03, 0x03,
+    // levels 1-5: unused (scale 0.0, [0] 0 0)
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // capture order: count 3 (varint), patterns 2 0 1
+    0x03, 0x02, 0x00, 0x01,
+    // thresholds: dark 80.0, saturation 4095.0, min_modulation 82.0, unwrap_tolerance 2.0,
+    // range_tolerance 0.25 (f32)
+    0x00, 0x00, 0xA0, 0x42,
+    0x00, 0xF0, 0x7F, 0x45,
+    0x00, 0x00, 0xA4, 0x42,
+    0x00, 0x00, 0x00, 0x40,
+    0x00, 0x00, 0x80, 0x3E,
+    // camera: width 4, height 3
+    0x04, 0x03,
+    // fx 100.0, fy 100.0, cx 1.5, cy 1.0, skew 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x59, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x59, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF8, 0x3F,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF0, 0x3F,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // distortion 5 x 0.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00,
+    // projector_centre 200, 0, 0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x69, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // plane_point 0, 0, 700
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0xE0, 0x85, 0x40,
+    // plane_normal 0, 0, -1
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF0, 0xBF,
+    // depth_min 500.0, depth_max 900.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x40, 0x7F, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x20, 0x8C, 0x40,
+    // axis [0] xi
+    0x00,
+    // edge filter: focal_px 100.0, max_angle_deg 80.0
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x59, 0x40,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x54, 0x40,
+    // correction: none (field 8)
+    0x00,
+    // CRC-32C 0x2D93EB66 (LE)
+    0x66, 0xEB, 0x93, 0x2D,
+];
+
+/// [`SMALL_BLOB`] as format version 2 wrote it (field 3 with 32 fixed entries): still read.
+#[rustfmt::skip]
+const SMALL_BLOB_V2: &[u8] = &[
     // header: magic F3DS, version 2, reserved 0, payload length 374 (LE)
     0x46, 0x33, 0x44, 0x53, 0x02, 0x00, 0x76, 0x01,
     // frames: width 4, height 3, sample_bits 12, sample_bytes 2
@@ -293,7 +380,7 @@ fn small_setup() -> HeadSetup {
         scale: 1.0,
         shifts: Shifts::Uniform { n: 3, count: 3 },
     };
-    let mut order = [0u8; 32];
+    let mut order = [0u8; fringe3d_core::pattern::MAX_IMAGES];
     order[..3].copy_from_slice(&[2, 0, 1]);
     HeadSetup {
         frames: FrameFormat {
@@ -367,6 +454,11 @@ fn the_small_blob_is_laid_out_as_documented() {
     assert_eq!(emit(&s), SMALL_BLOB);
     assert_eq!(HeadSetup::parse(SMALL_BLOB), Ok(s));
     assert_eq!(
+        HeadSetup::parse(SMALL_BLOB_V2),
+        Ok(s),
+        "version 2 still reads"
+    );
+    assert_eq!(
         HeadSetup::parse(SMALL_BLOB_V1),
         Ok(s),
         "version 1 still reads"
@@ -412,9 +504,9 @@ fn round_trips_rebuild_the_desktop_objects_exactly() {
 #[test]
 fn emit_needs_room() {
     let s = small_setup();
-    let mut out = [0u8; 386];
-    assert_eq!(s.emit(&mut out), Ok(386));
-    for n in [0, 11, 12, 100, 385] {
+    let mut out = [0u8; 357];
+    assert_eq!(s.emit(&mut out), Ok(357));
+    for n in [0, 11, 12, 100, 356] {
         let mut short = vec![0u8; n];
         assert_eq!(
             s.emit(&mut short),
@@ -435,14 +527,14 @@ fn header_errors_are_named() {
     assert_eq!(HeadSetup::parse(&good[..11]), Err(SetupError::Truncated));
     assert_eq!(HeadSetup::parse(&[]), Err(SetupError::Truncated));
     assert_eq!(with(&|b| b[0] = b'G'), Err(SetupError::Magic));
-    assert_eq!(with(&|b| b[4] = 3), Err(SetupError::Version(3)));
+    assert_eq!(with(&|b| b[4] = 4), Err(SetupError::Version(4)));
     assert_eq!(with(&|b| b[4] = 0), Err(SetupError::Version(0)));
     assert_eq!(with(&|b| b[5] = 1), Err(SetupError::Reserved));
     assert_eq!(with(&|b| b[6] += 1), Err(SetupError::Length));
     assert_eq!(with(&|b| b.push(0)), Err(SetupError::Length));
-    assert_eq!(with(&|b| b[7] = 0x10), Err(SetupError::Length)); // 4214 > MAX_SETUP_PAYLOAD
+    assert_eq!(with(&|b| b[7] = 0x10), Err(SetupError::Length)); // 4185 > MAX_SETUP_PAYLOAD
     assert_eq!(with(&|b| b[40] ^= 1), Err(SetupError::Crc));
-    assert_eq!(with(&|b| b[385] ^= 0x80), Err(SetupError::Crc));
+    assert_eq!(with(&|b| b[356] ^= 0x80), Err(SetupError::Crc));
     // Past the CRC: a byte too many, and a payload that is not a set-up.
     let payload = &good[SETUP_HEADER_LEN..good.len() - SETUP_CRC_LEN];
     let mut longer = payload.to_vec();
@@ -531,6 +623,17 @@ fn field_errors_are_named_on_both_ends() {
         assert_eq!(s.validate(), Err(*want), "case {i}");
         let mut out = [0u8; MAX_SETUP_BLOB];
         assert_eq!(s.emit(&mut out), Err(*want), "case {i}: emit");
+        // Unused entries do not travel (version 3 writes `count` indices): a set-up whose only
+        // fault lies there reads back as the valid one.
+        let mut clean = s;
+        let n = clean.capture_order.count as usize;
+        if let Some(unused) = clean.capture_order.patterns.get_mut(n..) {
+            unused.fill(0);
+        }
+        if clean.validate().is_ok() {
+            assert_eq!(HeadSetup::parse(&raw_blob(&s)), Ok(clean), "case {i}");
+            continue;
+        }
         assert_eq!(
             HeadSetup::parse(&raw_blob(&s)),
             Err(*want),
@@ -726,6 +829,7 @@ fn mutate(r: &mut Rng, blob: &[u8]) -> Vec<u8> {
 fn parse_never_panics_on_mutated_blobs() {
     let seeds = [
         SMALL_BLOB.to_vec(),
+        SMALL_BLOB_V2.to_vec(),
         emit(&head_setup(&paper_set(), 16, 12)),
         emit(&head_setup(&odd_set(), 8, 8)),
     ];
@@ -766,4 +870,66 @@ fn parse_never_panics_on_mutated_blobs() {
         ok > 100 && crc > 1000 && payload > 100 && fields > 1000,
         "ok {ok}, crc {crc}, payload {payload}, fields {fields}"
     );
+}
+
+/// Issue #20: a 48-image set (12 steps × 4 levels) travels whole, in a shuffled capture order; a
+/// blob naming more than `MAX_IMAGES` (64) images is refused as a payload error, not cut short.
+#[test]
+fn a_48_image_set_travels_and_65_images_are_refused() {
+    let out = Output {
+        width: 1024,
+        height: 768,
+        i_min: 0.0,
+        i_max: 255.0,
+    };
+    let f = PhaseFunction::centered(Axis::Xi, 1024, 0.9 * std::f64::consts::TAU).expect("linear");
+    let levels: Vec<pattern::Level> = [1.0, 4.0, 16.0, 64.0]
+        .iter()
+        .map(|&c| pattern::Level::n_step(c, 12))
+        .collect();
+    let set = PatternSet::new(f, &levels, out).expect("a 48-image set");
+    assert_eq!(set.image_count(), 48);
+    // Every third image first, then the rest: an order no default produces.
+    let mut order: Vec<ImageId> = set.order().iter().step_by(3).copied().collect();
+    order.extend(
+        set.order()
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % 3 != 0)
+            .map(|(_, id)| *id),
+    );
+    let set = set.with_order(&order).expect("a permutation");
+    let s = head_setup(&set, 8, 8);
+    let blob = emit(&s);
+    let back = HeadSetup::parse(&blob).expect("parse");
+    assert_eq!(back, s);
+    assert_eq!(back.image_count(), 48);
+    assert_eq!(back.pattern_set().expect("set").order(), set.order());
+    assert_eq!(
+        back.decoder().expect("decoder"),
+        Decoder::new(&set, DecodeConfig::for_bit_depth(8)).expect("decoder")
+    );
+
+    // Field 3 rewritten by hand with 65 indices: varint 65, then 65 bytes.
+    let mut payload = [0u8; MAX_SETUP_PAYLOAD];
+    let n = postcard::to_slice(&s, &mut payload)
+        .expect("postcard")
+        .len();
+    let field3 = 1 + 48; // varint 48, 48 indices
+    let start = {
+        let mut before = [0u8; MAX_SETUP_PAYLOAD];
+        let a = postcard::to_slice(&s.frames, &mut before)
+            .expect("frames")
+            .len();
+        let b = postcard::to_slice(&s.patterns, &mut before)
+            .expect("patterns")
+            .len();
+        a + b
+    };
+    assert_eq!(payload[start], 48);
+    let mut long = payload[..start].to_vec();
+    long.push(65);
+    long.extend((0..65u8).map(|i| i % 48));
+    long.extend_from_slice(&payload[start + field3..n]);
+    assert_eq!(HeadSetup::parse(&seal(&long)), Err(SetupError::Payload));
 }

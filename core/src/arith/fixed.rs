@@ -236,8 +236,8 @@ impl Arith for Fixed {
         let scale = (1u64 << format.frac) as f64;
         let turns = |x: f64| x / core::f64::consts::TAU;
         let lsb = 16_777_216.0; // 2^24 per turn
-        let lo = turns(plan.coarse_range.0 - cfg.range_tolerance as f64);
-        let hi = turns(plan.coarse_range.1 + cfg.range_tolerance as f64);
+        let (lo, hi) = plan.accepted_coarse();
+        let (lo, hi) = (turns(lo), turns(hi));
         Limits {
             saturation: ceil_to(cfg.saturation_level as f64, i32::MAX as f64) as i32,
             dark: ceil_to(cfg.dark_level as f64 * scale, i32::MAX as f64) as i32,

@@ -168,12 +168,18 @@ impl<K: FloatKernels> Arith for K {
 
     fn limits(plan: &Plan<'_>, _format: &()) -> Limits<Self> {
         let cfg = plan.config;
+        // `Plan::accepted_coarse`, with the tolerance bounds formed in f32 as they always were
+        // (a wide gap leaves these bits as before the seam guard).
+        let lo = plan.coarse_range.0 as f32 - cfg.range_tolerance;
+        let hi = plan.coarse_range.1 as f32 + cfg.range_tolerance;
+        let (seam_lo, seam_hi) = plan.accepted_coarse();
+        let (seam_lo, seam_hi) = (seam_lo as f32, seam_hi as f32);
         Limits {
             saturation: cfg.saturation_level,
             dark: cfg.dark_level,
             min_modulation: cfg.min_modulation * cfg.min_modulation,
-            coarse_lo: plan.coarse_range.0 as f32 - cfg.range_tolerance,
-            coarse_hi: plan.coarse_range.1 as f32 + cfg.range_tolerance,
+            coarse_lo: if seam_lo > lo { seam_lo } else { lo },
+            coarse_hi: if seam_hi < hi { seam_hi } else { hi },
             unwrap_tolerance: cfg.unwrap_tolerance,
         }
     }

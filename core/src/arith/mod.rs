@@ -87,6 +87,39 @@ pub struct Plan<'a> {
     pub config: &'a DecodeConfig,
 }
 
+impl Plan<'_> {
+    /// The range of the coarsest *wrapped* phase the decoder accepts (radians); a pixel outside
+    /// it is [`crate::validity::Validity::PhaseOutOfRange`].
+    ///
+    /// The set produces `[lo, hi]` ⊂ (−π, π) ([`crate::pattern::PatternSet::coarse_range`]); the
+    /// gap `(hi, lo + 2π)` of the circle holds the wrap seam, and a phase measured in it belongs to
+    /// no projector pixel. With `t` the range tolerance (the coarse phase's noise allowance),
+    /// accepted is `[lo − t, hi + t]` less a band of `t` either side of the gap's middle
+    /// `m = (hi + lo + 2π)/2`:
+    ///
+    /// ```text
+    /// accepted = [max(lo − t, m + t − 2π), min(hi + t, m − t)]
+    /// ```
+    ///
+    /// With a wide gap (`2π − (hi − lo) ≥ 4t`, as the default 0.9·2π span with t = 0.15) the
+    /// band changes nothing. With a coarse level of one whole period (the "phase cue") the ends
+    /// of the range reach the seam and the band decides: a pixel whose coarse phase lies within
+    /// `t` of the seam is refused, and one wrapped in from the far end of the projector is
+    /// accepted only if its noise carried it more than `t` past the seam, the same allowance as
+    /// at the ends of any range. Decoding such a set loses the projector columns within `t` of
+    /// each end (t/2π of the width each: 2.4 % at 0.15 rad).
+    pub fn accepted_coarse(&self) -> (f64, f64) {
+        let (lo, hi) = self.coarse_range;
+        let t = self.config.range_tolerance as f64;
+        let m = 0.5 * (hi + lo + core::f64::consts::TAU);
+        let (seam_lo, seam_hi) = (m + t - core::f64::consts::TAU, m - t);
+        (
+            if seam_lo > lo - t { seam_lo } else { lo - t },
+            if seam_hi < hi + t { seam_hi } else { hi + t },
+        )
+    }
+}
+
 /// Quantized coefficients of one level in a backend's [`Arith::Coef`] type.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LevelCoefs<K> {

@@ -135,6 +135,35 @@ impl<A: Arith> Decoder<A> {
     /// range, or coefficients too large for the accumulators), as [`DecodeError::Degenerate`] of
     /// that level.
     pub fn with_arith(set: &PatternSet, config: DecodeConfig) -> Result<Self, DecodeError> {
+        let mut slot = None;
+        Self::build_into(&mut slot, set, config)?;
+        slot.ok_or(DecodeError::Config)
+    }
+
+    /// [`Decoder::with_arith`] built into `slot` (e.g. a head's `static`), `None` on error: the
+    /// decoder is filled in place, with no copy of it on the caller's stack, which on a head is
+    /// the set-up's deepest.
+    #[inline(never)]
+    pub fn build_into(
+        slot: &mut Option<Self>,
+        set: &PatternSet,
+        config: DecodeConfig,
+    ) -> Result<(), DecodeError> {
+        *slot = None;
+        let r = Self::fill(slot, set, config);
+        if r.is_err() {
+            *slot = None;
+        }
+        r
+    }
+
+    // The level index picks the level's coefficients, ratio and images alike.
+    #[allow(clippy::needless_range_loop)]
+    fn fill(
+        slot: &mut Option<Self>,
+        set: &PatternSet,
+        config: DecodeConfig,
+    ) -> Result<(), DecodeError> {
         if !config.is_sane() {
             return Err(DecodeError::Config);
         }
@@ -172,7 +201,7 @@ impl<A: Arith> Decoder<A> {
             w: A::COEF_ZERO,
             mode: [SKIP; 3],
         };
-        let mut d = Decoder {
+        let d = slot.insert(Decoder {
             n_levels,
             n_images: set.image_count(),
             images: [zero; MAX_IMAGES],
@@ -192,14 +221,17 @@ impl<A: Arith> Decoder<A> {
             dc_level: dc_level.map(|l| l as u8),
             fused: FUSED_NONE,
             correction: None,
-        };
+        });
         let order = dc_level
             .into_iter()
             .chain((0..n_levels).filter(|&l| Some(l) != dc_level));
         for (slot, l) in d.level_order.iter_mut().zip(order) {
             *slot = l as u8;
         }
-        let mut coefs = [None; MAX_LEVELS];
+        // Level by level, each level's images in image order: the coefficients of one level at a
+        // time on the stack (a head's set-up stack is tight), and every plane (the DC plane
+        // included, which only the DC level's images touch) sees its images in image order, so
+        // the INIT/ACC modes are those of one pass over the images.
         for i in 0..n_levels {
             let c = A::level_coefs(&plan, i, &format);
             d.a_dc[i] = c.a_dc;
@@ -207,51 +239,46 @@ impl<A: Arith> Decoder<A> {
             if i > 0 {
                 d.ratio[i] = A::ratio(ratios[i], &format);
             }
-            coefs[i] = Some(c);
-        }
-        for (k, id) in set.order().iter().enumerate() {
-            let l = id.level as usize;
-            let s = id.shift as usize;
-            let c = coefs
-                .get(l)
-                .copied()
-                .flatten()
-                .ok_or(DecodeError::Degenerate(id.level))?;
-            // `get`: a valid order's shifts are < the level's count <= MAX_SHIFTS (no panic path).
-            let (Some(&ca), Some(&cb), Some(&cw)) = (c.a.get(s), c.b.get(s), c.w.get(s)) else {
-                return Err(DecodeError::Degenerate(id.level));
-            };
-            let w = if dc_level == Some(l) {
-                cw
-            } else {
-                A::COEF_ZERO
-            };
-            let mut mode = [SKIP; 3];
-            for (m, (k, plane)) in mode
-                .iter_mut()
-                .zip([(ca, 1 + 2 * l), (cb, 2 + 2 * l), (w, 0)])
-            {
-                if !A::is_zero(k) {
-                    *m = if d.untouched[plane] { INIT } else { ACC };
-                    d.untouched[plane] = false;
+            let images = set.order().iter().enumerate();
+            for (k, id) in images.filter(|(_, id)| id.level as usize == i) {
+                let (l, s) = (i, id.shift as usize);
+                // `get`: a valid order's shifts are < the level's count <= MAX_SHIFTS (no panic
+                // path).
+                let (Some(&ca), Some(&cb), Some(&cw)) = (c.a.get(s), c.b.get(s), c.w.get(s)) else {
+                    return Err(DecodeError::Degenerate(id.level));
+                };
+                let w = if dc_level == Some(l) {
+                    cw
+                } else {
+                    A::COEF_ZERO
+                };
+                let mut mode = [SKIP; 3];
+                for (m, (k, plane)) in
+                    mode.iter_mut()
+                        .zip([(ca, 1 + 2 * l), (cb, 2 + 2 * l), (w, 0)])
+                {
+                    if !A::is_zero(k) {
+                        *m = if d.untouched[plane] { INIT } else { ACC };
+                        d.untouched[plane] = false;
+                    }
                 }
-            }
-            let Some(image) = d.images.get_mut(k) else {
-                return Err(DecodeError::ImageCount);
-            };
-            *image = ImageCoef {
-                level: id.level,
-                a: ca,
-                b: cb,
-                w,
-                mode,
-            };
-            let li = &mut d.level_images[l];
-            if let Some(slot) = li.idx.get_mut(li.n as usize) {
-                *slot = k as u8;
-                li.n += 1;
-            } else {
-                return Err(DecodeError::Degenerate(id.level));
+                let Some(image) = d.images.get_mut(k) else {
+                    return Err(DecodeError::ImageCount);
+                };
+                *image = ImageCoef {
+                    level: id.level,
+                    a: ca,
+                    b: cb,
+                    w,
+                    mode,
+                };
+                let li = &mut d.level_images[l];
+                if let Some(slot) = li.idx.get_mut(li.n as usize) {
+                    *slot = k as u8;
+                    li.n += 1;
+                } else {
+                    return Err(DecodeError::Degenerate(id.level));
+                }
             }
         }
         for l in 0..n_levels {
@@ -272,7 +299,7 @@ impl<A: Arith> Decoder<A> {
                 _ => FUSED_NONE,
             };
         }
-        Ok(d)
+        Ok(())
     }
 
     /// The zero pattern of level `l`'s coefficients ([`KIND_PAIR`], [`KIND_QUAD`] or

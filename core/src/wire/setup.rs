@@ -14,7 +14,7 @@
 //! | offset  | size | field                                                             |
 //! |--------:|-----:|-------------------------------------------------------------------|
 //! | 0       | 4    | magic `F3DS` ([`SETUP_MAGIC`])                                    |
-//! | 4       | 1    | format version = 2 ([`SETUP_VERSION`]; 1 is still read)           |
+//! | 4       | 1    | format version = 3 ([`SETUP_VERSION`]; 1 and 2 are still read)    |
 //! | 5       | 1    | reserved, 0                                                       |
 //! | 6       | 2    | payload length `L`, u16 LE, `L <= 4096` ([`MAX_SETUP_PAYLOAD`])   |
 //! | 8       | `L`  | payload: the postcard encoding of a [`HeadSetup`]                 |
@@ -27,7 +27,8 @@
 //! 2. the pattern set, a [`PatternSetDesc`] as in DefinePatternSet, except that its bit depth
 //!    may be up to 16 ([`MAX_SETUP_BIT_DEPTH`]: the projector the camera saw, not the head's
 //!    8-bit renderer);
-//! 3. [`CaptureOrder`]: count u8, 32 × u8 wire pattern indices (unused = 0);
+//! 3. [`CaptureOrder`]: varint count ≤ 64, then count × u8 wire pattern indices (versions 1
+//!    and 2: count u8, then always 32 × u8, unused = 0);
 //! 4. [`DecodeThresholds`]: 5 × f32;
 //! 5. [`Calibration`]: as in UploadCalibration;
 //! 6. the reconstruction's axis, [`PatternAxis`] `[0]` ξ `[1]` η;
@@ -51,13 +52,19 @@ use crate::camera::CameraModel;
 use crate::decode::{CORRECTION_KNOTS, DecodeConfig, Decoder, PhaseCorrection};
 use crate::filter::EdgeFilter;
 use crate::params::CameraParams;
-use crate::pattern::{ImageId, MAX_IMAGES, PatternSet};
+use crate::pattern::PatternSet;
 use crate::reconstruct::{Reconstructor, Setup};
+
+mod capture_order;
+mod legacy;
+pub use capture_order::CaptureOrder;
+use legacy::payload_fields;
 
 /// First four bytes of a set-up blob.
 pub const SETUP_MAGIC: [u8; 4] = *b"F3DS";
-/// The blob format version this core writes (it also reads version 1: no correction field).
-pub const SETUP_VERSION: u8 = 2;
+/// The blob format version this core writes (it also reads versions 1 and 2: no correction
+/// field; a capture order of 32 fixed entries).
+pub const SETUP_VERSION: u8 = 3;
 /// Bytes before the payload: magic, version, reserved, length.
 pub const SETUP_HEADER_LEN: usize = 8;
 /// Bytes of the trailing CRC-32C.
@@ -192,78 +199,6 @@ impl FrameFormat {
         } else {
             Err(SetupError::FrameFormat)
         }
-    }
-}
-
-/// Which pattern each captured image shows, in capture order: wire pattern indices (levels in
-/// order, shifts in order within a level, as in a [`LutEntry`](super::LutEntry)). The head's
-/// images arrive in this order; the core's default order is another numbering
-/// ([`PatternSetDesc::pattern_id`] maps between them).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct CaptureOrder {
-    /// Images captured: the set's pattern count.
-    pub count: u8,
-    /// Pattern index of each image; entries from `count` on are 0.
-    pub patterns: [u8; MAX_IMAGES],
-}
-
-impl CaptureOrder {
-    /// The capture order of images `order` of the set `desc` describes; `None` if an image is
-    /// not in the set or there are more than [`MAX_IMAGES`].
-    pub fn of(desc: &PatternSetDesc, order: &[ImageId]) -> Option<Self> {
-        let mut c = CaptureOrder {
-            count: u8::try_from(order.len()).ok()?,
-            patterns: [0; MAX_IMAGES],
-        };
-        for (dst, id) in c.patterns.get_mut(..order.len())?.iter_mut().zip(order) {
-            *dst = u8::try_from(desc.pattern_index(*id)?).ok()?;
-        }
-        Some(c)
-    }
-
-    /// The used entries (empty if `count` is out of range).
-    pub fn used(&self) -> &[u8] {
-        self.patterns.get(..self.count as usize).unwrap_or(&[])
-    }
-
-    /// Check that the order is a permutation of the `desc`'s patterns and unused entries are 0.
-    pub fn validate(&self, desc: &PatternSetDesc) -> Result<(), SetupError> {
-        let n = self.count as usize;
-        let (Some(used), Some(unused)) = (self.patterns.get(..n), self.patterns.get(n..)) else {
-            return Err(SetupError::CaptureOrder);
-        };
-        let mut seen = [false; MAX_IMAGES];
-        let ok = n == desc.pattern_count()
-            && n >= 1
-            && unused.iter().all(|&p| p == 0)
-            && used.iter().all(|&p| match seen.get_mut(p as usize) {
-                Some(s) if (p as usize) < n && !*s => {
-                    *s = true;
-                    true
-                }
-                _ => false,
-            });
-        if ok {
-            Ok(())
-        } else {
-            Err(SetupError::CaptureOrder)
-        }
-    }
-
-    /// The core's image ids in capture order, and how many.
-    pub fn image_ids(
-        &self,
-        desc: &PatternSetDesc,
-    ) -> Result<([ImageId; MAX_IMAGES], usize), SetupError> {
-        let mut ids = [ImageId { level: 0, shift: 0 }; MAX_IMAGES];
-        let used = self.used();
-        if used.len() != self.count as usize {
-            return Err(SetupError::CaptureOrder);
-        }
-        for (dst, &p) in ids.iter_mut().zip(used) {
-            *dst = desc.pattern_id(p as u16).ok_or(SetupError::CaptureOrder)?;
-        }
-        Ok((ids, used.len()))
     }
 }
 
@@ -414,45 +349,6 @@ impl From<&SetupCorrection> for PhaseCorrection {
             delta: c.knots,
         }
     }
-}
-
-/// Decode a payload of `version` (1: fields 1-7; 2: and field 8). Version 2 decodes straight
-/// into the result (no copy of the fields on the way: a head's set-up stack is tight).
-#[inline(never)]
-fn payload_fields(version: u8, payload: &[u8]) -> Result<HeadSetup, SetupError> {
-    if version >= 2 {
-        return match postcard::take_from_bytes::<HeadSetup>(payload) {
-            Ok((s, [])) => Ok(s),
-            Ok(_) => Err(SetupError::TrailingBytes),
-            Err(_) => Err(SetupError::Payload),
-        };
-    }
-    match postcard::take_from_bytes::<HeadSetupV1>(payload) {
-        Ok((v, [])) => Ok(HeadSetup {
-            frames: v.frames,
-            patterns: v.patterns,
-            capture_order: v.capture_order,
-            thresholds: v.thresholds,
-            calibration: v.calibration,
-            axis: v.axis,
-            edge_filter: v.edge_filter,
-            correction: None,
-        }),
-        Ok(_) => Err(SetupError::TrailingBytes),
-        Err(_) => Err(SetupError::Payload),
-    }
-}
-
-/// The payload of a version-1 blob (fields 1-7).
-#[derive(Deserialize)]
-struct HeadSetupV1 {
-    frames: FrameFormat,
-    patterns: PatternSetDesc,
-    capture_order: CaptureOrder,
-    thresholds: DecodeThresholds,
-    calibration: Calibration,
-    axis: PatternAxis,
-    edge_filter: EdgeFilterParams,
 }
 
 impl HeadSetup {
@@ -616,8 +512,10 @@ impl HeadSetup {
         *slot = None;
         let set = self.pattern_set();
         let set = set.as_ref().map_err(|e| *e)?;
-        let d = slot
-            .insert(Decoder::new(set, self.thresholds.into()).map_err(|_| SetupError::Decoder)?);
+        Decoder::build_into(slot, set, self.thresholds.into()).map_err(|_| SetupError::Decoder)?;
+        let Some(d) = slot.as_mut() else {
+            return Err(SetupError::Decoder);
+        };
         if let Some(c) = &self.correction
             && d.set_correction_knots(c.levels, |l, j| c.knot(l, j))
                 .is_err()

@@ -1,0 +1,112 @@
+//! Payloads of the blob's older format versions, read into today's [`HeadSetup`].
+//!
+//! - Version 1: fields 1-7 (no field 8, the projector-response correction: none).
+//! - Version 2: fields 1-8; field 3, the capture order, as a count u8 and always 32 pattern
+//!   indices (unused 0).
+//! - Version 3 (written today): field 3 as postcard bytes, up to 64 indices
+//!   ([`CaptureOrder`]'s own serde).
+
+use serde::Deserialize;
+
+use super::{
+    CaptureOrder, DecodeThresholds, EdgeFilterParams, FrameFormat, HeadSetup, SetupCorrection,
+    SetupError,
+};
+use crate::pattern::MAX_IMAGES;
+use crate::wire::message::{Calibration, PatternAxis, PatternSetDesc};
+
+/// Decode a payload of `version` (1: fields 1-7; 2: and field 8; 3: field 3 as bytes). The
+/// current version decodes straight into the result (no copy of the fields on the way: a head's
+/// set-up stack is tight); the old ones each in a frame of their own, which only they pay for.
+#[inline(never)]
+pub(super) fn payload_fields(version: u8, payload: &[u8]) -> Result<HeadSetup, SetupError> {
+    match version {
+        1 => version_1(payload),
+        2 => version_2(payload),
+        _ => whole(postcard::take_from_bytes::<HeadSetup>(payload)),
+    }
+}
+
+/// The value of a postcard result that used every byte.
+fn whole<T>(r: postcard::Result<(T, &[u8])>) -> Result<T, SetupError> {
+    match r {
+        Ok((v, [])) => Ok(v),
+        Ok(_) => Err(SetupError::TrailingBytes),
+        Err(_) => Err(SetupError::Payload),
+    }
+}
+
+#[inline(never)]
+fn version_1(payload: &[u8]) -> Result<HeadSetup, SetupError> {
+    let v = whole(postcard::take_from_bytes::<HeadSetupV1>(payload))?;
+    Ok(HeadSetup {
+        frames: v.frames,
+        patterns: v.patterns,
+        capture_order: v.capture_order.into(),
+        thresholds: v.thresholds,
+        calibration: v.calibration,
+        axis: v.axis,
+        edge_filter: v.edge_filter,
+        correction: None,
+    })
+}
+
+#[inline(never)]
+fn version_2(payload: &[u8]) -> Result<HeadSetup, SetupError> {
+    let v = whole(postcard::take_from_bytes::<HeadSetupV2>(payload))?;
+    Ok(HeadSetup {
+        frames: v.frames,
+        patterns: v.patterns,
+        capture_order: v.capture_order.into(),
+        thresholds: v.thresholds,
+        calibration: v.calibration,
+        axis: v.axis,
+        edge_filter: v.edge_filter,
+        correction: v.correction,
+    })
+}
+
+/// Field 3 of versions 1 and 2: a count and always 32 indices.
+#[derive(Deserialize)]
+struct CaptureOrder32 {
+    count: u8,
+    patterns: [u8; 32],
+}
+
+impl From<CaptureOrder32> for CaptureOrder {
+    fn from(v: CaptureOrder32) -> Self {
+        let mut c = CaptureOrder {
+            count: v.count,
+            patterns: [0; MAX_IMAGES],
+        };
+        for (d, s) in c.patterns.iter_mut().zip(v.patterns) {
+            *d = s;
+        }
+        c
+    }
+}
+
+/// The payload of a version-1 blob (fields 1-7).
+#[derive(Deserialize)]
+struct HeadSetupV1 {
+    frames: FrameFormat,
+    patterns: PatternSetDesc,
+    capture_order: CaptureOrder32,
+    thresholds: DecodeThresholds,
+    calibration: Calibration,
+    axis: PatternAxis,
+    edge_filter: EdgeFilterParams,
+}
+
+/// The payload of a version-2 blob (fields 1-8).
+#[derive(Deserialize)]
+struct HeadSetupV2 {
+    frames: FrameFormat,
+    patterns: PatternSetDesc,
+    capture_order: CaptureOrder32,
+    thresholds: DecodeThresholds,
+    calibration: Calibration,
+    axis: PatternAxis,
+    edge_filter: EdgeFilterParams,
+    correction: Option<SetupCorrection>,
+}
