@@ -28,8 +28,9 @@ impl DecodeConfig {
     /// Defaults for a sensor of `bits` bits per sample (8 to 16): dark below 2 % of full scale,
     /// saturated at full scale, modulation at least 2 % of full scale but not below 12 codes (as
     /// long as that is within 5 % of full scale), unwrapping residual ≤ 2π/3, coarse phase within
-    /// 0.15 rad of the projected range (the range keeps 0.05 rad from ±π, and the level-0 noise at
-    /// B/σ = 14 is 0.08 rad).
+    /// 0.15 rad of the projected range (the level-0 noise at B/σ = 14 is 0.08 rad; the default
+    /// 0.9·2π span keeps 0.31 rad from ±π, and a coarse level of one whole period loses the
+    /// 0.15 rad band at its wrap seam, [`crate::arith::Plan::accepted_coarse`]).
     ///
     /// Why 12 codes: the hierarchical unwrapping (eqs 12-13) picks a wrong fringe order *without
     /// noticing* only when the residual's noise exceeds 2π minus the tolerance, 4π/3. With the

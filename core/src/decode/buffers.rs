@@ -15,9 +15,10 @@ use crate::validity::Validity;
 pub struct RowOut<'a> {
     /// Absolute phase of the finest level, radians (`c_K·Φ^(P)`); canonical NaN where invalid.
     pub phase: &'a mut [f32],
-    /// Modulation B of the finest level, camera codes.
+    /// Modulation B of the finest level, camera codes; or empty when not wanted (a head that
+    /// needs only phase and validity saves 4 B per column).
     pub modulation: &'a mut [f32],
-    /// DC term A (eq 10/15), camera codes.
+    /// DC term A (eq 10/15), camera codes; or empty when not wanted (4 B per column).
     pub dc: &'a mut [f32],
     /// [`Validity`] code per pixel.
     pub validity: &'a mut [u8],
@@ -26,8 +27,8 @@ pub struct RowOut<'a> {
 impl RowOut<'_> {
     pub(super) fn len_ok(&self, n: usize) -> bool {
         self.phase.len() == n
-            && self.modulation.len() == n
-            && self.dc.len() == n
+            && (self.modulation.len() == n || self.modulation.is_empty())
+            && (self.dc.len() == n || self.dc.is_empty())
             && self.validity.len() == n
     }
 }
@@ -113,6 +114,22 @@ pub(super) fn block_mut<T>(
     row.get_mut(range)
         .and_then(|r| r.try_into().ok())
         .ok_or(DecodeError::Length)
+}
+
+/// The block `range` of an optional output row ([`RowOut::modulation`], [`RowOut::dc`]): the
+/// row's block, or `sink` when the caller passed an empty row. The values are computed either way
+/// (the same work, the same bits elsewhere) and dropped in the sink.
+#[inline(always)]
+pub(super) fn block_or_sink<'a, T>(
+    row: &'a mut [T],
+    range: core::ops::Range<usize>,
+    sink: &'a mut [T; BLOCK],
+) -> Result<&'a mut [T; BLOCK], DecodeError> {
+    if row.is_empty() {
+        Ok(sink)
+    } else {
+        block_mut(row, range)
+    }
 }
 
 /// A zeroed stack state for one block of `n ≤ BLOCK` pixels.

@@ -3,7 +3,7 @@
 //! modulation, dark and saturation tests and the outputs ([`Decoder::finish`]).
 
 use super::BLOCK;
-use super::buffers::{Block, BlockOut, RowOut, State, block, block_mut};
+use super::buffers::{Block, BlockOut, RowOut, State, block, block_mut, block_or_sink};
 use super::decoder::Decoder;
 use crate::arith::Arith;
 use crate::decode_error::DecodeError;
@@ -75,18 +75,24 @@ impl<A: Arith> Decoder<A> {
                     validity: &mut va,
                 },
             );
-            out.phase.copy_from_slice(&ph[..n]);
-            out.modulation.copy_from_slice(&mo[..n]);
-            out.dc.copy_from_slice(&dc[..n]);
+            // (Zips: the optional rows may be empty.)
+            for (dst, src) in [
+                (&mut *out.phase, &ph),
+                (&mut *out.modulation, &mo),
+                (&mut *out.dc, &dc),
+            ] {
+                dst.iter_mut().zip(src.iter()).for_each(|(d, s)| *d = *s);
+            }
             out.validity.copy_from_slice(&va[..n]);
             return Ok(());
         }
         // Whole blocks, the last one overlapping (see `decode_row_with`).
+        let (mut mo_sink, mut dc_sink) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
         let mut start = 0;
         loop {
             let r = start..start + BLOCK;
             blk.dc = *block(st.dc, r.clone())?;
-            let mo = block_mut(out.modulation, r.clone())?;
+            let mo = block_or_sink(out.modulation, r.clone(), &mut mo_sink)?;
             for l in 0..self.n_levels {
                 self.polar_into(
                     l,
@@ -100,7 +106,7 @@ impl<A: Arith> Decoder<A> {
             let o = BlockOut {
                 phase: block_mut(out.phase, r.clone())?,
                 modulation: mo,
-                dc: block_mut(out.dc, r.clone())?,
+                dc: block_or_sink(out.dc, r.clone(), &mut dc_sink)?,
                 validity: block_mut(out.validity, r.clone())?,
             };
             self.unwrap_block::<T, 1>(&blk, block(sat, r)?, &saturated, o);

@@ -4,7 +4,7 @@
 //! (`finish`).
 
 use super::BLOCK;
-use super::buffers::{Block, BlockOut, DecodeScratch, RowOut, block, block_mut};
+use super::buffers::{Block, BlockOut, DecodeScratch, RowOut, block, block_mut, block_or_sink};
 use super::decoder::{
     Decoder, FUSED_LANES, FUSED_PAIRS, FUSED_QUADS, KIND_GENERIC, KIND_PAIR, KIND_PAIR_UNIT,
     KIND_QUAD, KIND_QUAD_EXACT,
@@ -81,6 +81,7 @@ impl<A: Arith> Decoder<A> {
             validity,
         } = out;
         let blk = &mut scratch.0;
+        let (mut mo_sink, mut dc_sink) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
         // Whole blocks only, so that every loop has the constant trip count BLOCK (no remainder
         // loops, whatever the vector width): the last block ends at the row's end and may overlap
         // the one before, whose pixels it computes again to the same bits.
@@ -89,8 +90,8 @@ impl<A: Arith> Decoder<A> {
             let r = start..start + BLOCK;
             let out = BlockOut {
                 phase: block_mut(phase, r.clone())?,
-                modulation: block_mut(modulation, r.clone())?,
-                dc: block_mut(dc, r.clone())?,
+                modulation: block_or_sink(modulation, r.clone(), &mut mo_sink)?,
+                dc: block_or_sink(dc, r.clone(), &mut dc_sink)?,
                 validity: block_mut(validity, r.clone())?,
             };
             self.decode_block::<P, N>(blk, rows, start, out)?;

@@ -25,13 +25,13 @@ const MAX_W: usize = 640;
 const MAX_IMAGES: usize = 8;
 const RING_ROWS: usize = 16;
 
-/// Every per-pixel buffer: (2·N + 4·4 + 1 + 4·3 + 1 + 5·B)·W bytes, plus the decoder's scratch.
+/// Every per-pixel buffer: (2·N + 4·2 + 1 + 4·3 + 1 + 5·B)·W bytes, plus the decoder's scratch
+/// and the set-up blob. No modulation or DC rows: this head wants phase and validity only, and
+/// `RowOut` takes empty rows for them.
 struct Buffers {
     blob: [u8; fringe3d_core::wire::setup::MAX_SETUP_BLOB],
     images: [[u16; MAX_W]; MAX_IMAGES],
     phase: [f32; MAX_W],
-    modulation: [f32; MAX_W],
-    dc: [f32; MAX_W],
     validity: [u8; MAX_W],
     ring_phase: [f32; RING_ROWS * MAX_W],
     ring_validity: [u8; RING_ROWS * MAX_W],
@@ -46,8 +46,6 @@ static mut BUFFERS: Buffers = Buffers {
     blob: [0; fringe3d_core::wire::setup::MAX_SETUP_BLOB],
     images: [[0; MAX_W]; MAX_IMAGES],
     phase: [0.0; MAX_W],
-    modulation: [0.0; MAX_W],
-    dc: [0.0; MAX_W],
     validity: [0; MAX_W],
     ring_phase: [0.0; RING_ROWS * MAX_W],
     ring_validity: [0; RING_ROWS * MAX_W],
@@ -94,8 +92,8 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
         let rows: [&[u16]; MAX_IMAGES] = core::array::from_fn(|i| &b.images[i][..w]);
         let out = RowOut {
             phase: &mut b.phase[..w],
-            modulation: &mut b.modulation[..w],
-            dc: &mut b.dc[..w],
+            modulation: &mut [],
+            dc: &mut [],
             validity: &mut b.validity[..w],
         };
         let rows = rows.get(..n).ok_or("too many images")?;
