@@ -31,17 +31,34 @@ pub trait ReferenceRows {
     }
 }
 
-/// Copy a reference row into storage, replacing invalid or non-finite samples by the canonical NaN.
+/// Copy a reference row into storage, replacing invalid or non-finite samples by the canonical NaN,
+/// and its codes into `dst_validity` (non-finite samples marked `Valid` become
+/// `PhaseOutOfRange`). An empty `validity` means every sample is valid where finite; an empty
+/// `dst_validity` keeps no codes (the kernel reads only the NaN-encoded phase).
 fn encode_row(dst: &mut [f32], dst_validity: &mut [u8], phase: &[f32], validity: &[u8]) {
-    for (((d, dv), &p), &q) in dst
-        .iter_mut()
-        .zip(dst_validity.iter_mut())
-        .zip(phase)
-        .zip(validity)
-    {
-        let ok = q == Validity::Valid as u8 && p.is_finite();
-        *d = if ok { p } else { CANONICAL_NAN };
-        *dv = if ok || q != Validity::Valid as u8 {
+    const VALID: u8 = Validity::Valid as u8;
+    if validity.is_empty() {
+        for (d, &p) in dst.iter_mut().zip(phase) {
+            *d = if p.is_finite() { p } else { CANONICAL_NAN };
+        }
+        for (dv, &p) in dst_validity.iter_mut().zip(phase) {
+            *dv = if p.is_finite() {
+                VALID
+            } else {
+                Validity::PhaseOutOfRange as u8
+            };
+        }
+        return;
+    }
+    for ((d, &p), &q) in dst.iter_mut().zip(phase).zip(validity) {
+        *d = if q == VALID && p.is_finite() {
+            p
+        } else {
+            CANONICAL_NAN
+        };
+    }
+    for ((dv, &p), &q) in dst_validity.iter_mut().zip(phase).zip(validity) {
+        *dv = if q != VALID || p.is_finite() {
             q
         } else {
             Validity::PhaseOutOfRange as u8
@@ -49,12 +66,17 @@ fn encode_row(dst: &mut [f32], dst_validity: &mut [u8], phase: &[f32], validity:
     }
 }
 
-/// A ring of reference rows over caller buffers, for streaming (push rows in order 0, 1, 2, …).
+/// A ring of reference rows over caller buffers, for streaming (push rows in order 0, 1, 2, …,
+/// or from a first row on, [`ReferenceRing::start_at`], for a region of interest).
 ///
 /// Rows are the reference map's ([`Reconstructor::map_width`] wide, numbered from the map's
 /// top, [`Reconstructor::with_margin`]). Holds the last `capacity` pushed rows;
 /// `capacity = phase.len() / map_width` must be at least [`Band::rows`] (checked at
 /// construction). Row `r` lives in slot `r mod capacity`.
+///
+/// The validity plane is optional: the kernel reads only the phase (invalid samples stored as
+/// NaN), so a ring built with an empty `validity` buffer keeps no codes (1 B per sample less:
+/// 32 000 B for a 25-row band at 1280 wide) and [`ReferenceRing::validity_row`] is `None`.
 #[derive(Debug)]
 pub struct ReferenceRing<'a> {
     phase: &'a mut [f32],
@@ -62,14 +84,16 @@ pub struct ReferenceRing<'a> {
     width: usize,
     height: usize,
     capacity: u32,
+    /// The first row pushed (0, or [`ReferenceRing::start_at`]'s).
+    first: u32,
     pushed: u32,
 }
 
 impl<'a> ReferenceRing<'a> {
     /// A ring for `recon`'s reference map over `phase` (f32 per sample) and `validity` (u8 per
-    /// sample). Its capacity is `phase.len() / map_width` rows; fewer than the band needs is
-    /// [`ReconstructError::BandTooSmall`]; a `validity` buffer shorter than the rows used is
-    /// [`ReconstructError::BufferTooSmall`].
+    /// sample, or empty to keep no codes). Its capacity is `phase.len() / map_width` rows; fewer
+    /// than the band needs is [`ReconstructError::BandTooSmall`]; a non-empty `validity` buffer
+    /// shorter than the rows used is [`ReconstructError::BufferTooSmall`].
     pub fn new(
         recon: &Reconstructor,
         phase: &'a mut [f32],
@@ -86,7 +110,7 @@ impl<'a> ReferenceRing<'a> {
                 given: capacity,
             });
         }
-        if validity.len() < capacity as usize * width {
+        if !validity.is_empty() && validity.len() < capacity as usize * width {
             return Err(ReconstructError::BufferTooSmall);
         }
         Ok(ReferenceRing {
@@ -95,17 +119,36 @@ impl<'a> ReferenceRing<'a> {
             width,
             height,
             capacity,
+            first: 0,
             pushed: 0,
         })
     }
 
-    /// Push the next reference row (row index [`ReferenceRing::rows_pushed`]).
+    /// Start an empty ring at map row `row` instead of 0, for a region of interest: the next
+    /// [`ReferenceRing::push_row`] is row `row`, and rows before it are never held. For camera
+    /// rows from `v0` on, start at `recon.rows_needed(v0).0`. A ring that holds rows must be
+    /// [`ReferenceRing::reset`] first ([`ReconstructError::Sequence`]); a row past the map is
+    /// [`ReconstructError::Sequence`] too.
+    pub fn start_at(&mut self, row: u32) -> Result<(), ReconstructError> {
+        if self.pushed != self.first || row as usize > self.height {
+            return Err(ReconstructError::Sequence);
+        }
+        self.first = row;
+        self.pushed = row;
+        Ok(())
+    }
+
+    /// Push the next reference row (row index [`ReferenceRing::rows_pushed`]) and its validity
+    /// codes, or an empty `validity_row` when every finite sample is valid (a reference map
+    /// stored with NaN where invalid, as the desktop's TIFF is).
     pub fn push_row(
         &mut self,
         phase_row: &[f32],
         validity_row: &[u8],
     ) -> Result<(), ReconstructError> {
-        if phase_row.len() != self.width || validity_row.len() != self.width {
+        if phase_row.len() != self.width
+            || !(validity_row.is_empty() || validity_row.len() == self.width)
+        {
             return Err(ReconstructError::Length);
         }
         if self.pushed as usize >= self.height {
@@ -115,9 +158,14 @@ impl<'a> ReferenceRing<'a> {
             return Err(ReconstructError::BufferTooSmall);
         };
         let slot = slot as usize * self.width;
+        let keeps_codes = !self.validity.is_empty();
         let (Some(d), Some(dv)) = (
             self.phase.get_mut(slot..slot + self.width),
-            self.validity.get_mut(slot..slot + self.width),
+            if keeps_codes {
+                self.validity.get_mut(slot..slot + self.width)
+            } else {
+                Some(&mut [][..])
+            },
         ) else {
             return Err(ReconstructError::BufferTooSmall);
         };
@@ -131,19 +179,20 @@ impl<'a> ReferenceRing<'a> {
         self.pushed
     }
 
-    /// Forget all rows (start a new reference).
+    /// Forget all rows (start a new reference, from row 0).
     pub fn reset(&mut self) {
+        self.first = 0;
         self.pushed = 0;
     }
 
-    /// The stored validity codes of map row `r`, if held.
+    /// The stored validity codes of map row `r`, if held (`None` for a ring without codes).
     pub fn validity_row(&self, r: u32) -> Option<&[u8]> {
         let slot = self.slot(r)?;
         self.validity.get(slot..slot + self.width)
     }
 
     fn slot(&self, r: u32) -> Option<usize> {
-        if r < self.pushed && self.pushed - r <= self.capacity {
+        if r >= self.first && r < self.pushed && self.pushed - r <= self.capacity {
             Some((r % self.capacity) as usize * self.width)
         } else {
             None

@@ -16,7 +16,6 @@ use cortex_m_rt::entry;
 use fringe3d_core::decode::parity::Digest;
 use fringe3d_core::decode::{DecodeScratch, RowOut};
 use fringe3d_core::reconstruct::ReferenceRing;
-use fringe3d_core::validity::Validity;
 use fringe3d_core::wire::HeadSetup;
 use host::{Console, File};
 
@@ -25,18 +24,17 @@ const MAX_W: usize = 640;
 const MAX_IMAGES: usize = 8;
 const RING_ROWS: usize = 16;
 
-/// Every per-pixel buffer: (2·N + 4·2 + 1 + 4·3 + 1 + 5·B)·W bytes, plus the decoder's scratch
-/// and the set-up blob. No modulation or DC rows: this head wants phase and validity only, and
-/// `RowOut` takes empty rows for them.
+/// Every per-pixel buffer: (2·N + 4 + 1 + 4·B + 4 + 4·3 + 1)·W bytes, plus the decoder's scratch
+/// and the set-up blob. Lean where the core allows it: no modulation or DC rows (this head wants
+/// phase and validity only; `RowOut` takes empty rows), and no validity plane in the reference
+/// ring or codes for its rows (the map arrives NaN-encoded, and the kernel reads only the phase).
 struct Buffers {
     blob: [u8; fringe3d_core::wire::setup::MAX_SETUP_BLOB],
     images: [[u16; MAX_W]; MAX_IMAGES],
     phase: [f32; MAX_W],
     validity: [u8; MAX_W],
     ring_phase: [f32; RING_ROWS * MAX_W],
-    ring_validity: [u8; RING_ROWS * MAX_W],
     reference_row: [f32; MAX_W],
-    reference_validity: [u8; MAX_W],
     xyz: [f32; 3 * MAX_W],
     point_validity: [u8; MAX_W],
     scratch: DecodeScratch,
@@ -48,9 +46,7 @@ static mut BUFFERS: Buffers = Buffers {
     phase: [0.0; MAX_W],
     validity: [0; MAX_W],
     ring_phase: [0.0; RING_ROWS * MAX_W],
-    ring_validity: [0; RING_ROWS * MAX_W],
     reference_row: [0.0; MAX_W],
-    reference_validity: [0; MAX_W],
     xyz: [0.0; 3 * MAX_W],
     point_validity: [0; MAX_W],
     scratch: DecodeScratch::new(), // a `const fn`
@@ -73,12 +69,8 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
     }
 
     // 2. The reference ring over the band's rows, fed in order from the reference map.
-    let mut ring = ReferenceRing::new(
-        &recon,
-        &mut b.ring_phase[..ring_rows * w],
-        &mut b.ring_validity[..ring_rows * w],
-    )
-    .map_err(|_| "reference ring refused")?;
+    let mut ring = ReferenceRing::new(&recon, &mut b.ring_phase[..ring_rows * w], &mut [])
+        .map_err(|_| "reference ring refused")?;
     let mut frames = File::open("input/images.u16")?;
     let mut reference = File::open("input/reference_phase.f32")?;
     let mut digests = [Digest::default(); 4];
@@ -105,16 +97,9 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
         while ring.rows_pushed() <= last {
             let r = ring.rows_pushed() as usize;
             reference.read_at(4 * r * w, bytes_of(&mut b.reference_row[..w]))?;
-            for (q, p) in b.reference_validity.iter_mut().zip(&b.reference_row[..w]) {
-                let valid = p.is_finite();
-                *q = if valid {
-                    Validity::Valid
-                } else {
-                    Validity::ReferenceInvalid
-                } as u8;
-            }
-            let (row, codes) = (&b.reference_row[..w], &b.reference_validity[..w]);
-            let (r, used) = stack::measure(|| ring.push_row(row, codes));
+            // NaN where the map is invalid: no codes needed.
+            let row = &b.reference_row[..w];
+            let (r, used) = stack::measure(|| ring.push_row(row, &[]));
             r.map_err(|_| "reference ring push failed")?;
             push_stack = push_stack.max(used);
         }
