@@ -13,7 +13,6 @@ use fringe3d_core::arith::Backend;
 use fringe3d_core::decode::{AnyDecoder, DecodeConfig, Decoder, RowOut};
 use fringe3d_core::pattern::{Level, MAX_IMAGES, Output, PatternError, PatternSet};
 use fringe3d_core::phase_function::{Axis, PhaseFunction};
-use fringe3d_core::sequential::FrameDecoder;
 use fringe3d_core::validity::Validity;
 
 const W: u32 = 1024;
@@ -124,27 +123,10 @@ fn the_frame_sequential_decoder_gives_the_row_bits_for_48_images() {
     let d = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).unwrap();
     let any = AnyDecoder::new(&set, DecodeConfig::for_bit_depth(8), Backend::F32Accurate).unwrap();
     let (row_phase, row_val) = decode_rows(&any, &imgs, h);
-    let mut state = vec![0.0f32; FrameDecoder::state_len(&d, w, h)];
-    let mut flags = vec![0u8; w * h];
-    let mut fd = FrameDecoder::new(&d, w, h, &mut state, &mut flags).unwrap();
-    for f in &imgs {
-        fd.push_frame(f).unwrap();
-    }
-    let (mut ph, mut mo, mut dc, mut va) =
-        (vec![0f32; w], vec![0f32; w], vec![0f32; w], vec![0; w]);
-    for y in 0..h {
-        let out = RowOut {
-            phase: &mut ph,
-            modulation: &mut mo,
-            dc: &mut dc,
-            validity: &mut va,
-        };
-        fd.finish_row(y, out).unwrap();
-        let r = y * w..(y + 1) * w;
-        let bits = |v: &[f32]| v.iter().map(|p| p.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&ph), bits(&row_phase[r.clone()]), "row {y}");
-        assert_eq!(va, row_val[r], "row {y}");
-    }
+    let (bits, codes) = frame_sequential(&d, &imgs, w, h);
+    let row_bits: Vec<u32> = row_phase.iter().map(|p| p.to_bits()).collect();
+    assert_eq!(bits, row_bits, "phase bits");
+    assert_eq!(codes, row_val, "validity");
 }
 
 #[test]

@@ -86,3 +86,36 @@ pub fn wrap(x: f64) -> f64 {
     let t = std::f64::consts::TAU;
     x - t * (x / t).round()
 }
+
+/// Every row of `frames` (each `w × h`, set order) through the frame-sequential decoder: the
+/// phase bits and validity codes, row after row.
+pub fn frame_sequential<P: fringe3d_core::sample::Sample>(
+    d: &fringe3d_core::decode::Decoder,
+    frames: &[Vec<P>],
+    w: usize,
+    h: usize,
+) -> (Vec<u32>, Vec<u8>) {
+    use fringe3d_core::decode::RowOut;
+    use fringe3d_core::sequential::FrameDecoder;
+    let mut state = vec![0.0f32; FrameDecoder::state_len(d, w, h)];
+    let mut flags = vec![0u8; w * h];
+    let mut fd = FrameDecoder::new(d, w, h, &mut state, &mut flags).unwrap();
+    for f in frames {
+        fd.push_frame(f).unwrap();
+    }
+    let (mut ph, mut mo, mut dc, mut va) =
+        (vec![0f32; w], vec![0f32; w], vec![0f32; w], vec![0; w]);
+    let (mut bits, mut codes) = (Vec::new(), Vec::new());
+    for y in 0..h {
+        let out = RowOut {
+            phase: &mut ph,
+            modulation: &mut mo,
+            dc: &mut dc,
+            validity: &mut va,
+        };
+        fd.finish_row(y, out).unwrap();
+        bits.extend(ph.iter().map(|p| p.to_bits()));
+        codes.extend_from_slice(&va);
+    }
+    (bits, codes)
+}

@@ -84,15 +84,15 @@ enum Tag {
 /// Point row `v mod 3` is free while row `v` is decoded (it held row `v − 3`, already filtered
 /// and sent), so it doubles as the scratch of that phase: the modulation and DC rows of
 /// `decode_row` (the reconstruction needs only phase and validity), the per-level rows sent for
-/// the vectors, and the reference row on its way into the ring. `filtered` likewise carries the
-/// reference row's validity codes before the row's filter runs.
+/// the vectors, and the reference row on its way into the ring.
 struct Buffers {
     /// Row `v` of every image (u16 samples; u8 sets use the same bytes).
     images: [u16; MAX_IMAGES * MAX_W],
     phase: [f32; MAX_W],
     validity: [u8; MAX_W],
+    /// The reference ring's phase (no validity plane: the kernel reads only the NaN-encoded
+    /// phase).
     ring_phase: [f32; RING_ROWS * MAX_W],
-    ring_validity: [u8; RING_ROWS * MAX_W],
     /// Point rows `v − 2 ..= v` for the edge filter (and the scratch of row `v`, see above).
     points: [[f32; 3 * MAX_W]; 3],
     point_validity: [[u8; MAX_W]; 3],
@@ -108,7 +108,6 @@ static mut BUFFERS: Buffers = Buffers {
     phase: [0.0; MAX_W],
     validity: [0; MAX_W],
     ring_phase: [0.0; RING_ROWS * MAX_W],
-    ring_validity: [0; RING_ROWS * MAX_W],
     points: [[0.0; 3 * MAX_W]; 3],
     point_validity: [[0; MAX_W]; 3],
     filtered: [0; MAX_W],
@@ -278,17 +277,12 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
         phase,
         validity,
         ring_phase,
-        ring_validity,
         points,
         point_validity,
         filtered,
     } = b;
-    let mut ring = ReferenceRing::new(
-        recon,
-        &mut ring_phase[..ring_rows * w],
-        &mut ring_validity[..ring_rows * w],
-    )
-    .map_err(|_| Fail("reference ring refused"))?;
+    let mut ring = ReferenceRing::new(recon, &mut ring_phase[..ring_rows * w], &mut [])
+        .map_err(|_| Fail("reference ring refused"))?;
     let (phase, validity) = (&mut phase[..w], &mut validity[..w]);
 
     for v in 0..h {
@@ -389,21 +383,14 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
         }
 
         // Reference rows up to the band's end, from external memory into the ring (staged in the
-        // free point row and the filter's output row).
+        // free point row). The map is NaN where invalid, so no codes travel with it.
         let (_, last) = recon.rows_needed(v as u32);
         while ring.rows_pushed() <= last {
             let r = ring.rows_pushed() as usize;
-            let (ref_phase, ref_validity) = (&mut points[slot][..w], &mut filtered[..w]);
+            let ref_phase = &mut points[slot][..w];
             ref_file.read_at(4 * r * w, bytes_of_mut(ref_phase))?;
-            for (q, ph) in ref_validity.iter_mut().zip(ref_phase.iter()) {
-                *q = if ph.is_finite() {
-                    Validity::Valid as u8
-                } else {
-                    Validity::ReferenceInvalid as u8
-                };
-            }
             let t = clock.now();
-            ring.push_row(ref_phase, ref_validity)
+            ring.push_row(ref_phase, &[])
                 .map_err(|_| Fail("reference ring push failed"))?;
             ticks.ring = ticks.ring.wrapping_add(clock.since(t));
         }

@@ -38,32 +38,17 @@ fn whole<T>(r: postcard::Result<(T, &[u8])>) -> Result<T, SetupError> {
 
 #[inline(never)]
 fn version_1(payload: &[u8]) -> Result<HeadSetup, SetupError> {
-    let v = whole(postcard::take_from_bytes::<HeadSetupV1>(payload))?;
-    Ok(HeadSetup {
-        frames: v.frames,
-        patterns: v.patterns,
-        capture_order: v.capture_order.into(),
-        thresholds: v.thresholds,
-        calibration: v.calibration,
-        axis: v.axis,
-        edge_filter: v.edge_filter,
-        correction: None,
-    })
+    let v = whole(postcard::take_from_bytes::<HeadSetupOld<()>>(payload))?;
+    Ok(v.into_setup(None))
 }
 
 #[inline(never)]
 fn version_2(payload: &[u8]) -> Result<HeadSetup, SetupError> {
-    let v = whole(postcard::take_from_bytes::<HeadSetupV2>(payload))?;
-    Ok(HeadSetup {
-        frames: v.frames,
-        patterns: v.patterns,
-        capture_order: v.capture_order.into(),
-        thresholds: v.thresholds,
-        calibration: v.calibration,
-        axis: v.axis,
-        edge_filter: v.edge_filter,
-        correction: v.correction,
-    })
+    let v = whole(postcard::take_from_bytes::<
+        HeadSetupOld<Option<SetupCorrection>>,
+    >(payload))?;
+    let correction = v.tail;
+    Ok(v.into_setup(correction))
 }
 
 /// Field 3 of versions 1 and 2: a count and always 32 indices.
@@ -86,9 +71,10 @@ impl From<CaptureOrder32> for CaptureOrder {
     }
 }
 
-/// The payload of a version-1 blob (fields 1-7).
+/// The payload of a version-1 blob (fields 1-7; `T = ()`, which postcard writes as nothing) or a
+/// version-2 one (and field 8, `T = Option<SetupCorrection>`).
 #[derive(Deserialize)]
-struct HeadSetupV1 {
+struct HeadSetupOld<T> {
     frames: FrameFormat,
     patterns: PatternSetDesc,
     capture_order: CaptureOrder32,
@@ -96,17 +82,20 @@ struct HeadSetupV1 {
     calibration: Calibration,
     axis: PatternAxis,
     edge_filter: EdgeFilterParams,
+    tail: T,
 }
 
-/// The payload of a version-2 blob (fields 1-8).
-#[derive(Deserialize)]
-struct HeadSetupV2 {
-    frames: FrameFormat,
-    patterns: PatternSetDesc,
-    capture_order: CaptureOrder32,
-    thresholds: DecodeThresholds,
-    calibration: Calibration,
-    axis: PatternAxis,
-    edge_filter: EdgeFilterParams,
-    correction: Option<SetupCorrection>,
+impl<T> HeadSetupOld<T> {
+    fn into_setup(self, correction: Option<SetupCorrection>) -> HeadSetup {
+        HeadSetup {
+            frames: self.frames,
+            patterns: self.patterns,
+            capture_order: self.capture_order.into(),
+            thresholds: self.thresholds,
+            calibration: self.calibration,
+            axis: self.axis,
+            edge_filter: self.edge_filter,
+            correction,
+        }
+    }
 }
