@@ -193,10 +193,12 @@ fn check_scan(elf: &Path, opts: &VectorOptions, name: &str) {
         ram + stack_setup.max(stack_scan) <= 256 * 1024,
         "static RAM + stack exceed 256 KiB"
     );
-    assert_eq!(
-        report_value(&report, "calibration_ticks"),
-        Some(50_000),
-        "-icount shift=0 should give 40 instructions per tick"
+    // 2 000 000 instructions are 50 000 ticks of 40; where the loop starts within a tick (the
+    // instructions before it, which every firmware change moves) adds at most one boundary.
+    let ticks = report_value(&report, "calibration_ticks").expect("calibration ticks");
+    assert!(
+        ticks.abs_diff(50_000) <= 1,
+        "-icount shift=0 should give 40 instructions per tick: {ticks} ticks"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
