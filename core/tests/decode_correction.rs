@@ -11,19 +11,7 @@ use fringe3d_core::decode::{
     AnyDecoder, CORRECTION_KNOTS, CORRECTION_LSB, DecodeConfig, DecodeError, Decoder,
     PhaseCorrection, RowOut,
 };
-use fringe3d_core::pattern::{Output, PatternSet};
-use fringe3d_core::phase_function::Axis;
-use fringe3d_core::sequential::FrameDecoder;
-
-fn paper_set() -> PatternSet {
-    let out = Output {
-        width: 640,
-        height: 480,
-        i_min: 0.0,
-        i_max: 255.0,
-    };
-    PatternSet::default_for(Axis::Xi, out).unwrap()
-}
+use fringe3d_core::pattern::PatternSet;
 
 /// A table with a gamma-like shape: second and fourth harmonics of the wrapped phase, different
 /// per level.
@@ -102,27 +90,9 @@ fn row_and_frame_sequential_agree_with_a_table() {
         h,
     );
     assert_ne!(row_bits, plain.0, "the table must change the phase");
-    let mut state = vec![0.0f32; FrameDecoder::state_len(&d, w, h)];
-    let mut flags = vec![0u8; w * h];
-    let mut fd = FrameDecoder::new(&d, w, h, &mut state, &mut flags).unwrap();
-    for f in &fr {
-        fd.push_frame(f).unwrap();
-    }
-    let (mut ph, mut mo, mut dc, mut va) =
-        (vec![0f32; w], vec![0f32; w], vec![0f32; w], vec![0; w]);
-    for y in 0..h {
-        let out = RowOut {
-            phase: &mut ph,
-            modulation: &mut mo,
-            dc: &mut dc,
-            validity: &mut va,
-        };
-        fd.finish_row(y, out).unwrap();
-        let r = y * w..(y + 1) * w;
-        let b: Vec<u32> = ph.iter().map(|p| p.to_bits()).collect();
-        assert_eq!(b, row_bits[r.clone()], "row {y}: phase bits");
-        assert_eq!(va, row_val[r], "row {y}: validity");
-    }
+    let (bits, codes) = frame_sequential(&d, &fr, w, h);
+    assert_eq!(bits, row_bits, "phase bits");
+    assert_eq!(codes, row_val, "validity");
     assert!(row_val.iter().filter(|&&v| v == 0).count() > w * h * 9 / 10);
 }
 

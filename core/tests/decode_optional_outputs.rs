@@ -6,19 +6,8 @@ mod common;
 use common::*;
 use fringe3d_core::arith::Backend;
 use fringe3d_core::decode::{AnyDecoder, DecodeConfig, DecodeError, Decoder, RowOut};
-use fringe3d_core::pattern::{Output, PatternSet};
-use fringe3d_core::phase_function::Axis;
+use fringe3d_core::pattern::PatternSet;
 use fringe3d_core::sequential::FrameDecoder;
-
-fn set() -> PatternSet {
-    let out = Output {
-        width: 640,
-        height: 480,
-        i_min: 0.0,
-        i_max: 255.0,
-    };
-    PatternSet::default_for(Axis::Xi, out).unwrap()
-}
 
 fn frames(set: &PatternSet, w: usize, seed: u64) -> Vec<Vec<u8>> {
     let (lo, hi) = set.coarse_range();
@@ -59,7 +48,7 @@ fn both(
 
 #[test]
 fn empty_modulation_and_dc_rows_change_no_bit() {
-    let set = set();
+    let set = paper_set();
     for w in [1000, 200, 64, 37] {
         let fr = frames(&set, w, w as u64);
         let rows: Vec<&[u8]> = fr.iter().map(|f| &f[..]).collect();
@@ -86,7 +75,7 @@ fn empty_modulation_and_dc_rows_change_no_bit() {
 
 #[test]
 fn a_wrong_non_empty_length_is_still_refused() {
-    let set = set();
+    let set = paper_set();
     let w = 200;
     let fr = frames(&set, w, 1);
     let rows: Vec<&[u8]> = fr.iter().map(|f| &f[..]).collect();

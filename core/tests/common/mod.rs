@@ -119,3 +119,14 @@ pub fn frame_sequential<P: fringe3d_core::sample::Sample>(
     }
     (bits, codes)
 }
+
+/// The default set (the paper's 8 images, vertical fringes) of an 8-bit 640 × 480 projector.
+pub fn paper_set() -> PatternSet {
+    let out = fringe3d_core::pattern::Output {
+        width: 640,
+        height: 480,
+        i_min: 0.0,
+        i_max: 255.0,
+    };
+    PatternSet::default_for(fringe3d_core::phase_function::Axis::Xi, out).unwrap()
+}
