@@ -8,8 +8,9 @@ use clap::Parser;
 use fringe3d::cli::cloud_out::{CloudFormat, CloudSink};
 use fringe3d::cli::scan::run_whole_frame;
 use fringe3d::cli::{Cli, Command as Cmd, Global, common};
-use fringe3d::scan::ScanError;
+use fringe3d::io::image_set::ImageSet;
 use fringe3d::scan::stream::{StreamConfig, stream_image_set};
+use fringe3d::scan::{ScanCalibration, ScanError};
 use fringe3d_core::decode::Decoder;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -136,16 +137,22 @@ fn the_binary_streams_the_whole_frame_bytes() {
     }
 }
 
+/// The dataset's calibration, images and decoder, loaded as `fringe3d scan` loads them.
+fn loaded(ds: &Path) -> (ScanCalibration, ImageSet, Decoder) {
+    let set = common::load_set(&ds.join("patterns.toml")).unwrap();
+    let cal = common::load_calibration(&ds.join("calibration.toml"), set.set.axis()).unwrap();
+    let imgs = common::load_images(&set, std::slice::from_ref(&ds.to_path_buf()), true).unwrap();
+    let decoder = Decoder::new(&set.set, common::decode_config(&imgs)).unwrap();
+    (cal, imgs, decoder)
+}
+
 #[test]
 fn odd_bands_windows_and_thread_counts_give_the_same_bytes() {
     let t = Tmp(std::env::temp_dir().join(format!("fringe3d-bands-{}", std::process::id())));
     let _ = std::fs::remove_dir_all(&t.0);
     std::fs::create_dir_all(&t.0).unwrap();
     let ds = render(&t.0, "ds", "8");
-    let set = common::load_set(&ds.join("patterns.toml")).unwrap();
-    let cal = common::load_calibration(&ds.join("calibration.toml"), set.set.axis()).unwrap();
-    let imgs = common::load_images(&set, std::slice::from_ref(&ds), true).unwrap();
-    let decoder = Decoder::new(&set.set, common::decode_config(&imgs)).unwrap();
+    let (cal, imgs, decoder) = loaded(&ds);
     for (name, extra) in [FORMS[0], FORMS[1], FORMS[5]] {
         let reference = whole_frame(&ds, &t.0.join(format!("whole-{name}")), extra);
         let mut argv = vec!["fringe3d".to_string()];
@@ -205,10 +212,7 @@ fn a_failing_sink_stops_the_pass_and_writes_nothing() {
     let _ = std::fs::remove_dir_all(&t.0);
     std::fs::create_dir_all(&t.0).unwrap();
     let ds = render(&t.0, "ds", "8");
-    let set = common::load_set(&ds.join("patterns.toml")).unwrap();
-    let cal = common::load_calibration(&ds.join("calibration.toml"), set.set.axis()).unwrap();
-    let imgs = common::load_images(&set, std::slice::from_ref(&ds), true).unwrap();
-    let decoder = Decoder::new(&set.set, common::decode_config(&imgs)).unwrap();
+    let (cal, imgs, decoder) = loaded(&ds);
     let mut argv = vec!["fringe3d".to_string()];
     let out = t.0.join("never.ply");
     argv.extend(scan_args(&ds, &out, &[]));
