@@ -268,11 +268,16 @@ def _cargo_toml(path, rel_dir, packages, targets):
         lines = open(path, encoding="utf-8").read().splitlines()
     except OSError:
         return
+    off = set()  # `autotests = false` and the like: that kind of target is not discovered
     for line in lines:
         s = line.strip()
         if s.startswith("["):
             section = s.strip("[]").strip()
             continue
+        a = re.match(r"auto(tests|benches|examples|bins)\s*=\s*false", s)
+        if a and section == "package":
+            off.add({"tests": "tests", "benches": "benches", "examples": "examples",
+                     "bins": "src/bin"}[a.group(1)])
         m = re.match(r'name\s*=\s*"([^"]+)"', s)
         if m and section == "package":
             packages.add(m.group(1))
@@ -282,7 +287,7 @@ def _cargo_toml(path, rel_dir, packages, targets):
     base = os.path.dirname(path)
     for sub in ("benches", "tests", "examples", "src/bin"):
         d = os.path.join(base, sub)
-        if os.path.isdir(d):
+        if os.path.isdir(d) and sub not in off:
             for f in os.listdir(d):
                 if f.endswith(".rs"):
                     targets.add(f[:-3])

@@ -2,13 +2,12 @@
 //! decoder of the same samples, unwrapping failures at B/σ_I = 14 and 20, validity codes, and the
 //! two drivers (row and frame-sequential) agreeing bit for bit.
 //!
-//! `cargo test -p fringe3d-core --test arith_accuracy -- --nocapture` prints the rows of the
+//! `cargo test --release -p fringe3d-core --test suite arith_accuracy:: -- --nocapture` prints the rows of the
 //! tables in docs/arithmetic.md.
 // Tests use std f64 maths as the independent truth; the ban on it is for the core library.
 #![allow(clippy::disallowed_methods)]
 
-mod common;
-use common::*;
+use crate::common::*;
 use fringe3d_core::arith::{Arith, Backend, F32Accurate, F32Fast, F32Micromath, Fixed};
 use fringe3d_core::decode::{AnyDecoder, DecodeConfig, Decoder, RowOut, Sample};
 use fringe3d_core::math::canonical;

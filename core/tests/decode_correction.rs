@@ -4,8 +4,7 @@
 //! refused.
 #![allow(clippy::disallowed_methods)] // std f64 maths is the independent truth here
 
-mod common;
-use common::*;
+use crate::common::*;
 use fringe3d_core::arith::{Backend, F32Accurate, Fixed};
 use fringe3d_core::decode::{
     AnyDecoder, CORRECTION_KNOTS, CORRECTION_LSB, DecodeConfig, DecodeError, Decoder,

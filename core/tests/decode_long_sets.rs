@@ -7,8 +7,7 @@
 //! σ_φ = σ / (B·√(N/2)).
 #![allow(clippy::disallowed_methods)] // std f64 maths is the independent truth here
 
-mod common;
-use common::*;
+use crate::common::*;
 use fringe3d_core::arith::Backend;
 use fringe3d_core::decode::{AnyDecoder, DecodeConfig, Decoder, RowOut};
 use fringe3d_core::pattern::{Level, MAX_IMAGES, Output, PatternError, PatternSet};

@@ -2,8 +2,7 @@
 //! and validity bits of full ones, in every backend, for wide and short rows, through the row and
 //! the frame-sequential drivers; a row of any other wrong length is still refused.
 
-mod common;
-use common::*;
+use crate::common::*;
 use fringe3d_core::arith::Backend;
 use fringe3d_core::decode::{AnyDecoder, DecodeConfig, DecodeError, Decoder, RowOut};
 use fringe3d_core::pattern::PatternSet;

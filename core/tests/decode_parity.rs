@@ -3,8 +3,7 @@
 // Tests use std f64 maths as the independent truth; the ban on it is for the core library.
 #![allow(clippy::disallowed_methods)]
 
-mod common;
-use common::*;
+use crate::common::*;
 use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut, Sample};
 use fringe3d_core::math::canonical;
 use fringe3d_core::pattern::{Level, Output, PatternSet};

@@ -8,8 +8,7 @@
 //! [`Plan::accepted_coarse`]: fringe3d_core::arith::Plan::accepted_coarse
 #![allow(clippy::disallowed_methods)] // std f64 maths is the independent truth here
 
-mod common;
-use common::*;
+use crate::common::*;
 use fringe3d_core::arith::Backend;
 use fringe3d_core::decode::{AnyDecoder, DecodeConfig, RowOut};
 use fringe3d_core::pattern::{Output, PatternSet};

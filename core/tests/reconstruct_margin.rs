@@ -7,8 +7,7 @@
 // Integration tests are std: std f64 maths is the independent truth here.
 #![allow(clippy::disallowed_methods)]
 
-#[path = "reconstruct_support.rs"]
-mod support;
+use crate::reconstruct_support as support;
 
 use fringe3d_core::Validity;
 use fringe3d_core::reconstruct::{

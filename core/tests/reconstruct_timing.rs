@@ -1,5 +1,5 @@
 //! Per-frame CPU time of the reconstruction (ignored by default; run with
-//! `cargo test --release -p fringe3d-core --test reconstruct_timing -- --ignored --nocapture
+//! `cargo test --release -p fringe3d-core --test suite reconstruct_timing:: -- --ignored --nocapture
 //! --test-threads 1`, so that the two scenes do not compete for the cores).
 //!
 //! Reports the thread's on-CPU time (Linux `/proc/thread-self/schedstat`) next to wall time, so
@@ -8,8 +8,7 @@
 // Integration tests are std: std f64 maths builds the scene.
 #![allow(clippy::disallowed_methods)]
 
-#[path = "reconstruct_support.rs"]
-mod support;
+use crate::reconstruct_support as support;
 
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use std::time::Instant;

@@ -5,8 +5,7 @@
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::*;
 
-mod wire_support;
-use wire_support::raw_frame;
+use crate::wire_support::raw_frame;
 
 #[test]
 fn header_must_agree_with_message() {

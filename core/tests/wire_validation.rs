@@ -4,8 +4,7 @@
 use fringe3d_core::Validity;
 use fringe3d_core::wire::*;
 
-mod wire_support;
-use wire_support::raw_frame;
+use crate::wire_support::raw_frame;
 
 fn invalid(why: Invalid) -> Result<(), WireError> {
     Err(WireError::Invalid(why))

@@ -10,8 +10,7 @@ use fringe3d_core::wire::{
 use fringe3d_head::desktop::{InProcess, OwnedMemory};
 use fringe3d_head::sim::{NoSink, SimWorld};
 
-mod link_support;
-use link_support::*;
+use crate::link_support::*;
 
 /// Everything in one run under faults: connect, define, upload patterns, configure, scan phase.
 /// `Ok` only with correct results; errors must be the line's, with a message.

@@ -17,8 +17,7 @@ use fringe3d_core::wire::{
 use fringe3d_head::desktop::{InProcess, OwnedMemory};
 use fringe3d_head::sim::{NoSink, SimWorld};
 
-mod link_support;
-use link_support::*;
+use crate::link_support::*;
 
 /// A transport that notes the command of every frame the host sends.
 struct Spy<T> {

@@ -16,8 +16,7 @@ use fringe3d_head::desktop::{InProcess, OwnedMemory, Recorder, sim_board};
 use fringe3d_head::sim::{EventKind, Line, NoSink, SimWorld};
 use fringe3d_head::{Head, HeadConfig};
 
-mod link_support;
-use link_support::*;
+use crate::link_support::*;
 
 #[test]
 fn host_and_head_build_the_same_set_from_a_description() {

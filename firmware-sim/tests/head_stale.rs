@@ -19,8 +19,7 @@ use fringe3d_core::wire::{
 use fringe3d_head::desktop::{InProcess, OwnedMemory};
 use fringe3d_head::sim::{NoSink, SimWorld};
 
-mod link_support;
-use link_support::*;
+use crate::link_support::*;
 
 /// A marker no decoded phase takes.
 const MARK: f32 = 1.0e6;

@@ -17,8 +17,7 @@ use fringe3d_head::desktop::{InProcess, OwnedMemory};
 use fringe3d_head::port::{ByteQueue, QueuePort, Wait};
 use fringe3d_head::sim::{NoSink, SimWorld};
 
-mod link_support;
-use link_support::*;
+use crate::link_support::*;
 
 /// The desktop board's waiting strategy, with a short stall limit: nobody drains the TX queue.
 struct StallAfter {

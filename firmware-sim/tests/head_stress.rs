@@ -21,8 +21,7 @@ use fringe3d_core::wire::{
 use fringe3d_head::desktop::{InProcess, OwnedMemory};
 use fringe3d_head::sim::{NoSink, SimWorld};
 
-mod link_support;
-use link_support::*;
+use crate::link_support::*;
 
 /// The value of every column of a stale row (no decoded phase takes it).
 const MARK: f32 = 1.0e6;

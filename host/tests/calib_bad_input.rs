@@ -12,9 +12,7 @@ use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::scene::{Overrides, SceneSpec};
 use std::path::{Path, PathBuf};
 
-#[path = "cli_support/mod.rs"]
-mod cli_support;
-use cli_support::{Tmp, fringe3d, s};
+use crate::cli_support::{Tmp, fringe3d, s};
 
 const SIZE: (u32, u32) = (320, 256);
 

@@ -12,9 +12,7 @@ use fringe3d::scan::ScanCalibration;
 use serde_json::Value;
 use std::path::Path;
 
-#[path = "cli_support/mod.rs"]
-mod cli_support;
-use cli_support::{Tmp, run, s};
+use crate::cli_support::{Tmp, run, s};
 
 fn render(scene: &str, size: &str, out: &Path) {
     run(&[

@@ -11,9 +11,7 @@ use fringe3d::render::{Overrides, SceneSpec};
 use fringe3d::scan::ScanCalibration;
 use std::path::{Path, PathBuf};
 
-#[path = "cli_support/mod.rs"]
-mod cli_support;
-use cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, run, s};
 
 /// Render the tilted plane (640 × 512, 8-bit camera, σ = 1, 8-bit patterns) with `gamma`.
 fn render(dir: &Path, name: &str, gamma: f64, gray: u32) -> PathBuf {

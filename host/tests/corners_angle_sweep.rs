@@ -284,7 +284,8 @@ fn angles() -> Vec<f64> {
 }
 
 /// The full sweep with timing, one image source per run (`SWEEP=render12|render64|tilt12|exact`):
-/// `SWEEP=exact cargo test -p fringe3d --test corners_angle_sweep -- --ignored --nocapture`.
+/// `SWEEP=exact cargo test --release -p fringe3d --test suite corners_angle_sweep:: -- --ignored
+/// --nocapture`.
 #[test]
 #[ignore]
 fn experiment() {

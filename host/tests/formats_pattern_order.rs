@@ -8,9 +8,7 @@ use fringe3d::calib::files::read_phase_map;
 use fringe3d::io::pattern_file::PatternSetFile;
 use std::path::Path;
 
-#[path = "cli_support/mod.rs"]
-mod cli_support;
-use cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, run, s};
 
 const LEVELS: &str = "
 [projector]

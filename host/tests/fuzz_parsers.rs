@@ -12,7 +12,8 @@
 //! (OpenCV camera and stereo files, SLStudio, SLMaster, Bouguet's stereo script) are fuzzed too.
 //!
 //! `FRINGE3D_FUZZ_ITERS` sets the mutated inputs per parser (default 1000); `FRINGE3D_FUZZ_SEED`
-//! the seed. Each test prints its count and time (`cargo test --test fuzz_parsers -- --nocapture`).
+//! the seed. Each test prints its count and time (`cargo test --release -p
+//! fringe3d --test suite fuzz_parsers:: -- --nocapture`).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -35,9 +36,7 @@ use fringe3d_core::wire::{
     PatternSetDesc, parse_packet,
 };
 
-#[path = "cli_support/mod.rs"]
-mod cli_support;
-use cli_support::Tmp;
+use crate::cli_support::Tmp;
 
 /// SplitMix64: small, seeded, reproducible.
 struct Rng(u64);

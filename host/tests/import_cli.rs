@@ -10,9 +10,7 @@ use fringe3d::scan::{PointCloud, ScanCalibration};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-#[path = "cli_support/mod.rs"]
-mod cli_support;
-use cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, run, s};
 
 /// The command fails with one error line holding every `must`.
 fn fails(args: &[&str], must: &[&str]) -> String {

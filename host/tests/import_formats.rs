@@ -13,9 +13,7 @@ use fringe3d_core::params::CameraParams;
 use std::fmt::Write as _;
 use std::path::Path;
 
-#[path = "cli_support/mod.rs"]
-mod cli_support;
-use cli_support::Tmp;
+use crate::cli_support::Tmp;
 
 fn truth() -> Rig {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes/skewed_rig.toml");

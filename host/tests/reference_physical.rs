@@ -12,9 +12,7 @@ use fringe3d::render::scene::{Overrides, SceneSpec};
 use serde_json::Value;
 use std::path::Path;
 
-#[path = "cli_support/mod.rs"]
-mod cli_support;
-use cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, run, s};
 
 fn render(dir: &Path, edit: impl FnOnce(&mut SceneSpec)) {
     let mut spec = SceneSpec::builtin("reference").unwrap();

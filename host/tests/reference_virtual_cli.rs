@@ -8,9 +8,7 @@ use fringe3d::cli::common;
 use fringe3d::scan::ScanCalibration;
 use std::path::Path;
 
-#[path = "cli_support/mod.rs"]
-mod cli_support;
-use cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, run, s};
 
 /// Interior RMS error of the scan of `ds` with `calibration` (the library path of `fringe3d scan`),
 /// mm, and the interior points compared. The CLI's `scan` is exercised on the same files too.

@@ -9,12 +9,10 @@
 //! symmetry estimator has no such bias; what it leaves, ~0.01 px, includes the projector's
 //! shading gradient across each corner, which breaks the symmetry slightly.)
 
-mod render_common;
-
+use crate::render_common::{project_to_camera, rms_max};
 use fringe3d::io::image::{Pixels, read_gray};
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::{Scene, SceneSpec};
-use render_common::{project_to_camera, rms_max};
 use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {

@@ -1,13 +1,11 @@
 //! The ground truth is geometrically exact: checked with a pinhole + Brown camera and projector
 //! model written in the test (render_common), not the renderer's.
 
-mod render_common;
-
+use crate::render_common::{decode_frames, project_to_camera, project_to_projector, rms_max};
 use fringe3d::render::{
     MASK_HIT, MASK_IN_FRAME, MASK_LIT, MASK_VALID, Overrides, RenderOptions, Rig, Scene,
 };
 use fringe3d_core::phase_function::Profile;
-use render_common::{decode_frames, project_to_camera, project_to_projector, rms_max};
 
 /// Undistort pixel (u, v) of the camera by fixed-point iteration (independent of the renderer's
 /// Newton solver): the direction (x, y, 1) of its ray.

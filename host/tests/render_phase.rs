@@ -16,10 +16,8 @@
 //! With one sample per pixel (no supersampling) nothing else separates the rendered phase from
 //! the truth, so every valid pixel must satisfy `|ΔΦ| ≤ 0.7071/B + 2√2·q + 1e-6`.
 
-mod render_common;
-
+use crate::render_common::{decode_float, decode_frames, rms_max};
 use fringe3d::render::{MASK_VALID, Overrides, ProjectorMode, RenderOptions, Scene, SceneSpec};
-use render_common::{decode_float, decode_frames, rms_max};
 
 fn plane_scene(
     mode: ProjectorMode,
