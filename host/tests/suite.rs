@@ -19,6 +19,7 @@ mod formats_calibration;
 mod formats_pattern;
 mod formats_pattern_order;
 mod formats_ply;
+mod formats_raw;
 mod fuzz_parsers;
 mod gamma_compensation;
 mod hardening_bounds;

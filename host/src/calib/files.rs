@@ -34,8 +34,8 @@ pub(crate) fn input(what: &Path, message: impl Into<String>) -> CalibError {
     }
 }
 
-/// The images named on a command line: the files themselves, or every PNG/TIFF/BMP of one
-/// folder sorted by name.
+/// The images named on a command line: the files themselves, or every PNG/TIFF/BMP/PGM (or NPY)
+/// frame of one folder sorted by name.
 pub fn image_list(args: &[PathBuf]) -> Result<Vec<PathBuf>, CalibError> {
     match args {
         [] => Err(CalibError::Input {

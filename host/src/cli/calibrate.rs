@@ -76,7 +76,7 @@ impl BoardArgs {
 #[derive(clap::Args, Debug)]
 #[command(
     after_help = "Example:\n  fringe3d calibrate camera data/checkerboard/ --board 11x8 --square 25 -o camera.yml\n\n\
-IMAGES: board images (PNG/TIFF/BMP), or one folder (every image in it, sorted by name). The whole\n\
+IMAGES: board images (PNG/TIFF/BMP/PGM/NPY), or one folder (every image in it, sorted by name). The whole\n\
 board must be in view; views without it are left out with the reason. Writes the camera as an\n\
 OpenCV FileStorage YAML file (K[0][1] = skew·fx, distortion [k1, k2, p1, p2, k3]) and a report\n\
 folder: report.json (intrinsics with standard deviations, per-view RMS, rejected views) and a PNG\n\

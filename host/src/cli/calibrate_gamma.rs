@@ -16,7 +16,7 @@ use std::path::PathBuf;
 #[command(
     after_help = "Example:\n  fringe3d patterns --gray 17 -o gray/      # project these onto the reference plane, capture each\n  \
 fringe3d calibrate gamma -c calibration.toml captures/gray/ -p scan/patterns.toml\n\n\
-IMAGES: the captures in level order, or one folder (every PNG/TIFF/BMP sorted by name). The levels are\n\
+IMAGES: the captures in level order, or one folder (every PNG/TIFF/BMP/PGM/NPY sorted by name). The levels are\n\
 --levels (projector codes), default N evenly spaced codes from 0 to full scale (what --gray N writes).\n\
 Black (0) and full white must be among them. The camera's exposure must stay fixed and leave white\n\
 unsaturated. Writes [projector_response] into the calibration: `scan`, `decode` and `calibrate\n\

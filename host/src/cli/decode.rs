@@ -72,7 +72,7 @@ impl DecodeRecord {
 #[command(
     after_help = "Example:\n  fringe3d decode --patterns scan/patterns.toml scan/ --out decoded/\n\n\
 IMAGES: the images in set order, or one folder (the pattern file's `images` names inside it, else\n\
-every PNG/TIFF/BMP sorted by name); none: the pattern file's own `images` list.\n\
+every PNG/TIFF/BMP/PGM sorted by name, or its NPY frames); none: the pattern file's own `images` list.\n\
 Writes phase.tif, modulation.tif, dc.tif (32-bit float TIFF; phase NaN where invalid),\n\
 validity.png (8-bit codes, see docs/formats.md), preview.png (false colour) and decode.toml\n\
 (the pattern set's digest, which `fringe3d reconstruct` checks against the reference)."

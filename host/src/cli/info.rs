@@ -49,10 +49,10 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
             .to_ascii_lowercase();
         match ext.as_str() {
             "toml" => toml_info(p)?,
-            "png" | "tif" | "tiff" | "bmp" => image_info(p)?,
+            "png" | "tif" | "tiff" | "bmp" | "pgm" | "npy" => image_info(p)?,
             "yml" | "yaml" | "xml" | "json" | "m" => foreign_info(p)?,
             _ => bail!(
-                "{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif, .bmp, or another tool's calibration: .yml, .yaml, .xml, .json, .m)",
+                "{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif, .bmp, .pgm, .npy, or another tool's calibration: .yml, .yaml, .xml, .json, .m)",
                 p.display()
             ),
         }

@@ -14,7 +14,7 @@ use std::time::Instant;
 #[command(
     after_help = "Example:\n  fringe3d scan --patterns scan/patterns.toml --calibration scan/calibration.toml scan/ -o cloud.ply\n\n\
 IMAGES: the images in set order, or one folder (the pattern file's `images` names inside it, else\n\
-every PNG/TIFF/BMP sorted by name); none: the pattern file's own `images` list.\n\
+every PNG/TIFF/BMP/PGM sorted by name, or its NPY frames); none: the pattern file's own `images` list.\n\
 The calibration names the reference phase map (float TIFF) beside it; see docs/formats.md.\n\
 The pattern set must be the reference's: a set whose digest differs from the calibration's\n\
 [reference] pattern_digest (or its pattern_set file's) is refused before anything is written."

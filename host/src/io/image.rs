@@ -5,6 +5,11 @@
 //! | PNG | 1/2/4/8/16-bit gray, gray+alpha, RGB(A), palette | 8- and 16-bit gray |
 //! | TIFF | 8/16-bit gray, 32-bit float gray, 8/16-bit RGB(A) | 32-bit float gray |
 //! | BMP | 8-bit palette (and 24/32-bit BGR) | — |
+//! | PGM (P5) | 8-bit, and 16-bit with maxval `2^bits − 1` (10, 12 bits stored unscaled) | — |
+//! | NPY | `(h, w)` or `(h, w, 1)` arrays of uint8, uint16 (either byte order), float32 | — |
+//!
+//! PGM and NPY are raw: the samples are copied, not inflated, so they load fastest
+//! (`docs/formats.md`).
 //!
 //! Colour input is converted to luma with the Rec. 601 weights
 //! `Y = 0.299·R + 0.587·G + 0.114·B` (rounded to the nearest code) and
@@ -26,6 +31,8 @@ use std::io::{BufReader, Cursor, Read};
 use std::path::{Path, PathBuf};
 
 mod read_bmp;
+mod read_npy;
+mod read_pgm;
 mod read_png;
 mod read_tiff;
 
@@ -86,8 +93,8 @@ pub enum ImageError {
         /// The OS error.
         source: std::io::Error,
     },
-    /// The file starts with neither the PNG, the TIFF nor the BMP signature.
-    #[error("{path}: not a PNG, TIFF or BMP image")]
+    /// The file starts with none of the PNG, TIFF, BMP, PGM (P5) and NPY signatures.
+    #[error("{path}: not a PNG, TIFF, BMP, PGM (P5) or NPY image")]
     UnknownFormat {
         /// The file.
         path: PathBuf,
@@ -97,7 +104,7 @@ pub enum ImageError {
     Decode {
         /// The file.
         path: PathBuf,
-        /// `PNG`, `TIFF` or `BMP`.
+        /// `PNG`, `TIFF`, `BMP`, `PGM` or `NPY`.
         format: &'static str,
         /// What went wrong.
         message: String,
@@ -163,6 +170,10 @@ pub enum ImageFormat {
     Tiff,
     /// Windows bitmap.
     Bmp,
+    /// Netpbm binary gray map (`P5`).
+    Pgm,
+    /// NumPy array file (`.npy`).
+    Npy,
 }
 
 /// Samples of a gray image, row-major, top row first.
@@ -265,6 +276,9 @@ fn check_dims(path: &Path, width: u32, height: u32, lim: &ReadLimits) -> Result<
     Ok(())
 }
 
+/// The bytes [`read_header`] reads: the largest header of any format read here.
+const HEADER_BYTES: usize = 12 + crate::io::npy::MAX_HEADER;
+
 /// The file's bytes: a regular file of at most [`MAX_IMAGE_BYTES`] (never a device or a FIFO).
 fn read_file(path: &Path) -> Result<Vec<u8>, ImageError> {
     read_limited(path, MAX_IMAGE_BYTES).map_err(|source| ImageError::Io {
@@ -297,11 +311,18 @@ pub fn read_header(path: &Path) -> Result<ImageHeader, ImageError> {
         source,
     };
     let (mut f, _) = open_regular(path).map_err(io)?;
-    let mut head = Vec::with_capacity(64);
-    (&mut f).take(64).read_to_end(&mut head).map_err(io)?;
+    // Enough for every format's header: PNG and BMP need 64 bytes, a PGM header with comments
+    // up to its cap, an NPY header up to its own (numpy writes about 128 bytes).
+    let mut head = Vec::with_capacity(256);
+    (&mut f)
+        .take(HEADER_BYTES as u64)
+        .read_to_end(&mut head)
+        .map_err(io)?;
     match format_of(&head) {
         Some(ImageFormat::Png) => read_png::header(&head, path),
         Some(ImageFormat::Bmp) => read_bmp::header(&head, path),
+        Some(ImageFormat::Pgm) => read_pgm::header(&head, path),
+        Some(ImageFormat::Npy) => read_npy::header(&head, path),
         Some(ImageFormat::Tiff) => {
             use std::io::Seek;
             f.seek(std::io::SeekFrom::Start(0)).map_err(io)?;
@@ -325,6 +346,10 @@ fn format_of(bytes: &[u8]) -> Option<ImageFormat> {
         Some(ImageFormat::Tiff)
     } else if bytes.starts_with(b"BM") {
         Some(ImageFormat::Bmp)
+    } else if bytes.starts_with(b"P5") || bytes.starts_with(b"P2") {
+        Some(ImageFormat::Pgm)
+    } else if bytes.starts_with(b"\x93NUMPY") {
+        Some(ImageFormat::Npy)
     } else {
         None
     }
@@ -345,6 +370,8 @@ pub fn decode_gray_limited(
         Some(ImageFormat::Png) => read_png::decode(bytes, path, lim),
         Some(ImageFormat::Tiff) => read_tiff::decode(bytes, path, lim),
         Some(ImageFormat::Bmp) => read_bmp::decode(bytes, path, lim),
+        Some(ImageFormat::Pgm) => read_pgm::decode(bytes, path, lim),
+        Some(ImageFormat::Npy) => read_npy::decode(bytes, path, lim),
         None => Err(ImageError::UnknownFormat {
             path: path.to_path_buf(),
         }),

@@ -111,7 +111,9 @@ pub enum ImageSetError {
     },
 }
 
-/// The image files (PNG, TIFF, BMP by extension) of a folder, sorted by name.
+/// The image files of a folder (PNG, TIFF, BMP, PGM by extension), sorted by name; its `.npy`
+/// files only when it holds none of those: `render` keeps ground-truth arrays (`points.npy`)
+/// beside its PNG frames, and they are not frames.
 pub fn list_folder(dir: &Path) -> Result<Vec<PathBuf>, ImageSetError> {
     let rd = std::fs::read_dir(dir).map_err(|e| ImageSetError::Folder {
         path: dir.to_path_buf(),
@@ -126,17 +128,25 @@ pub fn list_folder(dir: &Path) -> Result<Vec<PathBuf>, ImageSetError> {
                     .map(|e| {
                         matches!(
                             e.to_ascii_lowercase().as_str(),
-                            "png" | "tif" | "tiff" | "bmp"
+                            "png" | "tif" | "tiff" | "bmp" | "pgm" | "npy"
                         )
                     })
                     .unwrap_or(false)
         })
         .collect();
+    let is_npy = |p: &PathBuf| {
+        p.extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+    };
+    if v.iter().any(|p| !is_npy(p)) {
+        v.retain(|p| !is_npy(p));
+    }
     v.sort();
     if v.is_empty() {
         return Err(ImageSetError::Folder {
             path: dir.to_path_buf(),
-            message: "no PNG, TIFF or BMP images in this folder".into(),
+            message: "no PNG, TIFF, BMP, PGM or NPY images in this folder".into(),
         });
     }
     Ok(v)

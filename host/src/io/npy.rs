@@ -1,4 +1,5 @@
-//! A minimal NumPy `.npy` (format 1.0) writer and reader for little-endian f64/f32 arrays.
+//! A minimal NumPy `.npy` writer (format 1.0, little-endian f64/f32 arrays), a header parser
+//! (formats 1.0 to 3.0; camera frames are read from it by `io::image`) and an f64 reader.
 
 /// Element types written here.
 pub trait NpyElem: Copy {
@@ -50,10 +51,37 @@ pub fn encode<T: NpyElem>(shape: &[usize], data: &[T]) -> Vec<u8> {
     out
 }
 
-/// Read a little-endian f64 `.npy` (C order): (shape, data). For tests and tools.
-pub fn decode_f64(bytes: &[u8]) -> Result<(Vec<usize>, Vec<f64>), String> {
+/// The longest `.npy` header read, bytes: numpy writes 128 or so; a file claiming more is not one
+/// of ours or a camera's, and its "header" must not be scanned through.
+pub const MAX_HEADER: usize = 65536;
+
+/// A `.npy` header (format 1.0, 2.0 or 3.0), parsed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Header {
+    /// The dtype string, e.g. `<f8`, `|u1`, `<u2`.
+    pub descr: String,
+    /// Column-major data (`fortran_order: True`).
+    pub fortran_order: bool,
+    /// The array's shape.
+    pub shape: Vec<usize>,
+    /// Offset of the data in the file.
+    pub data: usize,
+}
+
+/// The value text after `'key':` (either quote style) in a header dict.
+fn value_of<'a>(dict: &'a str, key: &str) -> Option<&'a str> {
+    ["'", "\""].iter().find_map(|q| {
+        let k = format!("{q}{key}{q}");
+        let at = dict.find(&k)? + k.len();
+        let rest = dict[at..].trim_start();
+        Some(rest.strip_prefix(':')?.trim_start())
+    })
+}
+
+/// Parse the header of a `.npy` file from its first bytes (at least the whole header).
+pub fn parse_header(bytes: &[u8]) -> Result<Header, String> {
     if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
-        return Err("not a .npy file".into());
+        return Err("not a .npy file (no \\x93NUMPY magic)".into());
     }
     let (hl, start) = match bytes[6] {
         1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
@@ -63,25 +91,57 @@ pub fn decode_f64(bytes: &[u8]) -> Result<(Vec<usize>, Vec<f64>), String> {
         ),
         v => return Err(format!("unsupported .npy version {v}")),
     };
-    let header = std::str::from_utf8(bytes.get(start..start + hl).ok_or("truncated header")?)
-        .map_err(|_| "header is not text")?;
-    if !header.contains("'descr': '<f8'") || header.contains("'fortran_order': True") {
-        return Err("only little-endian f64 in C order is read".into());
+    if hl > MAX_HEADER {
+        return Err(format!("header of {hl} bytes, more than {MAX_HEADER}"));
     }
-    let s = header.find("'shape': (").ok_or("no shape")? + 10;
-    let e = header[s..].find(')').ok_or("bad shape")? + s;
-    let shape: Vec<usize> = header[s..e]
+    let dict = std::str::from_utf8(bytes.get(start..start + hl).ok_or("truncated header")?)
+        .map_err(|_| "header is not text")?;
+    let descr = value_of(dict, "descr")
+        .and_then(|v| {
+            let q = v.chars().next().filter(|c| *c == '\'' || *c == '"')?;
+            let v = &v[1..];
+            v.find(q).map(|e| v[..e].to_string())
+        })
+        .ok_or("no 'descr' string in the header")?;
+    let fortran_order = match value_of(dict, "fortran_order") {
+        Some(v) if v.starts_with("False") => false,
+        Some(v) if v.starts_with("True") => true,
+        _ => return Err("no 'fortran_order' True/False in the header".into()),
+    };
+    let shape_text = value_of(dict, "shape")
+        .and_then(|v| v.strip_prefix('('))
+        .and_then(|v| v.find(')').map(|e| &v[..e]))
+        .ok_or("no 'shape' tuple in the header")?;
+    let shape: Vec<usize> = shape_text
         .split(',')
         .map(str::trim)
         .filter(|t| !t.is_empty())
-        .map(|t| t.parse::<usize>().map_err(|_| "bad shape".to_string()))
+        .map(|t| {
+            t.parse::<usize>()
+                .map_err(|_| format!("bad shape ({shape_text})"))
+        })
         .collect::<Result<_, _>>()?;
+    Ok(Header {
+        descr,
+        fortran_order,
+        shape,
+        data: start + hl,
+    })
+}
+
+/// Read a little-endian f64 `.npy` (C order): (shape, data). For tests and tools.
+pub fn decode_f64(bytes: &[u8]) -> Result<(Vec<usize>, Vec<f64>), String> {
+    let h = parse_header(bytes)?;
+    if h.descr != "<f8" || h.fortran_order {
+        return Err("only little-endian f64 in C order is read".into());
+    }
     // A shape whose size overflows cannot fit the file (checked: no overflow panic).
-    let bytes_needed = shape
+    let bytes_needed = h
+        .shape
         .iter()
         .try_fold(8usize, |a, &d| a.checked_mul(d))
         .ok_or("the shape's size overflows")?;
-    let body = &bytes[start + hl..];
+    let body = &bytes[h.data..];
     if body.len() < bytes_needed {
         return Err("truncated data".into());
     }
@@ -89,7 +149,7 @@ pub fn decode_f64(bytes: &[u8]) -> Result<(Vec<usize>, Vec<f64>), String> {
         .chunks_exact(8)
         .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
         .collect();
-    Ok((shape, data))
+    Ok((h.shape, data))
 }
 
 #[cfg(test)]
