@@ -35,8 +35,7 @@ fn target_dir() -> PathBuf {
 /// With more codegen units and no debug info than the bench's own release profile (whose
 /// instruction counts `run.sh` reports): the core is rebuilt for each target at every change, and
 /// this halves that time in CI; the digests must not depend on code generation anyway, which is
-/// what this test checks. `.ci/run` runs this same build ahead, in the background: keep the two
-/// alike.
+/// what this test checks.
 fn cargo_build(targets: &[&str]) -> std::io::Result<std::process::Output> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut c = Command::new(cargo);

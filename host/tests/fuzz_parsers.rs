@@ -1,15 +1,16 @@
 //! A short seeded fuzz loop of the file parsers and the wire decoder (issue #21), on stable and
 //! in the normal test run.
 //!
-//! Valid seeds (PNG 8/16-bit, TIFF f32/u16, BMP 8/24-bit, the example calibration and pattern
-//! files, an NPY array, wire packets) are mutated by a seeded SplitMix64: bit flips, byte
-//! overwrites, truncations, insertions, deletions, duplicated runs, little- and big-endian
-//! length-field edits (with the PNG chunk CRCs and the wire frame CRC recomputed, so that the
-//! mutation reaches the parser behind the checksum), and for the TOML files number tokens
-//! replaced by extreme values. Every input must give `Ok` or `Err`: a panic fails the test and
-//! leaves the input in the temp folder. Errors must name the file; an image accepted must fit the
-//! pixel cap it was read with (the memory bound). The importers of other tools' calibrations
-//! (OpenCV camera and stereo files, SLStudio, SLMaster, Bouguet's stereo script) are fuzzed too.
+//! Valid seeds (PNG 8/16-bit, TIFF f32/u16, BMP 8/24-bit, PGM 8/12-bit, NPY frames u8/u16, the
+//! example calibration and pattern files, an NPY array, wire packets) are mutated by a seeded
+//! SplitMix64: bit flips, byte overwrites, truncations, insertions, deletions, duplicated runs,
+//! little- and big-endian length-field edits (with the PNG chunk CRCs and the wire frame CRC
+//! recomputed, so that the mutation reaches the parser behind the checksum), and for the TOML
+//! files number tokens replaced by extreme values. Every input must give `Ok` or `Err`: a panic
+//! fails the test and leaves the input in the temp folder. Errors must name the file; an image
+//! accepted must fit the pixel cap it was read with (the memory bound). The importers of other
+//! tools' calibrations (OpenCV camera and stereo files, SLStudio, SLMaster, Bouguet's stereo
+//! script) are fuzzed too.
 //!
 //! `FRINGE3D_FUZZ_ITERS` sets the mutated inputs per parser (default 1000); `FRINGE3D_FUZZ_SEED`
 //! the seed. Each test prints its count and time (`cargo test --release -p
@@ -285,7 +286,42 @@ fn image_seeds() -> Vec<Vec<u8>> {
         tiff16,
         bmp(w, h, 8),
         bmp(w, h, 24),
+        [
+            format!("P5\n# seed\n{w} {h}\n255\n").into_bytes(),
+            g8.clone(),
+        ]
+        .concat(),
+        [
+            format!("P5 {w} {h} 4095\n").into_bytes(),
+            g16.iter().flat_map(|v| (v & 4095).to_be_bytes()).collect(),
+        ]
+        .concat(),
+        npy_frame("|u1", w, h, &g8),
+        npy_frame(
+            "<u2",
+            w,
+            h,
+            &g16.iter()
+                .flat_map(|v| v.to_le_bytes())
+                .collect::<Vec<u8>>(),
+        ),
     ]
+}
+
+/// A `.npy` camera frame (format 1.0) of dtype `descr` holding `data`.
+fn npy_frame(descr: &str, w: u32, h: u32, data: &[u8]) -> Vec<u8> {
+    let mut dict = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': ({h}, {w}), }}");
+    while !(11 + dict.len()).is_multiple_of(64) {
+        dict.push(' ');
+    }
+    dict.push('\n');
+    [
+        b"\x93NUMPY\x01\x00".as_slice(),
+        &(dict.len() as u16).to_le_bytes(),
+        dict.as_bytes(),
+        data,
+    ]
+    .concat()
 }
 
 /// An uncompressed bottom-up BMP of `bpp` = 8 (gray palette) or 24 bits.
@@ -323,7 +359,7 @@ fn bmp(w: u32, h: u32, bpp: u16) -> Vec<u8> {
 }
 
 #[test]
-fn images_png_tiff_bmp() {
+fn images_png_tiff_bmp_pgm_npy() {
     let seeds = image_seeds();
     let tmp = Tmp::new("fuzz-images");
     let path = tmp.0.join("fuzzed-image");
@@ -376,7 +412,7 @@ fn images_png_tiff_bmp() {
             }
         }
     }
-    report("png/tiff/bmp", n, ok, t0);
+    report("png/tiff/bmp/pgm/npy", n, ok, t0);
 }
 
 fn examples() -> PathBuf {
