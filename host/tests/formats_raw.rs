@@ -2,7 +2,7 @@
 //! and a scan from them gives the bits of the same scan from PNG. The files are written here by
 //! hand, from the formats' specifications, not by the readers' code.
 
-use crate::cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, npy_file as npy, run, s};
 use fringe3d::io::image::{GrayImage, ImageFormat, Pixels, read_gray, read_header};
 use std::path::{Path, PathBuf};
 
@@ -11,20 +11,6 @@ use std::path::{Path, PathBuf};
 fn pgm(header: &str, raster: &[u8]) -> Vec<u8> {
     let mut b = header.as_bytes().to_vec();
     b.extend_from_slice(raster);
-    b
-}
-
-/// A `.npy` file (format 1.0) with `dict` as its header text, padded as numpy pads it.
-fn npy(dict: &str, data: &[u8]) -> Vec<u8> {
-    let mut h = dict.to_string();
-    while !(10 + h.len() + 1).is_multiple_of(64) {
-        h.push(' ');
-    }
-    h.push('\n');
-    let mut b = b"\x93NUMPY\x01\x00".to_vec();
-    b.extend_from_slice(&(h.len() as u16).to_le_bytes());
-    b.extend_from_slice(h.as_bytes());
-    b.extend_from_slice(data);
     b
 }
 

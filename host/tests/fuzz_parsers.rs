@@ -308,20 +308,10 @@ fn image_seeds() -> Vec<Vec<u8>> {
     ]
 }
 
-/// A `.npy` camera frame (format 1.0) of dtype `descr` holding `data`.
+/// A `.npy` camera frame of dtype `descr` holding `data`.
 fn npy_frame(descr: &str, w: u32, h: u32, data: &[u8]) -> Vec<u8> {
-    let mut dict = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': ({h}, {w}), }}");
-    while !(11 + dict.len()).is_multiple_of(64) {
-        dict.push(' ');
-    }
-    dict.push('\n');
-    [
-        b"\x93NUMPY\x01\x00".as_slice(),
-        &(dict.len() as u16).to_le_bytes(),
-        dict.as_bytes(),
-        data,
-    ]
-    .concat()
+    let dict = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': ({h}, {w}), }}");
+    crate::cli_support::npy_file(&dict, data)
 }
 
 /// An uncompressed bottom-up BMP of `bpp` = 8 (gray palette) or 24 bits.

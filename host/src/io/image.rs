@@ -276,9 +276,6 @@ fn check_dims(path: &Path, width: u32, height: u32, lim: &ReadLimits) -> Result<
     Ok(())
 }
 
-/// The bytes [`read_header`] reads: the largest header of any format read here.
-const HEADER_BYTES: usize = 12 + crate::io::npy::MAX_HEADER;
-
 /// The file's bytes: a regular file of at most [`MAX_IMAGE_BYTES`] (never a device or a FIFO).
 fn read_file(path: &Path) -> Result<Vec<u8>, ImageError> {
     read_limited(path, MAX_IMAGE_BYTES).map_err(|source| ImageError::Io {
@@ -311,13 +308,19 @@ pub fn read_header(path: &Path) -> Result<ImageHeader, ImageError> {
         source,
     };
     let (mut f, _) = open_regular(path).map_err(io)?;
-    // Enough for every format's header: PNG and BMP need 64 bytes, a PGM header with comments
-    // up to its cap, an NPY header up to its own (numpy writes about 128 bytes).
+    // 64 bytes hold a PNG's, a BMP's or a TIFF's first fields; a PGM header (comments included)
+    // may run to its cap, and an NPY header says its own length (numpy writes about 128 bytes).
     let mut head = Vec::with_capacity(256);
-    (&mut f)
-        .take(HEADER_BYTES as u64)
-        .read_to_end(&mut head)
-        .map_err(io)?;
+    (&mut f).take(64).read_to_end(&mut head).map_err(io)?;
+    let want = match format_of(&head) {
+        Some(ImageFormat::Pgm) => read_pgm::MAX_HEADER + 1,
+        Some(ImageFormat::Npy) => crate::io::npy::header_span(&head),
+        _ => 0,
+    };
+    if want > head.len() {
+        let more = (want - head.len()) as u64;
+        (&mut f).take(more).read_to_end(&mut head).map_err(io)?;
+    }
     match format_of(&head) {
         Some(ImageFormat::Png) => read_png::header(&head, path),
         Some(ImageFormat::Bmp) => read_bmp::header(&head, path),

@@ -78,6 +78,17 @@ fn value_of<'a>(dict: &'a str, key: &str) -> Option<&'a str> {
     })
 }
 
+/// How many bytes of a `.npy` file hold its header, from its first 12 (or fewer: then 12), at most
+/// `12 + MAX_HEADER`: what a header-only reader must read.
+pub fn header_span(first: &[u8]) -> usize {
+    let len = match (first.get(6), first.get(8..12)) {
+        (Some(1), Some(b)) => 10 + u16::from_le_bytes([b[0], b[1]]) as usize,
+        (Some(2 | 3), Some(b)) => 12 + u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
+        _ => 12,
+    };
+    len.min(12 + MAX_HEADER)
+}
+
 /// Parse the header of a `.npy` file from its first bytes (at least the whole header).
 pub fn parse_header(bytes: &[u8]) -> Result<Header, String> {
     if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
