@@ -312,7 +312,9 @@ pub fn read_header(path: &Path) -> Result<ImageHeader, ImageError> {
     // may run to its cap, and an NPY header says its own length (numpy writes about 128 bytes).
     let mut head = Vec::with_capacity(256);
     (&mut f).take(64).read_to_end(&mut head).map_err(io)?;
-    let want = match format_of(&head) {
+    // The signature is in the first bytes, so reading more below does not change it.
+    let format = format_of(&head);
+    let want = match format {
         Some(ImageFormat::Pgm) => read_pgm::MAX_HEADER + 1,
         Some(ImageFormat::Npy) => crate::io::npy::header_span(&head),
         _ => 0,
@@ -321,7 +323,7 @@ pub fn read_header(path: &Path) -> Result<ImageHeader, ImageError> {
         let more = (want - head.len()) as u64;
         (&mut f).take(more).read_to_end(&mut head).map_err(io)?;
     }
-    match format_of(&head) {
+    match format {
         Some(ImageFormat::Png) => read_png::header(&head, path),
         Some(ImageFormat::Bmp) => read_bmp::header(&head, path),
         Some(ImageFormat::Pgm) => read_pgm::header(&head, path),
