@@ -17,6 +17,10 @@ pub enum DecodeError {
     StateTooSmall,
     /// A frame or row was pushed out of order, or the set was already complete.
     Sequence,
+    /// The frame-sequential decoder of a Gray-coded set whose image order has a Gray-code image
+    /// before the last image of the DC level: it thresholds each Gray image against A as it
+    /// arrives ([`crate::gray`]). The row decoder takes any order.
+    GrayBeforeDc,
 }
 
 impl DecodeError {
@@ -37,6 +41,9 @@ impl core::fmt::Display for DecodeError {
             Self::Length => f.write_str("input and output rows differ in length"),
             Self::StateTooSmall => f.write_str("state buffer too small for this frame size"),
             Self::Sequence => f.write_str("frame or row pushed out of order"),
+            Self::GrayBeforeDc => f.write_str(
+                "frame-sequential decoding needs the DC level's images before the Gray-code images",
+            ),
         }
     }
 }

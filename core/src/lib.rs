@@ -12,6 +12,7 @@ pub mod decode_error;
 pub mod estimator;
 pub mod filter;
 pub mod geometry;
+pub mod gray;
 pub mod limits;
 pub mod math;
 pub mod params;

@@ -17,6 +17,8 @@
 //! so that a frame-sequential decoder can use A for the 2-image levels as soon as they arrive.
 
 use crate::estimator::level_estimator;
+pub use crate::gray::GrayCode;
+use crate::limits::{MAX_GRAY_BITS, MAX_GRAY_LEVELS};
 use crate::phase_function::{Axis, PhaseFunction, PhaseFunctionError};
 
 // The set's size limits live in `crate::limits` (below the estimator, which this module uses to
@@ -74,6 +76,23 @@ pub enum PatternError {
     Output,
     /// The constant phase offset lies outside ±[`MAX_SHIFT_MAGNITUDE`] (2π).
     PhaseOffset,
+    /// A Gray-code level that is not level 0, or is not followed by a phase level of the same
+    /// scale (the level whose fringe order it gives).
+    GrayPlacement(usize),
+    /// A Gray-code level's bit count is outside 1..=[`MAX_GRAY_BITS`].
+    GrayBits(usize),
+    /// A Gray-code level but no level with 3 or more shifts: its threshold is the DC term A.
+    GrayNoDc,
+    /// The Gray code's periods do not cover the phase level's periods over the projector: the
+    /// level spans `periods` periods (`[min, max]` of `c·Φ/2π`), the code `[lo, hi)`.
+    GrayRange {
+        /// Smallest `c·Φ/2π` over the projector.
+        min: f32,
+        /// Largest `c·Φ/2π` over the projector.
+        max: f32,
+        /// The code's bits.
+        bits: u8,
+    },
 }
 
 /// Coarse classes of [`PatternError`].
@@ -96,7 +115,7 @@ impl PatternError {
             Self::Function(_) => PatternErrorKind::Function,
             Self::ImageOrder | Self::TooManyImages(_) => PatternErrorKind::Order,
             Self::Output => PatternErrorKind::Output,
-            Self::PhaseOffset => PatternErrorKind::Function,
+            Self::PhaseOffset | Self::GrayRange { .. } => PatternErrorKind::Function,
             _ => PatternErrorKind::Levels,
         }
     }
@@ -112,7 +131,10 @@ impl core::fmt::Display for PatternError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::Function(e) => write!(f, "phase function: {e}"),
-            Self::LevelCount(n) => write!(f, "{n} levels given; need 1 to {MAX_LEVELS}"),
+            Self::LevelCount(n) => write!(
+                f,
+                "{n} levels given; need 1 to {MAX_LEVELS} (2 to {MAX_GRAY_LEVELS} with a Gray-code level)"
+            ),
             Self::ShiftCount(l, n) => {
                 write!(f, "level {l} has {n} phase shifts; need 2 to {MAX_SHIFTS}")
             }
@@ -146,6 +168,30 @@ impl core::fmt::Display for PatternError {
                 "projector size must be non-zero and 0 <= I_min < I_max <= 65535"
             ),
             Self::PhaseOffset => write!(f, "the phase offset must lie within [-2pi, 2pi]"),
+            Self::GrayPlacement(l) => write!(
+                f,
+                "level {l}: a Gray-code level must be level 0, followed by a phase level of the \
+                 same scale"
+            ),
+            Self::GrayBits(n) => write!(
+                f,
+                "a Gray-code level has {n} bits; need 1 to {MAX_GRAY_BITS}"
+            ),
+            Self::GrayNoDc => write!(
+                f,
+                "a Gray-code level needs a level with 3 or more shifts: its threshold is that \
+                 level's DC term A"
+            ),
+            Self::GrayRange { min, max, bits } => {
+                let b = (1u32 << (bits.saturating_sub(1) as u32)) as f32;
+                write!(
+                    f,
+                    "the Gray-coded level spans periods {min:.2} to {max:.2} (c*Phi/2pi) over \
+                     the projector; {bits} bits cover [{}, {})",
+                    -b - 0.5,
+                    b - 0.5
+                )
+            }
         }
     }
 }
@@ -156,6 +202,7 @@ pub struct Level {
     scale: f64,
     n: usize,
     shifts: [f64; MAX_SHIFTS],
+    gray: Option<GrayCode>,
 }
 
 impl Level {
@@ -169,6 +216,18 @@ impl Level {
             scale,
             n: shifts.len(),
             shifts: s,
+            gray: None,
+        }
+    }
+
+    /// A Gray-code level ([`crate::gray`]): `code.images()` binary images giving the fringe
+    /// order of the phase level after it, whose scale must equal `scale`.
+    pub fn gray_code(scale: f64, code: GrayCode) -> Self {
+        Level {
+            scale,
+            n: code.images(),
+            shifts: [0.0; MAX_SHIFTS],
+            gray: Some(code),
         }
     }
 
@@ -182,6 +241,7 @@ impl Level {
             scale,
             n: n_steps,
             shifts: s,
+            gray: None,
         }
     }
 
@@ -196,9 +256,17 @@ impl Level {
         self.scale
     }
 
-    /// The phase shifts, radians.
+    /// The phase shifts, radians (none for a Gray-code level).
     pub fn shifts(&self) -> &[f64] {
+        if self.gray.is_some() {
+            return &[];
+        }
         &self.shifts[..self.n.min(MAX_SHIFTS)]
+    }
+
+    /// The code of a Gray-code level, `None` for a phase level.
+    pub fn gray(&self) -> Option<GrayCode> {
+        self.gray
     }
 
     /// Number of shifts (images) of the level.
@@ -213,7 +281,7 @@ impl Level {
 
     /// `true` if the level estimates its own DC term (3 or more shifts, eqs 10 and 15).
     pub fn has_dc(&self) -> bool {
-        self.n >= 3
+        self.gray.is_none() && self.n >= 3
     }
 }
 
@@ -456,15 +524,43 @@ impl PatternSet {
         }
         let mut any_two = false;
         let mut any_dc = false;
+        let gray = self.levels[0].gray;
         for (i, l) in self.levels[..self.n_levels].iter().enumerate() {
+            if let Some(code) = l.gray {
+                if i != 0 || self.n_levels < 2 {
+                    return Err(PatternError::GrayPlacement(i));
+                }
+                if self.n_levels > MAX_GRAY_LEVELS {
+                    return Err(PatternError::LevelCount(self.n_levels));
+                }
+                if !code.is_valid() {
+                    return Err(PatternError::GrayBits(code.bits() as usize));
+                }
+                if !(l.scale.is_finite() && l.scale > 0.0) {
+                    return Err(PatternError::Scale(i));
+                }
+                continue;
+            }
             if l.n < 2 || l.n > MAX_SHIFTS {
                 return Err(PatternError::ShiftCount(i, l.n));
             }
             if !(l.scale.is_finite() && l.scale > 0.0) {
                 return Err(PatternError::Scale(i));
             }
-            if i > 0 && l.scale <= self.levels[i - 1].scale {
-                return Err(PatternError::ScalesNotIncreasing(i));
+            // The phase level after a Gray-code level has its scale (ratio 1, to the bit).
+            // (`get`: i − 1 < n_levels ≤ MAX_LEVELS; no panic path is compiled in.)
+            let prev = i
+                .checked_sub(1)
+                .and_then(|p| self.levels.get(p))
+                .map(|p| p.scale);
+            if let Some(prev) = prev {
+                if gray.is_some() && i == 1 {
+                    if l.scale.to_bits() != prev.to_bits() {
+                        return Err(PatternError::GrayPlacement(0));
+                    }
+                } else if l.scale <= prev {
+                    return Err(PatternError::ScalesNotIncreasing(i));
+                }
             }
             let bound = -MAX_SHIFT_MAGNITUDE..=MAX_SHIFT_MAGNITUDE;
             if l.shifts().iter().any(|s| !bound.contains(s)) {
@@ -476,15 +572,54 @@ impl PatternSet {
             any_two |= l.n == 2;
             any_dc |= l.has_dc();
         }
+        if gray.is_some() && !any_dc {
+            return Err(PatternError::GrayNoDc);
+        }
         if any_two && !any_dc {
             return Err(PatternError::NoDcLevel);
         }
         // `n_levels` is in 1..=MAX_LEVELS here (checked above); `get` keeps a panic path out.
         let scale = |i: usize| self.levels.get(i).map_or(0.0, |l| l.scale);
         let (c_min, c_max) = (scale(0), scale(self.n_levels.wrapping_sub(1)));
-        self.coarse_range = self
-            .function
-            .check(o.width, o.height, c_min, c_max, COARSE_MARGIN)?;
+        let Some(code) = gray else {
+            self.coarse_range =
+                self.function
+                    .check(o.width, o.height, c_min, c_max, COARSE_MARGIN)?;
+            return Ok(());
+        };
+        // A Gray-coded set: the function is checked with the coarse scale divided by
+        // 2·B + 1 (so its range test is the code's [−B − ½, B + ½) periods, loosely), then the
+        // range of c·Φ/2π is held to the code's exact [−B − ½, B − ½).
+        // A phase level of less than 0.1·(2B + 1) rad fails that range's span test: checked
+        // again at its own scale (within one period, which every code covers).
+        let mut shrink = (2 * code.bias() + 1) as f64;
+        let f = &self.function;
+        let (lo, hi) = match f.check(o.width, o.height, c_min / shrink, c_max, COARSE_MARGIN) {
+            Err(PhaseFunctionError::CoarseRangeTooSmall { .. }) => {
+                shrink = 1.0;
+                f.check(o.width, o.height, c_min, c_max, COARSE_MARGIN)?
+            }
+            Err(PhaseFunctionError::CoarseRangeExceeded { min, max }) => {
+                let periods = |x: f32| (x as f64 * shrink / core::f64::consts::TAU) as f32;
+                return Err(PatternError::GrayRange {
+                    min: periods(min),
+                    max: periods(max),
+                    bits: code.bits(),
+                });
+            }
+            r => r?,
+        };
+        let (lo, hi) = (lo * shrink, hi * shrink);
+        let tau = core::f64::consts::TAU;
+        let (u_lo, u_hi) = code.period_range();
+        if !(lo / tau >= u_lo && hi / tau < u_hi) {
+            return Err(PatternError::GrayRange {
+                min: (lo / tau) as f32,
+                max: (hi / tau) as f32,
+                bits: code.bits(),
+            });
+        }
+        self.coarse_range = (lo, hi);
         Ok(())
     }
 
@@ -511,11 +646,8 @@ impl PatternSet {
 
     /// Level and shift of image `i` (in projection/capture order), or `None` past the end.
     pub fn image(&self, i: usize) -> Option<ImageId> {
-        if i < self.n_images {
-            Some(self.order[i])
-        } else {
-            None
-        }
+        // (`get`: `n_images <= MAX_IMAGES`; no panic path is compiled in.)
+        self.order.get(i).copied().filter(|_| i < self.n_images)
     }
 
     /// The image order.
@@ -546,7 +678,8 @@ impl PatternSet {
         &self.output
     }
 
-    /// The coarsest level's phase range over the projector (radians), found by the check.
+    /// The coarsest level's phase range over the projector (radians), found by the check. For a
+    /// Gray-coded set, the range of `c₀·Φ` (many periods).
     pub fn coarse_range(&self) -> (f64, f64) {
         self.coarse_range
     }
@@ -557,13 +690,28 @@ impl PatternSet {
         self.levels[self.n_levels - 1].scale * self.function.eval(xi, eta)
     }
 
-    /// Intensity (real-valued gray level, before quantization) of image `image` at (ξ, η).
+    /// The code of the set's Gray-code level (level 0), if it has one.
+    pub fn gray(&self) -> Option<GrayCode> {
+        self.levels[0].gray
+    }
+
+    /// Intensity (real-valued gray level, before quantization) of image `image` at (ξ, η). A
+    /// Gray-code image is `I_max` where its bit is set, else `I_min` ([`crate::gray`]).
     pub fn intensity(&self, image: usize, xi: f64, eta: f64) -> Option<f64> {
         let id = self.image(image)?;
         let level = &self.levels[id.level as usize];
+        let o = &self.output;
+        if let Some(code) = level.gray {
+            let u = level.scale * self.function.eval(xi, eta) / core::f64::consts::TAU;
+            let h = code.half_stripe(u);
+            return Some(if code.bright(id.shift as usize, h) {
+                o.i_max
+            } else {
+                o.i_min
+            });
+        }
         let delta = level.shifts[id.shift as usize] + self.effective_offset();
         let arg = level.scale * self.function.eval(xi, eta) + delta;
-        let o = &self.output;
         Some(o.i_min + 0.5 * (o.i_max - o.i_min) * (1.0 + libm::sin(arg)))
     }
 

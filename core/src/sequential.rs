@@ -66,6 +66,9 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
             .checked_mul(height)
             .ok_or(DecodeError::StateTooSmall)?;
         let levels = decoder.level_count();
+        if !decoder.frame_sequential_order() {
+            return Err(DecodeError::GrayBeforeDc);
+        }
         if state.len() < (1 + 2 * levels) * plane || flags.len() < plane || levels > MAX_LEVELS {
             return Err(DecodeError::StateTooSmall);
         }

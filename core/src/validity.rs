@@ -40,11 +40,15 @@ pub enum Validity {
     /// configured steepest slope explains — a pixel straddling a depth discontinuity ("flying
     /// pixel"), whose phase mixes two surfaces ([`crate::filter`]).
     DepthEdge = 10,
+    /// Gray code (issue #20): more bits of the pixel's code word lie within the threshold
+    /// margin of the DC term than the scheme tolerates (one for the plain code, two for the
+    /// complementary one, [`crate::gray`]): the stripe, so the fringe order, is unknown.
+    CodeAmbiguous = 11,
 }
 
 impl Validity {
     /// All codes, in numeric order.
-    pub const ALL: [Validity; 11] = [
+    pub const ALL: [Validity; 12] = [
         Validity::Valid,
         Validity::Dark,
         Validity::Saturated,
@@ -56,6 +60,7 @@ impl Validity {
         Validity::ReferenceInvalid,
         Validity::Degenerate,
         Validity::DepthEdge,
+        Validity::CodeAmbiguous,
     ];
 
     /// The code of a stored byte, or `None` for a byte that is no code.
@@ -86,6 +91,7 @@ impl Validity {
             Validity::ReferenceInvalid => "reference-invalid",
             Validity::Degenerate => "degenerate",
             Validity::DepthEdge => "depth-edge",
+            Validity::CodeAmbiguous => "code-ambiguous",
         }
     }
 }

@@ -169,7 +169,35 @@ fn every_example_loads() {
             n += 1;
         }
     }
-    assert_eq!(n, 7);
+    assert_eq!(n, 8);
+}
+
+#[test]
+fn gray_code_sets_round_trip() {
+    let p = examples().join("gray-complementary.toml");
+    let set = PatternSetFile::load(&p).unwrap().to_pattern_set().unwrap();
+    assert_eq!(set.image_count(), 11);
+    assert_eq!(
+        set.gray().map(|g| (g.bits(), g.complementary())),
+        Some((6, true))
+    );
+    let (f, text) = round_trip(&set, 8, "gray");
+    let levels = f.levels.unwrap();
+    assert_eq!(levels[0].gray_bits, Some(6));
+    assert_eq!(levels[0].complementary, Some(true));
+    assert!(text.contains("gray_bits = 6"), "{text}");
+    // The plain code: one image fewer.
+    let plain = fs::read_to_string(&p)
+        .unwrap()
+        .replace("complementary = true ", "complementary = false");
+    let d = scratch("gray-plain");
+    fs::write(d.join("plain.toml"), plain).unwrap();
+    let set = PatternSetFile::load(&d.join("plain.toml"))
+        .unwrap()
+        .to_pattern_set()
+        .unwrap();
+    assert_eq!(set.image_count(), 10);
+    round_trip(&set, 8, "gray-plain-rt");
 }
 
 fn round_trip(set: &PatternSet, bits: u8, name: &str) -> (PatternSetFile, String) {
@@ -312,7 +340,37 @@ fn bad_files_get_clear_messages() {
         "{HEAD}[[levels]]\nscale = 1.0\nsteps = 4\nshifts = [0.0, 1.0, 2.0]\n"
     ));
     assert!(
-        m.contains("exactly one of steps, shifts or shifts_deg"),
+        m.contains("exactly one of steps, shifts, shifts_deg or gray_bits"),
+        "{m}"
+    );
+    // Gray-code levels (issue #20).
+    let gray = |rest: &str| bad(&format!("{HEAD}[[levels]]\nscale = 4.0\n{rest}"));
+    let m = gray("gray_bits = 11\n[[levels]]\nscale = 4.0\nsteps = 4\n");
+    assert!(
+        m.contains("levels[0]: gray_bits = 11; a Gray-code level has 1 to 10 bits"),
+        "{m}"
+    );
+    let m = gray("steps = 4\ncomplementary = true\n");
+    assert!(
+        m.contains("complementary applies to a Gray-code level"),
+        "{m}"
+    );
+    let m = gray("steps = 4\n[[levels]]\nscale = 8.0\ngray_bits = 3\n");
+    assert!(
+        m.contains("levels[1]: a Gray-code level (gray_bits) must be the first"),
+        "{m}"
+    );
+    let m = gray("gray_bits = 3\n[[levels]]\nscale = 8.0\nsteps = 4\n");
+    assert!(
+        m.contains("followed by a phase level of the same scale"),
+        "{m}"
+    );
+    let m = gray("gray_bits = 3\n[[levels]]\nscale = 4.0\nshifts_deg = [0, 90]\n");
+    assert!(m.contains("its threshold is that level's DC term A"), "{m}");
+    // 1 bit covers [-1.5, 0.5) periods; 4.0·0.9·2π/2π = 3.6 periods span [-1.8, 1.8].
+    let m = gray("gray_bits = 1\n[[levels]]\nscale = 4.0\nsteps = 4\n");
+    assert!(
+        m.contains("spans periods -1.80 to 1.80") && m.contains("raise levels[0].gray_bits"),
         "{m}"
     );
     let m = bad(&format!("{HEAD}[phase]\nslope = 0.01\n"));

@@ -182,7 +182,10 @@ impl Arith for Fixed {
             frac += 1;
         }
         // Phase range from the level ratios: |Φ_0| ≤ ½ turn for every pixel, |Φ_k| ≤ r_k·|Φ_{k−1}| + ½.
-        let mut turns = 0.5;
+        let mut turns = plan.coarse_turns();
+        if !(turns <= PHASE_TURNS_LIMIT) {
+            return Err(DecodeError::Degenerate(0));
+        }
         for (k, r) in plan.ratios.iter().enumerate().skip(1) {
             turns = r * turns + 0.5;
             if !(turns <= PHASE_TURNS_LIMIT) {
@@ -247,6 +250,9 @@ impl Arith for Fixed {
             unwrap_tolerance: U8F24::from_bits(
                 libm::floor(turns(cfg.unwrap_tolerance as f64) * lsb) as u32,
             ),
+            gray_tolerance: U8F24::from_bits(libm::floor(turns(plan.gray_tolerance()) * lsb) as u32),
+            gray_dark: ceil_to(plan.gray_margin() * scale, i32::MAX as f64) as i32,
+            gray_bright: -(ceil_to(plan.gray_margin() * scale, i32::MAX as f64) as i32),
         }
     }
 
@@ -284,6 +290,28 @@ impl Arith for Fixed {
     #[inline(always)]
     fn saturated(v: i32, threshold: i32) -> bool {
         v >= threshold
+    }
+
+    #[inline(always)]
+    fn dc_minus_input(a: i32, v: i32, format: &FixedFormat) -> i32 {
+        // v·2^F fits: the DC term of unsaturated samples does (Σw = 1, `format`).
+        a.wrapping_sub(v.wrapping_shl(format.frac))
+    }
+
+    #[inline(always)]
+    fn acc_word(a: i32) -> u16 {
+        a as u16
+    }
+
+    #[inline(always)]
+    fn word_acc(w: u16) -> i32 {
+        w as i32
+    }
+
+    #[inline(always)]
+    fn quarter_turns(n: i32) -> I8F24 {
+        // A quarter turn is 2^22 in 2^-24 turns (|n| < 512 within the format's ±128 turns).
+        I8F24::from_bits(n.wrapping_shl(22))
     }
 
     #[inline(always)]

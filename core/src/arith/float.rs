@@ -181,6 +181,9 @@ impl<K: FloatKernels> Arith for K {
             coarse_lo: if seam_lo > lo { seam_lo } else { lo },
             coarse_hi: if seam_hi < hi { seam_hi } else { hi },
             unwrap_tolerance: cfg.unwrap_tolerance,
+            gray_tolerance: plan.gray_tolerance() as f32,
+            gray_dark: plan.gray_margin() as f32,
+            gray_bright: -(plan.gray_margin() as f32),
         }
     }
 
@@ -192,6 +195,26 @@ impl<K: FloatKernels> Arith for K {
     #[inline(always)]
     fn input<P: Sample>(v: P) -> f32 {
         v.to_f32()
+    }
+
+    #[inline(always)]
+    fn dc_minus_input(a: f32, v: f32, _format: &()) -> f32 {
+        a - v
+    }
+
+    #[inline(always)]
+    fn acc_word(a: f32) -> u16 {
+        a as u16
+    }
+
+    #[inline(always)]
+    fn word_acc(w: u16) -> f32 {
+        w as f32
+    }
+
+    #[inline(always)]
+    fn quarter_turns(n: i32) -> f32 {
+        n as f32 * core::f32::consts::FRAC_PI_2
     }
 
     #[inline(always)]

@@ -62,6 +62,7 @@ pub type TargetDefault = F32Accurate;
 use crate::decode_config::DecodeConfig;
 use crate::decode_error::DecodeError;
 use crate::estimator::LevelEstimator;
+use crate::gray::GrayCode;
 use crate::limits::{CORRECTION_KNOTS, MAX_SHIFTS};
 use crate::sample::Sample;
 use core::fmt::Debug;
@@ -85,9 +86,41 @@ pub struct Plan<'a> {
     pub coarse_range: (f64, f64),
     /// The thresholds.
     pub config: &'a DecodeConfig,
+    /// The set's Gray-code level (level 0), if any: then `coarse_range` is the range of the
+    /// Gray-coded phase `c₀·Φ` (many periods) and the range test applies to that phase once
+    /// unwrapped.
+    pub gray: Option<GrayCode>,
 }
 
 impl Plan<'_> {
+    /// The threshold margin of a Gray-code bit, camera codes: half the smallest accepted
+    /// modulation. A bright stripe lies about B above the DC term and a dark one B below it, so
+    /// on a pixel with `B ≥ min_modulation` a bit within `min_modulation/2` of A is an edge
+    /// (blur mixes the two) or noise, and is counted ambiguous ([`crate::gray`]).
+    pub fn gray_margin(&self) -> f64 {
+        0.5 * self.config.min_modulation as f64
+    }
+
+    /// The largest accepted residual (radians) of the unwrapping step from the Gray code
+    /// ([`GrayCode::tolerance`]); the configured unwrapping tolerance without a code.
+    pub fn gray_tolerance(&self) -> f64 {
+        match self.gray {
+            Some(g) => g.tolerance(self.config.range_tolerance as f64),
+            None => self.config.unwrap_tolerance as f64,
+        }
+    }
+
+    /// The largest absolute coarsest phase, turns: ½ (a wrapped phase), or a Gray-coded
+    /// phase's largest magnitude over the projector plus ½.
+    pub fn coarse_turns(&self) -> f64 {
+        if self.gray.is_none() {
+            return 0.5;
+        }
+        let (lo, hi) = self.coarse_range;
+        let m = if -lo > hi { -lo } else { hi };
+        m / core::f64::consts::TAU + 0.5
+    }
+
     /// The range of the coarsest *wrapped* phase the decoder accepts (radians); a pixel outside
     /// it is [`crate::validity::Validity::PhaseOutOfRange`].
     ///
@@ -108,9 +141,15 @@ impl Plan<'_> {
     /// accepted only if its noise carried it more than `t` past the seam, the same allowance as
     /// at the ends of any range. Decoding such a set loses the projector columns within `t` of
     /// each end (t/2π of the width each: 2.4 % at 0.15 rad).
+    ///
+    /// A Gray-coded set has no seam (its coarse phase is absolute): accepted is `[lo − t,
+    /// hi + t]`.
     pub fn accepted_coarse(&self) -> (f64, f64) {
         let (lo, hi) = self.coarse_range;
         let t = self.config.range_tolerance as f64;
+        if self.gray.is_some() {
+            return (lo - t, hi + t);
+        }
         let m = 0.5 * (hi + lo + core::f64::consts::TAU);
         let (seam_lo, seam_hi) = (m + t - core::f64::consts::TAU, m - t);
         (
@@ -150,6 +189,13 @@ pub struct Limits<A: Arith> {
     pub coarse_hi: A::Phase,
     /// Largest accepted unwrapping residual.
     pub unwrap_tolerance: A::Tolerance,
+    /// Largest accepted residual of the unwrapping step from a Gray code
+    /// ([`Plan::gray_tolerance`]).
+    pub gray_tolerance: A::Tolerance,
+    /// `A − v` at or above this: the Gray-code bit is firmly dark ([`Plan::gray_margin`]).
+    pub gray_dark: A::Acc,
+    /// `A − v` below this: the Gray-code bit is firmly bright (minus [`Plan::gray_margin`]).
+    pub gray_bright: A::Acc,
 }
 
 /// A decoding arithmetic: number types and the primitive operations of the kernel.
@@ -229,6 +275,16 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     }
     /// `v ≥ threshold`.
     fn saturated(v: Self::In, threshold: Self::In) -> bool;
+    /// `A − v`, a DC term minus a sample, in accumulator units: a Gray-code bit is bright where
+    /// it is negative ([`crate::gray`]).
+    fn dc_minus_input(a: Self::Acc, v: Self::In, format: &Self::Format) -> Self::Acc;
+    /// A packed Gray-code word kept in an accumulator plane (the frame-sequential path), back
+    /// to 16 bits: exact for every word ([`Self::word_acc`]).
+    fn acc_word(a: Self::Acc) -> u16;
+    /// A packed Gray-code word (below 2¹⁶) as an accumulator value, exactly.
+    fn word_acc(w: u16) -> Self::Acc;
+    /// `n·π/2` as a phase: a Gray code's phase estimate ([`GrayCode::quarter_turns`]).
+    fn quarter_turns(n: i32) -> Self::Phase;
 
     // ---- per pixel: finish ----
 

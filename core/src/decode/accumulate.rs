@@ -40,6 +40,9 @@ impl<A: Arith> Decoder<A> {
             .ok_or(DecodeError::Sequence)?;
         let n = row.len();
         let l = coef.level as usize;
+        if l == 0 && self.gray.is_some() {
+            return self.accumulate_gray::<P, FLAGS>(image, row, st);
+        }
         let (dc, flags) = (&mut st.dc[..], &mut st.flags[..]);
         let (s, c) = match (st.s.get_mut(l), st.c.get_mut(l)) {
             (Some(s), Some(c)) => (&mut s[..], &mut c[..]),
@@ -69,6 +72,38 @@ impl<A: Arith> Decoder<A> {
         go!(0 0 0, 0 0 1, 0 0 2, 0 1 0, 0 1 1, 0 1 2, 0 2 0, 0 2 1, 0 2 2,
             1 0 0, 1 0 1, 1 0 2, 1 1 0, 1 1 1, 1 1 2, 1 2 0, 1 2 1, 1 2 2,
             2 0 0, 2 0 1, 2 0 2, 2 1 0, 2 1 1, 2 1 2, 2 2 0, 2 2 1, 2 2 2);
+        Ok(())
+    }
+}
+
+impl<A: Arith> Decoder<A> {
+    /// [`Self::accumulate`] of an image of the Gray-code level: its bit folded into the words in
+    /// the level's S plane ([`Self::gray_fold`]), and the saturation flags.
+    fn accumulate_gray<P: Sample, const FLAGS: bool>(
+        &self,
+        image: usize,
+        row: &[P],
+        st: &mut State<'_, A::Acc>,
+    ) -> Result<(), DecodeError> {
+        let n = row.len();
+        let li = &self.level_images[0];
+        let j = li
+            .idx
+            .iter()
+            .take(li.n as usize)
+            .position(|&k| k as usize == image)
+            .ok_or(DecodeError::Sequence)?;
+        let (dc, flags, plane) = (&st.dc[..], &mut st.flags[..], &mut st.s[0][..]);
+        if dc.len() != n || plane.len() != n || (FLAGS && flags.len() != n) {
+            return Err(DecodeError::Length);
+        }
+        self.gray_fold(j, row, dc, plane)?;
+        if FLAGS {
+            let sat = self.limits.saturation;
+            for (f, &v) in flags.iter_mut().zip(row) {
+                *f |= A::saturated(A::input(v), sat) as u8;
+            }
+        }
         Ok(())
     }
 }

@@ -73,6 +73,8 @@ pub(super) struct Block<A: Arith> {
     /// The modulation measure of every level (the smallest is taken in pass 2: a running minimum
     /// stored back per level becomes a masked store, which is slow on some x86 cores).
     pub(super) mag: [[A::Mag; BLOCK]; MAX_LEVELS],
+    /// Ambiguous Gray-code bits per pixel (a set with a Gray-code level, [`crate::gray`]).
+    pub(super) ambiguous: [u8; BLOCK],
 }
 
 impl<A: Arith> Block<A> {
@@ -82,6 +84,7 @@ impl<A: Arith> Block<A> {
             dc: [A::ZERO; BLOCK],
             wrapped: [[A::PHASE_ZERO; BLOCK]; MAX_LEVELS],
             mag: [[A::MAG_ZERO; BLOCK]; MAX_LEVELS],
+            ambiguous: [0; BLOCK],
         }
     }
 }

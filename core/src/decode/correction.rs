@@ -146,7 +146,10 @@ impl<A: Arith> Decoder<A> {
     #[inline(always)]
     pub(super) fn correct_block(&self, blk: &mut Block<A>) {
         if let Some(t) = &self.correction {
-            for (w, tab) in blk.wrapped.iter_mut().zip(t).take(self.n_levels) {
+            // A Gray-code level's entry is its estimate, not a wrapped phase: left alone.
+            let skip = self.gray.is_some() as usize;
+            let levels = blk.wrapped.iter_mut().zip(t).take(self.n_levels);
+            for (w, tab) in levels.skip(skip) {
                 for p in w.iter_mut().take(BLOCK) {
                     *p = A::correct(*p, tab);
                 }

@@ -8,6 +8,7 @@ use crate::arith::{Arith, F32Accurate, Limits, Plan};
 use crate::decode_config::DecodeConfig;
 use crate::decode_error::DecodeError;
 use crate::estimator::{LevelEstimator, level_estimator};
+use crate::gray::GrayCode;
 use crate::limits::{CORRECTION_KNOTS, MAX_IMAGES, MAX_LEVELS, MAX_SHIFTS};
 use crate::pattern::PatternSet;
 
@@ -62,6 +63,13 @@ pub struct Decoder<A: Arith = F32Accurate> {
     /// The phase-error table of every level (knots of 2⁻¹³ rad), if any
     /// ([`Self::with_correction`]).
     pub(super) correction: Option<[[i16; CORRECTION_KNOTS]; MAX_LEVELS]>,
+    /// The code of the set's Gray-code level (level 0), if any ([`crate::gray`]).
+    pub(super) gray: Option<GrayCode>,
+    /// The word bit of each Gray image, in the order of `level_images[0]` (image order).
+    pub(super) gray_word_bit: [u8; MAX_SHIFTS],
+    /// Whether every image of the DC level comes before every Gray image (the frame-sequential
+    /// path thresholds a Gray image on arrival, against the complete A).
+    pub(super) gray_after_dc: bool,
 }
 
 /// Pixels side by side in [`Decoder::fused_rows`] (pass 1 of the paper's and the 12-pattern
@@ -103,6 +111,8 @@ pub(super) const KIND_QUAD: u8 = 2;
 /// [`KIND_PAIR`] with the paper's exact coefficients (shifts 0 and π/2, eq 11) in a backend whose
 /// sums are exact: `S = I₀ − A`, `C = I₁ − A`, the same bits as the products and sums.
 pub(super) const KIND_PAIR_UNIT: u8 = 3;
+/// A Gray-code level: binary images, no S or C ([`crate::gray`]).
+pub(super) const KIND_GRAY: u8 = 5;
 /// [`KIND_QUAD`] with the paper's exact coefficients (eqs 9-10) in a backend whose sums are
 /// exact: `S = ½·(I₀ − I₂)`, `C = ½·(I₁ − I₃)`, `A = ¼·(I₀ + I₁ + I₂ + I₃)`, the same bits as
 /// the products and sums (every intermediate is exact, and no sum is −0 either way).
@@ -171,6 +181,9 @@ impl<A: Arith> Decoder<A> {
         let offset = set.effective_offset();
         let mut est = [NO_ESTIMATOR; MAX_LEVELS];
         for (i, l) in levels.iter().enumerate() {
+            if l.gray().is_some() {
+                continue;
+            }
             est[i] = level_estimator(l.shifts(), offset).ok_or(DecodeError::Degenerate(i as u8))?;
         }
         // The DC level: most shifts, finest on ties.
@@ -192,6 +205,7 @@ impl<A: Arith> Decoder<A> {
             ratios: &ratios[..n_levels],
             coarse_range: set.coarse_range(),
             config: &config,
+            gray: set.gray(),
         };
         let format = A::format(&plan)?;
         let zero = ImageCoef {
@@ -221,6 +235,9 @@ impl<A: Arith> Decoder<A> {
             dc_level: dc_level.map(|l| l as u8),
             fused: FUSED_NONE,
             correction: None,
+            gray: set.gray(),
+            gray_word_bit: [0; MAX_SHIFTS],
+            gray_after_dc: false,
         });
         let order = dc_level
             .into_iter()
@@ -286,6 +303,18 @@ impl<A: Arith> Decoder<A> {
             if let Some(li) = d.level_images.get_mut(l) {
                 li.kind = kind;
             }
+        }
+        if let Some(code) = d.gray {
+            let li = d.level_images[0];
+            d.level_images[0].kind = KIND_GRAY;
+            for (bit, &k) in d.gray_word_bit.iter_mut().zip(&li.idx).take(li.n as usize) {
+                let shift = set.image(k as usize).map_or(0, |id| id.shift as usize);
+                *bit = code.word_bit(shift) as u8;
+            }
+            let first_gray = li.idx.iter().take(li.n as usize).min().copied();
+            let dc = dc_level.and_then(|l| d.level_images.get(l));
+            let last_dc = dc.and_then(|li| li.idx.iter().take(li.n as usize).max().copied());
+            d.gray_after_dc = matches!((first_gray, last_dc), (Some(g), Some(a)) if a < g);
         }
         let kinds = [
             d.level_images[0].kind,
@@ -379,5 +408,12 @@ impl<A: Arith> Decoder<A> {
     /// Number of images per set.
     pub fn image_count(&self) -> usize {
         self.n_images
+    }
+
+    /// Whether the frame-sequential path can decode the set in its order: always, except a
+    /// Gray-coded set with a Gray-code image before the DC level's last image
+    /// ([`DecodeError::GrayBeforeDc`]).
+    pub fn frame_sequential_order(&self) -> bool {
+        self.gray.is_none() || self.gray_after_dc
     }
 }

@@ -61,7 +61,7 @@ impl<A: Arith> Decoder<A> {
             let (mut ph, mut mo, mut dc) = ([0.0f32; BLOCK], [0.0f32; BLOCK], [0.0f32; BLOCK]);
             let mut va = [0u8; BLOCK];
             for l in 0..self.n_levels {
-                self.polar_into(l, &pad(st.s[l]), &pad(st.c[l]), &mut blk, &mut mo);
+                self.level_into(l, &pad(st.s[l]), &pad(st.c[l]), &mut blk, &mut mo);
             }
             self.correct_block(&mut blk);
             self.unwrap_block::<T, 1>(
@@ -94,7 +94,7 @@ impl<A: Arith> Decoder<A> {
             blk.dc = *block(st.dc, r.clone())?;
             let mo = block_or_sink(out.modulation, r.clone(), &mut mo_sink)?;
             for l in 0..self.n_levels {
-                self.polar_into(
+                self.level_into(
                     l,
                     block(st.s[l], r.clone())?,
                     block(st.c[l], r.clone())?,
@@ -118,6 +118,25 @@ impl<A: Arith> Decoder<A> {
             } else {
                 n - BLOCK
             };
+        }
+    }
+
+    /// Pass 1 of the frame-sequential path for level `l`: [`Self::polar_into`], or for a
+    /// Gray-code level the estimates of the words kept in its S plane `s` (`gray`).
+    #[inline(always)]
+    fn level_into(
+        &self,
+        l: usize,
+        s: &[A::Acc; BLOCK],
+        c: &[A::Acc; BLOCK],
+        blk: &mut Block<A>,
+        modulation: &mut [f32; BLOCK],
+    ) {
+        if l == 0 && self.gray.is_some() {
+            let words: [u16; BLOCK] = core::array::from_fn(|i| A::acc_word(s[i]));
+            self.gray_estimates(&words, blk);
+        } else {
+            self.polar_into(l, s, c, blk, modulation);
         }
     }
 
@@ -153,7 +172,9 @@ impl<A: Arith> Decoder<A> {
         mo: &mut [f32; BLOCK],
     ) {
         let (ad, bd, fmt) = (self.a_dc[l], self.b_dc[l], &self.format);
-        let Block { dc, wrapped, mag } = blk;
+        let Block {
+            dc, wrapped, mag, ..
+        } = blk;
         let (w, mag) = (&mut wrapped[l], &mut mag[l]);
         for i in 0..BLOCK {
             let (s, c) = A::level_sc(s[i], c[i], ad, bd, dc[i], fmt);
@@ -181,23 +202,26 @@ impl<A: Arith> Decoder<A> {
         saturated: impl Fn(T) -> bool,
         out: BlockOut<'_>,
     ) {
-        match self.n_levels {
-            1 => self.unwrap_levels::<1, T, N>(blk, sat, saturated, out),
-            2 => self.unwrap_levels::<2, T, N>(blk, sat, saturated, out),
-            3 => self.unwrap_levels::<3, T, N>(blk, sat, saturated, out),
-            4 => self.unwrap_levels::<4, T, N>(blk, sat, saturated, out),
-            5 => self.unwrap_levels::<5, T, N>(blk, sat, saturated, out),
-            _ => self.unwrap_levels::<6, T, N>(blk, sat, saturated, out),
+        match (self.n_levels, self.gray.is_some()) {
+            (1, _) => self.unwrap_levels::<1, T, N, false>(blk, sat, saturated, out),
+            (2, false) => self.unwrap_levels::<2, T, N, false>(blk, sat, saturated, out),
+            (3, false) => self.unwrap_levels::<3, T, N, false>(blk, sat, saturated, out),
+            (4, false) => self.unwrap_levels::<4, T, N, false>(blk, sat, saturated, out),
+            (5, false) => self.unwrap_levels::<5, T, N, false>(blk, sat, saturated, out),
+            (_, false) => self.unwrap_levels::<6, T, N, false>(blk, sat, saturated, out),
+            // A Gray-coded set has 2 or 3 levels ([`crate::limits::MAX_GRAY_LEVELS`]).
+            (2, true) => self.unwrap_levels::<2, T, N, true>(blk, sat, saturated, out),
+            (_, true) => self.unwrap_levels::<3, T, N, true>(blk, sat, saturated, out),
         }
     }
 
     /// [`Self::unwrap_block`] for `L` levels, pixel `j` of each of the block's `N` parts side by
-    /// side ([`Self::finish_lanes`]).
+    /// side ([`Self::finish_lanes`]); `GRAY`: level 0 is a Gray-code level.
     // Indices, not iterators, over the levels: the iterator form left this loop unvectorized
     // (5× slower with AVX-512).
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn unwrap_levels<const L: usize, T: Copy, const N: usize>(
+    fn unwrap_levels<const L: usize, T: Copy, const N: usize, const GRAY: bool>(
         &self,
         blk: &Block<A>,
         sat: &[T; BLOCK],
@@ -221,7 +245,8 @@ impl<A: Arith> Decoder<A> {
             let m: [[A::Mag; L]; N] =
                 core::array::from_fn(|k| core::array::from_fn(|l| mag[l][ix[k]]));
             let st: [bool; N] = core::array::from_fn(|k| saturated(sat[ix[k]]));
-            let r = self.finish_lanes(&w, &m, &av, &st);
+            let amb: [u8; N] = core::array::from_fn(|k| blk.ambiguous[ix[k]]);
+            let r = self.finish_lanes::<L, N, GRAY>(&w, &m, &av, &st, &amb);
             for k in 0..N {
                 (po[ix[k]], vo[ix[k]]) = r[k];
                 ao[ix[k]] = A::dc_out(av[k], fmt);
@@ -234,28 +259,44 @@ impl<A: Arith> Decoder<A> {
     /// wrapped phases `w` (coarsest first), the range test, the smallest modulation measure of
     /// `m`, the dark test on `a` and the validity code (`saturated` given). Returns the phase
     /// output and the code of each pixel.
+    ///
+    /// `GRAY`: level 0 is a Gray-code level, `w[k][0]` its estimate and `ambiguous` the count of
+    /// ambiguous bits. Its step to level 1 (ratio 1) is held to the code's tolerance, and the
+    /// range test applies to the phase that step gives (the estimate itself is always in range).
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn finish_lanes<const L: usize, const N: usize>(
+    fn finish_lanes<const L: usize, const N: usize, const GRAY: bool>(
         &self,
         w: &[[A::Phase; L]; N],
         m: &[[A::Mag; L]; N],
         a: &[A::Acc; N],
         saturated: &[bool; N],
+        ambiguous: &[u8; N],
     ) -> [(f32, u8); N] {
         use core::array::from_fn as lanes;
         let lim = &self.limits;
         let mut phi: [A::Phase; N] = lanes(|k| w[k][0]);
-        let out_of_range: [bool; N] = lanes(|k| !A::in_range(phi[k], lim.coarse_lo, lim.coarse_hi));
+        let mut out_of_range: [bool; N] =
+            lanes(|k| !GRAY && !A::in_range(phi[k], lim.coarse_lo, lim.coarse_hi));
         let mut inconsistent = [false; N];
         for l in 1..L {
             let st: [(A::Phase, A::Phase); N] =
                 lanes(|k| A::unwrap(phi[k], self.ratio[l], w[k][l]));
+            let tolerance = if GRAY && l == 1 {
+                lim.gray_tolerance
+            } else {
+                lim.unwrap_tolerance
+            };
             for k in 0..N {
-                inconsistent[k] |= !A::consistent(st[k].1, lim.unwrap_tolerance);
+                inconsistent[k] |= !A::consistent(st[k].1, tolerance);
                 phi[k] = st[k].0;
+                if GRAY && l == 1 {
+                    out_of_range[k] = !A::in_range(phi[k], lim.coarse_lo, lim.coarse_hi);
+                }
             }
         }
+        let max_ambiguous = self.gray.map_or(u8::MAX, |g| g.max_ambiguous());
+        let code_ambiguous: [bool; N] = lanes(|k| GRAY && ambiguous[k] >= max_ambiguous);
         let mut bm = [A::MAG_MAX; N];
         for l in 0..L {
             for k in 0..N {
@@ -273,6 +314,8 @@ impl<A: Arith> Decoder<A> {
             let mut v = Validity::Valid as u32;
             v = pick(inconsistent[k], Validity::UnwrapInconsistent, v);
             v = pick(out_of_range[k], Validity::PhaseOutOfRange, v);
+            // (An ambiguous code explains an inconsistent or out-of-range phase.)
+            v = pick(code_ambiguous[k], Validity::CodeAmbiguous, v);
             v = pick(
                 !A::mag_at_least(bm[k], lim.min_modulation),
                 Validity::LowModulation,

@@ -60,7 +60,9 @@ impl<A: Arith> Decoder<A> {
         let f = [rb(0, 0)?, rb(0, 1)?, rb(0, 2)?, rb(0, 3)?];
         let c1 = [rb(1, 0)?, rb(1, 1)?, rb(1, 2)?, rb(1, 3)?];
         let c2 = [rb(2, 0)?, rb(2, 1)?, rb(2, 2)?, rb(2, 3)?];
-        let Block { dc, wrapped, mag } = blk;
+        let Block {
+            dc, wrapped, mag, ..
+        } = blk;
         let [w0, w1, w2, ..] = wrapped;
         let [m0, m1, m2, ..] = mag;
         let (wf, mf) = (w2, m2);

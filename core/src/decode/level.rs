@@ -21,7 +21,8 @@ impl<A: Arith> Decoder<A> {
         modulation: &mut [f32],
     ) -> Result<(), DecodeError> {
         let n = st.dc.len();
-        if level >= self.n_levels {
+        // A Gray-code level has no wrapped phase.
+        if level >= self.n_levels || (level == 0 && self.gray.is_some()) {
             return Err(DecodeError::Sequence);
         }
         if wrapped.len() != n
@@ -67,7 +68,10 @@ impl<A: Arith> Decoder<A> {
             let mut flags = [0u8; BLOCK];
             let mut st = block_state(&mut st_dc, &mut st_s, &mut st_c, &mut flags, n);
             for (i, r) in rows.iter().enumerate() {
-                self.accumulate(i, &r[start..end], &mut st)?;
+                // (The Gray images give no level's wrapped phase.)
+                if self.gray.is_none() || self.images[i].level != 0 {
+                    self.accumulate(i, &r[start..end], &mut st)?;
+                }
             }
             self.finish_level(
                 &st,

@@ -49,6 +49,7 @@
 //! | `fused` | the row driver's pass 1 for the paper's and the 12-pattern sets (one loop, lanes) |
 //! | `accumulate` | frame-sequential accumulation ([`Decoder::accumulate`]) |
 //! | `finish` | pass 1 from planes, pass 2 (unwrapping, validity, outputs: [`Decoder::finish`]) |
+//! | `gray` | the Gray-code pass of both drivers (code words, ambiguity, the level-0 estimate) |
 //! | `correction` | [`PhaseCorrection`]: the per-level phase-error table (projector gamma) |
 //! | `level` | one level's wrapped phase ([`Decoder::finish_level`], [`Decoder::decode_row_level`]) |
 //! | `buffers` | [`RowOut`], [`State`], [`DecodeScratch`] and the per-block arrays |
@@ -66,6 +67,7 @@ mod correction;
 mod decoder;
 mod finish;
 mod fused;
+mod gray;
 mod level;
 pub mod parity;
 pub mod reference;

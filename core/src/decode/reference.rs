@@ -23,7 +23,10 @@
 //!    length of that vector.
 //! 3. **Wrapped phase of a 2-image level** with shifts 0 and π/2 (eq 11):
 //!    `φ = atan2(I₁ − A, I₂ − A) − o`, wrapped to (−π, π]; B is the length of `(I₁ − A, I₂ − A)`.
-//! 4. **Unwrapping** (eqs 12-13): `Φ^(0) = φ^(0)`; for k ≥ 1 the fringe order
+//! 4. **Gray code** (issue #20, [`crate::gray`]), when level 0 is a Gray-code level: image j is
+//!    bright where `I_j > A`; the word of bright bits, read back as a binary number, gives the
+//!    stripe, and `Φ^(0)` is its centre ([`crate::gray::GrayCode::quarter_turns`] quarter turns).
+//! 5. **Unwrapping** (eqs 12-13): `Φ^(0) = φ^(0)`; for k ≥ 1 the fringe order
 //!    `n_k = round((c_k/c_{k−1}·Φ^(k−1) − φ^(k)) / 2π)` and `Φ^(k) = φ^(k) + 2π·n_k`.
 //!
 //! Nothing else: no validity tests (those are thresholds on these quantities, applied by the
@@ -48,6 +51,7 @@ pub struct ReferencePixel {
     /// Absolute phase of the finest level, `Φ^(K) = c_K·Φ^(P)` (eqs 12-13), radians.
     pub phase: f64,
     /// Wrapped phase φ^(k) ∈ (−π, π] of every level (eqs 9, 11, 14); 0 past the set's levels.
+    /// For a Gray-code level 0, its absolute phase estimate (step 4).
     pub wrapped: [f64; MAX_LEVELS],
     /// Modulation B of every level, camera codes; 0 past the set's levels.
     pub modulation: [f64; MAX_LEVELS],
@@ -84,7 +88,7 @@ pub fn decode_pixel(set: &PatternSet, samples: &[f64]) -> Option<ReferencePixel>
     // Step 1 (eqs 10, 15): A is the mean of the DC level's images.
     let mut dc_level = None;
     for (k, l) in levels.iter().enumerate() {
-        if l.len() >= 3 && dc_level.is_none_or(|d: usize| l.len() >= levels[d].len()) {
+        if l.has_dc() && dc_level.is_none_or(|d: usize| l.len() >= levels[d].len()) {
             dc_level = Some(k);
         }
     }
@@ -97,7 +101,17 @@ pub fn decode_pixel(set: &PatternSet, samples: &[f64]) -> Option<ReferencePixel>
     for (k, l) in levels.iter().enumerate() {
         let i = &by_level[k][..l.len()];
         let shifts = l.shifts();
-        if l.len() >= 3 {
+        if let Some(code) = l.gray() {
+            // Step 4: the code word of bright bits, its stripe's centre.
+            let mut word = 0u32;
+            for (j, &v) in i.iter().enumerate() {
+                if v > a {
+                    word |= 1 << code.word_bit(j);
+                }
+            }
+            wrapped[k] = code.quarter_turns(word) as f64 * FRAC_PI_2;
+            modulation[k] = f64::INFINITY;
+        } else if l.len() >= 3 {
             // Step 2 (eq 14; eq 9 for N = 4): uniform shifts δ_n = 2π(n−1)/N.
             let n = l.len() as f64;
             let mut s = 0.0;
@@ -123,7 +137,7 @@ pub fn decode_pixel(set: &PatternSet, samples: &[f64]) -> Option<ReferencePixel>
             modulation[k] = libm::sqrt(y * y + x * x);
         }
     }
-    // Step 4 (eqs 12-13): Φ^(0) = φ^(0), then one level after another.
+    // Step 5 (eqs 12-13): Φ^(0) = φ^(0), then one level after another.
     let mut phi = wrapped[0];
     for k in 1..levels.len() {
         let predicted = levels[k].scale() / levels[k - 1].scale() * phi;

@@ -6,8 +6,8 @@
 use super::BLOCK;
 use super::buffers::{Block, BlockOut, DecodeScratch, RowOut, block, block_mut, block_or_sink};
 use super::decoder::{
-    Decoder, FUSED_LANES, FUSED_PAIRS, FUSED_QUADS, KIND_GENERIC, KIND_PAIR, KIND_PAIR_UNIT,
-    KIND_QUAD, KIND_QUAD_EXACT,
+    Decoder, FUSED_LANES, FUSED_PAIRS, FUSED_QUADS, KIND_GENERIC, KIND_GRAY, KIND_PAIR,
+    KIND_PAIR_UNIT, KIND_QUAD, KIND_QUAD_EXACT,
 };
 use crate::arith::Arith;
 use crate::decode_error::DecodeError;
@@ -194,7 +194,13 @@ impl<A: Arith> Decoder<A> {
             _ => {
                 blk.dc = [A::ZERO; BLOCK];
                 for &l in self.level_order.iter().take(self.n_levels) {
-                    self.level_from_rows(l as usize, rows, start, blk, out.modulation)?;
+                    let li = self.level_images.get(l as usize);
+                    if li.is_some_and(|li| li.kind != KIND_GRAY) {
+                        self.level_from_rows(l as usize, rows, start, blk, out.modulation)?;
+                    }
+                }
+                if self.gray.is_some() {
+                    self.gray_from_rows(rows, start, blk)?;
                 }
             }
         }
@@ -309,7 +315,9 @@ impl<A: Arith> Decoder<A> {
                 mo,
             );
         }
-        let Block { dc, wrapped, mag } = blk;
+        let Block {
+            dc, wrapped, mag, ..
+        } = blk;
         let (w, mag) = (&mut wrapped[l], &mut mag[l]);
         for i in 0..BLOCK {
             let (mut s, mut c, mut a) = (A::ZERO, A::ZERO, A::ZERO);
@@ -368,7 +376,9 @@ impl<A: Arith> Decoder<A> {
         mo: &mut [f32; BLOCK],
     ) {
         let fmt = &self.format;
-        let Block { dc, wrapped, mag } = blk;
+        let Block {
+            dc, wrapped, mag, ..
+        } = blk;
         let (w, mag) = (&mut wrapped[l], &mut mag[l]);
         let (r0, r1, r2, r3) = (rows[0], rows[1 % N], rows[2 % N], rows[3 % N]);
         for i in 0..BLOCK {

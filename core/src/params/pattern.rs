@@ -106,6 +106,15 @@ pub enum Shifts {
         /// The shifts, radians.
         radians: [f64; MAX_SHIFTS],
     },
+    /// Not a phase level: a Gray-code level of `bits` binary images (`1..=MAX_GRAY_BITS`), plus
+    /// the complementary half-period one if `complementary` ([`crate::gray`]; wire value 2). Only
+    /// level 0, followed by a phase level of the same scale.
+    Gray {
+        /// Bits of the period code.
+        bits: u8,
+        /// Whether the complementary image is projected.
+        complementary: bool,
+    },
 }
 
 impl Shifts {
@@ -113,6 +122,10 @@ impl Shifts {
     pub const fn count(&self) -> usize {
         match *self {
             Shifts::Uniform { count, .. } | Shifts::Explicit { count, .. } => count as usize,
+            Shifts::Gray {
+                bits,
+                complementary,
+            } => bits as usize + complementary as usize,
         }
     }
 }

@@ -121,7 +121,11 @@ fn pattern_invalid(e: PatternError) -> Invalid {
         | PatternError::Shift(_)
         | PatternError::DegenerateShifts(_)
         | PatternError::NoDcLevel
-        | PatternError::PhaseOffset => Invalid::Shifts,
+        | PatternError::PhaseOffset
+        | PatternError::GrayPlacement(_)
+        | PatternError::GrayBits(_)
+        | PatternError::GrayNoDc => Invalid::Shifts,
+        PatternError::GrayRange { .. } => Invalid::PhaseFunction,
         PatternError::Output => Invalid::Intensity,
     }
 }
@@ -169,7 +173,13 @@ impl PatternSetDesc {
         for (dst, l) in wl.iter_mut().zip(levels) {
             *dst = Level {
                 scale: l.scale(),
-                shifts: shifts_of(l.shifts()),
+                shifts: match l.gray() {
+                    Some(g) => Shifts::Gray {
+                        bits: g.bits(),
+                        complementary: g.complementary(),
+                    },
+                    None => shifts_of(l.shifts()),
+                },
             };
         }
         let o = set.output();
@@ -247,6 +257,12 @@ impl PatternSetDesc {
                 Shifts::Explicit { count, radians } => {
                     let count = (count as usize).min(MAX_SHIFTS);
                     pattern::Level::with_shifts(l.scale, &radians[..count])
+                }
+                Shifts::Gray {
+                    bits,
+                    complementary,
+                } => {
+                    pattern::Level::gray_code(l.scale, pattern::GrayCode::new(bits, complementary))
                 }
             };
         }

@@ -113,7 +113,8 @@
 //! 16 × f64 positions, 16 × f64 phases, 16 × f64 slopes (monotonic cubic Hermite), curvature f64,
 //! bend_center f64 (`Φ = g(t + curvature·(w − bend_center)²)`); then level_count u8 and 6 levels,
 //! each: scale f64, shifts = `[0]` Uniform n u8, count u8 (shifts `2π·i/n`, `i < count`) or `[1]`
-//! Explicit count u8, 16 × f64. Unused levels are `0.0, [0] 0 0`; unused knots and explicit shifts
+//! Explicit count u8, 16 × f64, or `[2]` Gray bits u8, complementary u8 (a Gray-code level:
+//! `bits` binary images, one more if complementary, [`crate::gray`]). Unused levels are `0.0, [0] 0 0`; unused knots and explicit shifts
 //! are `0.0`. These are the parameters of the core's `PatternSet` exactly ([`desc`] maps both
 //! ways), so the head's set is the desktop's bit for bit.
 //!

@@ -95,7 +95,10 @@ fn toml_info(p: &Path) -> Result<serde_json::Value> {
         let levels: Vec<_> = s
             .levels()
             .iter()
-            .map(|l| json!({"scale": l.scale(), "shifts_rad": l.shifts(), "images": l.len(), "dc_level": l.has_dc()}))
+            .map(|l| match l.gray() {
+                Some(g) => json!({"scale": l.scale(), "gray_bits": g.bits(), "complementary": g.complementary(), "images": l.len(), "dc_level": false}),
+                None => json!({"scale": l.scale(), "shifts_rad": l.shifts(), "images": l.len(), "dc_level": l.has_dc()}),
+            })
             .collect();
         let o = s.output();
         let (lo, hi) = s.coarse_range();

@@ -17,6 +17,7 @@ pub const VALIDITY_COLOURS: [[u8; 3]; fringe3d_core::Validity::ALL.len()] = [
     [120, 0, 120],   // reference invalid
     [160, 160, 0],   // degenerate
     [255, 255, 0],   // depth edge
+    [255, 96, 160],  // code ambiguous
 ];
 
 /// A perceptually ordered blue-cyan-green-yellow-red ramp (piecewise linear), `t ∈ [0, 1]`.

@@ -312,7 +312,15 @@ fn image_list(set: &PatternSet, prefix: &str) -> Vec<serde_json::Value> {
     set.order()
         .iter()
         .enumerate()
-        .map(|(i, id)| json!({"file": format!("{prefix}img_{i:02}.png"), "level": id.level, "shift": id.shift, "shift_rad": set.levels()[id.level as usize].shifts()[id.shift as usize]}))
+        .map(|(i, id)| {
+            let level = &set.levels()[id.level as usize];
+            let file = format!("{prefix}img_{i:02}.png");
+            match level.gray() {
+                // A Gray-code image: its bit (0 = most significant).
+                Some(_) => json!({"file": file, "level": id.level, "gray_bit": id.shift}),
+                None => json!({"file": file, "level": id.level, "shift": id.shift, "shift_rad": level.shifts()[id.shift as usize]}),
+            }
+        })
         .collect()
 }
 

@@ -41,6 +41,14 @@ pub(super) fn manifest_info(
     };
     let mut estimators = Vec::new();
     for (k, l) in set.levels().iter().enumerate() {
+        if let Some(g) = l.gray() {
+            estimators.push(json!({
+                "level": k,
+                "gray_bits": g.bits(),
+                "complementary": g.complementary(),
+            }));
+            continue;
+        }
         let e = level_estimator(l.shifts(), set.effective_offset())
             .ok_or_else(|| kernel("decoder set-up", format!("level {k}: degenerate shifts")))?;
         let n = e.n;

@@ -22,6 +22,10 @@ impl Shifts {
                 finite64(used)?;
                 check(unused.iter().all(|x| x.to_bits() == 0), Invalid::UnusedSlot)
             }
+            Shifts::Gray { bits, .. } => check(
+                bits >= 1 && bits as usize <= crate::limits::MAX_GRAY_BITS,
+                Invalid::Shifts,
+            ),
         }
     }
 }

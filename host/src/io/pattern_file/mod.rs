@@ -27,7 +27,8 @@ use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
 use fringe3d_core::pattern::{
-    Convention, ImageId, Level, LevelPreset, MAX_SHIFT_MAGNITUDE, Output, PatternError, PatternSet,
+    Convention, GrayCode, ImageId, Level, LevelPreset, MAX_SHIFT_MAGNITUDE, Output, PatternError,
+    PatternSet,
 };
 use fringe3d_core::phase_function::{
     Axis, KnotProfile, MIN_COARSE_SPAN, PhaseFunction, PhaseFunctionError, Profile,
@@ -264,7 +265,7 @@ pub struct PhaseSection {
 }
 
 /// One `[[levels]]` entry: a scale coefficient and its phase shifts (exactly one of `steps`,
-/// `shifts`, `shifts_deg`).
+/// `shifts`, `shifts_deg`), or a Gray-code level (`gray_bits`, with `complementary`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LevelSection {
@@ -279,6 +280,15 @@ pub struct LevelSection {
     /// Explicit shifts, degrees.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shifts_deg: Option<Vec<f64>>,
+    /// A Gray-code level of this many bits (1 to 10): binary stripe images giving the fringe
+    /// order of the next level, which must have the same scale (`fringe3d_core::gray`). Only
+    /// the first level.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gray_bits: Option<u32>,
+    /// With `gray_bits`: project the complementary half-period image too (one more image; no
+    /// period-edge errors). Default true.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub complementary: Option<bool>,
 }
 
 impl PatternSetFile {
@@ -327,6 +337,9 @@ impl PatternSetFile {
             ),
             PatternError::Function(PhaseFunctionError::CoarseRangeExceeded { .. }) => {
                 " (phase.span / phase.slope / the knots, or the coarsest scale)".to_string()
+            }
+            PatternError::GrayRange { .. } => {
+                " (raise levels[0].gray_bits, or lower the scale or phase.span)".to_string()
             }
             PatternError::Function(PhaseFunctionError::BendTooLarge { .. }) => {
                 " (phase.curvature: the bend must stay within the projector)".to_string()
@@ -572,13 +585,33 @@ impl PatternSetFile {
                         l.steps.is_some(),
                         l.shifts.is_some(),
                         l.shifts_deg.is_some(),
+                        l.gray_bits.is_some(),
                     ];
                     if given.iter().filter(|&&g| g).count() != 1 {
                         return Err(self.err(format!(
-                            "levels[{i}]: give exactly one of steps, shifts or shifts_deg"
+                            "levels[{i}]: give exactly one of steps, shifts, shifts_deg or gray_bits"
                         )));
                     }
-                    let level = if let Some(n) = l.steps {
+                    if l.complementary.is_some() && l.gray_bits.is_none() {
+                        return Err(self.err(format!(
+                            "levels[{i}]: complementary applies to a Gray-code level (gray_bits) only"
+                        )));
+                    }
+                    let level = if let Some(bits) = l.gray_bits {
+                        let max = fringe3d_core::limits::MAX_GRAY_BITS as u32;
+                        if !(1..=max).contains(&bits) {
+                            return Err(self.err(format!(
+                                "levels[{i}]: gray_bits = {bits}; a Gray-code level has 1 to {max} bits"
+                            )));
+                        }
+                        if i != 0 {
+                            return Err(self.err(format!(
+                                "levels[{i}]: a Gray-code level (gray_bits) must be the first level"
+                            )));
+                        }
+                        let code = GrayCode::new(bits as u8, l.complementary.unwrap_or(true));
+                        Level::gray_code(l.scale, code)
+                    } else if let Some(n) = l.steps {
                         if !(3..=fringe3d_core::pattern::MAX_SHIFTS as u32).contains(&n) {
                             return Err(self.err(format!(
                                 "levels[{i}]: steps = {n}; an N-step level (eq 14) needs 3 to {} steps \

@@ -53,12 +53,15 @@ impl PatternSetFile {
                     .iter()
                     .map(|l| {
                         let n = l.len();
+                        let gray = l.gray();
                         let is_nstep = n >= 3 && *l == Level::n_step(l.scale(), n);
                         LevelSection {
                             scale: l.scale(),
                             steps: is_nstep.then_some(n as u32),
-                            shifts: (!is_nstep).then(|| l.shifts().to_vec()),
+                            shifts: (!is_nstep && gray.is_none()).then(|| l.shifts().to_vec()),
                             shifts_deg: None,
+                            gray_bits: gray.map(|g| u32::from(g.bits())),
+                            complementary: gray.map(|g| g.complementary()),
                         }
                     })
                     .collect(),

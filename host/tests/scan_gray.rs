@@ -1,0 +1,230 @@
+//! Gray code + phase shifting on rendered scans with truth (issue #20's quality bar): the
+//! renderer projects a pattern-set file's Gray-code and 4-step images onto its scenes through
+//! the projector's defocus, an 8-bit camera with σ = 1 code of read noise; the core decoder's
+//! phase is compared with the exact phase of the point each pixel sees.
+//!
+//! - zero fringe-order errors on valid pixels (plain and complementary codes, three scenes);
+//! - the phase RMS, in units of each pixel's 4-step noise prediction `√(2/N)·σ/B` (σ² = 1 +
+//!   1/12 for the rounding), within 10 % of 1 on pixels with B/σ ≥ 14;
+//! - the complementary code refuses no pixel for its code or order on a smooth surface (no
+//!   boundary losses), the plain one refuses some (it cannot tell a period edge's side);
+//! - the CLI: `patterns`, `render` and `scan` take a Gray-code set file end to end.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use fringe3d::io::pattern_file::PatternSetFile;
+use fringe3d::render::dataset::{DatasetOptions, write_dataset};
+use fringe3d::render::{MASK_VALID, Overrides, RenderOptions, Scene, SceneSpec};
+use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut};
+use fringe3d_core::validity::Validity;
+
+struct Tmp(PathBuf);
+impl Tmp {
+    fn new(tag: &str) -> Tmp {
+        let d = std::env::temp_dir().join(format!("fringe3d-gray-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        Tmp(d)
+    }
+    fn join(&self, p: &str) -> PathBuf {
+        self.0.join(p)
+    }
+}
+impl Drop for Tmp {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// 32 periods across a 1024-column projector (32 projector pixels per period), ordered by a
+/// 6-bit Gray code (complementary or not), then a 4-step level.
+fn set_file(complementary: bool) -> String {
+    format!(
+        "version = 2\n\
+         [projector]\nwidth = 1024\nheight = 768\n\
+         [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 511.5\nslope = {slope}\n\
+         [[levels]]\nscale = 32.0\ngray_bits = 6\ncomplementary = {complementary}\n\
+         [[levels]]\nscale = 32.0\nsteps = 4\n",
+        slope = std::f64::consts::TAU / 1024.0,
+    )
+}
+
+fn scene(name: &str, set: &Path) -> Scene {
+    let mut spec = SceneSpec::builtin(name).unwrap();
+    spec.apply(&Overrides {
+        size: Some((320, 256)),
+        supersample: Some(1),
+        bits: Some(8),
+        noise: Some(1.0),
+        pattern_bits: Some(8),
+        seed: Some(11),
+        ..Default::default()
+    });
+    spec.patterns.set = Some(PatternSetFile::load(set).unwrap());
+    Scene::new(spec, None).unwrap()
+}
+
+struct Score {
+    /// Valid pixels (decoder) that the renderer also marks valid.
+    valid: usize,
+    /// Of those, more than π from the truth.
+    order_errors: usize,
+    /// RMS of the error over the predicted noise, pixels with B ≥ 14.
+    normalized_rms: f64,
+    /// Pixels refused as `CodeAmbiguous` or `UnwrapInconsistent` among the lit ones.
+    edge_refusals: usize,
+}
+
+fn score(scene: &Scene) -> Score {
+    let (f, t) = scene.render_fringes(RenderOptions::default()).unwrap();
+    let truth = scene.true_phase(&t);
+    let set = &scene.patterns;
+    let d = Decoder::new(set, DecodeConfig::for_bit_depth(8)).unwrap();
+    let (w, h) = (f.width as usize, f.height as usize);
+    let frames: Vec<Vec<u8>> = f
+        .images
+        .iter()
+        .map(|i| i.iter().map(|&v| v as u8).collect())
+        .collect();
+    let sigma2: f64 = 1.0 + 1.0 / 12.0;
+    let (mut valid, mut order_errors, mut edge_refusals) = (0, 0, 0);
+    let (mut sum, mut n) = (0.0, 0usize);
+    let (mut ph, mut mo, mut dc, mut va) =
+        (vec![0f32; w], vec![0f32; w], vec![0f32; w], vec![0u8; w]);
+    for y in 0..h {
+        let rows: Vec<&[u8]> = frames.iter().map(|i| &i[y * w..(y + 1) * w]).collect();
+        let out = RowOut {
+            phase: &mut ph,
+            modulation: &mut mo,
+            dc: &mut dc,
+            validity: &mut va,
+        };
+        d.decode_row(&rows, out).unwrap();
+        for x in 0..w {
+            let p = y * w + x;
+            if t.mask[p] != MASK_VALID || !truth[p].is_finite() {
+                continue;
+            }
+            if va[x] == Validity::CodeAmbiguous as u8 || va[x] == Validity::UnwrapInconsistent as u8
+            {
+                edge_refusals += 1;
+            }
+            if va[x] != Validity::Valid as u8 {
+                continue;
+            }
+            valid += 1;
+            let e = ph[x] as f64 - truth[p];
+            if e.abs() > std::f64::consts::PI {
+                order_errors += 1;
+                continue;
+            }
+            let b = mo[x] as f64;
+            if b >= 14.0 {
+                let pred = (0.5 * sigma2).sqrt() / b;
+                sum += (e / pred).powi(2);
+                n += 1;
+            }
+        }
+    }
+    assert!(n > 1000, "{n} pixels at B >= 14");
+    Score {
+        valid,
+        order_errors,
+        normalized_rms: (sum / n as f64).sqrt(),
+        edge_refusals,
+    }
+}
+
+#[test]
+fn gray_code_scans_meet_the_quality_bar() {
+    let t = Tmp::new("bar");
+    for comp in [false, true] {
+        let f = t.join(&format!("gray-{comp}.toml"));
+        std::fs::write(&f, set_file(comp)).unwrap();
+        let mut refusals = 0;
+        for name in ["plane", "sphere", "steps"] {
+            let s = score(&scene(name, &f));
+            let what = format!("{name}, complementary {comp}");
+            eprintln!(
+                "{what}: {} valid, {} edge refusals, RMS {:.3}",
+                s.valid, s.edge_refusals, s.normalized_rms
+            );
+            assert!(s.valid > 10_000, "{what}: {} valid", s.valid);
+            assert_eq!(s.order_errors, 0, "{what}: fringe-order errors");
+            assert!(
+                (s.normalized_rms - 1.0).abs() <= 0.10,
+                "{what}: phase RMS {:.3} x the prediction",
+                s.normalized_rms
+            );
+            if comp && name != "steps" {
+                // Smooth surfaces: no pixel lost at a stripe or period edge.
+                assert_eq!(s.edge_refusals, 0, "{what}: edge refusals");
+            }
+            refusals += s.edge_refusals;
+        }
+        if !comp {
+            assert!(refusals > 0, "the plain code refused no edge pixel");
+        }
+    }
+}
+
+#[test]
+fn patterns_render_and_scan_take_a_gray_code_set() {
+    let t = Tmp::new("cli");
+    let f = t.join("gray.toml");
+    std::fs::write(&f, set_file(true)).unwrap();
+    let bin = env!("CARGO_BIN_EXE_fringe3d");
+    // `patterns` writes the 7 Gray images and 4 fringes.
+    let pat = t.join("pat");
+    let o = Command::new(bin)
+        .args(["patterns", "--patterns"])
+        .arg(&f)
+        .arg("-o")
+        .arg(&pat)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let pngs = std::fs::read_dir(&pat)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .extension()
+                .is_some_and(|x| x == "png")
+        })
+        .count();
+    assert_eq!(pngs, 11);
+    // A rendered dataset scans.
+    let ds = t.join("ds");
+    write_dataset(
+        &scene("sphere", &f),
+        &ds,
+        DatasetOptions {
+            overwrite: true,
+            progress: None,
+        },
+    )
+    .unwrap();
+    let ply = t.join("out.ply");
+    let o = Command::new(bin)
+        .args(["scan", "-q", "--patterns"])
+        .arg(ds.join("patterns.toml"))
+        .arg("--calibration")
+        .arg(ds.join("calibration.toml"))
+        .arg(&ds)
+        .arg("-o")
+        .arg(&ply)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let head = std::fs::read(&ply).unwrap();
+    let text = String::from_utf8_lossy(&head[..head.len().min(400)]).into_owned();
+    let count: usize = text
+        .lines()
+        .find_map(|l| l.strip_prefix("element vertex "))
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap();
+    assert!(count > 20_000, "{count} points");
+}
