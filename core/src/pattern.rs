@@ -79,6 +79,9 @@ pub enum PatternError {
     /// A Gray-code level that is not level 0, or is not followed by a phase level of the same
     /// scale (the level whose fringe order it gives).
     GrayPlacement(usize),
+    /// A heterodyne set that is not 2 or 3 phase levels whose beat scale (`c₁ − c₀`, or
+    /// `c₂ − 2c₁ + c₀`) is positive ([`Relation::Heterodyne`]).
+    HeterodyneLevels,
     /// A Gray-code level's bit count is outside 1..=[`MAX_GRAY_BITS`].
     GrayBits(usize),
     /// A Gray-code level but no level with 3 or more shifts: its threshold is the DC term A.
@@ -172,6 +175,11 @@ impl core::fmt::Display for PatternError {
                 f,
                 "level {l}: a Gray-code level must be level 0, followed by a phase level of the \
                  same scale"
+            ),
+            Self::HeterodyneLevels => write!(
+                f,
+                "a heterodyne set needs 2 or 3 phase levels whose beat scale (c1 - c0, or \
+                 c2 - 2 c1 + c0 for 3) is positive"
             ),
             Self::GrayBits(n) => write!(
                 f,
@@ -364,6 +372,39 @@ pub struct PatternSet {
     phase_offset: f64,
     output: Output,
     coarse_range: (f64, f64),
+    relation: Relation,
+}
+
+/// How the levels of a set give the absolute phase.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Relation {
+    /// Eqs 12-13: the coarsest level is absolute (within one period over the projector) and each
+    /// level unwraps the next (or a Gray-code level gives the first phase level's order).
+    #[default]
+    Hierarchical,
+    /// Multi-frequency heterodyne (issue #20), 2 or 3 phase levels none of which need be within
+    /// one period: the *beat* of levels a < b, `wrap(φ_b − φ_a)`, is the phase of scale
+    /// `c_b − c_a`; with 3 levels the beat of the two beats, scale `c₂ − 2c₁ + c₀`, must be
+    /// within one period over the projector (the set's coarse range). From it the chain unwraps
+    /// (eqs 12-13, each step's residual checked): 2 levels `beat → φ₀ → φ₁`; 3 levels
+    /// `beat of beats → beat₀₁ → φ₁ → φ₂`. Periods 21/26/32 across the projector beat to 5, 6
+    /// and 1: non-integer scale ratios are the point.
+    Heterodyne,
+}
+
+impl Relation {
+    /// The scale of the absolute phase the decoder starts from: the coarsest level's, or for a
+    /// heterodyne set its beat's (`None` if the levels cannot beat: wrong count or not
+    /// increasing by increasing steps).
+    pub fn start_scale(self, levels: &[Level]) -> Option<f64> {
+        let c = |i: usize| levels.get(i).map(|l| l.scale);
+        match (self, levels.len()) {
+            (Relation::Hierarchical, _) => c(0),
+            (Relation::Heterodyne, 2) => Some(c(1)? - c(0)?),
+            (Relation::Heterodyne, 3) => Some((c(2)? - c(1)?) - (c(1)? - c(0)?)),
+            (Relation::Heterodyne, _) => None,
+        }
+    }
 }
 
 impl PatternSet {
@@ -376,6 +417,17 @@ impl PatternSet {
         function: PhaseFunction,
         levels: &[Level],
         output: Output,
+    ) -> Result<Self, PatternError> {
+        Self::new_with_relation(function, levels, output, Relation::Hierarchical)
+    }
+
+    /// [`PatternSet::new`] with the levels in `relation` ([`Relation::Heterodyne`]: the coarsest
+    /// level need not be within one period, the beat must).
+    pub fn new_with_relation(
+        function: PhaseFunction,
+        levels: &[Level],
+        output: Output,
+        relation: Relation,
     ) -> Result<Self, PatternError> {
         if levels.is_empty() || levels.len() > MAX_LEVELS {
             return Err(PatternError::LevelCount(levels.len()));
@@ -431,6 +483,7 @@ impl PatternSet {
             phase_offset: 0.0,
             output,
             coarse_range: (0.0, 0.0),
+            relation,
         };
         set.validate()?;
         Ok(set)
@@ -465,6 +518,11 @@ impl PatternSet {
         };
         let f = PhaseFunction::centered(axis, size, 0.9 * core::f64::consts::TAU)?;
         Self::paper_eight(f, 8.0, output)
+    }
+
+    /// How the levels give the absolute phase.
+    pub fn relation(&self) -> Relation {
+        self.relation
     }
 
     /// Use the sine (paper) or cosine convention.
@@ -580,7 +638,15 @@ impl PatternSet {
         }
         // `n_levels` is in 1..=MAX_LEVELS here (checked above); `get` keeps a panic path out.
         let scale = |i: usize| self.levels.get(i).map_or(0.0, |l| l.scale);
-        let (c_min, c_max) = (scale(0), scale(self.n_levels.wrapping_sub(1)));
+        let (mut c_min, c_max) = (scale(0), scale(self.n_levels.wrapping_sub(1)));
+        if self.relation == Relation::Heterodyne {
+            let levels = self.levels.get(..self.n_levels).unwrap_or(&[]);
+            let beat = self.relation.start_scale(levels);
+            let Some(beat) = beat.filter(|b| *b > 0.0 && gray.is_none()) else {
+                return Err(PatternError::HeterodyneLevels);
+            };
+            c_min = beat;
+        }
         let Some(code) = gray else {
             self.coarse_range =
                 self.function

@@ -17,13 +17,13 @@ use fringe3d_core::validity::Validity;
 use std::f64::consts::TAU;
 
 /// Projector columns.
-const PROJ: u32 = 1024;
+pub(crate) const PROJ: u32 = 1024;
 /// Camera pixels per row (about 0.85 projector columns each).
-const CAM: usize = 1200;
+pub(crate) const CAM: usize = 1200;
 /// Periods of the phase level across the projector.
 const PERIODS: f64 = 20.0;
 
-fn output() -> Output {
+pub(crate) fn output() -> Output {
     Output {
         width: PROJ,
         height: 8,
@@ -45,14 +45,14 @@ fn gray_set(bits: u8, complementary: bool) -> PatternSet {
 /// `ξ = p·PROJ/CAM`, the pattern there blurred by a Gaussian of `blur` projector pixels
 /// (41 samples over ±3σ), through a linear camera with DC `a` and modulation `b` (pattern gray
 /// level 0 → `a − b`, 255 → `a + b`), Gaussian noise `sigma`, rounded and clipped to 8 bits.
-/// Returns the images and the true absolute phase `c·Φ(ξ)` of each pixel.
-fn render_row(
+/// Returns the images and the true absolute phase `c_K·Φ(ξ)` (finest level) of each pixel.
+pub(crate) fn render_row(
     set: &PatternSet,
     (a, b, sigma, blur): (f64, f64, f64, f64),
     seed: u64,
 ) -> (Vec<Vec<u8>>, Vec<f64>) {
     let mut rng = Rng(seed);
-    let scale = set.levels()[1].scale();
+    let scale = set.levels().last().unwrap().scale();
     let xi = |p: usize| p as f64 * PROJ as f64 / CAM as f64;
     let taps: Vec<(f64, f64)> = if blur > 0.0 {
         let t: Vec<(f64, f64)> = (0..41)
@@ -89,12 +89,12 @@ fn render_row(
     (images, truth)
 }
 
-struct Decoded {
-    phase: Vec<f32>,
-    validity: Vec<u8>,
+pub(crate) struct Decoded {
+    pub(crate) phase: Vec<f32>,
+    pub(crate) validity: Vec<u8>,
 }
 
-fn decode(d: &AnyDecoder, images: &[Vec<u8>]) -> Decoded {
+pub(crate) fn decode(d: &AnyDecoder, images: &[Vec<u8>]) -> Decoded {
     let rows: Vec<&[u8]> = images.iter().map(|r| &r[..]).collect();
     let (mut phase, mut mo, mut dc, mut validity) = (
         vec![0f32; CAM],
@@ -113,7 +113,7 @@ fn decode(d: &AnyDecoder, images: &[Vec<u8>]) -> Decoded {
 }
 
 /// (valid pixels, valid pixels more than 1 rad from the truth: fringe-order errors).
-fn score(d: &Decoded, truth: &[f64]) -> (usize, usize) {
+pub(crate) fn score(d: &Decoded, truth: &[f64]) -> (usize, usize) {
     let valid: Vec<usize> = (0..CAM)
         .filter(|&p| d.validity[p] == Validity::Valid as u8)
         .collect();
@@ -125,7 +125,7 @@ fn score(d: &Decoded, truth: &[f64]) -> (usize, usize) {
 }
 
 /// B/σ = 14 on an 8-bit camera (σ = 1 code), a 1.5-pixel projector blur.
-const BAR: (f64, f64, f64, f64) = (120.0, 14.0, 1.0, 1.5);
+pub(crate) const BAR: (f64, f64, f64, f64) = (120.0, 14.0, 1.0, 1.5);
 
 #[test]
 fn complementary_gray_orders_every_pixel_and_refuses_none_at_edges() {

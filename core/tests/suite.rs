@@ -15,6 +15,7 @@ mod camera_model;
 mod decode_accuracy;
 mod decode_correction;
 mod decode_gray;
+mod decode_heterodyne;
 mod decode_long_sets;
 mod decode_optional_outputs;
 mod decode_parity;

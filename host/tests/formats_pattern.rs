@@ -169,7 +169,7 @@ fn every_example_loads() {
             n += 1;
         }
     }
-    assert_eq!(n, 8);
+    assert_eq!(n, 9);
 }
 
 #[test]

@@ -37,5 +37,5 @@ mod render_dataset;
 mod render_geometry;
 mod render_phase;
 mod render_timing;
-mod scan_gray;
+mod scan_codes;
 mod scan_stream;

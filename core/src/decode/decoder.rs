@@ -10,7 +10,7 @@ use crate::decode_error::DecodeError;
 use crate::estimator::{LevelEstimator, level_estimator};
 use crate::gray::GrayCode;
 use crate::limits::{CORRECTION_KNOTS, MAX_IMAGES, MAX_LEVELS, MAX_SHIFTS};
-use crate::pattern::PatternSet;
+use crate::pattern::{PatternSet, Relation};
 
 /// Per-image coefficients, in image order.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,6 +70,9 @@ pub struct Decoder<A: Arith = F32Accurate> {
     /// Whether every image of the DC level comes before every Gray image (the frame-sequential
     /// path thresholds a Gray image on arrival, against the complete A).
     pub(super) gray_after_dc: bool,
+    /// A heterodyne set ([`Relation::Heterodyne`]): `ratio[0..n_levels]` is the chain of
+    /// unwrapping ratios from the beat, in the order of `finish`'s steps.
+    pub(super) heterodyne: bool,
 }
 
 /// Pixels side by side in [`Decoder::fused_rows`] (pass 1 of the paper's and the 12-pattern
@@ -199,10 +202,28 @@ impl<A: Arith> Decoder<A> {
             ratios[i] = levels[i].scale() / levels[i - 1].scale();
         }
         let n_levels = levels.len();
+        // A heterodyne set's chain of unwrapping ratios from its beat (`Relation::Heterodyne`),
+        // after a leading 1 (the plan's convention: entry 0 is the start).
+        let heterodyne = set.relation() == Relation::Heterodyne;
+        let mut chain = [1.0f64; MAX_LEVELS + 1];
+        if heterodyne {
+            let c = |i: usize| levels.get(i).map_or(1.0, |l| l.scale());
+            let beat = set.relation().start_scale(levels).unwrap_or(1.0);
+            if n_levels == 2 {
+                chain[1..3].copy_from_slice(&[c(0) / beat, c(1) / c(0)]);
+            } else {
+                let b01 = c(1) - c(0);
+                chain[1..4].copy_from_slice(&[b01 / beat, c(1) / b01, c(2) / c(1)]);
+            }
+        }
         let plan = Plan {
             levels: &est[..n_levels],
             dc_level,
-            ratios: &ratios[..n_levels],
+            ratios: if heterodyne {
+                &chain[..n_levels + 1]
+            } else {
+                &ratios[..n_levels]
+            },
             coarse_range: set.coarse_range(),
             config: &config,
             gray: set.gray(),
@@ -238,7 +259,13 @@ impl<A: Arith> Decoder<A> {
             gray: set.gray(),
             gray_word_bit: [0; MAX_SHIFTS],
             gray_after_dc: false,
+            heterodyne,
         });
+        if heterodyne {
+            for (r, c) in d.ratio.iter_mut().zip(&chain[1..=n_levels]) {
+                *r = A::ratio(*c, &format);
+            }
+        }
         let order = dc_level
             .into_iter()
             .chain((0..n_levels).filter(|&l| Some(l) != dc_level));
@@ -253,7 +280,7 @@ impl<A: Arith> Decoder<A> {
             let c = A::level_coefs(&plan, i, &format);
             d.a_dc[i] = c.a_dc;
             d.b_dc[i] = c.b_dc;
-            if i > 0 {
+            if i > 0 && !heterodyne {
                 d.ratio[i] = A::ratio(ratios[i], &format);
             }
             let images = set.order().iter().enumerate();

@@ -10,6 +10,13 @@ use crate::decode_error::DecodeError;
 use crate::math::CANONICAL_NAN;
 use crate::validity::Validity;
 
+/// `finish_lanes`'s mode: eqs 12-13 from the coarsest level.
+const HIERARCHICAL: u8 = 0;
+/// `finish_lanes`'s mode: level 0 is a Gray-code level ([`crate::gray`]).
+const GRAY: u8 = 1;
+/// `finish_lanes`'s mode: a heterodyne set ([`crate::pattern::Relation::Heterodyne`]).
+const HETERODYNE: u8 = 2;
+
 impl<A: Arith> Decoder<A> {
     /// Turn a complete state into outputs (the second half of the kernel): S and C per level,
     /// wrapped phase by the backend's `atan2` ([`crate::math::atan2`] by default), modulation,
@@ -202,26 +209,34 @@ impl<A: Arith> Decoder<A> {
         saturated: impl Fn(T) -> bool,
         out: BlockOut<'_>,
     ) {
+        if self.heterodyne {
+            // 2 or 3 levels (`Relation::Heterodyne`).
+            return match self.n_levels {
+                2 => self.unwrap_levels::<2, T, N, HETERODYNE>(blk, sat, saturated, out),
+                _ => self.unwrap_levels::<3, T, N, HETERODYNE>(blk, sat, saturated, out),
+            };
+        }
         match (self.n_levels, self.gray.is_some()) {
-            (1, _) => self.unwrap_levels::<1, T, N, false>(blk, sat, saturated, out),
-            (2, false) => self.unwrap_levels::<2, T, N, false>(blk, sat, saturated, out),
-            (3, false) => self.unwrap_levels::<3, T, N, false>(blk, sat, saturated, out),
-            (4, false) => self.unwrap_levels::<4, T, N, false>(blk, sat, saturated, out),
-            (5, false) => self.unwrap_levels::<5, T, N, false>(blk, sat, saturated, out),
-            (_, false) => self.unwrap_levels::<6, T, N, false>(blk, sat, saturated, out),
+            (1, _) => self.unwrap_levels::<1, T, N, HIERARCHICAL>(blk, sat, saturated, out),
+            (2, false) => self.unwrap_levels::<2, T, N, HIERARCHICAL>(blk, sat, saturated, out),
+            (3, false) => self.unwrap_levels::<3, T, N, HIERARCHICAL>(blk, sat, saturated, out),
+            (4, false) => self.unwrap_levels::<4, T, N, HIERARCHICAL>(blk, sat, saturated, out),
+            (5, false) => self.unwrap_levels::<5, T, N, HIERARCHICAL>(blk, sat, saturated, out),
+            (_, false) => self.unwrap_levels::<6, T, N, HIERARCHICAL>(blk, sat, saturated, out),
             // A Gray-coded set has 2 or 3 levels ([`crate::limits::MAX_GRAY_LEVELS`]).
-            (2, true) => self.unwrap_levels::<2, T, N, true>(blk, sat, saturated, out),
-            (_, true) => self.unwrap_levels::<3, T, N, true>(blk, sat, saturated, out),
+            (2, true) => self.unwrap_levels::<2, T, N, GRAY>(blk, sat, saturated, out),
+            (_, true) => self.unwrap_levels::<3, T, N, GRAY>(blk, sat, saturated, out),
         }
     }
 
     /// [`Self::unwrap_block`] for `L` levels, pixel `j` of each of the block's `N` parts side by
-    /// side ([`Self::finish_lanes`]); `GRAY`: level 0 is a Gray-code level.
+    /// side ([`Self::finish_lanes`]); `MODE`: [`HIERARCHICAL`], [`GRAY`] (level 0 is a
+    /// Gray-code level) or [`HETERODYNE`].
     // Indices, not iterators, over the levels: the iterator form left this loop unvectorized
     // (5× slower with AVX-512).
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn unwrap_levels<const L: usize, T: Copy, const N: usize, const GRAY: bool>(
+    fn unwrap_levels<const L: usize, T: Copy, const N: usize, const MODE: u8>(
         &self,
         blk: &Block<A>,
         sat: &[T; BLOCK],
@@ -246,7 +261,7 @@ impl<A: Arith> Decoder<A> {
                 core::array::from_fn(|k| core::array::from_fn(|l| mag[l][ix[k]]));
             let st: [bool; N] = core::array::from_fn(|k| saturated(sat[ix[k]]));
             let amb: [u8; N] = core::array::from_fn(|k| blk.ambiguous[ix[k]]);
-            let r = self.finish_lanes::<L, N, GRAY>(&w, &m, &av, &st, &amb);
+            let r = self.finish_lanes::<L, N, MODE>(&w, &m, &av, &st, &amb);
             for k in 0..N {
                 (po[ix[k]], vo[ix[k]]) = r[k];
                 ao[ix[k]] = A::dc_out(av[k], fmt);
@@ -260,12 +275,13 @@ impl<A: Arith> Decoder<A> {
     /// `m`, the dark test on `a` and the validity code (`saturated` given). Returns the phase
     /// output and the code of each pixel.
     ///
-    /// `GRAY`: level 0 is a Gray-code level, `w[k][0]` its estimate and `ambiguous` the count of
-    /// ambiguous bits. Its step to level 1 (ratio 1) is held to the code's tolerance, and the
-    /// range test applies to the phase that step gives (the estimate itself is always in range).
+    /// `MODE` [`GRAY`]: level 0 is a Gray-code level, `w[k][0]` its estimate and `ambiguous` the
+    /// count of ambiguous bits. Its step to level 1 (ratio 1) is held to the code's tolerance,
+    /// and the range test applies to the phase that step gives (the estimate itself is always in
+    /// range). [`HETERODYNE`]: the beats and the chain ([`Self::heterodyne_lanes`]).
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn finish_lanes<const L: usize, const N: usize, const GRAY: bool>(
+    fn finish_lanes<const L: usize, const N: usize, const MODE: u8>(
         &self,
         w: &[[A::Phase; L]; N],
         m: &[[A::Mag; L]; N],
@@ -275,14 +291,23 @@ impl<A: Arith> Decoder<A> {
     ) -> [(f32, u8); N] {
         use core::array::from_fn as lanes;
         let lim = &self.limits;
+        const { assert!(MODE != GRAY || L <= crate::limits::MAX_GRAY_LEVELS) };
+        const { assert!(MODE != HETERODYNE || L == 2 || L == 3) };
+        let gray = MODE == GRAY;
         let mut phi: [A::Phase; N] = lanes(|k| w[k][0]);
         let mut out_of_range: [bool; N] =
-            lanes(|k| !GRAY && !A::in_range(phi[k], lim.coarse_lo, lim.coarse_hi));
+            lanes(|k| !gray && !A::in_range(phi[k], lim.coarse_lo, lim.coarse_hi));
         let mut inconsistent = [false; N];
+        if MODE == HETERODYNE {
+            (phi, out_of_range, inconsistent) = self.heterodyne_lanes(w);
+        }
         for l in 1..L {
+            if MODE == HETERODYNE {
+                break;
+            }
             let st: [(A::Phase, A::Phase); N] =
                 lanes(|k| A::unwrap(phi[k], self.ratio[l], w[k][l]));
-            let tolerance = if GRAY && l == 1 {
+            let tolerance = if gray && l == 1 {
                 lim.gray_tolerance
             } else {
                 lim.unwrap_tolerance
@@ -290,13 +315,13 @@ impl<A: Arith> Decoder<A> {
             for k in 0..N {
                 inconsistent[k] |= !A::consistent(st[k].1, tolerance);
                 phi[k] = st[k].0;
-                if GRAY && l == 1 {
+                if gray && l == 1 {
                     out_of_range[k] = !A::in_range(phi[k], lim.coarse_lo, lim.coarse_hi);
                 }
             }
         }
         let max_ambiguous = self.gray.map_or(u8::MAX, |g| g.max_ambiguous());
-        let code_ambiguous: [bool; N] = lanes(|k| GRAY && ambiguous[k] >= max_ambiguous);
+        let code_ambiguous: [bool; N] = lanes(|k| gray && ambiguous[k] >= max_ambiguous);
         let mut bm = [A::MAG_MAX; N];
         for l in 0..L {
             for k in 0..N {
@@ -332,5 +357,53 @@ impl<A: Arith> Decoder<A> {
                 v as u8,
             )
         })
+    }
+
+    /// The beats and the unwrapping chain of a heterodyne set of `L` (2 or 3) levels, for `N`
+    /// pixels: the absolute phase, out of range, inconsistent.
+    ///
+    /// The beat of wrapped phases `a` (coarser) and `b` is `wrap(φ_b − φ_a)`, the residual of
+    /// the unwrapping step `unwrap(φ_b, 1, φ_a)` (the `φ_a + 2πn` nearest `φ_b`). With 2 levels
+    /// the beat is the start; with 3 the beat of the beats `wrap(β₁₂ − β₀₁)`. The range test
+    /// applies to the start, and every step of the chain (`ratio[0..L]`: to β₀₁ or φ₀, then to
+    /// the levels) is held to the unwrapping tolerance: a beat that disagrees with a finer phase
+    /// is flagged, never followed.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn heterodyne_lanes<const L: usize, const N: usize>(
+        &self,
+        w: &[[A::Phase; L]; N],
+    ) -> ([A::Phase; N], [bool; N], [bool; N]) {
+        use core::array::from_fn as lanes;
+        let lim = &self.limits;
+        let one = A::ratio(1.0, &self.format);
+        let beat = |a: A::Phase, b: A::Phase| A::unwrap(b, one, a).1;
+        let start: [A::Phase; N] = lanes(|k| {
+            let b01 = beat(w[k][0], w[k][1 % L]);
+            if L == 2 {
+                b01
+            } else {
+                beat(b01, beat(w[k][1 % L], w[k][2 % L]))
+            }
+        });
+        let out_of_range = lanes(|k| !A::in_range(start[k], lim.coarse_lo, lim.coarse_hi));
+        let mut phi = start;
+        let mut inconsistent = [false; N];
+        for step in 0..L {
+            for k in 0..N {
+                // The targets: 2 levels φ₀, φ₁; 3 levels β₀₁, φ₁, φ₂.
+                let target = if L == 2 {
+                    w[k][step]
+                } else if step == 0 {
+                    beat(w[k][0], w[k][1 % L])
+                } else {
+                    w[k][step]
+                };
+                let (p, r) = A::unwrap(phi[k], self.ratio[step], target);
+                inconsistent[k] |= !A::consistent(r, lim.unwrap_tolerance);
+                phi[k] = p;
+            }
+        }
+        (phi, out_of_range, inconsistent)
     }
 }

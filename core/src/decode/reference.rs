@@ -28,6 +28,9 @@
 //!    stripe, and `Φ^(0)` is its centre ([`crate::gray::GrayCode::quarter_turns`] quarter turns).
 //! 5. **Unwrapping** (eqs 12-13): `Φ^(0) = φ^(0)`; for k ≥ 1 the fringe order
 //!    `n_k = round((c_k/c_{k−1}·Φ^(k−1) − φ^(k)) / 2π)` and `Φ^(k) = φ^(k) + 2π·n_k`.
+//! 6. **Heterodyne** (issue #20), for a set of [`Relation::Heterodyne`] in place of step 5: the
+//!    beats of the wrapped phases give the absolute start, and the chain unwraps from it
+//!    (`heterodyne` below).
 //!
 //! Nothing else: no validity tests (those are thresholds on these quantities, applied by the
 //! decoder), and only the sets these equations cover — every level of ≥ 3 shifts uniform, every
@@ -38,7 +41,7 @@
 //! `no_std`, no allocation, every transcendental from `libm`.
 
 use crate::limits::MAX_LEVELS;
-use crate::pattern::PatternSet;
+use crate::pattern::{PatternSet, Relation};
 use core::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// How far (radians) a level's shifts may be from the paper's before [`decode_pixel`] refuses
@@ -137,6 +140,14 @@ pub fn decode_pixel(set: &PatternSet, samples: &[f64]) -> Option<ReferencePixel>
             modulation[k] = libm::sqrt(y * y + x * x);
         }
     }
+    if set.relation() == Relation::Heterodyne {
+        return Some(ReferencePixel {
+            phase: heterodyne(levels, &wrapped)?,
+            wrapped,
+            modulation,
+            dc: a,
+        });
+    }
     // Step 5 (eqs 12-13): Φ^(0) = φ^(0), then one level after another.
     let mut phi = wrapped[0];
     for k in 1..levels.len() {
@@ -150,6 +161,34 @@ pub fn decode_pixel(set: &PatternSet, samples: &[f64]) -> Option<ReferencePixel>
         modulation,
         dc: a,
     })
+}
+
+/// Step 6, for a heterodyne set ([`Relation::Heterodyne`]) in place of step 5: the beat of
+/// levels a and b, `β = wrap(φ_b − φ_a)`, is the wrapped phase of scale `c_b − c_a`. With 2 levels
+/// the beat is absolute; then `Φ₀` and `Φ₁` by eqs 12-13. With 3 levels the beat of the beats
+/// `wrap(β₁₂ − β₀₁)` (scale `c₂ − 2c₁ + c₀`) is absolute; then `β₀₁`, `Φ₁`, `Φ₂` unwrap in turn.
+fn heterodyne(levels: &[crate::pattern::Level], w: &[f64; MAX_LEVELS]) -> Option<f64> {
+    let c = |i: usize| levels.get(i).map(|l| l.scale());
+    let step = |coarse: f64, ratio: f64, wrapped: f64| {
+        wrapped + TAU * libm::round((ratio * coarse - wrapped) / TAU)
+    };
+    match levels.len() {
+        2 => {
+            let b = c(1)? - c(0)?;
+            let start = wrap(w[1] - w[0]);
+            let p0 = step(start, c(0)? / b, w[0]);
+            Some(step(p0, c(1)? / c(0)?, w[1]))
+        }
+        3 => {
+            let (b01, b12) = (c(1)? - c(0)?, c(2)? - c(1)?);
+            let (beat01, beat12) = (wrap(w[1] - w[0]), wrap(w[2] - w[1]));
+            let start = wrap(beat12 - beat01);
+            let p01 = step(start, b01 / (b12 - b01), beat01);
+            let p1 = step(p01, c(1)? / b01, w[1]);
+            Some(step(p1, c(2)? / c(1)?, w[2]))
+        }
+        _ => None,
+    }
 }
 
 #[cfg(test)]

@@ -41,6 +41,9 @@ pub enum DescError {
     Size,
     /// The description breaks a wire rule (e.g. `I_max` above `2^bits − 1`).
     Invalid(Invalid),
+    /// A heterodyne set ([`pattern::Relation::Heterodyne`]): protocol version 2 describes
+    /// hierarchical sets only.
+    Heterodyne,
 }
 
 impl core::fmt::Display for DescError {
@@ -52,6 +55,10 @@ impl core::fmt::Display for DescError {
             ),
             DescError::Size => f.write_str("a width or height exceeds 65535 pixels"),
             DescError::Invalid(why) => write!(f, "invalid wire description: {}", why.name()),
+            DescError::Heterodyne => f.write_str(
+                "a heterodyne set cannot be sent to a head yet (wire protocol 2 describes \
+                 hierarchical and Gray-coded sets only); scan it on the desktop",
+            ),
         }
     }
 }
@@ -125,6 +132,7 @@ fn pattern_invalid(e: PatternError) -> Invalid {
         | PatternError::GrayPlacement(_)
         | PatternError::GrayBits(_)
         | PatternError::GrayNoDc => Invalid::Shifts,
+        PatternError::HeterodyneLevels => Invalid::LevelCount,
         PatternError::GrayRange { .. } => Invalid::PhaseFunction,
         PatternError::Output => Invalid::Intensity,
     }
@@ -145,6 +153,21 @@ impl PatternSetDesc {
         bit_depth: u32,
         max_bits: u8,
     ) -> Result<Self, DescError> {
+        if set.relation() != pattern::Relation::Hierarchical {
+            return Err(DescError::Heterodyne);
+        }
+        Self::describe(set, bit_depth, max_bits)
+    }
+
+    /// The description of `set`'s levels, phase function and output, whatever its
+    /// [`pattern::Relation`]: what determines its decoded phase (the digest of
+    /// [`PatternSetDesc::phase_encoding`]), not a set a head can rebuild when the relation is
+    /// not the hierarchical one (which the description does not carry).
+    pub fn describe_phase(set: &PatternSet, bit_depth: u32) -> Result<Self, DescError> {
+        Self::describe(set, bit_depth, MAX_BIT_DEPTH)
+    }
+
+    fn describe(set: &PatternSet, bit_depth: u32, max_bits: u8) -> Result<Self, DescError> {
         if !(1..=max_bits as u32).contains(&bit_depth) {
             return Err(DescError::BitDepth(bit_depth));
         }

@@ -174,6 +174,7 @@ fn desc_error(e: DescError) -> SetupError {
         DescError::BitDepth(_) => SetupError::Invalid(Invalid::BitDepth),
         DescError::Size => SetupError::Invalid(Invalid::Dimension),
         DescError::Invalid(why) => SetupError::Invalid(why),
+        DescError::Heterodyne => SetupError::Invalid(Invalid::LevelCount),
     }
 }
 

@@ -41,13 +41,14 @@ pub fn pattern_digest(set: &PatternSet) -> Result<String, String> {
         i_min: 0.0,
         i_max: 255.0,
     };
-    let canonical = PatternSet::new(*set.function(), set.levels(), gray)
-        .and_then(|s| {
-            s.with_convention(set.convention())
-                .with_phase_offset(set.phase_offset())
-        })
-        .map_err(|e| format!("pattern set: {e}"))?;
-    let desc = PatternSetDesc::from_set(&canonical, 8)
+    let canonical =
+        PatternSet::new_with_relation(*set.function(), set.levels(), gray, set.relation())
+            .and_then(|s| {
+                s.with_convention(set.convention())
+                    .with_phase_offset(set.phase_offset())
+            })
+            .map_err(|e| format!("pattern set: {e}"))?;
+    let desc = PatternSetDesc::describe_phase(&canonical, 8)
         .map_err(|e| format!("pattern set has no wire description: {e}"))?;
     let mut buf = [0u8; PHASE_ENCODING_MAX];
     let bytes = desc

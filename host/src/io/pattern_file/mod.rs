@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 
 use fringe3d_core::pattern::{
     Convention, GrayCode, ImageId, Level, LevelPreset, MAX_SHIFT_MAGNITUDE, Output, PatternError,
-    PatternSet,
+    PatternSet, Relation,
 };
 use fringe3d_core::phase_function::{
     Axis, KnotProfile, MIN_COARSE_SPAN, PhaseFunction, PhaseFunctionError, Profile,
@@ -97,6 +97,11 @@ pub struct PatternSetFile {
     /// Explicit levels, coarse to fine; exclusive with `preset`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub levels: Option<Vec<LevelSection>>,
+    /// How the levels give the absolute phase: `"hierarchical"` (default; eqs 12-13) or
+    /// `"heterodyne"` (2 or 3 levels whose beat spans one period,
+    /// `fringe3d_core::pattern::Relation::Heterodyne`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unwrap: Option<UnwrapName>,
     /// The file this was read from, for error messages and relative paths.
     #[serde(skip)]
     source: Option<PathBuf>,
@@ -115,6 +120,7 @@ impl PartialEq for PatternSetFile {
             && self.projector == o.projector
             && self.phase == o.phase
             && self.levels == o.levels
+            && self.unwrap == o.unwrap
     }
 }
 
@@ -128,6 +134,16 @@ fn read_order<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Vec<[u32;
     }
     let v = <Option<Vec<Entry>> as serde::Deserialize>::deserialize(d)?;
     Ok(v.map(|v| v.into_iter().map(|e| e.0).collect()))
+}
+
+/// `unwrap = "hierarchical" | "heterodyne"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum UnwrapName {
+    /// Eqs 12-13 from the coarsest level (or a Gray-code level).
+    Hierarchical,
+    /// Multi-frequency heterodyne: the beat of the levels is the coarse phase.
+    Heterodyne,
 }
 
 /// `convention = "sine" | "cosine"`.
@@ -335,8 +351,18 @@ impl PatternSetFile {
                 " (raise phase.span / phase.slope / the knot slopes, or the coarsest scale; \
                  the coarsest level must span at least {MIN_COARSE_SPAN} rad)"
             ),
+            PatternError::Function(PhaseFunctionError::CoarseRangeExceeded { .. })
+                if self.unwrap == Some(UnwrapName::Heterodyne) =>
+            {
+                " (unwrap = \"heterodyne\": the beat c1 - c0, or c2 - 2 c1 + c0 for 3 levels, \
+                 times the phase must stay within one period: lower the beat or phase.span)"
+                    .to_string()
+            }
             PatternError::Function(PhaseFunctionError::CoarseRangeExceeded { .. }) => {
                 " (phase.span / phase.slope / the knots, or the coarsest scale)".to_string()
+            }
+            PatternError::HeterodyneLevels => {
+                " ([[levels]] with unwrap = \"heterodyne\")".to_string()
             }
             PatternError::GrayRange { .. } => {
                 " (raise levels[0].gray_bits, or lower the scale or phase.span)".to_string()
@@ -366,7 +392,12 @@ impl PatternSetFile {
         let output = self.output()?;
         let function = self.function(&output)?;
         let levels = self.levels()?;
-        let mut set = PatternSet::new(function, &levels, output).map_err(|e| self.set_error(e))?;
+        let relation = match self.unwrap.unwrap_or(UnwrapName::Hierarchical) {
+            UnwrapName::Hierarchical => Relation::Hierarchical,
+            UnwrapName::Heterodyne => Relation::Heterodyne,
+        };
+        let mut set = PatternSet::new_with_relation(function, &levels, output, relation)
+            .map_err(|e| self.set_error(e))?;
         set = set.with_convention(match self.convention.unwrap_or(ConventionName::Sine) {
             ConventionName::Sine => Convention::Sine,
             ConventionName::Cosine => Convention::Cosine,

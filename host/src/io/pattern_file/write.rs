@@ -1,11 +1,11 @@
 //! [`PatternSetFile::from_pattern_set`]: the file describing a set, every value explicit.
 
-use fringe3d_core::pattern::{Convention, Level, LevelPreset, PatternSet};
+use fringe3d_core::pattern::{Convention, Level, LevelPreset, PatternSet, Relation};
 use fringe3d_core::phase_function::{Axis, Profile};
 
 use super::{
     AxisName, ConventionName, LevelSection, PATTERN_FILE_VERSION, PatternSetFile, PhaseKind,
-    PhaseSection, Preset, ProjectorSection, listed_order,
+    PhaseSection, Preset, ProjectorSection, UnwrapName, listed_order,
 };
 
 impl PatternSetFile {
@@ -70,7 +70,7 @@ impl PatternSetFile {
         // A version-1 file: without `order` its images are in the built-in order. Write the
         // order when the set's differs, and for explicit [[levels]] also when the built-in order
         // differs from the listed one (so that no reader has to know the built-in rule).
-        let default_order = PatternSet::new(*f, levels, *o)
+        let default_order = PatternSet::new_with_relation(*f, levels, *o, set.relation())
             .map(|d| {
                 d.order() == set.order()
                     && (level_sections.is_none() || listed_order(&d).as_slice() == d.order())
@@ -103,6 +103,7 @@ impl PatternSetFile {
             },
             phase: Some(phase),
             levels: level_sections,
+            unwrap: (set.relation() == Relation::Heterodyne).then_some(UnwrapName::Heterodyne),
             source: None,
         }
     }

@@ -1,14 +1,16 @@
-//! Gray code + phase shifting on rendered scans with truth (issue #20's quality bar): the
-//! renderer projects a pattern-set file's Gray-code and 4-step images onto its scenes through
-//! the projector's defocus, an 8-bit camera with σ = 1 code of read noise; the core decoder's
-//! phase is compared with the exact phase of the point each pixel sees.
+//! The codes real rigs use, on rendered scans with truth (issue #20's quality bar): Gray code +
+//! phase shifting and 3-frequency heterodyne. The renderer projects a pattern-set file's images
+//! onto its scenes through the projector's defocus, an 8-bit camera with σ = 1 code of read
+//! noise; the core decoder's phase is compared with the exact phase of the point each pixel sees.
 //!
-//! - zero fringe-order errors on valid pixels (plain and complementary codes, three scenes);
+//! - zero fringe-order errors on valid pixels (plain and complementary codes, heterodyne 21/26/32,
+//!   three scenes);
 //! - the phase RMS, in units of each pixel's 4-step noise prediction `√(2/N)·σ/B` (σ² = 1 +
 //!   1/12 for the rounding), within 10 % of 1 on pixels with B/σ ≥ 14;
 //! - the complementary code refuses no pixel for its code or order on a smooth surface (no
 //!   boundary losses), the plain one refuses some (it cannot tell a period edge's side);
-//! - the CLI: `patterns`, `render` and `scan` take a Gray-code set file end to end.
+//! - the CLI: `patterns`, `render` and `scan` take a Gray-code and a heterodyne set file end to
+//!   end.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -49,6 +51,14 @@ fn set_file(complementary: bool) -> String {
         slope = std::f64::consts::TAU / 1024.0,
     )
 }
+
+/// Three 4-step levels of scales 21, 26 and 32 over the default 0.9·2π phase: 18.9, 23.4 and
+/// 28.8 periods, beats of 4.5 and 5.4, their beat 0.9 periods.
+const HETERODYNE: &str = "version = 2\nunwrap = \"heterodyne\"\n\
+    [projector]\nwidth = 1024\nheight = 768\n\
+    [[levels]]\nscale = 21.0\nsteps = 4\n\
+    [[levels]]\nscale = 26.0\nsteps = 4\n\
+    [[levels]]\nscale = 32.0\nsteps = 4\n";
 
 fn scene(name: &str, set: &Path) -> Scene {
     let mut spec = SceneSpec::builtin(name).unwrap();
@@ -170,13 +180,43 @@ fn gray_code_scans_meet_the_quality_bar() {
 }
 
 #[test]
-fn patterns_render_and_scan_take_a_gray_code_set() {
+fn heterodyne_scans_meet_the_quality_bar() {
+    let t = Tmp::new("het");
+    let f = t.join("heterodyne.toml");
+    std::fs::write(&f, HETERODYNE).unwrap();
+    for name in ["plane", "sphere", "steps"] {
+        let s = score(&scene(name, &f));
+        let what = format!("heterodyne, {name}");
+        eprintln!(
+            "{what}: {} valid, {} edge refusals, RMS {:.3}",
+            s.valid, s.edge_refusals, s.normalized_rms
+        );
+        assert!(s.valid > 10_000, "{what}: {} valid", s.valid);
+        assert_eq!(s.order_errors, 0, "{what}: fringe-order errors");
+        assert!(
+            (s.normalized_rms - 1.0).abs() <= 0.10,
+            "{what}: phase RMS {:.3} x the prediction",
+            s.normalized_rms
+        );
+    }
+}
+
+#[test]
+fn patterns_render_and_scan_take_gray_code_and_heterodyne_sets() {
     let t = Tmp::new("cli");
+    let het = t.join("heterodyne.toml");
+    std::fs::write(&het, HETERODYNE).unwrap();
+    scan_cli(&t, &het, "het", 12);
     let f = t.join("gray.toml");
     std::fs::write(&f, set_file(true)).unwrap();
+    scan_cli(&t, &f, "gray", 11);
+}
+
+/// `patterns` writes `images` PNGs of set file `f`; a rendered dataset of it scans.
+fn scan_cli(t: &Tmp, f: &Path, tag: &str, images: usize) {
+    let f = f.to_path_buf();
     let bin = env!("CARGO_BIN_EXE_fringe3d");
-    // `patterns` writes the 7 Gray images and 4 fringes.
-    let pat = t.join("pat");
+    let pat = t.join(&format!("pat-{tag}"));
     let o = Command::new(bin)
         .args(["patterns", "--patterns"])
         .arg(&f)
@@ -195,9 +235,9 @@ fn patterns_render_and_scan_take_a_gray_code_set() {
                 .is_some_and(|x| x == "png")
         })
         .count();
-    assert_eq!(pngs, 11);
+    assert_eq!(pngs, images);
     // A rendered dataset scans.
-    let ds = t.join("ds");
+    let ds = t.join(&format!("ds-{tag}"));
     write_dataset(
         &scene("sphere", &f),
         &ds,
@@ -207,7 +247,7 @@ fn patterns_render_and_scan_take_a_gray_code_set() {
         },
     )
     .unwrap();
-    let ply = t.join("out.ply");
+    let ply = t.join(&format!("out-{tag}.ply"));
     let o = Command::new(bin)
         .args(["scan", "-q", "--patterns"])
         .arg(ds.join("patterns.toml"))
@@ -226,5 +266,5 @@ fn patterns_render_and_scan_take_a_gray_code_set() {
         .find_map(|l| l.strip_prefix("element vertex "))
         .and_then(|v| v.trim().parse().ok())
         .unwrap();
-    assert!(count > 20_000, "{count} points");
+    assert!(count > 20_000, "{tag}: {count} points");
 }

@@ -1,0 +1,197 @@
+//! Multi-frequency heterodyne (issue #20): three 4-step levels of 18.9, 23.4 and 28.8 periods
+//! across the projector (scales 21, 26, 32 over a 0.9·2π phase function: non-integer ratios),
+//! whose beats of beats span one period, and two levels of 8 and 9 periods. Rendered and scored
+//! as the Gray-code tests (`decode_gray`): zero fringe-order errors on valid pixels at B/σ = 14,
+//! the finest level's 4-step phase noise, the f64 reference, row = frame-sequential bits, and a
+//! disagreeing beat flagged rather than followed.
+#![allow(clippy::disallowed_methods, clippy::needless_range_loop)] // std f64 maths is the truth
+
+use crate::common::frame_sequential;
+use crate::decode_gray::{BAR, CAM, PROJ, decode, output, render_row, score};
+use fringe3d_core::arith::Backend;
+use fringe3d_core::decode::reference::decode_pixel;
+use fringe3d_core::decode::{AnyDecoder, DecodeConfig, Decoder};
+use fringe3d_core::pattern::{Level, PatternError, PatternSet, Relation};
+use fringe3d_core::phase_function::{Axis, PhaseFunction, PhaseFunctionError};
+use fringe3d_core::validity::Validity;
+use std::f64::consts::TAU;
+
+fn heterodyne(scales: &[f64]) -> Result<PatternSet, PatternError> {
+    let f = PhaseFunction::centered(Axis::Xi, PROJ, 0.9 * TAU).unwrap();
+    let levels: Vec<Level> = scales.iter().map(|&c| Level::n_step(c, 4)).collect();
+    // Hierarchically these sets are refused (the coarsest level spans many periods).
+    let hier = PatternSet::new(f, &levels, output());
+    assert!(hier.is_err());
+    PatternSet::new_with_relation(f, &levels, output(), Relation::Heterodyne)
+}
+
+#[test]
+fn three_frequencies_order_every_pixel() {
+    let set = heterodyne(&[21.0, 26.0, 32.0]).unwrap();
+    let cfg = DecodeConfig::for_bit_depth(8);
+    for seed in 1..=4 {
+        let (images, truth) = render_row(&set, BAR, seed);
+        for backend in Backend::ALL {
+            let d = AnyDecoder::new(&set, cfg, backend).unwrap();
+            let got = decode(&d, &images);
+            let (valid, wrong) = score(&got, &truth);
+            assert_eq!(wrong, 0, "{backend:?} seed {seed}: order errors");
+            // Refused for the order or the range: under 1 %; the 12-code modulation floor of
+            // 8-bit sensors takes its ~3 % of three levels at B = 14.
+            let order = got
+                .validity
+                .iter()
+                .filter(|&&v| {
+                    v == Validity::UnwrapInconsistent as u8 || v == Validity::PhaseOutOfRange as u8
+                })
+                .count();
+            assert!(
+                order <= CAM / 100,
+                "{backend:?} seed {seed}: {order} refused"
+            );
+            assert!(
+                valid as f64 >= 0.95 * CAM as f64,
+                "{backend:?} seed {seed}: {valid} of {CAM} valid"
+            );
+        }
+    }
+}
+
+#[test]
+fn two_frequencies_order_every_pixel() {
+    let set = heterodyne(&[8.0, 9.0]).unwrap();
+    let d = AnyDecoder::new(&set, DecodeConfig::for_bit_depth(8), Backend::F32Accurate).unwrap();
+    for seed in 1..=4 {
+        let (images, truth) = render_row(&set, BAR, 20 + seed);
+        let (valid, wrong) = score(&decode(&d, &images), &truth);
+        assert_eq!(wrong, 0, "seed {seed}");
+        assert!(valid as f64 >= 0.95 * CAM as f64, "{valid}");
+    }
+}
+
+#[test]
+fn phase_noise_is_the_finest_levels() {
+    let set = heterodyne(&[21.0, 26.0, 32.0]).unwrap();
+    let d = AnyDecoder::new(&set, DecodeConfig::for_bit_depth(8), Backend::F32Accurate).unwrap();
+    let (b, sigma) = (14.0, 1.0);
+    let (mut sum, mut n) = (0.0, 0usize);
+    for seed in 1..=40 {
+        let (images, truth) = render_row(&set, (120.0, b, sigma, 0.0), 300 + seed);
+        let got = decode(&d, &images);
+        for p in 0..CAM {
+            if got.validity[p] == Validity::Valid as u8 {
+                sum += (got.phase[p] as f64 - truth[p]).powi(2);
+                n += 1;
+            }
+        }
+    }
+    let rms = (sum / n as f64).sqrt();
+    let predicted = 0.5f64.sqrt() * (sigma * sigma + 1.0 / 12.0).sqrt() / b;
+    assert!(
+        (rms / predicted - 1.0).abs() <= 0.10,
+        "phase RMS {rms:.5} rad, predicted {predicted:.5}"
+    );
+}
+
+#[test]
+fn the_kernel_follows_the_reference_and_both_drivers_agree() {
+    let set = heterodyne(&[21.0, 26.0, 32.0]).unwrap();
+    let d = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).unwrap();
+    let (images, _) = render_row(&set, BAR, 7);
+    let got = decode(&AnyDecoder::F32Accurate(d), &images);
+    for p in 0..CAM {
+        if got.validity[p] != Validity::Valid as u8 {
+            continue;
+        }
+        let s: Vec<f64> = images.iter().map(|r| r[p] as f64).collect();
+        let r = decode_pixel(&set, &s).unwrap();
+        assert!(
+            (got.phase[p] as f64 - r.phase).abs() < 1e-3,
+            "pixel {p}: {} vs {}",
+            got.phase[p],
+            r.phase
+        );
+    }
+    let (bits, codes) = frame_sequential(&d, &images, CAM, 1);
+    assert_eq!(codes, got.validity);
+    assert_eq!(
+        bits,
+        got.phase.iter().map(|p| p.to_bits()).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn a_disagreeing_beat_is_flagged_not_followed() {
+    // The finest level's fringes half a period off on the first half of the row (as a moving
+    // or glossy surface gives): the beat of beats is then half a period off, which no fringe
+    // order of the chain's first step explains.
+    let set = heterodyne(&[21.0, 26.0, 32.0]).unwrap();
+    let d = AnyDecoder::new(&set, DecodeConfig::for_bit_depth(8), Backend::F32Accurate).unwrap();
+    let (images, truth) = render_row(&set, BAR, 9);
+    let f = PhaseFunction::centered(Axis::Xi, PROJ, 0.9 * TAU).unwrap();
+    let levels: Vec<Level> = [21.0, 26.0, 32.0].map(|c| Level::n_step(c, 4)).to_vec();
+    let shifted = PatternSet::new_with_relation(f, &levels, output(), Relation::Heterodyne)
+        .unwrap()
+        .with_phase_offset(std::f64::consts::PI)
+        .unwrap();
+    let (other, _) = render_row(&shifted, BAR, 9);
+    let mut mixed = images.clone();
+    for i in 0..set.image_count() {
+        if set.image(i).unwrap().level == 2 {
+            mixed[i][..CAM / 2].copy_from_slice(&other[i][..CAM / 2]);
+        }
+    }
+    let got = decode(&d, &mixed);
+    // Every pixel of the first half refused (a valid one would be half a period off), most as
+    // inconsistent (the rest for their modulation).
+    let refused = got.validity[..CAM / 2].iter().filter(|&&v| v != 0).count();
+    assert_eq!(refused, CAM / 2, "followed a disagreeing beat");
+    let flagged = got.validity[..CAM / 2]
+        .iter()
+        .filter(|&&v| v == Validity::UnwrapInconsistent as u8)
+        .count();
+    assert!(
+        flagged as f64 >= 0.85 * (CAM / 2) as f64,
+        "{flagged} of {} flagged",
+        CAM / 2
+    );
+    let (_, wrong) = score(&got, &truth);
+    assert_eq!(wrong, 0);
+    let (valid, wrong) = score(&decode(&d, &images), &truth);
+    assert!(
+        wrong == 0 && valid as f64 >= 0.95 * CAM as f64,
+        "unshifted: {valid}"
+    );
+}
+
+#[test]
+fn sets_that_cannot_beat_are_refused() {
+    // Four levels; a beat of beats ≤ 0 (21, 26, 30: 30 − 52 + 21 = −1); one of two periods
+    // (21, 26, 33) spans more than one period over the projector.
+    assert_eq!(
+        heterodyne(&[21.0, 26.0, 32.0, 40.0]).err(),
+        Some(PatternError::HeterodyneLevels)
+    );
+    assert_eq!(
+        heterodyne(&[21.0, 26.0, 30.0]).err(),
+        Some(PatternError::HeterodyneLevels)
+    );
+    assert!(matches!(
+        heterodyne(&[21.0, 26.0, 33.0]).err(),
+        Some(PatternError::Function(
+            PhaseFunctionError::CoarseRangeExceeded { .. }
+        ))
+    ));
+}
+
+#[test]
+fn a_head_is_not_sent_a_heterodyne_set() {
+    use fringe3d_core::wire::{DescError, PatternSetDesc};
+    let set = heterodyne(&[21.0, 26.0, 32.0]).unwrap();
+    assert_eq!(
+        PatternSetDesc::from_set(&set, 8).err(),
+        Some(DescError::Heterodyne)
+    );
+    // Its phase is described all the same (the reference's digest).
+    assert!(PatternSetDesc::describe_phase(&set, 8).is_ok());
+}
