@@ -16,6 +16,8 @@ const GOLDEN: [(&str, [u64; parity::CASES]); 4] = [
             0xa88e87c14166b239,
             0xc72cb6842c925c37,
             0x4713ae2e46213551,
+            0x7ad77ba821506716,
+            0x220b67594415c768,
         ],
     ),
     (
@@ -26,6 +28,8 @@ const GOLDEN: [(&str, [u64; parity::CASES]); 4] = [
             0x35294c698affbc4a,
             0x3d576938e792a289,
             0xa85a07187c927aab,
+            0x52a4bdad447e05f0,
+            0x5f0b98e40c1063e1,
         ],
     ),
     (
@@ -36,6 +40,8 @@ const GOLDEN: [(&str, [u64; parity::CASES]); 4] = [
             0x53a42920faed9f8a,
             0x4e24ff59a6ef4c4d,
             0xff06000959f93034,
+            0xde23090b5043d385,
+            0x5faf28e6a4c2e521,
         ],
     ),
     (
@@ -46,6 +52,8 @@ const GOLDEN: [(&str, [u64; parity::CASES]); 4] = [
             0x6e89d400f6f0c146,
             0x57acd6561fb75752,
             0x93e63ad5c6faffa2,
+            0x7984bee121143aa8,
+            0xb449f7e6828db9c9,
         ],
     ),
 ];

@@ -14,14 +14,14 @@ use crate::arith::Backend;
 use crate::decode_config::DecodeConfig;
 use crate::decode_error::DecodeError;
 use crate::math::canonical;
-use crate::pattern::{Level, MAX_IMAGES, Output, PatternSet};
+use crate::pattern::{GrayCode, Level, MAX_IMAGES, Output, PatternSet, Relation};
 use crate::phase_function::{Axis, PhaseFunction};
 
 /// Pixels per row of every case.
 pub const WIDTH: usize = 256;
 
 /// Number of cases.
-pub const CASES: usize = 5;
+pub const CASES: usize = 7;
 
 /// Names of the cases: the set and the sample depth.
 pub const CASE_NAMES: [&str; CASES] = [
@@ -30,11 +30,13 @@ pub const CASE_NAMES: [&str; CASES] = [
     "paper8-u16",
     "3/5/7-u12",
     "measured-u8",
+    "gray5c+4-u8",
+    "het21/26/32-u12",
 ];
 
 /// Sample depth (bits) of a case.
 fn bits(case: usize) -> u32 {
-    [8, 12, 16, 12, 8][case]
+    [8, 12, 16, 12, 8, 8, 12][case]
 }
 
 /// The pattern set of a case.
@@ -59,13 +61,33 @@ pub fn set(case: usize) -> Result<PatternSet, DecodeError> {
             ],
             out,
         ),
-        _ => PatternSet::new(
+        4 => PatternSet::new(
             fe,
             &[
                 Level::two_step(1.0),
                 Level::with_shifts(7.0, &[0.0, 1.1, 2.0, 3.5, 5.2]),
             ],
             out,
+        ),
+        // Gray code + phase shifting (issue #20): 20 periods, a complementary 5-bit code.
+        5 => PatternSet::new(
+            fe,
+            &[
+                Level::gray_code(20.0, GrayCode::new(5, true)),
+                Level::n_step(20.0, 4),
+            ],
+            out,
+        ),
+        // Three-frequency heterodyne (issue #20).
+        _ => PatternSet::new_with_relation(
+            fe,
+            &[
+                Level::n_step(21.0, 4),
+                Level::n_step(26.0, 4),
+                Level::n_step(32.0, 4),
+            ],
+            out,
+            Relation::Heterodyne,
         ),
     };
     set.map_err(|_| DecodeError::Config)
@@ -103,7 +125,11 @@ pub fn samples(case: usize, rows: &mut [[u16; WIDTH]; MAX_IMAGES]) -> Result<usi
     let set = set(case)?;
     let full = ((1u32 << bits(case)) - 1) as f64;
     let (lo, hi) = set.coarse_range();
-    let c0 = set.levels()[0].scale();
+    // The scale of the coarse range: the coarsest level's, or a heterodyne set's beat.
+    let c0 = set
+        .relation()
+        .start_scale(set.levels())
+        .ok_or(DecodeError::Config)?;
     let mut rng = SplitMix(0x5eed_0000 + case as u64);
     let mut px = [(0.0f64, 0.0f64, 0.0f64); WIDTH];
     for p in px.iter_mut() {
@@ -115,10 +141,27 @@ pub fn samples(case: usize, rows: &mut [[u16; WIDTH]; MAX_IMAGES]) -> Result<usi
     for (i, row) in rows.iter_mut().enumerate().take(set.image_count()) {
         let id = set.image(i).ok_or(DecodeError::Config)?;
         let level = &set.levels()[id.level as usize];
-        let delta = level.shifts()[id.shift as usize] + set.effective_offset();
+        let delta = level
+            .shifts()
+            .get(id.shift as usize)
+            .copied()
+            .unwrap_or(0.0);
+        let delta = delta + set.effective_offset();
         for (o, &(a, b, phi)) in row.iter_mut().zip(px.iter()) {
             let noise = full * 0.01 * (rng.uniform() - 0.5);
-            let v = libm::round(a + b * libm::sin(level.scale() * phi + delta) + noise);
+            // A Gray-code image: ±B about A where its bit is set or clear.
+            let wave = match level.gray() {
+                Some(g) => {
+                    let u = level.scale() * phi / core::f64::consts::TAU;
+                    if g.bright(id.shift as usize, g.half_stripe(u)) {
+                        1.0
+                    } else {
+                        -1.0
+                    }
+                }
+                None => libm::sin(level.scale() * phi + delta),
+            };
+            let v = libm::round(a + b * wave + noise);
             *o = if v < 0.0 {
                 0
             } else if v > full {
@@ -163,6 +206,7 @@ impl Digest {
 pub fn run(backend: Backend, case: usize, reps: u32, levels: bool) -> Result<u64, DecodeError> {
     let set = set(case)?;
     let d = AnyDecoder::new(&set, config(case), backend)?;
+    let first_phase_level = set.gray().is_some() as usize;
     let mut rows = [[0u16; WIDTH]; MAX_IMAGES];
     let n = samples(case, &mut rows)?;
     let mut phase = [0.0f32; WIDTH];
@@ -190,7 +234,8 @@ pub fn run(backend: Backend, case: usize, reps: u32, levels: bool) -> Result<u64
             )?;
         }
         if levels {
-            for l in 0..d.level_count() {
+            // (A Gray-code level has no wrapped phase.)
+            for l in first_phase_level..d.level_count() {
                 let (mut w, mut m) = ([0.0f32; WIDTH], [0.0f32; WIDTH]);
                 d.decode_row_level(&refs[..n], l, &mut w, &mut m)?;
                 h.f32s(&w);
@@ -211,7 +256,8 @@ pub fn run(backend: Backend, case: usize, reps: u32, levels: bool) -> Result<u64
             )?;
         }
         if levels {
-            for l in 0..d.level_count() {
+            // (A Gray-code level has no wrapped phase.)
+            for l in first_phase_level..d.level_count() {
                 let (mut w, mut m) = ([0.0f32; WIDTH], [0.0f32; WIDTH]);
                 d.decode_row_level(&refs[..n], l, &mut w, &mut m)?;
                 h.f32s(&w);
