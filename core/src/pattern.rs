@@ -756,6 +756,28 @@ impl PatternSet {
         self.levels[self.n_levels - 1].scale * self.function.eval(xi, eta)
     }
 
+    /// Whether a frame-sequential decoder can take the images in the set's order: always,
+    /// except with a Gray-code image before the last image of the DC level (the level with the
+    /// most shifts, ≥ 3, the finest on a tie), whose A thresholds the Gray images as they come
+    /// ([`crate::gray`]).
+    pub fn frame_sequential_order(&self) -> bool {
+        if self.gray().is_none() {
+            return true;
+        }
+        let levels = self.levels();
+        let mut dc = None;
+        for (i, l) in levels.iter().enumerate() {
+            let best = dc.and_then(|d: usize| levels.get(d)).map(|d| d.len());
+            if l.has_dc() && best.is_none_or(|b| l.len() >= b) {
+                dc = Some(i);
+            }
+        }
+        let order = self.order();
+        let last_dc = order.iter().rposition(|id| Some(id.level as usize) == dc);
+        let first_gray = order.iter().position(|id| id.level == 0);
+        matches!((first_gray, last_dc), (Some(g), Some(a)) if a < g)
+    }
+
     /// The code of the set's Gray-code level (level 0), if it has one.
     pub fn gray(&self) -> Option<GrayCode> {
         self.levels[0].gray

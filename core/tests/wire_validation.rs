@@ -589,7 +589,7 @@ fn row_and_bitfield_rules() {
     );
 
     assert_eq!(
-        ValidationStatus(1 << 11).validate(),
+        ValidationStatus(1 << 12).validate(),
         invalid(Invalid::ReservedBits)
     );
     assert!(ValidationStatus::OK.is_ok());

@@ -39,14 +39,18 @@ const CAM: (u32, u32) = (320, 256);
 /// A small rendered sphere scene under the curved fringes of examples/patterns/curved.toml
 /// (parameters and derived slope not f32-exact).
 fn dataset(root: &Path) -> PathBuf {
-    let dir = root.join("sphere");
-    let set_file = root.join("set.toml");
-    std::fs::write(
-        &set_file,
+    dataset_with(
+        root,
         "version = 1\npreset = \"paper8\"\nratio = 8.0\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
          [phase]\naxis = \"xi\"\nkind = \"centered\"\nspan = 5.2\ncurvature = 0.0002\nbend_center = 383.5\n",
     )
-    .unwrap();
+}
+
+/// The sphere scene rendered under the pattern-set file `set`.
+fn dataset_with(root: &Path, set: &str) -> PathBuf {
+    let dir = root.join("sphere");
+    let set_file = root.join("set.toml");
+    std::fs::write(&set_file, set).unwrap();
     let mut spec = SceneSpec::builtin("sphere").unwrap();
     spec.apply(&Overrides {
         size: Some(CAM),
@@ -637,5 +641,97 @@ fn pty_throughput_full_size() {
         "head peak memory at 1280x1024: {m:?}, total {} B",
         m.total()
     );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Gray code + phase shifting on the head (issue #20): a complementary 5-bit code ordering the
+/// 20 periods of a 4-step level, curved fringes, listed Gray first (a `version = 2` file, the
+/// order the desktop decodes the images in). The host captures it in the built-in order (the
+/// head decodes frame by frame, thresholding each Gray image against the complete A); the
+/// head's phases and points equal the desktop's bit for bit.
+#[test]
+fn a_gray_coded_set_scans_on_the_head_bit_identical_to_the_desktop() {
+    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-gray-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let dir = dataset_with(
+        &root,
+        "version = 2\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
+         [phase]\naxis = \"xi\"\nkind = \"centered\"\nspan = 6.0\ncurvature = 0.0002\nbend_center = 383.5\n\
+         [[levels]]\nscale = 20.0\ngray_bits = 5\n[[levels]]\nscale = 20.0\nsteps = 4\n",
+    );
+    let patterns = dir.join("patterns.toml");
+    let calib = dir.join("calibration.toml");
+    let ls = common::load_set(&patterns).unwrap();
+    let set = &ls.set;
+    assert!(
+        set.gray().is_some() && set.image(0).unwrap().level == 0,
+        "Gray first"
+    );
+    let imgs = common::load_images(&ls, &[], true).unwrap();
+    let dec = common::decode(set, &imgs, common::decode_config(&imgs)).unwrap();
+    let sc = ScanCalibration::load(&calib, set.axis()).unwrap();
+    let mut cloud = sc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
+    filter_edges(&mut cloud, &sc.edge_filter(80.0).unwrap());
+    assert!(cloud.valid_count() > (CAM.0 * CAM.1 / 4) as usize);
+
+    let desc = pattern_desc(set, ls.file.bit_depth()).unwrap();
+    let data = pattern_bytes(set, &desc, |i| render_pattern(set, i)).unwrap();
+    assert_eq!(data.len(), 10 * 1024 * 768);
+    let seq = capture_sequence(set, &desc, 10_000, 2_000).unwrap();
+    let first = desc.pattern_id(seq[0].pattern).unwrap();
+    assert_eq!(first.level, 1, "captured DC level first");
+    let wcal = wire_calibration(&Calibration::load(&calib).unwrap()).unwrap();
+    let map = phase_map_bytes(&sc.reference_phase, sc.width());
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let (paths, cmd, head) = spawn_head(dir.clone(), stop.clone());
+    let port = paths.recv().unwrap();
+    let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    c.define_pattern_set(0, &desc).unwrap();
+    c.upload_patterns(0, &desc, &data, &mut |_, _| {}).unwrap();
+    c.upload_calibration(&wcal).unwrap();
+    c.upload_phase_map(CAM.0 as u16, CAM.1 as u16, &map, &mut |_, _| {})
+        .unwrap();
+    // Captured in the listed order (Gray first), the head refuses the scan and says why.
+    let listed: Vec<_> = set
+        .order()
+        .iter()
+        .map(|&id| fringe3d_core::wire::LutEntry {
+            pattern: desc.pattern_index(id).unwrap(),
+            ..seq[0]
+        })
+        .collect();
+    c.configure_sequence(0, false, &listed).unwrap();
+    let e = c
+        .scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("a Gray-code pattern is captured before"), "{e}");
+    c.configure_sequence(0, false, &seq).unwrap();
+    assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
+    let out = c
+        .scan(
+            ScanOutput::Both,
+            0,
+            0,
+            EdgeFilterMode::MaxAngle(80.0),
+            &mut |_, _| {},
+        )
+        .unwrap();
+    assert!(
+        bits(out.phase.as_ref().unwrap()) == bits(&dec.phase),
+        "phases differ"
+    );
+    assert!(out.phase_validity.as_ref().unwrap() == &dec.validity);
+    assert!(
+        bits(out.xyz.as_ref().unwrap()) == bits(&cloud.xyz),
+        "points differ"
+    );
+    assert!(out.point_validity.as_ref().unwrap() == &cloud.validity);
+    drop(c);
+    stop.store(true, Ordering::SeqCst);
+    cmd.send(Cmd::Exit).unwrap();
+    head.join().unwrap();
     let _ = std::fs::remove_dir_all(&root);
 }

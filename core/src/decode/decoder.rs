@@ -338,10 +338,7 @@ impl<A: Arith> Decoder<A> {
                 let shift = set.image(k as usize).map_or(0, |id| id.shift as usize);
                 *bit = code.word_bit(shift) as u8;
             }
-            let first_gray = li.idx.iter().take(li.n as usize).min().copied();
-            let dc = dc_level.and_then(|l| d.level_images.get(l));
-            let last_dc = dc.and_then(|li| li.idx.iter().take(li.n as usize).max().copied());
-            d.gray_after_dc = matches!((first_gray, last_dc), (Some(g), Some(a)) if a < g);
+            d.gray_after_dc = set.frame_sequential_order();
         }
         let kinds = [
             d.level_images[0].kind,

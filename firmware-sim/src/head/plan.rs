@@ -53,6 +53,9 @@ pub(super) fn plan_scan(
         .set
         .with_order(&order[..n])
         .map_err(|_| (NakCode::SequenceInvalid, ValidationStatus::TRIGGER))?;
+    if !set.frame_sequential_order() {
+        return Err((NakCode::SequenceInvalid, ValidationStatus::CAPTURE_ORDER));
+    }
     let (w, h) = (
         ctl.caps.sensor_width as usize,
         ctl.caps.sensor_height as usize,

@@ -69,7 +69,20 @@ pub fn capture_sequence(
     exposure_us: u32,
     dark_us: u32,
 ) -> Result<Vec<LutEntry>, String> {
-    set.order()
+    // A head decodes frame by frame: a Gray-coded set whose order puts a Gray image before the
+    // DC level's last image (a `version = 2` file lists the Gray level first) is captured in the
+    // built-in order, which has the DC level first (the decoded bits do not depend on it).
+    let builtin;
+    let mut order = set.order();
+    let sequential = Decoder::new(set, DecodeConfig::for_bit_depth(8))
+        .map(|d| d.frame_sequential_order())
+        .unwrap_or(true);
+    if !sequential {
+        builtin = PatternSet::new(*set.function(), set.levels(), *set.output())
+            .map_err(|e| format!("the built-in order of the set: {e}"))?;
+        order = builtin.order();
+    }
+    order
         .iter()
         .map(|&id| {
             let pattern = d.pattern_index(id).ok_or_else(|| {

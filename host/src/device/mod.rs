@@ -207,6 +207,11 @@ pub fn nak_reason(code: NakCode, detail: u16) -> String {
                     "no confirmed reference phase map",
                 ),
                 (ValidationStatus::BUSY, "the device is busy"),
+                (
+                    ValidationStatus::CAPTURE_ORDER,
+                    "a Gray-code pattern is captured before the last image of the DC level \
+                     (the head decodes frame by frame: capture the phase level first)",
+                ),
             ] {
                 if v.has(bit) {
                     why.push(name);

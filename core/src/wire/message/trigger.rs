@@ -203,8 +203,11 @@ impl ValidationStatus {
     pub const NO_REFERENCE: u32 = 1 << 9;
     /// A sequence or scan is running.
     pub const BUSY: u32 = 1 << 10;
+    /// The capture order cannot be decoded frame by frame: a Gray-code image before the last
+    /// image of the DC level (`DecodeError::GrayBeforeDc`, issue #20).
+    pub const CAPTURE_ORDER: u32 = 1 << 11;
     /// All defined bits.
-    pub const ALL: u32 = (1 << 11) - 1;
+    pub const ALL: u32 = (1 << 12) - 1;
 
     /// `true` if no bit is set.
     pub const fn is_ok(self) -> bool {
