@@ -61,6 +61,23 @@ impl DecodeConfig {
         }
     }
 
+    /// Defaults for a sensor of `bits` bits whose read noise is `sigma` codes per sample: those
+    /// of [`Self::for_bit_depth`] with the modulation floor in the physical terms of its
+    /// derivation, `B ≥ 12σ` (σ taken at least 1/√12 code, the rounding's own noise). The
+    /// 12-code floor of 8-bit images is this rule at σ = 1 code; for deeper images, whose codes
+    /// say nothing of the noise (a 12-bit sensor in a 16-bit container has σ ≥ 16 codes, a
+    /// rendered one what its scene says), 2 % of full scale admits pixels at B/σ ≈ 5 when σ is
+    /// 1/256 of full scale: a silent fringe-order error is then a 2σ event, not a 5.6σ one.
+    /// `for_sensor(8, 1.0) == for_bit_depth(8)`.
+    pub fn for_sensor(bits: u32, sigma: f32) -> Self {
+        let q = 0.288_675_13; // 1/√12
+        let s = if sigma > q { sigma } else { q };
+        DecodeConfig {
+            min_modulation: 12.0 * s,
+            ..Self::for_bit_depth(bits)
+        }
+    }
+
     pub(crate) fn is_sane(&self) -> bool {
         let all = [
             self.dark_level,

@@ -14,6 +14,7 @@ pub mod device;
 pub mod gather;
 pub mod io;
 pub mod math;
+pub mod noise;
 pub mod render;
 pub mod response;
 pub mod scan;

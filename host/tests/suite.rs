@@ -28,6 +28,7 @@ mod hardening_input;
 mod hardening_output;
 mod import_cli;
 mod import_formats;
+mod noise_floor;
 mod reference_consistency;
 mod reference_fit;
 mod reference_physical;

@@ -217,14 +217,44 @@ pub fn decode_config(imgs: &ImageSet) -> DecodeConfig {
     DecodeConfig::for_bit_depth(imgs.bits as u32)
 }
 
+/// `--noise`: the sensor's read noise in camera codes, or `auto`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NoiseArg {
+    /// Estimated from the images ([`crate::noise::estimate`]).
+    Auto,
+    /// σ of one sample, camera codes.
+    Codes(f32),
+}
+
+impl std::str::FromStr for NoiseArg {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        if s == "auto" {
+            return Ok(NoiseArg::Auto);
+        }
+        match s.parse::<f32>() {
+            Ok(x) if x.is_finite() && x > 0.0 => Ok(NoiseArg::Codes(x)),
+            _ => Err(format!(
+                "expected `auto` or a noise sigma in camera codes (> 0), got `{s}`"
+            )),
+        }
+    }
+}
+
 /// The decoder's thresholds a user may set (`decode` and `scan`); each absent one keeps the
-/// bit depth's default ([`DecodeConfig::for_bit_depth`]).
+/// bit depth's default ([`DecodeConfig::for_bit_depth`]), except the modulation floor of images
+/// deeper than 8 bits, `12σ` with σ estimated from the images ([`DecodeConfig::for_sensor`]).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ThresholdArgs {
-    /// Minimum modulation B, camera codes (default: 2 % of full scale, at least 12 codes for
-    /// 8-bit images).
+    /// Minimum modulation B, camera codes (default: 12 times the read noise: 12 codes for 8-bit
+    /// images, 12σ with σ estimated from deeper ones, see --noise).
     #[arg(long, value_name = "CODES")]
     pub min_modulation: Option<f32>,
+    /// The camera's read noise σ, camera codes, or `auto` to estimate it from the images (a
+    /// level of 4, 6, … uniform shifts); the minimum modulation is then 12σ. Default: 1 code for
+    /// 8-bit images, `auto` for deeper ones (without such a level: 2 % of full scale).
+    #[arg(long, value_name = "CODES|auto")]
+    pub noise: Option<NoiseArg>,
     /// Saturation level, camera codes (default: full scale of the images' bit depth).
     #[arg(long, value_name = "CODES")]
     pub saturation: Option<f32>,
@@ -242,9 +272,29 @@ pub struct ThresholdArgs {
 
 impl ThresholdArgs {
     /// The bit depth's defaults with the given thresholds applied; each checked against its
-    /// meaningful range (codes within the images' full scale, radians within (0, π]).
-    pub fn config(&self, imgs: &ImageSet) -> Result<DecodeConfig> {
+    /// meaningful range (codes within the images' full scale, radians within (0, π]). The
+    /// modulation floor: `--min-modulation`, else 12σ of `--noise` (its default: 1 code for
+    /// 8-bit images, estimated from the images of `set` for deeper ones).
+    pub fn config(&self, set: &PatternSet, imgs: &ImageSet) -> Result<DecodeConfig> {
         let mut cfg = decode_config(imgs);
+        let noise = match self.noise {
+            Some(n) => Some(n),
+            None if imgs.bits > 8 => Some(NoiseArg::Auto),
+            None => None,
+        };
+        match noise {
+            Some(NoiseArg::Codes(s)) => cfg = DecodeConfig::for_sensor(imgs.bits as u32, s),
+            Some(NoiseArg::Auto) => match crate::noise::estimate(set, imgs) {
+                Some(e) => cfg = DecodeConfig::for_sensor(imgs.bits as u32, e.sigma),
+                None if self.noise.is_some() => anyhow::bail!(
+                    "--noise auto: the pattern set has no level of 4, 6, ... uniform shifts to \
+                     estimate the noise from, or too few lit, unsaturated pixels; give --noise \
+                     CODES or --min-modulation"
+                ),
+                None => {}
+            },
+            None => {}
+        }
         let full = ((1u64 << imgs.bits.clamp(1, 16)) - 1) as f32;
         let codes = |v: Option<f32>, name: &str, lo_open: bool| -> Result<Option<f32>> {
             match v {

@@ -114,7 +114,7 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
         None => None,
     };
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;
-    let cfg = a.thresholds.config(&imgs)?;
+    let cfg = a.thresholds.config(&ls.set, &imgs)?;
     let dir = AtomicDir::create(&a.out, a.overwrite)?;
     let d = common::decode_corrected(&ls.set, &imgs, cfg, corr.as_ref())?;
     let (w, h) = (imgs.width, imgs.height);
