@@ -127,33 +127,50 @@ pub(crate) fn score(d: &Decoded, truth: &[f64]) -> (usize, usize) {
 /// B/σ = 14 on an 8-bit camera (σ = 1 code), a 1.5-pixel projector blur.
 pub(crate) const BAR: (f64, f64, f64, f64) = (120.0, 14.0, 1.0, 1.5);
 
-#[test]
-fn complementary_gray_orders_every_pixel_and_refuses_none_at_edges() {
-    let set = gray_set(5, true);
+/// Decode rows rendered at [`BAR`] with seeds `seeds` by every backend: no fringe-order error
+/// on a valid pixel, then `check(what, decoded, valid pixels)`.
+pub(crate) fn on_every_backend(
+    set: &PatternSet,
+    seeds: std::ops::RangeInclusive<u64>,
+    check: impl Fn(&str, &Decoded, usize),
+) {
     let cfg = DecodeConfig::for_bit_depth(8);
-    for seed in 1..=4 {
-        let (images, truth) = render_row(&set, BAR, seed);
+    for seed in seeds {
+        let (images, truth) = render_row(set, BAR, seed);
         for backend in Backend::ALL {
-            let d = AnyDecoder::new(&set, cfg, backend).unwrap();
+            let d = AnyDecoder::new(set, cfg, backend).unwrap();
             let got = decode(&d, &images);
             let (valid, wrong) = score(&got, &truth);
-            assert_eq!(wrong, 0, "{backend:?} seed {seed}: order errors");
-            // No pixel refused for its code or its order (the plain code's edge losses); the
-            // 12-code modulation floor of 8-bit sensors takes its ~1 % at B = 14.
-            let edge = got
-                .validity
-                .iter()
-                .filter(|&&v| {
-                    v == Validity::CodeAmbiguous as u8 || v == Validity::UnwrapInconsistent as u8
-                })
-                .count();
-            assert_eq!(edge, 0, "{backend:?} seed {seed}: edge refusals");
-            assert!(
-                valid as f64 >= 0.98 * CAM as f64,
-                "{backend:?} seed {seed}: {valid} of {CAM} valid"
-            );
+            let what = format!("{backend:?} seed {seed}");
+            assert_eq!(wrong, 0, "{what}: order errors");
+            check(&what, &got, valid);
         }
     }
+}
+
+/// Pixels refused with one of `codes`.
+pub(crate) fn refused(got: &Decoded, codes: &[Validity]) -> usize {
+    got.validity
+        .iter()
+        .filter(|&&v| codes.iter().any(|c| *c as u8 == v))
+        .count()
+}
+
+#[test]
+fn complementary_gray_orders_every_pixel_and_refuses_none_at_edges() {
+    // No pixel refused for its code or its order (the plain code's edge losses); the 12-code
+    // modulation floor of 8-bit sensors takes its ~1 % at B = 14.
+    on_every_backend(&gray_set(5, true), 1..=4, |what, got, valid| {
+        let edge = refused(
+            got,
+            &[Validity::CodeAmbiguous, Validity::UnwrapInconsistent],
+        );
+        assert_eq!(edge, 0, "{what}: edge refusals");
+        assert!(
+            valid as f64 >= 0.98 * CAM as f64,
+            "{what}: {valid} of {CAM} valid"
+        );
+    });
 }
 
 #[test]

@@ -12,7 +12,8 @@
 //! - the CLI: `patterns`, `render` and `scan` take a Gray-code and a heterodyne set file end to
 //!   end.
 
-use std::path::{Path, PathBuf};
+use crate::cli_support::Tmp;
+use std::path::Path;
 use std::process::Command;
 
 use fringe3d::io::pattern_file::PatternSetFile;
@@ -20,24 +21,6 @@ use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::{MASK_VALID, Overrides, RenderOptions, Scene, SceneSpec};
 use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut};
 use fringe3d_core::validity::Validity;
-
-struct Tmp(PathBuf);
-impl Tmp {
-    fn new(tag: &str) -> Tmp {
-        let d = std::env::temp_dir().join(format!("fringe3d-gray-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        Tmp(d)
-    }
-    fn join(&self, p: &str) -> PathBuf {
-        self.0.join(p)
-    }
-}
-impl Drop for Tmp {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
 
 /// 32 periods across a 1024-column projector (32 projector pixels per period), ordered by a
 /// 6-bit Gray code (complementary or not), then a 4-step level.
@@ -146,27 +129,34 @@ fn score(scene: &Scene) -> Score {
     }
 }
 
+/// The scene's score, held to the bar: a real scene decoded, no order error, the phase noise
+/// within 10 % of the prediction.
+fn meets_the_bar(scene: &Scene, what: &str) -> Score {
+    let s = score(scene);
+    eprintln!(
+        "{what}: {} valid, {} edge refusals, RMS {:.3}",
+        s.valid, s.edge_refusals, s.normalized_rms
+    );
+    assert!(s.valid > 10_000, "{what}: {} valid", s.valid);
+    assert_eq!(s.order_errors, 0, "{what}: fringe-order errors");
+    assert!(
+        (s.normalized_rms - 1.0).abs() <= 0.10,
+        "{what}: phase RMS {:.3} x the prediction",
+        s.normalized_rms
+    );
+    s
+}
+
 #[test]
 fn gray_code_scans_meet_the_quality_bar() {
-    let t = Tmp::new("bar");
+    let t = Tmp::new("gray-bar");
     for comp in [false, true] {
-        let f = t.join(&format!("gray-{comp}.toml"));
+        let f = t.0.join(format!("gray-{comp}.toml"));
         std::fs::write(&f, set_file(comp)).unwrap();
         let mut refusals = 0;
         for name in ["plane", "sphere", "steps"] {
-            let s = score(&scene(name, &f));
             let what = format!("{name}, complementary {comp}");
-            eprintln!(
-                "{what}: {} valid, {} edge refusals, RMS {:.3}",
-                s.valid, s.edge_refusals, s.normalized_rms
-            );
-            assert!(s.valid > 10_000, "{what}: {} valid", s.valid);
-            assert_eq!(s.order_errors, 0, "{what}: fringe-order errors");
-            assert!(
-                (s.normalized_rms - 1.0).abs() <= 0.10,
-                "{what}: phase RMS {:.3} x the prediction",
-                s.normalized_rms
-            );
+            let s = meets_the_bar(&scene(name, &f), &what);
             if comp && name != "steps" {
                 // Smooth surfaces: no pixel lost at a stripe or period edge.
                 assert_eq!(s.edge_refusals, 0, "{what}: edge refusals");
@@ -181,33 +171,21 @@ fn gray_code_scans_meet_the_quality_bar() {
 
 #[test]
 fn heterodyne_scans_meet_the_quality_bar() {
-    let t = Tmp::new("het");
-    let f = t.join("heterodyne.toml");
+    let t = Tmp::new("gray-het");
+    let f = t.0.join("heterodyne.toml");
     std::fs::write(&f, HETERODYNE).unwrap();
     for name in ["plane", "sphere", "steps"] {
-        let s = score(&scene(name, &f));
-        let what = format!("heterodyne, {name}");
-        eprintln!(
-            "{what}: {} valid, {} edge refusals, RMS {:.3}",
-            s.valid, s.edge_refusals, s.normalized_rms
-        );
-        assert!(s.valid > 10_000, "{what}: {} valid", s.valid);
-        assert_eq!(s.order_errors, 0, "{what}: fringe-order errors");
-        assert!(
-            (s.normalized_rms - 1.0).abs() <= 0.10,
-            "{what}: phase RMS {:.3} x the prediction",
-            s.normalized_rms
-        );
+        meets_the_bar(&scene(name, &f), &format!("heterodyne, {name}"));
     }
 }
 
 #[test]
 fn patterns_render_and_scan_take_gray_code_and_heterodyne_sets() {
-    let t = Tmp::new("cli");
-    let het = t.join("heterodyne.toml");
+    let t = Tmp::new("gray-cli");
+    let het = t.0.join("heterodyne.toml");
     std::fs::write(&het, HETERODYNE).unwrap();
     scan_cli(&t, &het, "het", 12);
-    let f = t.join("gray.toml");
+    let f = t.0.join("gray.toml");
     std::fs::write(&f, set_file(true)).unwrap();
     scan_cli(&t, &f, "gray", 11);
 }
@@ -216,7 +194,7 @@ fn patterns_render_and_scan_take_gray_code_and_heterodyne_sets() {
 fn scan_cli(t: &Tmp, f: &Path, tag: &str, images: usize) {
     let f = f.to_path_buf();
     let bin = env!("CARGO_BIN_EXE_fringe3d");
-    let pat = t.join(&format!("pat-{tag}"));
+    let pat = t.0.join(format!("pat-{tag}"));
     let o = Command::new(bin)
         .args(["patterns", "--patterns"])
         .arg(&f)
@@ -237,7 +215,7 @@ fn scan_cli(t: &Tmp, f: &Path, tag: &str, images: usize) {
         .count();
     assert_eq!(pngs, images);
     // A rendered dataset scans.
-    let ds = t.join(&format!("ds-{tag}"));
+    let ds = t.0.join(format!("ds-{tag}"));
     write_dataset(
         &scene("sphere", &f),
         &ds,
@@ -247,7 +225,7 @@ fn scan_cli(t: &Tmp, f: &Path, tag: &str, images: usize) {
         },
     )
     .unwrap();
-    let ply = t.join(&format!("out-{tag}.ply"));
+    let ply = t.0.join(format!("out-{tag}.ply"));
     let o = Command::new(bin)
         .args(["scan", "-q", "--patterns"])
         .arg(ds.join("patterns.toml"))
