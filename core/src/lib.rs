@@ -17,6 +17,7 @@ pub mod limits;
 pub mod math;
 pub mod params;
 pub mod pattern;
+pub mod pattern_error;
 pub mod phase_function;
 pub mod reconstruct;
 pub mod sample;
