@@ -1,8 +1,8 @@
 //! The modulation floor in physical terms (issue #19 item 5): the same sphere rendered on an
 //! 8-bit camera with σ = 1 code and on a 16-bit one with the same noise relative to full scale
 //! (σ = 257 codes). At 2 % of full scale the 16-bit floor admitted pixels down to B/σ ≈ 5, and
-//! with them phase errors the 8-bit floor (12 codes = 12σ) refuses; the default thresholds of
-//! `decode` and `scan` now estimate σ from the 16-bit images and hold B ≥ 12σ, as for 8 bits.
+//! with them phase errors the 8-bit floor (12 codes = 12σ) refuses; `--noise auto` of `decode`
+//! and `scan` estimates σ from the 16-bit images and holds B ≥ 12σ, as for 8 bits.
 
 use fringe3d::cli::common::{NoiseArg, ThresholdArgs};
 use fringe3d::io::image_set::{Frames, ImageSet};
@@ -107,15 +107,17 @@ fn sixteen_bit_images_get_the_eight_bit_floor_in_physical_terms() {
         est8.sigma
     );
 
-    // 8 bits told its noise; 16 bits by default (estimated).
+    // 8 bits told its noise; 16 bits estimating it (`--noise auto`).
     let told = ThresholdArgs {
         noise: Some(NoiseArg::Codes(4.0)),
         ..Default::default()
     };
     let eight = count(&s8, &i8, &t8, &m8, told.config(&s8.patterns, &i8).unwrap());
-    let cfg16 = ThresholdArgs::default()
-        .config(&s16.patterns, &i16)
-        .unwrap();
+    let auto = ThresholdArgs {
+        noise: Some(NoiseArg::Auto),
+        ..Default::default()
+    };
+    let cfg16 = auto.config(&s16.patterns, &i16).unwrap();
     assert_eq!(cfg16.min_modulation, 12.0 * est.sigma);
     let new = count(&s16, &i16, &t16, &m16, cfg16);
     let old = count(&s16, &i16, &t16, &m16, DecodeConfig::for_bit_depth(16));

@@ -242,17 +242,18 @@ impl std::str::FromStr for NoiseArg {
 }
 
 /// The decoder's thresholds a user may set (`decode` and `scan`); each absent one keeps the
-/// bit depth's default ([`DecodeConfig::for_bit_depth`]), except the modulation floor of images
-/// deeper than 8 bits, `12σ` with σ estimated from the images ([`DecodeConfig::for_sensor`]).
+/// bit depth's default ([`DecodeConfig::for_bit_depth`]); `--noise` sets the modulation floor to
+/// `12σ` ([`DecodeConfig::for_sensor`]).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ThresholdArgs {
-    /// Minimum modulation B, camera codes (default: 12 times the read noise: 12 codes for 8-bit
-    /// images, 12σ with σ estimated from deeper ones, see --noise).
+    /// Minimum modulation B, camera codes (default: 2 % of full scale, at least 12 codes for
+    /// 8-bit images; see --noise for 12σ).
     #[arg(long, value_name = "CODES")]
     pub min_modulation: Option<f32>,
     /// The camera's read noise σ, camera codes, or `auto` to estimate it from the images (a
-    /// level of 4, 6, … uniform shifts); the minimum modulation is then 12σ. Default: 1 code for
-    /// 8-bit images, `auto` for deeper ones (without such a level: 2 % of full scale).
+    /// level of 4, 6, … uniform shifts); the minimum modulation is then 12σ, the 8-bit floor's
+    /// rule (12 codes at σ = 1). Without it, the bit depth's default (for deeper images 2 % of
+    /// full scale, which is what a head given the same set decodes with).
     #[arg(long, value_name = "CODES|auto")]
     pub noise: Option<NoiseArg>,
     /// Saturation level, camera codes (default: full scale of the images' bit depth).
@@ -273,16 +274,11 @@ pub struct ThresholdArgs {
 impl ThresholdArgs {
     /// The bit depth's defaults with the given thresholds applied; each checked against its
     /// meaningful range (codes within the images' full scale, radians within (0, π]). The
-    /// modulation floor: `--min-modulation`, else 12σ of `--noise` (its default: 1 code for
-    /// 8-bit images, estimated from the images of `set` for deeper ones).
+    /// modulation floor: `--min-modulation`, else 12σ of `--noise` (estimated from the images of
+    /// `set` for `auto`), else the bit depth's.
     pub fn config(&self, set: &PatternSet, imgs: &ImageSet) -> Result<DecodeConfig> {
         let mut cfg = decode_config(imgs);
-        let noise = match self.noise {
-            Some(n) => Some(n),
-            None if imgs.bits > 8 => Some(NoiseArg::Auto),
-            None => None,
-        };
-        match noise {
+        match self.noise {
             Some(NoiseArg::Codes(s)) => cfg = DecodeConfig::for_sensor(imgs.bits as u32, s),
             Some(NoiseArg::Auto) => match crate::noise::estimate(set, imgs) {
                 Some(e) => cfg = DecodeConfig::for_sensor(imgs.bits as u32, e.sigma),
