@@ -8,10 +8,10 @@
 
 use crate::common::frame_sequential;
 use crate::decode_gray::{
-    BAR, CAM, PROJ, decode, on_every_backend, output, refused, render_row, score,
+    BAR, CAM, PROJ, assert_follows_the_reference, assert_four_step_noise, decode, on_every_backend,
+    output, refused, render_row, score,
 };
 use fringe3d_core::arith::Backend;
-use fringe3d_core::decode::reference::decode_pixel;
 use fringe3d_core::decode::{AnyDecoder, DecodeConfig, Decoder};
 use fringe3d_core::pattern::{Level, PatternError, PatternSet, Relation};
 use fringe3d_core::phase_function::{Axis, PhaseFunction, PhaseFunctionError};
@@ -59,26 +59,7 @@ fn two_frequencies_order_every_pixel() {
 
 #[test]
 fn phase_noise_is_the_finest_levels() {
-    let set = heterodyne(&[21.0, 26.0, 32.0]).unwrap();
-    let d = AnyDecoder::new(&set, DecodeConfig::for_bit_depth(8), Backend::F32Accurate).unwrap();
-    let (b, sigma) = (14.0, 1.0);
-    let (mut sum, mut n) = (0.0, 0usize);
-    for seed in 1..=40 {
-        let (images, truth) = render_row(&set, (120.0, b, sigma, 0.0), 300 + seed);
-        let got = decode(&d, &images);
-        for p in 0..CAM {
-            if got.validity[p] == Validity::Valid as u8 {
-                sum += (got.phase[p] as f64 - truth[p]).powi(2);
-                n += 1;
-            }
-        }
-    }
-    let rms = (sum / n as f64).sqrt();
-    let predicted = 0.5f64.sqrt() * (sigma * sigma + 1.0 / 12.0).sqrt() / b;
-    assert!(
-        (rms / predicted - 1.0).abs() <= 0.10,
-        "phase RMS {rms:.5} rad, predicted {predicted:.5}"
-    );
+    assert_four_step_noise(&heterodyne(&[21.0, 26.0, 32.0]).unwrap(), 301);
 }
 
 #[test]
@@ -87,19 +68,7 @@ fn the_kernel_follows_the_reference_and_both_drivers_agree() {
     let d = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).unwrap();
     let (images, _) = render_row(&set, BAR, 7);
     let got = decode(&AnyDecoder::F32Accurate(d), &images);
-    for p in 0..CAM {
-        if got.validity[p] != Validity::Valid as u8 {
-            continue;
-        }
-        let s: Vec<f64> = images.iter().map(|r| r[p] as f64).collect();
-        let r = decode_pixel(&set, &s).unwrap();
-        assert!(
-            (got.phase[p] as f64 - r.phase).abs() < 1e-3,
-            "pixel {p}: {} vs {}",
-            got.phase[p],
-            r.phase
-        );
-    }
+    assert_follows_the_reference(&set, &images, &got, 1e-3);
     let (bits, codes) = frame_sequential(&d, &images, CAM, 1);
     assert_eq!(codes, got.validity);
     assert_eq!(

@@ -15,7 +15,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
+use fringe3d::batch::Decoded;
 use fringe3d::cli::common;
+use fringe3d::device::client::ScanOutcome;
 use fringe3d::device::desc::{
     capture_sequence, fidelity, pattern_bytes, pattern_desc, phase_map_bytes, render_pattern,
     wire_calibration,
@@ -24,7 +26,7 @@ use fringe3d::device::{Client, ClientOptions, DeviceError, open_serial};
 use fringe3d::io::calibration::Calibration;
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::{Overrides, SceneSpec};
-use fringe3d::scan::{ScanCalibration, filter_edges};
+use fringe3d::scan::{PointCloud, ScanCalibration, filter_edges};
 use fringe3d_core::math::canonical;
 use fringe3d_core::phase_function::Profile;
 use fringe3d_core::validity::Validity;
@@ -141,6 +143,26 @@ fn opts() -> ClientOptions {
         window: 4,
         scan_timeout: Duration::from_secs(60),
     }
+}
+
+/// A head's scan (phase and points) equals the desktop's decode and filtered cloud, bit for bit.
+fn assert_desktop_bits(out: &ScanOutcome, dec: &Decoded, cloud: &PointCloud) {
+    assert!(
+        bits(out.phase.as_ref().unwrap()) == bits(&dec.phase),
+        "phases differ from the desktop's"
+    );
+    assert!(
+        out.phase_validity.as_ref().unwrap() == &dec.validity,
+        "phase validity differs"
+    );
+    assert!(
+        bits(out.xyz.as_ref().unwrap()) == bits(&cloud.xyz),
+        "points differ from the desktop's"
+    );
+    assert!(
+        out.point_validity.as_ref().unwrap() == &cloud.validity,
+        "point validity differs"
+    );
 }
 
 fn bits(v: &[f32]) -> Vec<u32> {
@@ -309,22 +331,7 @@ fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplu
         CAM.0, CAM.1, out.wire_bytes, out.seconds
     );
     assert_eq!(out.rescans, 0);
-    assert!(
-        bits(out.phase.as_ref().unwrap()) == bits(&dec.phase),
-        "phases differ from the desktop's"
-    );
-    assert!(
-        out.phase_validity.as_ref().unwrap() == &dec.validity,
-        "phase validity differs"
-    );
-    assert!(
-        bits(out.xyz.as_ref().unwrap()) == bits(&cloud.xyz),
-        "points differ from the desktop's"
-    );
-    assert!(
-        out.point_validity.as_ref().unwrap() == &cloud.validity,
-        "point validity differs"
-    );
+    assert_desktop_bits(&out, &dec, &cloud);
     // A band of rows: filtered with their true neighbours, as in the whole cloud; and the last
     // rows (no row below). Unfiltered points equal the desktop's unfiltered cloud.
     let w = CAM.0 as usize;
@@ -719,16 +726,7 @@ fn a_gray_coded_set_scans_on_the_head_bit_identical_to_the_desktop() {
             &mut |_, _| {},
         )
         .unwrap();
-    assert!(
-        bits(out.phase.as_ref().unwrap()) == bits(&dec.phase),
-        "phases differ"
-    );
-    assert!(out.phase_validity.as_ref().unwrap() == &dec.validity);
-    assert!(
-        bits(out.xyz.as_ref().unwrap()) == bits(&cloud.xyz),
-        "points differ"
-    );
-    assert!(out.point_validity.as_ref().unwrap() == &cloud.validity);
+    assert_desktop_bits(&out, &dec, &cloud);
     drop(c);
     stop.store(true, Ordering::SeqCst);
     cmd.send(Cmd::Exit).unwrap();

@@ -69,7 +69,9 @@ impl<A: Arith> Decoder<A> {
             let mut st = block_state(&mut st_dc, &mut st_s, &mut st_c, &mut flags, n);
             for (i, r) in rows.iter().enumerate() {
                 // (The Gray images give no level's wrapped phase.)
-                if self.gray.is_none() || self.images[i].level != 0 {
+                let gray_image =
+                    self.gray.is_some() && self.images.get(i).is_some_and(|c| c.level == 0);
+                if !gray_image {
                     self.accumulate(i, &r[start..end], &mut st)?;
                 }
             }

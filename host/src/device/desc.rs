@@ -74,10 +74,7 @@ pub fn capture_sequence(
     // built-in order, which has the DC level first (the decoded bits do not depend on it).
     let builtin;
     let mut order = set.order();
-    let sequential = Decoder::new(set, DecodeConfig::for_bit_depth(8))
-        .map(|d| d.frame_sequential_order())
-        .unwrap_or(true);
-    if !sequential {
+    if !set.frame_sequential_order() {
         builtin = PatternSet::new(*set.function(), set.levels(), *set.output())
             .map_err(|e| format!("the built-in order of the set: {e}"))?;
         order = builtin.order();
