@@ -10,7 +10,7 @@ own report does (`src/measure.rs`: flash = `__erodata` + `.data`, static RAM = `
 rewrites the figures of docs/firmware.md that follow from them: flash, static RAM, stack room,
 the section sizes, PSRAM, and the peaks (static RAM + the stack high-water marks the doc states,
 which only a QEMU run measures). With `--check` it changes nothing and exits 1 if the doc
-differs (CI); the code sizes may differ by FLASH_SLACK bytes (the linker's padding moves with the
+differs (CI); the code sizes may differ by FLASH_SLACK bytes (code layout moves with the
 checkout's path), nothing else may. Standard library only (the ELF is parsed here).
 """
 
@@ -162,10 +162,12 @@ def update(doc, g, h):
 
 # How far the code-size figures may move with the checkout alone. The path remapping above makes
 # the bytes of `.rodata` the same everywhere, but cargo hashes the package's source path and the
-# flags into the symbol names, and the linker orders sections by name: the padding between them
-# moves by a few bytes (4 seen between two checkouts of one commit). Code changes move flash by far
-# more than this; static RAM and the stacks must match exactly.
-FLASH_SLACK = 32
+# flags into the symbol names, which order the functions LLVM optimises and the sections the
+# linker lays out: the padding moves, and so does the code (4 bytes seen between two checkouts of
+# one commit, then 168 bytes of `.text` between /work/main and /tmp/ci-cold at 8fda563, which
+# failed CI's check). 256 bytes is under 0.1 % of either binary's flash; a feature moves it by
+# kilobytes. Static RAM and the stacks must match exactly.
+FLASH_SLACK = 256
 
 
 def documented_code_sizes(doc):
