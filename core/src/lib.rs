@@ -5,6 +5,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod arith;
+pub mod binary;
 pub mod camera;
 pub mod decode;
 pub mod decode_config;

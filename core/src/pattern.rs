@@ -16,6 +16,8 @@
 //! The built-in sets put the level that carries the DC term A (the one with ≥ 3 shifts) first,
 //! so that a frame-sequential decoder can use A for the 2-image levels as soon as they arrive.
 
+pub use crate::binary::Binarization;
+use crate::binary::pixel_centre;
 use crate::estimator::level_estimator;
 pub use crate::gray::GrayCode;
 use crate::limits::MAX_GRAY_LEVELS;
@@ -217,6 +219,7 @@ pub struct PatternSet {
     output: Output,
     coarse_range: (f64, f64),
     relation: Relation,
+    binary: Binarization,
 }
 
 /// How the levels of a set give the absolute phase.
@@ -328,6 +331,7 @@ impl PatternSet {
             output,
             coarse_range: (0.0, 0.0),
             relation,
+            binary: Binarization::Off,
         };
         set.validate()?;
         Ok(set)
@@ -373,6 +377,18 @@ impl PatternSet {
     pub fn with_convention(mut self, c: Convention) -> Self {
         self.convention = c;
         self
+    }
+
+    /// Write the phase levels as 1-bit images ([`crate::binary`]); Gray-code levels are binary
+    /// already.
+    pub fn with_binarization(mut self, b: Binarization) -> Self {
+        self.binary = b;
+        self
+    }
+
+    /// Gray-level or binary phase levels.
+    pub fn binarization(&self) -> Binarization {
+        self.binary
     }
 
     /// Add a constant phase offset (radians, within ±[`MAX_SHIFT_MAGNITUDE`] = ±2π) to every
@@ -628,7 +644,9 @@ impl PatternSet {
     }
 
     /// Intensity (real-valued gray level, before quantization) of image `image` at (ξ, η). A
-    /// Gray-code image is `I_max` where its bit is set, else `I_min` ([`crate::gray`]).
+    /// Gray-code image is `I_max` where its bit is set, else `I_min` ([`crate::gray`]); so is
+    /// a binary set's image, decided at the centre of the pixel containing (ξ, η)
+    /// ([`crate::binary`]).
     pub fn intensity(&self, image: usize, xi: f64, eta: f64) -> Option<f64> {
         let id = self.image(image)?;
         let level = &self.levels[id.level as usize];
@@ -643,6 +661,12 @@ impl PatternSet {
             });
         }
         let delta = level.shifts[id.shift as usize] + self.effective_offset();
+        if self.binary.is_binary() {
+            let (i, j) = (pixel_centre(xi), pixel_centre(eta));
+            let arg = level.scale * self.function.eval(i, j) + delta;
+            let bright = self.binary.bright(arg, i, j) == Some(true);
+            return Some(if bright { o.i_max } else { o.i_min });
+        }
         let arg = level.scale * self.function.eval(xi, eta) + delta;
         Some(o.i_min + 0.5 * (o.i_max - o.i_min) * (1.0 + libm::sin(arg)))
     }

@@ -210,3 +210,57 @@ fn explicit_image_order_is_checked() {
     assert!(set.with_order(&dup).is_err());
     assert!(set.with_order(&paper_order[..7]).is_err());
 }
+
+#[test]
+fn binary_sets_write_the_sign_or_the_dither_of_eq_7() {
+    use fringe3d_core::binary::{BAYER, Binarization};
+    let gray = PatternSet::default_for(Axis::Xi, out(255.0)).unwrap();
+    let (mut g, mut b) = (vec![0u8; 320], vec![0u8; 320]);
+    // Squared binary: 255 where eq 7's sinusoid is above its mean, 0 below (independent f64).
+    let sq = gray.with_binarization(Binarization::Square);
+    let c = [1.0, 8.0, 64.0];
+    for i in 0..8 {
+        let id = sq.image(i).unwrap();
+        sq.generate_row(i, 17, &mut b).unwrap();
+        for (xi, &v) in b.iter().enumerate() {
+            let phi = 0.9 * TAU / 320.0 * (xi as f64 - 159.5);
+            let s = (c[id.level as usize] * phi + id.shift as f64 * FRAC_PI_2).sin();
+            assert!(v == 0 || v == 255, "image {i} ξ {xi}: {v}");
+            if s.abs() > 1e-9 {
+                assert_eq!(v == 255, s > 0.0, "image {i} ξ {xi}");
+            }
+        }
+    }
+    // Bayer: each pixel against its threshold (M + ½)/64 of the 8 × 8 matrix; over a tile of the
+    // coarse level the bright fraction follows the gray level.
+    let by = gray.with_binarization(Binarization::Bayer);
+    for i in 0..8 {
+        let mut tile_on = [0u32; 40];
+        let mut tile_gray = [0.0f64; 40];
+        for y in 16..24u32 {
+            gray.generate_row(i, y, &mut g).unwrap();
+            by.generate_row(i, y, &mut b).unwrap();
+            for xi in 0..320 {
+                let id = by.image(i).unwrap();
+                let phi = 0.9 * TAU / 320.0 * (xi as f64 - 159.5);
+                let s =
+                    0.5 * (1.0 + (c[id.level as usize] * phi + id.shift as f64 * FRAC_PI_2).sin());
+                let t = (BAYER[y as usize % 8][xi % 8] as f64 + 0.5) / 64.0;
+                assert_eq!(b[xi] == 255, s > t, "image {i} ({xi}, {y})");
+                tile_on[xi / 8] += u32::from(b[xi] == 255);
+                tile_gray[xi / 8] += g[xi] as f64 / 255.0;
+            }
+        }
+        if by.image(i).unwrap().level == 0 {
+            for (on, gr) in tile_on.iter().zip(&tile_gray) {
+                // (±3: the 1/64 steps, and the gray level's slope across the tile, which the
+                // matrix's arrangement samples unevenly.)
+                assert!(
+                    (*on as f64 - gr).abs() <= 3.0,
+                    "image {i}: {on} of 64 vs {gr}"
+                );
+            }
+        }
+    }
+    assert_eq!(gray.binarization(), Binarization::Off);
+}

@@ -86,10 +86,13 @@ fn pattern_set(r: &mut XorShift64) -> PatternSetDesc {
         bit_depth,
         i_min: i_max * r.below(1000) as f64 / 1000.0,
         i_max,
-        waveform: if r.below(2) == 0 {
-            Waveform::Sine
-        } else {
-            Waveform::Cosine
+        waveform: match r.below(6) {
+            0 => Waveform::Sine,
+            1 => Waveform::Cosine,
+            2 => Waveform::SquareSine,
+            3 => Waveform::SquareCosine,
+            4 => Waveform::BayerSine,
+            _ => Waveform::BayerCosine,
         },
         phase_offset: finite(r),
         phase: PhaseDesc {

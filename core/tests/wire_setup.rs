@@ -10,7 +10,7 @@ use fringe3d_core::decode::{DecodeConfig, Decoder};
 use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::geometry::Vec3;
 use fringe3d_core::params::{CameraParams, Distortion};
-use fringe3d_core::pattern::{self, Convention, ImageId, Output, PatternSet};
+use fringe3d_core::pattern::{self, Binarization, Convention, ImageId, Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
 use fringe3d_core::reconstruct::{Reconstructor, Setup};
 use fringe3d_core::wire::crc::crc32c;
@@ -473,7 +473,15 @@ fn the_small_blob_is_laid_out_as_documented() {
 
 #[test]
 fn round_trips_rebuild_the_desktop_objects_exactly() {
-    for (set, pattern_bits, sample_bits) in [(paper_set(), 16, 12), (odd_set(), 8, 8)] {
+    // (The binary sets: waveform values 2-5, the binarization carried with the set.)
+    let square = paper_set().with_binarization(Binarization::Square);
+    let bayer = odd_set().with_binarization(Binarization::Bayer);
+    for (set, pattern_bits, sample_bits) in [
+        (paper_set(), 16, 12),
+        (odd_set(), 8, 8),
+        (square, 16, 12),
+        (bayer, 8, 8),
+    ] {
         let s = head_setup(&set, pattern_bits, sample_bits);
         let blob = emit(&s);
         assert!(blob.len() <= MAX_SETUP_BLOB);

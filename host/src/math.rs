@@ -1,8 +1,17 @@
 //! The host's 3-vector and 3×3 matrix, f64: the renderer's geometry and the calibration's linear
-//! algebra both use them. They are independent of the core's geometry on purpose: the renderer is
+//! algebra both use them; and the projector's defocus kernel [`box_gauss`], which the renderer
+//! and the binary patterns' decoding model (`response::binary`) share. They are independent of the core's geometry on purpose: the renderer is
 //! the test truth of the core's reconstruction.
 
 use std::ops::{Add, Index, IndexMut, Mul, Neg, Sub};
+
+/// `½·[erf((x + ½)/(σ√2)) − erf((x − ½)/(σ√2))]`: the box ⊗ Gaussian kernel, a DMD pixel of
+/// width 1 blurred by a Gaussian of σ pixels (σ > 0), at offset `x` from its centre.
+#[inline]
+pub fn box_gauss(x: f64, sigma: f64) -> f64 {
+    let s = 1.0 / (sigma * std::f64::consts::SQRT_2);
+    0.5 * (libm::erf((x + 0.5) * s) - libm::erf((x - 0.5) * s))
+}
 
 /// A 3-vector (millimetres, or a direction).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]

@@ -67,6 +67,7 @@ fn sample() -> Calibration {
             translation: [-200.0, 0.0, 30.0],
         }),
         projector_response: None,
+        projector_defocus: None,
     }
 }
 

@@ -169,7 +169,36 @@ fn every_example_loads() {
             n += 1;
         }
     }
-    assert_eq!(n, 9);
+    assert_eq!(n, 11);
+}
+
+#[test]
+fn binary_sets_round_trip_and_bad_names_are_refused() {
+    use fringe3d_core::binary::Binarization;
+    for (name, b) in [
+        ("binary-square.toml", Binarization::Square),
+        ("binary-bayer.toml", Binarization::Bayer),
+    ] {
+        let p = examples().join(name);
+        let set = PatternSetFile::load(&p).unwrap().to_pattern_set().unwrap();
+        assert_eq!(set.binarization(), b);
+        let (f, text) = round_trip(&set, 8, name);
+        assert_eq!(f.binary.map(|n| n.core()), Some(b));
+        assert!(text.contains("binary = "), "{text}");
+    }
+    // A gray-level set writes no `binary` key; a misspelt value is one clear error.
+    let set = PatternSet::default_for(Axis::Xi, OUT).unwrap();
+    let (f, _) = round_trip(&set, 8, "not-binary");
+    assert!(f.binary.is_none());
+    let d = scratch("binary-bad");
+    let p = d.join("bad.toml");
+    fs::write(
+        &p,
+        "version = 2\nbinary = \"dither\"\n[projector]\nwidth = 64\nheight = 48\n",
+    )
+    .unwrap();
+    let e = PatternSetFile::load(&p).unwrap_err().to_string();
+    assert!(e.contains("bad.toml") && e.contains("binary"), "{e}");
 }
 
 #[test]

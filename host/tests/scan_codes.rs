@@ -1,16 +1,20 @@
 //! The codes real rigs use, on rendered scans with truth (issue #20's quality bar): Gray code +
-//! phase shifting and 3-frequency heterodyne. The renderer projects a pattern-set file's images
+//! phase shifting, 3-frequency heterodyne and binary defocused patterns. The renderer projects a pattern-set file's images
 //! onto its scenes through the projector's defocus, an 8-bit camera with σ = 1 code of read
 //! noise; the core decoder's phase is compared with the exact phase of the point each pixel sees.
 //!
 //! - zero fringe-order errors on valid pixels (plain and complementary codes, heterodyne 21/26/32,
 //!   three scenes);
 //! - the phase RMS, in units of each pixel's 4-step noise prediction `√(2/N)·σ/B` (σ² = 1 +
-//!   1/12 for the rounding), within 10 % of 1 on pixels with B/σ ≥ 14;
+//!   1/12 for the rounding; for a binary set times the slope `1 − Δ'` of the phase-error
+//!   table, which stretches the noise where the harmonics compress the measured phase), within
+//!   10 % of 1 on pixels with B/σ ≥ 14;
 //! - the complementary code refuses no pixel for its code or order on a smooth surface (no
 //!   boundary losses), the plain one refuses some (it cannot tell a period edge's side);
-//! - the CLI: `patterns`, `render` and `scan` take a Gray-code and a heterodyne set file end to
-//!   end.
+//! - binary patterns (squared binary after a Gray code, Bayer-dithered 12-image set) through a
+//!   defocused projector, decoded with the table of its blur: the same bar;
+//! - the CLI: `patterns`, `render` and `scan` take a Gray-code, a heterodyne and a binary set
+//!   file end to end; `patterns` writes the binary set as 1-bit PNGs.
 
 use crate::cli_support::Tmp;
 use std::path::Path;
@@ -43,16 +47,47 @@ const HETERODYNE: &str = "version = 2\nunwrap = \"heterodyne\"\n\
     [[levels]]\nscale = 26.0\nsteps = 4\n\
     [[levels]]\nscale = 32.0\nsteps = 4\n";
 
+/// Binary patterns (issue #20 item 3) for a projector defocused by [`BINARY_DEFOCUS`] pixels: the
+/// classic squared-binary scheme (the complementary Gray code above, then a 1-bit 4-step level
+/// of 32-pixel period), or three 4-step levels dithered (Bayer), periods 1024, 171 and 32
+/// pixels. The finest period is a multiple of the dither's 8-pixel tile, so that its error
+/// repeats with the phase, which the table removes (at 31.6 pixels it beats with the tile over
+/// 630 pixels and no table of the phase can: docs/binary.md).
+fn binary_file(kind: &str) -> String {
+    match kind {
+        "square" => format!("binary = \"square\"\n{}", set_file(true)),
+        _ => format!(
+            "version = 2\nbinary = \"bayer\"\n\
+             [projector]\nwidth = 1024\nheight = 768\n\
+             [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 511.5\nslope = {slope}\n\
+             [[levels]]\nscale = 1.0\nsteps = 4\n\
+             [[levels]]\nscale = 6.0\nsteps = 4\n\
+             [[levels]]\nscale = 32.0\nsteps = 4\n",
+            slope = std::f64::consts::TAU / 1024.0,
+        ),
+    }
+}
+
+/// The projector's blur σ for the binary scans, projector pixels: a 32-pixel square wave keeps a
+/// 3rd harmonic of 8 % of its fundamental (exp(−2π²·8·σ²/32²)/3), and the dither's 8-pixel tile
+/// 6 % of its contrast (exp(−2π²σ²/8²)), both repeating with the phase: the decoder's table
+/// removes them.
+const BINARY_DEFOCUS: f64 = 3.0;
+
 fn scene(name: &str, set: &Path) -> Scene {
+    scene_with(name, set, None)
+}
+
+fn scene_with(name: &str, set: &Path, defocus: Option<f64>) -> Scene {
     let mut spec = SceneSpec::builtin(name).unwrap();
     spec.apply(&Overrides {
+        defocus,
         size: Some((320, 256)),
         supersample: Some(1),
         bits: Some(8),
         noise: Some(1.0),
         pattern_bits: Some(8),
         seed: Some(11),
-        ..Default::default()
     });
     spec.patterns.set = Some(PatternSetFile::load(set).unwrap());
     Scene::new(spec, None).unwrap()
@@ -73,7 +108,29 @@ fn score(scene: &Scene) -> Score {
     let (f, t) = scene.render_fringes(RenderOptions::default()).unwrap();
     let truth = scene.true_phase(&t);
     let set = &scene.patterns;
-    let d = Decoder::new(set, DecodeConfig::for_bit_depth(8)).unwrap();
+    let mut d = Decoder::new(set, DecodeConfig::for_bit_depth(8)).unwrap();
+    // A binary set is decoded with the table of the projector's true blur (what a calibration's
+    // `projector_defocus` gives `fringe3d scan`).
+    let correction = scene.true_correction(set).unwrap();
+    if let Some(c) = &correction {
+        assert!(set.binarization().is_binary());
+        d = d.with_correction(c).unwrap();
+    }
+    // The table maps the measured phase φ to θ = φ − Δ(φ): it scales the noise by its slope
+    // 1 − Δ'(φ) at the pixel's phase (harmonics that compress the measured phase stretch its
+    // noise back). 1 without a table.
+    let fine = set.levels().len() - 1;
+    let slope = |theta: f64| match &correction {
+        None => 1.0,
+        Some(c) => {
+            let mut phi = theta;
+            for _ in 0..50 {
+                phi = theta + (phi - c.reference(fine, phi));
+            }
+            let h = 1e-3;
+            (c.reference(fine, phi + h) - c.reference(fine, phi - h)) / (2.0 * h)
+        }
+    };
     let (w, h) = (f.width as usize, f.height as usize);
     let frames: Vec<Vec<u8>> = f
         .images
@@ -114,7 +171,9 @@ fn score(scene: &Scene) -> Score {
             }
             let b = mo[x] as f64;
             if b >= 14.0 {
-                let pred = (0.5 * sigma2).sqrt() / b;
+                let wrapped =
+                    truth[p] - std::f64::consts::TAU * (truth[p] / std::f64::consts::TAU).round();
+                let pred = (0.5 * sigma2).sqrt() / b * slope(wrapped).abs();
                 sum += (e / pred).powi(2);
                 n += 1;
             }
@@ -180,18 +239,67 @@ fn heterodyne_scans_meet_the_quality_bar() {
 }
 
 #[test]
-fn patterns_render_and_scan_take_gray_code_and_heterodyne_sets() {
+fn binary_defocused_scans_meet_the_quality_bar() {
+    let t = Tmp::new("binary-bar");
+    for kind in ["square", "bayer"] {
+        let f = t.0.join(format!("binary-{kind}.toml"));
+        std::fs::write(&f, binary_file(kind)).unwrap();
+        for name in ["plane", "sphere", "steps"] {
+            let scene = scene_with(name, &f, Some(BINARY_DEFOCUS));
+            meets_the_bar(&scene, &format!("binary {kind}, {name}"));
+        }
+    }
+}
+
+#[test]
+fn patterns_render_and_scan_take_gray_code_heterodyne_and_binary_sets() {
     let t = Tmp::new("gray-cli");
     let het = t.0.join("heterodyne.toml");
     std::fs::write(&het, HETERODYNE).unwrap();
-    scan_cli(&t, &het, "het", 12);
+    scan_cli(&t, &het, "het", 12, None);
     let f = t.0.join("gray.toml");
     std::fs::write(&f, set_file(true)).unwrap();
-    scan_cli(&t, &f, "gray", 11);
+    scan_cli(&t, &f, "gray", 11, None);
+    // A binary set: 1-bit PNGs, and its dataset's calibration carries the projector's blur,
+    // which `scan` decodes it with.
+    let f = t.0.join("binary.toml");
+    std::fs::write(&f, binary_file("square")).unwrap();
+    scan_cli(&t, &f, "binary", 11, Some(BINARY_DEFOCUS));
+    let png = std::fs::read(t.0.join("pat-binary").join("pattern_10.png")).unwrap();
+    assert_eq!(
+        png[24], 1,
+        "the binary set's PNGs are 1-bit (IHDR bit depth)"
+    );
+    let cal = std::fs::read_to_string(t.0.join("ds-binary").join("calibration.toml")).unwrap();
+    assert!(cal.contains("projector_defocus = 3.0"), "{cal}");
+    // Without it, `scan` says what is missing.
+    let bare = t.0.join("ds-binary").join("bare.toml");
+    let stripped: String = cal
+        .lines()
+        .filter(|l| !l.starts_with("projector_defocus"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(&bare, stripped).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+        .args(["scan", "-q", "--patterns"])
+        .arg(t.0.join("ds-binary").join("patterns.toml"))
+        .arg("--calibration")
+        .arg(&bare)
+        .arg(t.0.join("ds-binary"))
+        .arg("-o")
+        .arg(t.0.join("bare.ply"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("projector_defocus"),
+        "{err}"
+    );
+    assert!(!t.0.join("bare.ply").exists());
 }
 
 /// `patterns` writes `images` PNGs of set file `f`; a rendered dataset of it scans.
-fn scan_cli(t: &Tmp, f: &Path, tag: &str, images: usize) {
+fn scan_cli(t: &Tmp, f: &Path, tag: &str, images: usize, defocus: Option<f64>) {
     let f = f.to_path_buf();
     let bin = env!("CARGO_BIN_EXE_fringe3d");
     let pat = t.0.join(format!("pat-{tag}"));
@@ -217,7 +325,7 @@ fn scan_cli(t: &Tmp, f: &Path, tag: &str, images: usize) {
     // A rendered dataset scans.
     let ds = t.0.join(format!("ds-{tag}"));
     write_dataset(
-        &scene("sphere", &f),
+        &scene_with("sphere", &f, defocus),
         &ds,
         DatasetOptions {
             overwrite: true,

@@ -37,6 +37,14 @@ pub enum Waveform {
     Sine,
     /// `I = I_min + (I_max − I_min)/2 · (1 + cos(·))` (wire value 1).
     Cosine,
+    /// The sine's square wave, 1-bit ([`Binarization::Square`](crate::binary::Binarization::Square); wire value 2).
+    SquareSine,
+    /// The cosine's square wave, 1-bit (wire value 3).
+    SquareCosine,
+    /// The sine Bayer-dithered, 1-bit ([`Binarization::Bayer`](crate::binary::Binarization::Bayer); wire value 4).
+    BayerSine,
+    /// The cosine Bayer-dithered, 1-bit (wire value 5).
+    BayerCosine,
 }
 
 /// Knots of a monotonic cubic Hermite profile (the core's

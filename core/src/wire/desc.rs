@@ -28,7 +28,7 @@ use super::{Invalid, WireError};
 use crate::camera;
 use crate::filter::EdgeFilter;
 use crate::params::ScanGeometry;
-use crate::pattern::{self, Convention, ImageId, Output, PatternError, PatternSet};
+use crate::pattern::{self, Binarization, Convention, ImageId, Output, PatternError, PatternSet};
 use crate::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
 use crate::reconstruct::{ReconstructError, Reconstructor, Setup};
 
@@ -212,9 +212,13 @@ impl PatternSetDesc {
             bit_depth: bit_depth as u8,
             i_min: o.i_min,
             i_max: o.i_max,
-            waveform: match set.convention() {
-                Convention::Sine => Waveform::Sine,
-                Convention::Cosine => Waveform::Cosine,
+            waveform: match (set.convention(), set.binarization()) {
+                (Convention::Sine, Binarization::Off) => Waveform::Sine,
+                (Convention::Cosine, Binarization::Off) => Waveform::Cosine,
+                (Convention::Sine, Binarization::Square) => Waveform::SquareSine,
+                (Convention::Cosine, Binarization::Square) => Waveform::SquareCosine,
+                (Convention::Sine, Binarization::Bayer) => Waveform::BayerSine,
+                (Convention::Cosine, Binarization::Bayer) => Waveform::BayerCosine,
             },
             phase_offset: set.phase_offset(),
             phase: PhaseDesc {
@@ -295,9 +299,13 @@ impl PatternSetDesc {
             i_min: self.i_min,
             i_max: self.i_max,
         };
-        let convention = match self.waveform {
-            Waveform::Sine => Convention::Sine,
-            Waveform::Cosine => Convention::Cosine,
+        let (convention, binary) = match self.waveform {
+            Waveform::Sine => (Convention::Sine, Binarization::Off),
+            Waveform::Cosine => (Convention::Cosine, Binarization::Off),
+            Waveform::SquareSine => (Convention::Sine, Binarization::Square),
+            Waveform::SquareCosine => (Convention::Cosine, Binarization::Square),
+            Waveform::BayerSine => (Convention::Sine, Binarization::Bayer),
+            Waveform::BayerCosine => (Convention::Cosine, Binarization::Bayer),
         };
         // Each `with_*` moves the whole set (1.4 KB of a head's set-up stack): call them only
         // when they change it, and change the set inside the result rather than moving it out
@@ -309,6 +317,9 @@ impl PatternSetDesc {
         if let Ok(set) = &mut built {
             if set.convention() != convention {
                 *set = set.with_convention(convention);
+            }
+            if set.binarization() != binary {
+                *set = set.with_binarization(binary);
             }
             if set.phase_offset().to_bits() != self.phase_offset.to_bits() {
                 *set = set

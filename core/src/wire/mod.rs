@@ -108,7 +108,8 @@
 //! `T` ([`UploadTarget`]) is `[0] set_id u8` (a pattern set) or `[1]` (the reference phase map).
 //!
 //! [`PatternSetDesc`]: width u16, height u16, bit_depth u8, i_min f64, i_max f64, waveform `[0]`
-//! sine `[1]` cosine, phase_offset f64, then the phase function: axis `[0]` ξ `[1]` η, profile
+//! sine `[1]` cosine (`[2]`/`[3]` their square waves, `[4]`/`[5]` Bayer-dithered: 1-bit patterns,
+//! [`crate::binary`]), phase_offset f64, then the phase function: axis `[0]` ξ `[1]` η, profile
 //! `[0]` Linear origin f64, slope f64 (`g(t) = slope·(t − origin)`) or `[1]` Knots count u8,
 //! 16 × f64 positions, 16 × f64 phases, 16 × f64 slopes (monotonic cubic Hermite), curvature f64,
 //! bend_center f64 (`Φ = g(t + curvature·(w − bend_center)²)`); then level_count u8 and 6 levels,

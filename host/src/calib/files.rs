@@ -342,15 +342,17 @@ pub struct DecodedSet {
 /// `images` list; one folder → the set file's names inside it, else every image of the folder
 /// sorted by name; else the files in set order.
 pub fn decode_set(set_path: &Path, images: &[PathBuf]) -> Result<DecodedSet, CalibError> {
-    decode_set_with(set_path, images, None)
+    decode_set_with(set_path, images, None, None)
 }
 
 /// [`decode_set`] correcting each level's phase for the projector's measured `response`
-/// (unless the set file says its patterns are pre-distorted: [`response_table_for`]).
+/// (unless the set file says its patterns are pre-distorted) or, for a binary set, for its
+/// `defocus` ([`response_table_for`]).
 pub fn decode_set_with(
     set_path: &Path,
     images: &[PathBuf],
     response: Option<&ProjectorResponse>,
+    defocus: Option<f64>,
 ) -> Result<DecodedSet, CalibError> {
     let file = PatternSetFile::load(set_path)?;
     let set = file.to_pattern_set()?;
@@ -369,7 +371,9 @@ pub fn decode_set_with(
     let imgs = image_set::load(&paths, n, &what)?;
     let mut dec = Decoder::new(&set, DecodeConfig::for_bit_depth(imgs.bits as u32))
         .map_err(|e| input(set_path, format!("decoder: {e}")))?;
-    if let Some(t) = response_table_for(&file, &set, response).map_err(|m| input(set_path, m))? {
+    if let Some(t) =
+        response_table_for(&file, &set, response, defocus).map_err(|m| input(set_path, m))?
+    {
         dec = dec
             .with_correction(&t)
             .map_err(|e| input(set_path, format!("gamma correction: {e}")))?;
@@ -607,7 +611,12 @@ pub fn calibrate_reference_files(
                     .into(),
         })?,
     };
-    let dec = decode_set_with(patterns, images, calibration.projector_response.as_ref())?;
+    let dec = decode_set_with(
+        patterns,
+        images,
+        calibration.projector_response.as_ref(),
+        calibration.projector_defocus,
+    )?;
     if (dec.width, dec.height) != (lens.width, lens.height) {
         return Err(input(
             &dec.images[0],
@@ -747,14 +756,30 @@ pub fn read_phase_map(path: &Path) -> Result<(u32, u32, Vec<f32>), CalibError> {
     }
 }
 
-/// The decoder's phase-error table for `set` under the measured `response`: `None` without a
-/// response, for a linear one, or when the set file's patterns were written pre-distorted
+/// Why a binary set cannot be decoded with a calibration that has no `projector_defocus`.
+pub const BINARY_NEEDS_DEFOCUS: &str = "the pattern set is binary: decoding it needs the \
+     projector's effective blur, `projector_defocus = SIGMA` (projector pixels) in the \
+     calibration (docs/binary.md)";
+
+/// The decoder's phase-error table for `set`: for a binary set, its model under the projector's
+/// `defocus` (required: [`binary_correction`](crate::response::binary::binary_correction); two
+/// codes need no response correction); otherwise under the measured `response`: `None` without
+/// a response, for a linear one, or when the set file's patterns were written pre-distorted
 /// (`[projector] response_compensated = true`), whose light needs no correction.
 pub fn response_table_for(
     file: &PatternSetFile,
     set: &PatternSet,
     response: Option<&ProjectorResponse>,
+    defocus: Option<f64>,
 ) -> Result<Option<PhaseCorrection>, String> {
+    if set.binarization().is_binary() {
+        let Some(sigma) = defocus else {
+            return Err(BINARY_NEEDS_DEFOCUS.into());
+        };
+        return Ok(Some(
+            crate::response::binary::binary_correction(set, sigma)?.0,
+        ));
+    }
     match response {
         Some(r) if !r.is_linear() && file.projector.response_compensated != Some(true) => {
             Ok(Some(crate::response::table::phase_correction(set, r)?.0))

@@ -216,6 +216,7 @@ pub fn calibrate_projector_files(
         depth_range: dr,
         projector: Some(params),
         projector_response: None,
+        projector_defocus: None,
     };
     calibration.validate().map_err(|m| CalibError::Degenerate {
         what: format!("the resulting calibration: {m}"),

@@ -106,6 +106,7 @@ pub fn import(a: ImportArgs, g: Global) -> Result<()> {
         depth_range,
         projector: Some(rig.projector),
         projector_response: None,
+        projector_defocus: None,
     };
     cal.validate()
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.file.display()))?;

@@ -407,6 +407,11 @@ pub fn response_correction(
     cal_path: &Path,
     ls: &LoadedSet,
 ) -> Result<Option<PhaseCorrection>> {
-    crate::calib::files::response_table_for(&ls.file, &ls.set, cal.projector_response.as_ref())
-        .map_err(|m| anyhow::anyhow!("{}: projector response: {m}", cal_path.display()))
+    crate::calib::files::response_table_for(
+        &ls.file,
+        &ls.set,
+        cal.projector_response.as_ref(),
+        cal.projector_defocus,
+    )
+    .map_err(|m| anyhow::anyhow!("{}: {}: {m}", cal_path.display(), ls.path.display()))
 }

@@ -93,7 +93,8 @@ pub struct DecodeArgs {
     #[arg(long)]
     pub overwrite: bool,
     /// Correct the phase for the projector response this calibration records
-    /// (`[projector_response]`, from `calibrate gamma`; docs/gamma.md).
+    /// (`[projector_response]`, from `calibrate gamma`; docs/gamma.md), or for a binary set, for
+    /// its `projector_defocus` (required then; docs/binary.md).
     #[arg(long, short = 'c', value_name = "CALIBRATION")]
     pub calibration: Option<PathBuf>,
 }
@@ -111,6 +112,11 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
     .text()?;
     let corr = match &a.calibration {
         Some(c) => common::response_correction(&Calibration::load(c)?, c, &ls)?,
+        None if ls.set.binarization().is_binary() => anyhow::bail!(
+            "{}: {}; pass it with --calibration",
+            a.patterns.display(),
+            crate::calib::files::BINARY_NEEDS_DEFOCUS
+        ),
         None => None,
     };
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;

@@ -333,6 +333,15 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
     let ls = common::load_set(&a.patterns)?;
     // The head's reference and pattern set must match, as for `fringe3d scan`; checked before
     // anything else (and before the line is touched).
+    if ls.set.binarization().is_binary() {
+        // Its decoding needs the phase-error table of the projector's blur (docs/binary.md).
+        bail!(
+            "{}: a binary pattern set is decoded with the phase-error table of the projector's \
+             blur, which the head's serial protocol cannot carry yet: scan it on the desktop \
+             (`fringe3d scan`), or use a gray-level set on the head",
+            a.patterns.display()
+        );
+    }
     if let Some(path) = &a.calibration {
         common::check_reference_patterns(path, &ls.scan_patterns()?, g.quiet)?;
         // The serial protocol carries no phase-correction table (the set-up blob does): a head

@@ -113,6 +113,8 @@ fn toml_info(p: &Path) -> Result<serde_json::Value> {
             "coarse_phase_range_rad": [lo, hi],
             "finest_periods_across": (hi - lo) * finest / s.levels()[0].scale() / std::f64::consts::TAU,
             "convention": format!("{:?}", s.convention()),
+            "unwrap": format!("{:?}", s.relation()),
+            "binary": crate::io::pattern_file::BinaryName::of(s.binarization()).name(),
             "phase_offset_rad": s.phase_offset(),
             "image_files": ls.file.image_paths(p),
         }))

@@ -3,7 +3,7 @@
 use super::{Global, common};
 use crate::io::atomic::AtomicDir;
 use crate::io::calibration::Calibration;
-use crate::io::image::{write_png_u8, write_png_u16};
+use crate::io::image::{write_png_u1, write_png_u8, write_png_u16};
 use anyhow::Result;
 use std::path::PathBuf;
 
@@ -12,7 +12,8 @@ use std::path::PathBuf;
 #[command(
     after_help = "Example:\n  fringe3d patterns --patterns examples/patterns/paper8.toml --out patterns/\n\n\
 Writes pattern_00.png ... (one per image, in projection order, 8- or 16-bit by the file's\n\
-projector.bit_depth unless --bits is given) and patterns.toml: the set with its image list.\n\
+projector.bit_depth unless --bits is given; 1-bit for a set with `binary = ...`) and\n\
+patterns.toml: the set with its image list.\n\
 Projector gamma (docs/gamma.md): `--gray 17` writes uniform gray images to measure it with\n\
 `calibrate gamma`; `--response calibration.toml` then writes the set pre-distorted through it."
 )]
@@ -56,6 +57,14 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
             "{}: projector.i_max = {} does not fit 8-bit patterns; use --bits 16",
             a.patterns.display(),
             o.i_max
+        );
+    }
+    let binary = set.binarization().is_binary() && a.gray.is_none();
+    if binary && a.response.is_some() {
+        anyhow::bail!(
+            "{}: the set is binary (binary = \"{}\"): its two codes need no response compensation; drop --response",
+            a.patterns.display(),
+            crate::io::pattern_file::BinaryName::of(set.binarization()).name()
         );
     }
     let response = match &a.response {
@@ -120,7 +129,17 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
     for i in 0..set.image_count() {
         let name = format!("pattern_{i:02}.png");
         let path = dir.join(&name);
-        if bits == 8 {
+        if binary {
+            // 1-bit: every code is I_min or I_max ([`fringe3d_core::binary`]).
+            let mut img = vec![0u16; w * h];
+            for (y, row) in img.chunks_exact_mut(w).enumerate() {
+                set.generate_row(i, y as u32, row)
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+            }
+            let mid = 0.5 * (o.i_min + o.i_max);
+            let on: Vec<u8> = img.iter().map(|&c| u8::from(c as f64 > mid)).collect();
+            write_png_u1(&path, o.width, o.height, &on)?;
+        } else if bits == 8 {
             let mut img = vec![0u8; w * h];
             for (y, row) in img.chunks_exact_mut(w).enumerate() {
                 set.generate_row(i, y as u32, row)
@@ -155,13 +174,13 @@ pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
     if g.json {
         outln!(
             "{}",
-            serde_json::json!({"command": "patterns", "out": out, "images": names, "bits": bits, "width": o.width, "height": o.height})
+            serde_json::json!({"command": "patterns", "out": out, "images": names, "bits": if binary { 1 } else { bits }, "width": o.width, "height": o.height})
         );
     } else if !g.quiet {
         outln!(
             "wrote {} {}-bit patterns ({}x{}) and patterns.toml to {}",
             names.len(),
-            bits,
+            if binary { 1 } else { bits },
             o.width,
             o.height,
             out.display()

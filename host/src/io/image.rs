@@ -441,6 +441,36 @@ pub fn encode_png_u8(
     png_bytes(path, width, height, png::BitDepth::Eight, None, data)
 }
 
+/// The bytes of a 1-bit gray PNG (a DLP's binary pattern): pixel `i` is white where
+/// `data[i] != 0`. Rows are packed 8 pixels a byte, most significant bit first (PNG's order).
+pub fn encode_png_u1(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data: &[u8],
+) -> Result<Vec<u8>, ImageError> {
+    check_size(path, data.len(), width, height)?;
+    let w = width as usize;
+    let stride = w.div_ceil(8);
+    let mut packed = vec![0u8; stride * height as usize];
+    for (src, dst) in data
+        .chunks_exact(w.max(1))
+        .zip(packed.chunks_exact_mut(stride.max(1)))
+    {
+        for (x, &v) in src.iter().enumerate() {
+            if v != 0 {
+                dst[x / 8] |= 0x80 >> (x % 8);
+            }
+        }
+    }
+    png_bytes(path, width, height, png::BitDepth::One, None, &packed)
+}
+
+/// Write a 1-bit gray PNG ([`encode_png_u1`]).
+pub fn write_png_u1(path: &Path, width: u32, height: u32, data: &[u8]) -> Result<(), ImageError> {
+    write_bytes(path, &encode_png_u1(path, width, height, data)?)
+}
+
 /// The bytes of a 16-bit gray PNG. `significant_bits` (1..=16) below 16 writes an `sBIT` chunk:
 /// the values are stored unscaled (a 12-bit camera's codes stay in 0..=4095).
 pub fn encode_png_u16(

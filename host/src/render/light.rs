@@ -29,6 +29,7 @@
 //! The `continuous` mode instead uses the ideal projector: [`PatternSet::intensity`] at (ξ, η)
 //! (no pixels, no code quantization, no defocus), with the same gamma and black level.
 
+use fringe3d_core::binary::Binarization;
 use fringe3d_core::pattern::PatternSet;
 use serde::{Deserialize, Serialize};
 
@@ -303,7 +304,11 @@ impl LightSet {
         let mut separable = true;
         for s in slides {
             match s {
-                Slide::Pattern { set, .. } if set.function().curvature() == 0.0 => {
+                // (A Bayer-dithered image changes across its fringes too.)
+                Slide::Pattern { set, .. }
+                    if set.function().curvature() == 0.0
+                        && set.binarization() != Binarization::Bayer =>
+                {
                     let a = set.axis();
                     if axis.is_some_and(|x| x != a) {
                         separable = false;

@@ -161,12 +161,30 @@ impl Scene {
         (g != 1.0).then(|| crate::response::power_law(g))
     }
 
-    /// The phase-error table of `set` under [`Self::true_response`] (`None` for a linear
-    /// projector).
+    /// The projector's true blur σ (projector pixels) for a binary `set`, what its decoding
+    /// models: the defocus (0 for the continuous projector); `None` for a gray-level set.
+    pub fn true_defocus(&self, set: &PatternSet) -> Option<f64> {
+        let p = &self.spec.projector;
+        set.binarization()
+            .is_binary()
+            .then_some(if p.mode == ProjectorMode::Continuous {
+                0.0
+            } else {
+                p.defocus
+            })
+    }
+
+    /// The phase-error table of `set`: for a binary set under [`Self::true_defocus`], else
+    /// under [`Self::true_response`] (`None` for a linear projector).
     pub fn true_correction(
         &self,
         set: &PatternSet,
     ) -> Result<Option<fringe3d_core::decode::PhaseCorrection>, RenderError> {
+        if let Some(sigma) = self.true_defocus(set) {
+            return crate::response::binary::binary_correction(set, sigma)
+                .map(|(t, _)| Some(t))
+                .map_err(RenderError::Decode);
+        }
         match self.true_response() {
             Some(r) => crate::response::table::phase_correction(set, &r)
                 .map(|(t, _)| Some(t))

@@ -187,6 +187,7 @@ impl Rig {
                 translation: self.translation,
             }),
             projector_response: None,
+            projector_defocus: None,
         }
     }
 }

@@ -9,6 +9,7 @@
 //! [`ProjectorResponse`] (`[projector_response]`);
 //! [`gray_codes`] are the levels `fringe3d patterns --gray N` writes.
 
+pub mod binary;
 pub mod estimate;
 pub mod table;
 

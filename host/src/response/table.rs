@@ -8,10 +8,11 @@
 //! camera rows per image — the linear projector's `I = I₀ + G·x` and the measured one's
 //! `I = I₀ + G·r(x)` (16-bit samples, so quantization is below 2e-5 rad) — and both are decoded
 //! level by level ([`AnyDecoder::decode_row_level`], the decoder a scan uses). Their difference
-//! `e = wrap(φ_r − φ_lin)` is the response's error at the measured phase `φ_r`; each knot of the
-//! table takes the tent-weighted mean of the samples within one knot spacing. Knots no sample
-//! reaches (a coarse level that does not span a whole period) are interpolated periodically
-//! from their neighbours.
+//! `e = wrap(φ_r − φ_lin)` is the response's error at the measured phase `φ_r`; the knots are
+//! the least-squares fit of the table's own periodic linear interpolation to those samples
+//! (`fit_knots`; a mean of the samples around each knot would flatten the curve's peaks by
+//! 5-15 %). Knots no sample reaches (a coarse level that does not span a whole period) come
+//! out interpolated from their neighbours.
 //!
 //! What the table leaves: a 2-image level takes its DC term A from the DC level (eq 11), whose
 //! estimate carries that level's 4th harmonic, a function of the *finest* phase, which no table
@@ -79,6 +80,25 @@ pub fn phase_correction(
             meas[k][i] = (i0 + gain * response.eval(x)).round() as u16;
         }
     }
+    tabulate(
+        set,
+        &lin,
+        &meas,
+        "the projector response is too far from linear to correct (pre-distort the patterns instead)",
+    )
+}
+
+/// The table from two synthetic camera rows per image (set order, equal lengths): `lin`, what
+/// the set's ideal sinusoids give, and `meas`, what the modelled projector gives. Shared by
+/// [`phase_correction`] and [`super::binary::binary_correction`]; `too_large` ends the error of
+/// a table too large to correct.
+pub(super) fn tabulate(
+    set: &PatternSet,
+    lin: &[Vec<u16>],
+    meas: &[Vec<u16>],
+    too_large: &str,
+) -> Result<(PhaseCorrection, Vec<LevelError>), String> {
+    let n = lin.first().map_or(0, |r| r.len());
     let mut cfg = DecodeConfig::for_bit_depth(16);
     cfg.min_modulation = 0.0;
     cfg.dark_level = 0.0;
@@ -89,8 +109,16 @@ pub fn phase_correction(
     let mut table = PhaseCorrection::zero(levels as u8);
     let mut report = Vec::with_capacity(levels);
     let (mut wl, mut wm, mut m) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
-    let step = std::f64::consts::TAU / CORRECTION_KNOTS as f64;
-    for l in 0..levels {
+    // A Gray-code level (level 0) is binary: it has no wrapped phase, and no error to tabulate.
+    let first = usize::from(set.gray().is_some());
+    for _ in 0..first {
+        report.push(LevelError {
+            rms_rad: 0.0,
+            max_rad: 0.0,
+            residual_rms_rad: 0.0,
+        });
+    }
+    for l in first..levels {
         dec.decode_row_level(&lin_rows, l, &mut wl, &mut m)
             .map_err(|e| e.to_string())?;
         dec.decode_row_level(&meas_rows, l, &mut wm, &mut m)
@@ -101,43 +129,11 @@ pub fn phase_correction(
             .filter(|(a, b)| a.is_finite() && b.is_finite())
             .map(|(&a, &b)| (b as f64, wrap(b as f64 - a as f64)))
             .collect();
-        let (mut sum, mut wsum) = ([0.0f64; CORRECTION_KNOTS], [0.0f64; CORRECTION_KNOTS]);
-        for &(phi, e) in &samples {
-            let t = (phi + std::f64::consts::PI) / step;
-            let j = t.floor();
-            let f = t - j;
-            let j = (j as i64).rem_euclid(CORRECTION_KNOTS as i64) as usize;
-            let j1 = (j + 1) % CORRECTION_KNOTS;
-            sum[j] += (1.0 - f) * e;
-            wsum[j] += 1.0 - f;
-            sum[j1] += f * e;
-            wsum[j1] += f;
-        }
-        let known: Vec<usize> = (0..CORRECTION_KNOTS).filter(|&j| wsum[j] > 0.5).collect();
-        if known.len() < 2 {
+        let Some(vals) = fit_knots(&samples) else {
             return Err(format!(
                 "level {l}: too few samples to tabulate its phase error"
             ));
-        }
-        let mut vals = [0.0f64; CORRECTION_KNOTS];
-        for &j in &known {
-            vals[j] = sum[j] / wsum[j];
-        }
-        // Unreached knots: linear between the nearest known ones, periodically.
-        for j in 0..CORRECTION_KNOTS {
-            if wsum[j] > 0.5 {
-                continue;
-            }
-            let prev = *known
-                .iter()
-                .rev()
-                .find(|&&k| k < j)
-                .unwrap_or(&known[known.len() - 1]);
-            let next = *known.iter().find(|&&k| k > j).unwrap_or(&known[0]);
-            let d = |a: usize, b: usize| (b + CORRECTION_KNOTS - a) % CORRECTION_KNOTS;
-            let (dp, dn) = (d(prev, j) as f64, d(j, next) as f64);
-            vals[j] = vals[prev] + (vals[next] - vals[prev]) * dp / (dp + dn);
-        }
+        };
         for j in 0..CORRECTION_KNOTS {
             table.delta[l][j] = (vals[j] / CORRECTION_LSB)
                 .round()
@@ -159,11 +155,75 @@ pub fn phase_correction(
     }
     if !table.is_sane() {
         return Err(format!(
-            "the projector response makes a phase error above {:.2} rad: it is too far from linear to correct (pre-distort the patterns instead)",
+            "a phase error above {:.2} rad: {too_large}",
             PhaseCorrection::MAX_DELTA as f64 * CORRECTION_LSB
         ));
     }
     Ok((table, report))
+}
+
+/// The knots whose periodic linear interpolation fits the `(measured phase, error)` samples best
+/// in the least-squares sense (the interpolant is linear in the knots: the normal equations of
+/// its tent functions, a cyclic band). A small penalty on consecutive differences (10⁻⁶ of a
+/// knot's mean weight) makes knots no sample reaches (a coarse level that does not span a whole
+/// period) the linear interpolation of their neighbours. `None` with fewer than 2 knots reached.
+fn fit_knots(samples: &[(f64, f64)]) -> Option<[f64; CORRECTION_KNOTS]> {
+    const K: usize = CORRECTION_KNOTS;
+    let step = std::f64::consts::TAU / K as f64;
+    let mut m = [[0.0f64; K]; K];
+    let mut rhs = [0.0f64; K];
+    let mut reach = [0.0f64; K];
+    for &(phi, e) in samples {
+        let t = (phi + std::f64::consts::PI) / step;
+        let j = t.floor();
+        let f = t - j;
+        let j = (j as i64).rem_euclid(K as i64) as usize;
+        let j1 = (j + 1) % K;
+        let (a, b) = (1.0 - f, f);
+        m[j][j] += a * a;
+        m[j][j1] += a * b;
+        m[j1][j] += a * b;
+        m[j1][j1] += b * b;
+        rhs[j] += a * e;
+        rhs[j1] += b * e;
+        reach[j] += a;
+        reach[j1] += b;
+    }
+    if reach.iter().filter(|&&w| w > 0.5).count() < 2 {
+        return None;
+    }
+    let lambda = 1e-6 * samples.len() as f64 / K as f64;
+    for j in 0..K {
+        let j1 = (j + 1) % K;
+        m[j][j] += lambda;
+        m[j1][j1] += lambda;
+        m[j][j1] -= lambda;
+        m[j1][j] -= lambda;
+    }
+    // Gaussian elimination with partial pivoting (32 unknowns; positive definite).
+    for c in 0..K {
+        let p = (c..K).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))?;
+        m.swap(c, p);
+        rhs.swap(c, p);
+        if m[c][c].abs() < 1e-300 {
+            return None;
+        }
+        for r in c + 1..K {
+            let q = m[r][c] / m[c][c];
+            if q != 0.0 {
+                for k in c..K {
+                    m[r][k] -= q * m[c][k];
+                }
+                rhs[r] -= q * rhs[c];
+            }
+        }
+    }
+    let mut x = [0.0f64; K];
+    for r in (0..K).rev() {
+        let s: f64 = (r + 1..K).map(|k| m[r][k] * x[k]).sum();
+        x[r] = (rhs[r] - s) / m[r][r];
+    }
+    Some(x)
 }
 
 fn wrap(x: f64) -> f64 {

@@ -30,4 +30,4 @@ pub use pattern_digest::{
     is_digest, pattern_digest, pattern_file_digest,
 };
 pub use response::ProjectorResponse;
-pub use schema::{CALIBRATION_VERSION, Calibration, ReferencePlane};
+pub use schema::{CALIBRATION_VERSION, Calibration, MAX_DEFOCUS, ReferencePlane};

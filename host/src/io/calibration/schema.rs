@@ -14,6 +14,10 @@ use fringe3d_core::params::{CameraParams, ProjectorParams, ScanGeometry};
 use fringe3d_core::phase_function::Axis;
 use fringe3d_core::reconstruct::Setup;
 
+/// The largest `projector_defocus` a calibration may state, projector pixels (the renderer's
+/// bound on a projector's blur).
+pub const MAX_DEFOCUS: f64 = 50.0;
+
 /// The calibration file format version this build reads and writes.
 pub const CALIBRATION_VERSION: u32 = 1;
 
@@ -45,6 +49,11 @@ pub struct Calibration {
     /// --response` pre-distorts patterns through it.
     #[serde(default)]
     pub projector_response: Option<super::ProjectorResponse>,
+    /// The projector's effective blur σ, projector pixels (its defocus and the camera's blur
+    /// mapped onto it), at most [`MAX_DEFOCUS`]: the model binary pattern sets are decoded with
+    /// (`response::binary::binary_correction`, docs/binary.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub projector_defocus: Option<f64>,
 }
 
 /// The reference plane of paper §6 and its phase map.

@@ -29,6 +29,13 @@ impl Calibration {
             "depth_range = {}  # [z_min, z_max], mm",
             arr(&self.depth_range)
         );
+        if let Some(d) = self.projector_defocus {
+            let _ = writeln!(
+                s,
+                "projector_defocus = {}  # effective blur sigma, projector pixels (binary patterns)",
+                num(d)
+            );
+        }
         s.push('\n');
         camera_toml(&mut s, "camera", &self.camera);
         if let Some(r) = &self.reference {

@@ -58,6 +58,14 @@ impl Calibration {
         {
             errs.push(m);
         }
+        if let Some(d) = self.projector_defocus
+            && !(d.is_finite() && (0.0..=super::MAX_DEFOCUS).contains(&d))
+        {
+            errs.push(format!(
+                "projector_defocus must be in [0, {}] projector pixels, got {d}",
+                super::MAX_DEFOCUS
+            ));
+        }
         if let Some(r) = &self.reference {
             let n = &r.normal;
             if !finite3(&r.point) {

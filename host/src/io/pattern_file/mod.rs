@@ -19,6 +19,8 @@
 //! span = 5.654866776461628   # radians across the axis (default 0.9·2π)
 //! ```
 //!
+//! `binary = "square"` or `"bayer"` writes 1-bit patterns (docs/binary.md).
+//!
 //! Every field is specified in `docs/formats.md`; `examples/patterns/` has one file per feature.
 //! The struct mirrors the file: optional keys stay `None` so that a file read and saved again keeps
 //! its shape; defaults are applied by [`PatternSetFile::to_pattern_set`].
@@ -27,8 +29,8 @@ use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
 use fringe3d_core::pattern::{
-    Convention, GrayCode, ImageId, Level, LevelPreset, MAX_SHIFT_MAGNITUDE, Output, PatternError,
-    PatternSet, Relation,
+    Binarization, Convention, GrayCode, ImageId, Level, LevelPreset, MAX_SHIFT_MAGNITUDE, Output,
+    PatternError, PatternSet, Relation,
 };
 use fringe3d_core::phase_function::{
     Axis, KnotProfile, MIN_COARSE_SPAN, PhaseFunction, PhaseFunctionError, Profile,
@@ -102,6 +104,11 @@ pub struct PatternSetFile {
     /// `fringe3d_core::pattern::Relation::Heterodyne`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unwrap: Option<UnwrapName>,
+    /// 1-bit patterns for a DLP's binary mode: `"square"` (squared binary) or `"bayer"`
+    /// (ordered dithering); default `"off"`, gray-level sinusoids
+    /// (`fringe3d_core::binary::Binarization`, docs/binary.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub binary: Option<BinaryName>,
     /// The file this was read from, for error messages and relative paths.
     #[serde(skip)]
     source: Option<PathBuf>,
@@ -121,6 +128,7 @@ impl PartialEq for PatternSetFile {
             && self.phase == o.phase
             && self.levels == o.levels
             && self.unwrap == o.unwrap
+            && self.binary == o.binary
     }
 }
 
@@ -144,6 +152,47 @@ pub enum UnwrapName {
     Hierarchical,
     /// Multi-frequency heterodyne: the beat of the levels is the coarse phase.
     Heterodyne,
+}
+
+/// `binary = "off" | "square" | "bayer"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BinaryName {
+    /// Gray-level sinusoids (eq 5).
+    Off,
+    /// Squared binary: the sinusoid's sign.
+    Square,
+    /// The sinusoid dithered with the 8 × 8 Bayer matrix.
+    Bayer,
+}
+
+impl BinaryName {
+    /// The core's binarization.
+    pub fn core(self) -> Binarization {
+        match self {
+            BinaryName::Off => Binarization::Off,
+            BinaryName::Square => Binarization::Square,
+            BinaryName::Bayer => Binarization::Bayer,
+        }
+    }
+
+    /// The name as the file writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            BinaryName::Off => "off",
+            BinaryName::Square => "square",
+            BinaryName::Bayer => "bayer",
+        }
+    }
+
+    /// The file's name for the core's binarization.
+    pub fn of(b: Binarization) -> Self {
+        match b {
+            Binarization::Off => BinaryName::Off,
+            Binarization::Square => BinaryName::Square,
+            Binarization::Bayer => BinaryName::Bayer,
+        }
+    }
 }
 
 /// `convention = "sine" | "cosine"`.
@@ -402,6 +451,7 @@ impl PatternSetFile {
             ConventionName::Sine => Convention::Sine,
             ConventionName::Cosine => Convention::Cosine,
         });
+        set = set.with_binarization(self.binary.unwrap_or(BinaryName::Off).core());
         let offset = self.phase_offset.unwrap_or(0.0);
         set = set.with_phase_offset(offset).map_err(|_| {
             self.err(format!(

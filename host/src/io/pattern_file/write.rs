@@ -4,8 +4,8 @@ use fringe3d_core::pattern::{Convention, Level, LevelPreset, PatternSet, Relatio
 use fringe3d_core::phase_function::{Axis, Profile};
 
 use super::{
-    AxisName, ConventionName, LevelSection, PATTERN_FILE_VERSION, PatternSetFile, PhaseKind,
-    PhaseSection, Preset, ProjectorSection, UnwrapName, listed_order,
+    AxisName, BinaryName, ConventionName, LevelSection, PATTERN_FILE_VERSION, PatternSetFile,
+    PhaseKind, PhaseSection, Preset, ProjectorSection, UnwrapName, listed_order,
 };
 
 impl PatternSetFile {
@@ -104,6 +104,10 @@ impl PatternSetFile {
             phase: Some(phase),
             levels: level_sections,
             unwrap: (set.relation() == Relation::Heterodyne).then_some(UnwrapName::Heterodyne),
+            binary: set
+                .binarization()
+                .is_binary()
+                .then(|| BinaryName::of(set.binarization())),
             source: None,
         }
     }

@@ -3,12 +3,7 @@
 //! pixel staircase at sub-pixel spacing (the straight-fringe profiles and the 2-D tables of
 //! [`LightSet`](super::LightSet)).
 
-/// `½·[erf((x + ½)/(σ√2)) − erf((x − ½)/(σ√2))]`: the box ⊗ Gaussian kernel.
-#[inline]
-pub fn box_gauss(x: f64, sigma: f64) -> f64 {
-    let s = 1.0 / (sigma * std::f64::consts::SQRT_2);
-    0.5 * (libm::erf((x + 0.5) * s) - libm::erf((x - 0.5) * s))
-}
+pub use crate::math::box_gauss;
 
 /// The Gaussian blur of the indicator of `[−½, n − ½]` at `w`.
 #[inline]
