@@ -9,8 +9,9 @@
 //! (ξ, η), decided at that pixel's centre `(i, j) = (⌊ξ + ½⌋, ⌊η + ½⌋)`:
 //!
 //! - [`Binarization::Square`] — the *squared binary* pattern: bright where the fringe's turn
-//!   `u = θ/2π` has `u − ⌊u⌋ < ½`, i.e. on the half period where `sin θ ≥ 0` (the half-open
-//!   interval keeps the duty cycle exactly ½ when the period is an even number of pixels). Its
+//!   `u = θ/2π` has `u − ⌊u⌋ < ½`, i.e. on the half period where `sin θ > 0` and at its rising
+//!   zero (the half-open interval keeps the duty cycle exactly ½ when the period is an even
+//!   number of pixels; a centre within [`TIE`] of an edge counts as past it). Its
 //!   fundamental is the sinusoid's with amplitude `4/π` of its half swing; it adds the odd
 //!   harmonics `1/k`.
 //! - [`Binarization::Bayer`] — *ordered dithering* of the sinusoid `s = ½(1 + sin θ)` with the
@@ -42,6 +43,11 @@ pub enum Binarization {
     Bayer,
 }
 
+/// How close (in turns, `θ/2π`) a square wave's pixel centre may be to an edge and still count
+/// as past it: 10⁻⁹ turn, a phase of 6·10⁻⁹ rad, far below any pattern's precision and far
+/// above the f64 rounding of `c·Φ + δ` (≈ 10⁻¹⁵ of its size).
+pub const TIE: f64 = 1e-9;
+
 /// The 8 × 8 Bayer (ordered-dither) index matrix, `BAYER[row][column]`, values `0..64`.
 pub const BAYER: [[u8; 8]; 8] = [
     [0, 32, 8, 40, 2, 34, 10, 42],
@@ -71,7 +77,9 @@ impl Binarization {
         match self {
             Binarization::Off => None,
             Binarization::Square => {
-                let u = theta / core::f64::consts::TAU;
+                // (Ties: a pixel centre within `TIE` of an edge counts as just past it, so that
+                // rounding cannot decide edges differently from period to period.)
+                let u = theta / core::f64::consts::TAU + TIE;
                 Some(u - libm::floor(u) < 0.5)
             }
             Binarization::Bayer => {

@@ -7,6 +7,7 @@
 //! Skips with a notice when `qemu-system-arm` or the `thumbv7em-none-eabihf` target is missing;
 //! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
+use fringe3d::io::pattern_file::PatternSetFile;
 use fringe3d::vectors::{self, GoldenVectors, VectorOptions};
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use std::collections::BTreeMap;
@@ -131,10 +132,7 @@ fn check_scan(elf: &Path, opts: &VectorOptions, name: &str) {
     let report =
         String::from_utf8_lossy(recs.get(&(0xFE, 0, 0)).expect("report record")).to_string();
     let h = v.height;
-    let levels = v.info["pattern_set"]["levels"]
-        .as_array()
-        .expect("levels")
-        .len();
+    let levels = v.info["pattern_set"]["levels"].as_array().expect("levels");
     let mut stages: Vec<((u8, u8), String)> = vec![
         ((1, 0), "decode/phase.f32".into()),
         ((2, 0), "decode/modulation.f32".into()),
@@ -145,9 +143,13 @@ fn check_scan(elf: &Path, opts: &VectorOptions, name: &str) {
         ((9, 0), "filter/validity.u8".into()),
         ((10, 0), "filter/points.f32".into()),
     ];
-    for l in 0..levels as u8 {
-        stages.push(((5, l), format!("decode/wrapped_level{l}.f32")));
-        stages.push(((6, l), format!("decode/modulation_level{l}.f32")));
+    // (A Gray-code level has no wrapped phase: neither side has its files.)
+    for (l, info) in levels.iter().enumerate() {
+        if info.get("gray_bits").is_none() {
+            let l = l as u8;
+            stages.push(((5, l), format!("decode/wrapped_level{l}.f32")));
+            stages.push(((6, l), format!("decode/modulation_level{l}.f32")));
+        }
     }
     let mut bad = Vec::new();
     for ((tag, level), path) in &stages {
@@ -223,4 +225,47 @@ fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
         ..VectorOptions::default()
     };
     check_scan(&elf, &u8_opts, "steps-160x128-u8-gamma2.2");
+    // The codes real rigs use (issue #20), 8 images each: a complementary 3-bit Gray code (4
+    // images) ordering a 4-step level of 128-pixel fringes, and the same set Bayer-dithered
+    // through a projector blurred by 3 pixels, decoded with the set-up blob's table of that
+    // blur (docs/binary.md).
+    let gray = gray_set("off");
+    let gray_opts = VectorOptions {
+        scene: "sphere".into(),
+        size: (160, 128),
+        bits: Some(8),
+        noise: Some(1.0),
+        seed: Some(5),
+        patterns: Some(gray),
+        ..VectorOptions::default()
+    };
+    check_scan(&elf, &gray_opts, "sphere-160x128-u8-gray3c");
+    let binary_opts = VectorOptions {
+        patterns: Some(gray_set("bayer")),
+        defocus: Some(3.0),
+        ..gray_opts
+    };
+    check_scan(&elf, &binary_opts, "sphere-160x128-u8-gray3c-bayer");
+}
+
+/// A complementary 3-bit Gray code over 8 periods of 128 projector pixels (1024 wide; the phase
+/// zero at column 575.5, so that they span the code's [−4.5, 3.5)), then a 4-step level: 8
+/// images, the board's row. `binary`: the pattern-set file's `binary` key.
+fn gray_set(binary: &str) -> PatternSetFile {
+    let text = format!(
+        "version = 2\nbinary = \"{binary}\"\n\
+         [projector]\nwidth = 1024\nheight = 768\n\
+         [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 575.5\nslope = {}\n\
+         [[levels]]\nscale = 8.0\ngray_bits = 3\n\
+         [[levels]]\nscale = 8.0\nsteps = 4\n",
+        std::f64::consts::TAU / 1024.0
+    );
+    let path = std::env::temp_dir().join(format!(
+        "fringe3d-qemu-gray-{binary}-{}.toml",
+        std::process::id()
+    ));
+    std::fs::write(&path, text).expect("write the pattern-set file");
+    let f = PatternSetFile::load(&path).expect("pattern-set file");
+    let _ = std::fs::remove_file(&path);
+    f
 }

@@ -434,6 +434,12 @@ impl<A: Arith> Decoder<A> {
         self.n_images
     }
 
+    /// Whether level `level` has a wrapped phase of its own ([`Self::decode_row_level`],
+    /// [`Self::finish_level`]): every level of the set but a Gray-code one ([`crate::gray`]).
+    pub fn level_has_phase(&self, level: usize) -> bool {
+        level < self.n_levels && !(level == 0 && self.gray.is_some())
+    }
+
     /// Whether the frame-sequential path can decode the set in its order: always, except a
     /// Gray-coded set with a Gray-code image before the DC level's last image
     /// ([`DecodeError::GrayBeforeDc`]).

@@ -46,7 +46,7 @@ use serde::{Deserialize, Serialize};
 
 use super::crc::crc32c;
 use super::desc::DescError;
-use super::message::{Calibration, PatternAxis, PatternSetDesc};
+use super::message::{Calibration, PatternAxis, PatternSetDesc, Waveform};
 use super::{Invalid, WireError};
 use crate::camera::CameraModel;
 use crate::decode::{CORRECTION_KNOTS, DecodeConfig, Decoder, PhaseCorrection};
@@ -116,7 +116,8 @@ pub enum SetupError {
     /// The core refused the camera model or the reconstruction set-up (the wire's code).
     Reconstruction(Invalid),
     /// The phase-correction table is for another level count, or a knot is not finite or too
-    /// large ([`PhaseCorrection::is_sane`]).
+    /// large ([`PhaseCorrection::is_sane`]); or a binary set (waveform 2-5) has none, without
+    /// which its decoding would carry the binarization's error ([`crate::binary`]).
     Correction,
 }
 
@@ -414,9 +415,22 @@ impl HeadSetup {
         }
     }
 
-    /// Validate, then write the blob into `out`; returns its length.
-    pub fn emit(&self, out: &mut [u8]) -> Result<usize, SetupError> {
+    /// [`Self::validate`], and a binary set has its phase-correction table: what a blob must be
+    /// ([`Self::emit`], [`Self::parse`]); a set-up under construction ([`Self::from_core`]) may
+    /// lack the table until [`Self::with_correction`].
+    pub fn validate_complete(&self) -> Result<(), SetupError> {
         self.validate()?;
+        let binary = !matches!(self.patterns.waveform, Waveform::Sine | Waveform::Cosine);
+        if binary && self.correction.is_none() {
+            return Err(SetupError::Correction);
+        }
+        Ok(())
+    }
+
+    /// Validate ([`Self::validate_complete`]), then write the blob into `out`; returns its
+    /// length.
+    pub fn emit(&self, out: &mut [u8]) -> Result<usize, SetupError> {
+        self.validate_complete()?;
         let room = out
             .len()
             .checked_sub(SETUP_HEADER_LEN + SETUP_CRC_LEN)
@@ -475,7 +489,7 @@ impl HeadSetup {
             return Err(SetupError::Crc);
         }
         let s = payload_fields(head[4], payload)?;
-        s.validate()?;
+        s.validate_complete()?;
         Ok(s)
     }
 

@@ -346,7 +346,8 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
         send(uart, Tag::Phase, 0, v as u16, bytes_of(phase));
         send(uart, Tag::Validity, 0, v as u16, validity);
         if !quiet {
-            for l in 0..dec.level_count() {
+            // (A Gray-code level has no wrapped phase to send.)
+            for l in (0..dec.level_count()).filter(|&l| dec.level_has_phase(l)) {
                 let (wrapped, rest) = points[slot].split_at_mut(w);
                 let lmod = &mut rest[..w];
                 if sb == 1 {

@@ -95,6 +95,16 @@ fn load_sets(set_v: &Path, set_h: &Path) -> Result<(PatternSet, PatternSet), Cal
             "this pattern set has its phase along ξ (vertical fringes); --patterns-h needs horizontal fringes (phase along η)",
         ));
     }
+    for (set, path) in [(&sv, set_v), (&sh, set_h)] {
+        if set.binarization().is_binary() {
+            return Err(input(
+                path,
+                "a binary pattern set: projector calibration decodes without a model of the \
+                 projector's blur, which binary sets need; calibrate with a gray-level or \
+                 Gray-code set (docs/binary.md)",
+            ));
+        }
+    }
     let (a, b) = (sv.output(), sh.output());
     if (a.width, a.height) != (b.width, b.height) {
         return Err(input(

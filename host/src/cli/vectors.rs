@@ -41,6 +41,14 @@ pub struct VectorsArgs {
     /// blob, then apply the response's phase-error table (docs/gamma.md).
     #[arg(long)]
     pub gamma: Option<f64>,
+    /// A pattern-set file instead of the scene's paper set (at most 8 images for the mps2
+    /// board's golden binary): Gray-coded and binary sets too (docs/golden-vectors.md).
+    #[arg(long, short = 'p')]
+    pub patterns: Option<PathBuf>,
+    /// The projector's defocus σ, projector pixels (default: the scene's, 1); a binary set is
+    /// decoded with the table of this blur (docs/binary.md).
+    #[arg(long)]
+    pub defocus: Option<f64>,
     /// Replace an existing, non-empty output folder.
     #[arg(long)]
     pub overwrite: bool,
@@ -78,6 +86,12 @@ pub fn run(a: VectorsArgs, g: Global) -> Result<()> {
         seed: a.seed,
         max_angle_deg: a.max_angle,
         gamma: a.gamma,
+        patterns: a
+            .patterns
+            .as_deref()
+            .map(crate::io::pattern_file::PatternSetFile::load)
+            .transpose()?,
+        defocus: a.defocus,
     };
     let say = |s: String| {
         if !g.quiet && !g.json {

@@ -22,9 +22,10 @@
 //!   `m = clamp(⌈16/σ⌉, 16, 1024)` and read by 4-point Lagrange interpolation — relative error
 //!   ≈ 0.023·(2πf/m)⁴ for a component of f cycles/pixel: 6e-9 for the default finest fringes
 //!   (17.8 px period) at σ ≥ 0.5. `W` is the closed form `½[erf((w+½)/(σ√2)) − erf((w−N+½)/(σ√2))]`.
-//! - **curved fringes / arbitrary frames**: a 2-D table of L, exact at its nodes, at spacing ½
-//!   (σ ≥ 1) or ¼ (½ ≤ σ < 1) pixel, read by 4×4 Lagrange interpolation (relative error ≤ 3e-5 for
-//!   the default finest fringes); for σ < ½ the sum is evaluated directly per sample (exact, slow).
+//! - **curved fringes / Bayer-dithered binary sets / arbitrary frames**: a 2-D table of L, exact
+//!   at its nodes, at spacing ½ (σ ≥ 1) or ¼ (½ ≤ σ < 1) pixel, read by 4×4 Lagrange
+//!   interpolation (relative error ≤ 3e-5 for the default finest fringes); for σ < ½ the sum is
+//!   evaluated directly per sample (exact, slow).
 //!
 //! The `continuous` mode instead uses the ideal projector: [`PatternSet::intensity`] at (ξ, η)
 //! (no pixels, no code quantization, no defocus), with the same gamma and black level.

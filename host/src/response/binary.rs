@@ -21,8 +21,9 @@
 //! pixel, both the ideal sinusoids and `L` are decoded by the core's decoder, and the table's
 //! knots are fitted to their difference at the measured phase. A Bayer-dithered image changes
 //! along both axes: its rows are modelled over one 8-row tile (2 samples per pixel across).
-//! The table must leave at most [`MAX_FINE_RESIDUAL`] on the finest level (and
-//! [`MAX_ORDER_RESIDUAL`] of the next level's phase on a coarser one), or the set is refused.
+//! The table must leave at most [`MAX_FINE_RESIDUAL`] RMS on the finest level, and at most
+//! [`MAX_ORDER_RESIDUAL`] of the next phase at any sample of every unwrapping step (a coarser
+//! level, or a heterodyne set's beats), or the set is refused.
 //!
 //! # What it leaves
 //! - σ is the *effective* blur in projector pixels: the lens's defocus and the camera's own
@@ -110,17 +111,49 @@ pub fn binary_correction(
         .collect();
     let mut lin = vec![Vec::with_capacity(n * cross.len()); set.image_count()];
     let mut meas = vec![Vec::with_capacity(n * cross.len()); set.image_count()];
+    // A square wave of straight fringes is the same in every row: one row, whose blur across
+    // sums to 1 (the modelled row is far from the DMD's edges). A dithered or curved one is
+    // blurred across over the rows within reach.
+    let uniform = set.binarization() != Binarization::Bayer && set.function().curvature() == 0.0;
+    let (lo, hi) = if uniform {
+        (mid as i64, mid as i64)
+    } else {
+        (
+            (cross[0] - reach as f64).floor() as i64 - 1,
+            (cross[cross.len() - 1] + reach as f64).ceil() as i64 + 1,
+        )
+    };
+    // Each modelled row's weights across, over the rows `lo..=hi`.
+    let weights: Vec<Vec<f64>> = cross
+        .iter()
+        .map(|&c| {
+            (lo..=hi)
+                .map(|j| {
+                    if uniform {
+                        1.0
+                    } else {
+                        kernel(c - j as f64, sigma)
+                    }
+                })
+                .collect()
+        })
+        .collect();
     for k in 0..set.image_count() {
-        // The 1-bit image over the rows the modelled ones reach (pixel-index space).
-        let lo = (cross[0] - reach as f64).floor() as i64 - 1;
-        let hi = (cross[cross.len() - 1] + reach as f64).ceil() as i64 + 1;
+        // A Gray-code image: binary already, and no level's phase (`tabulate` skips it).
+        if set.gray().is_some() && set.image(k).is_some_and(|id| id.level == 0) {
+            lin[k] = vec![0; n * cross.len()];
+            meas[k] = vec![0; n * cross.len()];
+            continue;
+        }
+        // The 1-bit image over the rows the modelled ones reach (pixel-index space; nothing is
+        // emitted past the DMD's edges).
         let rows: Vec<Vec<f64>> = (lo..=hi)
             .map(|j| {
                 (0..along as i64)
                     .map(|i| {
                         let (x, y) = at(i as f64, j as f64);
                         let v = set.intensity(k, x, y).unwrap_or(o.i_min);
-                        if span > 0.0 {
+                        if span > 0.0 && (0..across as i64).contains(&j) {
                             (v - o.i_min) / span
                         } else {
                             0.0
@@ -128,11 +161,6 @@ pub fn binary_correction(
                     })
                     .collect()
             })
-            .collect();
-        // Each modelled row's weights across, over the rows `lo..=hi`.
-        let across: Vec<Vec<f64>> = cross
-            .iter()
-            .map(|&c| (lo..=hi).map(|j| kernel(c - j as f64, sigma)).collect())
             .collect();
         // Blur along the axis at every sample (the DMD's extent ends the sum), then across.
         let along_blur: Vec<Vec<f64>> = rows
@@ -148,7 +176,7 @@ pub fn binary_correction(
         for (ci, &c) in cross.iter().enumerate() {
             for (s, &t) in samples.iter().enumerate() {
                 let mut l = 0.0;
-                for (r, w) in along_blur.iter().zip(&across[ci]) {
+                for (r, w) in along_blur.iter().zip(&weights[ci]) {
                     l += r[s] * w;
                 }
                 meas[k].push(code(l));
@@ -172,24 +200,62 @@ pub fn binary_correction(
         ),
     )?;
     // What the 32-knot table cannot follow (an error curve too steep where the defocus leaves
-    // strong harmonics) must not pass silently: the finest level's residual goes into every
-    // point, a coarser level's, times the ratio to the next scale, into the fringe order.
-    let levels = set.levels();
-    for (l, r) in report.iter().enumerate() {
-        let (limit, what) = match levels.get(l + 1) {
-            None => (MAX_FINE_RESIDUAL, "the phase".to_string()),
-            Some(next) if set.relation() == Relation::Hierarchical => (
-                MAX_ORDER_RESIDUAL * levels[l].scale() / next.scale(),
-                format!("level {}'s fringe order", l + 1),
+    // strong harmonics) must not pass silently. The finest level's residual goes into every
+    // point (its RMS into the noise); a coarser level's largest residual, times the ratio of
+    // the unwrapping step it starts, into fringe orders.
+    let c: Vec<f64> = set.levels().iter().map(|l| l.scale()).collect();
+    let fine = c.len() - 1;
+    let r = &report[fine];
+    if r.residual_rms_rad > MAX_FINE_RESIDUAL {
+        return Err(format!(
+            "at a defocus of {sigma} projector pixels, the finest level's binary patterns keep \
+             {:.3} rad RMS of error after correction (of {:.3}), more than the {MAX_FINE_RESIDUAL} \
+             rad the phase may carry: {advice}",
+            r.residual_rms_rad, r.rms_rad
+        ));
+    }
+    // Each unwrapping step: (the residual it starts from, in radians of `from`, its scale
+    // `from`, the scale `to` it unwraps). A heterodyne beat adds its levels' errors: at most
+    // 2 (a beat) or 4 (the beat of beats) times the largest.
+    let worst = report.iter().fold(0.0f64, |m, r| m.max(r.residual_max_rad));
+    let steps: Vec<(f64, f64, f64, String)> = match (set.relation(), c.len()) {
+        (Relation::Heterodyne, 2) => vec![
+            (2.0 * worst, c[1] - c[0], c[0], "the beat".into()),
+            (report[0].residual_max_rad, c[0], c[1], "level 0".into()),
+        ],
+        (Relation::Heterodyne, _) => vec![
+            (
+                4.0 * worst,
+                c[2] - 2.0 * c[1] + c[0],
+                c[1] - c[0],
+                "the beat of beats".into(),
             ),
-            Some(_) => continue,
-        };
-        if r.residual_rms_rad > limit {
+            (
+                2.0 * worst,
+                c[1] - c[0],
+                c[1],
+                "the beat of levels 0 and 1".into(),
+            ),
+            (report[1].residual_max_rad, c[1], c[2], "level 1".into()),
+        ],
+        (Relation::Hierarchical, _) => (0..fine)
+            .map(|l| {
+                (
+                    report[l].residual_max_rad,
+                    c[l],
+                    c[l + 1],
+                    format!("level {l}"),
+                )
+            })
+            .collect(),
+    };
+    for (residual, from, to, what) in steps {
+        if residual * to / from > MAX_ORDER_RESIDUAL {
             return Err(format!(
-                "at a defocus of {sigma} projector pixels, level {l}'s binary patterns keep \
-                 {:.3} rad RMS of error after correction (of {:.3}), too much for {what} \
-                 (limit {limit:.3} rad): {advice}",
-                r.residual_rms_rad, r.rms_rad
+                "at a defocus of {sigma} projector pixels, {what} keeps up to {residual:.3} rad of \
+                 the binary patterns' error after correction: {:.2} rad of the next phase, more \
+                 than the {MAX_ORDER_RESIDUAL:.2} rad its fringe order may take: {advice}",
+                residual * to / from
             ));
         }
     }
@@ -200,8 +266,8 @@ pub fn binary_correction(
 /// table: 0.02 rad adds under 10 % to the phase noise of a 4-step level at a modulation of 14
 /// noise levels (0.05 rad).
 pub const MAX_FINE_RESIDUAL: f64 = 0.02;
-/// The largest residual error of a coarser level, in radians of the next level's phase: a
-/// quarter of the unwrapping's ±π.
+/// The largest residual error (radians, its largest) a level may leave in the phase it
+/// unwraps: a quarter of the unwrapping's ±π.
 pub const MAX_ORDER_RESIDUAL: f64 = std::f64::consts::FRAC_PI_4;
 
 /// K(x): the box ⊗ Gaussian kernel, or the box itself for σ = 0.
@@ -238,14 +304,24 @@ mod tests {
     /// The classic binary scheme: a complementary Gray code and a 4-step level of `period`
     /// pixels over a 384-pixel projector.
     fn four_step(period: f64, b: Binarization) -> PatternSet {
+        four_step_along(Axis::Xi, period, b)
+    }
+
+    /// [`four_step`] with its phase along `axis` (the projector transposed for η).
+    fn four_step_along(axis: Axis, period: f64, b: Binarization) -> PatternSet {
+        let (w, h) = if axis == Axis::Xi {
+            (384, 64)
+        } else {
+            (64, 384)
+        };
         let out = Output {
-            width: 384,
-            height: 64,
+            width: w,
+            height: h,
             i_min: 0.0,
             i_max: 255.0,
         };
-        let f = PhaseFunction::centered(Axis::Xi, out.width, std::f64::consts::TAU).unwrap();
-        let scale = out.width as f64 / period;
+        let f = PhaseFunction::centered(axis, 384, std::f64::consts::TAU).unwrap();
+        let scale = 384.0 / period;
         let levels = [
             Level::gray_code(scale, GrayCode::new(5, true)),
             Level::n_step(scale, 4),
@@ -318,6 +394,32 @@ mod tests {
             assert!(rep[1].residual_rms_rad < 0.1 * rep[1].rms_rad, "{rep:?}");
             assert!(t.is_sane());
         }
+    }
+
+    #[test]
+    fn horizontal_fringes_get_the_table_of_the_transposed_projector() {
+        for sigma in [0.0, 2.0] {
+            let v = binary_correction(&four_step(24.0, Binarization::Square), sigma);
+            let h = binary_correction(
+                &four_step_along(Axis::Eta, 24.0, Binarization::Square),
+                sigma,
+            );
+            match (v, h) {
+                (Ok((tv, _)), Ok((th, _))) => assert_eq!(tv, th, "σ {sigma}"),
+                (v, h) => assert_eq!(v.err(), h.err(), "σ {sigma}"),
+            }
+        }
+    }
+
+    #[test]
+    fn a_square_wave_too_sharp_to_invert_is_refused_with_what_to_change() {
+        // σ = 0.5 on 24-pixel fringes: the 3rd harmonic keeps 97 % of its 1/3, the measured
+        // phase nearly stalls where it compresses, and 32 knots cannot follow the curve.
+        let e = binary_correction(&four_step(24.0, Binarization::Square), 0.5).unwrap_err();
+        assert!(
+            e.contains("finest level") && e.contains("more defocus"),
+            "{e}"
+        );
     }
 
     #[test]

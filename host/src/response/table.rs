@@ -47,6 +47,8 @@ pub struct LevelError {
     pub max_rad: f64,
     /// RMS after subtracting the table (its interpolation residual), radians.
     pub residual_rms_rad: f64,
+    /// Largest |error| after subtracting the table, radians.
+    pub residual_max_rad: f64,
 }
 
 /// The table of `set` under `response`, and each level's error before and after it.
@@ -116,6 +118,7 @@ pub(super) fn tabulate(
             rms_rad: 0.0,
             max_rad: 0.0,
             residual_rms_rad: 0.0,
+            residual_max_rad: 0.0,
         });
     }
     for l in first..levels {
@@ -151,6 +154,7 @@ pub(super) fn tabulate(
             rms_rad: rms(&errs),
             max_rad: errs.iter().fold(0.0, |a, b| f64::max(a, b.abs())),
             residual_rms_rad: rms(&resid),
+            residual_max_rad: resid.iter().fold(0.0, |a, b| f64::max(a, b.abs())),
         });
     }
     if !table.is_sane() {

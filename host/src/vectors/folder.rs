@@ -276,6 +276,10 @@ pub fn first_difference(e: &VectorFile, got: &[u8]) -> String {
 pub fn stage_files(d: &DecodeStage, p: Option<&PointStage>) -> Vec<(String, Vec<u8>)> {
     let mut v = Vec::new();
     for (l, (wr, m)) in d.wrapped.iter().zip(&d.modulation_level).enumerate() {
+        // (A Gray-code level has no wrapped phase, and no file.)
+        if wr.is_empty() {
+            continue;
+        }
         v.push((format!("decode/wrapped_level{l}.f32"), f32_bytes(wr)));
         v.push((format!("decode/modulation_level{l}.f32"), f32_bytes(m)));
     }

@@ -104,7 +104,11 @@ pub(super) fn manifest_info(
             "profile": profile,
             "curvature": f.curvature(),
             "bend_center": f.bend_center(),
-            "levels": set.levels().iter().map(|l| json!({"scale": l.scale(), "shifts": l.shifts()})).collect::<Vec<_>>(),
+            "levels": set.levels().iter().map(|l| match l.gray() {
+                // A Gray-code level: its code, no shifts and no wrapped-phase files.
+                Some(g) => json!({"scale": l.scale(), "gray_bits": g.bits(), "complementary": g.complementary()}),
+                None => json!({"scale": l.scale(), "shifts": l.shifts()}),
+            }).collect::<Vec<_>>(),
             "output": {"width": set.output().width, "height": set.output().height, "i_min": set.output().i_min, "i_max": set.output().i_max},
             "convention": match set.convention() { Convention::Sine => "sine", Convention::Cosine => "cosine" },
             "phase_offset": set.phase_offset(),

@@ -40,6 +40,7 @@ pub use pipeline::{Inputs, decode_rows, inputs, reconstruct_rows};
 
 use crate::io::atomic::AtomicError;
 use crate::io::calibration::FormatError;
+use crate::io::pattern_file::PatternSetFile;
 use crate::render::RenderError;
 use crate::scan::ScanError;
 use fringe3d_core::math::CANONICAL_NAN;
@@ -122,6 +123,12 @@ pub struct VectorOptions {
     /// The projector's gamma (`None`: the scene's, linear). With a gamma the decoder (and the
     /// head, through the set-up blob) applies the response's phase-error table.
     pub gamma: Option<f64>,
+    /// The pattern set (`None`: the scene's, the paper's 8 images). The mps2 board's golden
+    /// binary holds one row of at most 8 images.
+    pub patterns: Option<PatternSetFile>,
+    /// The projector's defocus σ, projector pixels (`None`: the scene's, 1). A binary set is
+    /// decoded with the table of this blur (docs/binary.md), which the set-up blob carries.
+    pub defocus: Option<f64>,
 }
 
 impl Default for VectorOptions {
@@ -134,6 +141,8 @@ impl Default for VectorOptions {
             seed: None,
             max_angle_deg: 80.0,
             gamma: None,
+            patterns: None,
+            defocus: None,
         }
     }
 }

@@ -62,6 +62,7 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
         noise: opts.noise,
         bits: opts.bits,
         size: Some(opts.size),
+        defocus: opts.defocus,
         ..Overrides::default()
     };
     if let Some(g) = opts.gamma
@@ -75,6 +76,9 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
     spec.apply(&o);
     if let Some(g) = opts.gamma {
         spec.projector.gamma = g;
+    }
+    if let Some(p) = &opts.patterns {
+        spec.patterns.set = Some(p.clone());
     }
     let scene = Scene::new(spec, None)?;
     let correction = scene.true_correction(&scene.patterns)?;
@@ -120,9 +124,17 @@ pub fn decode_rows<P: Sample>(
 ) -> Result<DecodeStage, VectorsError> {
     let n = width * height;
     let levels = dec.level_count();
+    // (A Gray-code level has no wrapped phase: its per-level planes stay empty.)
+    let plane = |l: usize| {
+        if dec.level_has_phase(l) {
+            vec![0.0; n]
+        } else {
+            Vec::new()
+        }
+    };
     let mut s = DecodeStage {
-        wrapped: vec![vec![0.0; n]; levels],
-        modulation_level: vec![vec![0.0; n]; levels],
+        wrapped: (0..levels).map(plane).collect(),
+        modulation_level: (0..levels).map(plane).collect(),
         dc: vec![0.0; n],
         modulation: vec![0.0; n],
         phase: vec![0.0; n],
@@ -147,7 +159,7 @@ pub fn decode_rows<P: Sample>(
             },
         )
         .map_err(|e| kernel("decode", e))?;
-        for l in 0..levels {
+        for l in (0..levels).filter(|&l| dec.level_has_phase(l)) {
             dec.decode_row_level(
                 &rows,
                 l,
