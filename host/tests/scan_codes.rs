@@ -14,7 +14,9 @@
 //! - binary patterns (squared binary after a Gray code, Bayer-dithered 12-image set) through a
 //!   defocused projector, decoded with the table of its blur: the same bar;
 //! - the CLI: `patterns`, `render` and `scan` take a Gray-code, a heterodyne and a binary set
-//!   file end to end; `patterns` writes the binary set as 1-bit PNGs.
+//!   file end to end; `patterns` writes the binary set as 1-bit PNGs; `scan` refuses a binary
+//!   set without `projector_defocus`, and `calibrate defocus` measures the rendered blur again
+//!   (within 0.3 pixel of 3).
 
 use crate::cli_support::Tmp;
 use std::path::Path;
@@ -296,6 +298,28 @@ fn patterns_render_and_scan_take_gray_code_heterodyne_and_binary_sets() {
         "{err}"
     );
     assert!(!t.0.join("bare.ply").exists());
+    // `calibrate defocus` measures it from the scan itself: the rendered blur, found again.
+    let est = t.0.join("estimated.toml");
+    let o = Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+        .args(["--json", "calibrate", "defocus", "-c"])
+        .arg(&bare)
+        .arg("-p")
+        .arg(t.0.join("ds-binary").join("patterns.toml"))
+        .arg(t.0.join("ds-binary"))
+        .arg("-o")
+        .arg(&est)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let sigma = j["projector_defocus"].as_f64().unwrap();
+    eprintln!("calibrate defocus: {}", j["fit"]);
+    assert!(
+        (sigma - BINARY_DEFOCUS).abs() < 0.3,
+        "{sigma} vs {BINARY_DEFOCUS}"
+    );
+    let text = std::fs::read_to_string(&est).unwrap();
+    assert!(text.contains("projector_defocus = "), "{text}");
 }
 
 /// `patterns` writes `images` PNGs of set file `f`; a rendered dataset of it scans.

@@ -42,10 +42,13 @@ pub enum Step {
     Projector(ProjectorArgs),
     /// The reference plane's pose and phase map (paper §6); completes the calibration file.
     Reference(ReferenceArgs),
-    /// A full camera + projector calibration from another tool (OpenCV stereo, SLStudio,
     /// The projector's response (gamma) from captures of the reference plane under uniform
     /// gray levels: the calibration's `[projector_response]` (docs/gamma.md).
     Gamma(super::calibrate_gamma::GammaArgs),
+    /// The projector's effective blur from a scan of binary patterns: the calibration's
+    /// `projector_defocus`, which binary sets are decoded with (docs/binary.md).
+    Defocus(super::calibrate_defocus::DefocusArgs),
+    /// A full camera + projector calibration from another tool (OpenCV stereo, SLStudio,
     /// SLMaster, Bouguet) as a fringe3d calibration (no reference yet).
     Import(super::calibrate_import::ImportArgs),
     /// A fringe3d calibration with its `[projector]` as an OpenCV stereo YAML file.
@@ -266,6 +269,7 @@ pub fn run(a: CalibrateArgs, g: Global) -> Result<()> {
         Step::Projector(p) => projector(p, g),
         Step::Reference(r) => reference(r, g),
         Step::Gamma(x) => super::calibrate_gamma::run(x, g),
+        Step::Defocus(x) => super::calibrate_defocus::run(x, g),
         Step::Import(i) => super::calibrate_import::import(i, g),
         Step::Export(e) => super::calibrate_import::export(e, g),
     }

@@ -16,6 +16,7 @@ macro_rules! errln {
 }
 
 pub mod calibrate;
+pub mod calibrate_defocus;
 pub mod calibrate_gamma;
 pub mod calibrate_import;
 pub mod cloud_out;

@@ -51,6 +51,21 @@ pub fn binary_correction(
     set: &PatternSet,
     sigma: f64,
 ) -> Result<(PhaseCorrection, Vec<LevelError>), String> {
+    let (table, report) = binary_table(set, sigma)?;
+    check_residuals(set, sigma, &report)?;
+    Ok((table, report))
+}
+
+/// What [`binary_correction`] advises when the table cannot correct the patterns.
+const ADVICE: &str = "more defocus, a longer period, more phase steps, or binary = \"bayer\"";
+
+/// The table of binary `set` under a blur of `sigma` projector pixels and each level's error,
+/// without [`binary_correction`]'s check of what it leaves (`calibrate defocus` compares
+/// candidate blurs with it).
+pub fn binary_table(
+    set: &PatternSet,
+    sigma: f64,
+) -> Result<(PhaseCorrection, Vec<LevelError>), String> {
     if !set.binarization().is_binary() {
         return Err("the set is not binary (binary = \"square\" or \"bayer\")".into());
     }
@@ -190,15 +205,19 @@ pub fn binary_correction(
             }
         }
     }
-    let advice = "more defocus, a longer period, more phase steps, or binary = \"bayer\"";
-    let (table, report) = tabulate(
+    tabulate(
         set,
         &lin,
         &meas,
         &format!(
-            "the binary patterns are too far from sinusoids at this defocus to correct ({advice})"
+            "the binary patterns are too far from sinusoids at this defocus to correct ({ADVICE})"
         ),
-    )?;
+    )
+}
+
+/// [`binary_correction`]'s check of what the table of `sigma` leaves (`report`).
+fn check_residuals(set: &PatternSet, sigma: f64, report: &[LevelError]) -> Result<(), String> {
+    let advice = ADVICE;
     // What the 32-knot table cannot follow (an error curve too steep where the defocus leaves
     // strong harmonics) must not pass silently. The finest level's residual goes into every
     // point (its RMS into the noise); a coarser level's largest residual, times the ratio of
@@ -259,7 +278,7 @@ pub fn binary_correction(
             ));
         }
     }
-    Ok((table, report))
+    Ok(())
 }
 
 /// The largest residual error (radians RMS) the finest level of a binary set may keep after its

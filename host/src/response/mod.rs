@@ -10,6 +10,7 @@
 //! [`gray_codes`] are the levels `fringe3d patterns --gray N` writes.
 
 pub mod binary;
+pub mod defocus;
 pub mod estimate;
 pub mod table;
 
