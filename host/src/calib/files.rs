@@ -763,8 +763,10 @@ pub const BINARY_NEEDS_DEFOCUS: &str = "the pattern set is binary: decoding it n
 
 /// The decoder's phase-error table for `set`: for a binary set, its model under the projector's
 /// `defocus` (required: [`binary_correction`](crate::response::binary::binary_correction); two
-/// codes need no response correction); otherwise under the measured `response`: `None` without
-/// a response, for a linear one, or when the set file's patterns were written pre-distorted
+/// codes need no response correction); otherwise under the measured `response`, and with the
+/// projector's `defocus` when the calibration states it
+/// ([`light_table`](crate::response::binary::light_table)): `None` without a response, for a
+/// linear one, or when the set file's patterns were written pre-distorted
 /// (`[projector] response_compensated = true`), whose light needs no correction.
 pub fn response_table_for(
     file: &PatternSetFile,
@@ -780,10 +782,16 @@ pub fn response_table_for(
             crate::response::binary::binary_correction(set, sigma)?.0,
         ));
     }
-    match response {
-        Some(r) if !r.is_linear() && file.projector.response_compensated != Some(true) => {
-            Ok(Some(crate::response::table::phase_correction(set, r)?.0))
+    match (response, defocus) {
+        (Some(r), _) if r.is_linear() || file.projector.response_compensated == Some(true) => {
+            Ok(None)
         }
-        _ => Ok(None),
+        // With the projector's blur known, the table models it too: it attenuates the
+        // harmonics the response makes (docs/gamma.md).
+        (Some(r), Some(sigma)) => Ok(Some(
+            crate::response::binary::light_table(set, sigma, Some(r))?.0,
+        )),
+        (Some(r), None) => Ok(Some(crate::response::table::phase_correction(set, r)?.0)),
+        (None, _) => Ok(None),
     }
 }

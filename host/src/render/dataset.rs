@@ -603,7 +603,8 @@ pub fn write_dataset(
     };
     let mut cal = rig.calibration(map, pat, digest);
     cal.projector_response = scene.true_response();
-    // A binary set is decoded with the projector's blur model: the rig's true defocus.
+    // A binary set, or a non-linear response, is decoded with the projector's blur model: the
+    // rig's true defocus.
     cal.projector_defocus = scene.true_defocus(&scene.patterns);
     cal.save(&out.dir.join("calibration.toml"))?;
     out.adopt(

@@ -161,27 +161,34 @@ impl Scene {
         (g != 1.0).then(|| crate::response::power_law(g))
     }
 
-    /// The projector's true blur σ (projector pixels) for a binary `set`, what its decoding
-    /// models: the defocus (0 for the continuous projector); `None` for a gray-level set.
+    /// The projector's true blur σ (projector pixels) where the decoding of `set` models it: a
+    /// binary set (the defocus; 0 for the continuous projector), or a gray-level one through a
+    /// non-linear response on the pixelated projector; `None` otherwise.
     pub fn true_defocus(&self, set: &PatternSet) -> Option<f64> {
         let p = &self.spec.projector;
-        set.binarization()
-            .is_binary()
-            .then_some(if p.mode == ProjectorMode::Continuous {
-                0.0
-            } else {
-                p.defocus
-            })
+        let pixelated = p.mode != ProjectorMode::Continuous;
+        if set.binarization().is_binary() {
+            Some(if pixelated { p.defocus } else { 0.0 })
+        } else {
+            (pixelated && self.true_response().is_some()).then_some(p.defocus)
+        }
     }
 
     /// The phase-error table of `set`: for a binary set under [`Self::true_defocus`], else
-    /// under [`Self::true_response`] (`None` for a linear projector).
+    /// under [`Self::true_response`] (with the defocus on the pixelated projector; `None` for
+    /// a linear projector).
     pub fn true_correction(
         &self,
         set: &PatternSet,
     ) -> Result<Option<fringe3d_core::decode::PhaseCorrection>, RenderError> {
-        if let Some(sigma) = self.true_defocus(set) {
+        let sigma = self.true_defocus(set);
+        if let Some(sigma) = sigma.filter(|_| set.binarization().is_binary()) {
             return crate::response::binary::binary_correction(set, sigma)
+                .map(|(t, _)| Some(t))
+                .map_err(RenderError::Decode);
+        }
+        if let (Some(r), Some(sigma)) = (self.true_response(), sigma) {
+            return crate::response::binary::light_table(set, sigma, Some(&r))
                 .map(|(t, _)| Some(t))
                 .map_err(RenderError::Decode);
         }

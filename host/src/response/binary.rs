@@ -35,6 +35,7 @@
 //!   31.6-pixel dithered period), which the residual check refuses.
 
 use super::table::{LevelError, tabulate};
+use crate::io::calibration::ProjectorResponse;
 use crate::math::box_gauss;
 use fringe3d_core::binary::Binarization;
 use fringe3d_core::decode::PhaseCorrection;
@@ -69,6 +70,20 @@ pub fn binary_table(
     if !set.binarization().is_binary() {
         return Err("the set is not binary (binary = \"square\" or \"bayer\")".into());
     }
+    light_table(set, sigma, None)
+}
+
+/// The table of any set under the light model above: each DMD pixel emits `r(code/full)` for
+/// the measured `response` r (the pattern's code quantized as `generate_row` does; without a
+/// response, the linear light of the pattern's value), blurred by `sigma` projector pixels.
+/// For a gray-level set with a measured response this is the response's table
+/// ([`super::table::phase_correction`]) with the projector's defocus, which attenuates the
+/// harmonics the response makes (docs/gamma.md).
+pub fn light_table(
+    set: &PatternSet,
+    sigma: f64,
+    response: Option<&ProjectorResponse>,
+) -> Result<(PhaseCorrection, Vec<LevelError>), String> {
     if !(sigma.is_finite() && (0.0..=MAX_DEFOCUS).contains(&sigma)) {
         return Err(format!(
             "the defocus must be in [0, {MAX_DEFOCUS}] projector pixels, got {sigma}"
@@ -109,6 +124,7 @@ pub fn binary_table(
         .map(|i| first + i as f64 / OVERSAMPLE as f64)
         .collect();
     let span = o.i_max - o.i_min;
+    let full = if o.i_max > 255.0 { 65535.0 } else { 255.0 };
     let (i0, gain) = (1000.0, 60000.0);
     let code = |x: f64| (i0 + gain * x.clamp(0.0, 1.0)).round() as u16;
     // The kernel's taps at each sub-pixel phase of the samples (sample s and s + OVERSAMPLE are
@@ -168,10 +184,12 @@ pub fn binary_table(
                     .map(|i| {
                         let (x, y) = at(i as f64, j as f64);
                         let v = set.intensity(k, x, y).unwrap_or(o.i_min);
-                        if span > 0.0 && (0..across as i64).contains(&j) {
-                            (v - o.i_min) / span
-                        } else {
+                        if !(span > 0.0 && (0..across as i64).contains(&j)) {
                             0.0
+                        } else if let Some(r) = response {
+                            r.eval(v.round() / full)
+                        } else {
+                            (v - o.i_min) / span
                         }
                     })
                     .collect()

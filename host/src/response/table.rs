@@ -23,9 +23,9 @@
 //! finest level keeps < 1e-3 rad.
 //!
 //! The table holds what the response alone does. A projector's defocus attenuates the harmonics
-//! of its finest fringes a little (the error of a 4-step level comes from the 3rd and 5th), so on
-//! a defocused projector the finest level's table slightly over-corrects; the coarse levels,
-//! whose 2-image estimates carry most of the error, are unaffected (docs/gamma.md).
+//! of its finest fringes (the error of a 4-step level comes from the 3rd and 5th), so on a
+//! defocused projector this table over-corrects the finest level; with the blur known
+//! (`projector_defocus`), [`super::binary::light_table`] models both (docs/gamma.md).
 
 use crate::io::calibration::ProjectorResponse;
 use fringe3d_core::arith::Backend;
