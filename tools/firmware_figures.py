@@ -164,10 +164,10 @@ def update(doc, g, h):
 # the bytes of `.rodata` the same everywhere, but cargo hashes the package's source path and the
 # flags into the symbol names, which order the functions LLVM optimises and the sections the
 # linker lays out: the padding moves, and so does the code (4 bytes seen between two checkouts of
-# one commit, then 168 bytes of `.text` between /work/main and /tmp/ci-cold at 8fda563, which
-# failed CI's check). 256 bytes is under 0.1 % of either binary's flash; a feature moves it by
-# kilobytes. Static RAM and the stacks must match exactly.
-FLASH_SLACK = 256
+# one commit, then 168 and 160 bytes of `.text` between /work/main and /tmp/ci-cold at two
+# commits). 512 bytes is under 0.3 % of either binary's flash; a feature moves it by kilobytes.
+# Static RAM and the stacks must match exactly.
+FLASH_SLACK = 512
 
 
 def documented_code_sizes(doc):

@@ -7,7 +7,8 @@
 //! Skips with a notice when `qemu-system-arm` or the `thumbv7em-none-eabihf` target is missing;
 //! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
-use fringe3d::io::pattern_file::PatternSetFile;
+mod common;
+use common::gray_set;
 use fringe3d::vectors::{self, GoldenVectors, VectorOptions};
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use std::collections::BTreeMap;
@@ -246,26 +247,4 @@ fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
         ..gray_opts
     };
     check_scan(&elf, &binary_opts, "sphere-160x128-u8-gray3c-bayer");
-}
-
-/// A complementary 3-bit Gray code over 8 periods of 128 projector pixels (1024 wide; the phase
-/// zero at column 575.5, so that they span the code's [−4.5, 3.5)), then a 4-step level: 8
-/// images, the board's row. `binary`: the pattern-set file's `binary` key.
-fn gray_set(binary: &str) -> PatternSetFile {
-    let text = format!(
-        "version = 2\nbinary = \"{binary}\"\n\
-         [projector]\nwidth = 1024\nheight = 768\n\
-         [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 575.5\nslope = {}\n\
-         [[levels]]\nscale = 8.0\ngray_bits = 3\n\
-         [[levels]]\nscale = 8.0\nsteps = 4\n",
-        std::f64::consts::TAU / 1024.0
-    );
-    let path = std::env::temp_dir().join(format!(
-        "fringe3d-qemu-gray-{binary}-{}.toml",
-        std::process::id()
-    ));
-    std::fs::write(&path, text).expect("write the pattern-set file");
-    let f = PatternSetFile::load(&path).expect("pattern-set file");
-    let _ = std::fs::remove_file(&path);
-    f
 }

@@ -2,11 +2,13 @@
 //! batch paths (whole-frame decode on all threads with the widest kernel, parallel reconstruction
 //! over the whole reference map, the whole-cloud edge filter) reproduce every stage's digest.
 
+mod common;
+use common::gray_set;
 use fringe3d::batch::{FrameOut, Isa, decode_frames};
 use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d::vectors::{self, Dtype, GoldenVectors, VectorOptions};
 use fringe3d_core::decode::{Decoder, Sample, State};
-use fringe3d_core::pattern::MAX_LEVELS;
+use fringe3d_core::pattern::{MAX_LEVELS, PatternSet};
 use std::path::{Path, PathBuf};
 
 fn scratch(name: &str) -> PathBuf {
@@ -115,8 +117,11 @@ fn vectors_are_deterministic_and_the_manifest_holds() {
 
 /// Whole-frame per-level outputs: accumulate every image over whole planes, then
 /// `Decoder::finish_level` (another driver than the vectors' 64-pixel row blocks).
+/// Each level's wrapped phase and modulation from whole frames (the frame-sequential path's
+/// accumulation); a Gray-code level has none (empty planes), and its images are not folded.
 fn levels_whole_frame<P: Sample>(
     dec: &Decoder,
+    set: &PatternSet,
     frames: &[&[P]],
     n: usize,
 ) -> Vec<(Vec<f32>, Vec<f32>)> {
@@ -139,9 +144,16 @@ fn levels_whole_frame<P: Sample>(
             flags: &mut flags,
         };
         for (i, f) in frames.iter().enumerate() {
+            if set.gray().is_some() && set.image(i).is_some_and(|id| id.level == 0) {
+                continue;
+            }
             dec.accumulate(i, f, &mut st).expect("accumulate");
         }
         for l in 0..dec.level_count() {
+            if !dec.level_has_phase(l) {
+                out.push((Vec::new(), Vec::new()));
+                continue;
+            }
             let mut w = vec![0.0f32; n];
             let mut m = vec![0.0f32; n];
             dec.finish_level(&st, l, &mut w, &mut m)
@@ -165,11 +177,26 @@ fn check_batch(opts: &VectorOptions, name: &str) {
     let cal = ScanCalibration::load(&dir.join("input/calibration.toml"), set.axis())
         .expect("calibration from the vectors");
     let bits = v.info["scene"]["camera_bits"].as_u64().unwrap() as u32;
-    let dec = Decoder::new(
+    let mut dec = Decoder::new(
         &set,
         fringe3d_core::decode::DecodeConfig::for_bit_depth(bits),
     )
     .unwrap();
+    // The phase-error table, from the folder's calibration as `fringe3d scan` makes it (a
+    // projector response, a binary set's blur): the same as the set-up blob's.
+    let file =
+        fringe3d::io::pattern_file::PatternSetFile::load(&dir.join("input/patterns.toml")).unwrap();
+    let c = &cal.calibration;
+    if let Some(t) = fringe3d::calib::files::response_table_for(
+        &file,
+        &set,
+        c.projector_response.as_ref(),
+        c.projector_defocus,
+    )
+    .unwrap()
+    {
+        dec = dec.with_correction(&t).unwrap();
+    }
     let img = v
         .files
         .iter()
@@ -191,7 +218,7 @@ fn check_batch(opts: &VectorOptions, name: &str) {
         Dtype::U8 => {
             let fr: Vec<&[u8]> = img.bytes.chunks_exact(n).collect();
             decode_frames(&dec, &fr, w, h, out, Isa::detect(), true).unwrap();
-            levels_whole_frame(&dec, &fr, n)
+            levels_whole_frame(&dec, &set, &fr, n)
         }
         Dtype::U16 => {
             let all: Vec<u16> = img
@@ -201,7 +228,7 @@ fn check_batch(opts: &VectorOptions, name: &str) {
                 .collect();
             let fr: Vec<&[u16]> = all.chunks_exact(n).collect();
             decode_frames(&dec, &fr, w, h, out, Isa::detect(), true).unwrap();
-            levels_whole_frame(&dec, &fr, n)
+            levels_whole_frame(&dec, &set, &fr, n)
         }
         Dtype::F32 => panic!("images are integers"),
     };
@@ -225,6 +252,9 @@ fn check_batch(opts: &VectorOptions, name: &str) {
         ("filter/validity.u8".into(), cloud.validity.clone()),
     ];
     for (l, (wr, m)) in levels.iter().enumerate() {
+        if wr.is_empty() {
+            continue;
+        }
         got.push((
             format!("decode/wrapped_level{l}.f32"),
             vectors::f32_bytes(wr),
@@ -234,7 +264,10 @@ fn check_batch(opts: &VectorOptions, name: &str) {
             vectors::f32_bytes(m),
         ));
     }
-    assert_eq!(got.len(), 8 + 2 * dec.level_count());
+    let phase_levels = (0..dec.level_count())
+        .filter(|&l| dec.level_has_phase(l))
+        .count();
+    assert_eq!(got.len(), 8 + 2 * phase_levels);
     let mut bad = Vec::new();
     for (path, bytes) in &got {
         if vectors::sha256_hex(bytes) != sha(&v, path) {
@@ -268,6 +301,37 @@ fn vectors_match_the_desktop_batch_paths_u8() {
         ..VectorOptions::default()
     };
     check_batch(&opts, "vectors-batch8");
+}
+
+#[test]
+fn vectors_match_the_desktop_batch_paths_with_tables_and_gray_codes() {
+    // A projector of gamma 2.2, blurred by 2 pixels: the folder's calibration carries the
+    // response and the blur, the batch path's table is the set-up blob's.
+    let gamma = VectorOptions {
+        scene: "steps".into(),
+        size: (160, 128),
+        bits: Some(8),
+        noise: Some(1.0),
+        seed: Some(7),
+        gamma: Some(2.2),
+        defocus: Some(2.0),
+        ..VectorOptions::default()
+    };
+    check_batch(&gamma, "vectors-batch-gamma");
+    // A complementary Gray code + 4-step set, gray-level and Bayer-dithered (σ = 3).
+    for (binary, defocus) in [("off", None), ("bayer", Some(3.0))] {
+        let opts = VectorOptions {
+            scene: "sphere".into(),
+            size: (160, 128),
+            bits: Some(8),
+            noise: Some(1.0),
+            seed: Some(5),
+            patterns: Some(gray_set(binary)),
+            defocus,
+            ..VectorOptions::default()
+        };
+        check_batch(&opts, &format!("vectors-batch-gray-{binary}"));
+    }
 }
 
 #[test]

@@ -88,11 +88,15 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
     let reference = decode_phase_corrected(&scene.patterns, &ref_frames, correction.as_ref())?;
     let digest = crate::io::calibration::pattern_digest(&scene.patterns)
         .map_err(|m| VectorsError::Options(format!("reference pattern set: {m}")))?;
-    let cal = scene.rig.calibration(
+    let mut cal = scene.rig.calibration(
         Some(PathBuf::from("reference_phase.tif")),
         Some(PathBuf::from("patterns.toml")),
         Some(digest),
     );
+    // What the table of the set-up blob is made from, so that the folder's calibration.toml
+    // gives `fringe3d scan` the same decoding as the head's blob.
+    cal.projector_response = scene.true_response();
+    cal.projector_defocus = scene.true_defocus(&scene.patterns);
     let calibration = ScanCalibration::from_parts(
         cal,
         reference,

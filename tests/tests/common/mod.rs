@@ -1,0 +1,27 @@
+//! Pattern sets shared by the end-to-end tests (`mod common;` in each test file that needs them).
+
+use fringe3d::io::pattern_file::PatternSetFile;
+
+/// A complementary 3-bit Gray code over 8 periods of 128 projector pixels (1024 wide; the phase
+/// zero at column 575.5, so that they span the code's [−4.5, 3.5)), then a 4-step level: 8
+/// images, the mps2 board's row. `binary`: the pattern-set file's `binary` key ("off",
+/// "square", "bayer").
+pub fn gray_set(binary: &str) -> PatternSetFile {
+    let text = format!(
+        "version = 2\nbinary = \"{binary}\"\n\
+         [projector]\nwidth = 1024\nheight = 768\n\
+         [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 575.5\nslope = {}\n\
+         [[levels]]\nscale = 8.0\ngray_bits = 3\n\
+         [[levels]]\nscale = 8.0\nsteps = 4\n",
+        std::f64::consts::TAU / 1024.0
+    );
+    let path = std::env::temp_dir().join(format!(
+        "fringe3d-gray-set-{binary}-{}-{:?}.toml",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    std::fs::write(&path, text).expect("write the pattern-set file");
+    let f = PatternSetFile::load(&path).expect("pattern-set file");
+    let _ = std::fs::remove_file(&path);
+    f
+}
