@@ -8,7 +8,7 @@
 //! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
 mod common;
-use common::gray_set;
+use common::{gray_set, small_u8};
 use fringe3d::vectors::{self, GoldenVectors, VectorOptions};
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use std::collections::BTreeMap;
@@ -217,28 +217,17 @@ fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
     // ...and an 8-bit camera with noise on another scene (the u8 kernel), its projector of gamma
     // 2.2 corrected by the set-up blob's phase-error table (docs/gamma.md).
     let u8_opts = VectorOptions {
-        scene: "steps".into(),
-        size: (160, 128),
-        bits: Some(8),
-        noise: Some(1.0),
-        seed: Some(7),
         gamma: Some(2.2),
-        ..VectorOptions::default()
+        ..small_u8("steps", 7)
     };
     check_scan(&elf, &u8_opts, "steps-160x128-u8-gamma2.2");
     // The codes real rigs use (issue #20), 8 images each: a complementary 3-bit Gray code (4
     // images) ordering a 4-step level of 128-pixel fringes, and the same set Bayer-dithered
     // through a projector blurred by 3 pixels, decoded with the set-up blob's table of that
     // blur (docs/binary.md).
-    let gray = gray_set("off");
     let gray_opts = VectorOptions {
-        scene: "sphere".into(),
-        size: (160, 128),
-        bits: Some(8),
-        noise: Some(1.0),
-        seed: Some(5),
-        patterns: Some(gray),
-        ..VectorOptions::default()
+        patterns: Some(gray_set("off")),
+        ..small_u8("sphere", 5)
     };
     check_scan(&elf, &gray_opts, "sphere-160x128-u8-gray3c");
     let binary_opts = VectorOptions {

@@ -3,7 +3,7 @@
 //! over the whole reference map, the whole-cloud edge filter) reproduce every stage's digest.
 
 mod common;
-use common::gray_set;
+use common::{gray_set, small_u8};
 use fringe3d::batch::{FrameOut, Isa, decode_frames};
 use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d::vectors::{self, Dtype, GoldenVectors, VectorOptions};
@@ -292,15 +292,7 @@ fn vectors_match_the_desktop_batch_paths_u16() {
 
 #[test]
 fn vectors_match_the_desktop_batch_paths_u8() {
-    let opts = VectorOptions {
-        scene: "steps".into(),
-        size: (160, 128),
-        bits: Some(8),
-        noise: Some(1.0),
-        seed: Some(7),
-        ..VectorOptions::default()
-    };
-    check_batch(&opts, "vectors-batch8");
+    check_batch(&small_u8("steps", 7), "vectors-batch8");
 }
 
 #[test]
@@ -308,27 +300,17 @@ fn vectors_match_the_desktop_batch_paths_with_tables_and_gray_codes() {
     // A projector of gamma 2.2, blurred by 2 pixels: the folder's calibration carries the
     // response and the blur, the batch path's table is the set-up blob's.
     let gamma = VectorOptions {
-        scene: "steps".into(),
-        size: (160, 128),
-        bits: Some(8),
-        noise: Some(1.0),
-        seed: Some(7),
         gamma: Some(2.2),
         defocus: Some(2.0),
-        ..VectorOptions::default()
+        ..small_u8("steps", 7)
     };
     check_batch(&gamma, "vectors-batch-gamma");
     // A complementary Gray code + 4-step set, gray-level and Bayer-dithered (σ = 3).
     for (binary, defocus) in [("off", None), ("bayer", Some(3.0))] {
         let opts = VectorOptions {
-            scene: "sphere".into(),
-            size: (160, 128),
-            bits: Some(8),
-            noise: Some(1.0),
-            seed: Some(5),
             patterns: Some(gray_set(binary)),
             defocus,
-            ..VectorOptions::default()
+            ..small_u8("sphere", 5)
         };
         check_batch(&opts, &format!("vectors-batch-gray-{binary}"));
     }

@@ -5,7 +5,7 @@
 use super::{Global, common};
 use crate::io::calibration::Calibration;
 use crate::response::defocus::estimate_defocus;
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use std::path::PathBuf;
 
 /// Arguments of `fringe3d calibrate defocus`.
@@ -72,9 +72,7 @@ pub fn run(a: DefocusArgs, g: Global) -> Result<()> {
     let fit = estimate_defocus(&ls.set, &phi)
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.patterns.display()))?;
     cal.projector_defocus = Some((fit.sigma * 100.0).round() / 100.0);
-    let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
-    cal.save(&out)
-        .with_context(|| format!("{}: cannot write the calibration", out.display()))?;
+    let out = common::save_calibration(&cal, a.out.as_deref(), &a.calibration)?;
     if g.json {
         outln!(
             "{}",

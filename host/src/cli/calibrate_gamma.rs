@@ -8,7 +8,7 @@ use crate::io::image_set::{self, Frames};
 use crate::response::estimate::estimate;
 use crate::response::gray_codes;
 use crate::response::table::phase_correction;
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use std::path::PathBuf;
 
 /// Arguments of `fringe3d calibrate gamma`.
@@ -107,9 +107,7 @@ pub fn run(a: GammaArgs, g: Global) -> Result<()> {
         None => None,
     };
     cal.projector_response = Some(resp.clone());
-    let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
-    cal.save(&out)
-        .with_context(|| format!("{}: cannot write the calibration", out.display()))?;
+    let out = common::save_calibration(&cal, a.out.as_deref(), &a.calibration)?;
     if g.json {
         outln!(
             "{}",

@@ -399,6 +399,19 @@ pub fn progress(len: u64, msg: &str, quiet: bool) -> indicatif::ProgressBar {
     pb
 }
 
+/// Save `cal`, updated by a calibration step, to `out` (default: the file it was read from,
+/// `calibration`); returns where it went.
+pub fn save_calibration(
+    cal: &Calibration,
+    out: Option<&Path>,
+    calibration: &Path,
+) -> Result<PathBuf> {
+    let out = out.unwrap_or(calibration).to_path_buf();
+    cal.save(&out)
+        .with_context(|| format!("{}: cannot write the calibration", out.display()))?;
+    Ok(out)
+}
+
 /// The phase-error table a decode of `ls` needs for the projector response recorded in the
 /// calibration `cal` (read from `cal_path`; `[projector_response]`, docs/gamma.md); `None`
 /// without one, or when the set's patterns were written pre-distorted.

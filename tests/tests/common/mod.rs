@@ -1,6 +1,20 @@
 //! Pattern sets shared by the end-to-end tests (`mod common;` in each test file that needs them).
 
 use fringe3d::io::pattern_file::PatternSetFile;
+use fringe3d::vectors::VectorOptions;
+
+/// A 160 × 128 scan of `scene` by an 8-bit camera with σ = 1 code of noise, noise seed `seed`:
+/// the small case of the golden-vector tests (the u8 kernels; fits the mps2 board).
+pub fn small_u8(scene: &str, seed: u64) -> VectorOptions {
+    VectorOptions {
+        scene: scene.into(),
+        size: (160, 128),
+        bits: Some(8),
+        noise: Some(1.0),
+        seed: Some(seed),
+        ..VectorOptions::default()
+    }
+}
 
 /// A complementary 3-bit Gray code over 8 periods of 128 projector pixels (1024 wide; the phase
 /// zero at column 575.5, so that they span the code's [−4.5, 3.5)), then a 4-step level: 8
