@@ -25,12 +25,15 @@
 //! The struct mirrors the file: optional keys stay `None` so that a file read and saved again keeps
 //! its shape; defaults are applied by [`PatternSetFile::to_pattern_set`].
 
+mod names;
+pub use names::{AxisName, BinaryName, ConventionName, PhaseKind, Preset, UnwrapName};
+
 use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
 use fringe3d_core::pattern::{
-    Binarization, Convention, GrayCode, ImageId, Level, LevelPreset, MAX_SHIFT_MAGNITUDE, Output,
-    PatternError, PatternSet, Relation,
+    Convention, GrayCode, ImageId, Level, MAX_SHIFT_MAGNITUDE, Output, PatternError, PatternSet,
+    Relation,
 };
 use fringe3d_core::phase_function::{
     Axis, KnotProfile, MIN_COARSE_SPAN, PhaseFunction, PhaseFunctionError, Profile,
@@ -144,103 +147,6 @@ fn read_order<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Vec<[u32;
     Ok(v.map(|v| v.into_iter().map(|e| e.0).collect()))
 }
 
-/// `unwrap = "hierarchical" | "heterodyne"`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum UnwrapName {
-    /// Eqs 12-13 from the coarsest level (or a Gray-code level).
-    Hierarchical,
-    /// Multi-frequency heterodyne: the beat of the levels is the coarse phase.
-    Heterodyne,
-}
-
-/// `binary = "off" | "square" | "bayer"`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum BinaryName {
-    /// Gray-level sinusoids (eq 5).
-    Off,
-    /// Squared binary: the sinusoid's sign.
-    Square,
-    /// The sinusoid dithered with the 8 × 8 Bayer matrix.
-    Bayer,
-}
-
-impl BinaryName {
-    /// The core's binarization.
-    pub fn core(self) -> Binarization {
-        match self {
-            BinaryName::Off => Binarization::Off,
-            BinaryName::Square => Binarization::Square,
-            BinaryName::Bayer => Binarization::Bayer,
-        }
-    }
-
-    /// The name as the file writes it.
-    pub fn name(self) -> &'static str {
-        match self {
-            BinaryName::Off => "off",
-            BinaryName::Square => "square",
-            BinaryName::Bayer => "bayer",
-        }
-    }
-
-    /// The file's name for the core's binarization.
-    pub fn of(b: Binarization) -> Self {
-        match b {
-            Binarization::Off => BinaryName::Off,
-            Binarization::Square => BinaryName::Square,
-            Binarization::Bayer => BinaryName::Bayer,
-        }
-    }
-}
-
-/// `convention = "sine" | "cosine"`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ConventionName {
-    /// `I = A + B·sin(Φ + δ)` (the paper).
-    Sine,
-    /// `I = A + B·cos(Φ + δ)`.
-    Cosine,
-}
-
-/// `preset = "paper8" | "twelve"`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum Preset {
-    /// The paper's 8 images (eq 7): levels of 2, 2 and 4 images, scales `1 : r : r²`.
-    #[default]
-    #[serde(rename = "paper8")]
-    Paper8,
-    /// The conventional 12 images: three 4-step levels, scales `1 : r : r²`.
-    #[serde(rename = "twelve")]
-    Twelve,
-}
-
-impl Preset {
-    /// The core's preset.
-    pub fn core(self) -> LevelPreset {
-        match self {
-            Preset::Paper8 => LevelPreset::PaperEight,
-            Preset::Twelve => LevelPreset::Twelve,
-        }
-    }
-
-    /// The levels, coarse to fine, with the scale ratio `ratio` ([`LevelPreset::levels`]).
-    pub fn levels(self, ratio: f64) -> [Level; 3] {
-        self.core().levels(ratio)
-    }
-}
-
-impl From<LevelPreset> for Preset {
-    fn from(p: LevelPreset) -> Self {
-        match p {
-            LevelPreset::PaperEight => Preset::Paper8,
-            LevelPreset::Twelve => Preset::Twelve,
-        }
-    }
-}
-
 /// `[projector]`: pattern size and gray levels.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -263,28 +169,6 @@ pub struct ProjectorSection {
     /// no gamma correction. Default false.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub response_compensated: Option<bool>,
-}
-
-/// `axis = "xi" | "eta"`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum AxisName {
-    /// Φ increases along ξ (projector columns): vertical fringes.
-    Xi,
-    /// Φ increases along η (projector rows): horizontal fringes.
-    Eta,
-}
-
-/// `kind = "linear" | "centered" | "knots"`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum PhaseKind {
-    /// `g(s) = slope·(s − origin)` (eq 6).
-    Linear,
-    /// Linear, spanning `span` radians across the axis, zero at its middle.
-    Centered,
-    /// A monotonic cubic through knots: variable fringe width.
-    Knots,
 }
 
 /// `[phase]`: the phase function `Φ(ξ, η) = g(t + curvature·(w − bend_center)²)`.
