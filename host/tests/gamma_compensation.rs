@@ -24,13 +24,20 @@ const GAMMA: f64 = 2.2;
 const BLACK: f64 = 0.02;
 
 fn scene(gamma: f64) -> Scene {
+    scene_with(gamma, 1.0, None)
+}
+
+/// The plane of [`scene`] with camera noise `noise` (gray levels) and the projector's defocus
+/// (projector pixels; `None`: the scene's).
+fn scene_with(gamma: f64, noise: f64, defocus: Option<f64>) -> Scene {
     let mut s = SceneSpec::builtin("plane").unwrap();
     s.apply(&Overrides {
         size: Some((640, 512)),
         bits: Some(8),
-        noise: Some(1.0),
+        noise: Some(noise),
         pattern_bits: Some(8),
         seed: Some(7),
+        defocus,
         ..Default::default()
     });
     s.projector.gamma = gamma;
@@ -252,19 +259,7 @@ fn a_known_defocus_sharpens_the_table() {
     // response's table alone corrects the finest level for harmonics the light no longer has;
     // with the blur (the calibration's projector_defocus) it models what reaches the camera.
     // Noise-free 8-bit renders: the finest phase's error against the truth.
-    let mut spec = SceneSpec::builtin("plane").unwrap();
-    spec.apply(&Overrides {
-        size: Some((640, 512)),
-        bits: Some(8),
-        noise: Some(0.0),
-        pattern_bits: Some(8),
-        seed: Some(7),
-        defocus: Some(2.5),
-        ..Default::default()
-    });
-    spec.projector.gamma = GAMMA;
-    spec.projector.black_level = BLACK;
-    let s = Scene::new(spec, None).unwrap();
+    let s = scene_with(GAMMA, 0.0, Some(2.5));
     let (f, t) = s.render_fringes(RenderOptions::default()).unwrap();
     let resp = s.true_response().unwrap();
     let (plain, _) = phase_correction(&s.patterns, &resp).unwrap();

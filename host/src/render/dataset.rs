@@ -602,10 +602,7 @@ pub fn write_dataset(
         None => (None, None, None),
     };
     let mut cal = rig.calibration(map, pat, digest);
-    cal.projector_response = scene.true_response();
-    // A binary set, or a non-linear response, is decoded with the projector's blur model: the
-    // rig's true defocus.
-    cal.projector_defocus = scene.true_defocus(&scene.patterns);
+    scene.record_true_light(&mut cal);
     cal.save(&out.dir.join("calibration.toml"))?;
     out.adopt(
         "calibration.toml",

@@ -174,6 +174,14 @@ impl Scene {
         }
     }
 
+    /// Record the projector's true light in `cal` (its response and, where the decoding of the
+    /// scene's set models it, its blur): what a perfect `calibrate gamma` and `calibrate
+    /// defocus` give, from which `scan` makes [`Self::true_correction`]'s table.
+    pub fn record_true_light(&self, cal: &mut crate::io::calibration::Calibration) {
+        cal.projector_response = self.true_response();
+        cal.projector_defocus = self.true_defocus(&self.patterns);
+    }
+
     /// The phase-error table of `set`: for a binary set under [`Self::true_defocus`], else
     /// under [`Self::true_response`] (with the defocus on the pixelated projector; `None` for
     /// a linear projector).

@@ -95,8 +95,7 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
     );
     // What the table of the set-up blob is made from, so that the folder's calibration.toml
     // gives `fringe3d scan` the same decoding as the head's blob.
-    cal.projector_response = scene.true_response();
-    cal.projector_defocus = scene.true_defocus(&scene.patterns);
+    scene.record_true_light(&mut cal);
     let calibration = ScanCalibration::from_parts(
         cal,
         reference,
