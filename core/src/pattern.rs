@@ -222,8 +222,10 @@ pub struct PatternSet {
     binary: Binarization,
 }
 
-/// How the levels of a set give the absolute phase.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// How the levels of a set give the absolute phase. On the wire (the last field of a
+/// [`PatternSetDesc`](crate::params::pattern::PatternSetDesc), protocol version 4, set-up blob
+/// version 4) a varint: `[0]` hierarchical, `[1]` heterodyne.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Relation {
     /// Eqs 12-13: the coarsest level is absolute (within one period over the projector) and each
     /// level unwraps the next (or a Gray-code level gives the first phase level's order).

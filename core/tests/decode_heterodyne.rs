@@ -142,13 +142,22 @@ fn sets_that_cannot_beat_are_refused() {
 }
 
 #[test]
-fn a_head_is_not_sent_a_heterodyne_set() {
-    use fringe3d_core::wire::{DescError, PatternSetDesc};
-    let set = heterodyne(&[21.0, 26.0, 32.0]).unwrap();
-    assert_eq!(
-        PatternSetDesc::from_set(&set, 8).err(),
-        Some(DescError::Heterodyne)
-    );
-    // Its phase is described all the same (the reference's digest).
-    assert!(PatternSetDesc::describe_phase(&set, 8).is_ok());
+fn a_head_is_sent_a_heterodyne_set_bit_for_bit() {
+    use fringe3d_core::wire::{PatternSetDesc, Relation};
+    for scales in [&[21.0, 26.0, 32.0][..], &[8.0, 9.0]] {
+        let set = heterodyne(scales).unwrap();
+        let desc = PatternSetDesc::from_set(&set, 8).unwrap();
+        assert_eq!(desc.relation, Relation::Heterodyne);
+        assert_eq!(desc.to_set(), Ok(set));
+        // The relation is the description's last byte on the wire: [1] heterodyne.
+        let mut buf = [0u8; 4096];
+        let bytes = postcard::to_slice(&desc, &mut buf).unwrap();
+        assert_eq!(bytes.last(), Some(&1));
+        // Read as hierarchical, the same levels are not a set (the coarsest is not absolute).
+        let flat = PatternSetDesc {
+            relation: Relation::Hierarchical,
+            ..desc
+        };
+        assert!(flat.to_set().is_err());
+    }
 }

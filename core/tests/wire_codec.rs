@@ -163,7 +163,7 @@ fn header_layout() {
     let mut out = [0u8; HEADER_LEN];
     assert_eq!(h.emit(&mut out), Ok(6));
     // version, flags (bit 0 + bit 3), seq, command, length LE.
-    assert_eq!(out, [0x03, 0x09, 0xA5, 0x12, 0x02, 0x01]);
+    assert_eq!(out, [0x04, 0x09, 0xA5, 0x12, 0x02, 0x01]);
     assert_eq!(Header::parse(&out), Ok(h));
 
     assert_eq!(Flags::WRITE.bits(), 0x01);
@@ -182,22 +182,26 @@ fn header_rejects() {
         Header::parse(&[0x01, 0, 0, 0, 0, 0]),
         Err(WireError::Version(1))
     );
-    // Version 2 (before the scan identity) is refused too.
+    // Versions 2 (before the scan identity) and 3 (before the relation) are refused too.
     assert_eq!(
         Header::parse(&[0x02, 0, 0, 0, 0, 0]),
         Err(WireError::Version(2))
     );
     assert_eq!(
-        Header::parse(&[0x03, 0x10, 0, 0, 0, 0]),
+        Header::parse(&[0x03, 0, 0, 0, 0, 0]),
+        Err(WireError::Version(3))
+    );
+    assert_eq!(
+        Header::parse(&[0x04, 0x10, 0, 0, 0, 0]),
         Err(WireError::ReservedFlags)
     );
     // 4097 = 0x1001 > MAX_PAYLOAD.
     assert_eq!(
-        Header::parse(&[0x03, 0, 0, 0, 0x01, 0x10]),
+        Header::parse(&[0x04, 0, 0, 0, 0x01, 0x10]),
         Err(WireError::Length)
     );
     assert_eq!(
-        Header::parse(&[0x03, 0, 0, 0, 0]),
+        Header::parse(&[0x04, 0, 0, 0, 0]),
         Err(WireError::Truncated)
     );
     let h = Header {
@@ -226,6 +230,7 @@ fn command_ids() {
         (Command::UploadChunk, 0x12, true),
         (Command::QueryUpload, 0x13, false),
         (Command::ConfirmUpload, 0x14, true),
+        (Command::DefineCorrection, 0x15, true),
         (Command::UploadCalibration, 0x18, true),
         (Command::BeginPhaseMapUpload, 0x19, true),
         (Command::ConfigureSequence, 0x20, true),

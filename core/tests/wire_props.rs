@@ -103,6 +103,11 @@ fn pattern_set(r: &mut XorShift64) -> PatternSetDesc {
         },
         level_count,
         levels,
+        relation: if r.below(2) == 0 {
+            Relation::Hierarchical
+        } else {
+            Relation::Heterodyne
+        },
     }
 }
 
@@ -145,15 +150,15 @@ fn random_message<'a>(
     buf: &'a mut [u8],
 ) -> Message<'a> {
     let kind = kind.unwrap_or_else(|| r.below(Command::ALL.len() as u32));
-    match kind {
-        0 => Message::Hello(Hello {
+    match Command::ALL[kind as usize % Command::ALL.len()] {
+        Command::Hello => Message::Hello(Hello {
             protocol_version: r.next_u32() as u8,
         }),
-        1 => Message::DefinePatternSet(DefinePatternSet {
+        Command::DefinePatternSet => Message::DefinePatternSet(DefinePatternSet {
             set_id: r.next_u32() as u8,
             desc: pattern_set(r),
         }),
-        2 => {
+        Command::BeginUpload => {
             let (c, w, h) = (1 + r.below(64), 1 + r.below(4096), 1 + r.below(4096));
             Message::BeginUpload(BeginUpload {
                 set_id: r.next_u32() as u8,
@@ -165,15 +170,28 @@ fn random_message<'a>(
                 digest: r.next_u32(),
             })
         }
-        3 => {
+        Command::UploadChunk => {
             let data = &data[..data.len().clamp(1, MAX_CHUNK)];
             let offset = r.next_u32() % (u32::MAX - data.len() as u32);
             Message::UploadChunk(UploadChunk::new(target(r), offset, data))
         }
-        4 => Message::QueryUpload(target(r)),
-        5 => Message::ConfirmUpload(target(r)),
-        6 => Message::UploadCalibration(calibration(r)),
-        7 => {
+        Command::QueryUpload => Message::QueryUpload(target(r)),
+        Command::ConfirmUpload => Message::ConfirmUpload(target(r)),
+        Command::DefineCorrection => {
+            let levels = 1 + r.below(MAX_LEVELS as u32) as u8;
+            let m = fringe3d_core::decode::PhaseCorrection::MAX_DELTA as u32;
+            let mut knots = [[0i16; 32]; MAX_LEVELS];
+            for k in knots.iter_mut().take(levels as usize).flatten() {
+                *k = (r.below(2 * m + 1) as i32 - m as i32) as i16;
+            }
+            let table = SetupCorrection { levels, knots };
+            Message::DefineCorrection(DefineCorrection {
+                set_id: r.next_u32() as u8,
+                table: (r.below(2) == 0).then_some(table),
+            })
+        }
+        Command::UploadCalibration => Message::UploadCalibration(calibration(r)),
+        Command::BeginPhaseMapUpload => {
             let (w, h) = (1 + r.below(20_000), 1 + r.below(20_000));
             Message::BeginPhaseMapUpload(BeginPhaseMap {
                 width: w as u16,
@@ -182,7 +200,7 @@ fn random_message<'a>(
                 digest: r.next_u32(),
             })
         }
-        8 => {
+        Command::ConfigureSequence => {
             let n = 1 + r.below(MAX_LUT_ENTRIES as u32) as usize;
             let entries: Vec<LutEntry> = (0..n)
                 .map(|_| LutEntry {
@@ -200,10 +218,10 @@ fn random_message<'a>(
                 entries: LutTable::encode(&entries, buf).unwrap(),
             })
         }
-        9 => Message::ValidateSequence,
-        10 => Message::Start,
-        11 => Message::Stop,
-        12 => Message::Scan(ScanRequest {
+        Command::ValidateSequence => Message::ValidateSequence,
+        Command::Start => Message::Start,
+        Command::Stop => Message::Stop,
+        Command::Scan => Message::Scan(ScanRequest {
             scan_id: r.next_u32(),
             output: [ScanOutput::Phase, ScanOutput::Points, ScanOutput::Both][r.below(3) as usize],
             first_row: r.next_u32() as u16,
@@ -214,9 +232,9 @@ fn random_message<'a>(
                 EdgeFilterMode::MaxAngle((1 + r.below(89_999)) as f64 / 1000.0)
             },
         }),
-        13 => Message::Abort,
-        14 => Message::GetStatus,
-        15 => Message::Capabilities(Capabilities {
+        Command::Abort => Message::Abort,
+        Command::GetStatus => Message::GetStatus,
+        Command::Capabilities => Message::Capabilities(Capabilities {
             protocol_version: r.next_u32() as u8,
             firmware: FirmwareVersion {
                 major: r.next_u32() as u8,
@@ -232,10 +250,10 @@ fn random_message<'a>(
             max_sets: r.next_u32() as u8,
             max_lut_entries: 1 + r.below(MAX_LUT_ENTRIES as u32) as u16,
         }),
-        16 => Message::Ack(Ack {
+        Command::Ack => Message::Ack(Ack {
             command: r.next_u32() as u8,
         }),
-        17 => {
+        Command::Nak => {
             let codes = [
                 NakCode::Crc,
                 NakCode::Framing,
@@ -260,12 +278,14 @@ fn random_message<'a>(
                 detail: r.next_u32() as u16,
             })
         }
-        18 => Message::UploadAck(UploadAck {
+        Command::UploadAck => Message::UploadAck(UploadAck {
             target: target(r),
             next_offset: r.next_u32(),
         }),
-        19 => Message::Validation(ValidationStatus(r.next_u32() & ValidationStatus::ALL)),
-        20 => {
+        Command::Validation => {
+            Message::Validation(ValidationStatus(r.next_u32() & ValidationStatus::ALL))
+        }
+        Command::Status => {
             let states = [
                 HeadState::Idle,
                 HeadState::Uploading,
@@ -283,7 +303,7 @@ fn random_message<'a>(
                 rows_sent: r.next_u32(),
             })
         }
-        21 => {
+        Command::ResultRow => {
             let kind = if r.below(2) == 0 {
                 RowKind::Phase
             } else {
@@ -308,7 +328,7 @@ fn random_message<'a>(
                 data: &buf[..len],
             })
         }
-        _ => Message::ScanDone(ScanDone {
+        Command::ScanDone => Message::ScanDone(ScanDone {
             scan_id: r.next_u32(),
             rows: r.next_u32() as u16,
             valid: r.next_u32(),

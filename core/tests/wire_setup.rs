@@ -106,6 +106,20 @@ fn edge() -> EdgeFilterParams {
     }
 }
 
+/// Three-frequency heterodyne, periods 32/26/21-ish across the projector (beat of beats one).
+fn heterodyne_set() -> PatternSet {
+    let out = Output {
+        width: 1024,
+        height: 768,
+        i_min: 0.0,
+        i_max: 255.0,
+    };
+    let f = PhaseFunction::centered(Axis::Xi, 1024, 0.9 * std::f64::consts::TAU).expect("f");
+    let levels = [21.0, 26.0, 32.0].map(|c| pattern::Level::n_step(c, 4));
+    PatternSet::new_with_relation(f, &levels, out, pattern::Relation::Heterodyne)
+        .expect("a heterodyne set")
+}
+
 fn head_setup(set: &PatternSet, pattern_bits: u32, sample_bits: u8) -> HeadSetup {
     HeadSetup::from_core(
         frames(sample_bits),
@@ -147,8 +161,8 @@ fn seal(payload: &[u8]) -> Vec<u8> {
 /// The hand-laid blob of [`small_setup`].
 #[rustfmt::skip]
 const SMALL_BLOB: &[u8] = &[
-    // header: magic F3DS, version 3, reserved 0, payload length 345 (LE)
-    0x46, 0x33, 0x44, 0x53, 0x03, 0x00, 0x59, 0x01,
+    // header: magic F3DS, version 4, reserved 0, payload length 346 (LE)
+    0x46, 0x33, 0x44, 0x53, 0x04, 0x00, 0x5A, 0x01,
     // frames: width 4, height 3, sample_bits 12, sample_bytes 2
     0x04, 0x03, 0x0C, 0x02,
     // patterns: width 8, height 2, bit_depth 8
@@ -183,6 +197,8 @@ const SMALL_BLOB: &[u8] = &[
     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    // relation [0] hierarchical (version 4)
+    0x00,
     // capture order: count 3 (varint), patterns 2 0 1
     0x03, 0x02, 0x00, 0x01,
     // thresholds: dark 80.0, saturation 4095.0, min_modulation 82.0, unwrap_tolerance 2.0,
@@ -227,9 +243,26 @@ const SMALL_BLOB: &[u8] = &[
     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x54, 0x40,
     // correction: none (field 8)
     0x00,
-    // CRC-32C 0x2D93EB66 (LE)
-    0x66, 0xEB, 0x93, 0x2D,
+    // CRC-32C 0xD46AF71D (LE)
+    0x1D, 0xF7, 0x6A, 0xD4,
 ];
+
+/// Where [`SMALL_BLOB`] holds the pattern set's relation (field 2's last byte, version 4).
+const SMALL_BLOB_RELATION_AT: usize = 141;
+
+/// [`SMALL_BLOB`] as format version 3 wrote it: no relation byte in field 2 (357 bytes; its
+/// CRC-32C was 0x2D93EB66 when it was the current version's vector). Still read.
+fn small_blob_v3() -> Vec<u8> {
+    let mut payload = SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN].to_vec();
+    assert_eq!(payload.remove(SMALL_BLOB_RELATION_AT - SETUP_HEADER_LEN), 0);
+    let mut b = seal(&payload);
+    b[4] = 3;
+    let crc = crc32c(&b[..b.len() - SETUP_CRC_LEN]);
+    let n = b.len();
+    b[n - SETUP_CRC_LEN..].copy_from_slice(&crc.to_le_bytes());
+    assert_eq!(crc, 0x2D93_EB66);
+    b
+}
 
 /// [`SMALL_BLOB`] as format version 2 wrote it (field 3 with 32 fixed entries): still read.
 #[rustfmt::skip]
@@ -408,6 +441,7 @@ fn small_setup() -> HeadSetup {
             },
             level_count: 1,
             levels,
+            relation: Relation::Hierarchical,
         },
         capture_order: CaptureOrder {
             count: 3,
@@ -454,6 +488,11 @@ fn the_small_blob_is_laid_out_as_documented() {
     assert_eq!(emit(&s), SMALL_BLOB);
     assert_eq!(HeadSetup::parse(SMALL_BLOB), Ok(s));
     assert_eq!(
+        HeadSetup::parse(&small_blob_v3()),
+        Ok(s),
+        "version 3 still reads"
+    );
+    assert_eq!(
         HeadSetup::parse(SMALL_BLOB_V2),
         Ok(s),
         "version 2 still reads"
@@ -481,6 +520,7 @@ fn round_trips_rebuild_the_desktop_objects_exactly() {
         (odd_set(), 8, 8),
         (square, 16, 12),
         (bayer, 8, 8),
+        (heterodyne_set(), 8, 8),
     ] {
         let mut s = head_setup(&set, pattern_bits, sample_bits);
         let mut table = None;
@@ -523,9 +563,9 @@ fn round_trips_rebuild_the_desktop_objects_exactly() {
 #[test]
 fn emit_needs_room() {
     let s = small_setup();
-    let mut out = [0u8; 357];
-    assert_eq!(s.emit(&mut out), Ok(357));
-    for n in [0, 11, 12, 100, 356] {
+    let mut out = [0u8; 358];
+    assert_eq!(s.emit(&mut out), Ok(358));
+    for n in [0, 11, 12, 100, 357] {
         let mut short = vec![0u8; n];
         assert_eq!(
             s.emit(&mut short),
@@ -546,14 +586,14 @@ fn header_errors_are_named() {
     assert_eq!(HeadSetup::parse(&good[..11]), Err(SetupError::Truncated));
     assert_eq!(HeadSetup::parse(&[]), Err(SetupError::Truncated));
     assert_eq!(with(&|b| b[0] = b'G'), Err(SetupError::Magic));
-    assert_eq!(with(&|b| b[4] = 4), Err(SetupError::Version(4)));
+    assert_eq!(with(&|b| b[4] = 5), Err(SetupError::Version(5)));
     assert_eq!(with(&|b| b[4] = 0), Err(SetupError::Version(0)));
     assert_eq!(with(&|b| b[5] = 1), Err(SetupError::Reserved));
     assert_eq!(with(&|b| b[6] += 1), Err(SetupError::Length));
     assert_eq!(with(&|b| b.push(0)), Err(SetupError::Length));
     assert_eq!(with(&|b| b[7] = 0x10), Err(SetupError::Length)); // 4185 > MAX_SETUP_PAYLOAD
     assert_eq!(with(&|b| b[40] ^= 1), Err(SetupError::Crc));
-    assert_eq!(with(&|b| b[356] ^= 0x80), Err(SetupError::Crc));
+    assert_eq!(with(&|b| b[357] ^= 0x80), Err(SetupError::Crc));
     // Past the CRC: a byte too many, and a payload that is not a set-up.
     let payload = &good[SETUP_HEADER_LEN..good.len() - SETUP_CRC_LEN];
     let mut longer = payload.to_vec();

@@ -55,6 +55,7 @@ fn paper_set() -> PatternSetDesc {
         },
         level_count: 2,
         levels,
+        relation: Relation::Hierarchical,
     }
 }
 
@@ -589,7 +590,7 @@ fn row_and_bitfield_rules() {
     );
 
     assert_eq!(
-        ValidationStatus(1 << 12).validate(),
+        ValidationStatus(1 << 13).validate(),
         invalid(Invalid::ReservedBits)
     );
     assert!(ValidationStatus::OK.is_ok());

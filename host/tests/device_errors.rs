@@ -10,7 +10,8 @@ use std::time::{Duration, Instant};
 use fringe3d::device::{Client, ClientOptions, DeviceError, SerialTransport, open_serial};
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::{
-    Capabilities, FirmwareVersion, FrameReceiver, MAX_ENCODED_FRAME, Message, Nak, NakCode, cobs,
+    Capabilities, FirmwareVersion, FrameReceiver, MAX_ENCODED_FRAME, Message, Nak, NakCode,
+    PROTOCOL_VERSION, cobs,
 };
 use serialport::{SerialPort, TTYPort};
 
@@ -128,7 +129,7 @@ fn a_silent_line_times_out_with_a_hint() {
 
 #[test]
 fn another_protocol_version_is_reported_as_such() {
-    // An old head (protocol 1) cannot parse our version-3 Hello: it answers, in its own version,
+    // An old head (protocol 1) cannot parse our version-4 Hello: it answers, in its own version,
     // Nak Version naming the version it speaks.
     let (io, stop, h) = fake(|f| {
         let nak = Nak {
@@ -141,20 +142,29 @@ fn another_protocol_version_is_reported_as_such() {
     let e = Client::connect(io, quick()).err().expect("version 1");
     let m = e.to_string();
     assert!(
-        matches!(e, DeviceError::Version { device: 1, host: 3 }),
+        matches!(
+            e,
+            DeviceError::Version {
+                device: 1,
+                host: PROTOCOL_VERSION
+            }
+        ),
         "{m}"
     );
     assert!(
-        m.contains("protocol version 1") && m.contains("version 3") && m.contains("update"),
+        m.contains("protocol version 1")
+            && m.contains(&format!("version {PROTOCOL_VERSION}"))
+            && m.contains("update"),
         "{m}"
     );
     stop.store(true, Ordering::Relaxed);
     h.join().unwrap();
 
-    // A newer head (protocol 4) answering Capabilities in its version.
+    // A newer head (the next protocol) answering Capabilities in its version.
+    const NEWER: u8 = PROTOCOL_VERSION + 1;
     let (io, stop, h) = fake(|f| {
         let caps = Capabilities {
-            protocol_version: 4,
+            protocol_version: NEWER,
             firmware: FirmwareVersion {
                 major: 4,
                 minor: 0,
@@ -169,12 +179,18 @@ fn another_protocol_version_is_reported_as_such() {
             max_sets: 1,
             max_lut_entries: 1,
         };
-        frame_with_version(4, f[2], &Message::Capabilities(caps))
+        frame_with_version(NEWER, f[2], &Message::Capabilities(caps))
     });
-    let e = Client::connect(io, quick()).err().expect("version 4");
+    let e = Client::connect(io, quick()).err().expect("a newer version");
     let m = e.to_string();
     assert!(
-        matches!(e, DeviceError::Version { device: 4, host: 3 }),
+        matches!(
+            e,
+            DeviceError::Version {
+                device: NEWER,
+                host: PROTOCOL_VERSION
+            }
+        ),
         "{m}"
     );
     stop.store(true, Ordering::Relaxed);

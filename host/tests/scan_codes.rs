@@ -298,6 +298,26 @@ fn patterns_render_and_scan_take_gray_code_heterodyne_and_binary_sets() {
         "{err}"
     );
     assert!(!t.0.join("bare.ply").exists());
+    // `device upload` takes the set with the calibration (the table goes with it), and without
+    // one says what it needs, before touching the port.
+    for cal in [None, Some(&bare)] {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_fringe3d"));
+        cmd.args(["device", "upload", "--port"])
+            .arg(t.0.join("no-such-port"))
+            .arg("-p")
+            .arg(t.0.join("ds-binary").join("patterns.toml"));
+        if let Some(c) = cal {
+            cmd.arg("-c").arg(c);
+        }
+        let o = cmd.output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success()
+                && err.contains("projector_defocus")
+                && !err.contains("no-such-port"),
+            "{err}"
+        );
+    }
     // `calibrate defocus` measures it from the scan itself: the rendered blur, found again.
     let est = t.0.join("estimated.toml");
     let o = Command::new(env!("CARGO_BIN_EXE_fringe3d"))

@@ -50,6 +50,12 @@ fn dataset(root: &Path) -> PathBuf {
 
 /// The sphere scene rendered under the pattern-set file `set`.
 fn dataset_with(root: &Path, set: &str) -> PathBuf {
+    dataset_defocused(root, set, None)
+}
+
+/// [`dataset_with`] through a projector blurred by `defocus` pixels (its calibration records
+/// the blur as `projector_defocus`).
+fn dataset_defocused(root: &Path, set: &str, defocus: Option<f64>) -> PathBuf {
     let dir = root.join("sphere");
     let set_file = root.join("set.toml");
     std::fs::write(&set_file, set).unwrap();
@@ -58,6 +64,7 @@ fn dataset_with(root: &Path, set: &str) -> PathBuf {
         size: Some(CAM),
         supersample: Some(1),
         pattern_bits: Some(8),
+        defocus,
         ..Default::default()
     });
     spec.patterns.set = Some(fringe3d::io::pattern_file::PatternSetFile::load(&set_file).unwrap());
@@ -667,69 +674,206 @@ fn a_gray_coded_set_scans_on_the_head_bit_identical_to_the_desktop() {
          [phase]\naxis = \"xi\"\nkind = \"centered\"\nspan = 6.0\ncurvature = 0.0002\nbend_center = 383.5\n\
          [[levels]]\nscale = 20.0\ngray_bits = 5\n[[levels]]\nscale = 20.0\nsteps = 4\n",
     );
-    let patterns = dir.join("patterns.toml");
-    let calib = dir.join("calibration.toml");
-    let ls = common::load_set(&patterns).unwrap();
-    let set = &ls.set;
+    let case = head_case(&dir);
+    let (set, desc, seq) = (&case.set, &case.desc, &case.seq);
     assert!(
         set.gray().is_some() && set.image(0).unwrap().level == 0,
         "Gray first"
     );
+    let data = pattern_bytes(set, desc, |i| render_pattern(set, i)).unwrap();
+    assert_eq!(data.len(), 10 * 1024 * 768);
+    let first = desc.pattern_id(seq[0].pattern).unwrap();
+    assert_eq!(first.level, 1, "captured DC level first");
+    on_head(&dir, &case, Some(&data), true, |c, v| {
+        assert_eq!(v, ValidationStatus::OK);
+        // Captured in the listed order (Gray first), the head refuses the scan and says why.
+        let listed: Vec<_> = set
+            .order()
+            .iter()
+            .map(|&id| fringe3d_core::wire::LutEntry {
+                pattern: desc.pattern_index(id).unwrap(),
+                ..seq[0]
+            })
+            .collect();
+        c.configure_sequence(0, false, &listed).unwrap();
+        let e = c
+            .scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a Gray-code pattern is captured before"), "{e}");
+        c.configure_sequence(0, false, seq).unwrap();
+        assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
+        assert_desktop_bits(&scan_both(c), &case.dec, &case.cloud);
+    });
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// The desktop's decode (with the calibration's phase-error table, as `fringe3d scan` decodes)
+/// and filtered cloud of a dataset, the table, and what a head is sent: the set's description
+/// (12 images of 1024 × 768 exceed the simulated head's 8 MiB pattern store: it renders them
+/// itself, which `fidelity` shows exact), the trigger sequence, the wire calibration and the
+/// reference map.
+struct HeadCase {
+    set: fringe3d_core::pattern::PatternSet,
+    dec: Decoded,
+    cloud: PointCloud,
+    table: Option<fringe3d_core::decode::PhaseCorrection>,
+    desc: fringe3d_core::wire::PatternSetDesc,
+    seq: Vec<fringe3d_core::wire::LutEntry>,
+    wcal: fringe3d_core::wire::Calibration,
+    map: Vec<u8>,
+}
+
+fn head_case(dir: &Path) -> HeadCase {
+    let patterns = dir.join("patterns.toml");
+    let calib = dir.join("calibration.toml");
+    let ls = common::load_set(&patterns).unwrap();
+    let set = &ls.set;
+    let cal = Calibration::load(&calib).unwrap();
+    let table = common::response_correction(&cal, &calib, &ls).unwrap();
     let imgs = common::load_images(&ls, &[], true).unwrap();
-    let dec = common::decode(set, &imgs, common::decode_config(&imgs)).unwrap();
+    let dec =
+        common::decode_corrected(set, &imgs, common::decode_config(&imgs), table.as_ref()).unwrap();
     let sc = ScanCalibration::load(&calib, set.axis()).unwrap();
     let mut cloud = sc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
     filter_edges(&mut cloud, &sc.edge_filter(80.0).unwrap());
     assert!(cloud.valid_count() > (CAM.0 * CAM.1 / 4) as usize);
-
     let desc = pattern_desc(set, ls.file.bit_depth()).unwrap();
-    let data = pattern_bytes(set, &desc, |i| render_pattern(set, i)).unwrap();
-    assert_eq!(data.len(), 10 * 1024 * 768);
-    let seq = capture_sequence(set, &desc, 10_000, 2_000).unwrap();
-    let first = desc.pattern_id(seq[0].pattern).unwrap();
-    assert_eq!(first.level, 1, "captured DC level first");
-    let wcal = wire_calibration(&Calibration::load(&calib).unwrap()).unwrap();
-    let map = phase_map_bytes(&sc.reference_phase, sc.width());
+    let fid = fidelity(set, &desc, 8);
+    assert!(
+        fid.patterns && fid.decoder,
+        "the head rebuilds the set exactly"
+    );
+    HeadCase {
+        seq: capture_sequence(set, &desc, 10_000, 2_000).unwrap(),
+        wcal: wire_calibration(&cal).unwrap(),
+        map: phase_map_bytes(&sc.reference_phase, sc.width()),
+        set: *set,
+        dec,
+        cloud,
+        table,
+        desc,
+    }
+}
 
+/// Define `case` on a fresh head (its table too if `send_table`), upload its images if given (else the head
+/// renders them), its calibration and map, configure its sequence; `f` then drives the client,
+/// given the validation.
+fn on_head(
+    dir: &Path,
+    case: &HeadCase,
+    images: Option<&[u8]>,
+    send_table: bool,
+    f: impl FnOnce(&mut Client<fringe3d::device::SerialTransport>, ValidationStatus),
+) {
     let stop = Arc::new(AtomicBool::new(false));
-    let (paths, cmd, head) = spawn_head(dir.clone(), stop.clone());
+    let (paths, cmd, head) = spawn_head(dir.to_path_buf(), stop.clone());
     let port = paths.recv().unwrap();
     let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
-    c.define_pattern_set(0, &desc).unwrap();
-    c.upload_patterns(0, &desc, &data, &mut |_, _| {}).unwrap();
-    c.upload_calibration(&wcal).unwrap();
-    c.upload_phase_map(CAM.0 as u16, CAM.1 as u16, &map, &mut |_, _| {})
+    c.define_pattern_set(0, &case.desc).unwrap();
+    if send_table {
+        c.define_correction(0, case.table.as_ref()).unwrap();
+    }
+    if let Some(data) = images {
+        c.upload_patterns(0, &case.desc, data, &mut |_, _| {})
+            .unwrap();
+    }
+    c.upload_calibration(&case.wcal).unwrap();
+    c.upload_phase_map(CAM.0 as u16, CAM.1 as u16, &case.map, &mut |_, _| {})
         .unwrap();
-    // Captured in the listed order (Gray first), the head refuses the scan and says why.
-    let listed: Vec<_> = set
-        .order()
-        .iter()
-        .map(|&id| fringe3d_core::wire::LutEntry {
-            pattern: desc.pattern_index(id).unwrap(),
-            ..seq[0]
-        })
-        .collect();
-    c.configure_sequence(0, false, &listed).unwrap();
-    let e = c
-        .scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("a Gray-code pattern is captured before"), "{e}");
-    c.configure_sequence(0, false, &seq).unwrap();
-    assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
-    let out = c
-        .scan(
-            ScanOutput::Both,
-            0,
-            0,
-            EdgeFilterMode::MaxAngle(80.0),
-            &mut |_, _| {},
-        )
-        .unwrap();
-    assert_desktop_bits(&out, &dec, &cloud);
+    c.configure_sequence(0, false, &case.seq).unwrap();
+    let v = c.validate().unwrap();
+    f(&mut c, v);
     drop(c);
     stop.store(true, Ordering::SeqCst);
     cmd.send(Cmd::Exit).unwrap();
     head.join().unwrap();
+}
+
+fn scan_both(c: &mut Client<fringe3d::device::SerialTransport>) -> ScanOutcome {
+    c.scan(
+        ScanOutput::Both,
+        0,
+        0,
+        EdgeFilterMode::MaxAngle(80.0),
+        &mut |_, _| {},
+    )
+    .unwrap()
+}
+
+/// Multi-frequency heterodyne on the head (issue #20, protocol version 4): periods of about
+/// 54, 44 and 36 pixels across the projector, no level within one period, unwrapped from the
+/// beats; the head's phases and points equal the desktop's bit for bit.
+#[test]
+fn a_heterodyne_set_scans_on_the_head_bit_identical_to_the_desktop() {
+    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-het-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let dir = dataset_with(
+        &root,
+        "version = 2\nunwrap = \"heterodyne\"\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
+         [[levels]]\nscale = 21.0\nsteps = 4\n[[levels]]\nscale = 26.0\nsteps = 4\n\
+         [[levels]]\nscale = 32.0\nsteps = 4\n",
+    );
+    let case = head_case(&dir);
+    assert_eq!(
+        case.desc.relation,
+        fringe3d_core::wire::Relation::Heterodyne
+    );
+    assert!(case.table.is_none());
+    on_head(&dir, &case, None, true, |c, v| {
+        assert_eq!(v, ValidationStatus::OK);
+        assert_desktop_bits(&scan_both(c), &case.dec, &case.cloud);
+    });
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Binary (Bayer-dithered) patterns through a projector blurred by 3 pixels, on the head
+/// (issue #20 item 3, protocol version 4): without its phase-error table the head refuses the
+/// sequence and says why; with the table of the calibration's `projector_defocus`
+/// (DefineCorrection) its phases and points equal the desktop's bit for bit, and clearing the
+/// table refuses again.
+#[test]
+fn a_binary_set_scans_on_the_head_with_its_table_bit_identical_to_the_desktop() {
+    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-bin-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let dir = dataset_defocused(
+        &root,
+        &format!(
+            "version = 2\nbinary = \"bayer\"\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
+             [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 511.5\nslope = {}\n\
+             [[levels]]\nscale = 1.0\nsteps = 4\n[[levels]]\nscale = 6.0\nsteps = 4\n\
+             [[levels]]\nscale = 32.0\nsteps = 4\n",
+            std::f64::consts::TAU / 1024.0
+        ),
+        Some(3.0),
+    );
+    let case = head_case(&dir);
+    assert!(
+        case.table.is_some(),
+        "a binary set is decoded with its table"
+    );
+    on_head(&dir, &case, None, false, |c, v| {
+        assert!(v.has(ValidationStatus::NO_CORRECTION), "{v:?}");
+        let e = c
+            .scan(ScanOutput::Phase, 0, 0, EdgeFilterMode::Off, &mut |_, _| {})
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no phase-error table"), "{e}");
+        c.define_correction(0, case.table.as_ref()).unwrap();
+        assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
+        assert_desktop_bits(&scan_both(c), &case.dec, &case.cloud);
+        // A table for another level count is refused; clearing it refuses the scan again.
+        let mut wrong = case.table.unwrap();
+        wrong.levels = 2;
+        let e = c
+            .define_correction(0, Some(&wrong))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("correction"), "{e}");
+        c.define_correction(0, None).unwrap();
+        assert!(c.validate().unwrap().has(ValidationStatus::NO_CORRECTION));
+    });
     let _ = std::fs::remove_dir_all(&root);
 }

@@ -8,7 +8,7 @@
 //! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
 mod common;
-use common::{gray_set, small_u8};
+use common::{gray_set, heterodyne_set, small_u8};
 use fringe3d::vectors::{self, GoldenVectors, VectorOptions};
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use std::collections::BTreeMap;
@@ -236,4 +236,10 @@ fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
         ..gray_opts
     };
     check_scan(&elf, &binary_opts, "sphere-160x128-u8-gray3c-bayer");
+    // Two-frequency heterodyne (8 images), its relation carried by the set-up blob (version 4).
+    let heterodyne_opts = VectorOptions {
+        patterns: Some(heterodyne_set()),
+        ..small_u8("sphere", 6)
+    };
+    check_scan(&elf, &heterodyne_opts, "sphere-160x128-u8-heterodyne");
 }

@@ -6,6 +6,8 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::pattern::Relation;
+
 /// Most fringe levels (scale coefficients `c_k`) in a [`PatternSetDesc`]: the core's
 /// [`pattern::MAX_LEVELS`](crate::pattern::MAX_LEVELS).
 pub const MAX_LEVELS: usize = crate::pattern::MAX_LEVELS;
@@ -15,11 +17,12 @@ pub const MAX_SHIFTS: usize = crate::pattern::MAX_SHIFTS;
 /// Most knots of a [`Knots`] profile: the core's
 /// [`phase_function::MAX_KNOTS`](crate::phase_function::MAX_KNOTS).
 pub const MAX_KNOTS: usize = crate::phase_function::MAX_KNOTS;
-/// Longest [`PatternSetDesc::phase_encoding`], bytes: a description with a full knot profile and
-/// every level holding [`MAX_SHIFTS`] explicit shifts (postcard: sizes as varints of up to 3
-/// bytes, `u8` and enum tags 1 byte, `f64` 8 bytes, arrays without a length).
+/// The buffer [`PatternSetDesc::phase_encoding`] always fits in, bytes: the whole encoding of a
+/// description with a full knot profile and every level holding [`MAX_SHIFTS`] explicit shifts
+/// (postcard: sizes as varints of up to 3 bytes, `u8` and enum tags 1 byte, `f64` 8 bytes,
+/// arrays without a length), its last byte the relation, which the result then leaves out.
 pub const PHASE_ENCODING_MAX: usize =
-    32 + (19 + 24 * MAX_KNOTS) + 1 + MAX_LEVELS * (10 + 8 * MAX_SHIFTS);
+    32 + (19 + 24 * MAX_KNOTS) + 1 + MAX_LEVELS * (10 + 8 * MAX_SHIFTS) + 1;
 
 /// The projector axis along which the phase function is monotonic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -189,6 +192,9 @@ pub struct PatternSetDesc {
     pub level_count: u8,
     /// The levels, coarse to fine; slots from `level_count` on must be [`Level::UNUSED`].
     pub levels: [Level; MAX_LEVELS],
+    /// How the levels give the absolute phase (protocol version 4; earlier versions had no such
+    /// field and meant [`Relation::Hierarchical`]).
+    pub relation: Relation,
 }
 
 impl PatternSetDesc {
@@ -217,14 +223,23 @@ impl PatternSetDesc {
         }
     }
 
-    /// The postcard (wire) encoding of [`PatternSetDesc::phase_canonical`] in `buf`: the bytes
-    /// a digest of "the pattern set that determines the phase" is taken over (a reference phase
-    /// map and a scan are comparable only when these bytes agree). `None` if `buf` is shorter
-    /// than the encoding ([`PHASE_ENCODING_MAX`] always suffices).
+    /// The postcard (wire) encoding of [`PatternSetDesc::phase_canonical`] in `buf`, without
+    /// its last field: the bytes a digest of "the pattern set that determines the phase" is
+    /// taken over (a reference phase map and a scan are comparable only when these bytes agree).
+    /// `None` if `buf` is shorter than the encoding ([`PHASE_ENCODING_MAX`] always suffices).
+    ///
+    /// The last field, the [`Relation`], is how the levels are unwrapped, not which phase they
+    /// encode: a valid pixel's absolute phase is `c_K·Φ` whichever way it was reached. Leaving it
+    /// out keeps every digest what it was before protocol version 4 carried it. Postcard writes
+    /// it as one varint byte (both variants are below 128), so it is the encoding's last byte.
     pub fn phase_encoding<'a>(&self, buf: &'a mut [u8]) -> Option<&'a [u8]> {
-        postcard::to_slice(&self.phase_canonical(), buf)
-            .ok()
-            .map(|b| &*b)
+        let canonical = PatternSetDesc {
+            relation: Relation::Hierarchical,
+            ..self.phase_canonical()
+        };
+        let all = postcard::to_slice(&canonical, buf).ok()?;
+        let (relation, fields) = all.split_last()?;
+        (*relation == 0).then_some(fields)
     }
 }
 
@@ -261,6 +276,7 @@ mod tests {
             },
             level_count: MAX_LEVELS as u8,
             levels: [explicit; MAX_LEVELS],
+            relation: Relation::Heterodyne,
         }
     }
 
@@ -268,7 +284,7 @@ mod tests {
     fn the_largest_description_fits_exactly() {
         let mut buf = [0u8; PHASE_ENCODING_MAX + 8];
         let n = full().phase_encoding(&mut buf).map(|b| b.len());
-        assert_eq!(n, Some(PHASE_ENCODING_MAX));
+        assert_eq!(n, Some(PHASE_ENCODING_MAX - 1));
         let mut short = [0u8; PHASE_ENCODING_MAX - 1];
         assert!(full().phase_encoding(&mut short).is_none());
     }
@@ -295,5 +311,17 @@ mod tests {
         let mut e = a;
         e.waveform = Waveform::Sine;
         assert_ne!(enc(&a), enc(&e));
+        // The relation is how the phase is unwrapped, not which: left out (and the encoding is
+        // the whole description's but its last byte, which the wire has).
+        let mut f = a;
+        f.relation = Relation::Hierarchical;
+        assert_eq!(enc(&a), enc(&f));
+        let mut wire = [0u8; PHASE_ENCODING_MAX];
+        let (n, digest_bytes) = enc(&f);
+        let whole = postcard::to_slice(&f.phase_canonical(), &mut wire).map(|w| &*w);
+        assert_eq!(
+            whole.ok().and_then(|w| w.split_last()),
+            Some((&0, &digest_bytes[..n]))
+        );
     }
 }

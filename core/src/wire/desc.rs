@@ -41,9 +41,6 @@ pub enum DescError {
     Size,
     /// The description breaks a wire rule (e.g. `I_max` above `2^bits − 1`).
     Invalid(Invalid),
-    /// A heterodyne set ([`pattern::Relation::Heterodyne`]): protocol version 2 describes
-    /// hierarchical sets only.
-    Heterodyne,
 }
 
 impl core::fmt::Display for DescError {
@@ -55,10 +52,6 @@ impl core::fmt::Display for DescError {
             ),
             DescError::Size => f.write_str("a width or height exceeds 65535 pixels"),
             DescError::Invalid(why) => write!(f, "invalid wire description: {}", why.name()),
-            DescError::Heterodyne => f.write_str(
-                "a heterodyne set cannot be sent to a head yet (wire protocol 2 describes \
-                 hierarchical and Gray-coded sets only); scan it on the desktop",
-            ),
         }
     }
 }
@@ -153,21 +146,6 @@ impl PatternSetDesc {
         bit_depth: u32,
         max_bits: u8,
     ) -> Result<Self, DescError> {
-        if set.relation() != pattern::Relation::Hierarchical {
-            return Err(DescError::Heterodyne);
-        }
-        Self::describe(set, bit_depth, max_bits)
-    }
-
-    /// The description of `set`'s levels, phase function and output, whatever its
-    /// [`pattern::Relation`]: what determines its decoded phase (the digest of
-    /// [`PatternSetDesc::phase_encoding`]), not a set a head can rebuild when the relation is
-    /// not the hierarchical one (which the description does not carry).
-    pub fn describe_phase(set: &PatternSet, bit_depth: u32) -> Result<Self, DescError> {
-        Self::describe(set, bit_depth, MAX_BIT_DEPTH)
-    }
-
-    fn describe(set: &PatternSet, bit_depth: u32, max_bits: u8) -> Result<Self, DescError> {
         if !(1..=max_bits as u32).contains(&bit_depth) {
             return Err(DescError::BitDepth(bit_depth));
         }
@@ -229,6 +207,7 @@ impl PatternSetDesc {
             },
             level_count: levels.len().min(MAX_LEVELS) as u8,
             levels: wl,
+            relation: set.relation(),
         };
         d.validate_up_to(max_bits)
             .map_err(|e| DescError::Invalid(invalid_of(e)))?;
@@ -313,7 +292,7 @@ impl PatternSetDesc {
         // `n` > MAX_LEVELS is refused by `validate_up_to` before; `get` keeps a panic path out
         // of a head's set-up all the same (the core's constructor refuses an empty set).
         let used = levels.get(..n).unwrap_or(&[]);
-        let mut built = PatternSet::new(function, used, output);
+        let mut built = PatternSet::new_with_relation(function, used, output, self.relation);
         if let Ok(set) = &mut built {
             if set.convention() != convention {
                 *set = set.with_convention(convention);

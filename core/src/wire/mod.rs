@@ -34,7 +34,7 @@
 //!
 //! | offset   | size | field                                                    |
 //! |---------:|-----:|----------------------------------------------------------|
-//! | 0        | 1    | protocol version = 3 ([`PROTOCOL_VERSION`])              |
+//! | 0        | 1    | protocol version = 4 ([`PROTOCOL_VERSION`])              |
 //! | 1        | 1    | flags (below)                                            |
 //! | 2        | 1    | sequence number                                          |
 //! | 3        | 1    | command id (table below)                                 |
@@ -87,6 +87,7 @@
 //! | `0x12` | UploadChunk         | 1 | target T, offset u32, crc u32, data bytes (1..=4064)                        | UploadAck |
 //! | `0x13` | QueryUpload         | 0 | target T                                                                    | UploadAck |
 //! | `0x14` | ConfirmUpload       | 1 | target T                                                                    | Ack |
+//! | `0x15` | DefineCorrection    | 1 | set_id u8, table: `[0]` none or `[1]` [`SetupCorrection`] (levels u8, 6 × 32 × i16 zigzag varints, 2⁻¹³ rad) | Ack |
 //! | `0x18` | UploadCalibration   | 1 | width u16, height u16, fx, fy, cx, cy, skew f64, k1, k2, p1, p2, k3 f64, projector_centre 3×f64, plane_point 3×f64, plane_normal 3×f64, depth_min f64, depth_max f64 | Ack |
 //! | `0x19` | BeginPhaseMapUpload | 1 | width u16, height u16, total_bytes u32, digest u32                          | UploadAck |
 //! | `0x20` | ConfigureSequence   | 1 | set_id u8, repeat bool, entries bytes (n × 12-byte [`LutEntry`], 1..=256)   | Ack |
@@ -116,7 +117,9 @@
 //! each: scale f64, shifts = `[0]` Uniform n u8, count u8 (shifts `2π·i/n`, `i < count`) or `[1]`
 //! Explicit count u8, 16 × f64, or `[2]` Gray bits u8, complementary u8 (a Gray-code level:
 //! `bits` binary images, one more if complementary, [`crate::gray`]). Unused levels are `0.0, [0] 0 0`; unused knots and explicit shifts
-//! are `0.0`. These are the parameters of the core's `PatternSet` exactly ([`desc`] maps both
+//! are `0.0`. Last, the levels' relation ([`Relation`]): `[0]`
+//! hierarchical (eqs 12-13 from the coarsest level or a Gray code) or `[1]` heterodyne (the
+//! beats of 2 or 3 phase levels). These are the parameters of the core's `PatternSet` exactly ([`desc`] maps both
 //! ways), so the head's set is the desktop's bit for bit.
 //!
 //! [`LutEntry`] (12 bytes, LE, not postcard): pattern u16, exposure_us u32, dark_us u32,
@@ -127,12 +130,15 @@
 //! column. Pattern image uploads: one byte per pixel, row-major, images in order.
 //!
 //! Worked example: GetStatus (`0x32`), seq 7, REPLY_WANTED, empty payload. Header
-//! `03 02 07 32 00 00`; CRC-32C of those six bytes `0xD43D0451`, sent LE: decoded frame
-//! `03 02 07 32 00 00 51 04 3D D4`; COBS and delimiter: `05 03 02 07 32 01 05 51 04 3D D4 00`.
+//! `04 02 07 32 00 00`; CRC-32C of those six bytes `0x5274F8FC`, sent LE: decoded frame
+//! `04 02 07 32 00 00 FC F8 74 52`; COBS and delimiter: `05 04 02 07 32 01 05 FC F8 74 52 00`.
 //!
 //! Version history: 1 carried the pattern set (linear phase only) and the calibration as f32 and
 //! had no edge-filter field in Scan. 2 had no `scan_id` in Scan, ResultRow and ScanDone (rows of
-//! an earlier scan still in flight were taken for the new scan's; issue #21 item 1). A head and a host of different versions refuse each other's
+//! an earlier scan still in flight were taken for the new scan's; issue #21 item 1). 3 had no
+//! relation at the end of [`PatternSetDesc`] (hierarchical sets only) and no
+//! DefineCorrection (a head decoded every set uncorrected, so binary sets and a measured
+//! projector response were scanned on the desktop only). A head and a host of different versions refuse each other's
 //! frames: the head answers a frame of another version with Nak Version (detail: its version),
 //! which the host reports as such.
 //! `core/tests/wire_vectors.rs` spells out more, one per kind of body.
@@ -156,8 +162,7 @@ pub use link::{FaultConfig, FaultInjector, FaultStats, Loopback, LoopbackError, 
 pub use message::*;
 pub use packet::{Packet, check_header, emit_packet, parse_packet};
 pub use setup::{
-    CaptureOrder, DecodeThresholds, EdgeFilterParams, FrameFormat, HeadSetup, SetupCorrection,
-    SetupError,
+    CaptureOrder, DecodeThresholds, EdgeFilterParams, FrameFormat, HeadSetup, SetupError,
 };
 
 /// Largest payload of one frame, bytes.
@@ -320,6 +325,9 @@ pub enum Invalid {
     ValidityCode = 21,
     /// The edge-filter angle is not in `(0, 90)` degrees.
     EdgeFilter = 22,
+    /// A phase-error table's knot is beyond `PhaseCorrection::MAX_DELTA`, its level count is
+    /// outside `1..=MAX_LEVELS` or not the set's.
+    Correction = 23,
 }
 
 impl Invalid {
@@ -348,12 +356,13 @@ impl Invalid {
             Invalid::RowData => "row-data",
             Invalid::ValidityCode => "validity-code",
             Invalid::EdgeFilter => "edge-filter",
+            Invalid::Correction => "correction",
         }
     }
 
     /// The rule with code `code`, if any.
     pub const fn from_u8(code: u8) -> Option<Invalid> {
-        const ALL: [Invalid; 22] = [
+        const ALL: [Invalid; 23] = [
             Invalid::Dimension,
             Invalid::BitDepth,
             Invalid::Intensity,
@@ -376,6 +385,7 @@ impl Invalid {
             Invalid::RowData,
             Invalid::ValidityCode,
             Invalid::EdgeFilter,
+            Invalid::Correction,
         ];
         if code >= 1 && (code as usize) <= ALL.len() {
             Some(ALL[code as usize - 1])

@@ -14,7 +14,7 @@
 //! | offset  | size | field                                                             |
 //! |--------:|-----:|-------------------------------------------------------------------|
 //! | 0       | 4    | magic `F3DS` ([`SETUP_MAGIC`])                                    |
-//! | 4       | 1    | format version = 3 ([`SETUP_VERSION`]; 1 and 2 are still read)    |
+//! | 4       | 1    | format version = 4 ([`SETUP_VERSION`]; 1 to 3 are still read)     |
 //! | 5       | 1    | reserved, 0                                                       |
 //! | 6       | 2    | payload length `L`, u16 LE, `L <= 4096` ([`MAX_SETUP_PAYLOAD`])   |
 //! | 8       | `L`  | payload: the postcard encoding of a [`HeadSetup`]                 |
@@ -26,7 +26,8 @@
 //! 1. [`FrameFormat`]: width u16, height u16, sample_bits u8, sample_bytes u8;
 //! 2. the pattern set, a [`PatternSetDesc`] as in DefinePatternSet, except that its bit depth
 //!    may be up to 16 ([`MAX_SETUP_BIT_DEPTH`]: the projector the camera saw, not the head's
-//!    8-bit renderer);
+//!    8-bit renderer); versions 1 to 3: without its last field, the levels' relation
+//!    (hierarchical);
 //! 3. [`CaptureOrder`]: varint count ≤ 64, then count × u8 wire pattern indices (versions 1
 //!    and 2: count u8, then always 32 × u8, unused = 0);
 //! 4. [`DecodeThresholds`]: 5 × f32;
@@ -46,10 +47,11 @@ use serde::{Deserialize, Serialize};
 
 use super::crc::crc32c;
 use super::desc::DescError;
+pub use super::message::SetupCorrection;
 use super::message::{Calibration, PatternAxis, PatternSetDesc, Waveform};
 use super::{Invalid, WireError};
 use crate::camera::CameraModel;
-use crate::decode::{CORRECTION_KNOTS, DecodeConfig, Decoder, PhaseCorrection};
+use crate::decode::{DecodeConfig, Decoder, PhaseCorrection};
 use crate::filter::EdgeFilter;
 use crate::params::CameraParams;
 use crate::pattern::PatternSet;
@@ -62,9 +64,9 @@ use legacy::payload_fields;
 
 /// First four bytes of a set-up blob.
 pub const SETUP_MAGIC: [u8; 4] = *b"F3DS";
-/// The blob format version this core writes (it also reads versions 1 and 2: no correction
-/// field; a capture order of 32 fixed entries).
-pub const SETUP_VERSION: u8 = 3;
+/// The blob format version this core writes (it also reads versions 1 to 3: no relation in the
+/// pattern set; 1 and 2 a capture order of 32 fixed entries; 1 no correction field).
+pub const SETUP_VERSION: u8 = 4;
 /// Bytes before the payload: magic, version, reserved, length.
 pub const SETUP_HEADER_LEN: usize = 8;
 /// Bytes of the trailing CRC-32C.
@@ -175,7 +177,6 @@ fn desc_error(e: DescError) -> SetupError {
         DescError::BitDepth(_) => SetupError::Invalid(Invalid::BitDepth),
         DescError::Size => SetupError::Invalid(Invalid::Dimension),
         DescError::Invalid(why) => SetupError::Invalid(why),
-        DescError::Heterodyne => SetupError::Invalid(Invalid::LevelCount),
     }
 }
 
@@ -307,50 +308,6 @@ pub struct HeadSetup {
     pub edge_filter: EdgeFilterParams,
     /// The decoder's phase-error table for the projector's response, if any (version 2).
     pub correction: Option<SetupCorrection>,
-}
-
-/// [`PhaseCorrection`] as the blob carries it (field 8; the same values, f32 bit for bit).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SetupCorrection {
-    /// Levels the table covers.
-    pub levels: u8,
-    /// Knots per level, 2⁻¹³ rad ([`crate::decode::CORRECTION_LSB`]).
-    pub knots: [[i16; CORRECTION_KNOTS]; crate::limits::MAX_LEVELS],
-}
-
-impl SetupCorrection {
-    /// Knot `j` of level `l` (2⁻¹³ rad).
-    pub fn knot(&self, l: usize, j: usize) -> i16 {
-        self.knots[l % crate::limits::MAX_LEVELS][j % CORRECTION_KNOTS]
-    }
-
-    /// [`PhaseCorrection::is_sane`] of the same table (without building it).
-    pub fn is_sane(&self) -> bool {
-        let m = PhaseCorrection::MAX_DELTA;
-        (1..=crate::limits::MAX_LEVELS).contains(&(self.levels as usize))
-            && self.knots[..self.levels as usize]
-                .iter()
-                .flatten()
-                .all(|d| (-m..=m).contains(d))
-    }
-}
-
-impl From<&PhaseCorrection> for SetupCorrection {
-    fn from(c: &PhaseCorrection) -> Self {
-        SetupCorrection {
-            levels: c.levels,
-            knots: c.delta,
-        }
-    }
-}
-
-impl From<&SetupCorrection> for PhaseCorrection {
-    fn from(c: &SetupCorrection) -> Self {
-        PhaseCorrection {
-            levels: c.levels,
-            delta: c.knots,
-        }
-    }
 }
 
 impl HeadSetup {

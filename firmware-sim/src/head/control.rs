@@ -6,7 +6,7 @@ use fringe3d_core::pattern::PatternSet;
 use fringe3d_core::reconstruct::Reconstructor;
 use fringe3d_core::wire::{
     BeginPhaseMap, BeginUpload, Calibration, Capabilities, HeadState, LUT_ENTRY_LEN, LutEntry,
-    MAX_LUT_ENTRIES, PatternSetDesc, ScanOutput, UploadTarget, ValidationStatus,
+    MAX_LUT_ENTRIES, PatternSetDesc, ScanOutput, SetupCorrection, UploadTarget, ValidationStatus,
 };
 
 use super::config::{HeadConfig, MAX_SETS};
@@ -23,12 +23,14 @@ pub(super) enum Source {
     Uploaded { confirmed: bool },
 }
 
-/// A pattern-set slot: its description, the core's set, and its source.
+/// A pattern-set slot: its description, the core's set, its source, and the phase-error table
+/// it is decoded with (DefineCorrection).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Slot {
     pub(super) desc: PatternSetDesc,
     pub(super) set: PatternSet,
     pub(super) source: Source,
+    pub(super) correction: Option<SetupCorrection>,
 }
 
 /// What an upload is for, as announced (a repeated Begin with the same key resumes it).
@@ -191,6 +193,9 @@ impl Control {
         };
         if self.usable(lut.set_id).is_none() {
             v |= ValidationStatus::SET_NOT_CONFIRMED;
+        }
+        if slot.set.binarization().is_binary() && slot.correction.is_none() {
+            v |= ValidationStatus::NO_CORRECTION;
         }
         let count = slot.desc.pattern_count();
         let mut triggers = 0;

@@ -223,6 +223,7 @@ fn dispatch<T: Write, B: BoardIo>(
                     desc: d.desc,
                     set,
                     source: Source::Generated,
+                    correction: None,
                 });
                 if ctl.image_owner == Some(id) {
                     ctl.image_owner = None;
@@ -233,6 +234,22 @@ fn dispatch<T: Write, B: BoardIo>(
                 }
                 ctl.validated = false;
             }
+            reply!(ack);
+        }
+        Message::DefineCorrection(c) => {
+            let slot = ctl
+                .slots
+                .get_mut(c.set_id as usize)
+                .and_then(|s| s.as_mut())
+                .filter(|_| c.set_id < ctl.caps.max_sets);
+            let Some(slot) = slot else {
+                nak!(NakCode::NoSuchSet, 0);
+            };
+            if c.table.is_some_and(|t| t.levels != slot.desc.level_count) {
+                nak!(NakCode::Invalid, Invalid::Correction);
+            }
+            slot.correction = c.table;
+            ctl.validated = false;
             reply!(ack);
         }
         Message::BeginUpload(b) => {

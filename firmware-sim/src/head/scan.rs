@@ -91,8 +91,13 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
     let w = board.camera().width() as usize;
     let h = board.camera().height() as usize;
     let bits = board.camera().bit_depth() as u32;
-    let decoder =
+    let mut decoder =
         Decoder::new(&sc.set, DecodeConfig::for_bit_depth(bits)).map_err(|_| ScanFail::Internal)?;
+    if let Some(c) = &slot.correction {
+        decoder
+            .set_correction_knots(c.levels, |l, j| c.knot(l, j))
+            .map_err(|_| ScanFail::Internal)?;
+    }
     let plane = w * h;
     let state_len = CaptureDecoder::state_len(&decoder, w, h);
     let HeadMemory {

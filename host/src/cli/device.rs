@@ -333,30 +333,26 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
     let ls = common::load_set(&a.patterns)?;
     // The head's reference and pattern set must match, as for `fringe3d scan`; checked before
     // anything else (and before the line is touched).
-    if ls.set.binarization().is_binary() {
-        // Its decoding needs the phase-error table of the projector's blur (docs/binary.md).
-        bail!(
-            "{}: a binary pattern set is decoded with the phase-error table of the projector's \
-             blur, which the head's serial protocol cannot carry yet: scan it on the desktop \
-             (`fringe3d scan`), or use a gray-level set on the head",
-            a.patterns.display()
-        );
-    }
-    if let Some(path) = &a.calibration {
-        common::check_reference_patterns(path, &ls.scan_patterns()?, g.quiet)?;
-        // The serial protocol carries no phase-correction table (the set-up blob does): a head
-        // would decode this projector's light uncorrected. Refuse rather than scan worse.
-        if common::response_correction(&Calibration::load(path)?, path, &ls)?.is_some() {
-            bail!(
-                "{}: the calibration records a non-linear projector response ([projector_response])                  that the head's serial protocol cannot carry yet; upload patterns pre-distorted                  through it (`fringe3d patterns --response {} ...`, whose set file says                  response_compensated = true), or scan on the desktop (docs/gamma.md)",
-                path.display(),
-                path.display()
-            );
+    // The phase-error table of the projector's light (its response, a binary set's blur;
+    // docs/gamma.md, docs/binary.md), which the head decodes with (DefineCorrection).
+    let correction = match &a.calibration {
+        Some(path) => {
+            common::check_reference_patterns(path, &ls.scan_patterns()?, g.quiet)?;
+            common::response_correction(&Calibration::load(path)?, path, &ls)?
         }
-    }
+        None if ls.set.binarization().is_binary() => bail!(
+            "{}: a binary pattern set is decoded with the phase-error table of the projector's \
+             blur: give --calibration with the calibration that records projector_defocus \
+             (`fringe3d calibrate defocus`, docs/binary.md)",
+            a.patterns.display()
+        ),
+        None => None,
+    };
     if ls.file.projector.response_compensated == Some(true) && a.images.is_none() {
         bail!(
-            "{}: its patterns are pre-distorted through a projector response              (response_compensated = true), which the head's own rendering cannot reproduce:              upload the written images with --images DIR",
+            "{}: its patterns are pre-distorted through a projector response \
+             (response_compensated = true), which the head's own rendering cannot reproduce: \
+             upload the written images with --images DIR",
             a.patterns.display()
         );
     }
@@ -444,8 +440,17 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
         );
     }
     c.define_pattern_set(a.set_id, &desc)?;
+    // Always sent: a table left from an earlier upload of the same set must not stay.
+    c.define_correction(a.set_id, correction.as_ref())?;
     let mut summary = serde_json::json!({"command": "device upload", "port": a.port.port, "set_id": a.set_id,
-        "patterns_exact": fid.patterns, "decoder_exact": fid.decoder});
+        "patterns_exact": fid.patterns, "decoder_exact": fid.decoder,
+        "phase_correction": correction.is_some()});
+    if correction.is_some() && !g.quiet && !g.json {
+        outln!(
+            "phase-error table of the projector's light sent: the head decodes with it, as the \
+             desktop does"
+        );
+    }
     if let Some(data) = &images {
         let (pb, mut cb) = bar(data.len() as u64, "patterns", g.quiet);
         let r = c.upload_patterns(a.set_id, &desc, data, &mut cb);

@@ -20,12 +20,13 @@
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
+use fringe3d_core::decode::PhaseCorrection;
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::{
-    BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, DefinePatternSet,
-    FirmwareVersion, Hello, LutEntry, LutTable, Message, Nak, NakCode, PHASE_MAP_BYTES_PER_PIXEL,
-    PROTOCOL_VERSION, Packet, PatternSetDesc, Sequence, Status, UploadAck, UploadChunk,
-    UploadTarget, ValidationStatus, WireError, check_header, frame,
+    BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, DefineCorrection,
+    DefinePatternSet, FirmwareVersion, Hello, LutEntry, LutTable, Message, Nak, NakCode,
+    PHASE_MAP_BYTES_PER_PIXEL, PROTOCOL_VERSION, Packet, PatternSetDesc, Sequence, SetupCorrection,
+    Status, UploadAck, UploadChunk, UploadTarget, ValidationStatus, WireError, check_header, frame,
 };
 
 use super::{DeviceError, Link, Transport, nak_reason};
@@ -364,6 +365,22 @@ impl<T: Transport> Client<T> {
             Message::DefinePatternSet(DefinePatternSet {
                 set_id,
                 desc: *desc,
+            }),
+        )
+    }
+
+    /// Set (or with `None` clear) the phase-error table pattern set `set_id` is decoded with
+    /// (protocol version 4).
+    pub fn define_correction(
+        &mut self,
+        set_id: u8,
+        table: Option<&PhaseCorrection>,
+    ) -> Result<(), DeviceError> {
+        self.expect_ack(
+            "DefineCorrection",
+            Message::DefineCorrection(DefineCorrection {
+                set_id,
+                table: table.map(SetupCorrection::from),
             }),
         )
     }

@@ -212,6 +212,11 @@ pub fn nak_reason(code: NakCode, detail: u16) -> String {
                     "a Gray-code pattern is captured before the last image of the DC level \
                      (the head decodes frame by frame: capture the phase level first)",
                 ),
+                (
+                    ValidationStatus::NO_CORRECTION,
+                    "a binary pattern set has no phase-error table (upload it with a \
+                     calibration that records projector_defocus)",
+                ),
             ] {
                 if v.has(bit) {
                     why.push(name);

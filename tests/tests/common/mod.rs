@@ -16,6 +16,33 @@ pub fn small_u8(scene: &str, seed: u64) -> VectorOptions {
     }
 }
 
+/// A two-frequency heterodyne set (issue #20), 8 images: 4-step levels of scales 8 and 9 over a
+/// phase of 5.6 rad across the projector (periods of about 144 and 128 pixels), their beat 0.9
+/// of a period.
+pub fn heterodyne_set() -> PatternSetFile {
+    set_file(
+        "heterodyne",
+        "version = 2\nunwrap = \"heterodyne\"\n\
+         [projector]\nwidth = 1024\nheight = 768\n\
+         [phase]\naxis = \"xi\"\nkind = \"centered\"\nspan = 5.6\n\
+         [[levels]]\nscale = 8.0\nsteps = 4\n\
+         [[levels]]\nscale = 9.0\nsteps = 4\n",
+    )
+}
+
+/// The pattern-set file of `text`, loaded (through a temporary file named for `tag`).
+fn set_file(tag: &str, text: &str) -> PatternSetFile {
+    let path = std::env::temp_dir().join(format!(
+        "fringe3d-set-{tag}-{}-{:?}.toml",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    std::fs::write(&path, text).expect("write the pattern-set file");
+    let f = PatternSetFile::load(&path).expect("pattern-set file");
+    let _ = std::fs::remove_file(&path);
+    f
+}
+
 /// A complementary 3-bit Gray code over 8 periods of 128 projector pixels (1024 wide; the phase
 /// zero at column 575.5, so that they span the code's [−4.5, 3.5)), then a 4-step level: 8
 /// images, the mps2 board's row. `binary`: the pattern-set file's `binary` key ("off",
@@ -29,13 +56,5 @@ pub fn gray_set(binary: &str) -> PatternSetFile {
          [[levels]]\nscale = 8.0\nsteps = 4\n",
         std::f64::consts::TAU / 1024.0
     );
-    let path = std::env::temp_dir().join(format!(
-        "fringe3d-gray-set-{binary}-{}-{:?}.toml",
-        std::process::id(),
-        std::thread::current().id()
-    ));
-    std::fs::write(&path, text).expect("write the pattern-set file");
-    let f = PatternSetFile::load(&path).expect("pattern-set file");
-    let _ = std::fs::remove_file(&path);
-    f
+    set_file(&format!("gray-{binary}"), &text)
 }

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::{Invalid, MAX_PAYLOAD, WireError};
 pub use crate::params::pattern::{
     Knots, Level, MAX_KNOTS, MAX_LEVELS, MAX_SHIFTS, PatternAxis, PatternSetDesc, PhaseDesc,
-    PhaseProfile, Shifts, Waveform,
+    PhaseProfile, Relation, Shifts, Waveform,
 };
 pub use crate::params::{CameraParams, ScanGeometry};
 
@@ -21,6 +21,7 @@ pub use crate::params::{CameraParams, ScanGeometry};
 mod table;
 
 mod calibration;
+mod correction;
 mod hello;
 mod pattern;
 mod scan;
@@ -29,6 +30,7 @@ mod trigger;
 mod upload;
 
 pub use calibration::Calibration;
+pub use correction::{DefineCorrection, SetupCorrection};
 pub use hello::{Capabilities, FirmwareVersion, Hello};
 pub use pattern::DefinePatternSet;
 pub use scan::{EdgeFilterMode, ResultRow, RowKind, ScanDone, ScanOutput, ScanRequest};
@@ -66,6 +68,9 @@ commands! {
     /// [`UploadTarget`] → Ack, or Nak [`NakCode::DigestMismatch`].
     ConfirmUpload = 0x14 => write(UploadTarget),
         "Ask the head to check an upload's digest and adopt it (the \"ConfirmSet\" of issue #7).";
+    /// [`DefineCorrection`] → Ack.
+    DefineCorrection = 0x15 => write(DefineCorrection),
+        "Set or clear a pattern set's phase-error table (protocol version 4).";
     /// [`Calibration`] → Ack.
     UploadCalibration = 0x18 => write(Calibration), "Upload the calibration.";
     /// [`BeginPhaseMap`] → [`UploadAck`].

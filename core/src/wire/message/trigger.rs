@@ -206,8 +206,11 @@ impl ValidationStatus {
     /// The capture order cannot be decoded frame by frame: a Gray-code image before the last
     /// image of the DC level (`DecodeError::GrayBeforeDc`, issue #20).
     pub const CAPTURE_ORDER: u32 = 1 << 11;
+    /// A binary set (waveform 2-5) has no phase-error table ([`super::DefineCorrection`]):
+    /// decoded uncorrected, its square waves' error would be measured as shape (protocol 4).
+    pub const NO_CORRECTION: u32 = 1 << 12;
     /// All defined bits.
-    pub const ALL: u32 = (1 << 12) - 1;
+    pub const ALL: u32 = (1 << 13) - 1;
 
     /// `true` if no bit is set.
     pub const fn is_ok(self) -> bool {

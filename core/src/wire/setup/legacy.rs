@@ -3,8 +3,9 @@
 //! - Version 1: fields 1-7 (no field 8, the projector-response correction: none).
 //! - Version 2: fields 1-8; field 3, the capture order, as a count u8 and always 32 pattern
 //!   indices (unused 0).
-//! - Version 3 (written today): field 3 as postcard bytes, up to 64 indices
-//!   ([`CaptureOrder`]'s own serde).
+//! - Version 3: field 3 as postcard bytes, up to 64 indices ([`CaptureOrder`]'s own serde).
+//! - Version 4 (written today): field 2, the pattern set, ends with the levels' relation
+//!   (hierarchical or heterodyne); versions 1-3 have no such byte and mean hierarchical.
 
 use serde::Deserialize;
 
@@ -12,17 +13,21 @@ use super::{
     CaptureOrder, DecodeThresholds, EdgeFilterParams, FrameFormat, HeadSetup, SetupCorrection,
     SetupError,
 };
-use crate::pattern::MAX_IMAGES;
-use crate::wire::message::{Calibration, PatternAxis, PatternSetDesc};
+use crate::pattern::{MAX_IMAGES, Relation};
+use crate::wire::message::{
+    Calibration, Level, MAX_LEVELS, PatternAxis, PatternSetDesc, PhaseDesc, Waveform,
+};
 
-/// Decode a payload of `version` (1: fields 1-7; 2: and field 8; 3: field 3 as bytes). The
-/// current version decodes straight into the result (no copy of the fields on the way: a head's
-/// set-up stack is tight); the old ones each in a frame of their own, which only they pay for.
+/// Decode a payload of `version` (1: fields 1-7; 2: and field 8; 3: field 3 as bytes; 4: a
+/// relation in field 2). The current version decodes straight into the result (no copy of the
+/// fields on the way: a head's set-up stack is tight); the old ones each in a frame of their
+/// own, which only they pay for.
 #[inline(never)]
 pub(super) fn payload_fields(version: u8, payload: &[u8]) -> Result<HeadSetup, SetupError> {
     match version {
         1 => version_1(payload),
         2 => version_2(payload),
+        3 => version_3(payload),
         _ => whole(postcard::take_from_bytes::<HeadSetup>(payload)),
     }
 }
@@ -51,6 +56,48 @@ fn version_2(payload: &[u8]) -> Result<HeadSetup, SetupError> {
     Ok(v.into_setup(correction))
 }
 
+#[inline(never)]
+fn version_3(payload: &[u8]) -> Result<HeadSetup, SetupError> {
+    let v = whole(postcard::take_from_bytes::<
+        HeadSetupOld<Option<SetupCorrection>, CaptureOrder>,
+    >(payload))?;
+    let correction = v.tail;
+    Ok(v.into_setup(correction))
+}
+
+/// Field 2 of versions 1-3: today's [`PatternSetDesc`] without its last field, the relation.
+#[derive(Deserialize)]
+struct PatternSetDesc3 {
+    width: u16,
+    height: u16,
+    bit_depth: u8,
+    i_min: f64,
+    i_max: f64,
+    waveform: Waveform,
+    phase_offset: f64,
+    phase: PhaseDesc,
+    level_count: u8,
+    levels: [Level; MAX_LEVELS],
+}
+
+impl From<PatternSetDesc3> for PatternSetDesc {
+    fn from(d: PatternSetDesc3) -> Self {
+        PatternSetDesc {
+            width: d.width,
+            height: d.height,
+            bit_depth: d.bit_depth,
+            i_min: d.i_min,
+            i_max: d.i_max,
+            waveform: d.waveform,
+            phase_offset: d.phase_offset,
+            phase: d.phase,
+            level_count: d.level_count,
+            levels: d.levels,
+            relation: Relation::Hierarchical,
+        }
+    }
+}
+
 /// Field 3 of versions 1 and 2: a count and always 32 indices.
 #[derive(Deserialize)]
 struct CaptureOrder32 {
@@ -71,13 +118,14 @@ impl From<CaptureOrder32> for CaptureOrder {
     }
 }
 
-/// The payload of a version-1 blob (fields 1-7; `T = ()`, which postcard writes as nothing) or a
-/// version-2 one (and field 8, `T = Option<SetupCorrection>`).
+/// The payload of a version-1 blob (fields 1-7; `T = ()`, which postcard writes as nothing), a
+/// version-2 one (and field 8, `T = Option<SetupCorrection>`) or, with `O = CaptureOrder`, a
+/// version-3 one.
 #[derive(Deserialize)]
-struct HeadSetupOld<T> {
+struct HeadSetupOld<T, O = CaptureOrder32> {
     frames: FrameFormat,
-    patterns: PatternSetDesc,
-    capture_order: CaptureOrder32,
+    patterns: PatternSetDesc3,
+    capture_order: O,
     thresholds: DecodeThresholds,
     calibration: Calibration,
     axis: PatternAxis,
@@ -85,11 +133,11 @@ struct HeadSetupOld<T> {
     tail: T,
 }
 
-impl<T> HeadSetupOld<T> {
+impl<T, O: Into<CaptureOrder>> HeadSetupOld<T, O> {
     fn into_setup(self, correction: Option<SetupCorrection>) -> HeadSetup {
         HeadSetup {
             frames: self.frames,
-            patterns: self.patterns,
+            patterns: self.patterns.into(),
             capture_order: self.capture_order.into(),
             thresholds: self.thresholds,
             calibration: self.calibration,

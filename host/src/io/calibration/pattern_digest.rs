@@ -48,7 +48,7 @@ pub fn pattern_digest(set: &PatternSet) -> Result<String, String> {
                     .with_phase_offset(set.phase_offset())
             })
             .map_err(|e| format!("pattern set: {e}"))?;
-    let desc = PatternSetDesc::describe_phase(&canonical, 8)
+    let desc = PatternSetDesc::from_set(&canonical, 8)
         .map_err(|e| format!("pattern set has no wire description: {e}"))?;
     let mut buf = [0u8; PHASE_ENCODING_MAX];
     let bytes = desc
