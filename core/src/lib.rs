@@ -6,6 +6,7 @@
 
 pub mod arith;
 pub mod binary;
+pub mod budget;
 pub mod camera;
 pub mod decode;
 pub mod decode_config;

@@ -9,6 +9,7 @@ mod render_common;
 mod calib_bad_input;
 mod calib_end_to_end;
 mod calib_projector_model;
+mod cli_budget;
 mod cli_errors;
 mod cli_gamma;
 mod cli_scan;

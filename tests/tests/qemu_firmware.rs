@@ -185,6 +185,13 @@ fn check_scan(elf: &Path, opts: &VectorOptions, name: &str) {
     // The measurements are there and plausible: the set-up and scan stacks stay inside the room
     // left by the statics (a full room would mean the stack ran into them), all within 256 KiB.
     let ram = report_value(&report, "static_ram_bytes").expect("static RAM in the report");
+    // The core's budget of the board's layout (`fringe3d budget --layout board`), computed on the
+    // target, is what the linker laid out: every static accounted for, none forgotten.
+    let budget = report_value(&report, "budget_bytes").expect("the budget in the report");
+    assert_eq!(
+        budget, ram,
+        "the core's budget against the board's static RAM"
+    );
     let stack_scan = report_value(&report, "scan").expect("scan stack in the report");
     let stack_setup = report_value(&report, "setup").expect("setup stack in the report");
     let room = report_value(&report, "stack_room_bytes").expect("stack room in the report");

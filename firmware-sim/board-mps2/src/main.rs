@@ -581,6 +581,16 @@ fn report(
     };
     let _ = writeln!(t, "flash_bytes={}", lay.flash);
     let _ = writeln!(t, "static_ram_bytes={}", lay.static_ram);
+    // The core's account of the same buffers (`fringe3d budget --layout board`), computed here
+    // with this target's type sizes: the test holds it to what the linker laid out.
+    let budget = fringe3d_core::budget::RowBudget {
+        width: MAX_W,
+        images: MAX_IMAGES,
+        sample_bytes: 2,
+        band_rows: RING_ROWS,
+        layout: fringe3d_core::budget::RowLayout::BOARD,
+    };
+    let _ = writeln!(t, "budget_bytes={}", budget.total());
     let _ = writeln!(t, "stack_room_bytes={}", lay.stack_room);
     let _ = writeln!(t, "stack_high_water_bytes setup={stack_setup} scan={stack}");
     let _ = writeln!(

@@ -15,6 +15,7 @@ macro_rules! errln {
     ($($t:tt)*) => { $crate::cli::print::stderr(format_args!("{}\n", format_args!($($t)*))) };
 }
 
+pub mod budget;
 pub mod calibrate;
 pub mod calibrate_defocus;
 pub mod calibrate_gamma;
@@ -76,6 +77,8 @@ pub enum Command {
     Device(device::DeviceArgs),
     /// Write (or verify) golden test vectors: a small scan's inputs and every stage's outputs.
     Vectors(vectors::VectorsArgs),
+    /// The static memory a scan head needs for a pattern set and a rig, buffer by buffer.
+    Budget(budget::BudgetArgs),
 }
 
 /// Options every command sees.
@@ -215,5 +218,6 @@ where
         Command::Info(a) => info::run(a, g),
         Command::Device(a) => device::run(a, g),
         Command::Vectors(a) => vectors::run(a, g),
+        Command::Budget(a) => budget::run(a, g),
     }
 }

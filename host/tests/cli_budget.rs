@@ -1,0 +1,78 @@
+//! `fringe3d budget` (issue #23 item 4): the buffers of a head's row pipeline for a pattern set
+//! and a rig. The band comes from the calibration's reconstructor (built here through the core
+//! as a second path); the per-column sums are the formulas docs/integration.md and
+//! docs/firmware.md state. The board layout's total is held to the linker's static RAM on the
+//! Cortex-M4F by `tests/tests/qemu_firmware.rs`.
+
+use crate::cli_support::{fringe3d, run};
+use fringe3d::io::calibration::Calibration;
+use fringe3d_core::phase_function::Axis;
+use fringe3d_core::reconstruct::Reconstructor;
+use std::path::Path;
+
+const SET: &str = "../examples/patterns/paper8.toml";
+const CAL: &str = "../examples/calibration/calib.toml";
+
+fn json(args: &[&str]) -> serde_json::Value {
+    let mut all = vec!["--json", "budget"];
+    all.extend_from_slice(args);
+    serde_json::from_str(&run(&all)).unwrap()
+}
+
+#[test]
+fn the_budget_of_a_rig_is_its_buffers() {
+    let cal = Calibration::load(Path::new(CAL)).unwrap();
+    let (cam, setup) = cal.core_setup(Axis::Xi).unwrap();
+    let band = Reconstructor::new(&cam, &setup).unwrap().band().rows() as u64;
+    let j = json(&["-p", SET, "-c", CAL]);
+    let (w, h) = (cal.camera.width as u64, cal.camera.height as u64);
+    assert_eq!(j["width"], w);
+    assert_eq!(j["band_rows"], band);
+    // The example head's layout, 8-bit samples: (N + 5 + 4B + 4 + 13)·W plus scratch and blob.
+    let per_column = 8 + 5 + 4 * band + 4 + 13;
+    assert_eq!(j["bytes_per_column"], per_column);
+    let buffers = j["buffers"].as_array().unwrap();
+    let sum: u64 = buffers.iter().map(|b| b["bytes"].as_u64().unwrap()).sum();
+    assert_eq!(j["total_bytes"], sum);
+    for b in buffers {
+        let per = b["bytes_per_column"].as_u64().unwrap();
+        assert!(per == 0 || b["bytes"] == per * w, "{b}");
+    }
+    let fixed: u64 = buffers
+        .iter()
+        .filter(|b| b["bytes_per_column"] == 0)
+        .map(|b| b["bytes"].as_u64().unwrap())
+        .sum();
+    assert_eq!(sum, per_column * w + fixed);
+    // The frame-sequential state: 4 bytes for A and S, C of 3 levels, and a flag byte.
+    assert_eq!(j["frame_sequential"]["bytes"], (4 * 7 + 1) * w * h);
+
+    // The board's layout at its 1280-wide, 25-row build: (2N + 45 + 4B)·W + the decoder.
+    let b = json(&[
+        "-p", SET, "--width", "1280", "--band", "25", "--bits", "16", "--layout", "board",
+    ]);
+    assert_eq!(b["bytes_per_column"], 2 * 8 + 45 + 4 * 25);
+    // Phase only: the images and the phase row.
+    let p = json(&["-p", SET, "--width", "640", "--layout", "phase"]);
+    assert_eq!(p["bytes_per_column"], 8 + 5);
+}
+
+#[test]
+fn a_budget_without_a_rig_says_what_it_needs() {
+    for (args, want) in [
+        (&["-p", SET][..], "--width"),
+        (&["-p", SET, "--width", "640"][..], "--band"),
+        (&["-p", SET, "--width", "0", "--band", "9"][..], "--width"),
+        (&["-p", SET, "--width", "640", "--band", "0"][..], "--band"),
+        (
+            &["-p", "no-such.toml", "--width", "640", "--band", "9"][..],
+            "no-such.toml",
+        ),
+    ] {
+        let mut all = vec!["budget"];
+        all.extend_from_slice(args);
+        let o = fringe3d(&all);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(want), "{args:?}: {err}");
+    }
+}
