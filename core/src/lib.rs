@@ -22,6 +22,7 @@ pub mod pattern;
 pub mod pattern_error;
 pub mod phase_function;
 pub mod reconstruct;
+pub mod relation;
 pub mod sample;
 pub mod sequential;
 pub mod unwrap;

@@ -222,24 +222,7 @@ pub struct PatternSet {
     binary: Binarization,
 }
 
-/// How the levels of a set give the absolute phase. On the wire (the last field of a
-/// [`PatternSetDesc`](crate::params::pattern::PatternSetDesc), protocol version 4, set-up blob
-/// version 4) a varint: `[0]` hierarchical, `[1]` heterodyne.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub enum Relation {
-    /// Eqs 12-13: the coarsest level is absolute (within one period over the projector) and each
-    /// level unwraps the next (or a Gray-code level gives the first phase level's order).
-    #[default]
-    Hierarchical,
-    /// Multi-frequency heterodyne (issue #20), 2 or 3 phase levels none of which need be within
-    /// one period: the *beat* of levels a < b, `wrap(φ_b − φ_a)`, is the phase of scale
-    /// `c_b − c_a`; with 3 levels the beat of the two beats, scale `c₂ − 2c₁ + c₀`, must be
-    /// within one period over the projector (the set's coarse range). From it the chain unwraps
-    /// (eqs 12-13, each step's residual checked): 2 levels `beat → φ₀ → φ₁`; 3 levels
-    /// `beat of beats → beat₀₁ → φ₁ → φ₂`. Periods 21/26/32 across the projector beat to 5, 6
-    /// and 1: non-integer scale ratios are the point.
-    Heterodyne,
-}
+pub use crate::relation::{MAX_COPRIME, MAX_COPRIME_LEVELS, Relation, coprime_ratio};
 
 impl Relation {
     /// The scale of the absolute phase the decoder starts from: the coarsest level's, or for a
@@ -252,6 +235,11 @@ impl Relation {
             (Relation::Heterodyne, 2) => Some(c(1)? - c(0)?),
             (Relation::Heterodyne, 3) => Some((c(2)? - c(1)?) - (c(1)? - c(0)?)),
             (Relation::Heterodyne, _) => None,
+            (Relation::Coprime, 2..=MAX_COPRIME_LEVELS) => {
+                let (a, _) = coprime_ratio(c(0)?, c(1)?)?;
+                Some(c(0)? / a as f64)
+            }
+            (Relation::Coprime, _) => None,
         }
     }
 }
@@ -508,6 +496,14 @@ impl PatternSet {
                 return Err(PatternError::HeterodyneLevels);
             };
             c_min = beat;
+        }
+        if self.relation == Relation::Coprime {
+            let levels = self.levels.get(..self.n_levels).unwrap_or(&[]);
+            let unit = self.relation.start_scale(levels);
+            let Some(unit) = unit.filter(|_| gray.is_none()) else {
+                return Err(PatternError::CoprimeLevels);
+            };
+            c_min = unit;
         }
         let Some(code) = gray else {
             self.coarse_range =

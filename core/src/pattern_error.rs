@@ -39,6 +39,10 @@ pub enum PatternError {
     /// A heterodyne set that is not 2 or 3 phase levels whose beat scale (`c₁ − c₀`, or
     /// `c₂ − 2c₁ + c₀`) is positive (`pattern::Relation::Heterodyne`).
     HeterodyneLevels,
+    /// A coprime set whose first two phase levels' scale ratio `c₁/c₀` is not `b/a` of
+    /// integers `a < b ≤ MAX_COPRIME` (`pattern::Relation::Coprime`), that has a Gray code, or
+    /// more than `MAX_COPRIME_LEVELS` levels.
+    CoprimeLevels,
     /// A Gray-code level's bit count is outside 1..=[`MAX_GRAY_BITS`].
     GrayBits(usize),
     /// A Gray-code level but no level with 3 or more shifts: its threshold is the DC term A.
@@ -137,6 +141,13 @@ impl core::fmt::Display for PatternError {
                 f,
                 "a heterodyne set needs 2 or 3 phase levels whose beat scale (c1 - c0, or \
                  c2 - 2 c1 + c0 for 3) is positive"
+            ),
+            Self::CoprimeLevels => write!(
+                f,
+                "a coprime set needs 2 to {} phase levels (no Gray code) whose first two \
+                 scales are in the ratio b/a of integers a < b <= {}",
+                crate::relation::MAX_COPRIME_LEVELS,
+                crate::relation::MAX_COPRIME
             ),
             Self::GrayBits(n) => write!(
                 f,

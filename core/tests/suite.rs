@@ -13,6 +13,7 @@ mod arith_parity;
 mod arith_qemu;
 mod camera_model;
 mod decode_accuracy;
+mod decode_coprime;
 mod decode_correction;
 mod decode_gray;
 mod decode_heterodyne;

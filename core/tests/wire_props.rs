@@ -103,10 +103,10 @@ fn pattern_set(r: &mut XorShift64) -> PatternSetDesc {
         },
         level_count,
         levels,
-        relation: if r.below(2) == 0 {
-            Relation::Hierarchical
-        } else {
-            Relation::Heterodyne
+        relation: match r.below(3) {
+            0 => Relation::Hierarchical,
+            1 => Relation::Heterodyne,
+            _ => Relation::Coprime,
         },
     }
 }

@@ -169,7 +169,7 @@ fn every_example_loads() {
             n += 1;
         }
     }
-    assert_eq!(n, 11);
+    assert_eq!(n, 12);
 }
 
 #[test]

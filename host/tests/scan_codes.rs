@@ -240,6 +240,16 @@ fn heterodyne_scans_meet_the_quality_bar() {
     }
 }
 
+/// Number-theoretic unwrapping (`examples/patterns/coprime.toml`): scales 5 and 7 (coprime, no
+/// level nor their beat within one period), then 35: the same bar.
+#[test]
+fn coprime_scans_meet_the_quality_bar() {
+    let f = std::path::Path::new("../examples/patterns/coprime.toml");
+    for name in ["plane", "sphere", "steps"] {
+        meets_the_bar(&scene(name, f), &format!("coprime, {name}"));
+    }
+}
+
 #[test]
 fn binary_defocused_scans_meet_the_quality_bar() {
     let t = Tmp::new("binary-bar");
@@ -259,6 +269,8 @@ fn patterns_render_and_scan_take_gray_code_heterodyne_and_binary_sets() {
     let het = t.0.join("heterodyne.toml");
     std::fs::write(&het, HETERODYNE).unwrap();
     scan_cli(&t, &het, "het", 12, None);
+    let cop = std::path::Path::new("../examples/patterns/coprime.toml");
+    scan_cli(&t, cop, "coprime", 12, None);
     let f = t.0.join("gray.toml");
     std::fs::write(&f, set_file(true)).unwrap();
     scan_cli(&t, &f, "gray", 11, None);

@@ -8,7 +8,7 @@
 //! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
 mod common;
-use common::{gray_set, heterodyne_set, small_u8};
+use common::{coprime_set, gray_set, heterodyne_set, small_u8};
 use fringe3d::vectors::{self, GoldenVectors, VectorOptions};
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use std::collections::BTreeMap;
@@ -249,4 +249,10 @@ fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
         ..small_u8("sphere", 6)
     };
     check_scan(&elf, &heterodyne_opts, "sphere-160x128-u8-heterodyne");
+    // A coprime pair of 4-step levels (scales 5 and 7), number-theoretic unwrapping.
+    let coprime_opts = VectorOptions {
+        patterns: Some(coprime_set()),
+        ..small_u8("sphere", 8)
+    };
+    check_scan(&elf, &coprime_opts, "sphere-160x128-u8-coprime");
 }

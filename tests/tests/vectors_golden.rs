@@ -3,7 +3,7 @@
 //! over the whole reference map, the whole-cloud edge filter) reproduce every stage's digest.
 
 mod common;
-use common::{gray_set, heterodyne_set, small_u8};
+use common::{coprime_set, gray_set, heterodyne_set, small_u8};
 use fringe3d::batch::{FrameOut, Isa, decode_frames};
 use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d::vectors::{self, Dtype, GoldenVectors, VectorOptions};
@@ -320,6 +320,12 @@ fn vectors_match_the_desktop_batch_paths_with_tables_and_gray_codes() {
         ..small_u8("sphere", 6)
     };
     check_batch(&opts, "vectors-batch-heterodyne");
+    // And a coprime pair (relation [2]).
+    let opts = VectorOptions {
+        patterns: Some(coprime_set()),
+        ..small_u8("sphere", 8)
+    };
+    check_batch(&opts, "vectors-batch-coprime");
 }
 
 #[test]

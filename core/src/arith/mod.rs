@@ -90,6 +90,11 @@ pub struct Plan<'a> {
     /// Gray-coded phase `c₀·Φ` (many periods) and the range test applies to that phase once
     /// unwrapped.
     pub gray: Option<GrayCode>,
+    /// A coprime set's `a` ([`crate::pattern::Relation::Coprime`], `c₀ = a·u`): then
+    /// `coarse_range` is the range of `c₀·Φ` (`a` times the set's, which is `u·Φ`'s), whose
+    /// candidates `φ₀ + 2πk` are tested against it, and the step to level 1 decides the order
+    /// with the tolerance `π/a`.
+    pub coprime: Option<u32>,
 }
 
 impl Plan<'_> {
@@ -102,18 +107,20 @@ impl Plan<'_> {
     }
 
     /// The largest accepted residual (radians) of the unwrapping step from the Gray code
-    /// ([`GrayCode::tolerance`]); the configured unwrapping tolerance without a code.
+    /// ([`GrayCode::tolerance`]), or of a coprime set's step from level 0 to level 1 (`π/a`,
+    /// which at most one candidate order meets); the configured unwrapping tolerance else.
     pub fn gray_tolerance(&self) -> f64 {
-        match self.gray {
-            Some(g) => g.tolerance(self.config.range_tolerance as f64),
-            None => self.config.unwrap_tolerance as f64,
+        match (self.gray, self.coprime) {
+            (Some(g), _) => g.tolerance(self.config.range_tolerance as f64),
+            (None, Some(a)) => core::f64::consts::PI / a as f64,
+            (None, None) => self.config.unwrap_tolerance as f64,
         }
     }
 
     /// The largest absolute coarsest phase, turns: ½ (a wrapped phase), or a Gray-coded
     /// phase's largest magnitude over the projector plus ½.
     pub fn coarse_turns(&self) -> f64 {
-        if self.gray.is_none() {
+        if self.gray.is_none() && self.coprime.is_none() {
             return 0.5;
         }
         let (lo, hi) = self.coarse_range;
@@ -143,15 +150,18 @@ impl Plan<'_> {
     /// each end (t/2π of the width each: 2.4 % at 0.15 rad).
     ///
     /// A Gray-coded set has no seam (its coarse phase is absolute): accepted is `[lo − t,
-    /// hi + t]`.
+    /// hi + t]`. A coprime set's range is that of `c₀·Φ = a·u·Φ`, whose seam repeats every
+    /// `2π·a`: the same rule with that period, so that no two candidates `φ₀ + 2πk` and
+    /// `φ₀ + 2π(k + a)` (which predict level 1 alike) are both accepted.
     pub fn accepted_coarse(&self) -> (f64, f64) {
         let (lo, hi) = self.coarse_range;
         let t = self.config.range_tolerance as f64;
         if self.gray.is_some() {
             return (lo - t, hi + t);
         }
-        let m = 0.5 * (hi + lo + core::f64::consts::TAU);
-        let (seam_lo, seam_hi) = (m + t - core::f64::consts::TAU, m - t);
+        let period = core::f64::consts::TAU * self.coprime.unwrap_or(1) as f64;
+        let m = 0.5 * (hi + lo + period);
+        let (seam_lo, seam_hi) = (m + t - period, m - t);
         (
             if seam_lo > lo - t { seam_lo } else { lo - t },
             if seam_hi < hi + t { seam_hi } else { hi + t },

@@ -73,6 +73,9 @@ pub struct Decoder<A: Arith = F32Accurate> {
     /// A heterodyne set ([`Relation::Heterodyne`]): `ratio[0..n_levels]` is the chain of
     /// unwrapping ratios from the beat, in the order of `finish`'s steps.
     pub(super) heterodyne: bool,
+    /// A coprime set's `a` ([`Relation::Coprime`]: `c₀ = a·u`, `c₁ = b·u`), 0 otherwise: the
+    /// candidate orders of level 0 run over `−(a/2 + 1) ..= a/2 + 1`.
+    pub(super) coprime: u8,
 }
 
 /// Pixels side by side in [`Decoder::fused_rows`] (pass 1 of the paper's and the 12-pattern
@@ -216,6 +219,19 @@ impl<A: Arith> Decoder<A> {
                 chain[1..4].copy_from_slice(&[b01 / beat, c(1) / b01, c(2) / c(1)]);
             }
         }
+        // A coprime set's `a` (`Relation::Coprime`): its candidates are tested in the range of
+        // `c₀·Φ`, `a` times the set's range of `u·Φ`.
+        let coprime = match set.relation() {
+            Relation::Coprime => {
+                let c = |i: usize| levels.get(i).map_or(1.0, |l| l.scale());
+                let (a, _) =
+                    crate::pattern::coprime_ratio(c(0), c(1)).ok_or(DecodeError::Config)?;
+                Some(a)
+            }
+            _ => None,
+        };
+        let (lo, hi) = set.coarse_range();
+        let widen = coprime.map_or(1.0, |a| a as f64);
         let plan = Plan {
             levels: &est[..n_levels],
             dc_level,
@@ -224,9 +240,10 @@ impl<A: Arith> Decoder<A> {
             } else {
                 &ratios[..n_levels]
             },
-            coarse_range: set.coarse_range(),
+            coarse_range: (lo * widen, hi * widen),
             config: &config,
             gray: set.gray(),
+            coprime,
         };
         let format = A::format(&plan)?;
         let zero = ImageCoef {
@@ -260,6 +277,7 @@ impl<A: Arith> Decoder<A> {
             gray_word_bit: [0; MAX_SHIFTS],
             gray_after_dc: false,
             heterodyne,
+            coprime: coprime.unwrap_or(0) as u8,
         });
         if heterodyne {
             for (r, c) in d.ratio.iter_mut().zip(&chain[1..=n_levels]) {

@@ -16,6 +16,8 @@ const HIERARCHICAL: u8 = 0;
 const GRAY: u8 = 1;
 /// `finish_lanes`'s mode: a heterodyne set ([`crate::pattern::Relation::Heterodyne`]).
 const HETERODYNE: u8 = 2;
+/// `finish_lanes`'s mode: a coprime set ([`crate::pattern::Relation::Coprime`]).
+const COPRIME: u8 = 3;
 
 impl<A: Arith> Decoder<A> {
     /// Turn a complete state into outputs (the second half of the kernel): S and C per level,
@@ -216,6 +218,14 @@ impl<A: Arith> Decoder<A> {
                 _ => self.unwrap_levels::<3, T, N, HETERODYNE>(blk, sat, saturated, out),
             };
         }
+        if self.coprime != 0 {
+            // 2 to 4 levels (`Relation::Coprime`, `MAX_COPRIME_LEVELS`).
+            return match self.n_levels {
+                2 => self.unwrap_levels::<2, T, N, COPRIME>(blk, sat, saturated, out),
+                3 => self.unwrap_levels::<3, T, N, COPRIME>(blk, sat, saturated, out),
+                _ => self.unwrap_levels::<4, T, N, COPRIME>(blk, sat, saturated, out),
+            };
+        }
         match (self.n_levels, self.gray.is_some()) {
             (1, _) => self.unwrap_levels::<1, T, N, HIERARCHICAL>(blk, sat, saturated, out),
             (2, false) => self.unwrap_levels::<2, T, N, HIERARCHICAL>(blk, sat, saturated, out),
@@ -279,6 +289,8 @@ impl<A: Arith> Decoder<A> {
     /// count of ambiguous bits. Its step to level 1 (ratio 1) is held to the code's tolerance,
     /// and the range test applies to the phase that step gives (the estimate itself is always in
     /// range). [`HETERODYNE`]: the beats and the chain ([`Self::heterodyne_lanes`]).
+    /// [`COPRIME`]: level 0's order from the candidates ([`Self::coprime_lanes`]), then the
+    /// chain as [`HIERARCHICAL`].
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
     fn finish_lanes<const L: usize, const N: usize, const MODE: u8>(
@@ -293,7 +305,11 @@ impl<A: Arith> Decoder<A> {
         let lim = &self.limits;
         const { assert!(MODE != GRAY || L <= crate::limits::MAX_GRAY_LEVELS) };
         const { assert!(MODE != HETERODYNE || L == 2 || L == 3) };
+        const { assert!(MODE != COPRIME || (L >= 2 && L <= crate::relation::MAX_COPRIME_LEVELS)) };
         let gray = MODE == GRAY;
+        // The step to level 1 is held to the code's tolerance (a Gray code's, or a coprime
+        // set's `π/a`) rather than the unwrapping tolerance.
+        let coded = gray || MODE == COPRIME;
         let mut phi: [A::Phase; N] = lanes(|k| w[k][0]);
         let mut out_of_range: [bool; N] =
             lanes(|k| !gray && !A::in_range(phi[k], lim.coarse_lo, lim.coarse_hi));
@@ -301,13 +317,16 @@ impl<A: Arith> Decoder<A> {
         if MODE == HETERODYNE {
             (phi, out_of_range, inconsistent) = self.heterodyne_lanes(w);
         }
+        if MODE == COPRIME {
+            (phi, out_of_range, inconsistent) = self.coprime_lanes(w);
+        }
         for l in 1..L {
             if MODE == HETERODYNE {
                 break;
             }
             let st: [(A::Phase, A::Phase); N] =
                 lanes(|k| A::unwrap(phi[k], self.ratio[l], w[k][l]));
-            let tolerance = if gray && l == 1 {
+            let tolerance = if coded && l == 1 {
                 lim.gray_tolerance
             } else {
                 lim.unwrap_tolerance
@@ -405,5 +424,41 @@ impl<A: Arith> Decoder<A> {
             }
         }
         (phi, out_of_range, inconsistent)
+    }
+
+    /// Level 0's absolute phase of a coprime set ([`crate::pattern::Relation::Coprime`],
+    /// `c₀ = a·u`, `c₁ = b·u`), for `N` pixels: the phase, out of range, inconsistent.
+    ///
+    /// Each candidate `φ₀ + 2πk` (`|k| ≤ a/2 + 1`; `unwrap(2πk, 1, φ₀)`) in the accepted range of
+    /// `c₀·Φ` predicts level 1 (`unwrap(·, b/a, φ₁)`); it is the order if that residual is within
+    /// `π/a` (the limits' code tolerance). The candidates' residuals lie `2π/a` apart, so at most
+    /// one qualifies unless the noise is at the margin: none or two make the pixel inconsistent,
+    /// none in range out of range. The number of candidates is the set's, the same for every
+    /// pixel: no data-dependent loop.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn coprime_lanes<const L: usize, const N: usize>(
+        &self,
+        w: &[[A::Phase; L]; N],
+    ) -> ([A::Phase; N], [bool; N], [bool; N]) {
+        use core::array::from_fn as lanes;
+        let lim = &self.limits;
+        let one = A::ratio(1.0, &self.format);
+        let reach = (self.coprime / 2) as i32 + 1;
+        let mut phi = [A::PHASE_ZERO; N];
+        let mut hits = [0u8; N];
+        let mut in_range = [false; N];
+        for k in -reach..=reach {
+            for j in 0..N {
+                let cand = A::unwrap(A::quarter_turns(4 * k), one, w[j][0]).0;
+                let inside = A::in_range(cand, lim.coarse_lo, lim.coarse_hi);
+                let (_, r) = A::unwrap(cand, self.ratio[1 % L], w[j][1 % L]);
+                let hit = inside & A::consistent(r, lim.gray_tolerance);
+                in_range[j] |= inside;
+                hits[j] += hit as u8;
+                phi[j] = if hit { cand } else { phi[j] };
+            }
+        }
+        (phi, lanes(|j| !in_range[j]), lanes(|j| hits[j] != 1))
     }
 }

@@ -31,6 +31,12 @@
 //! 6. **Heterodyne** (issue #20), for a set of [`Relation::Heterodyne`] in place of step 5: the
 //!    beats of the wrapped phases give the absolute start, and the chain unwraps from it
 //!    (`heterodyne` below).
+//! 7. **Coprime** (issue #20), for a set of [`Relation::Coprime`] (`c₀ = a·u`, `c₁ = b·u`, `a`
+//!    and `b` coprime): by the classic lookup-table method, `d = round((b·φ₀ − a·φ₁)/2π)` equals
+//!    `a·k₁ − b·k₀`, which fixes `k₀` modulo `a`; of the orders with `|φ₀ + 2πk₀| < a·π` (`u·Φ`
+//!    within one period) the one with `a | d + b·k₀` gives `Φ^(0) = φ₀ + 2πk₀`, then step 5
+//!    from level 1 on (`coprime` below). The decoder finds the same order by testing every
+//!    candidate's prediction of level 1 instead ([`Relation::Coprime`]).
 //!
 //! Nothing else: no validity tests (those are thresholds on these quantities, applied by the
 //! decoder), and only the sets these equations cover — every level of ≥ 3 shifts uniform, every
@@ -148,8 +154,12 @@ pub fn decode_pixel(set: &PatternSet, samples: &[f64]) -> Option<ReferencePixel>
             dc: a,
         });
     }
-    // Step 5 (eqs 12-13): Φ^(0) = φ^(0), then one level after another.
+    // Step 5 (eqs 12-13): Φ^(0) = φ^(0) (step 7 for a coprime set), then one level after
+    // another.
     let mut phi = wrapped[0];
+    if set.relation() == Relation::Coprime {
+        phi = coprime(levels, &wrapped)?;
+    }
     for k in 1..levels.len() {
         let predicted = levels[k].scale() / levels[k - 1].scale() * phi;
         let n_k = libm::round((predicted - wrapped[k]) / TAU);
@@ -189,6 +199,19 @@ fn heterodyne(levels: &[crate::pattern::Level], w: &[f64; MAX_LEVELS]) -> Option
         }
         _ => None,
     }
+}
+
+/// Step 7, for a coprime set ([`Relation::Coprime`]): level 0's absolute phase by the lookup-table
+/// method.
+fn coprime(levels: &[crate::pattern::Level], w: &[f64; MAX_LEVELS]) -> Option<f64> {
+    let (c0, c1) = (levels.first()?.scale(), levels.get(1)?.scale());
+    let (a, b) = crate::pattern::coprime_ratio(c0, c1)?;
+    let (a, b) = (a as i64, b as i64);
+    let d = libm::round((b as f64 * w[0] - a as f64 * w[1]) / TAU) as i64;
+    (-a..=a)
+        .filter(|k| libm::fabs(w[0] + TAU * *k as f64) < a as f64 * PI)
+        .find(|k| (d + b * k).rem_euclid(a) == 0)
+        .map(|k| w[0] + TAU * k as f64)
 }
 
 #[cfg(test)]

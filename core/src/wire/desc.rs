@@ -125,7 +125,7 @@ fn pattern_invalid(e: PatternError) -> Invalid {
         | PatternError::GrayPlacement(_)
         | PatternError::GrayBits(_)
         | PatternError::GrayNoDc => Invalid::Shifts,
-        PatternError::HeterodyneLevels => Invalid::LevelCount,
+        PatternError::HeterodyneLevels | PatternError::CoprimeLevels => Invalid::LevelCount,
         PatternError::GrayRange { .. } => Invalid::PhaseFunction,
         PatternError::Output => Invalid::Intensity,
     }

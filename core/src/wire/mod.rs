@@ -118,8 +118,9 @@
 //! Explicit count u8, 16 × f64, or `[2]` Gray bits u8, complementary u8 (a Gray-code level:
 //! `bits` binary images, one more if complementary, [`crate::gray`]). Unused levels are `0.0, [0] 0 0`; unused knots and explicit shifts
 //! are `0.0`. Last, the levels' relation ([`Relation`]): `[0]`
-//! hierarchical (eqs 12-13 from the coarsest level or a Gray code) or `[1]` heterodyne (the
-//! beats of 2 or 3 phase levels). These are the parameters of the core's `PatternSet` exactly ([`desc`] maps both
+//! hierarchical (eqs 12-13 from the coarsest level or a Gray code), `[1]` heterodyne (the
+//! beats of 2 or 3 phase levels) or `[2]` coprime (number-theoretic: the first two levels'
+//! scales in the ratio of coprime integers). These are the parameters of the core's `PatternSet` exactly ([`desc`] maps both
 //! ways), so the head's set is the desktop's bit for bit.
 //!
 //! [`LutEntry`] (12 bytes, LE, not postcard): pattern u16, exposure_us u32, dark_us u32,

@@ -103,6 +103,9 @@ fn toml_info(p: &Path) -> Result<serde_json::Value> {
         let o = s.output();
         let (lo, hi) = s.coarse_range();
         let finest = s.levels().last().map(|l| l.scale()).unwrap_or(1.0);
+        // The coarse range is that of the start's scale: the coarsest level's, a heterodyne
+        // set's beat, a coprime set's unit.
+        let start = s.relation().start_scale(s.levels()).unwrap_or(1.0);
         Ok(json!({
             "kind": "pattern set",
             "images": s.image_count(),
@@ -111,7 +114,7 @@ fn toml_info(p: &Path) -> Result<serde_json::Value> {
             "levels": levels,
             "order": s.order().iter().map(|i| [i.level, i.shift]).collect::<Vec<_>>(),
             "coarse_phase_range_rad": [lo, hi],
-            "finest_periods_across": (hi - lo) * finest / s.levels()[0].scale() / std::f64::consts::TAU,
+            "finest_periods_across": (hi - lo) * finest / start / std::f64::consts::TAU,
             "convention": format!("{:?}", s.convention()),
             "unwrap": format!("{:?}", s.relation()),
             "binary": crate::io::pattern_file::BinaryName::of(s.binarization()).name(),

@@ -275,6 +275,24 @@ fn check_residuals(set: &PatternSet, sigma: f64, report: &[LevelError]) -> Resul
             ),
             (report[1].residual_max_rad, c[1], c[2], "level 1".into()),
         ],
+        // A coprime pair's order is decided within π/a of level 1 (`Relation::Coprime`): its
+        // residual, `r₁ + (b/a)·r₀` in level 1's radians, counts `a` times against the limit;
+        // then the chain from level 1.
+        (Relation::Coprime, _) => {
+            let (a, b) = fringe3d_core::pattern::coprime_ratio(c[0], c[1]).unwrap_or((1, 2));
+            let (a, b) = (a as f64, b as f64);
+            let pair = report[1].residual_max_rad + b / a * report[0].residual_max_rad;
+            std::iter::once((a * pair, 1.0, 1.0, "the coprime pair's order".into()))
+                .chain((1..fine).map(|l| {
+                    (
+                        report[l].residual_max_rad,
+                        c[l],
+                        c[l + 1],
+                        format!("level {l}"),
+                    )
+                }))
+                .collect()
+        }
         (Relation::Hierarchical, _) => (0..fine)
             .map(|l| {
                 (

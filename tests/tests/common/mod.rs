@@ -30,6 +30,20 @@ pub fn heterodyne_set() -> PatternSetFile {
     )
 }
 
+/// A coprime set (issue #20, number-theoretic unwrapping), 8 images: 4-step levels of scales 5
+/// and 7 over a phase of 5.6 rad across the projector (periods of about 230 and 164 pixels;
+/// neither level nor their beat within one period).
+pub fn coprime_set() -> PatternSetFile {
+    set_file(
+        "coprime",
+        "version = 2\nunwrap = \"coprime\"\n\
+         [projector]\nwidth = 1024\nheight = 768\n\
+         [phase]\naxis = \"xi\"\nkind = \"centered\"\nspan = 5.6\n\
+         [[levels]]\nscale = 5.0\nsteps = 4\n\
+         [[levels]]\nscale = 7.0\nsteps = 4\n",
+    )
+}
+
 /// The pattern-set file of `text`, loaded (through a temporary file named for `tag`).
 fn set_file(tag: &str, text: &str) -> PatternSetFile {
     let path = std::env::temp_dir().join(format!(

@@ -33,7 +33,6 @@ use std::path::{Path, PathBuf};
 
 use fringe3d_core::pattern::{
     Convention, GrayCode, ImageId, Level, MAX_SHIFT_MAGNITUDE, Output, PatternError, PatternSet,
-    Relation,
 };
 use fringe3d_core::phase_function::{
     Axis, KnotProfile, MIN_COARSE_SPAN, PhaseFunction, PhaseFunctionError, Profile,
@@ -104,7 +103,8 @@ pub struct PatternSetFile {
     pub levels: Option<Vec<LevelSection>>,
     /// How the levels give the absolute phase: `"hierarchical"` (default; eqs 12-13) or
     /// `"heterodyne"` (2 or 3 levels whose beat spans one period,
-    /// `fringe3d_core::pattern::Relation::Heterodyne`).
+    /// `fringe3d_core::pattern::Relation::Heterodyne`) or `"coprime"` (the first two levels'
+    /// scales in the ratio of coprime integers, `fringe3d_core::pattern::Relation::Coprime`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unwrap: Option<UnwrapName>,
     /// 1-bit patterns for a DLP's binary mode: `"square"` (squared binary) or `"bayer"`
@@ -291,12 +291,20 @@ impl PatternSetFile {
                  times the phase must stay within one period: lower the beat or phase.span)"
                     .to_string()
             }
+            PatternError::Function(PhaseFunctionError::CoarseRangeExceeded { .. })
+                if self.unwrap == Some(UnwrapName::Coprime) =>
+            {
+                " (unwrap = \"coprime\": the unit u = c0/a of the scales c0 = a u, c1 = b u \
+                 times the phase must stay within one period: lower the scales or phase.span)"
+                    .to_string()
+            }
             PatternError::Function(PhaseFunctionError::CoarseRangeExceeded { .. }) => {
                 " (phase.span / phase.slope / the knots, or the coarsest scale)".to_string()
             }
             PatternError::HeterodyneLevels => {
                 " ([[levels]] with unwrap = \"heterodyne\")".to_string()
             }
+            PatternError::CoprimeLevels => " ([[levels]] with unwrap = \"coprime\")".to_string(),
             PatternError::GrayRange { .. } => {
                 " (raise levels[0].gray_bits, or lower the scale or phase.span)".to_string()
             }
@@ -325,10 +333,7 @@ impl PatternSetFile {
         let output = self.output()?;
         let function = self.function(&output)?;
         let levels = self.levels()?;
-        let relation = match self.unwrap.unwrap_or(UnwrapName::Hierarchical) {
-            UnwrapName::Hierarchical => Relation::Hierarchical,
-            UnwrapName::Heterodyne => Relation::Heterodyne,
-        };
+        let relation = self.unwrap.unwrap_or(UnwrapName::Hierarchical).core();
         let mut set = PatternSet::new_with_relation(function, &levels, output, relation)
             .map_err(|e| self.set_error(e))?;
         set = set.with_convention(match self.convention.unwrap_or(ConventionName::Sine) {

@@ -4,7 +4,7 @@
 use fringe3d_core::binary::Binarization;
 use fringe3d_core::pattern::{Level, LevelPreset};
 
-/// `unwrap = "hierarchical" | "heterodyne"`.
+/// `unwrap = "hierarchical" | "heterodyne" | "coprime"`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum UnwrapName {
@@ -12,6 +12,30 @@ pub enum UnwrapName {
     Hierarchical,
     /// Multi-frequency heterodyne: the beat of the levels is the coarse phase.
     Heterodyne,
+    /// Number-theoretic: the first two levels' scales are in the ratio of coprime integers.
+    Coprime,
+}
+
+impl UnwrapName {
+    /// The core's relation.
+    pub fn core(self) -> fringe3d_core::pattern::Relation {
+        use fringe3d_core::pattern::Relation;
+        match self {
+            UnwrapName::Hierarchical => Relation::Hierarchical,
+            UnwrapName::Heterodyne => Relation::Heterodyne,
+            UnwrapName::Coprime => Relation::Coprime,
+        }
+    }
+
+    /// The file's name of a relation (`None` for the default, hierarchical).
+    pub fn of(r: fringe3d_core::pattern::Relation) -> Option<UnwrapName> {
+        use fringe3d_core::pattern::Relation;
+        match r {
+            Relation::Hierarchical => None,
+            Relation::Heterodyne => Some(UnwrapName::Heterodyne),
+            Relation::Coprime => Some(UnwrapName::Coprime),
+        }
+    }
 }
 
 /// `binary = "off" | "square" | "bayer"`.

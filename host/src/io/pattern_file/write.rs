@@ -1,6 +1,6 @@
 //! [`PatternSetFile::from_pattern_set`]: the file describing a set, every value explicit.
 
-use fringe3d_core::pattern::{Convention, Level, LevelPreset, PatternSet, Relation};
+use fringe3d_core::pattern::{Convention, Level, LevelPreset, PatternSet};
 use fringe3d_core::phase_function::{Axis, Profile};
 
 use super::{
@@ -103,7 +103,7 @@ impl PatternSetFile {
             },
             phase: Some(phase),
             levels: level_sections,
-            unwrap: (set.relation() == Relation::Heterodyne).then_some(UnwrapName::Heterodyne),
+            unwrap: UnwrapName::of(set.relation()),
             binary: set
                 .binarization()
                 .is_binary()
