@@ -19,10 +19,18 @@
 //! The *complementary* scheme adds image `bits`: bit 0 of `G(h)`, stripes half a period wide,
 //! whose edges fall at the middles of the other images' stripes.
 //!
+//! # Inverse patterns
+//! An *inverse* code projects every image followed by its inverse (image `2j` the bit, `2j + 1`
+//! its complement; [`GrayCode::inverted`]), doubling the images for the classic per-pixel
+//! threshold: the bit is bright where `I₂ⱼ > I₂ⱼ₊₁`, ambiguous where `|I₂ⱼ − I₂ⱼ₊₁|` is below a
+//! margin. Each pixel compares its own bright and dark response, so the threshold holds under
+//! surface colour, ambient light and a projector whose black is not `I_min`, where the mean
+//! intensity's `A` may not lie halfway (a projector's gamma puts `A` below the midpoint).
+//!
 //! # Decoding
 //! Each image is thresholded against the DC term `A` of the set's DC level (the "mean intensity"
-//! threshold): bright where `I > A`. A bit with `|I − A|` below a margin is *ambiguous*; it still
-//! takes the side of its sign. The word is converted back to binary ([`GrayCode::quarter_turns`])
+//! threshold): bright where `I > A` (an inverse code: against its inverse image, above). A bit
+//! with `|I − A|` below a margin is *ambiguous*; it still takes the side of its sign. The word is converted back to binary ([`GrayCode::quarter_turns`])
 //! and gives an absolute phase estimate at the centre of its stripe, which unwraps the phase
 //! level's wrapped phase as any coarser level does (eqs 12-13, level ratio 1):
 //!
@@ -42,11 +50,13 @@
 
 use crate::limits::MAX_GRAY_BITS;
 
-/// A Gray-code level's code: its bit count and whether the complementary image is projected.
+/// A Gray-code level's code: its bit count, whether the complementary image is projected, and
+/// whether every image is followed by its inverse.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct GrayCode {
     bits: u8,
     complementary: bool,
+    inverse: bool,
 }
 
 impl GrayCode {
@@ -56,7 +66,33 @@ impl GrayCode {
         GrayCode {
             bits,
             complementary,
+            inverse: false,
         }
+    }
+
+    /// The same code with every image followed by its inverse (the per-pixel threshold of the
+    /// module docs' "Inverse patterns").
+    pub const fn inverted(self) -> Self {
+        GrayCode {
+            inverse: true,
+            ..self
+        }
+    }
+
+    /// Whether every image is followed by its inverse.
+    pub const fn inverse(&self) -> bool {
+        self.inverse
+    }
+
+    /// Whether image `j` of the level is the inverse of image `j − 1` (an inverse code's odd
+    /// images).
+    pub const fn is_inverse_image(&self, j: usize) -> bool {
+        self.inverse && j % 2 == 1
+    }
+
+    /// The code image (bit position among the `bits` + complementary ones) image `j` shows.
+    const fn code_image(&self, j: usize) -> usize {
+        if self.inverse { j / 2 } else { j }
     }
 
     /// Bits of the period code (images without the complementary one).
@@ -69,14 +105,17 @@ impl GrayCode {
         self.complementary
     }
 
-    /// Images of the level: `bits`, plus one if complementary.
+    /// Images of the level: `bits`, plus one if complementary; twice that if inverse.
     pub const fn images(&self) -> usize {
-        self.bits as usize + self.complementary as usize
+        (self.bits as usize + self.complementary as usize) * (1 + self.inverse as usize)
     }
 
-    /// Whether `bits` is in `1..=MAX_GRAY_BITS`.
+    /// Whether `bits` is in `1..=MAX_GRAY_BITS` and the images fit a level
+    /// ([`crate::limits::MAX_SHIFTS`]: an inverse code has at most 8 bits, 7 if complementary).
     pub const fn is_valid(&self) -> bool {
-        self.bits >= 1 && self.bits as usize <= MAX_GRAY_BITS
+        self.bits >= 1
+            && self.bits as usize <= MAX_GRAY_BITS
+            && self.images() <= crate::limits::MAX_SHIFTS
     }
 
     /// `B = 2^(bits−1)`, the period code of `u = 0`.
@@ -96,16 +135,19 @@ impl GrayCode {
         libm::floor(2.0 * u + 1.0) as i64 + 2 * self.bias()
     }
 
-    /// Whether image `j` of the level (0 = most significant bit) is bright at half stripe `h`.
+    /// Whether image `j` of the level (0 = most significant bit; an inverse code's odd images
+    /// the complements) is bright at half stripe `h`.
     pub fn bright(&self, j: usize, h: i64) -> bool {
         let word = h ^ (h >> 1);
-        let bit = self.bits as i64 - j as i64;
-        (0..=self.bits as i64).contains(&bit) && (word >> bit) & 1 == 1
+        let bit = self.bits as i64 - self.code_image(j) as i64;
+        let set = (0..=self.bits as i64).contains(&bit) && (word >> bit) & 1 == 1;
+        set != self.is_inverse_image(j)
     }
 
-    /// The bit of the code word image `j` sets (`bits − j`): the word is laid out as `G(h)`.
+    /// The bit of the code word image `j` sets (`bits − j`; an inverse code's pair `2j, 2j + 1`
+    /// sets one): the word is laid out as `G(h)`.
     pub const fn word_bit(&self, j: usize) -> u32 {
-        (self.bits as u32).wrapping_sub(j as u32)
+        (self.bits as u32).wrapping_sub(self.code_image(j) as u32)
     }
 
     /// The phase estimate of a decoded word (laid out as `G(h)`, [`Self::word_bit`]; a plain

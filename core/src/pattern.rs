@@ -617,9 +617,24 @@ impl PatternSet {
     /// Whether a frame-sequential decoder can take the images in the set's order: always,
     /// except with a Gray-code image before the last image of the DC level (the level with the
     /// most shifts, ≥ 3, the finest on a tie), whose A thresholds the Gray images as they come
-    /// ([`crate::gray`]).
+    /// ([`crate::gray`]). An inverse code needs no A: each image is kept until its inverse comes,
+    /// which must be the next image of the code (image `2j` right before `2j + 1` among the
+    /// code's images; other levels' images may come between).
     pub fn frame_sequential_order(&self) -> bool {
-        if self.gray().is_none() {
+        let Some(code) = self.gray() else {
+            return true;
+        };
+        if code.inverse() {
+            let mut shifts = self
+                .order()
+                .iter()
+                .filter(|id| id.level == 0)
+                .map(|id| id.shift);
+            while let Some(s) = shifts.next() {
+                if s % 2 != 0 || shifts.next() != Some(s + 1) {
+                    return false;
+                }
+            }
             return true;
         }
         let levels = self.levels();

@@ -151,7 +151,9 @@ impl core::fmt::Display for PatternError {
             ),
             Self::GrayBits(n) => write!(
                 f,
-                "a Gray-code level has {n} bits; need 1 to {MAX_GRAY_BITS}"
+                "a Gray-code level has {n} bits; need 1 to {MAX_GRAY_BITS} (an inverse code: its \
+                 images and their inverses at most {MAX_SHIFTS}, so 8 bits, 7 with the \
+                 complementary image)"
             ),
             Self::GrayNoDc => write!(
                 f,

@@ -16,6 +16,7 @@ mod decode_accuracy;
 mod decode_coprime;
 mod decode_correction;
 mod decode_gray;
+mod decode_gray_inverse;
 mod decode_heterodyne;
 mod decode_long_sets;
 mod decode_optional_outputs;

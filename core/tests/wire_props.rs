@@ -66,6 +66,20 @@ fn pattern_set(r: &mut XorShift64) -> PatternSetDesc {
                 n,
                 count: 1 + r.below(n as u32) as u8,
             }
+        } else if r.below(4) == 0 {
+            // Gray-code levels, plain or inverse (the wire's field checks only).
+            let complementary = r.below(2) == 0;
+            if r.below(2) == 0 {
+                Shifts::Gray {
+                    bits: 1 + r.below(10) as u8,
+                    complementary,
+                }
+            } else {
+                Shifts::GrayInverse {
+                    bits: 1 + r.below(7) as u8,
+                    complementary,
+                }
+            }
         } else {
             let count = 1 + r.below(MAX_SHIFTS as u32) as u8;
             let mut radians = [0.0; MAX_SHIFTS];

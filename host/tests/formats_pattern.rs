@@ -379,9 +379,16 @@ fn bad_files_get_clear_messages() {
         m.contains("levels[0]: gray_bits = 11; a Gray-code level has 1 to 10 bits"),
         "{m}"
     );
-    let m = gray("steps = 4\ncomplementary = true\n");
+    for key in ["complementary", "inverse"] {
+        let m = gray(&format!("steps = 4\n{key} = true\n"));
+        assert!(
+            m.contains("complementary and inverse apply to a Gray-code level"),
+            "{m}"
+        );
+    }
+    let m = gray("gray_bits = 8\ninverse = true\n[[levels]]\nscale = 4.0\nsteps = 4\n");
     assert!(
-        m.contains("complementary applies to a Gray-code level"),
+        m.contains("gray_bits = 8 with inverse = true is 18 images"),
         "{m}"
     );
     let m = gray("steps = 4\n[[levels]]\nscale = 8.0\ngray_bits = 3\n");

@@ -230,6 +230,26 @@ fn gray_code_scans_meet_the_quality_bar() {
     }
 }
 
+/// The complementary code with inverse patterns (26 images): every bit against its own inverse.
+#[test]
+fn inverse_gray_code_scans_meet_the_quality_bar() {
+    let t = Tmp::new("gray-inv");
+    let f = t.0.join("gray-inverse.toml");
+    let text = set_file(true).replace(
+        "complementary = true\n",
+        "complementary = true\ninverse = true\n",
+    );
+    assert!(text.contains("inverse = true"));
+    std::fs::write(&f, text).unwrap();
+    for name in ["plane", "sphere", "steps"] {
+        let what = format!("{name}, inverse");
+        let s = meets_the_bar(&scene(name, &f), &what);
+        if name != "steps" {
+            assert_eq!(s.edge_refusals, 0, "{what}: edge refusals");
+        }
+    }
+}
+
 #[test]
 fn heterodyne_scans_meet_the_quality_bar() {
     let t = Tmp::new("gray-het");

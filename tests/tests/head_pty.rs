@@ -877,3 +877,44 @@ fn a_binary_set_scans_on_the_head_with_its_table_bit_identical_to_the_desktop() 
     });
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// An inverse Gray code on the head (issue #20 item 1): a 5-bit code's images each followed by
+/// its inverse, thresholded pair by pair. Captured code first, in the listed order (the mean
+/// threshold would need the DC level first), the head's frame-sequential decode equals the
+/// desktop's bit for bit.
+#[test]
+fn an_inverse_gray_set_scans_code_first_on_the_head_bit_identical_to_the_desktop() {
+    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-inv-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let dir = dataset_with(
+        &root,
+        "version = 2\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
+         [phase]\naxis = \"xi\"\nkind = \"centered\"\nspan = 6.0\n\
+         [[levels]]\nscale = 20.0\ngray_bits = 5\ncomplementary = false\ninverse = true\n\
+         [[levels]]\nscale = 20.0\nsteps = 4\n",
+    );
+    let case = head_case(&dir);
+    let (set, desc, seq) = (&case.set, &case.desc, &case.seq);
+    assert!(set.gray().is_some_and(|g| g.inverse()) && set.image_count() == 14);
+    assert!(
+        set.frame_sequential_order(),
+        "listed, code first, is frame-sequential"
+    );
+    on_head(&dir, &case, None, true, |c, v| {
+        assert_eq!(v, ValidationStatus::OK);
+        let listed: Vec<_> = set
+            .order()
+            .iter()
+            .map(|&id| fringe3d_core::wire::LutEntry {
+                pattern: desc.pattern_index(id).unwrap(),
+                ..seq[0]
+            })
+            .collect();
+        assert_eq!(desc.pattern_id(listed[0].pattern).unwrap().level, 0);
+        c.configure_sequence(0, false, &listed).unwrap();
+        assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
+        assert_desktop_bits(&scan_both(c), &case.dec, &case.cloud);
+    });
+    let _ = std::fs::remove_dir_all(&root);
+}

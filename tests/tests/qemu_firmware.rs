@@ -8,7 +8,7 @@
 //! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
 mod common;
-use common::{coprime_set, gray_set, heterodyne_set, small_u8};
+use common::{coprime_set, gray_inverse_set, gray_set, heterodyne_set, small_u8};
 use fringe3d::vectors::{self, GoldenVectors, VectorOptions};
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use std::collections::BTreeMap;
@@ -255,4 +255,10 @@ fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
         ..small_u8("sphere", 8)
     };
     check_scan(&elf, &coprime_opts, "sphere-160x128-u8-coprime");
+    // A 2-bit Gray code with inverse patterns: each bit against its inverse.
+    let inverse_opts = VectorOptions {
+        patterns: Some(gray_inverse_set()),
+        ..small_u8("sphere", 9)
+    };
+    check_scan(&elf, &inverse_opts, "sphere-160x128-u8-gray2-inverse");
 }

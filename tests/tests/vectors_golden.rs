@@ -3,7 +3,7 @@
 //! over the whole reference map, the whole-cloud edge filter) reproduce every stage's digest.
 
 mod common;
-use common::{coprime_set, gray_set, heterodyne_set, small_u8};
+use common::{coprime_set, gray_inverse_set, gray_set, heterodyne_set, small_u8};
 use fringe3d::batch::{FrameOut, Isa, decode_frames};
 use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d::vectors::{self, Dtype, GoldenVectors, VectorOptions};
@@ -326,6 +326,12 @@ fn vectors_match_the_desktop_batch_paths_with_tables_and_gray_codes() {
         ..small_u8("sphere", 8)
     };
     check_batch(&opts, "vectors-batch-coprime");
+    // A Gray code with inverse patterns (Shifts::GrayInverse).
+    let opts = VectorOptions {
+        patterns: Some(gray_inverse_set()),
+        ..small_u8("sphere", 9)
+    };
+    check_batch(&opts, "vectors-batch-gray-inverse");
 }
 
 #[test]

@@ -299,6 +299,12 @@ impl Arith for Fixed {
     }
 
     #[inline(always)]
+    fn input_acc(v: i32, format: &FixedFormat) -> i32 {
+        // As `dc_minus_input` scales the sample (an unsaturated sample·2^F fits, `format`).
+        v.wrapping_shl(format.frac)
+    }
+
+    #[inline(always)]
     fn acc_word(a: i32) -> u16 {
         a as u16
     }

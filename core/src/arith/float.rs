@@ -203,6 +203,11 @@ impl<K: FloatKernels> Arith for K {
     }
 
     #[inline(always)]
+    fn input_acc(v: f32, _format: &()) -> f32 {
+        v
+    }
+
+    #[inline(always)]
     fn acc_word(a: f32) -> u16 {
         a as u16
     }

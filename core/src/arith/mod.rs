@@ -102,8 +102,14 @@ impl Plan<'_> {
     /// modulation. A bright stripe lies about B above the DC term and a dark one B below it, so
     /// on a pixel with `B ≥ min_modulation` a bit within `min_modulation/2` of A is an edge
     /// (blur mixes the two) or noise, and is counted ambiguous ([`crate::gray`]).
+    ///
+    /// An inverse code ([`GrayCode::inverted`]) thresholds each image against its inverse: the
+    /// difference is about ±2B, and the margin `min_modulation` is the same fraction of it.
     pub fn gray_margin(&self) -> f64 {
-        0.5 * self.config.min_modulation as f64
+        match self.gray {
+            Some(g) if g.inverse() => self.config.min_modulation as f64,
+            _ => 0.5 * self.config.min_modulation as f64,
+        }
     }
 
     /// The largest accepted residual (radians) of the unwrapping step from the Gray code
@@ -288,6 +294,10 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     /// `A − v`, a DC term minus a sample, in accumulator units: a Gray-code bit is bright where
     /// it is negative ([`crate::gray`]).
     fn dc_minus_input(a: Self::Acc, v: Self::In, format: &Self::Format) -> Self::Acc;
+    /// A sample in accumulator units, as [`Self::dc_minus_input`] scales it:
+    /// `dc_minus_input(input_acc(v), w)` is `v − w` exactly (an inverse Gray code's pair,
+    /// [`crate::gray`]).
+    fn input_acc(v: Self::In, format: &Self::Format) -> Self::Acc;
     /// A packed Gray-code word kept in an accumulator plane (the frame-sequential path), back
     /// to 16 bits: exact for every word ([`Self::word_acc`]).
     fn acc_word(a: Self::Acc) -> u16;

@@ -93,11 +93,18 @@ impl<A: Arith> Decoder<A> {
             .take(li.n as usize)
             .position(|&k| k as usize == image)
             .ok_or(DecodeError::Sequence)?;
-        let (dc, flags, plane) = (&st.dc[..], &mut st.flags[..], &mut st.s[0][..]);
+        let (dc, flags) = (&st.dc[..], &mut st.flags[..]);
+        let (Some(plane), Some(pending)) = (st.s.get_mut(0), st.c.get_mut(0)) else {
+            return Err(DecodeError::Sequence);
+        };
+        let (plane, pending) = (&mut plane[..], &mut pending[..]);
         if dc.len() != n || plane.len() != n || (FLAGS && flags.len() != n) {
             return Err(DecodeError::Length);
         }
-        self.gray_fold(j, row, dc, plane)?;
+        if pending.len() != n && self.gray.is_some_and(|g| g.inverse()) {
+            return Err(DecodeError::Length);
+        }
+        self.gray_fold(j, row, dc, plane, pending)?;
         if FLAGS {
             let sat = self.limits.saturation;
             for (f, &v) in flags.iter_mut().zip(row) {

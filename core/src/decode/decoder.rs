@@ -68,8 +68,17 @@ pub struct Decoder<A: Arith = F32Accurate> {
     /// The word bit of each Gray image, in the order of `level_images[0]` (image order).
     pub(super) gray_word_bit: [u8; MAX_SHIFTS],
     /// Whether every image of the DC level comes before every Gray image (the frame-sequential
-    /// path thresholds a Gray image on arrival, against the complete A).
+    /// path thresholds a Gray image on arrival, against the complete A); for an inverse code,
+    /// whether each image comes right before its inverse among the code's images
+    /// ([`PatternSet::frame_sequential_order`]).
     pub(super) gray_after_dc: bool,
+    /// An inverse code's pairs ([`GrayCode::inverted`]): for the image at position `j` of
+    /// `level_images[0]`, the position of its partner (the inverse of an even image, the image of
+    /// an odd one).
+    pub(super) gray_partner: [u8; MAX_SHIFTS],
+    /// An inverse code's images at each position of `level_images[0]`: `true` for a pair's image
+    /// (even shift), `false` for the inverse.
+    pub(super) gray_even: [bool; MAX_SHIFTS],
     /// A heterodyne set ([`Relation::Heterodyne`]): `ratio[0..n_levels]` is the chain of
     /// unwrapping ratios from the beat, in the order of `finish`'s steps.
     pub(super) heterodyne: bool,
@@ -276,6 +285,8 @@ impl<A: Arith> Decoder<A> {
             gray: set.gray(),
             gray_word_bit: [0; MAX_SHIFTS],
             gray_after_dc: false,
+            gray_partner: [0; MAX_SHIFTS],
+            gray_even: [false; MAX_SHIFTS],
             heterodyne,
             coprime: coprime.unwrap_or(0) as u8,
         });
@@ -352,9 +363,23 @@ impl<A: Arith> Decoder<A> {
         if let Some(code) = d.gray {
             let li = d.level_images[0];
             d.level_images[0].kind = KIND_GRAY;
+            let shift_of = |k: u8| set.image(k as usize).map_or(0, |id| id.shift as usize);
             for (bit, &k) in d.gray_word_bit.iter_mut().zip(&li.idx).take(li.n as usize) {
-                let shift = set.image(k as usize).map_or(0, |id| id.shift as usize);
-                *bit = code.word_bit(shift) as u8;
+                *bit = code.word_bit(shift_of(k)) as u8;
+            }
+            if code.inverse() {
+                let used = li.idx.get(..li.n as usize).unwrap_or(&[]);
+                for (j, &k) in used.iter().enumerate() {
+                    let other = shift_of(k) ^ 1;
+                    let at = used.iter().position(|&m| shift_of(m) == other);
+                    let (Some(partner), Some(even)) =
+                        (d.gray_partner.get_mut(j), d.gray_even.get_mut(j))
+                    else {
+                        return Err(DecodeError::Degenerate(0));
+                    };
+                    *partner = at.ok_or(DecodeError::Degenerate(0))? as u8;
+                    *even = shift_of(k) % 2 == 0;
+                }
             }
             d.gray_after_dc = set.frame_sequential_order();
         }

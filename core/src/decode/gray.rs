@@ -11,6 +11,13 @@
 //! level's images before the Gray ones ([`crate::pattern::PatternSet::new`]'s order has them so).
 //! Both then turn the words into the level-0 phase estimate the unwrapping starts from: the same
 //! comparisons on the same A, the same bits.
+//!
+//! An inverse code ([`crate::gray::GrayCode::inverted`]) thresholds each image against its
+//! inverse instead: `e = I₂ⱼ − I₂ⱼ₊₁` ([`Arith::dc_minus_input`] of [`Arith::input_acc`]), bright
+//! where `e > 0`, ambiguous within the margin. The row driver has both rows; the
+//! frame-sequential path keeps image `2j` in the level's C plane until `2j + 1` comes (so the
+//! code's images must come in pairs, [`crate::pattern::PatternSet::frame_sequential_order`]),
+//! and forms the same `e`.
 
 use super::BLOCK;
 use super::buffers::{Block, block};
@@ -35,6 +42,16 @@ impl<A: Arith> Decoder<A> {
         ((bright as u16) << (word_bit & 15)) | ((!firm as u16) << AMBIGUOUS_SHIFT)
     }
 
+    /// The bit of an inverse code's pair, `e = I₂ⱼ − I₂ⱼ₊₁` in accumulator units: bright where
+    /// `e > 0`, ambiguous where `−margin < e < margin` (the margins of [`Self::gray_bit`]).
+    #[inline(always)]
+    pub(super) fn gray_pair_bit(&self, e: A::Acc, word_bit: u8) -> u16 {
+        let lim = &self.limits;
+        let bright = !A::dc_at_least(A::ZERO, e);
+        let firm = A::dc_at_least(e, lim.gray_dark) | A::dc_at_least(lim.gray_bright, e);
+        ((bright as u16) << (word_bit & 15)) | ((!firm as u16) << AMBIGUOUS_SHIFT)
+    }
+
     /// Row driver: the packed words of the block at `start` from the Gray images' rows and the
     /// block's A (pass 1 done), then their estimates ([`Self::gray_estimates`]).
     #[inline(always)]
@@ -46,19 +63,57 @@ impl<A: Arith> Decoder<A> {
     ) -> Result<(), DecodeError> {
         let li = &self.level_images[0];
         let mut words = [0u16; BLOCK];
-        for (&k, &bit) in li.idx.iter().zip(&self.gray_word_bit).take(li.n as usize) {
+        let inverse = self.gray.is_some_and(|g| g.inverse());
+        let fmt = &self.format;
+        for (j, (&k, &bit)) in li.idx.iter().zip(&self.gray_word_bit).enumerate() {
+            if j >= li.n as usize {
+                break;
+            }
             let row = rows.get(k as usize).ok_or(DecodeError::ImageCount)?;
             let row = block(row, start..start + BLOCK)?;
+            if !inverse {
+                for i in 0..BLOCK {
+                    words[i] += self.gray_bit(blk.dc[i], A::input(row[i]), bit);
+                }
+                continue;
+            }
+            // An inverse code: at each pair's image (even shift), against its inverse.
+            let p = *self.gray_partner.get(j).ok_or(DecodeError::Sequence)? as usize;
+            if p < j {
+                continue;
+            }
+            let k_inv = *li.idx.get(p).ok_or(DecodeError::Sequence)?;
+            let inv = rows.get(k_inv as usize).ok_or(DecodeError::ImageCount)?;
+            let inv = block(inv, start..start + BLOCK)?;
+            let (first, second) = if self.gray_image_first(j)? {
+                (row, inv)
+            } else {
+                (inv, row)
+            };
             for i in 0..BLOCK {
-                words[i] += self.gray_bit(blk.dc[i], A::input(row[i]), bit);
+                let e = A::dc_minus_input(
+                    A::input_acc(A::input(first[i]), fmt),
+                    A::input(second[i]),
+                    fmt,
+                );
+                words[i] += self.gray_pair_bit(e, bit);
             }
         }
         self.gray_estimates(&words, blk);
         Ok(())
     }
 
+    /// Whether the image at position `j` of the Gray level is its pair's image (even shift)
+    /// rather than the inverse.
+    #[inline(always)]
+    fn gray_image_first(&self, j: usize) -> Result<bool, DecodeError> {
+        self.gray_even.get(j).copied().ok_or(DecodeError::Sequence)
+    }
+
     /// Frame-sequential path: fold Gray image `j` of the level (image order) into the words
-    /// kept in `plane` (the Gray level's S plane), testing against the complete DC plane `dc`.
+    /// kept in `plane` (the Gray level's S plane), testing against the complete DC plane `dc`;
+    /// an inverse code's image is kept in `pending` (the level's C plane) until its inverse
+    /// comes, which then folds the pair's bit.
     #[inline(always)]
     pub(super) fn gray_fold<P: Sample>(
         &self,
@@ -66,13 +121,29 @@ impl<A: Arith> Decoder<A> {
         row: &[P],
         dc: &[A::Acc],
         plane: &mut [A::Acc],
+        pending: &mut [A::Acc],
     ) -> Result<(), DecodeError> {
         if !self.gray_after_dc {
             return Err(DecodeError::GrayBeforeDc);
         }
         let bit = *self.gray_word_bit.get(j).ok_or(DecodeError::Sequence)?;
-        for ((p, &a), &v) in plane.iter_mut().zip(dc).zip(row) {
-            let w = A::acc_word(*p).wrapping_add(self.gray_bit(a, A::input(v), bit));
+        if !self.gray.is_some_and(|g| g.inverse()) {
+            for ((p, &a), &v) in plane.iter_mut().zip(dc).zip(row) {
+                let w = A::acc_word(*p).wrapping_add(self.gray_bit(a, A::input(v), bit));
+                *p = A::word_acc(w);
+            }
+            return Ok(());
+        }
+        let fmt = &self.format;
+        if self.gray_image_first(j)? {
+            for (q, &v) in pending.iter_mut().zip(row) {
+                *q = A::input_acc(A::input(v), fmt);
+            }
+            return Ok(());
+        }
+        for ((p, &q), &v) in plane.iter_mut().zip(pending.iter()).zip(row) {
+            let e = A::dc_minus_input(q, A::input(v), fmt);
+            let w = A::acc_word(*p).wrapping_add(self.gray_pair_bit(e, bit));
             *p = A::word_acc(w);
         }
         Ok(())

@@ -24,7 +24,7 @@
 //! 3. **Wrapped phase of a 2-image level** with shifts 0 and π/2 (eq 11):
 //!    `φ = atan2(I₁ − A, I₂ − A) − o`, wrapped to (−π, π]; B is the length of `(I₁ − A, I₂ − A)`.
 //! 4. **Gray code** (issue #20, [`crate::gray`]), when level 0 is a Gray-code level: image j is
-//!    bright where `I_j > A`; the word of bright bits, read back as a binary number, gives the
+//!    bright where `I_j > A` (an inverse code: where `I_2j > I_2j+1`, its inverse); the word of bright bits, read back as a binary number, gives the
 //!    stripe, and `Φ^(0)` is its centre ([`crate::gray::GrayCode::quarter_turns`] quarter turns).
 //! 5. **Unwrapping** (eqs 12-13): `Φ^(0) = φ^(0)`; for k ≥ 1 the fringe order
 //!    `n_k = round((c_k/c_{k−1}·Φ^(k−1) − φ^(k)) / 2π)` and `Φ^(k) = φ^(k) + 2π·n_k`.
@@ -111,10 +111,16 @@ pub fn decode_pixel(set: &PatternSet, samples: &[f64]) -> Option<ReferencePixel>
         let i = &by_level[k][..l.len()];
         let shifts = l.shifts();
         if let Some(code) = l.gray() {
-            // Step 4: the code word of bright bits, its stripe's centre.
+            // Step 4: the code word of bright bits, its stripe's centre. An inverse code's bit
+            // is bright where the image outshines its inverse (the next image).
             let mut word = 0u32;
             for (j, &v) in i.iter().enumerate() {
-                if v > a {
+                let bright = if code.inverse() {
+                    j % 2 == 0 && v > i.get(j + 1).copied().unwrap_or(f64::INFINITY)
+                } else {
+                    v > a
+                };
+                if bright {
                     word |= 1 << code.word_bit(j);
                 }
             }

@@ -126,6 +126,15 @@ pub enum Shifts {
         /// Whether the complementary image is projected.
         complementary: bool,
     },
+    /// [`Shifts::Gray`] with every image followed by its inverse, each bit thresholded against
+    /// its inverse ([`crate::gray::GrayCode::inverted`]; wire value 3): `2·(bits +
+    /// complementary)` images, at most `MAX_SHIFTS`.
+    GrayInverse {
+        /// Bits of the period code.
+        bits: u8,
+        /// Whether the complementary image (and its inverse) is projected.
+        complementary: bool,
+    },
 }
 
 impl Shifts {
@@ -137,6 +146,10 @@ impl Shifts {
                 bits,
                 complementary,
             } => bits as usize + complementary as usize,
+            Shifts::GrayInverse {
+                bits,
+                complementary,
+            } => 2 * (bits as usize + complementary as usize),
         }
     }
 }

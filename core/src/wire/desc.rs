@@ -175,6 +175,10 @@ impl PatternSetDesc {
             *dst = Level {
                 scale: l.scale(),
                 shifts: match l.gray() {
+                    Some(g) if g.inverse() => Shifts::GrayInverse {
+                        bits: g.bits(),
+                        complementary: g.complementary(),
+                    },
                     Some(g) => Shifts::Gray {
                         bits: g.bits(),
                         complementary: g.complementary(),
@@ -270,6 +274,13 @@ impl PatternSetDesc {
                 } => {
                     pattern::Level::gray_code(l.scale, pattern::GrayCode::new(bits, complementary))
                 }
+                Shifts::GrayInverse {
+                    bits,
+                    complementary,
+                } => pattern::Level::gray_code(
+                    l.scale,
+                    pattern::GrayCode::new(bits, complementary).inverted(),
+                ),
             };
         }
         let output = Output {

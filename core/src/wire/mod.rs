@@ -116,7 +116,8 @@
 //! bend_center f64 (`Φ = g(t + curvature·(w − bend_center)²)`); then level_count u8 and 6 levels,
 //! each: scale f64, shifts = `[0]` Uniform n u8, count u8 (shifts `2π·i/n`, `i < count`) or `[1]`
 //! Explicit count u8, 16 × f64, or `[2]` Gray bits u8, complementary u8 (a Gray-code level:
-//! `bits` binary images, one more if complementary, [`crate::gray`]). Unused levels are `0.0, [0] 0 0`; unused knots and explicit shifts
+//! `bits` binary images, one more if complementary, [`crate::gray`]), or `[3]` GrayInverse bits
+//! u8, complementary u8 (the same, every image followed by its inverse: twice the images). Unused levels are `0.0, [0] 0 0`; unused knots and explicit shifts
 //! are `0.0`. Last, the levels' relation ([`Relation`]): `[0]`
 //! hierarchical (eqs 12-13 from the coarsest level or a Gray code), `[1]` heterodyne (the
 //! beats of 2 or 3 phase levels) or `[2]` coprime (number-theoretic: the first two levels'

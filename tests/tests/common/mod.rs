@@ -44,6 +44,21 @@ pub fn coprime_set() -> PatternSetFile {
     )
 }
 
+/// A 2-bit Gray code with inverse patterns (issue #20 item 1), 8 images: 4 periods of 256
+/// projector pixels (the phase zero at column 639.75, so that they span the code's
+/// [−2.5, 1.5)), each code image followed by its inverse, then a 4-step level.
+pub fn gray_inverse_set() -> PatternSetFile {
+    let text = format!(
+        "version = 2\n\
+         [projector]\nwidth = 1024\nheight = 768\n\
+         [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 639.75\nslope = {}\n\
+         [[levels]]\nscale = 4.0\ngray_bits = 2\ncomplementary = false\ninverse = true\n\
+         [[levels]]\nscale = 4.0\nsteps = 4\n",
+        std::f64::consts::TAU / 1024.0
+    );
+    set_file("gray-inverse", &text)
+}
+
 /// The pattern-set file of `text`, loaded (through a temporary file named for `tag`).
 fn set_file(tag: &str, text: &str) -> PatternSetFile {
     let path = std::env::temp_dir().join(format!(

@@ -26,6 +26,9 @@ impl Shifts {
                 bits >= 1 && bits as usize <= crate::limits::MAX_GRAY_BITS,
                 Invalid::Shifts,
             ),
+            Shifts::GrayInverse { bits, .. } => {
+                check(bits >= 1 && self.count() <= MAX_SHIFTS, Invalid::Shifts)
+            }
         }
     }
 }

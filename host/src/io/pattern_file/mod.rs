@@ -238,6 +238,10 @@ pub struct LevelSection {
     /// period-edge errors). Default true.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub complementary: Option<bool>,
+    /// With `gray_bits`: follow every code image by its inverse and threshold each bit against
+    /// it rather than the DC term (twice the images; `fringe3d_core::gray`). Default false.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inverse: Option<bool>,
 }
 
 impl PatternSetFile {
@@ -562,9 +566,10 @@ impl PatternSetFile {
                             "levels[{i}]: give exactly one of steps, shifts, shifts_deg or gray_bits"
                         )));
                     }
-                    if l.complementary.is_some() && l.gray_bits.is_none() {
+                    if (l.complementary.is_some() || l.inverse.is_some()) && l.gray_bits.is_none() {
                         return Err(self.err(format!(
-                            "levels[{i}]: complementary applies to a Gray-code level (gray_bits) only"
+                            "levels[{i}]: complementary and inverse apply to a Gray-code level \
+                             (gray_bits) only"
                         )));
                     }
                     let level = if let Some(bits) = l.gray_bits {
@@ -579,7 +584,19 @@ impl PatternSetFile {
                                 "levels[{i}]: a Gray-code level (gray_bits) must be the first level"
                             )));
                         }
-                        let code = GrayCode::new(bits as u8, l.complementary.unwrap_or(true));
+                        let mut code = GrayCode::new(bits as u8, l.complementary.unwrap_or(true));
+                        if l.inverse == Some(true) {
+                            code = code.inverted();
+                            if !code.is_valid() {
+                                return Err(self.err(format!(
+                                    "levels[{i}]: gray_bits = {bits} with inverse = true is {} \
+                                     images; a level holds at most {} (8 bits, 7 with the \
+                                     complementary image)",
+                                    code.images(),
+                                    fringe3d_core::pattern::MAX_SHIFTS
+                                )));
+                            }
+                        }
                         Level::gray_code(l.scale, code)
                     } else if let Some(n) = l.steps {
                         if !(3..=fringe3d_core::pattern::MAX_SHIFTS as u32).contains(&n) {

@@ -62,6 +62,7 @@ impl PatternSetFile {
                             shifts_deg: None,
                             gray_bits: gray.map(|g| u32::from(g.bits())),
                             complementary: gray.map(|g| g.complementary()),
+                            inverse: gray.filter(|g| g.inverse()).map(|_| true),
                         }
                     })
                     .collect(),
