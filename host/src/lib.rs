@@ -10,6 +10,7 @@ pub mod accuracy;
 pub mod batch;
 pub mod calib;
 pub mod cli;
+pub mod design;
 pub mod device;
 pub mod gather;
 pub mod io;

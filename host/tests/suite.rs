@@ -30,6 +30,7 @@ mod hardening_output;
 mod import_cli;
 mod import_formats;
 mod noise_floor;
+mod pattern_design;
 mod reference_consistency;
 mod reference_fit;
 mod reference_physical;

@@ -39,12 +39,97 @@ pub struct PatternsArgs {
     /// full scale: gray_00.png …) for `calibrate gamma`.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(5..=256), conflicts_with = "response")]
     pub gray: Option<u32>,
+    /// Design the levels for this modulation-to-noise ratio B/σ of the dimmest surface (issue
+    /// #22 item 4, docs/formats.md "Level design"): keep the file's projector, phase function
+    /// and finest scale, and choose the fewest N-step levels whose unwrapping refuses at most
+    /// --failure-target of the pixels; prints the predicted rates and writes the designed set.
+    #[arg(long, value_name = "B_OVER_SIGMA", conflicts_with = "gray")]
+    pub design: Option<f64>,
+    /// With --design: shifts per level (3 to 16).
+    #[arg(long, default_value_t = 4, requires = "design")]
+    pub steps: usize,
+    /// With --design: the largest rate of pixels the unwrapping may refuse (all steps).
+    #[arg(long, default_value_t = 1e-6, requires = "design")]
+    pub failure_target: f64,
+}
+
+/// The set `--design` makes of `ls` (see [`PatternsArgs::design`]), with its prediction printed.
+fn designed(ls: common::LoadedSet, a: &PatternsArgs, g: Global) -> Result<common::LoadedSet> {
+    use crate::design::{DesignGoal, design_levels};
+    use fringe3d_core::pattern::{Level, PatternSet};
+    let set = &ls.set;
+    let finest = set.levels().last().map_or(1.0, |l| l.scale());
+    let start = set.relation().start_scale(set.levels()).unwrap_or(1.0);
+    let (lo, hi) = set.coarse_range();
+    // Φ's range over the projector, and the coarsest scale that spans 0.9 of a period over it.
+    let span = (hi - lo) / start;
+    let cfg = fringe3d_core::decode::DecodeConfig::for_bit_depth(8);
+    let goal = DesignGoal {
+        snr: a.design.unwrap_or(0.0),
+        steps: a.steps,
+        finest,
+        coarsest_max: 0.9 * std::f64::consts::TAU / span,
+        failure_target: a.failure_target,
+        tolerance: cfg.unwrap_tolerance as f64,
+    };
+    let d = design_levels(&goal).map_err(|e| anyhow::anyhow!("{}: {e}", ls.path.display()))?;
+    let levels: Vec<Level> = d
+        .scales
+        .iter()
+        .map(|&c| Level::n_step(c, a.steps))
+        .collect();
+    let new = PatternSet::new(*set.function(), &levels, *set.output())
+        .and_then(|s| {
+            s.with_convention(set.convention())
+                .with_phase_offset(set.phase_offset())
+        })
+        .map_err(|e| anyhow::anyhow!("{}: the designed set: {e}", ls.path.display()))?;
+    let file = crate::io::pattern_file::PatternSetFile::from_pattern_set(&new, ls.file.bit_depth());
+    if g.json {
+        outln!(
+            "{}",
+            serde_json::json!({"command": "patterns --design", "snr": goal.snr, "steps": a.steps,
+                "scales": d.scales, "phase_noise_rad": d.phase_noise,
+                "step_refused": d.step_refused, "step_wrong_order": d.step_wrong,
+                "refused": d.refused(), "wrong_order": d.wrong(), "target": a.failure_target})
+        );
+    } else if !g.quiet {
+        outln!(
+            "level design for B/sigma = {}: {} levels of {} steps, scales {:?} (phase noise {:.4} rad per level)",
+            goal.snr,
+            d.scales.len(),
+            a.steps,
+            d.scales,
+            d.phase_noise
+        );
+        for (k, (r, w)) in d.step_refused.iter().zip(&d.step_wrong).enumerate() {
+            outln!(
+                "  step {k} -> {}: ratio {:.3}, refused {r:.2e}, wrong order {w:.2e} of the pixels",
+                k + 1,
+                d.scales[k + 1] / d.scales[k]
+            );
+        }
+        outln!(
+            "  predicted: {:.2e} refused (target {:.0e}), {:.2e} with a wrong fringe order",
+            d.refused(),
+            a.failure_target,
+            d.wrong()
+        );
+    }
+    Ok(common::LoadedSet {
+        path: ls.path,
+        file,
+        set: new,
+    })
 }
 
 /// Run `fringe3d patterns`.
 pub fn run(a: PatternsArgs, g: Global) -> Result<()> {
     common::dir_out(&a.out, "--out")?;
-    let ls = common::load_set(&a.patterns)?;
+    let mut ls = common::load_set(&a.patterns)?;
+    if a.design.is_some() {
+        ls = designed(ls, &a, g)?;
+    }
     let set = &ls.set;
     let bits: u8 = match a.bits.as_deref() {
         Some("16") => 16,
