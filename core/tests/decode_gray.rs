@@ -241,6 +241,56 @@ pub(crate) fn assert_four_step_noise(set: &PatternSet, first: u64) {
     );
 }
 
+/// Decode `set`'s row (seed `seed`) with the images of level `level` half a period off on the
+/// first half of the row (as a moving or glossy surface gives): every pixel of that half
+/// refused (a valid one would be off by a fringe), at least 85 % as inconsistent (the rest for
+/// their modulation), none with a wrong order; the unshifted row decodes.
+pub(crate) fn assert_a_disagreeing_level_is_flagged(set: &PatternSet, level: u8, seed: u64) {
+    let d = AnyDecoder::new(set, DecodeConfig::for_bit_depth(8), Backend::F32Accurate).unwrap();
+    let (images, truth) = render_row(set, BAR, seed);
+    let shifted = set.with_phase_offset(std::f64::consts::PI).unwrap();
+    let (other, _) = render_row(&shifted, BAR, seed);
+    let mut mixed = images.clone();
+    for i in 0..set.image_count() {
+        if set.image(i).unwrap().level == level {
+            mixed[i][..CAM / 2].copy_from_slice(&other[i][..CAM / 2]);
+        }
+    }
+    let got = decode(&d, &mixed);
+    let refused = got.validity[..CAM / 2].iter().filter(|&&v| v != 0).count();
+    assert_eq!(refused, CAM / 2, "followed a disagreeing level");
+    let flagged = got.validity[..CAM / 2]
+        .iter()
+        .filter(|&&v| v == Validity::UnwrapInconsistent as u8)
+        .count();
+    assert!(
+        flagged as f64 >= 0.85 * (CAM / 2) as f64,
+        "{flagged} of {} flagged",
+        CAM / 2
+    );
+    assert_eq!(score(&got, &truth).1, 0);
+    let (valid, wrong) = score(&decode(&d, &images), &truth);
+    assert!(
+        wrong == 0 && valid as f64 >= 0.95 * CAM as f64,
+        "unshifted: {valid}"
+    );
+}
+
+/// A row of `set` (seed `seed`) decoded by the f32 row driver follows the f64 reference within
+/// 1e-3 rad on every valid pixel, and the frame-sequential driver gives its bits and codes.
+pub(crate) fn assert_reference_and_drivers_agree(set: &PatternSet, seed: u64) {
+    let d = Decoder::new(set, DecodeConfig::for_bit_depth(8)).unwrap();
+    let (images, _) = render_row(set, BAR, seed);
+    let got = decode(&AnyDecoder::F32Accurate(d), &images);
+    assert_follows_the_reference(set, &images, &got, 1e-3);
+    let (bits, codes) = crate::common::frame_sequential(&d, &images, CAM, 1);
+    assert_eq!(codes, got.validity);
+    assert_eq!(
+        bits,
+        got.phase.iter().map(|p| p.to_bits()).collect::<Vec<_>>()
+    );
+}
+
 /// Every valid pixel of `got` (decoded from `images`) within `tol` rad of the f64 reference.
 pub(crate) fn assert_follows_the_reference(
     set: &PatternSet,

@@ -6,13 +6,13 @@
 //! disagreeing beat flagged rather than followed.
 #![allow(clippy::disallowed_methods, clippy::needless_range_loop)] // std f64 maths is the truth
 
-use crate::common::frame_sequential;
 use crate::decode_gray::{
-    BAR, CAM, PROJ, assert_follows_the_reference, assert_four_step_noise, decode, on_every_backend,
-    output, refused, render_row, score,
+    BAR, CAM, PROJ, assert_a_disagreeing_level_is_flagged, assert_four_step_noise,
+    assert_reference_and_drivers_agree, decode, on_every_backend, output, refused, render_row,
+    score,
 };
 use fringe3d_core::arith::Backend;
-use fringe3d_core::decode::{AnyDecoder, DecodeConfig, Decoder};
+use fringe3d_core::decode::{AnyDecoder, DecodeConfig};
 use fringe3d_core::pattern::{Level, PatternError, PatternSet, Relation};
 use fringe3d_core::phase_function::{Axis, PhaseFunction, PhaseFunctionError};
 use fringe3d_core::validity::Validity;
@@ -64,61 +64,14 @@ fn phase_noise_is_the_finest_levels() {
 
 #[test]
 fn the_kernel_follows_the_reference_and_both_drivers_agree() {
-    let set = heterodyne(&[21.0, 26.0, 32.0]).unwrap();
-    let d = Decoder::new(&set, DecodeConfig::for_bit_depth(8)).unwrap();
-    let (images, _) = render_row(&set, BAR, 7);
-    let got = decode(&AnyDecoder::F32Accurate(d), &images);
-    assert_follows_the_reference(&set, &images, &got, 1e-3);
-    let (bits, codes) = frame_sequential(&d, &images, CAM, 1);
-    assert_eq!(codes, got.validity);
-    assert_eq!(
-        bits,
-        got.phase.iter().map(|p| p.to_bits()).collect::<Vec<_>>()
-    );
+    assert_reference_and_drivers_agree(&heterodyne(&[21.0, 26.0, 32.0]).unwrap(), 7);
 }
 
 #[test]
 fn a_disagreeing_beat_is_flagged_not_followed() {
-    // The finest level's fringes half a period off on the first half of the row (as a moving
-    // or glossy surface gives): the beat of beats is then half a period off, which no fringe
-    // order of the chain's first step explains.
-    let set = heterodyne(&[21.0, 26.0, 32.0]).unwrap();
-    let d = AnyDecoder::new(&set, DecodeConfig::for_bit_depth(8), Backend::F32Accurate).unwrap();
-    let (images, truth) = render_row(&set, BAR, 9);
-    let f = PhaseFunction::centered(Axis::Xi, PROJ, 0.9 * TAU).unwrap();
-    let levels: Vec<Level> = [21.0, 26.0, 32.0].map(|c| Level::n_step(c, 4)).to_vec();
-    let shifted = PatternSet::new_with_relation(f, &levels, output(), Relation::Heterodyne)
-        .unwrap()
-        .with_phase_offset(std::f64::consts::PI)
-        .unwrap();
-    let (other, _) = render_row(&shifted, BAR, 9);
-    let mut mixed = images.clone();
-    for i in 0..set.image_count() {
-        if set.image(i).unwrap().level == 2 {
-            mixed[i][..CAM / 2].copy_from_slice(&other[i][..CAM / 2]);
-        }
-    }
-    let got = decode(&d, &mixed);
-    // Every pixel of the first half refused (a valid one would be half a period off), most as
-    // inconsistent (the rest for their modulation).
-    let refused = got.validity[..CAM / 2].iter().filter(|&&v| v != 0).count();
-    assert_eq!(refused, CAM / 2, "followed a disagreeing beat");
-    let flagged = got.validity[..CAM / 2]
-        .iter()
-        .filter(|&&v| v == Validity::UnwrapInconsistent as u8)
-        .count();
-    assert!(
-        flagged as f64 >= 0.85 * (CAM / 2) as f64,
-        "{flagged} of {} flagged",
-        CAM / 2
-    );
-    let (_, wrong) = score(&got, &truth);
-    assert_eq!(wrong, 0);
-    let (valid, wrong) = score(&decode(&d, &images), &truth);
-    assert!(
-        wrong == 0 && valid as f64 >= 0.95 * CAM as f64,
-        "unshifted: {valid}"
-    );
+    // The finest level half a period off: the beat of beats is then half a period off, which
+    // no fringe order of the chain's first step explains.
+    assert_a_disagreeing_level_is_flagged(&heterodyne(&[21.0, 26.0, 32.0]).unwrap(), 2, 9);
 }
 
 #[test]

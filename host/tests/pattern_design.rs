@@ -6,28 +6,12 @@
 use crate::cli_support::{Tmp, run, s};
 use fringe3d::design::{DesignGoal, design_levels, step_rates};
 use fringe3d::io::pattern_file::PatternSetFile;
+use fringe3d::render::rng::Rng;
 use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut};
 use fringe3d_core::pattern::{Level, Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, PhaseFunction};
 use fringe3d_core::validity::Validity;
 use std::f64::consts::{PI, TAU};
-
-/// SplitMix64 and Box-Muller.
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let u = self.uniform().max(1e-300);
-        (-2.0 * u.ln()).sqrt() * (TAU * self.uniform()).cos()
-    }
-}
 
 /// Decode `n` pixels of `set` at modulation over noise `snr` (16-bit samples: A = 30000,
 /// σ = 400 codes, so that quantization is negligible), their true Φ uniform in ±Φ_max/2 of
@@ -40,7 +24,7 @@ fn simulate(set: &PatternSet, snr: f64, n: usize, seed: u64) -> (usize, usize, u
         ..DecodeConfig::for_bit_depth(16)
     };
     let d = Decoder::new(set, cfg).unwrap();
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let c0 = set.levels()[0].scale();
     let finest = set.levels().last().unwrap().scale();
     let (lo, hi) = set.coarse_range();
@@ -54,7 +38,7 @@ fn simulate(set: &PatternSet, snr: f64, n: usize, seed: u64) -> (usize, usize, u
             let delta = l.shifts()[id.shift as usize];
             phi.iter()
                 .map(|p| {
-                    let v = a + b * (l.scale() * p + delta).sin() + sigma * rng.normal();
+                    let v = a + b * (l.scale() * p + delta).sin() + sigma * rng.gauss();
                     v.round().clamp(0.0, 65535.0) as u16
                 })
                 .collect()

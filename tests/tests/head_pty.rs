@@ -48,6 +48,19 @@ fn dataset(root: &Path) -> PathBuf {
     )
 }
 
+/// An empty scratch folder `fringe3d-head-pty[-TAG]-PID` under the temp dir.
+fn fresh_root(tag: &str) -> PathBuf {
+    let name = if tag.is_empty() {
+        format!("fringe3d-head-pty-{}", std::process::id())
+    } else {
+        format!("fringe3d-head-pty-{tag}-{}", std::process::id())
+    };
+    let root = std::env::temp_dir().join(name);
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    root
+}
+
 /// The sphere scene rendered under the pattern-set file `set`.
 fn dataset_with(root: &Path, set: &str) -> PathBuf {
     dataset_defocused(root, set, None)
@@ -241,9 +254,7 @@ impl Ply {
 
 #[test]
 fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplug() {
-    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&root);
-    std::fs::create_dir_all(&root).unwrap();
+    let root = fresh_root("");
     let t0 = Instant::now();
     let dir = dataset(&root);
     eprintln!("dataset rendered in {:.1} s", t0.elapsed().as_secs_f64());
@@ -572,9 +583,7 @@ fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplu
 #[test]
 #[ignore]
 fn pty_throughput_full_size() {
-    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-full-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&root);
-    std::fs::create_dir_all(&root).unwrap();
+    let root = fresh_root("full");
     let set_file = root.join("set.toml");
     std::fs::write(
         &set_file,
@@ -665,9 +674,7 @@ fn pty_throughput_full_size() {
 /// head's phases and points equal the desktop's bit for bit.
 #[test]
 fn a_gray_coded_set_scans_on_the_head_bit_identical_to_the_desktop() {
-    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-gray-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&root);
-    std::fs::create_dir_all(&root).unwrap();
+    let root = fresh_root("gray");
     let dir = dataset_with(
         &root,
         "version = 2\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
@@ -806,9 +813,7 @@ fn scan_both(c: &mut Client<fringe3d::device::SerialTransport>) -> ScanOutcome {
 /// beats; the head's phases and points equal the desktop's bit for bit.
 #[test]
 fn a_heterodyne_set_scans_on_the_head_bit_identical_to_the_desktop() {
-    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-het-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&root);
-    std::fs::create_dir_all(&root).unwrap();
+    let root = fresh_root("het");
     let dir = dataset_with(
         &root,
         "version = 2\nunwrap = \"heterodyne\"\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
@@ -835,9 +840,7 @@ fn a_heterodyne_set_scans_on_the_head_bit_identical_to_the_desktop() {
 /// table refuses again.
 #[test]
 fn a_binary_set_scans_on_the_head_with_its_table_bit_identical_to_the_desktop() {
-    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-bin-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&root);
-    std::fs::create_dir_all(&root).unwrap();
+    let root = fresh_root("bin");
     let dir = dataset_defocused(
         &root,
         &format!(
@@ -884,9 +887,7 @@ fn a_binary_set_scans_on_the_head_with_its_table_bit_identical_to_the_desktop() 
 /// desktop's bit for bit.
 #[test]
 fn an_inverse_gray_set_scans_code_first_on_the_head_bit_identical_to_the_desktop() {
-    let root = std::env::temp_dir().join(format!("fringe3d-head-pty-inv-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&root);
-    std::fs::create_dir_all(&root).unwrap();
+    let root = fresh_root("inv");
     let dir = dataset_with(
         &root,
         "version = 2\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
