@@ -8,12 +8,10 @@
 #![allow(clippy::disallowed_methods, clippy::needless_range_loop)] // std f64 maths is the truth
 
 use crate::decode_gray::{
-    BAR, CAM, PROJ, assert_a_disagreeing_level_is_flagged, assert_four_step_noise,
-    assert_reference_and_drivers_agree, decode, on_every_backend, output, refused, render_row,
-    score,
+    CAM, PROJ, assert_a_disagreeing_level_is_flagged, assert_four_step_noise,
+    assert_orders_every_pixel, assert_reference_and_drivers_agree, on_every_backend, output,
+    refused,
 };
-use fringe3d_core::arith::Backend;
-use fringe3d_core::decode::{AnyDecoder, DecodeConfig};
 use fringe3d_core::pattern::{GrayCode, Level, PatternError, PatternSet, Relation, coprime_ratio};
 use fringe3d_core::phase_function::{Axis, PhaseFunction, PhaseFunctionError};
 use fringe3d_core::validity::Validity;
@@ -65,15 +63,7 @@ fn coprime_levels_order_every_pixel_on_every_backend() {
     });
     // Two levels alone, and a wider pair (a = 7, b = 9: the tolerance is π/7).
     for scales in [&[5.0, 7.0][..], &[7.0, 9.0]] {
-        let set = coprime(scales).unwrap();
-        let d =
-            AnyDecoder::new(&set, DecodeConfig::for_bit_depth(8), Backend::F32Accurate).unwrap();
-        for seed in 1..=4 {
-            let (images, truth) = render_row(&set, BAR, 40 + seed);
-            let (valid, wrong) = score(&decode(&d, &images), &truth);
-            assert_eq!(wrong, 0, "{scales:?} seed {seed}");
-            assert!(valid as f64 >= 0.95 * CAM as f64, "{scales:?}: {valid}");
-        }
+        assert_orders_every_pixel(&coprime(scales).unwrap(), 41..=44);
     }
 }
 

@@ -148,6 +148,18 @@ pub(crate) fn on_every_backend(
     }
 }
 
+/// Rows of `set` rendered at [`BAR`] with seeds `seeds`, decoded by the f32 backend: no
+/// fringe-order error on a valid pixel, and at least 95 % of the pixels valid.
+pub(crate) fn assert_orders_every_pixel(set: &PatternSet, seeds: std::ops::RangeInclusive<u64>) {
+    let d = AnyDecoder::new(set, DecodeConfig::for_bit_depth(8), Backend::F32Accurate).unwrap();
+    for seed in seeds {
+        let (images, truth) = render_row(set, BAR, seed);
+        let (valid, wrong) = score(&decode(&d, &images), &truth);
+        assert_eq!(wrong, 0, "seed {seed}");
+        assert!(valid as f64 >= 0.95 * CAM as f64, "seed {seed}: {valid}");
+    }
+}
+
 /// Pixels refused with one of `codes`.
 pub(crate) fn refused(got: &Decoded, codes: &[Validity]) -> usize {
     got.validity
