@@ -236,7 +236,8 @@ impl Relation {
             (Relation::Heterodyne, 3) => Some((c(2)? - c(1)?) - (c(1)? - c(0)?)),
             (Relation::Heterodyne, _) => None,
             (Relation::Coprime, 2..=MAX_COPRIME_LEVELS) => {
-                let (a, _) = coprime_ratio(c(0)?, c(1)?)?;
+                // a = 1 is an integer ratio: hierarchical, with its own unwrapping check.
+                let (a, _) = coprime_ratio(c(0)?, c(1)?).filter(|(a, _)| *a >= 2)?;
                 Some(c(0)? / a as f64)
             }
             (Relation::Coprime, _) => None,

@@ -39,8 +39,8 @@ pub enum PatternError {
     /// A heterodyne set that is not 2 or 3 phase levels whose beat scale (`c₁ − c₀`, or
     /// `c₂ − 2c₁ + c₀`) is positive (`pattern::Relation::Heterodyne`).
     HeterodyneLevels,
-    /// A coprime set whose first two phase levels' scale ratio `c₁/c₀` is not `b/a` of
-    /// integers `a < b ≤ MAX_COPRIME` (`pattern::Relation::Coprime`), that has a Gray code, or
+    /// A coprime set whose first two phase levels' scale ratio `c₁/c₀` is not `b/a` of coprime
+    /// integers `2 ≤ a < b ≤ MAX_COPRIME` (`pattern::Relation::Coprime`), that has a Gray code, or
     /// more than `MAX_COPRIME_LEVELS` levels.
     CoprimeLevels,
     /// A Gray-code level's bit count is outside 1..=[`MAX_GRAY_BITS`].
@@ -145,7 +145,8 @@ impl core::fmt::Display for PatternError {
             Self::CoprimeLevels => write!(
                 f,
                 "a coprime set needs 2 to {} phase levels (no Gray code) whose first two \
-                 scales are in the ratio b/a of integers a < b <= {}",
+                 scales are in the ratio b/a of coprime integers 2 <= a < b <= {} (an integer \
+                 ratio is a hierarchical set)",
                 crate::relation::MAX_COPRIME_LEVELS,
                 crate::relation::MAX_COPRIME
             ),

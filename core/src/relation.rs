@@ -21,7 +21,7 @@ pub enum Relation {
     /// and 1: non-integer scale ratios are the point.
     Heterodyne,
     /// Number-theoretic (coprime-period) unwrapping (issue #20): the first two phase levels'
-    /// scales are `c₀ = a·u`, `c₁ = b·u` with `a < b` coprime integers (`b ≤`
+    /// scales are `c₀ = a·u`, `c₁ = b·u` with `2 ≤ a < b` coprime integers (`b ≤`
     /// [`MAX_COPRIME`]), and `u·Φ` is within one period over the projector (the set's coarse
     /// range), while neither level nor their beat (`b − a` periods of `u`) need be. Of the
     /// orders `k₀` that put `φ₀ + 2πk₀` in range, the one whose prediction of level 1,

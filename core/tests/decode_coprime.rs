@@ -88,6 +88,11 @@ fn a_disagreeing_level_is_flagged_not_followed() {
 #[test]
 fn sets_without_a_coprime_pair_are_refused() {
     assert_eq!(coprime(&[5.0]).err(), Some(PatternError::CoprimeLevels));
+    // An integer ratio (a = 1) is a hierarchical set.
+    assert_eq!(
+        coprime(&[1.0, 8.0]).err(),
+        Some(PatternError::CoprimeLevels)
+    );
     assert_eq!(
         coprime(&[5.0, 7.0, 14.0, 28.0, 56.0]).err(),
         Some(PatternError::CoprimeLevels)
@@ -129,4 +134,55 @@ fn a_head_is_sent_a_coprime_set_bit_for_bit() {
     let mut buf = [0u8; 4096];
     let bytes = postcard::to_slice(&desc, &mut buf).unwrap();
     assert_eq!(bytes.last(), Some(&2));
+}
+
+#[test]
+fn a_coarse_phase_of_exactly_pi_keeps_every_candidate() {
+    // Level 0 at exactly half a period (a·θ = π + 2π): its 4-step samples A, A − B, A, A + B
+    // are integers and its wrapped phase is exactly ±π on every backend; the candidates must
+    // still be every order once (a rounding to the nearest order would tie there).
+    let set = coprime(&[5.0, 7.0]).unwrap();
+    let theta = 3.0 * std::f64::consts::PI / 5.0;
+    let (a, b) = (120.0, 40.0);
+    let n = 64;
+    let images: Vec<Vec<u8>> = (0..set.image_count())
+        .map(|i| {
+            let id = set.image(i).unwrap();
+            let l = &set.levels()[id.level as usize];
+            let v = a + b * (l.scale() * theta + l.shifts()[id.shift as usize]).sin();
+            vec![v.round() as u8; n]
+        })
+        .collect();
+    let level0: Vec<u8> = (0..set.image_count())
+        .filter(|&i| set.image(i).unwrap().level == 0)
+        .map(|i| images[i][0])
+        .collect();
+    assert_eq!(level0, vec![120, 80, 120, 160]);
+    let rows: Vec<&[u8]> = images.iter().map(|r| &r[..]).collect();
+    for backend in fringe3d_core::arith::Backend::ALL {
+        let d = fringe3d_core::decode::AnyDecoder::new(
+            &set,
+            fringe3d_core::decode::DecodeConfig::for_bit_depth(8),
+            backend,
+        )
+        .unwrap();
+        let (mut ph, mut mo, mut dc, mut va) =
+            (vec![0f32; n], vec![0f32; n], vec![0f32; n], vec![0; n]);
+        d.decode_row(
+            &rows,
+            fringe3d_core::decode::RowOut {
+                phase: &mut ph,
+                modulation: &mut mo,
+                dc: &mut dc,
+                validity: &mut va,
+            },
+        )
+        .unwrap();
+        assert_eq!(va[0], Validity::Valid as u8, "{backend:?}");
+        assert!(
+            (ph[0] as f64 - 7.0 * theta).abs() < 0.02,
+            "{backend:?}: {}",
+            ph[0]
+        );
+    }
 }

@@ -194,6 +194,12 @@ pub fn step_rates(r: f64, snr: f64, steps: usize, tolerance: f64) -> (f64, f64) 
     step_rates_exact(r, snr * (steps as f64 / 2.0).sqrt(), tolerance)
 }
 
+/// `x > 0` rounded down to 4 significant digits.
+fn round_down(x: f64) -> f64 {
+    let unit = 10f64.powi(x.log10().floor() as i32 - 3);
+    (x / unit).floor() * unit
+}
+
 /// The fewest levels of equal ratios that reach `goal.finest` within `goal.failure_target`.
 pub fn design_levels(goal: &DesignGoal) -> Result<Design, DesignError> {
     let g = goal;
@@ -230,14 +236,15 @@ pub fn design_levels(goal: &DesignGoal) -> Result<Design, DesignError> {
         } else {
             total.powf(1.0 / steps as f64)
         };
-        // The coarser scales rounded down to 3 decimals (a file's readable values; the coarsest
-        // stays within its period), the finest exact; the rates are those of the rounded ratios.
+        // The coarser scales rounded down to 4 significant digits (a file's readable values; the
+        // coarsest stays within its period), the finest exact; the rates are those of the
+        // rounded ratios.
         let scales: Vec<f64> = (0..levels)
             .map(|k| {
                 if k + 1 == levels {
                     g.finest
                 } else {
-                    (coarsest * r.powi(k as i32) * 1000.0).floor() / 1000.0
+                    round_down(coarsest * r.powi(k as i32))
                 }
             })
             .collect();
@@ -290,5 +297,21 @@ mod tests {
         let r = 64f64.powf(1.0 / (n - 2) as f64);
         let (p, _) = step_rates(r, 14.0, 4, 2.0 * PI / 3.0);
         assert!(p * (n - 2) as f64 > 1e-6);
+    }
+
+    #[test]
+    fn tiny_scales_keep_their_digits() {
+        // A phase function of thousands of radians: scales far below 1e-3 (a rounding to
+        // decimals would make the coarsest 0 and the ratio infinite).
+        let g = DesignGoal {
+            coarsest_max: 1.234_567e-5,
+            ..goal(14.0, 6.4e-4)
+        };
+        let d = design_levels(&g).unwrap();
+        assert_eq!(d.scales[0], 1.234e-5);
+        assert!(
+            d.scales.windows(2).all(|w| w[0] > 0.0 && w[1] > w[0]),
+            "{d:?}"
+        );
     }
 }

@@ -321,6 +321,12 @@ impl Arith for Fixed {
     }
 
     #[inline(always)]
+    fn add_turns(p: I8F24, k: i32) -> I8F24 {
+        // A turn is 2^24 (|k| ≤ 33 stays within the format's ±128 turns).
+        I8F24::from_bits(p.to_bits().wrapping_add(k.wrapping_shl(24)))
+    }
+
+    #[inline(always)]
     fn level_sc(s: i32, c: i32, a_dc: i32, b_dc: i32, dc: i32, format: &FixedFormat) -> (i32, i32) {
         (
             s.wrapping_add(mul_q(a_dc, dc, format.frac)),

@@ -223,6 +223,11 @@ impl<K: FloatKernels> Arith for K {
     }
 
     #[inline(always)]
+    fn add_turns(p: f32, k: i32) -> f32 {
+        p + k as f32 * core::f32::consts::TAU
+    }
+
+    #[inline(always)]
     fn mac(acc: f32, k: f32, v: f32) -> f32 {
         acc + k * v
     }

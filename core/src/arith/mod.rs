@@ -305,6 +305,9 @@ pub trait Arith: Sealed + Copy + Debug + PartialEq + Default + Send + Sync + 'st
     fn word_acc(w: u16) -> Self::Acc;
     /// `n·π/2` as a phase: a Gray code's phase estimate ([`GrayCode::quarter_turns`]).
     fn quarter_turns(n: i32) -> Self::Phase;
+    /// `p + 2π·k`, no rounding: a coprime set's candidate orders
+    /// ([`crate::pattern::Relation::Coprime`]; `|k| ≤ 33`).
+    fn add_turns(p: Self::Phase, k: i32) -> Self::Phase;
 
     // ---- per pixel: finish ----
 

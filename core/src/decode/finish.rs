@@ -429,7 +429,8 @@ impl<A: Arith> Decoder<A> {
     /// Level 0's absolute phase of a coprime set ([`crate::pattern::Relation::Coprime`],
     /// `c₀ = a·u`, `c₁ = b·u`), for `N` pixels: the phase, out of range, inconsistent.
     ///
-    /// Each candidate `φ₀ + 2πk` (`|k| ≤ a/2 + 1`; `unwrap(2πk, 1, φ₀)`) in the accepted range of
+    /// Each candidate `φ₀ + 2πk` (`|k| ≤ a/2 + 1`, [`Arith::add_turns`]: no rounding, so a
+    /// wrapped phase of exactly ±π gives every order once) in the accepted range of
     /// `c₀·Φ` predicts level 1 (`unwrap(·, b/a, φ₁)`); it is the order if that residual is within
     /// `π/a` (the limits' code tolerance). The candidates' residuals lie `2π/a` apart, so at most
     /// one qualifies unless the noise is at the margin: none or two make the pixel inconsistent,
@@ -443,14 +444,13 @@ impl<A: Arith> Decoder<A> {
     ) -> ([A::Phase; N], [bool; N], [bool; N]) {
         use core::array::from_fn as lanes;
         let lim = &self.limits;
-        let one = A::ratio(1.0, &self.format);
         let reach = (self.coprime / 2) as i32 + 1;
         let mut phi = [A::PHASE_ZERO; N];
         let mut hits = [0u8; N];
         let mut in_range = [false; N];
         for k in -reach..=reach {
             for j in 0..N {
-                let cand = A::unwrap(A::quarter_turns(4 * k), one, w[j][0]).0;
+                let cand = A::add_turns(w[j][0], k);
                 let inside = A::in_range(cand, lim.coarse_lo, lim.coarse_hi);
                 let (_, r) = A::unwrap(cand, self.ratio[1 % L], w[j][1 % L]);
                 let hit = inside & A::consistent(r, lim.gray_tolerance);

@@ -12,8 +12,8 @@ use super::{MAX_PAYLOAD, WireError};
 
 /// The protocol version this module speaks; frames of any other version are rejected.
 ///
-/// Version 4 ends the pattern-set description with the levels' relation (hierarchical or
-/// multi-frequency heterodyne) and adds DefineCorrection, the decoder's phase-error table for
+/// Version 4 ends the pattern-set description with the levels' relation (hierarchical,
+/// multi-frequency heterodyne or coprime) and adds DefineCorrection, the decoder's phase-error table for
 /// the projector's response or a binary set's blur.
 /// Version 3 adds a scan identity (`scan_id`, u32) to Scan, ResultRow and ScanDone, so that rows
 /// of an earlier scan still in flight are told apart. Version 2 carries the pattern-set description and the calibration as f64 (the values the

@@ -40,9 +40,11 @@ pub struct PatternsArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(5..=256), conflicts_with = "response")]
     pub gray: Option<u32>,
     /// Design the levels for this modulation-to-noise ratio B/σ of the dimmest surface (issue
-    /// #22 item 4, docs/formats.md "Level design"): keep the file's projector, phase function
-    /// and finest scale, and choose the fewest N-step levels whose unwrapping refuses at most
-    /// --failure-target of the pixels; prints the predicted rates and writes the designed set.
+    /// #22 item 4, docs/formats.md "Level design"): keep the file's projector, phase function,
+    /// convention and finest scale, and choose the fewest N-step levels whose unwrapping refuses
+    /// at most --failure-target of the pixels; prints the predicted rates and writes the
+    /// designed set (gray-level and hierarchical: the file's Gray code, binarization, relation
+    /// and image order are not kept).
     #[arg(long, value_name = "B_OVER_SIGMA", conflicts_with = "gray")]
     pub design: Option<f64>,
     /// With --design: shifts per level (3 to 16).

@@ -5,7 +5,8 @@
 //!   indices (unused 0).
 //! - Version 3: field 3 as postcard bytes, up to 64 indices ([`CaptureOrder`]'s own serde).
 //! - Version 4 (written today): field 2, the pattern set, ends with the levels' relation
-//!   (hierarchical or heterodyne); versions 1-3 have no such byte and mean hierarchical.
+//!   (hierarchical, heterodyne or coprime); versions 1-3 have no such byte and mean
+//!   hierarchical.
 
 use serde::Deserialize;
 
