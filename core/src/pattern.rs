@@ -224,24 +224,9 @@ pub struct PatternSet {
 
 pub use crate::relation::{MAX_COPRIME, MAX_COPRIME_LEVELS, Relation, coprime_ratio};
 
-impl Relation {
-    /// The scale of the absolute phase the decoder starts from: the coarsest level's, or for a
-    /// heterodyne set its beat's (`None` if the levels cannot beat: wrong count or not
-    /// increasing by increasing steps).
-    pub fn start_scale(self, levels: &[Level]) -> Option<f64> {
-        let c = |i: usize| levels.get(i).map(|l| l.scale);
-        match (self, levels.len()) {
-            (Relation::Hierarchical, _) => c(0),
-            (Relation::Heterodyne, 2) => Some(c(1)? - c(0)?),
-            (Relation::Heterodyne, 3) => Some((c(2)? - c(1)?) - (c(1)? - c(0)?)),
-            (Relation::Heterodyne, _) => None,
-            (Relation::Coprime, 2..=MAX_COPRIME_LEVELS) => {
-                // a = 1 is an integer ratio: hierarchical, with its own unwrapping check.
-                let (a, _) = coprime_ratio(c(0)?, c(1)?).filter(|(a, _)| *a >= 2)?;
-                Some(c(0)? / a as f64)
-            }
-            (Relation::Coprime, _) => None,
-        }
+impl crate::relation::Scaled for Level {
+    fn scale(&self) -> f64 {
+        self.scale
     }
 }
 

@@ -1,7 +1,7 @@
 //! How the levels of a pattern set give the absolute phase ([`Relation`], issue #20): the
 //! paper's hierarchical unwrapping (eqs 12-13), multi-frequency heterodyne, or number-theoretic
 //! (coprime-period) unwrapping. Re-exported by [`crate::pattern`], where it has always been
-//! named, with the start scale of a set's levels (`Relation::start_scale`).
+//! named, with the start scale of a set's levels ([`Relation::start_scale`]).
 
 /// How the levels of a set give the absolute phase. On the wire (the last field of a
 /// [`PatternSetDesc`](crate::params::pattern::PatternSetDesc), protocol version 4, set-up blob
@@ -52,4 +52,32 @@ pub fn coprime_ratio(c0: f64, c1: f64) -> Option<(u32, u32)> {
         let close = libm::fabs(b - r * a as f64) <= 1e-9 * r * a as f64;
         (close && b <= MAX_COPRIME as f64 && b > a as f64).then_some((a, b as u32))
     })
+}
+
+/// A level's scale coefficient `c_k` (eq 7): what [`Relation::start_scale`] reads of a set's
+/// levels (the pattern set's `Level` implements it).
+pub trait Scaled {
+    /// The scale coefficient.
+    fn scale(&self) -> f64;
+}
+
+impl Relation {
+    /// The scale of the absolute phase the decoder starts from: the coarsest level's, a
+    /// heterodyne set's beat's, a coprime set's unit `u` (`None` if the levels cannot give one:
+    /// a wrong count, beats not increasing, no coprime ratio).
+    pub fn start_scale<L: Scaled>(self, levels: &[L]) -> Option<f64> {
+        let c = |i: usize| levels.get(i).map(Scaled::scale);
+        match (self, levels.len()) {
+            (Relation::Hierarchical, _) => c(0),
+            (Relation::Heterodyne, 2) => Some(c(1)? - c(0)?),
+            (Relation::Heterodyne, 3) => Some((c(2)? - c(1)?) - (c(1)? - c(0)?)),
+            (Relation::Heterodyne, _) => None,
+            (Relation::Coprime, 2..=MAX_COPRIME_LEVELS) => {
+                // a = 1 is an integer ratio: hierarchical, with its own unwrapping check.
+                let (a, _) = coprime_ratio(c(0)?, c(1)?).filter(|(a, _)| *a >= 2)?;
+                Some(c(0)? / a as f64)
+            }
+            (Relation::Coprime, _) => None,
+        }
+    }
 }
