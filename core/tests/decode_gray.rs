@@ -160,6 +160,22 @@ pub(crate) fn assert_orders_every_pixel(set: &PatternSet, seeds: std::ops::Range
     }
 }
 
+/// [`on_every_backend`] for a set that unwraps without a code (heterodyne, coprime): at most
+/// 1 % of the pixels refused for the order or the range, at least 95 % valid.
+pub(crate) fn assert_orders_on_every_backend(set: &PatternSet) {
+    on_every_backend(set, 1..=4, |what, got, valid| {
+        let order = refused(
+            got,
+            &[Validity::UnwrapInconsistent, Validity::PhaseOutOfRange],
+        );
+        assert!(order <= CAM / 100, "{what}: {order} refused");
+        assert!(
+            valid as f64 >= 0.95 * CAM as f64,
+            "{what}: {valid} of {CAM} valid"
+        );
+    });
+}
+
 /// Pixels refused with one of `codes`.
 pub(crate) fn refused(got: &Decoded, codes: &[Validity]) -> usize {
     got.validity

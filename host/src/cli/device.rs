@@ -335,18 +335,24 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
     // anything else (and before the line is touched).
     // The phase-error table of the projector's light (its response, a binary set's blur;
     // docs/gamma.md, docs/binary.md), which the head decodes with (DefineCorrection).
-    let correction = match &a.calibration {
-        Some(path) => {
+    // The calibration file, read once (the table here, the wire calibration below).
+    let cal_file = a
+        .calibration
+        .as_deref()
+        .map(Calibration::load)
+        .transpose()?;
+    let correction = match (&a.calibration, &cal_file) {
+        (Some(path), Some(cal)) => {
             common::check_reference_patterns(path, &ls.scan_patterns()?, g.quiet)?;
-            common::response_correction(&Calibration::load(path)?, path, &ls)?
+            common::response_correction(cal, path, &ls)?
         }
-        None if ls.set.binarization().is_binary() => bail!(
+        _ if ls.set.binarization().is_binary() => bail!(
             "{}: a binary pattern set is decoded with the phase-error table of the projector's \
              blur: give --calibration with the calibration that records projector_defocus \
              (`fringe3d calibrate defocus`, docs/binary.md)",
             a.patterns.display()
         ),
-        None => None,
+        _ => None,
     };
     if ls.file.projector.response_compensated == Some(true) && a.images.is_none() {
         bail!(
@@ -405,9 +411,8 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
         .map_err(|m| anyhow::anyhow!("pattern images: {m}"))?;
         Some(data)
     };
-    let calib = match &a.calibration {
-        Some(path) => {
-            let cal = Calibration::load(path)?;
+    let calib = match (&a.calibration, &cal_file) {
+        (Some(path), Some(cal)) => {
             let axis = set.axis();
             let sc = common::load_calibration(path, axis)
                 .with_context(|| format!("{}: preparing the reconstruction", path.display()))?;
@@ -421,11 +426,11 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
                 );
             }
             let w =
-                wire_calibration(&cal).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+                wire_calibration(cal).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
             let map = phase_map_bytes(&sc.reference_phase, sc.width());
             Some((path.clone(), w, map, sc.width(), sc.height()))
         }
-        None => None,
+        _ => None,
     };
 
     let mut c = connect(&a.port, None)?;
