@@ -33,6 +33,8 @@ pub struct Truth {
     pub object_id: Vec<u16>,
     /// Spheres of the scene.
     pub spheres: Vec<TrueSphere>,
+    /// Every primitive's id and its object's name (`manifest.json`'s `extra.primitives`).
+    pub primitives: Vec<(u16, String)>,
 }
 
 /// Load `truth/points.npy`, `truth/object_id.png` and the spheres of `manifest.json`.
@@ -63,7 +65,12 @@ pub fn load_truth(dataset: &Path) -> Result<Truth> {
     )
     .with_context(|| format!("{}: not valid JSON", man_path.display()))?;
     let mut spheres = Vec::new();
+    let mut primitives = Vec::new();
     for p in man["extra"]["primitives"].as_array().into_iter().flatten() {
+        primitives.push((
+            p["id"].as_u64().unwrap_or(0) as u16,
+            p["name"].as_str().unwrap_or("?").to_string(),
+        ));
         let s = &p["geometry"]["sphere"];
         if s.is_object() {
             let c = |i: usize| s["center"][i].as_f64().unwrap_or(f64::NAN);
@@ -86,6 +93,7 @@ pub fn load_truth(dataset: &Path) -> Result<Truth> {
         points,
         object_id,
         spheres,
+        primitives,
     })
 }
 

@@ -266,6 +266,37 @@ pub fn design_levels(goal: &DesignGoal) -> Result<Design, DesignError> {
     Err(DesignError::Infeasible { refused: best })
 }
 
+/// The least B/σ at which the set's level ratios refuse at most `target` of the pixels
+/// ([`set_refusals`]).
+pub fn needed_snr(set: &fringe3d_core::pattern::PatternSet, target: f64) -> f64 {
+    let (mut a, mut b) = (1.0f64, 1e4f64);
+    for _ in 0..60 {
+        let m = (a * b).sqrt();
+        if set_refusals(set, m) <= target {
+            b = m;
+        } else {
+            a = m;
+        }
+    }
+    b
+}
+
+/// The template's predicted unwrapping refusals at B/σ `snr` (hierarchical sets).
+pub fn set_refusals(set: &fringe3d_core::pattern::PatternSet, snr: f64) -> f64 {
+    let tol = fringe3d_core::decode::DecodeConfig::for_bit_depth(8).unwrap_tolerance as f64;
+    let phase: Vec<_> = set.levels().iter().filter(|l| l.gray().is_none()).collect();
+    if set.relation() != fringe3d_core::pattern::Relation::Hierarchical {
+        return 0.0;
+    }
+    phase
+        .windows(2)
+        .map(|w| {
+            let steps = w[0].shifts().len().min(w[1].shifts().len()).max(3);
+            step_rates(w[1].scale() / w[0].scale(), snr, steps, tol).0
+        })
+        .sum()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -7,6 +7,7 @@
 #![allow(clippy::needless_range_loop, clippy::type_complexity)]
 
 pub mod accuracy;
+pub mod adapt;
 pub mod batch;
 pub mod calib;
 pub mod cli;

@@ -6,6 +6,8 @@
 mod cli_support;
 mod render_common;
 
+mod adapt_cli;
+mod adapt_quality;
 mod calib_bad_input;
 mod calib_end_to_end;
 mod calib_projector_model;

@@ -15,6 +15,7 @@ macro_rules! errln {
     ($($t:tt)*) => { $crate::cli::print::stderr(format_args!("{}\n", format_args!($($t)*))) };
 }
 
+pub mod adapt;
 pub mod budget;
 pub mod calibrate;
 pub mod calibrate_defocus;
@@ -79,6 +80,9 @@ pub enum Command {
     Vectors(vectors::VectorsArgs),
     /// The static memory a scan head needs for a pattern set and a rig, buffer by buffer.
     Budget(budget::BudgetArgs),
+    /// Design a pattern set for one object from a first scan or a model of it (paper Fig. 10):
+    /// fringes as dense as the camera resolves on it, with a virtual reference for the new set.
+    Adapt(adapt::AdaptArgs),
 }
 
 /// Options every command sees.
@@ -219,5 +223,6 @@ where
         Command::Device(a) => device::run(a, g),
         Command::Vectors(a) => vectors::run(a, g),
         Command::Budget(a) => budget::run(a, g),
+        Command::Adapt(a) => adapt::run(a, g),
     }
 }

@@ -89,6 +89,16 @@ pub fn min_max(s: &str) -> Result<[f64; 2], String> {
     Ok([a, b])
 }
 
+/// Six finite numbers `A,B,C,D,E,F` (a pose `X,Y,Z,RX,RY,RZ`, a box `X0,Y0,Z0,X1,Y1,Z1`).
+pub fn six(s: &str) -> Result<[f64; 6], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+        .collect::<Option<_>>()
+        .ok_or_else(|| format!("`{s}`: expected six finite numbers separated by commas"))?;
+    <[f64; 6]>::try_from(v).map_err(|v| format!("`{s}`: expected six numbers, got {}", v.len()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,0 +1,338 @@
+//! The object as the design sees it: a map of camera-frame points on the camera's pixel grid (from
+//! a first scan's cloud, or a mesh placed in the rig and rasterised), and from it one
+//! [`Sample`] per object pixel: its projector coordinate along the set's axis, the gradient of
+//! that coordinate in the image, and the triangulation's rate `dξ/dt` along the pixel's ray.
+
+use fringe3d_core::phase_function::Axis;
+use rayon::prelude::*;
+
+use super::Sample;
+use crate::calib::lens::Lens;
+use crate::io::calibration::Calibration;
+use crate::io::mesh::Mesh;
+use crate::math::{Mat3, Vec3};
+
+/// The full rig: camera lens, projector lens and pose, the set's axis and the depth range.
+#[derive(Clone, Copy, Debug)]
+pub struct Rig {
+    camera: Lens,
+    projector: Lens,
+    /// `X_cam = R·X_proj + T`.
+    r: Mat3,
+    t: Vec3,
+    axis: Axis,
+    depth: [f64; 2],
+}
+
+/// A camera-frame point per camera pixel (NaN where the object is not seen).
+#[derive(Clone, Debug)]
+pub struct PointMap {
+    /// Image width.
+    pub width: usize,
+    /// Image height.
+    pub height: usize,
+    /// Row-major points, mm.
+    pub points: Vec<[f64; 3]>,
+}
+
+/// How the points of a cloud or mesh fared.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Gathered {
+    /// Object pixels kept (seen, lit, in the volume).
+    pub kept: usize,
+    /// Points or pixels outside the depth range.
+    pub outside_depth: usize,
+    /// Points off the camera image (or behind it).
+    pub outside_image: usize,
+    /// Points the projector does not light (off the DMD, behind it, or shadowed).
+    pub unlit: usize,
+    /// Points removed by the crop box.
+    pub cropped: usize,
+}
+
+impl Rig {
+    /// The rig of a calibration holding the full projector model; `None` without `[projector]`.
+    pub fn new(cal: &Calibration, axis: Axis) -> Option<Rig> {
+        let p = cal.projector.as_ref()?;
+        Some(Rig {
+            camera: Lens::from_model(&cal.camera),
+            projector: Lens::from_model(&p.intrinsics),
+            r: Mat3(p.rotation),
+            t: Vec3::from_array(p.translation),
+            axis,
+            depth: cal.depth_range,
+        })
+    }
+
+    /// Projector pixel of a camera-frame point, `None` behind the projector or off the DMD.
+    pub fn projector_pixel(&self, x: [f64; 3]) -> Option<(f64, f64)> {
+        let xp = self.r.tmul_vec(Vec3::from_array(x) - self.t).to_array();
+        let (u, v) = self.projector.project_point(xp)?;
+        let (w, h) = (
+            f64::from(self.projector.width),
+            f64::from(self.projector.height),
+        );
+        (u >= -0.5 && u <= w - 0.5 && v >= -0.5 && v <= h - 0.5).then_some((u, v))
+    }
+
+    /// The projector coordinate along the set's axis.
+    fn along(&self, x: [f64; 3]) -> Option<f64> {
+        let (u, v) = self.projector_pixel(x)?;
+        Some(if self.axis == Axis::Xi { u } else { v })
+    }
+
+    fn in_depth(&self, x: &[f64; 3]) -> bool {
+        x[2] >= self.depth[0] && x[2] <= self.depth[1]
+    }
+
+    /// Camera-frame points (a first scan's cloud) on the camera grid: each to its nearest pixel,
+    /// the nearest to the camera where several meet; points outside `crop` (min, max corners),
+    /// the depth range, the image or the projector's light are dropped and counted.
+    pub fn map_points(
+        &self,
+        points: &[[f64; 3]],
+        crop: Option<([f64; 3], [f64; 3])>,
+    ) -> (PointMap, Gathered) {
+        let (w, h) = (self.camera.width as usize, self.camera.height as usize);
+        let mut map = PointMap {
+            width: w,
+            height: h,
+            points: vec![[f64::NAN; 3]; w * h],
+        };
+        let mut g = Gathered::default();
+        for p in points {
+            if let Some((a, b)) = crop
+                && (0..3).any(|i| p[i] < a[i] || p[i] > b[i])
+            {
+                g.cropped += 1;
+                continue;
+            }
+            if !self.in_depth(p) {
+                g.outside_depth += 1;
+                continue;
+            }
+            let Some((u, v)) = self.camera.project_point(*p) else {
+                g.outside_image += 1;
+                continue;
+            };
+            let (u, v) = (u.round(), v.round());
+            if !(u >= 0.0 && v >= 0.0 && u < w as f64 && v < h as f64) {
+                g.outside_image += 1;
+                continue;
+            }
+            if self.along(*p).is_none() {
+                g.unlit += 1;
+                continue;
+            }
+            let cell = &mut map.points[v as usize * w + u as usize];
+            if !(cell[2] <= p[2]) {
+                *cell = *p;
+            }
+        }
+        g.kept = map.points.iter().filter(|p| p[0].is_finite()).count();
+        (map, g)
+    }
+
+    /// A mesh posed in the camera frame (`X_cam = R·X + t`), rasterised on the camera grid (the
+    /// nearest surface per pixel centre) and kept where the projector lights it (its own
+    /// rasterisation on the DMD grid tells the shadows).
+    pub fn map_mesh(&self, mesh: &Mesh, rotation: Mat3, translation: Vec3) -> (PointMap, Gathered) {
+        let world: Vec<[f64; 3]> = mesh
+            .vertices
+            .iter()
+            .map(|v| (rotation.mul_vec(Vec3::from_array(*v)) + translation).to_array())
+            .collect();
+        let (w, h) = (self.camera.width as usize, self.camera.height as usize);
+        let cam = |x: [f64; 3]| self.camera.project_point(x).map(|(u, v)| (u, v, x[2]));
+        let mut zcam = vec![f64::INFINITY; w * h];
+        let mut pts = vec![[f64::NAN; 3]; w * h];
+        rasterise(&world, &mesh.triangles, (w, h), cam, |i, x, z| {
+            if z < zcam[i] {
+                zcam[i] = z;
+                pts[i] = x;
+            }
+        });
+        let (pw, ph) = (
+            self.projector.width as usize,
+            self.projector.height as usize,
+        );
+        let proj = |x: [f64; 3]| {
+            let xp = self.r.tmul_vec(Vec3::from_array(x) - self.t).to_array();
+            self.projector.project_point(xp).map(|(u, v)| (u, v, xp[2]))
+        };
+        let mut zproj = vec![f64::INFINITY; pw * ph];
+        rasterise(&world, &mesh.triangles, (pw, ph), proj, |i, _, z| {
+            zproj[i] = zproj[i].min(z);
+        });
+        let mut g = Gathered::default();
+        for p in &mut pts {
+            if !p[0].is_finite() {
+                continue;
+            }
+            let lit = proj(*p).is_some_and(|(u, v, z)| {
+                let (iu, iv) = (u.round(), v.round());
+                iu >= 0.0
+                    && iv >= 0.0
+                    && (iu as usize) < pw
+                    && (iv as usize) < ph
+                    && z <= zproj[iv as usize * pw + iu as usize] + 0.5 + 0.002 * z
+            });
+            if !lit {
+                g.unlit += 1;
+                *p = [f64::NAN; 3];
+            } else if !self.in_depth(p) {
+                g.outside_depth += 1;
+                *p = [f64::NAN; 3];
+            }
+        }
+        g.kept = pts.iter().filter(|p| p[0].is_finite()).count();
+        (
+            PointMap {
+                width: w,
+                height: h,
+                points: pts,
+            },
+            g,
+        )
+    }
+
+    /// One [`Sample`] per object pixel of `map` whose neighbours give its image gradient and
+    /// normal, by central differences over ±4, ±2 or ±1 pixels (the widest on one surface: a
+    /// neighbour k pixels away lies within 20·k pixel footprints); pixels with no such pair
+    /// along both image axes (isolated, or at a depth edge) are left out.
+    pub fn samples(&self, map: &PointMap) -> Vec<Sample> {
+        let (w, h) = (map.width, map.height);
+        let fx = self.camera.p[0];
+        let along: Vec<f64> = map
+            .points
+            .par_iter()
+            .map(|p| {
+                if p[0].is_finite() {
+                    self.along(*p).unwrap_or(f64::NAN)
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        (0..h)
+            .into_par_iter()
+            .flat_map_iter(|v| {
+                let (along, map) = (&along, &map.points);
+                (0..w).filter_map(move |u| {
+                    let i = v * w + u;
+                    let x = map[i];
+                    if !along[i].is_finite() {
+                        return None;
+                    }
+                    let reach = 20.0 * x[2] / fx;
+                    let near = |j: usize, k: usize| {
+                        let y = map[j];
+                        along[j].is_finite()
+                            && ((y[0] - x[0]).powi(2)
+                                + (y[1] - x[1]).powi(2)
+                                + (y[2] - x[2]).powi(2))
+                            .sqrt()
+                                <= reach * k as f64
+                    };
+                    // Central differences over ±K pixels (a first scan's point noise shrinks by
+                    // the baseline), K = 4, 2 or 1: the widest whose ends are on the same surface.
+                    let pair = |step: &dyn Fn(usize) -> (Option<usize>, Option<usize>)| {
+                        [4usize, 2, 1].into_iter().find_map(|k| {
+                            let (lo, hi) = step(k);
+                            match (lo.filter(|&j| near(j, k)), hi.filter(|&j| near(j, k))) {
+                                (Some(a), Some(b)) => Some((a, b, 0.5 / k as f64)),
+                                _ => None,
+                            }
+                        })
+                    };
+                    let hu = pair(&|k| {
+                        (
+                            u.checked_sub(k).map(|u| v * w + u),
+                            (u + k < w).then(|| i + k),
+                        )
+                    })?;
+                    let hv = pair(&|k| {
+                        (
+                            v.checked_sub(k).map(|v| v * w + u),
+                            (v + k < h).then(|| i + k * w),
+                        )
+                    })?;
+                    let gu = hu.2 * (along[hu.1] - along[hu.0]);
+                    let gv = hv.2 * (along[hv.1] - along[hv.0]);
+                    let sub = |a: [f64; 3], b: [f64; 3]| Vec3::from_array(a) - Vec3::from_array(b);
+                    let normal = sub(map[hu.1], map[hu.0]).cross(sub(map[hv.1], map[hv.0]));
+                    let to_proj = self.t - Vec3::from_array(x);
+                    let d = to_proj.norm();
+                    let cos = normal.try_normalized().map_or(0.0, |n| {
+                        // Oriented towards the camera (at the origin).
+                        let n = if n.dot(Vec3::from_array(x)) > 0.0 {
+                            n * -1.0
+                        } else {
+                            n
+                        };
+                        n.dot(to_proj) / d
+                    });
+                    let n = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+                    let step = |t: f64| {
+                        self.along([
+                            x[0] * (1.0 + t / n),
+                            x[1] * (1.0 + t / n),
+                            x[2] * (1.0 + t / n),
+                        ])
+                    };
+                    let rate = step(0.5)? - step(-0.5)?;
+                    (rate.abs() > 1e-9).then(|| Sample {
+                        along: along[i],
+                        grad: gu.hypot(gv),
+                        weight: 1.0 / (rate * rate),
+                        bright: cos.max(0.0) * (600.0 / d).powi(2),
+                    })
+                })
+            })
+            .collect()
+    }
+}
+
+/// Rasterise triangles of `world` points onto a `(w, h)` pixel grid through `project` (a point →
+/// pixel and depth): `write(index, point, depth)` at every pixel centre inside a projected
+/// triangle, the point interpolated in the image (triangles well under the lens's distortion
+/// scale; large faces should be subdivided).
+fn rasterise(
+    world: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    (w, h): (usize, usize),
+    project: impl Fn([f64; 3]) -> Option<(f64, f64, f64)>,
+    mut write: impl FnMut(usize, [f64; 3], f64),
+) {
+    for t in triangles {
+        let x = t.map(|i| world[i as usize]);
+        let (Some(a), Some(b), Some(c)) = (project(x[0]), project(x[1]), project(x[2])) else {
+            continue;
+        };
+        let area = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
+        if !(area.abs() > 1e-12) {
+            continue;
+        }
+        let u0 = a.0.min(b.0).min(c.0).ceil().max(0.0);
+        let u1 = a.0.max(b.0).max(c.0).floor().min(w as f64 - 1.0);
+        let v0 = a.1.min(b.1).min(c.1).ceil().max(0.0);
+        let v1 = a.1.max(b.1).max(c.1).floor().min(h as f64 - 1.0);
+        if !(u0 <= u1 && v0 <= v1) {
+            continue;
+        }
+        for v in v0 as usize..=v1 as usize {
+            for u in u0 as usize..=u1 as usize {
+                let (pu, pv) = (u as f64, v as f64);
+                let l1 = ((c.0 - b.0) * (pv - b.1) - (pu - b.0) * (c.1 - b.1)) / area;
+                let l2 = ((a.0 - c.0) * (pv - c.1) - (pu - c.0) * (a.1 - c.1)) / area;
+                let l3 = 1.0 - l1 - l2;
+                let e = -1e-9;
+                if l1 < e || l2 < e || l3 < e {
+                    continue;
+                }
+                let p = [0, 1, 2].map(|k| l1 * x[0][k] + l2 * x[1][k] + l3 * x[2][k]);
+                write(v * w + u, p, l1 * a.2 + l2 * b.2 + l3 * c.2);
+            }
+        }
+    }
+}
