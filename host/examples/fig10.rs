@@ -5,7 +5,7 @@
 //! docs/adaptive.md.
 //!
 //! Run: `cargo run --release -p fringe3d --example fig10 [-- --size WxH] [--work DIR]`
-//! (full size by default: about 2 minutes on 2 cores).
+//! (full size by default: about 70 s on 2 cores).
 
 use anyhow::{Context, Result};
 use fringe3d::adapt::Goal;

@@ -95,6 +95,8 @@ fn a_first_scan_gives_a_set_that_beats_its_template() {
     assert!(gain > 1.5, "{json}");
     let text = std::fs::read_to_string(out.join("patterns.toml")).unwrap();
     assert!(text.contains("kind = \"knots\""), "{text}");
+    // The template's image list names its captures, not the new set's.
+    assert!(!text.contains("images"), "{text}");
     // The text report names the regions and what binds them.
     let report = run(&[
         "adapt",
@@ -121,7 +123,12 @@ fn a_first_scan_gives_a_set_that_beats_its_template() {
         &scene(&t.0, "second", &format!("file = {:?}", s(&file))),
         &second,
     );
-    let (rms, unresolved) = scan_score(&second, &file, &out.join("calibration.toml"));
+    // The dataset's copy of the set lists its images.
+    let (rms, unresolved) = scan_score(
+        &second,
+        &second.join("patterns.toml"),
+        &out.join("calibration.toml"),
+    );
     // The template, with a virtual reference of its own.
     let tcal = t.0.join("template/calibration.toml");
     run(&[
@@ -286,6 +293,21 @@ fn a_mesh_in_the_rig_and_each_bad_input() {
         &["the camera binds", "--min-period"],
     );
     fails(
+        &with(&["--mesh", ball_s, "--pose", "0,0,620,0,0,0", "--knots", "40"]),
+        &["--knots: 2 to 16, got 40"],
+    );
+    fails(
+        &with(&[
+            "--mesh",
+            ball_s,
+            "--pose",
+            "0,0,620,0,0,0",
+            "--min-projector-period",
+            "2",
+        ]),
+        &["--min-projector-period: at least 4"],
+    );
+    fails(
         &with(&["--mesh", ball_s, "--pose", "0,0,620,0,0,0", "--snr", "3"]),
         &["the unwrapping binds", "patterns --design 3"],
     );
@@ -307,7 +329,12 @@ fn a_mesh_in_the_rig_and_each_bad_input() {
             "--pose",
             "0,0,620,0,0,0",
         ],
-        &["bare.toml", "no [projector] section", "calibrate projector"],
+        &[
+            "bare.toml",
+            "no [projector] section",
+            "calibrate projector",
+            "--decoded",
+        ],
     );
     // A mesh that is not one.
     let junk = t.0.join("junk.stl");
@@ -317,4 +344,166 @@ fn a_mesh_in_the_rig_and_each_bad_input() {
         &with(&["--mesh", junk_s, "--pose", "0,0,620,0,0,0"]),
         &["junk.stl", "neither a PLY nor an STL"],
     );
+}
+
+#[test]
+fn a_decoded_first_scan_needs_no_projector_model() {
+    let t = Tmp::new("adapt-decoded");
+    let first = t.0.join("first");
+    render(&scene(&t.0, "first", "ratio = 5.657"), &first);
+    let (cal, pat) = (first.join("calibration.toml"), first.join("patterns.toml"));
+    let dec = t.0.join("decoded");
+    run(&[
+        "decode",
+        "-q",
+        "--patterns",
+        s(&pat),
+        s(&first),
+        "--out",
+        s(&dec),
+    ]);
+    // The paper's calibration: camera, projector centre, reference; no projector model.
+    let mut c = fringe3d::io::calibration::Calibration::load(&cal).unwrap();
+    c.projector = None;
+    let bare = first.join("bare.toml");
+    c.save(&bare).unwrap();
+    let args = |cal: &Path, out: &Path| -> Vec<String> {
+        [
+            "adapt",
+            "--json",
+            "-c",
+            s(cal),
+            "-p",
+            s(&pat),
+            "--decoded",
+            s(&dec),
+            "--first-patterns",
+            s(&pat),
+            "--crop",
+            CROP,
+            "-o",
+            s(out),
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let run_s = |a: Vec<String>| {
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        serde_json::from_str::<serde_json::Value>(&run(&a)).unwrap()
+    };
+    // Without a projector model: the set, and the capture to make instead of a reference.
+    let out = t.0.join("bare-out");
+    let v = run_s(args(&bare, &out));
+    assert!(out.join("patterns.toml").is_file());
+    assert!(!out.join("calibration.toml").exists());
+    let capture = v["capture"].as_str().unwrap();
+    assert!(capture.contains("calibrate reference"), "{capture}");
+    // The same design as from the projector model's view of the scan's cloud (a second
+    // method: geometry from the projector model against the decoded phase and the reference):
+    // the predicted gains agree, and so do the knots where the object is.
+    let full = t.0.join("full-out");
+    let d = run_s(args(&cal, &full));
+    assert!(full.join("calibration.toml").is_file());
+    let ply = t.0.join("first.ply");
+    run(&[
+        "scan",
+        "-q",
+        "-p",
+        s(&pat),
+        "-c",
+        s(&cal),
+        s(&first),
+        "-o",
+        s(&ply),
+    ]);
+    let viacloud = t.0.join("cloud-out");
+    let e = run_s(
+        [
+            "adapt",
+            "--json",
+            "-c",
+            s(&cal),
+            "-p",
+            s(&pat),
+            "--cloud",
+            s(&ply),
+            "--crop",
+            CROP,
+            "-o",
+            s(&viacloud),
+        ]
+        .map(String::from)
+        .to_vec(),
+    );
+    let (gd, ge) = (
+        d["predicted_rms_gain"].as_f64().unwrap(),
+        e["predicted_rms_gain"].as_f64().unwrap(),
+    );
+    eprintln!("predicted gain: decoded x{gd:.3}, cloud x{ge:.3}");
+    assert!((gd / ge - 1.0).abs() < 0.05, "{gd} vs {ge}");
+    let ks = |v: &serde_json::Value| -> Vec<f64> {
+        v["slopes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (kd, ke) = (ks(&d), ks(&e));
+    let top = ke.iter().cloned().fold(0.0, f64::max);
+    for (a, b) in kd.iter().zip(&ke) {
+        assert!((a - b).abs() < 0.1 * top, "{kd:?} vs {ke:?}");
+    }
+    // Its scan, with the virtual reference of the full calibration.
+    let file = full.join("patterns.toml");
+    let second = t.0.join("second");
+    render(
+        &scene(&t.0, "second", &format!("file = {:?}", s(&file))),
+        &second,
+    );
+    let (rms, _) = scan_score(
+        &second,
+        &second.join("patterns.toml"),
+        &full.join("calibration.toml"),
+    );
+    let tcal = t.0.join("template/calibration.toml");
+    run(&[
+        "calibrate",
+        "reference",
+        "-q",
+        "--virtual",
+        "--patterns",
+        s(&pat),
+        "--calibration",
+        s(&cal),
+        "-o",
+        s(&tcal),
+    ]);
+    let (t_rms, _) = scan_score(&first, &pat, &tcal);
+    assert!(rms < 0.6 * t_rms, "{rms} vs {t_rms}");
+    // A decode folder of another set is refused.
+    let other = t.0.join("other.toml");
+    std::fs::write(
+        &other,
+        std::fs::read_to_string(&pat)
+            .unwrap()
+            .replace("ratio = 5.657", "ratio = 6.0"),
+    )
+    .unwrap();
+    let r = fringe3d(&[
+        "adapt",
+        "-c",
+        s(&bare),
+        "-p",
+        s(&pat),
+        "--decoded",
+        s(&dec),
+        "--first-patterns",
+        s(&other),
+        "-o",
+        s(&t.0.join("never")),
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(!r.status.success() && err.contains("decoded with"), "{err}");
+    assert!(!t.0.join("never").exists());
 }

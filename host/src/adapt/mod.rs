@@ -18,9 +18,11 @@
 //!
 //! 1. **the camera** resolves the fringes: on every object pixel the finest fringe period in the
 //!    image, `2π / (c_K·s(ξ)·|∇ξ|)` camera pixels (`|∇ξ|` the projector columns per camera pixel
-//!    there, large on steep flanks), stays at least `min_camera_period` (taken at a high
-//!    percentile of each column's pixels, so that a few grazing pixels do not flatten a whole
-//!    column; the rest are predicted unresolvable);
+//!    there, large on steep flanks), stays at least `min_camera_period`, and the optics pass at
+//!    least `min_contrast` of the fringes' contrast there (and, with the noise known, enough of
+//!    it for the B/σ the levels need). Each pixel so has a largest slope; a knot interval takes
+//!    the slope all but `1 − percentile` of its pixels resolve, so that a few grazing pixels do
+//!    not flatten a whole region (the rest are predicted unresolvable);
 //! 2. **the projector** renders them: its finest period `2π/(c_K·s)` stays at least
 //!    `min_projector_period` DMD pixels (pixelation and defocus);
 //! 3. **the coarsest level stays absolute**: the base phase's span `∫s dξ` is the template's, so
@@ -37,6 +39,7 @@
 //! iteration counts. Where the span does not bind, every knot sits at its camera or projector
 //! bound: the fringes are as dense as the camera allows everywhere on the object.
 
+pub mod decoded;
 pub mod experiment;
 mod pattern;
 mod solve;
@@ -45,7 +48,7 @@ pub mod surface;
 use std::f64::consts::TAU;
 
 pub use pattern::{adapted_file, template_of};
-pub use solve::solve;
+pub use solve::{check, solve};
 
 /// The refusal probability at which a pixel counts as unresolvable by the noise
 /// ([`crate::design::needed_snr`]): a pixel whose finest level keeps less B/σ than that rate
@@ -97,8 +100,8 @@ pub struct Goal {
     pub floor: f64,
     /// Knots of the slope profile (2 to [`fringe3d_core::phase_function::MAX_KNOTS`]).
     pub knots: usize,
-    /// The percentile of a column's `|∇ξ|` its camera bound is taken at (0.99: the steepest
-    /// 1 % of a column's pixels may be lost).
+    /// A knot interval's bound is the slope this share of its pixels resolve (0.99: the 1 %
+    /// with the lowest limits, the steepest or dimmest, may be lost).
     pub percentile: f64,
     /// Least object pixels a design is made from.
     pub min_samples: usize,
@@ -166,7 +169,7 @@ pub struct Prediction {
     pub min_camera_period: f64,
 }
 
-/// One knot interval's prediction.
+/// One knot interval's prediction (columns from its knot to the column before the next).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Region {
     /// First and last projector column.
@@ -175,7 +178,7 @@ pub struct Region {
     pub pixels: usize,
     /// RMS point error of the template over the design's there (> 1: the design is better).
     pub gain: f64,
-    /// What binds the slope there (at the region's steeper knot).
+    /// What binds the slope there (at the knot nearer the region's pixels' centroid).
     pub binding: Binding,
 }
 

@@ -57,9 +57,12 @@ fn round_down(x: f64) -> f64 {
 }
 
 /// The pattern-set file of `design`: `template` with its phase function replaced by the designed
-/// knots (centred, `phase0` absent), everything else kept.
+/// knots (centred, `phase0` absent), its levels, order and projector kept (its `images` list,
+/// which names the template's captures, dropped).
 pub fn adapted_file(template: &PatternSetFile, axis: Axis, design: &Adapted) -> PatternSetFile {
     let mut f = template.clone();
+    // Another set's images: a dataset's list names the template's captures, not these.
+    f.images = None;
     f.phase = Some(PhaseSection {
         axis: Some(match axis {
             Axis::Xi => AxisName::Xi,

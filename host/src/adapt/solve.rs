@@ -91,28 +91,38 @@ fn column(along: f64, extent: usize) -> usize {
     (along.round().max(0.0) as usize).min(extent - 1)
 }
 
-fn check(t: &Template, g: &Goal) -> Result<(), AdaptError> {
+/// Check a goal and a template before any object is read; the messages name the `adapt` flags.
+pub fn check(t: &Template, g: &Goal) -> Result<(), AdaptError> {
     let bad = |m: &str| Err(AdaptError::Parameter(m.into()));
-    let finite_pos = |x: f64| x.is_finite() && x > 0.0;
-    if !(2..=fringe3d_core::phase_function::MAX_KNOTS).contains(&g.knots) {
-        return bad("2 to 16 knots");
+    let max = (fringe3d_core::phase_function::MAX_KNOTS).min(t.extent as usize);
+    if !(2..=max).contains(&g.knots) {
+        return bad(&format!("--knots: 2 to {max}, got {}", g.knots));
     }
-    if !(finite_pos(g.min_camera_period) && finite_pos(g.min_projector_period)) {
-        return bad("the least fringe periods must be positive");
+    // Below a period of 2 the fringes alias (and the contrast model no longer falls with the
+    // slope); the core refuses finest phases that step more than π/2 per projector pixel.
+    if !(g.min_camera_period.is_finite() && g.min_camera_period >= 2.0) {
+        return bad("--min-period: at least 2 camera pixels (Nyquist)");
     }
-    if !(g.projector_blur >= 0.0 && g.camera_blur >= 0.0 && g.min_contrast.is_finite()) {
-        return bad("the blurs must be at least 0");
+    if !(g.min_projector_period.is_finite() && g.min_projector_period >= 4.0) {
+        return bad("--min-projector-period: at least 4 projector pixels (the core's limit)");
+    }
+    if !(g.projector_blur.is_finite()
+        && g.projector_blur >= 0.0
+        && g.camera_blur.is_finite()
+        && g.camera_blur >= 0.0)
+    {
+        return bad("--projector-blur and --camera-blur: finite and at least 0");
     }
     if !(g.min_contrast >= 0.0 && g.min_contrast < 1.0) {
-        return bad("the least contrast must be in [0, 1)");
+        return bad("--min-contrast: in [0, 1)");
     }
     if let Some(n) = g.snr
-        && !(finite_pos(n.brightest) && finite_pos(n.needed))
+        && !(n.brightest.is_finite() && n.brightest > 0.0 && n.needed.is_finite() && n.needed > 0.0)
     {
-        return bad("B/sigma must be positive");
+        return bad("--snr / --noise: B/sigma must be positive");
     }
     if !(g.floor > 0.0 && g.floor <= 1.0) {
-        return bad("the floor must be in (0, 1]");
+        return bad("--floor: in (0, 1]");
     }
     if !(g.percentile >= 0.5 && g.percentile <= 1.0) {
         return bad("the percentile must be in [0.5, 1]");
@@ -120,6 +130,7 @@ fn check(t: &Template, g: &Goal) -> Result<(), AdaptError> {
     if !(g.max_unresolvable >= 0.0 && g.max_unresolvable < 1.0) {
         return bad("the largest unresolvable fraction must be in [0, 1)");
     }
+    let finite_pos = |x: f64| x.is_finite() && x > 0.0;
     if t.extent < 2 || t.slopes.len() != t.extent as usize {
         return bad("the template needs one slope per projector column");
     }
@@ -175,8 +186,6 @@ pub fn solve(samples: &[Sample], t: &Template, g: &Goal) -> Result<Adapted, Adap
     let positions: Vec<f64> = (0..k)
         .map(|i| (last * i as f64 / (k - 1) as f64).round())
         .collect();
-    // A knot's bound: the least column bound over its two intervals, so that the linear profile
-    // between two knots stays under every column's bound there.
     // Each knot interval's bound: the slope all but the goal's share of its pixels resolve
     // (pixels no slope above the floor resolves are lost anyway and left out); a knot takes the
     // lesser of its two intervals', so that the linear profile stays under both.
@@ -282,8 +291,9 @@ pub fn solve(samples: &[Sample], t: &Template, g: &Goal) -> Result<Adapted, Adap
                 .sum::<f64>()
         };
         let centre = inside.iter().map(|s| s.along).sum::<f64>() / inside.len() as f64;
+        let last_column = if i + 1 == k { b } else { b - 1.0 };
         regions.push(Region {
-            columns: (a.ceil() as u32, b.floor() as u32),
+            columns: (a as u32, last_column as u32),
             pixels: inside.len(),
             gain: (err(&fixed_slope) / err(&design_slope)).sqrt(),
             binding: binding(if centre - a < b - centre { i - 1 } else { i }),
@@ -449,11 +459,12 @@ mod tests {
             .collect()
     }
 
+    /// The least limits the goal accepts (none binds these objects but the span).
     fn loose() -> Goal {
         Goal {
             min_contrast: 0.0,
-            min_projector_period: 1e-3,
-            min_camera_period: 1e-3,
+            min_projector_period: 4.0,
+            min_camera_period: 2.0,
             ..Goal::default()
         }
     }
@@ -562,6 +573,14 @@ mod tests {
             })
         ));
         let s = object(300, 700, 0.5);
+        let knots = Goal {
+            knots: 17,
+            ..loose()
+        };
+        assert!(matches!(
+            solve(&s, &t, &knots),
+            Err(AdaptError::Parameter(_))
+        ));
         let proj = Goal {
             min_projector_period: 1e4,
             ..loose()

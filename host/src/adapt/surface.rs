@@ -48,6 +48,8 @@ pub struct Gathered {
     pub unlit: usize,
     /// Points removed by the crop box.
     pub cropped: usize,
+    /// Points that are not finite (an organized cloud's invalid pixels).
+    pub invalid: usize,
 }
 
 impl Rig {
@@ -101,6 +103,10 @@ impl Rig {
         };
         let mut g = Gathered::default();
         for p in points {
+            if !p.iter().all(|c| c.is_finite()) {
+                g.invalid += 1;
+                continue;
+            }
             if let Some((a, b)) = crop
                 && (0..3).any(|i| p[i] < a[i] || p[i] > b[i])
             {
@@ -144,6 +150,11 @@ impl Rig {
             .collect();
         let (w, h) = (self.camera.width as usize, self.camera.height as usize);
         let cam = |x: [f64; 3]| self.camera.project_point(x).map(|(u, v)| (u, v, x[2]));
+        let on_image = |x: &[f64; 3]| {
+            cam(*x).is_some_and(|(u, v, _)| {
+                u >= -0.5 && v >= -0.5 && u < w as f64 - 0.5 && v < h as f64 - 0.5
+            })
+        };
         let mut zcam = vec![f64::INFINITY; w * h];
         let mut pts = vec![[f64::NAN; 3]; w * h];
         rasterise(&world, &mesh.triangles, (w, h), cam, |i, x, z| {
@@ -164,7 +175,10 @@ impl Rig {
         rasterise(&world, &mesh.triangles, (pw, ph), proj, |i, _, z| {
             zproj[i] = zproj[i].min(z);
         });
-        let mut g = Gathered::default();
+        let mut g = Gathered {
+            outside_image: world.iter().filter(|x| !on_image(x)).count(),
+            ..Gathered::default()
+        };
         for p in &mut pts {
             if !p[0].is_finite() {
                 continue;
@@ -196,13 +210,9 @@ impl Rig {
         )
     }
 
-    /// One [`Sample`] per object pixel of `map` whose neighbours give its image gradient and
-    /// normal, by central differences over ±4, ±2 or ±1 pixels (the widest on one surface: a
-    /// neighbour k pixels away lies within 20·k pixel footprints); pixels with no such pair
-    /// along both image axes (isolated, or at a depth edge) are left out.
+    /// One [`Sample`] per object pixel of `map` ([`grid_samples`]), its projector coordinate,
+    /// `dξ/dt` and light from the projector model.
     pub fn samples(&self, map: &PointMap) -> Vec<Sample> {
-        let (w, h) = (map.width, map.height);
-        let fx = self.camera.p[0];
         let along: Vec<f64> = map
             .points
             .par_iter()
@@ -214,89 +224,106 @@ impl Rig {
                 }
             })
             .collect();
-        (0..h)
-            .into_par_iter()
-            .flat_map_iter(|v| {
-                let (along, map) = (&along, &map.points);
-                (0..w).filter_map(move |u| {
-                    let i = v * w + u;
-                    let x = map[i];
-                    if !along[i].is_finite() {
-                        return None;
-                    }
-                    let reach = 20.0 * x[2] / fx;
-                    let near = |j: usize, k: usize| {
-                        let y = map[j];
-                        along[j].is_finite()
-                            && ((y[0] - x[0]).powi(2)
-                                + (y[1] - x[1]).powi(2)
-                                + (y[2] - x[2]).powi(2))
-                            .sqrt()
-                                <= reach * k as f64
-                    };
-                    // Central differences over ±K pixels (a first scan's point noise shrinks by
-                    // the baseline), K = 4, 2 or 1: the widest whose ends are on the same surface.
-                    let pair = |step: &dyn Fn(usize) -> (Option<usize>, Option<usize>)| {
-                        [4usize, 2, 1].into_iter().find_map(|k| {
-                            let (lo, hi) = step(k);
-                            match (lo.filter(|&j| near(j, k)), hi.filter(|&j| near(j, k))) {
-                                (Some(a), Some(b)) => Some((a, b, 0.5 / k as f64)),
-                                _ => None,
-                            }
-                        })
-                    };
-                    let hu = pair(&|k| {
-                        (
-                            u.checked_sub(k).map(|u| v * w + u),
-                            (u + k < w).then(|| i + k),
-                        )
-                    })?;
-                    let hv = pair(&|k| {
-                        (
-                            v.checked_sub(k).map(|v| v * w + u),
-                            (v + k < h).then(|| i + k * w),
-                        )
-                    })?;
-                    let gu = hu.2 * (along[hu.1] - along[hu.0]);
-                    let gv = hv.2 * (along[hv.1] - along[hv.0]);
-                    let sub = |a: [f64; 3], b: [f64; 3]| Vec3::from_array(a) - Vec3::from_array(b);
-                    let normal = sub(map[hu.1], map[hu.0]).cross(sub(map[hv.1], map[hv.0]));
-                    let to_proj = self.t - Vec3::from_array(x);
-                    let d = to_proj.norm();
-                    let cos = normal.try_normalized().map_or(0.0, |n| {
-                        // Oriented towards the camera (at the origin).
-                        let n = if n.dot(Vec3::from_array(x)) > 0.0 {
-                            n * -1.0
-                        } else {
-                            n
-                        };
-                        n.dot(to_proj) / d
-                    });
-                    let n = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
-                    let step = |t: f64| {
-                        self.along([
-                            x[0] * (1.0 + t / n),
-                            x[1] * (1.0 + t / n),
-                            x[2] * (1.0 + t / n),
-                        ])
-                    };
-                    let rate = step(0.5)? - step(-0.5)?;
-                    (rate.abs() > 1e-9).then(|| Sample {
-                        along: along[i],
-                        grad: gu.hypot(gv),
-                        weight: 1.0 / (rate * rate),
-                        bright: cos.max(0.0) * (600.0 / d).powi(2),
+        grid_samples(map, &along, self.camera.p[0], |_, x, normal| {
+            let n = Vec3::from_array(x).norm();
+            let step = |t: f64| self.along((Vec3::from_array(x) * (1.0 + t / n)).to_array());
+            let rate = step(0.5)? - step(-0.5)?;
+            Some((rate, projector_light(self.t, x, normal)))
+        })
+    }
+}
+
+/// The light a projector at `centre` puts on a surface at `x` with normal `normal` (any
+/// orientation; turned towards the camera at the origin), relative to a surface facing it at
+/// 600 mm: `cos θ_p·(600/d_p)²`, 0 when it faces away.
+pub fn projector_light(centre: Vec3, x: [f64; 3], normal: Vec3) -> f64 {
+    let to_proj = centre - Vec3::from_array(x);
+    let d = to_proj.norm();
+    let cos = normal.try_normalized().map_or(0.0, |n| {
+        let n = if n.dot(Vec3::from_array(x)) > 0.0 {
+            n * -1.0
+        } else {
+            n
+        };
+        n.dot(to_proj) / d
+    });
+    cos.max(0.0) * (600.0 / d).powi(2)
+}
+
+/// One [`Sample`] per pixel of `map` with a finite projector coordinate in `along` whose
+/// neighbours give its image gradient and normal, by central differences over ±4, ±2 or ±1
+/// pixels (the widest on one surface: a neighbour k pixels away lies within 20·k pixel
+/// footprints, `fx` the camera's focal length in pixels); pixels with no such pair along both
+/// image axes (isolated, or at a depth edge) are left out. `per_pixel(index, point, normal)`
+/// gives the pixel's `dξ/dt` (per mm) and light ([`Sample::bright`]), `None` to leave it out.
+pub fn grid_samples(
+    map: &PointMap,
+    along: &[f64],
+    fx: f64,
+    per_pixel: impl Fn(usize, [f64; 3], Vec3) -> Option<(f64, f64)> + Sync,
+) -> Vec<Sample> {
+    let (w, h) = (map.width, map.height);
+    let per_pixel = &per_pixel;
+    (0..h)
+        .into_par_iter()
+        .flat_map_iter(|v| {
+            let map = &map.points;
+            (0..w).filter_map(move |u| {
+                let i = v * w + u;
+                let x = map[i];
+                if !along[i].is_finite() || !x[0].is_finite() {
+                    return None;
+                }
+                let reach = 20.0 * x[2] / fx;
+                let near = |j: usize, k: usize| {
+                    let y = map[j];
+                    along[j].is_finite()
+                        && (Vec3::from_array(y) - Vec3::from_array(x)).norm() <= reach * k as f64
+                };
+                // Central differences over ±K pixels (a first scan's point noise shrinks by the
+                // baseline), K = 4, 2 or 1: the widest whose ends are on the same surface.
+                let pair = |step: &dyn Fn(usize) -> (Option<usize>, Option<usize>)| {
+                    [4usize, 2, 1].into_iter().find_map(|k| {
+                        let (lo, hi) = step(k);
+                        match (lo.filter(|&j| near(j, k)), hi.filter(|&j| near(j, k))) {
+                            (Some(a), Some(b)) => Some((a, b, 0.5 / k as f64)),
+                            _ => None,
+                        }
                     })
+                };
+                let hu = pair(&|k| {
+                    (
+                        u.checked_sub(k).map(|u| v * w + u),
+                        (u + k < w).then(|| i + k),
+                    )
+                })?;
+                let hv = pair(&|k| {
+                    (
+                        v.checked_sub(k).map(|v| v * w + u),
+                        (v + k < h).then(|| i + k * w),
+                    )
+                })?;
+                let gu = hu.2 * (along[hu.1] - along[hu.0]);
+                let gv = hv.2 * (along[hv.1] - along[hv.0]);
+                let sub = |a: usize, b: usize| Vec3::from_array(map[a]) - Vec3::from_array(map[b]);
+                let normal = sub(hu.1, hu.0).cross(sub(hv.1, hv.0));
+                let (rate, bright) = per_pixel(i, x, normal)?;
+                (rate.is_finite() && rate.abs() > 1e-9 && bright.is_finite()).then(|| Sample {
+                    along: along[i],
+                    grad: gu.hypot(gv),
+                    weight: 1.0 / (rate * rate),
+                    bright,
                 })
             })
-            .collect()
-    }
+        })
+        .collect()
 }
 
 /// Rasterise triangles of `world` points onto a `(w, h)` pixel grid through `project` (a point →
 /// pixel and depth): `write(index, point, depth)` at every pixel centre inside a projected
-/// triangle, the point interpolated in the image (triangles well under the lens's distortion
-/// scale; large faces should be subdivided).
+/// triangle, the point and its depth interpolated perspective-correctly (image barycentrics
+/// weighted by 1/depth: exact for a pinhole, and within the lens distortion's change across a
+/// triangle otherwise).
 fn rasterise(
     world: &[[f64; 3]],
     triangles: &[[u32; 3]],
@@ -330,8 +357,13 @@ fn rasterise(
                 if l1 < e || l2 < e || l3 < e {
                     continue;
                 }
-                let p = [0, 1, 2].map(|k| l1 * x[0][k] + l2 * x[1][k] + l3 * x[2][k]);
-                write(v * w + u, p, l1 * a.2 + l2 * b.2 + l3 * c.2);
+                let (q1, q2, q3) = (l1 / a.2, l2 / b.2, l3 / c.2);
+                let sum = q1 + q2 + q3;
+                if !(sum > 0.0) {
+                    continue;
+                }
+                let p = [0, 1, 2].map(|k| (q1 * x[0][k] + q2 * x[1][k] + q3 * x[2][k]) / sum);
+                write(v * w + u, p, 1.0 / sum);
             }
         }
     }

@@ -31,18 +31,30 @@ pub struct AdaptArgs {
     #[arg(long, short = 'p')]
     pub patterns: PathBuf,
     /// A first scan's point cloud (PLY, camera frame, mm).
-    #[arg(long, group = "object", required_unless_present = "mesh")]
+    #[arg(long, group = "object", required_unless_present_any = ["mesh", "decoded"])]
     pub cloud: Option<PathBuf>,
+    /// A first scan decoded by `fringe3d decode` (its folder): needs only the calibration's
+    /// reference, not its projector model, and measures each pixel's light (its modulation).
+    #[arg(long, group = "object", requires = "first_patterns")]
+    pub decoded: Option<PathBuf>,
+    /// With --decoded: the pattern set the folder was decoded with (straight fringes; its
+    /// calibration's reference must be of this set).
+    #[arg(long)]
+    pub first_patterns: Option<PathBuf>,
+    /// With --decoded: the camera's read noise σ in codes, so that the measured modulation gives
+    /// each pixel's B/σ (as --snr does for the brightest surface).
+    #[arg(long, requires = "decoded", conflicts_with = "snr")]
+    pub noise: Option<f64>,
     /// A model of the object (PLY or STL mesh, mm), placed by --pose.
     #[arg(long, group = "object", requires = "pose")]
     pub mesh: Option<PathBuf>,
     /// The mesh's pose "X,Y,Z,RX,RY,RZ": `X_cam = R·X + (X, Y, Z)`, R = Rz·Ry·Rx of the angles
     /// in degrees (as scene files' `euler_deg`).
-    #[arg(long, value_name = "X,Y,Z,RX,RY,RZ", allow_hyphen_values = true, value_parser = parse::six)]
+    #[arg(long, value_name = "X,Y,Z,RX,RY,RZ", allow_hyphen_values = true, value_parser = parse::six, requires = "mesh")]
     pub pose: Option<[f64; 6]>,
-    /// Keep only points in this box "X0,Y0,Z0,X1,Y1,Z1" (camera frame, mm): the object without
-    /// its support or background.
-    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true, value_parser = parse::six)]
+    /// Keep only points in this box "X0,Y0,Z0,X1,Y1,Z1" (camera frame, mm): the object of a first
+    /// scan without its support or background (--cloud, --decoded; a mesh is the object).
+    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true, value_parser = parse::six, conflicts_with = "mesh")]
     pub crop: Option<[f64; 6]>,
     /// Least finest fringe period in the camera image, pixels.
     #[arg(long, default_value_t = 3.0)]
@@ -107,8 +119,8 @@ fn unwrap_check(set: &PatternSet, path: &Path, snr: f64, target: f64) -> Result<
 
 fn gathered_text(g: &Gathered) -> String {
     format!(
-        "{} kept; dropped: {} outside the depth range, {} off the image, {} unlit, {} cropped",
-        g.kept, g.outside_depth, g.outside_image, g.unlit, g.cropped
+        "{} kept; dropped: {} outside the depth range, {} off the image, {} unlit, {} cropped, {} not finite",
+        g.kept, g.outside_depth, g.outside_image, g.unlit, g.cropped, g.invalid
     )
 }
 
@@ -120,14 +132,6 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
     let cal = Calibration::load(&a.calibration)?;
     let ls = common::load_set(&a.patterns)?;
     let set = &ls.set;
-    let Some(rig) = Rig::new(&cal, set.axis()) else {
-        bail!(
-            "{}: no [projector] section: adapt maps the object onto the projector with the full \
-             projector model (intrinsics, distortion, pose); run `fringe3d calibrate projector` \
-             (docs/calibration.md) or import it",
-            a.calibration.display()
-        );
-    };
     if let Some(p) = &cal.projector {
         let o = set.output();
         if (o.width, o.height) != (p.intrinsics.width, p.intrinsics.height) {
@@ -144,34 +148,11 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
     }
     let template =
         template_of(set).map_err(|m| anyhow::anyhow!("{}: {m}", a.patterns.display()))?;
-    let snr = match a.snr {
-        Some(s) => Some((s, unwrap_check(set, &a.patterns, s, a.failure_target)?)),
-        None => None,
-    };
-    let (source, (map, gathered)) = match (&a.cloud, &a.mesh) {
-        (Some(c), _) => {
-            common::input_file(c)?;
-            let m = crate::io::mesh::read_mesh(c)?;
-            let crop = a.crop.map(|b| ([b[0], b[1], b[2]], [b[3], b[4], b[5]]));
-            (c, rig.map_points(&m.vertices, crop))
-        }
-        (None, Some(p)) => {
-            common::input_file(p)?;
-            let m = crate::io::mesh::read_mesh(p)?;
-            if m.triangles.is_empty() {
-                bail!(
-                    "{}: no triangles: a mesh is needed (a point cloud goes to --cloud)",
-                    p.display()
-                );
-            }
-            let [x, y, z, rx, ry, rz] = a.pose.unwrap_or_default();
-            let r = Mat3::from_euler_deg([rx, ry, rz]);
-            (p, rig.map_mesh(&m, r, Vec3::new(x, y, z)))
-        }
-        (None, None) => bail!("give --cloud or --mesh"),
-    };
-    let samples = rig.samples(&map);
-    let goal = Goal {
+    if !(a.failure_target > 0.0 && a.failure_target < 1.0) {
+        bail!("--failure-target: in (0, 1), got {}", a.failure_target);
+    }
+    let needed = crate::design::needed_snr(set, crate::adapt::PIXEL_FAILURE);
+    let mut goal = Goal {
         min_camera_period: a.min_period,
         min_projector_period: a.min_projector_period,
         projector_blur: a.projector_blur.or(cal.projector_defocus).unwrap_or(1.0),
@@ -179,12 +160,74 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
         min_contrast: a.min_contrast,
         snr: a.snr.map(|s| Snr {
             brightest: s,
-            needed: crate::design::needed_snr(set, crate::adapt::PIXEL_FAILURE),
+            needed,
         }),
         floor: a.floor,
         knots: a.knots,
         ..Goal::default()
     };
+    // The flags are checked before any object is read.
+    crate::adapt::check(&template, &goal).map_err(|e| anyhow::anyhow!("{e}"))?;
+    if let Some(n) = a.noise
+        && !(n.is_finite() && n > 0.0)
+    {
+        bail!("--noise: a read noise in camera codes above 0, got {n}");
+    }
+    let snr = match a.snr {
+        Some(s) => Some((s, unwrap_check(set, &a.patterns, s, a.failure_target)?)),
+        None => None,
+    };
+    let crop = a.crop.map(|b| ([b[0], b[1], b[2]], [b[3], b[4], b[5]]));
+    let (source, samples, gathered, measured) = match &a.decoded {
+        Some(dir) => {
+            let (samples, gathered) = decoded_samples(&a, &cal, dir, crop, g)?;
+            (dir, samples, gathered, true)
+        }
+        None => {
+            let Some(rig) = Rig::new(&cal, set.axis()) else {
+                bail!(
+                    "{}: no [projector] section: adapt maps a cloud or a mesh onto the projector \
+                     with the full projector model (intrinsics, distortion, pose); run `fringe3d \
+                     calibrate projector` (docs/calibration.md), or design from a decoded first \
+                     scan (--decoded), which needs only the reference",
+                    a.calibration.display()
+                );
+            };
+            let (source, (map, gathered)) = match (&a.cloud, &a.mesh) {
+                (Some(c), _) => {
+                    common::input_file(c)?;
+                    let m = crate::io::mesh::read_mesh(c)?;
+                    (c, rig.map_points(&m.vertices, crop))
+                }
+                (None, Some(p)) => {
+                    common::input_file(p)?;
+                    let m = crate::io::mesh::read_mesh(p)?;
+                    if m.triangles.is_empty() {
+                        bail!(
+                            "{}: no triangles: a mesh is needed (a point cloud goes to --cloud)",
+                            p.display()
+                        );
+                    }
+                    let [x, y, z, rx, ry, rz] = a.pose.unwrap_or_default();
+                    let r = Mat3::from_euler_deg([rx, ry, rz]);
+                    (p, rig.map_mesh(&m, r, Vec3::new(x, y, z)))
+                }
+                (None, None) => bail!("give --cloud, --mesh or --decoded"),
+            };
+            (source, rig.samples(&map), gathered, false)
+        }
+    };
+    // A decoded scan's modulation over --noise gives the brightest surface's B/σ.
+    if let (Some(n), true) = (a.noise, measured) {
+        let mut b: Vec<f64> = samples.iter().map(|s| s.bright).collect();
+        b.sort_by(f64::total_cmp);
+        if let Some(&x) = b.get(((b.len().max(1) - 1) as f64 * 0.99) as usize) {
+            goal.snr = Some(Snr {
+                brightest: x / n,
+                needed,
+            });
+        }
+    }
     let design = solve(&samples, &template, &goal)
         .map_err(|e| anyhow::anyhow!("{}: {e} ({})", source.display(), gathered_text(&gathered)))?;
     let file = adapted_file(&ls.file, set.axis(), &design);
@@ -196,19 +239,102 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
     let patterns_path = dir.join("patterns.toml");
     file.save(&patterns_path)?;
     // The new set's reference from the projector model (issue #17 item 2): no capture.
-    let reference = crate::calib::virtual_reference::virtual_reference_files(
-        &cal,
-        &a.calibration,
-        &dir.join("calibration.toml"),
-        &patterns_path,
-        None,
-        None,
-        "reference_phase.tif",
-    )?
-    .plane;
+    let reference = match cal.projector {
+        Some(_) => Some(
+            crate::calib::virtual_reference::virtual_reference_files(
+                &cal,
+                &a.calibration,
+                &dir.join("calibration.toml"),
+                &patterns_path,
+                None,
+                None,
+                "reference_phase.tif",
+            )?
+            .plane,
+        ),
+        None => None,
+    };
     let out = dir.commit()?;
-    report(g, &design, &gathered, snr, reference, &out);
+    report(g, &design, &gathered, snr, reference, &out, &a.calibration);
     Ok(())
+}
+
+/// The samples of a decoded first scan (`--decoded`, with `--first-patterns`): checked against
+/// its decode record and the calibration's reference, reconstructed, and mapped onto the
+/// projector through its own phase ([`crate::adapt::decoded`]).
+fn decoded_samples(
+    a: &AdaptArgs,
+    cal: &Calibration,
+    dir: &Path,
+    crop: Option<([f64; 3], [f64; 3])>,
+    g: Global,
+) -> Result<(Vec<crate::adapt::Sample>, Gathered)> {
+    use crate::calib::files::read_phase_map;
+    let Some(fp) = &a.first_patterns else {
+        bail!("--decoded needs --first-patterns: the pattern set the folder was decoded with");
+    };
+    common::input_file(fp)?;
+    let first = common::load_set(fp)?;
+    let digest = crate::io::calibration::pattern_digest(&first.set)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", fp.display()))?;
+    match super::decode::DecodeRecord::read(dir)? {
+        Some(r) if r.pattern_digest != digest => bail!(
+            "{}: decoded with {} ({}), not with --first-patterns {} ({digest})",
+            dir.display(),
+            r.patterns,
+            r.pattern_digest,
+            fp.display()
+        ),
+        Some(_) => {}
+        None => bail!(
+            "{}: no {} (not written by `fringe3d decode`): the set its phase was decoded with \
+             cannot be checked",
+            dir.display(),
+            super::decode::RECORD
+        ),
+    }
+    common::check_loaded_reference_patterns(cal, &a.calibration, &first.scan_patterns()?, g.quiet)?;
+    if first.set.function().curvature() != 0.0 {
+        bail!(
+            "{}: a first scan with curved fringes: decode one with straight fringes",
+            fp.display()
+        );
+    }
+    let read = |name: &str| -> Result<(u32, u32, Vec<f32>)> {
+        let p = dir.join(name);
+        common::input_file(&p)?;
+        Ok(read_phase_map(&p)?)
+    };
+    let (w, h, phase) = read("phase.tif")?;
+    let (mw, mh, modulation) = read("modulation.tif")?;
+    if (w, h) != (cal.camera.width, cal.camera.height) || (mw, mh) != (w, h) {
+        bail!(
+            "{}: phase.tif is {w}x{h} and modulation.tif {mw}x{mh}, but the camera of {} is {}x{}",
+            dir.display(),
+            a.calibration.display(),
+            cal.camera.width,
+            cal.camera.height
+        );
+    }
+    let sc = crate::scan::ScanCalibration::load(&a.calibration, first.set.axis())?;
+    let validity: Vec<u8> = phase.iter().map(|p| u8::from(!p.is_finite())).collect();
+    let cloud = sc.reconstruct(&phase, &validity, true)?;
+    let map_path = cal
+        .reference_map_path(&a.calibration)
+        .ok_or_else(|| anyhow::anyhow!("{}: no [reference]", a.calibration.display()))?;
+    let (rw, rh, raw) = read_phase_map(&map_path)?;
+    let reference = crate::adapt::decoded::Reference {
+        calibration: cal,
+        map: (&raw, rw as usize, rh as usize),
+    };
+    Ok(crate::adapt::decoded::samples(
+        &reference,
+        &first.set,
+        &cloud,
+        &phase,
+        &modulation,
+        crop,
+    ))
 }
 
 fn report(
@@ -216,9 +342,19 @@ fn report(
     d: &Adapted,
     gathered: &Gathered,
     snr: Option<(f64, (f64, f64))>,
-    (point, normal): ([f64; 3], [f64; 3]),
+    reference: Option<([f64; 3], [f64; 3])>,
     out: &Path,
+    calibration: &Path,
 ) {
+    let capture = format!(
+        "{}: no projector model, so no virtual reference: project {} onto the reference plane, \
+         capture it and run `fringe3d calibrate reference -p {} -c {} IMAGES` before scanning \
+         with the new set",
+        calibration.display(),
+        out.join("patterns.toml").display(),
+        out.join("patterns.toml").display(),
+        calibration.display()
+    );
     let gain = d.fixed.rms_per_rad / d.adaptive.rms_per_rad;
     if g.json {
         outln!(
@@ -229,8 +365,9 @@ fn report(
                 "snr": snr.map(|(s, (sigma, refused))| json!({"b_over_sigma": s,
                     "phase_noise_rad": sigma, "template_rms_mm": sigma * d.fixed.rms_per_rad,
                     "adaptive_rms_mm": sigma * d.adaptive.rms_per_rad, "refused": refused})),
-                "reference": {"calibration": out.join("calibration.toml"), "point": point,
-                    "normal": normal}})
+                "reference": reference.map(|(point, normal)| json!({"calibration":
+                    out.join("calibration.toml"), "point": point, "normal": normal})),
+                "capture": reference.is_none().then_some(&capture)})
         );
         return;
     }
@@ -275,8 +412,11 @@ fn report(
         );
     }
     outln!("wrote {}", out.join("patterns.toml").display());
-    outln!(
-        "wrote {} with a virtual reference for the new set (plane through {point:?}, normal {normal:?}): no capture needed",
-        out.join("calibration.toml").display()
-    );
+    match reference {
+        Some((point, normal)) => outln!(
+            "wrote {} with a virtual reference for the new set (plane through {point:?}, normal {normal:?}): no capture needed",
+            out.join("calibration.toml").display()
+        ),
+        None => outln!("{capture}"),
+    }
 }

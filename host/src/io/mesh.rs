@@ -39,10 +39,13 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, FormatError> {
     } else {
         return Err(bad("neither a PLY nor an STL file".into()));
     };
+    // A cloud may hold non-finite points (an organized scan's invalid pixels): its reader's
+    // user skips them. A mesh's vertices must all be finite.
     if let Some(i) = mesh
         .vertices
         .iter()
         .position(|v| !v.iter().all(|c| c.is_finite()))
+        .filter(|_| !mesh.triangles.is_empty())
     {
         return Err(FormatError::invalid(
             path,
@@ -92,8 +95,11 @@ fn read_stl_binary(b: &[u8]) -> Mesh {
 }
 
 fn read_stl_ascii(b: &[u8]) -> Result<Mesh, String> {
-    let text =
-        std::str::from_utf8(b).map_err(|_| "an ASCII STL file that is not text".to_string())?;
+    let text = std::str::from_utf8(b).map_err(|_| {
+        "starts as an ASCII STL (\"solid\") but is not text, and is not a binary STL either \
+         (its size is not 84 + 50 bytes per facet of its count)"
+            .to_string()
+    })?;
     let mut m = Mesh::default();
     let mut corner = 0usize;
     for (line_no, line) in text.lines().enumerate() {
@@ -348,7 +354,7 @@ fn read_ply(b: &[u8]) -> Result<Mesh, String> {
         let list_at = e.props.iter().position(|p| {
             p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index")
         });
-        if is_vertex {
+        if is_vertex && enc != Encoding::Ascii {
             m.vertices.reserve(e.count);
         }
         let mut vals = vec![0.0; e.props.len()];
