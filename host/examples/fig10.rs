@@ -41,7 +41,7 @@ fn main() -> Result<()> {
         fixed_ratios: vec![4.0, 5.657, 8.0, 11.31, 16.0],
         adapt_ratios: vec![5.657, 8.0, 11.31],
         goal: Goal::default(),
-        noise_model: false,
+        noise_model: true,
         crop: ([-250.0, -250.0, 450.0], [250.0, 250.0, 715.0]),
         gross_mm: 1.0,
         overrides: Overrides {

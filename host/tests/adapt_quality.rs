@@ -7,7 +7,6 @@ use std::path::Path;
 use fringe3d::accuracy::load_truth;
 use fringe3d::adapt::Goal;
 use fringe3d::adapt::experiment::{Config, Point, design_for, render_scan, run_scene};
-use fringe3d::io::calibration::Calibration;
 use fringe3d::render::Overrides;
 use fringe3d::render::scene::{PatternSpec, SceneSpec};
 
@@ -28,7 +27,7 @@ fn config() -> Config {
             size: Some((640, 512)),
             ..Overrides::default()
         },
-        noise_model: false,
+        noise_model: true,
     }
 }
 
@@ -79,8 +78,7 @@ fn no_unwrapping_failure_at_b_over_sigma_14() {
         ..PatternSpec::default()
     };
     let (first, d) = render_scan(&spec, fixed, &t.0.join("first")).unwrap();
-    let cal = Calibration::load(&t.0.join("first/calibration.toml")).unwrap();
-    let (file, _) = design_for(&spec, &cal, (&first, &d), 5.657, &cfg).unwrap();
+    let (file, _) = design_for(&spec, &t.0.join("first"), (&first, &d), 5.657, &cfg).unwrap();
     let designed = || PatternSpec {
         set: Some(file.clone()),
         ..PatternSpec::default()

@@ -1,6 +1,6 @@
 //! The paper's Fig. 10(c) experiment (issue #22 item 3): on a rendered scene, RMS point error
 //! against unresolvable area for fixed-pitch sets of several fringe numbers and for sets adapted
-//! to the object from a first scan. Each set is rendered, given a virtual reference (no capture),
+//! to the object from a first scan (as `fringe3d adapt --decoded --noise` designs them). Each set is rendered, given a virtual reference (no capture),
 //! scanned as `fringe3d scan` does (edge filter included) and scored against the truth on the
 //! object's pixels.
 //!
@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 
-use super::surface::Rig;
+use super::decoded::{self, Reference};
 use super::{Adapted, Goal, Snr, adapted_file, solve, template_of};
 use crate::accuracy::{Truth, load_truth};
 use crate::batch::{Decoded, decode_image_set};
@@ -42,7 +42,8 @@ pub struct Config {
     pub gross_mm: f64,
     /// Scene overrides (size, noise, ...).
     pub overrides: Overrides,
-    /// Design with the noise known (the first scan's brightest B/σ, [`Goal::snr`]).
+    /// Design with the noise known: the first scan's measured modulation over the scene's read
+    /// noise gives each pixel's B/σ ([`Goal::snr`]).
     pub noise_model: bool,
 }
 
@@ -162,38 +163,14 @@ pub fn render_scan(
     Ok((cloud, d))
 }
 
-/// B/σ of the brightest object surface in a first scan: the 99th percentile of its decoded
-/// modulation over the points inside `crop`, over the camera's noise (read noise `noise` and
-/// the quantization of `bits`-bit codes, in codes of the images).
-pub fn brightest_snr(
-    cloud: &PointCloud,
-    d: &Decoded,
-    crop: ([f64; 3], [f64; 3]),
-    noise: f64,
-) -> f64 {
-    let mut b: Vec<f64> = (0..cloud.width * cloud.height)
-        .filter(|&i| {
-            cloud.validity[i] == 0
-                && (0..3).all(|k| {
-                    let x = f64::from(cloud.xyz[3 * i + k]);
-                    x >= crop.0[k] && x <= crop.1[k]
-                })
-        })
-        .map(|i| f64::from(d.modulation[i]))
-        .collect();
-    if b.is_empty() {
-        return f64::NAN;
-    }
-    b.sort_by(f64::total_cmp);
-    let sigma = (noise * noise + 1.0 / 12.0).sqrt();
-    b[((b.len() - 1) as f64 * 0.99) as usize] / sigma
-}
-
-/// The set `cfg` designs at level ratio `ratio` from the first scan `first` (with its decode
-/// `d`) of `spec` in the rig of `cal`.
+/// The set `cfg` designs at level ratio `ratio` from the first scan in `first_dir` (its cloud
+/// and decode), as `fringe3d adapt --decoded` does: samples from its phase and the virtual
+/// reference it was scanned with, each pixel's light its measured modulation; with
+/// [`Config::noise_model`], the scene's read noise (and the 8-bit codes' quantization) turns
+/// that into B/σ ([`Goal::snr`]).
 pub fn design_for(
     spec: &SceneSpec,
-    cal: &Calibration,
+    first_dir: &Path,
     (first, d): (&PointCloud, &Decoded),
     ratio: f64,
     cfg: &Config,
@@ -201,21 +178,43 @@ pub fn design_for(
     let mut tspec = spec.clone();
     tspec.patterns = fixed_spec(ratio);
     let (tset, bits) = tspec.pattern_set(None, None)?;
-    let rig = Rig::new(cal, tset.axis()).context("the dataset's calibration has no projector")?;
-    let pts: Vec<[f64; 3]> = (0..first.width * first.height)
-        .filter(|&i| first.validity[i] == 0)
-        .map(|i| [0, 1, 2].map(|k| f64::from(first.xyz[3 * i + k])))
-        .collect();
-    let (map, _) = rig.map_points(&pts, Some(cfg.crop));
-    let samples = rig.samples(&map);
+    let first_set = PatternSetFile::load(&first_dir.join("patterns.toml"))?.to_pattern_set()?;
+    let vcal_path = first_dir.join("virtual/calibration.toml");
+    let vcal = Calibration::load(&vcal_path)?;
+    let map_path = vcal
+        .reference_map_path(&vcal_path)
+        .context("the first scan's calibration has no reference")?;
+    let (rw, rh, raw) = crate::calib::files::read_phase_map(&map_path)?;
+    let reference = Reference {
+        calibration: &vcal,
+        map: (&raw, rw as usize, rh as usize),
+    };
+    let (samples, _) = decoded::samples(
+        &reference,
+        &first_set,
+        first,
+        &d.phase,
+        &d.modulation,
+        Some(cfg.crop),
+    );
     let template = template_of(&tset).map_err(anyhow::Error::msg)?;
+    let snr = cfg.noise_model.then(|| {
+        let mut b: Vec<f64> = samples.iter().map(|s| s.bright).collect();
+        b.sort_by(f64::total_cmp);
+        let sigma = (spec.camera.noise * spec.camera.noise + 1.0 / 12.0).sqrt();
+        Snr {
+            brightest: b
+                .get(((b.len().max(1) - 1) as f64 * 0.99) as usize)
+                .copied()
+                .unwrap_or(0.0)
+                / sigma,
+            needed: crate::design::needed_snr(&tset, crate::adapt::PIXEL_FAILURE),
+        }
+    });
     let goal = Goal {
         projector_blur: spec.projector.defocus,
         camera_blur: spec.camera.blur,
-        snr: cfg.noise_model.then(|| Snr {
-            brightest: brightest_snr(first, d, cfg.crop, spec.camera.noise),
-            needed: crate::design::needed_snr(&tset, crate::adapt::PIXEL_FAILURE),
-        }),
+        snr,
         ..cfg.goal
     };
     let design = solve(&samples, &template, &goal)?;
@@ -265,10 +264,9 @@ pub fn run_scene(scene: &Path, cfg: &Config, work: &Path) -> Result<Vec<Point>> 
         }
     }
     let (first, first_dir) = first.context("no fixed-pitch set to make the first scan with")?;
-    let cal = Calibration::load(&first_dir.join("calibration.toml"))?;
     for &r in &cfg.adapt_ratios {
         // A ratio the object's light cannot support is refused by the design: recorded, skipped.
-        let (file, design) = match design_for(&spec, &cal, (&first.0, &first.1), r, cfg) {
+        let (file, design) = match design_for(&spec, &first_dir, (&first.0, &first.1), r, cfg) {
             Ok(d) => d,
             Err(e) => {
                 points.push(Point {

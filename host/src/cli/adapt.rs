@@ -255,6 +255,16 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
         None => None,
     };
     let out = dir.commit()?;
+    if design.adaptive.rms_per_rad > design.fixed.rms_per_rad && !g.quiet && !g.json {
+        errln!(
+            "warning: the design is predicted less accurate than its template (x{:.2}): the \
+             template's fringes are finer than {:.1} % of the object resolves, and the design keeps \
+             those pixels; a template of smaller level ratios (`fringe3d patterns --design`) gives \
+             a better one",
+            design.fixed.rms_per_rad / design.adaptive.rms_per_rad,
+            100.0 * design.fixed.unresolvable
+        );
+    }
     report(g, &design, &gathered, snr, reference, &out, &a.calibration);
     Ok(())
 }
