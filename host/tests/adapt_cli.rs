@@ -454,6 +454,27 @@ fn a_decoded_first_scan_needs_no_projector_model() {
     for (a, b) in kd.iter().zip(&ke) {
         assert!((a - b).abs() < 0.1 * top, "{kd:?} vs {ke:?}");
     }
+    // With the read noise, both paths use the measured modulation (the cloud carries it as a
+    // property): the same design again.
+    let noisy = |src: &[&str], out: &Path| {
+        let mut a: Vec<String> = ["adapt", "--json", "-c", s(&cal), "-p", s(&pat)]
+            .map(String::from)
+            .to_vec();
+        a.extend(src.iter().map(|x| x.to_string()));
+        a.extend(["--noise", "1.04", "--crop", CROP, "-o", s(out)].map(String::from));
+        run_s(a)
+    };
+    let dn = noisy(
+        &["--decoded", s(&dec), "--first-patterns", s(&pat)],
+        &t.0.join("dn"),
+    );
+    let en = noisy(&["--cloud", s(&ply)], &t.0.join("en"));
+    let (gd, ge) = (
+        dn["predicted_rms_gain"].as_f64().unwrap(),
+        en["predicted_rms_gain"].as_f64().unwrap(),
+    );
+    eprintln!("with the noise: decoded x{gd:.3}, cloud x{ge:.3}");
+    assert!((gd / ge - 1.0).abs() < 0.05, "{gd} vs {ge}");
     // Its scan, with the virtual reference of the full calibration.
     let file = full.join("patterns.toml");
     let second = t.0.join("second");

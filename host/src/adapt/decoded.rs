@@ -103,6 +103,7 @@ pub fn samples(
         width: w,
         height: h,
         points: vec![[f64::NAN; 3]; w * h],
+        light: vec![f64::NAN; w * h],
     };
     let mut along = vec![f64::NAN; w * h];
     for i in 0..w * h {

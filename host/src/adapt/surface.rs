@@ -33,6 +33,8 @@ pub struct PointMap {
     pub height: usize,
     /// Row-major points, mm.
     pub points: Vec<[f64; 3]>,
+    /// Row-major measured light (a first scan's modulation), NaN where unknown.
+    pub light: Vec<f64>,
 }
 
 /// How the points of a cloud or mesh fared.
@@ -93,6 +95,7 @@ impl Rig {
     pub fn map_points(
         &self,
         points: &[[f64; 3]],
+        light: Option<&[f64]>,
         crop: Option<([f64; 3], [f64; 3])>,
     ) -> (PointMap, Gathered) {
         let (w, h) = (self.camera.width as usize, self.camera.height as usize);
@@ -100,9 +103,10 @@ impl Rig {
             width: w,
             height: h,
             points: vec![[f64::NAN; 3]; w * h],
+            light: vec![f64::NAN; w * h],
         };
         let mut g = Gathered::default();
-        for p in points {
+        for (k, p) in points.iter().enumerate() {
             if !p.iter().all(|c| c.is_finite()) {
                 g.invalid += 1;
                 continue;
@@ -130,9 +134,10 @@ impl Rig {
                 g.unlit += 1;
                 continue;
             }
-            let cell = &mut map.points[v as usize * w + u as usize];
-            if !(cell[2] <= p[2]) {
-                *cell = *p;
+            let i = v as usize * w + u as usize;
+            if !(map.points[i][2] <= p[2]) {
+                map.points[i] = *p;
+                map.light[i] = light.and_then(|l| l.get(k)).copied().unwrap_or(f64::NAN);
             }
         }
         g.kept = map.points.iter().filter(|p| p[0].is_finite()).count();
@@ -205,13 +210,15 @@ impl Rig {
                 width: w,
                 height: h,
                 points: pts,
+                light: vec![f64::NAN; w * h],
             },
             g,
         )
     }
 
-    /// One [`Sample`] per object pixel of `map` ([`grid_samples`]), its projector coordinate,
-    /// `dξ/dt` and light from the projector model.
+    /// One [`Sample`] per object pixel of `map` ([`grid_samples`]), its projector coordinate and
+    /// `dξ/dt` from the projector model, its light measured (`map.light`) or else modelled
+    /// ([`projector_light`]).
     pub fn samples(&self, map: &PointMap) -> Vec<Sample> {
         let along: Vec<f64> = map
             .points
@@ -224,11 +231,15 @@ impl Rig {
                 }
             })
             .collect();
-        grid_samples(map, &along, self.camera.p[0], |_, x, normal| {
+        grid_samples(map, &along, self.camera.p[0], |i, x, normal| {
             let n = Vec3::from_array(x).norm();
             let step = |t: f64| self.along((Vec3::from_array(x) * (1.0 + t / n)).to_array());
             let rate = step(0.5)? - step(-0.5)?;
-            Some((rate, projector_light(self.t, x, normal)))
+            let light = match map.light[i] {
+                l if l.is_finite() => l.max(0.0),
+                _ => projector_light(self.t, x, normal),
+            };
+            Some((rate, light))
         })
     }
 }

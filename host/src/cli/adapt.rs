@@ -41,9 +41,10 @@ pub struct AdaptArgs {
     /// calibration's reference must be of this set).
     #[arg(long)]
     pub first_patterns: Option<PathBuf>,
-    /// With --decoded: the camera's read noise σ in codes, so that the measured modulation gives
-    /// each pixel's B/σ (as --snr does for the brightest surface).
-    #[arg(long, requires = "decoded", conflicts_with = "snr")]
+    /// The camera's read noise σ in codes: with a measured modulation (--decoded, or a cloud
+    /// with a `modulation` property as `fringe3d scan` writes), each pixel's B/σ for the noise
+    /// constraint.
+    #[arg(long, conflicts_with_all = ["snr", "mesh"])]
     pub noise: Option<f64>,
     /// A model of the object (PLY or STL mesh, mm), placed by --pose.
     #[arg(long, group = "object", requires = "pose")]
@@ -178,6 +179,7 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
         None => None,
     };
     let crop = a.crop.map(|b| ([b[0], b[1], b[2]], [b[3], b[4], b[5]]));
+    let mut measured_light = false;
     let (source, samples, gathered, measured) = match &a.decoded {
         Some(dir) => {
             let (samples, gathered) = decoded_samples(&a, &cal, dir, crop, g)?;
@@ -197,7 +199,9 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
                 (Some(c), _) => {
                     common::input_file(c)?;
                     let m = crate::io::mesh::read_mesh(c)?;
-                    (c, rig.map_points(&m.vertices, crop))
+                    let light = (!m.modulation.is_empty()).then_some(&m.modulation[..]);
+                    measured_light = light.is_some();
+                    (c, rig.map_points(&m.vertices, light, crop))
                 }
                 (None, Some(p)) => {
                     common::input_file(p)?;
@@ -214,10 +218,18 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
                 }
                 (None, None) => bail!("give --cloud, --mesh or --decoded"),
             };
-            (source, rig.samples(&map), gathered, false)
+            (source, rig.samples(&map), gathered, measured_light)
         }
     };
-    // A decoded scan's modulation over --noise gives the brightest surface's B/σ.
+    // A measured modulation (a decoded scan, a scan's cloud) over --noise gives the B/σ.
+    if a.noise.is_some() && !measured {
+        bail!(
+            "{}: --noise needs each pixel's measured modulation: a decoded first scan (--decoded) \
+             or a cloud with a `modulation` property (as `fringe3d scan` writes it); give --snr \
+             for a modelled light instead",
+            source.display()
+        );
+    }
     if let (Some(n), true) = (a.noise, measured) {
         let mut b: Vec<f64> = samples.iter().map(|s| s.bright).collect();
         b.sort_by(f64::total_cmp);

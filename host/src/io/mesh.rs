@@ -20,6 +20,9 @@ pub struct Mesh {
     pub vertices: Vec<[f64; 3]>,
     /// Triangles (empty for a point cloud).
     pub triangles: Vec<[u32; 3]>,
+    /// Each vertex's `modulation` property, when the PLY has one (a `fringe3d scan` cloud: the
+    /// fringe modulation B its pixel measured); empty otherwise.
+    pub modulation: Vec<f64>,
 }
 
 /// Read a PLY or STL file (by its content, not its name).
@@ -351,6 +354,11 @@ fn read_ply(b: &[u8]) -> Result<Mesh, String> {
         if is_vertex && xyz.iter().any(Option::is_none) {
             return Err("the vertex element needs x, y and z".into());
         }
+        let modulation = e
+            .props
+            .iter()
+            .position(|p| p.name == "modulation" && p.list.is_none())
+            .filter(|_| is_vertex);
         let list_at = e.props.iter().position(|p| {
             p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index")
         });
@@ -384,6 +392,9 @@ fn read_ply(b: &[u8]) -> Result<Mesh, String> {
             if is_vertex {
                 let g = |i: Option<usize>| i.map_or(0.0, |i| vals[i]);
                 m.vertices.push([g(xyz[0]), g(xyz[1]), g(xyz[2])]);
+                if let Some(k) = modulation {
+                    m.modulation.push(vals[k]);
+                }
             } else if is_face && list_at.is_some() {
                 for i in 2..poly.len() {
                     m.triangles.push([poly[0], poly[i - 1], poly[i]]);
@@ -454,6 +465,20 @@ mod tests {
                 .collect::<String>()
         );
         assert_eq!(read_stl_ascii(text.as_bytes()).unwrap(), a);
+    }
+
+    #[test]
+    fn a_scan_clouds_modulation_is_kept() {
+        let b = b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
+                  property float z\nproperty float intensity\nproperty float modulation\nend_header\n\
+                  1 2 600 50 31.5\nnan nan nan 0 0\n";
+        let m = read_ply(b).unwrap();
+        assert_eq!(m.modulation, vec![31.5, 0.0]);
+        assert!(m.vertices[1][0].is_nan());
+        let plain =
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+                      property float z\nend_header\n1 2 600\n";
+        assert!(read_ply(plain).unwrap().modulation.is_empty());
     }
 
     #[test]
