@@ -47,7 +47,7 @@ pub mod surface;
 
 use std::f64::consts::TAU;
 
-pub use pattern::{adapted_file, template_of};
+pub use pattern::{adapted_file, bent_file, template_of};
 pub use solve::{check, solve};
 
 /// The refusal probability at which a pixel counts as unresolvable by the noise

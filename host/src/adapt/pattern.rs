@@ -60,6 +60,17 @@ fn round_down(x: f64) -> f64 {
 /// knots (centred, `phase0` absent), its levels, order and projector kept (its `images` list,
 /// which names the template's captures, dropped).
 pub fn adapted_file(template: &PatternSetFile, axis: Axis, design: &Adapted) -> PatternSetFile {
+    bent_file(template, axis, design, None)
+}
+
+/// [`adapted_file`] with curved fringes `(curvature, bend_center)` (the design made on the bent
+/// coordinate, [`crate::adapt::surface::Rig::with_bend`]).
+pub fn bent_file(
+    template: &PatternSetFile,
+    axis: Axis,
+    design: &Adapted,
+    bend: Option<(f64, f64)>,
+) -> PatternSetFile {
     let mut f = template.clone();
     // Another set's images: a dataset's list names the template's captures, not these.
     f.images = None;
@@ -71,6 +82,8 @@ pub fn adapted_file(template: &PatternSetFile, axis: Axis, design: &Adapted) -> 
         kind: Some(PhaseKind::Knots),
         positions: Some(design.positions.clone()),
         slopes: Some(design.slopes.iter().map(|&s| round_down(s)).collect()),
+        curvature: bend.map(|b| b.0),
+        bend_center: bend.map(|b| b.1),
         ..PhaseSection::default()
     });
     f

@@ -22,6 +22,9 @@ pub struct Rig {
     t: Vec3,
     axis: Axis,
     depth: [f64; 2],
+    /// Curved fringes `(a, w₀)`: the design's coordinate is `t + a·(w − w₀)²` (t along the axis,
+    /// w across it), the phase function's own bend.
+    bend: Option<(f64, f64)>,
 }
 
 /// A camera-frame point per camera pixel (NaN where the object is not seen).
@@ -65,6 +68,7 @@ impl Rig {
             t: Vec3::from_array(p.translation),
             axis,
             depth: cal.depth_range,
+            bend: None,
         })
     }
 
@@ -79,10 +83,47 @@ impl Rig {
         (u >= -0.5 && u <= w - 0.5 && v >= -0.5 && v <= h - 0.5).then_some((u, v))
     }
 
-    /// The projector coordinate along the set's axis.
+    /// The projector coordinate along the set's axis (bent by [`Rig::with_bend`]).
     fn along(&self, x: [f64; 3]) -> Option<f64> {
         let (u, v) = self.projector_pixel(x)?;
-        Some(if self.axis == Axis::Xi { u } else { v })
+        let (t, w) = if self.axis == Axis::Xi {
+            (u, v)
+        } else {
+            (v, u)
+        };
+        Some(match self.bend {
+            Some((a, w0)) => t + a * (w - w0) * (w - w0),
+            None => t,
+        })
+    }
+
+    /// The same rig designing curved fringes `Φ = g(t + a·(w − w₀)²)`.
+    pub fn with_bend(mut self, a: f64, w0: f64) -> Rig {
+        self.bend = Some((a, w0));
+        self
+    }
+
+    /// The bend that makes the fringes through the object's centre `along` circles about the
+    /// projector's epipole (the image of the camera centre; lens distortion left out): a point
+    /// moving along a camera ray moves along a line through it, so such fringes cross every
+    /// epipolar line at right angles and lose no depth sensitivity to its slant. `(a, w₀, e_t)`:
+    /// `a = 1/(2·(along − e_t))`, `w₀` the epipole's coordinate across the axis. `None` when the
+    /// epipolar lines are parallel (the epipole at infinity) or `w₀` lies beyond the projector by
+    /// more than its size (the core's limit on the bend centre).
+    pub fn epipolar_bend(&self, along: f64) -> Option<(f64, f64, f64)> {
+        let c = self.r.tmul_vec(Vec3::new(0.0, 0.0, 0.0) - self.t);
+        if c.z.abs() < 1e-9 * c.norm() {
+            return None;
+        }
+        let [fx, fy, skew, cx, cy, ..] = self.projector.p;
+        let (x, y) = (c.x / c.z, c.y / c.z);
+        let (eu, ev) = (fx * (x + skew * y) + cx, fy * y + cy);
+        let (et, ew, across) = match self.axis {
+            Axis::Xi => (eu, ev, f64::from(self.projector.height)),
+            Axis::Eta => (ev, eu, f64::from(self.projector.width)),
+        };
+        let r = along - et;
+        (r.abs() > 1.0 && ew >= -across && ew <= 2.0 * across).then(|| (0.5 / r, ew, et))
     }
 
     fn in_depth(&self, x: &[f64; 3]) -> bool {

@@ -9,7 +9,7 @@ use serde_json::json;
 
 use super::{Global, common, parse};
 use crate::adapt::surface::{Gathered, Rig};
-use crate::adapt::{Adapted, Goal, Snr, adapted_file, solve, template_of};
+use crate::adapt::{Adapted, Goal, Snr, solve, template_of};
 use crate::io::atomic::AtomicDir;
 use crate::io::calibration::Calibration;
 use crate::math::{Mat3, Vec3};
@@ -89,6 +89,10 @@ pub struct AdaptArgs {
     /// With --snr: the largest rate of pixels the unwrapping may refuse.
     #[arg(long, default_value_t = 1e-6, requires = "snr")]
     pub failure_target: f64,
+    /// Keep the fringes straight (by default they are curved about the projector's epipole
+    /// where that lowers the predicted RMS by 1 %).
+    #[arg(long)]
+    pub straight: bool,
     /// Output folder (must not exist or be empty, unless --overwrite).
     #[arg(long, short = 'o')]
     pub out: PathBuf,
@@ -180,6 +184,8 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
     };
     let crop = a.crop.map(|b| ([b[0], b[1], b[2]], [b[3], b[4], b[5]]));
     let mut measured_light = false;
+    let mut bent: Option<(Rig, crate::adapt::surface::PointMap)> = None;
+    let mut bend_report: Option<(f64, f64, f64, Option<f64>, bool)> = None;
     let (source, samples, gathered, measured) = match &a.decoded {
         Some(dir) => {
             let (samples, gathered) = decoded_samples(&a, &cal, dir, crop, g)?;
@@ -218,7 +224,9 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
                 }
                 (None, None) => bail!("give --cloud, --mesh or --decoded"),
             };
-            (source, rig.samples(&map), gathered, measured_light)
+            let samples = rig.samples(&map);
+            bent = Some((rig, map));
+            (source, samples, gathered, measured_light)
         }
     };
     // A measured modulation (a decoded scan, a scan's cloud) over --noise gives the B/σ.
@@ -240,9 +248,37 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
             });
         }
     }
-    let design = solve(&samples, &template, &goal)
+    let mut design = solve(&samples, &template, &goal)
         .map_err(|e| anyhow::anyhow!("{}: {e} ({})", source.display(), gathered_text(&gathered)))?;
-    let file = adapted_file(&ls.file, set.axis(), &design);
+    // Curved fringes where they help: circles about the projector's epipole, kept when they
+    // lower the predicted RMS by 1 % without losing coverage (needs the projector model).
+    let mut bend = None;
+    if let (Some((rig, map)), false) = (&bent, a.straight) {
+        let centre = samples.iter().map(|s| s.along).sum::<f64>() / samples.len().max(1) as f64;
+        if let Some((c, w0, epipole)) = rig.epipolar_bend(centre) {
+            let curved = rig.with_bend(c, w0).samples(map);
+            let file_ok = |d: &crate::adapt::Adapted| {
+                crate::adapt::bent_file(&ls.file, set.axis(), d, Some((c, w0)))
+                    .to_pattern_set()
+                    .is_ok()
+            };
+            let gain = match solve(&curved, &template, &goal) {
+                Ok(d) => {
+                    let gain = design.adaptive.rms_per_rad / d.adaptive.rms_per_rad;
+                    let keeps = d.adaptive.unresolvable <= design.adaptive.unresolvable + 1e-3;
+                    if gain >= 1.01 && keeps && file_ok(&d) {
+                        let fixed = design.fixed;
+                        design = crate::adapt::Adapted { fixed, ..d };
+                        bend = Some((c, w0));
+                    }
+                    Some(gain)
+                }
+                Err(_) => None,
+            };
+            bend_report = Some((c, w0, epipole, gain, bend.is_some()));
+        }
+    }
+    let file = crate::adapt::bent_file(&ls.file, set.axis(), &design, bend);
     // The core's checks of the new phase function (monotonic, continuous, the coarse range).
     file.to_pattern_set()
         .map_err(|e| anyhow::anyhow!("the designed set: {e}"))?;
@@ -277,7 +313,15 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
             100.0 * design.fixed.unresolvable
         );
     }
-    report(g, &design, &gathered, snr, reference, &out, &a.calibration);
+    report(
+        g,
+        &design,
+        &gathered,
+        snr,
+        reference,
+        (&out, &a.calibration),
+        bend_report,
+    );
     Ok(())
 }
 
@@ -365,8 +409,8 @@ fn report(
     gathered: &Gathered,
     snr: Option<(f64, (f64, f64))>,
     reference: Option<([f64; 3], [f64; 3])>,
-    out: &Path,
-    calibration: &Path,
+    (out, calibration): (&Path, &Path),
+    bend: Option<(f64, f64, f64, Option<f64>, bool)>,
 ) {
     let capture = format!(
         "{}: no projector model, so no virtual reference: project {} onto the reference plane, \
@@ -389,7 +433,9 @@ fn report(
                     "adaptive_rms_mm": sigma * d.adaptive.rms_per_rad, "refused": refused})),
                 "reference": reference.map(|(point, normal)| json!({"calibration":
                     out.join("calibration.toml"), "point": point, "normal": normal})),
-                "capture": reference.is_none().then_some(&capture)})
+                "capture": reference.is_none().then_some(&capture),
+                "bend": bend.map(|(c, w0, e, gain, used)| json!({"curvature": c, "bend_center": w0,
+                    "epipole": e, "predicted_rms_gain": gain, "used": used}))})
         );
         return;
     }
@@ -412,6 +458,20 @@ fn report(
     outln!("{}", line("template", &d.fixed));
     outln!("{}", line("adaptive", &d.adaptive));
     outln!("  predicted RMS gain x{gain:.2}");
+    if let Some((c, w0, e, bgain, used)) = bend {
+        let bgain = bgain.map_or("no design".to_string(), |x| format!("x{x:.3}"));
+        if used {
+            outln!(
+                "  fringes curved about the projector's epipole (at {e:.0} px along the axis): \
+                 curvature {c:.3e}, bend_center {w0:.1}; predicted RMS {bgain} against straight ones"
+            );
+        } else {
+            outln!(
+                "  fringes straight: bending them about the projector's epipole (at {e:.0} px \
+                 along the axis) is predicted at {bgain}, under the 1 % that pays"
+            );
+        }
+    }
     if let Some((s, (sigma, refused))) = snr {
         outln!(
             "  at B/sigma = {s}: phase noise {sigma:.4} rad, RMS {:.2} um -> {:.2} um; the levels refuse {refused:.1e} of the pixels",
