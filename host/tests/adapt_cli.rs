@@ -58,6 +58,44 @@ fn scan_score(ds: &Path, patterns: &Path, calibration: &Path) -> (f64, f64) {
 
 const CROP: &str = "-250,-250,450,250,250,715";
 
+/// RMS and unresolvable share of the scene scanned with the set `adapt` wrote into `out` (and its
+/// virtual reference), and of the first scan `first` (set `set`, calibration `cal`) with a
+/// virtual reference of its own.
+fn adapted_and_template(
+    t: &Path,
+    out: &Path,
+    first: &Path,
+    set: &Path,
+    cal: &Path,
+) -> ((f64, f64), (f64, f64)) {
+    let file = out.join("patterns.toml");
+    let second = t.join("second");
+    render(
+        &scene(t, "second", &format!("file = {:?}", s(&file))),
+        &second,
+    );
+    // The dataset's copy of the set lists its images.
+    let adapted = scan_score(
+        &second,
+        &second.join("patterns.toml"),
+        &out.join("calibration.toml"),
+    );
+    let tcal = t.join("template/calibration.toml");
+    run(&[
+        "calibrate",
+        "reference",
+        "-q",
+        "--virtual",
+        "--patterns",
+        s(set),
+        "--calibration",
+        s(cal),
+        "-o",
+        s(&tcal),
+    ]);
+    (adapted, scan_score(first, set, &tcal))
+}
+
 #[test]
 fn a_first_scan_gives_a_set_that_beats_its_template() {
     let t = Tmp::new("adapt-cloud");
@@ -116,34 +154,15 @@ fn a_first_scan_gives_a_set_that_beats_its_template() {
         "{report}"
     );
 
-    // Scan the object with the new set and the virtual reference adapt wrote: no capture.
-    let file = out.join("patterns.toml");
-    let second = t.0.join("second");
-    render(
-        &scene(&t.0, "second", &format!("file = {:?}", s(&file))),
-        &second,
+    // Scan the object with the new set and the virtual reference adapt wrote: no capture; the
+    // template with a virtual reference of its own.
+    let ((rms, unresolved), (t_rms, t_unresolved)) = adapted_and_template(
+        &t.0,
+        &out,
+        &first,
+        &first.join("patterns.toml"),
+        &first.join("calibration.toml"),
     );
-    // The dataset's copy of the set lists its images.
-    let (rms, unresolved) = scan_score(
-        &second,
-        &second.join("patterns.toml"),
-        &out.join("calibration.toml"),
-    );
-    // The template, with a virtual reference of its own.
-    let tcal = t.0.join("template/calibration.toml");
-    run(&[
-        "calibrate",
-        "reference",
-        "-q",
-        "--virtual",
-        "--patterns",
-        s(&first.join("patterns.toml")),
-        "--calibration",
-        s(&first.join("calibration.toml")),
-        "-o",
-        s(&tcal),
-    ]);
-    let (t_rms, t_unresolved) = scan_score(&first, &first.join("patterns.toml"), &tcal);
     eprintln!(
         "flanks 640x512: template {:.1} µm, {:.2} % unresolved; adapted {:.1} µm, {:.2} % \
          (predicted gain x{gain:.2})",
@@ -476,31 +495,7 @@ fn a_decoded_first_scan_needs_no_projector_model() {
     eprintln!("with the noise: decoded x{gd:.3}, cloud x{ge:.3}");
     assert!((gd / ge - 1.0).abs() < 0.05, "{gd} vs {ge}");
     // Its scan, with the virtual reference of the full calibration.
-    let file = full.join("patterns.toml");
-    let second = t.0.join("second");
-    render(
-        &scene(&t.0, "second", &format!("file = {:?}", s(&file))),
-        &second,
-    );
-    let (rms, _) = scan_score(
-        &second,
-        &second.join("patterns.toml"),
-        &full.join("calibration.toml"),
-    );
-    let tcal = t.0.join("template/calibration.toml");
-    run(&[
-        "calibrate",
-        "reference",
-        "-q",
-        "--virtual",
-        "--patterns",
-        s(&pat),
-        "--calibration",
-        s(&cal),
-        "-o",
-        s(&tcal),
-    ]);
-    let (t_rms, _) = scan_score(&first, &pat, &tcal);
+    let ((rms, _), (t_rms, _)) = adapted_and_template(&t.0, &full, &first, &pat, &cal);
     assert!(rms < 0.6 * t_rms, "{rms} vs {t_rms}");
     // A decode folder of another set is refused.
     let other = t.0.join("other.toml");

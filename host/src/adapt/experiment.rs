@@ -68,6 +68,32 @@ pub struct Point {
     pub refused: Option<String>,
 }
 
+impl Point {
+    /// A point of `kind` at level ratio `ratio` (a paper-8 set of base span `span`), not scored.
+    fn new(kind: &'static str, ratio: f64, span: f64) -> Point {
+        Point {
+            kind,
+            ratio,
+            fringes: ratio * ratio * span / std::f64::consts::TAU,
+            rms_mm: f64::NAN,
+            unresolvable: f64::NAN,
+            pixels: 0,
+            predicted_gain: None,
+            refused: None,
+        }
+    }
+
+    /// Scored by [`score`].
+    fn scored(self, (rms_mm, unresolvable, pixels): (f64, f64, usize)) -> Point {
+        Point {
+            rms_mm,
+            unresolvable,
+            pixels,
+            ..self
+        }
+    }
+}
+
 /// The score of a cloud on the object (every primitive but the one named `background`).
 pub fn score(cloud: &PointCloud, truth: &Truth, gross_mm: f64) -> (f64, f64, usize) {
     let (w, h) = (truth.width, truth.height);
@@ -247,17 +273,7 @@ pub fn run_scene(scene: &Path, cfg: &Config, work: &Path) -> Result<Vec<Point>> 
         let (cloud, d) = render_scan(&spec, fixed_spec(r), &dir)
             .with_context(|| format!("{}: the fixed set of ratio {r}", scene.display()))?;
         let truth = load_truth(&dir)?;
-        let (rms, unres, n) = score(&cloud, &truth, cfg.gross_mm);
-        points.push(Point {
-            kind: "fixed",
-            ratio: r,
-            fringes: r * r * span / std::f64::consts::TAU,
-            rms_mm: rms,
-            unresolvable: unres,
-            pixels: n,
-            predicted_gain: None,
-            refused: None,
-        });
+        points.push(Point::new("fixed", r, span).scored(score(&cloud, &truth, cfg.gross_mm)));
         // The first scan: the coarsest fixed set (the most robust).
         if first.is_none() {
             first = Some(((cloud, d), dir));
@@ -270,14 +286,8 @@ pub fn run_scene(scene: &Path, cfg: &Config, work: &Path) -> Result<Vec<Point>> 
             Ok(d) => d,
             Err(e) => {
                 points.push(Point {
-                    kind: "adaptive",
-                    ratio: r,
-                    fringes: r * r * span / std::f64::consts::TAU,
-                    rms_mm: f64::NAN,
-                    unresolvable: f64::NAN,
-                    pixels: 0,
-                    predicted_gain: None,
                     refused: Some(format!("{e:#}")),
+                    ..Point::new("adaptive", r, span)
                 });
                 continue;
             }
@@ -290,17 +300,13 @@ pub fn run_scene(scene: &Path, cfg: &Config, work: &Path) -> Result<Vec<Point>> 
         let (cloud, _) = render_scan(&spec, patterns, &dir)
             .with_context(|| format!("{}: the set adapted at ratio {r}", scene.display()))?;
         let truth = load_truth(&dir)?;
-        let (rms, unres, n) = score(&cloud, &truth, cfg.gross_mm);
-        points.push(Point {
-            kind: "adaptive",
-            ratio: r,
-            fringes: r * r * span / std::f64::consts::TAU,
-            rms_mm: rms,
-            unresolvable: unres,
-            pixels: n,
-            predicted_gain: Some(design.fixed.rms_per_rad / design.adaptive.rms_per_rad),
-            refused: None,
-        });
+        points.push(
+            Point {
+                predicted_gain: Some(design.fixed.rms_per_rad / design.adaptive.rms_per_rad),
+                ..Point::new("adaptive", r, span)
+            }
+            .scored(score(&cloud, &truth, cfg.gross_mm)),
+        );
     }
     Ok(points)
 }
