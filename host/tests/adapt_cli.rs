@@ -114,20 +114,26 @@ fn a_first_scan_gives_a_set_that_beats_its_template() {
         s(&ply),
     ]);
     let out = t.0.join("adapted");
-    let json = run(&[
-        "adapt",
-        "--json",
-        "--calibration",
-        s(&first.join("calibration.toml")),
-        "--patterns",
-        s(&first.join("patterns.toml")),
-        "--cloud",
-        s(&ply),
-        "--crop",
-        CROP,
-        "-o",
-        s(&out),
-    ]);
+    // `fringe3d adapt` from the cloud into `out`, with `extra` flags.
+    let (cal, pat) = (first.join("calibration.toml"), first.join("patterns.toml"));
+    let adapt = |out: &Path, extra: &[&str]| {
+        let mut a = vec![
+            "adapt",
+            "--calibration",
+            s(&cal),
+            "--patterns",
+            s(&pat),
+            "--cloud",
+            s(&ply),
+            "--crop",
+            CROP,
+            "-o",
+            s(out),
+        ];
+        a.extend_from_slice(extra);
+        run(&a)
+    };
+    let json = adapt(&out, &["--json"]);
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     let gain = v["predicted_rms_gain"].as_f64().unwrap();
     assert!(gain > 1.5, "{json}");
@@ -136,19 +142,7 @@ fn a_first_scan_gives_a_set_that_beats_its_template() {
     // The template's image list names its captures, not the new set's.
     assert!(!text.contains("images"), "{text}");
     // The text report names the regions and what binds them.
-    let report = run(&[
-        "adapt",
-        "--calibration",
-        s(&first.join("calibration.toml")),
-        "--patterns",
-        s(&first.join("patterns.toml")),
-        "--cloud",
-        s(&ply),
-        "--crop",
-        CROP,
-        "-o",
-        s(&t.0.join("again")),
-    ]);
+    let report = adapt(&t.0.join("again"), &[]);
     assert!(
         report.contains("predicted RMS gain") && report.contains("bound by"),
         "{report}"

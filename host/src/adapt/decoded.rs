@@ -14,7 +14,6 @@
 //!   nearly all their contrast).
 
 use fringe3d_core::pattern::PatternSet;
-use fringe3d_core::phase_function::Axis;
 
 use super::Sample;
 use super::surface::{Gathered, PointMap, grid_samples};
@@ -62,28 +61,6 @@ impl Reference<'_> {
     }
 }
 
-/// `first`'s base phase along its axis (on the middle line across it) and its finest scale.
-fn base(first: &PatternSet) -> (impl Fn(f64) -> f64 + Sync + '_, f64, f64) {
-    let f = first.function();
-    let o = first.output();
-    let (extent, across) = match first.axis() {
-        Axis::Xi => (o.width, o.height),
-        Axis::Eta => (o.height, o.width),
-    };
-    let mid = (f64::from(across) - 1.0) / 2.0;
-    let axis = first.axis();
-    let phi = move |t: f64| match axis {
-        Axis::Xi => f.eval(t, mid),
-        Axis::Eta => f.eval(mid, t),
-    };
-    let finest = first
-        .levels()
-        .iter()
-        .map(|l| l.scale())
-        .fold(0.0f64, f64::max);
-    (phi, finest, f64::from(extent))
-}
-
 /// The samples of a first scan: `cloud` reconstructed from the finest phase `phase` decoded with
 /// `first` (straight fringes), its modulation `modulation`, the points inside `crop`.
 pub fn samples(
@@ -95,7 +72,7 @@ pub fn samples(
     crop: Option<([f64; 3], [f64; 3])>,
 ) -> (Vec<Sample>, Gathered) {
     let (w, h) = (cloud.width, cloud.height);
-    let (phi, finest, extent) = base(first);
+    let (phi, finest, extent) = super::pattern::base_phase(first);
     let lens = Lens::from_model(&reference.calibration.camera);
     let depth = reference.calibration.depth_range;
     let mut g = Gathered::default();

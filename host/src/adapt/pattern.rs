@@ -14,26 +14,13 @@ pub fn template_of(set: &PatternSet) -> Result<Template, String> {
     let f = set.function();
     if f.curvature() != 0.0 {
         return Err(
-            "the template bends its fringes (curvature); adapt designs straight fringes of varying \
-             width: start from a straight set"
+            "the template bends its fringes (curvature); adapt designs the fringe width and any \
+             bend itself: start from a straight set"
                 .into(),
         );
     }
-    let o = set.output();
-    let (extent, across) = match set.axis() {
-        Axis::Xi => (o.width, o.height),
-        Axis::Eta => (o.height, o.width),
-    };
-    let mid = (f64::from(across) - 1.0) / 2.0;
-    let phi = |t: f64| match set.axis() {
-        Axis::Xi => f.eval(t, mid),
-        Axis::Eta => f.eval(mid, t),
-    };
-    let finest = set
-        .levels()
-        .iter()
-        .map(|l| l.scale())
-        .fold(0.0f64, f64::max);
+    let (phi, finest, extent) = base_phase(set);
+    let extent = extent as u32;
     let slopes = (0..extent)
         .map(|c| {
             let c = f64::from(c);
@@ -47,6 +34,29 @@ pub fn template_of(set: &PatternSet) -> Result<Template, String> {
         span: phi(f64::from(extent) - 1.0) - phi(0.0),
         slopes,
     })
+}
+
+/// `set`'s base phase Φ along its axis (on the middle line across it), its finest scale and its
+/// extent along the axis, pixels.
+pub fn base_phase(set: &PatternSet) -> (impl Fn(f64) -> f64 + Sync + '_, f64, f64) {
+    let f = set.function();
+    let o = set.output();
+    let (extent, across) = match set.axis() {
+        Axis::Xi => (o.width, o.height),
+        Axis::Eta => (o.height, o.width),
+    };
+    let mid = (f64::from(across) - 1.0) / 2.0;
+    let axis = set.axis();
+    let phi = move |t: f64| match axis {
+        Axis::Xi => f.eval(t, mid),
+        Axis::Eta => f.eval(mid, t),
+    };
+    let finest = set
+        .levels()
+        .iter()
+        .map(|l| l.scale())
+        .fold(0.0f64, f64::max);
+    (phi, finest, f64::from(extent))
 }
 
 /// `x > 0` rounded down to 6 significant digits (a readable file whose span stays within the
