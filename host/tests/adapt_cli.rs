@@ -516,4 +516,25 @@ fn a_decoded_first_scan_needs_no_projector_model() {
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(!r.status.success() && err.contains("decoded with"), "{err}");
     assert!(!t.0.join("never").exists());
+    // A template along the other axis than the first scan's: its ξ would be the wrong one.
+    let h = root().join("examples/patterns/horizontal.toml");
+    let r = fringe3d(&[
+        "adapt",
+        "-c",
+        s(&bare),
+        "-p",
+        s(&h),
+        "--decoded",
+        s(&dec),
+        "--first-patterns",
+        s(&pat),
+        "-o",
+        s(&t.0.join("never")),
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        !r.status.success() && err.contains("must share the fringe axis"),
+        "{err}"
+    );
+    assert!(!t.0.join("never").exists());
 }

@@ -127,10 +127,10 @@ pub fn samples(
         let rate_phase = at(0.5) - at(-0.5);
         let xi = along_ref[i];
         let slope = phi(xi + 0.5) - phi(xi - 0.5);
-        Some((
-            rate_phase / (finest * slope),
-            f64::from(modulation[i]).max(0.0),
-        ))
+        let light = f64::from(modulation[i]);
+        light
+            .is_finite()
+            .then(|| (rate_phase / (finest * slope), light.max(0.0)))
     });
     (samples, g)
 }

@@ -272,12 +272,16 @@ impl Rig {
                 }
             })
             .collect();
+        let measured = map.light.iter().any(|l| l.is_finite());
         grid_samples(map, &along, self.camera.p[0], |i, x, normal| {
             let n = Vec3::from_array(x).norm();
             let step = |t: f64| self.along((Vec3::from_array(x) * (1.0 + t / n)).to_array());
             let rate = step(0.5)? - step(-0.5)?;
+            // A measured light is in the camera's codes, a modelled one relative: never mixed
+            // (a pixel of a measured map without a value is left out).
             let light = match map.light[i] {
                 l if l.is_finite() => l.max(0.0),
+                _ if measured => return None,
                 _ => projector_light(self.t, x, normal),
             };
             Some((rate, light))

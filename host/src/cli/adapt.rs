@@ -39,7 +39,7 @@ pub struct AdaptArgs {
     pub decoded: Option<PathBuf>,
     /// With --decoded: the pattern set the folder was decoded with (straight fringes; its
     /// calibration's reference must be of this set).
-    #[arg(long)]
+    #[arg(long, requires = "decoded")]
     pub first_patterns: Option<PathBuf>,
     /// The camera's read noise σ in codes: with a measured modulation (--decoded, or a cloud
     /// with a `modulation` property as `fringe3d scan` writes), each pixel's B/σ for the noise
@@ -188,7 +188,8 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
     let mut bend_report: Option<(f64, f64, f64, Option<f64>, bool)> = None;
     let (source, samples, gathered, measured) = match &a.decoded {
         Some(dir) => {
-            let (samples, gathered) = decoded_samples(&a, &cal, dir, crop, g)?;
+            let (samples, gathered) =
+                decoded_samples(&a, (set.axis(), *set.output()), &cal, dir, crop, g)?;
             (dir, samples, gathered, true)
         }
         None => {
@@ -265,8 +266,18 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
             let gain = match solve(&curved, &template, &goal) {
                 Ok(d) => {
                     let gain = design.adaptive.rms_per_rad / d.adaptive.rms_per_rad;
-                    let keeps = d.adaptive.unresolvable <= design.adaptive.unresolvable + 1e-3;
-                    if gain >= 1.01 && keeps && file_ok(&d) {
+                    // The same pixels, no more of them lost, and fringes across the bend no
+                    // denser than 2 % over their density along the axis (the projector's period
+                    // and contrast limits are taken along it).
+                    let keeps = d.samples >= design.samples
+                        && d.adaptive.unresolvable <= design.adaptive.unresolvable + 1e-3;
+                    let across = f64::from(match set.axis() {
+                        fringe3d_core::phase_function::Axis::Xi => set.output().height,
+                        fringe3d_core::phase_function::Axis::Eta => set.output().width,
+                    });
+                    let steepest = 2.0 * c.abs() * w0.abs().max((across - 1.0 - w0).abs());
+                    let mild = (1.0 + steepest * steepest).sqrt() <= 1.02;
+                    if gain >= 1.01 && keeps && mild && file_ok(&d) {
                         let fixed = design.fixed;
                         design = crate::adapt::Adapted { fixed, ..d };
                         bend = Some((c, w0));
@@ -330,6 +341,10 @@ pub fn run(a: AdaptArgs, g: Global) -> Result<()> {
 /// projector through its own phase ([`crate::adapt::decoded`]).
 fn decoded_samples(
     a: &AdaptArgs,
+    (ls_axis, ls_output): (
+        fringe3d_core::phase_function::Axis,
+        fringe3d_core::pattern::Output,
+    ),
     cal: &Calibration,
     dir: &Path,
     crop: Option<([f64; 3], [f64; 3])>,
@@ -341,6 +356,22 @@ fn decoded_samples(
     };
     common::input_file(fp)?;
     let first = common::load_set(fp)?;
+    // ξ is measured along the first set's axis and extent: the template's must be the same.
+    let (fo, to) = (first.set.output(), ls_output);
+    if first.set.axis() != ls_axis || (fo.width, fo.height) != (to.width, to.height) {
+        bail!(
+            "--first-patterns {} ({:?} fringes, {}x{}) and --patterns {} ({:?} fringes, {}x{}) \
+             must share the fringe axis and the projector size",
+            fp.display(),
+            first.set.axis(),
+            fo.width,
+            fo.height,
+            a.patterns.display(),
+            ls_axis,
+            to.width,
+            to.height
+        );
+    }
     let digest = crate::io::calibration::pattern_digest(&first.set)
         .map_err(|m| anyhow::anyhow!("{}: {m}", fp.display()))?;
     match super::decode::DecodeRecord::read(dir)? {
@@ -468,7 +499,8 @@ fn report(
         } else {
             outln!(
                 "  fringes straight: bending them about the projector's epipole (at {e:.0} px \
-                 along the axis) is predicted at {bgain}, under the 1 % that pays"
+                 along the axis) is predicted at {bgain}: not kept (it must gain 1 % on the same \
+                 pixels, lose none, and keep the fringes within 2 % of their density along the axis)"
             );
         }
     }
