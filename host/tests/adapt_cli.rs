@@ -282,48 +282,31 @@ fn a_mesh_in_the_rig_and_each_bad_input() {
         &with(&["--cloud", few_s]),
         &["few.ply", "a design needs 1000"],
     );
-    // Constraints that cannot be met: each named.
-    fails(
-        &with(&[
-            "--mesh",
-            ball_s,
-            "--pose",
-            "0,0,620,0,0,0",
+    // Constraints that cannot be met, and flags out of range: each named.
+    for (flag, value, needles) in [
+        (
             "--min-projector-period",
             "500",
-        ]),
-        &["the projector binds", "--min-projector-period"],
-    );
-    fails(
-        &with(&[
-            "--mesh",
-            ball_s,
-            "--pose",
-            "0,0,620,0,0,0",
-            "--min-period",
-            "400",
-        ]),
-        &["the camera binds", "--min-period"],
-    );
-    fails(
-        &with(&["--mesh", ball_s, "--pose", "0,0,620,0,0,0", "--knots", "40"]),
-        &["--knots: 2 to 16, got 40"],
-    );
-    fails(
-        &with(&[
-            "--mesh",
-            ball_s,
-            "--pose",
-            "0,0,620,0,0,0",
+            &["the projector binds", "--min-projector-period"][..],
+        ),
+        ("--min-period", "400", &["the camera binds", "--min-period"]),
+        ("--knots", "40", &["--knots: 2 to 16, got 40"]),
+        (
             "--min-projector-period",
             "2",
-        ]),
-        &["--min-projector-period: at least 4"],
-    );
-    fails(
-        &with(&["--mesh", ball_s, "--pose", "0,0,620,0,0,0", "--snr", "3"]),
-        &["the unwrapping binds", "patterns --design 3"],
-    );
+            &["--min-projector-period: at least 4"],
+        ),
+        (
+            "--snr",
+            "3",
+            &["the unwrapping binds", "patterns --design 3"],
+        ),
+    ] {
+        fails(
+            &with(&["--mesh", ball_s, "--pose", "0,0,620,0,0,0", flag, value]),
+            needles,
+        );
+    }
     // No projector model: nothing maps the object onto the projector.
     let mut c = fringe3d::io::calibration::Calibration::load(&cal).unwrap();
     c.projector = None;
