@@ -4,6 +4,7 @@
 #
 #     ./run.sh                 # all backends, cases 0 (paper set, u8) and 2 (paper set, u16)
 #     REPS=8 CASES="0 3" ./run.sh
+#     BACKENDS=" " ./run.sh    # the compiled reconstruction only
 #
 # Per pixel = (count with REPS decodes − count with 0 decodes) / (REPS · 256 pixels): the set-up
 # (input synthesis in soft f64, decoder construction, digest) cancels. Needs qemu-system-arm, a C
@@ -34,4 +35,13 @@ for spec in thumbv7m-none-eabi:mps2-an385:cortex-m3 thumbv7em-none-eabihf:mps2-a
       echo "$target $machine $b case $c: $(((n1 - n0) / (REPS * WIDTH))) instructions/pixel"
     done
   done
+  # The compiled reconstruction (core/src/reconstruct/compiled/parity.rs, 256 pixels a row).
+  ccount() {
+    qemu-system-arm -machine "$machine" -cpu "$cpu" -nographic \
+      -semihosting-config "enable=on,target=native,arg=bench,arg=count-compiled,arg=$1" \
+      -plugin "$PLUGIN" -d plugin -kernel "$elf" 2>&1 | sed -n 's/^insns: //p'
+  }
+  n0=$(ccount 0)
+  n1=$(ccount "$REPS")
+  echo "$target $machine compiled reconstruction: $(((n1 - n0) / (REPS * WIDTH))) instructions/pixel"
 done

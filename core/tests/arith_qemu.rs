@@ -1,4 +1,5 @@
-//! Bit parity between x86-64 and Cortex-M for every arithmetic backend: builds `core/arith-bench`
+//! Bit parity between x86-64 and Cortex-M for every arithmetic backend (and the compiled
+//! reconstruction's row, `reconstruct::compiled::parity`): builds `core/arith-bench`
 //! for thumbv7m-none-eabi (Cortex-M3, no FPU) and thumbv7em-none-eabihf (Cortex-M4F), runs its
 //! `parity` command under `qemu-system-arm` (mps2-an385 / mps2-an386) and compares every digest
 //! with the one computed here ([`fringe3d_core::decode::parity`]); checks the targets'
@@ -144,6 +145,10 @@ fn every_backend_gives_the_same_bits_on_cortex_m3_and_m4f() {
             ));
         }
     }
+    want.push(format!(
+        "compiled {:016x}",
+        fringe3d_core::reconstruct::compiled::parity::run(1)
+    ));
     let boards = [
         ("thumbv7m-none-eabi", "mps2-an385", "cortex-m3", "fixed"),
         ("thumbv7em-none-eabihf", "mps2-an386", "cortex-m4", "f32"),
@@ -163,7 +168,7 @@ fn every_backend_gives_the_same_bits_on_cortex_m3_and_m4f() {
         let got: Vec<&str> = out
             .lines()
             .map(str::trim)
-            .filter(|l| l.starts_with("parity "))
+            .filter(|l| l.starts_with("parity ") || l.starts_with("compiled "))
             .collect();
         assert_eq!(
             got.len(),

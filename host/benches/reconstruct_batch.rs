@@ -4,7 +4,8 @@
 //! compiler have it), with the x86 pair gathers of `fringe3d::gather`. The scene is the core
 //! benchmark's (`core/benches/reconstruct.rs`: seeded, from the tests' f64 ray caster), `exact`
 //! and `noisy` (σ = 0.01 rad phase noise). Every variant is first checked bit for bit against
-//! the core's portable `reconstruct_frame`.
+//! the core's portable `reconstruct_frame`. Then the compiled reconstruction (`compiled_*`,
+//! `fringe3d::compiled`, at 0.1 µm and `_1um`), each variant against its portable run.
 //! Run: `cargo bench -p fringe3d --bench reconstruct_batch`.
 
 #![allow(clippy::disallowed_methods)] // std maths for the synthetic scene
@@ -13,7 +14,10 @@
 mod support;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use fringe3d::batch::{Isa, PointsOut, reconstruct_frame};
+use fringe3d::batch::{
+    CompiledRows, Isa, PointsOut, reconstruct_frame, reconstruct_frame_compiled,
+};
+use fringe3d::compiled::{DEFAULT_TOLERANCE_MM, compile};
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use std::hint::black_box;
 use support::*;
@@ -25,7 +29,8 @@ fn bench(c: &mut Criterion) {
         let recon = Reconstructor::new(&cam, &rig.setup()).expect("reconstructor");
         let (w, h) = (reference.width, reference.height);
         let mut prep = reference.phase.clone();
-        let map = ReferenceMap::prepare(&mut prep, &reference.validity, w, h).expect("map");
+        ReferenceMap::prepare(&mut prep, &reference.validity, w, h).expect("map");
+        let map = ReferenceMap::from_prepared(&prep, w, h).expect("map");
         let (mut xyz, mut val) = (vec![0f32; 3 * w * h], vec![0u8; w * h]);
         recon
             .reconstruct_frame(&map, &object.phase, &object.validity, &mut xyz, &mut val)
@@ -76,6 +81,63 @@ fn bench(c: &mut Criterion) {
                     .expect("batch")
                 })
             });
+        }
+        // The compiled reconstruction of the same map (`fringe3d compile`), the search for
+        // the pixels it leaves; every variant the same bits as the portable one. At the default
+        // tolerance (0.1 µm) and at 1 µm, where nearly every pixel the map covers compiles.
+        for (tol_label, tol) in [("", DEFAULT_TOLERANCE_MM), ("_1um", 1e-3)] {
+            let (file, rep) = compile(&recon, &prep, tol);
+            eprintln!(
+                "{name}, tolerance {} µm: compiled {} of {} pixels ({} off the map, {} fits and \
+                 {} checks missing), largest difference from the search {:.3} µm",
+                tol * 1e3,
+                rep.compiled,
+                rep.pixels,
+                rep.off_map,
+                rep.fit_failed,
+                rep.check_failed,
+                rep.max_difference_mm * 1e3
+            );
+            let rows = CompiledRows {
+                models: &file.models,
+                z_min: file.z_min,
+                z_max: file.z_max,
+            };
+            let (mut cx, mut cv) = (vec![0f32; 3 * w * h], vec![0u8; w * h]);
+            let run = |isa, par, x: &mut [f32], v: &mut [u8]| {
+                reconstruct_frame_compiled(
+                    &recon,
+                    &map,
+                    Some(rows),
+                    black_box(&object.phase),
+                    &object.validity,
+                    PointsOut {
+                        xyz: x,
+                        validity: v,
+                    },
+                    isa,
+                    par,
+                )
+                .expect("compiled")
+            };
+            run(Isa::Baseline, false, &mut cx, &mut cv);
+            for (label, isa, par) in [
+                ("compiled_baseline_1thread", Isa::Baseline, false),
+                ("compiled_avx2_1thread", Isa::Avx2, false),
+                ("compiled_dispatched_1thread", Isa::detect(), false),
+                ("compiled_dispatched_all_cores", Isa::detect(), true),
+            ] {
+                let (mut x2, mut v2) = (vec![0f32; 3 * w * h], vec![0u8; w * h]);
+                run(isa, par, &mut x2, &mut v2);
+                let same = cv == v2 && cx.iter().zip(&x2).all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(
+                    same,
+                    "{label} differs from the portable compiled reconstruction"
+                );
+                g.bench_function(format!("{label}{tol_label}"), |b| {
+                    b.iter(|| run(isa, par, &mut x2, &mut v2))
+                });
+            }
         }
         g.finish();
     }

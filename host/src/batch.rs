@@ -14,6 +14,7 @@ use crate::gather::Avx2Pairs;
 use crate::gather::Avx512Pairs;
 use crate::io::image_set::{Frames, ImageSet};
 use fringe3d_core::decode::{DecodeError, DecodeScratch, Decoder, RowOut, Sample};
+use fringe3d_core::reconstruct::compiled::{FIELDS, compiled_row, merge_search, search_mask};
 use fringe3d_core::reconstruct::{
     CellGather, ReconstructError, Reconstructor, ReferenceMap, ScalarGather,
 };
@@ -344,10 +345,24 @@ pub struct PointsOut<'a> {
     pub validity: &'a mut [u8],
 }
 
+/// Compiled models standing in for the search pixel by pixel ([`crate::compiled`]): the
+/// camera's `width × height` models and the depth range they were compiled for.
+#[derive(Clone, Copy, Debug)]
+pub struct CompiledRows<'a> {
+    /// The models: a row of [`FIELDS`] × width values per camera row, each field by field
+    /// ([`crate::compiled::CompiledFile::models`]).
+    pub models: &'a [f32],
+    /// Near end of the depth range, mm.
+    pub z_min: f32,
+    /// Far end, mm.
+    pub z_max: f32,
+}
+
 /// What every reconstruction task of one frame shares.
 struct ReconFrame<'a> {
     recon: &'a Reconstructor,
     map: &'a ReferenceMap<'a>,
+    compiled: Option<CompiledRows<'a>>,
     /// The camera row of `phase[0]` and `validity[0]`.
     base: usize,
     phase: &'a [f32],
@@ -367,15 +382,35 @@ pub fn reconstruct_frame(
     isa: Isa,
     parallel: bool,
 ) -> Result<(), ReconstructError> {
+    reconstruct_frame_compiled(recon, map, None, phase, validity, out, isa, parallel)
+}
+
+/// [`reconstruct_frame`] with compiled models (`Some`): each row runs [`compiled_row`], and the
+/// search only for the pixels it leaves ([`search_mask`], [`merge_search`]).
+#[allow(clippy::too_many_arguments)]
+pub fn reconstruct_frame_compiled(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    compiled: Option<CompiledRows<'_>>,
+    phase: &[f32],
+    validity: &[u8],
+    out: PointsOut<'_>,
+    isa: Isa,
+    parallel: bool,
+) -> Result<(), ReconstructError> {
     let w = recon.width();
     let n = w * recon.height();
     if phase.len() != n || validity.len() != n || out.xyz.len() != 3 * n || out.validity.len() != n
     {
         return Err(ReconstructError::Length);
     }
+    if compiled.is_some_and(|c| c.models.len() != FIELDS * n) {
+        return Err(ReconstructError::Length);
+    }
     let f = ReconFrame {
         recon,
         map,
+        compiled,
         base: 0,
         phase,
         validity,
@@ -406,18 +441,31 @@ fn recon_rows<G: CellGather>(
     codes: &mut [u8],
 ) -> Result<(), ReconstructError> {
     let w = f.recon.width();
+    // The search's pass over a compiled row's leftovers: allocated at the first one.
+    let mut left: Option<(Vec<u8>, Vec<f32>, Vec<u8>)> = None;
     for (j, (o, ov)) in xyz.chunks_mut(3 * w).zip(codes.chunks_mut(w)).enumerate() {
         let v = v0 + j;
         let r = (v - f.base) * w..(v - f.base + 1) * w;
-        f.recon.reconstruct_row_gather(
-            g,
-            f.map,
-            v as u32,
-            &f.phase[r.clone()],
-            &f.validity[r],
-            o,
-            ov,
-        )?;
+        let (p, q) = (&f.phase[r.clone()], &f.validity[r]);
+        let Some(c) = f.compiled else {
+            f.recon
+                .reconstruct_row_gather(g, f.map, v as u32, p, q, o, ov)?;
+            continue;
+        };
+        let models = c
+            .models
+            .get(v * FIELDS * w..(v + 1) * FIELDS * w)
+            .ok_or(ReconstructError::Length)?;
+        let n = compiled_row(models, c.z_min, c.z_max, p, q, o, ov)
+            .map_err(|_| ReconstructError::Length)?;
+        if n > 0 {
+            let (mask, sx, sq) =
+                left.get_or_insert_with(|| (vec![0; w], vec![0.0; 3 * w], vec![0; w]));
+            search_mask(ov, q, mask).map_err(|_| ReconstructError::Length)?;
+            f.recon
+                .reconstruct_row_gather(g, f.map, v as u32, p, mask, sx, sq)?;
+            merge_search(sx, sq, o, ov).map_err(|_| ReconstructError::Length)?;
+        }
     }
     Ok(())
 }
@@ -524,6 +572,21 @@ pub fn reconstruct_rows(
     out: PointsOut<'_>,
     isa: Isa,
 ) -> Result<(), ReconstructError> {
+    reconstruct_rows_compiled(recon, map, None, v0, phase, validity, out, isa)
+}
+
+/// [`reconstruct_rows`] with compiled models (`Some`), as [`reconstruct_frame_compiled`].
+#[allow(clippy::too_many_arguments)]
+pub fn reconstruct_rows_compiled(
+    recon: &Reconstructor,
+    map: &ReferenceMap<'_>,
+    compiled: Option<CompiledRows<'_>>,
+    v0: usize,
+    phase: &[f32],
+    validity: &[u8],
+    out: PointsOut<'_>,
+    isa: Isa,
+) -> Result<(), ReconstructError> {
     let w = recon.width();
     let n = phase.len();
     if w == 0
@@ -535,9 +598,13 @@ pub fn reconstruct_rows(
     {
         return Err(ReconstructError::Length);
     }
+    if compiled.is_some_and(|c| c.models.len() != FIELDS * w * recon.height()) {
+        return Err(ReconstructError::Length);
+    }
     let f = ReconFrame {
         recon,
         map,
+        compiled,
         base: v0,
         phase,
         validity,

@@ -11,6 +11,7 @@ pub mod adapt;
 pub mod batch;
 pub mod calib;
 pub mod cli;
+pub mod compiled;
 pub mod design;
 pub mod device;
 pub mod gather;

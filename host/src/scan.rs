@@ -6,7 +6,8 @@
 //! so the points are bit-identical whatever the thread count. [`stream`] runs the whole scan
 //! (decode to the file's bytes) in one pass over bands of rows, without whole-frame buffers.
 
-use crate::batch::{Isa, PointsOut as BatchOut};
+use crate::batch::{CompiledRows, Isa, PointsOut as BatchOut};
+use crate::compiled::{CompiledFile, source_digest};
 use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, ReadLimits, read_gray_limited, read_header};
 use fringe3d_core::filter::EdgeFilter;
@@ -66,6 +67,8 @@ pub struct ScanCalibration {
     pub reference_validity: Vec<u8>,
     /// Where the calibration came from (for messages).
     pub source: PathBuf,
+    /// Compiled models standing in for the search ([`ScanCalibration::with_compiled`]).
+    pub compiled: Option<CompiledFile>,
 }
 
 impl ScanCalibration {
@@ -121,6 +124,7 @@ impl ScanCalibration {
             reference_phase,
             reference_validity,
             source: source.to_path_buf(),
+            compiled: None,
         })
     }
 
@@ -180,6 +184,67 @@ impl ScanCalibration {
         Self::from_parts(cal, phase, axis, path)
     }
 
+    /// Reconstruct with the compiled models of `path` (`fringe3d compile`) where they exist, and
+    /// the search elsewhere. The file must have been compiled from this calibration file and this
+    /// reference map (its digest of their bytes), for this camera and depth range.
+    pub fn with_compiled(mut self, path: &Path) -> Result<Self, ScanError> {
+        let bad = |m: String| ScanError::Invalid {
+            path: path.to_path_buf(),
+            message: m,
+        };
+        let (w, h) = (self.width() as u32, self.height() as u32);
+        let (file, digest) = rayon::join(
+            || CompiledFile::read(path, w, h).map_err(|e| bad(e.to_string())),
+            || self.source_digest(),
+        );
+        let (file, digest) = (file?, digest?);
+        if file.source_digest != digest {
+            return Err(bad(format!(
+                "compiled from another calibration or reference map than {} (the digests of their bytes differ): re-run `fringe3d compile`",
+                self.source.display()
+            )));
+        }
+        let s = self.recon.setup();
+        if (file.z_min, file.z_max) != (s.z_min as f32, s.z_max as f32) {
+            return Err(bad(format!(
+                "compiled for depths [{}, {}] mm, but the calibration's are [{}, {}]",
+                file.z_min, file.z_max, s.z_min, s.z_max
+            )));
+        }
+        self.compiled = Some(file);
+        Ok(self)
+    }
+
+    /// The digest a compiled file of this calibration carries ([`source_digest`]).
+    pub fn source_digest(&self) -> Result<[u8; 32], ScanError> {
+        use crate::io::input::{MAX_IMAGE_BYTES, MAX_TEXT_BYTES, read_limited};
+        let read = |p: &Path, max| {
+            read_limited(p, max).map_err(|e| ScanError::Invalid {
+                path: p.to_path_buf(),
+                message: format!("cannot read: {e}"),
+            })
+        };
+        let cal = read(&self.source, MAX_TEXT_BYTES)?;
+        let map_path = self
+            .calibration
+            .reference_map_path(&self.source)
+            .ok_or_else(|| ScanError::Invalid {
+                path: self.source.clone(),
+                message: "no [reference] section with a phase_map".into(),
+            })?;
+        let map = read(&map_path, MAX_IMAGE_BYTES)?;
+        Ok(source_digest(&cal, &map))
+    }
+
+    /// The compiled models as the batch paths take them.
+    pub fn compiled_rows(&self) -> Option<CompiledRows<'_>> {
+        self.compiled.as_ref().map(|c| CompiledRows {
+            models: &c.models,
+            z_min: c.z_min,
+            z_max: c.z_max,
+        })
+    }
+
     /// Camera width.
     pub fn width(&self) -> usize {
         self.recon.width()
@@ -230,9 +295,10 @@ impl ScanCalibration {
         })?;
         let mut xyz = vec![0.0f32; 3 * w * h];
         let mut out_v = vec![0u8; w * h];
-        crate::batch::reconstruct_frame(
+        crate::batch::reconstruct_frame_compiled(
             &self.recon,
             &map,
+            self.compiled_rows(),
             phase,
             validity,
             BatchOut {

@@ -15,6 +15,7 @@ mod cli_budget;
 mod cli_errors;
 mod cli_gamma;
 mod cli_scan;
+mod compiled_cli;
 mod corners_angle_sweep;
 mod device_errors;
 mod formats_atomic;

@@ -4,9 +4,12 @@
 //! * `parity` — print `default <backend>` (the target's [`TargetDefault`]), then
 //!   `parity <backend> <case> <digest>` for every backend and case of
 //!   [`fringe3d_core::decode::parity`]; the host compares them with its own digests.
+//!   and `compiled <digest>` for the compiled reconstruction's row
+//!   ([`fringe3d_core::reconstruct::compiled::parity`]).
 //! * `count <backend> <case> <reps>` — decode the case's row `reps` times with the backend and
 //!   print its digest. Instructions per pixel are the difference of the instruction counts of
 //!   `reps = R` and `reps = 0` (QEMU plugin `qemu/insn_count.c`) over `R·WIDTH` pixels.
+//! * `count-compiled <reps>` — the same for the compiled reconstruction's row.
 #![no_std]
 #![no_main]
 
@@ -15,6 +18,7 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hio};
 use fringe3d_core::arith::{Arith, Backend, TargetDefault};
 use fringe3d_core::decode::parity;
+use fringe3d_core::reconstruct::compiled::parity as compiled;
 
 /// SYS_GET_CMDLINE: the command line QEMU was given (`-semihosting-config arg=…`).
 fn cmdline(buf: &mut [u8]) -> &str {
@@ -40,6 +44,7 @@ fn run(out: &mut hio::HostStream, args: &str) -> Result<(), &'static str> {
                     let _ = writeln!(out, "parity {} {} {:016x}", b.name(), case, d);
                 }
             }
+            let _ = writeln!(out, "compiled {:016x}", compiled::run(1));
             Ok(())
         }
         Some("count") => {
@@ -60,7 +65,15 @@ fn run(out: &mut hio::HostStream, args: &str) -> Result<(), &'static str> {
             let _ = writeln!(out, "count {} {} {} {:016x}", b.name(), case, reps, d);
             Ok(())
         }
-        _ => Err("usage: parity | count <backend> <case> <reps>"),
+        Some("count-compiled") => {
+            let reps: u32 = w
+                .next()
+                .and_then(|s| s.parse().ok())
+                .ok_or("count-compiled: bad repetitions")?;
+            let _ = writeln!(out, "count-compiled {} {:016x}", reps, compiled::run(reps));
+            Ok(())
+        }
+        _ => Err("usage: parity | count <backend> <case> <reps> | count-compiled <reps>"),
     }
 }
 

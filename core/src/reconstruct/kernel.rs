@@ -333,21 +333,6 @@ fn chunk<G: CellGather>(
     let cm = c0 + m.left as usize;
     let um = cm as f32;
 
-    let mut x = [0f32; LANES];
-    let mut y = [0f32; LANES];
-    let kn = c0 / LANES;
-    let knot = |j: usize| match (knots.0.get(j), knots.1.get(j)) {
-        (Some(&a), Some(&b)) => Some([a, b]),
-        _ => None,
-    };
-    let ka = knot(kn);
-    let (ka, kb) = (
-        ka.unwrap_or([CANONICAL_NAN; 2]),
-        knot(kn + 1).or(ka).unwrap_or([CANONICAL_NAN; 2]),
-    );
-    r.camera()
-        .undistort_span_from_knots_f32(v, c0, ka, kb, &mut x, &mut y);
-
     // Input validity: a pixel is active when marked Valid with a finite phase; other known codes
     // are kept, anything else becomes PhaseOutOfRange.
     let mut phi = [0f32; LANES];
@@ -370,6 +355,36 @@ fn chunk<G: CellGather>(
             Validity::PhaseOutOfRange as u8
         };
     }
+
+    // A chunk with no pixel to search (masked by a compiled row, or all invalid) keeps its codes:
+    // the passes below would give every lane a NaN point and its input code anyway.
+    if !active.iter().any(|a| *a) {
+        for o in out_xyz.iter_mut().take(3 * n) {
+            *o = CANONICAL_NAN;
+        }
+        out_validity[..n].copy_from_slice(&code[..n]);
+        if let Some(cx) = crossings {
+            for o in cx.iter_mut().take(2 * n) {
+                *o = CANONICAL_NAN;
+            }
+        }
+        return;
+    }
+
+    let mut x = [0f32; LANES];
+    let mut y = [0f32; LANES];
+    let kn = c0 / LANES;
+    let knot = |j: usize| match (knots.0.get(j), knots.1.get(j)) {
+        (Some(&a), Some(&b)) => Some([a, b]),
+        _ => None,
+    };
+    let ka = knot(kn);
+    let (ka, kb) = (
+        ka.unwrap_or([CANONICAL_NAN; 2]),
+        knot(kn + 1).or(ka).unwrap_or([CANONICAL_NAN; 2]),
+    );
+    r.camera()
+        .undistort_span_from_knots_f32(v, c0, ka, kb, &mut x, &mut y);
 
     // Pass 1 (vector): per-pixel geometry, the sample at the pixel itself, the slope there, and
     // the first step.

@@ -127,8 +127,10 @@
 //! | `refrows` | the band's row table as the kernel indexes it |
 //! | `gather` | [`CellGather`], [`ScalarGather`] |
 //! | `triangulate` | [`triangulate_eq16_18`] |
+//! | [`compiled`] | the compiled reconstruction: one rational function of the phase per pixel |
 
 mod cell;
+pub mod compiled;
 mod error;
 mod fallback;
 mod gather;

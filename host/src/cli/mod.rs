@@ -23,6 +23,7 @@ pub mod calibrate_gamma;
 pub mod calibrate_import;
 pub mod cloud_out;
 pub mod common;
+pub mod compile;
 pub mod decode;
 pub mod demo;
 pub mod demo_calibrate;
@@ -65,6 +66,9 @@ pub enum Command {
     Reconstruct(reconstruct::ReconstructArgs),
     /// Images + calibration → point cloud in one go (decode and reconstruct).
     Scan(scan::ScanArgs),
+    /// Compile a calibration's reconstruction to one rational function per pixel (for `scan
+    /// --compiled` and for heads), checked against the search.
+    Compile(compile::CompileArgs),
     /// Render a synthetic fringe-projection dataset with ground truth.
     Render(render::RenderArgs),
     /// Calibrate the camera, the projector centre or the reference plane (paper §7); import or
@@ -216,6 +220,7 @@ where
         Command::Decode(a) => decode::run(a, g),
         Command::Reconstruct(a) => reconstruct::run(a, g),
         Command::Scan(a) => scan::run(a, g),
+        Command::Compile(a) => compile::run(a, g),
         Command::Render(a) => render::run(a, g),
         Command::Calibrate(a) => calibrate::run(a, g),
         Command::Demo(a) => demo::run(a, g),

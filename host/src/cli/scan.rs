@@ -34,6 +34,10 @@ pub struct ScanArgs {
     /// The decoder's thresholds.
     #[command(flatten)]
     pub thresholds: common::ThresholdArgs,
+    /// A compiled reconstruction of this calibration (`fringe3d compile`): one rational
+    /// function per pixel instead of the search, the search where the file has none.
+    #[arg(long, value_name = "FILE")]
+    pub compiled: Option<PathBuf>,
 }
 
 /// Run `fringe3d scan`: one streaming pass over bands of rows
@@ -62,7 +66,13 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
     common::check_reference_patterns(&a.calibration, &ls.scan_patterns()?, g.quiet)?;
     // The calibration (with its reference map) and the images load side by side.
     let (cal, imgs) = rayon::join(
-        || common::load_calibration(&a.calibration, ls.set.axis()),
+        || {
+            let cal = common::load_calibration(&a.calibration, ls.set.axis())?;
+            match &a.compiled {
+                Some(p) => Ok(cal.with_compiled(p)?),
+                None => anyhow::Ok(cal),
+            }
+        },
         || common::load_images(&ls, &a.images, g.quiet),
     );
     let (cal, imgs) = (cal?, imgs?);

@@ -4,7 +4,8 @@
 //!
 //! Each band of rows `y0..y1` is computed by one worker on its own scratch buffers: the rows
 //! `y0 − 1 .. y1 + 1` (one halo row each side, for the edge filter) are decoded
-//! ([`crate::batch::decode_rows`]) and reconstructed ([`crate::batch::reconstruct_rows`]) with the
+//! ([`crate::batch::decode_rows`]) and reconstructed ([`crate::batch::reconstruct_rows_compiled`], with the compiled models where
+//! the calibration has them) with the
 //! same kernels and the same reference map as the whole-frame path, the rows `y0..y1` filtered
 //! ([`EdgeFilter::filter_row`], which reads its neighbours' *input* codes, so a halo row gives the
 //! same codes as the whole frame) and encoded by the writer's [`RowEncoder`]. A writer thread
@@ -15,7 +16,7 @@
 //! The file is the whole-frame path's byte for byte (`host/tests/scan_stream.rs`).
 
 use super::{ScanCalibration, ScanError};
-use crate::batch::{FrameOut, Isa, PointsOut, decode_rows, reconstruct_rows};
+use crate::batch::{FrameOut, Isa, PointsOut, decode_rows, reconstruct_rows_compiled};
 use crate::io::image_set::{Frames, ImageSet};
 use crate::io::ply::{Encoded, PointRow, RowEncoder};
 use fringe3d_core::decode::{Decoder, Sample};
@@ -210,9 +211,10 @@ impl<P: Sample> Job<'_, P> {
         )
         .map_err(ScanError::Decode)?;
         let t1 = Instant::now();
-        reconstruct_rows(
+        reconstruct_rows_compiled(
             &self.cal.recon,
             self.map,
+            self.cal.compiled_rows(),
             a,
             &s.phase[..n],
             &s.decoded[..n],

@@ -1,0 +1,571 @@
+//! The compiled reconstruction: paper §6 with the search replaced by one rational function per
+//! pixel.
+//!
+//! # Why a pixel's depth is a rational function of its phase
+//! Along camera pixel `(u, v)`'s ray `M = s·(x, y, 1)` (ideal normalized coordinates, camera
+//! frame), every depth `s` meets one projector ray. With a pinhole projector and straight,
+//! evenly spaced fringes, the phase seen there is a projective (Möbius) function of `s`, so `s` is
+//! one of the phase: `s = (α + β·Φ)/(1 + γ·Φ)`, one division. Projector lens distortion and
+//! fringes of varying width or curvature bend that function slightly; a low-order polynomial
+//! numerator absorbs the bend. [`PixelModel`] is that function over the pixel's depth range:
+//! ```text
+//! τ = (Φ − Φ_c)·k                                 (the phase range of [z_min, z_max] → [−1, 1])
+//! s = s_c + τ·(d₁ + d₂τ + d₃τ² + d₄τ³) / (1 + γτ)
+//! M = (s·x, s·y, s)
+//! ```
+//! written about the range's centre `s_c` so that the large term is added last and exactly once
+//! (f32 rounds the sum to half an ulp of `s`; the correction carries its own few ulps at its own,
+//! smaller scale). The coefficients come from the exact search (the reference map's model of
+//! §6, `fringe3d compile`), which checks each pixel against the search at build time and leaves
+//! [`PixelModel::SEARCH`] where the function cannot meet its tolerance (a map that is not a model,
+//! invalid reference inside the range): those pixels keep the §6 search ([`compiled_row`] returns
+//! how many a row has; [`merge_search`] takes their results). Where the projector does not light
+//! the whole depth range along a ray, the model covers the part the map does and is marked
+//! [clipped](PixelModel::is_clipped): a phase beyond it goes to the search too.
+//!
+//! # Same answer as the search
+//! A pixel is valid when its input phase is valid, `|τ| ≤ 1`, and `s` lies in `[z_min, z_max]`,
+//! the search's own final test (its out-of-range phases are [`Validity::OutOfDepth`] as here;
+//! `fringe3d compile` keeps a pixel only if the codes agree at every phase it checks).
+//! Input codes other than `Valid` are kept, unknown codes and non-finite phases become
+//! [`Validity::PhaseOutOfRange`], as the search does; every invalid point is the canonical NaN.
+//!
+//! # Cost
+//! Per pixel: 9 multiplications, 7 additions, one division, 4 comparisons; no table, no gather,
+//! no iteration. The model is [`PixelModel::BYTES`] = 40 bytes a pixel, read row by row
+//! ([`PixelModel::parse_row`]); a head needs neither the camera's lens model nor the reference
+//! map for compiled pixels.
+//!
+//! The f64 reference of the function is [`PixelModel::depth_f64`]; [`compiled_row`] is the one
+//! kernel (streaming, batch and the head), with the operation order fixed (no FMA), so it gives
+//! the same bits everywhere.
+
+pub mod parity;
+
+use crate::math::{CANONICAL_NAN, canonical, fabs};
+use crate::validity::Validity;
+
+/// Terms of the numerator's polynomial `d₁ + d₂τ + d₃τ² + d₄τ³`.
+pub const TERMS: usize = 4;
+/// Numbers in one model: ray x, ray y, Φ_c, ±k, s_c, γ, d₁…d₄.
+pub const FIELDS: usize = 6 + TERMS;
+
+/// The code [`compiled_row`] writes for a pixel it leaves to the search: not a [`Validity`];
+/// [`merge_search`] replaces every one of them.
+pub const LEFT_TO_SEARCH: u8 = 0xFF;
+
+/// One pixel's compiled depth function (see the module documentation), or
+/// [`PixelModel::SEARCH`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelModel {
+    /// The pixel's ray `(x, y)`: ideal normalized coordinates (`M = s·(x, y, 1)`).
+    pub ray: [f32; 2],
+    /// Φ_c: the phase at the centre of the pixel's range, rad.
+    pub phase_centre: f32,
+    /// ±k: `τ = (Φ − Φ_c)·|k|` maps the pixel's phase range to `[−1, 1]`, 1/rad (the
+    /// polynomial's odd terms carry the phase's direction). The sign says what a phase beyond
+    /// the range means: positive, a point out of the depth range ([`Validity::OutOfDepth`]);
+    /// negative, the range is the part of the depth range the reference map covers along this
+    /// ray ([`PixelModel::is_clipped`]), and such a phase goes to the search.
+    pub phase_scale: f32,
+    /// s_c: the depth at `τ = 0`, mm.
+    pub depth_centre: f32,
+    /// γ: the pole term of the denominator `1 + γτ`.
+    pub pole: f32,
+    /// d₁…d₄ of the numerator `τ·(d₁ + d₂τ + d₃τ² + d₄τ³)`, mm.
+    pub slope: [f32; TERMS],
+}
+
+impl PixelModel {
+    /// Bytes of one model in a row ([`PixelModel::emit`]): ten little-endian f32.
+    pub const BYTES: usize = 4 * (6 + TERMS);
+
+    /// "Not compiled": the pixel keeps the §6 search. Every field is the canonical NaN.
+    pub const SEARCH: PixelModel = PixelModel {
+        ray: [CANONICAL_NAN; 2],
+        phase_centre: CANONICAL_NAN,
+        phase_scale: CANONICAL_NAN,
+        depth_centre: CANONICAL_NAN,
+        pole: CANONICAL_NAN,
+        slope: [CANONICAL_NAN; TERMS],
+    };
+
+    /// Whether the pixel has a function (a finite, non-zero phase scale); otherwise the search.
+    #[inline(always)]
+    pub fn is_compiled(&self) -> bool {
+        let k = fabs(self.phase_scale);
+        (k > 0.0) & (k < f32::INFINITY)
+    }
+
+    /// Whether the range is clipped to the map (a negative scale): a phase beyond it goes to the
+    /// search, which knows where the map ends.
+    #[inline(always)]
+    pub fn is_clipped(&self) -> bool {
+        self.phase_scale < 0.0
+    }
+
+    /// The model's ten numbers in file order: ray x, ray y, Φ_c, k, s_c, γ, d₁…d₄.
+    pub fn to_array(&self) -> [f32; FIELDS] {
+        let mut a = [0f32; 6 + TERMS];
+        a[..6].copy_from_slice(&[
+            self.ray[0],
+            self.ray[1],
+            self.phase_centre,
+            self.phase_scale,
+            self.depth_centre,
+            self.pole,
+        ]);
+        a[6..].copy_from_slice(&self.slope);
+        a
+    }
+
+    /// The model from its ten numbers ([`PixelModel::to_array`]'s order). A model with any
+    /// non-finite number, or a zero scale, is [`PixelModel::SEARCH`] (one representation of "not
+    /// compiled", whatever the bits were).
+    pub fn from_array(a: [f32; FIELDS]) -> PixelModel {
+        let mut slope = [0f32; TERMS];
+        slope.copy_from_slice(&a[6..]);
+        let m = PixelModel {
+            ray: [a[0], a[1]],
+            phase_centre: a[2],
+            phase_scale: a[3],
+            depth_centre: a[4],
+            pole: a[5],
+            slope,
+        };
+        let finite = a.iter().all(|v| fabs(*v) < f32::INFINITY);
+        if finite && m.is_compiled() {
+            m
+        } else {
+            PixelModel::SEARCH
+        }
+    }
+
+    /// Write the model as [`PixelModel::BYTES`] little-endian bytes into `out[..BYTES]`; `None`
+    /// when `out` is shorter.
+    pub fn emit(&self, out: &mut [u8]) -> Option<()> {
+        let out = out.get_mut(..Self::BYTES)?;
+        for (o, v) in out.chunks_exact_mut(4).zip(self.to_array()) {
+            o.copy_from_slice(&canonical(v).to_le_bytes());
+        }
+        Some(())
+    }
+
+    /// Read a model written by [`PixelModel::emit`]; `None` when `bytes` is shorter than
+    /// [`PixelModel::BYTES`]. Any bits parse: a model that is not usable is
+    /// [`PixelModel::SEARCH`].
+    pub fn parse(bytes: &[u8]) -> Option<PixelModel> {
+        let b = bytes.get(..Self::BYTES)?;
+        let mut a = [0f32; 6 + TERMS];
+        for (v, c) in a.iter_mut().zip(b.chunks_exact(4)) {
+            *v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+        }
+        Some(PixelModel::from_array(a))
+    }
+
+    /// Put the model of pixel `u` into a row stored field by field (`row[k·w + u]` is field `k`,
+    /// in [`PixelModel::to_array`]'s order, of pixel `u`; `w = row.len() / FIELDS`), the layout
+    /// [`compiled_row`] reads. `None` when `u` is outside the row.
+    pub fn store(&self, row: &mut [f32], u: usize) -> Option<()> {
+        let w = row.len() / FIELDS;
+        if u >= w {
+            return None;
+        }
+        for (k, v) in self.to_array().into_iter().enumerate() {
+            row[k * w + u] = v;
+        }
+        Some(())
+    }
+
+    /// The model of pixel `u` of a row stored field by field ([`PixelModel::store`]), checked as
+    /// [`PixelModel::from_array`] does. `None` when `u` is outside the row.
+    pub fn load(row: &[f32], u: usize) -> Option<PixelModel> {
+        let w = row.len() / FIELDS;
+        if u >= w {
+            return None;
+        }
+        Some(PixelModel::from_array(core::array::from_fn(|k| {
+            row[k * w + u]
+        })))
+    }
+
+    /// Read one row of models from its bytes (`FIELDS × w` little-endian f32, field by field:
+    /// how a head takes a row from its flash or its link) into `row` (`FIELDS × w` values),
+    /// then make every model that is not usable [`PixelModel::SEARCH`]. `None` when the lengths
+    /// differ.
+    pub fn parse_row(bytes: &[u8], row: &mut [f32]) -> Option<()> {
+        if bytes.len() != 4 * row.len() || !row.len().is_multiple_of(FIELDS) {
+            return None;
+        }
+        for (v, c) in row.iter_mut().zip(bytes.chunks_exact(4)) {
+            *v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+        }
+        let w = row.len() / FIELDS;
+        for u in 0..w {
+            let m = PixelModel::load(row, u)?;
+            if !m.is_compiled() {
+                PixelModel::SEARCH.store(row, u)?;
+            }
+        }
+        Some(())
+    }
+
+    /// The f64 reference of the function: the depth `s` for phase `phase`, `None` outside
+    /// `|τ| ≤ 1` or for [`PixelModel::SEARCH`]. The kernel ([`compiled_row`]) evaluates the same
+    /// expression in f32 in this order.
+    pub fn depth_f64(&self, phase: f64) -> Option<f64> {
+        if !self.is_compiled() {
+            return None;
+        }
+        let tau = (phase - self.phase_centre as f64) * (self.phase_scale as f64).abs();
+        if !(tau.abs() <= 1.0) {
+            return None;
+        }
+        Some(self.depth_f64_unbounded(phase))
+    }
+
+    /// [`PixelModel::depth_f64`] without the range check: the function continued past `|τ| = 1`
+    /// (for a builder checking its fit up to the range's ends).
+    pub fn depth_f64_unbounded(&self, phase: f64) -> f64 {
+        let tau = (phase - self.phase_centre as f64) * (self.phase_scale as f64).abs();
+        let mut p = 0.0;
+        for d in self.slope.iter().rev() {
+            p = *d as f64 + tau * p;
+        }
+        self.depth_centre as f64 + tau * p / (1.0 + self.pole as f64 * tau)
+    }
+}
+
+/// Why a compiled row was refused (a caller's error: the data itself never fails).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CompiledError {
+    /// The slices do not have the row's lengths (`models`, phase and validity `w`, points `3w`).
+    Length,
+    /// The depth range is not finite and increasing.
+    DepthRange,
+}
+
+impl core::fmt::Display for CompiledError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            CompiledError::Length => "a row's slices do not have the row's lengths",
+            CompiledError::DepthRange => "the depth range must be finite with z_min < z_max",
+        })
+    }
+}
+
+/// Pixels per pass of [`compiled_row`]: the arithmetic over a chunk runs as one vector loop,
+/// the interleaved stores of the points as a second.
+const CHUNK: usize = 64;
+
+/// The arithmetic of [`compiled_row`] over one chunk: depths and codes. One vector loop (fixed
+/// length, no branch that depends on a lane).
+#[inline(always)]
+fn pass(
+    f: [&[f32; CHUNK]; FIELDS],
+    p: &[f32; CHUNK],
+    q: &[u8; CHUNK],
+    z_min: f32,
+    z_max: f32,
+    s: &mut [f32; CHUNK],
+    code: &mut [u8; CHUNK],
+) {
+    const _: () = assert!(TERMS == 4);
+    let [_, _, pc, ps, dc, pole, d1, d2, d3, d4] = f;
+    for i in 0..CHUNK {
+        let act = (q[i] == Validity::Valid as u8) & (fabs(p[i]) < f32::INFINITY);
+        let keep =
+            act | (((q[i] as usize) < Validity::ALL.len()) & (q[i] != Validity::Valid as u8));
+        let code_in = if keep {
+            q[i]
+        } else {
+            Validity::PhaseOutOfRange as u8
+        };
+        // The depth: PixelModel::depth_f64's expression, in its order, in f32.
+        let k = fabs(ps[i]);
+        let tau = ((if act { p[i] } else { 0.0 }) - pc[i]) * k;
+        let poly = d1[i] + tau * (d2[i] + tau * (d3[i] + tau * d4[i]));
+        let si = dc[i] + tau * poly / (1.0 + pole[i] * tau);
+        let in_range = fabs(tau) <= 1.0;
+        let compiled = (k > 0.0) & (k < f32::INFINITY);
+        // The search: no model, or a phase beyond a range the map's end clipped.
+        let left = act & (!compiled | (!in_range & (ps[i] < 0.0)));
+        let degenerate = !(fabs(si) < f32::INFINITY);
+        let inside = in_range & (si >= z_min) & (si <= z_max);
+        s[i] = si;
+        let c = if inside {
+            Validity::Valid as u8
+        } else {
+            Validity::OutOfDepth as u8
+        };
+        let c = if degenerate {
+            Validity::Degenerate as u8
+        } else {
+            c
+        };
+        let c = if left { LEFT_TO_SEARCH } else { c };
+        code[i] = if act { c } else { code_in };
+    }
+}
+
+/// Reconstruct one row with its compiled models: for each pixel `u`, the point into
+/// `out_xyz[3u..3u+3]` and its [`Validity`] code into `out_validity[u]`, as
+/// [`crate::reconstruct::Reconstructor::reconstruct_row`] would for the same phase (module
+/// documentation). `models` is the row's models field by field ([`PixelModel::store`]: [`FIELDS`]
+/// arrays of `w` values). A valid pixel whose model is [`PixelModel::SEARCH`], or whose phase lies
+/// beyond a [clipped](PixelModel::is_clipped) range, is left to the search: its point is NaN and
+/// its code [`LEFT_TO_SEARCH`]; the return value counts them (0: the row is done; otherwise run
+/// [`search_mask`], the search, and [`merge_search`]). `z_min`, `z_max`: the depth range the
+/// models were compiled for, mm.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn compiled_row(
+    models: &[f32],
+    z_min: f32,
+    z_max: f32,
+    phase_row: &[f32],
+    validity_row: &[u8],
+    out_xyz: &mut [f32],
+    out_validity: &mut [u8],
+) -> Result<usize, CompiledError> {
+    let w = phase_row.len();
+    if models.len() != FIELDS * w
+        || validity_row.len() != w
+        || out_xyz.len() != 3 * w
+        || out_validity.len() != w
+    {
+        return Err(CompiledError::Length);
+    }
+    if !(z_min < z_max) || !(fabs(z_min) < f32::INFINITY) || !(fabs(z_max) < f32::INFINITY) {
+        return Err(CompiledError::DepthRange);
+    }
+    let mut search = 0usize;
+    let mut c0 = 0;
+    while c0 < w {
+        let n = (w - c0).min(CHUNK);
+        // A whole chunk is read in place; the row's last, shorter one through padded copies
+        // (their extra lanes are never written out).
+        let mut s = [0f32; CHUNK];
+        let mut code = [0u8; CHUNK];
+        let whole = |k: usize| -> Option<&[f32; CHUNK]> {
+            models.get(k * w + c0..k * w + c0 + CHUNK)?.try_into().ok()
+        };
+        let fields: Option<[&[f32; CHUNK]; FIELDS]> = if n == CHUNK {
+            let f: [Option<&[f32; CHUNK]>; FIELDS] = core::array::from_fn(whole);
+            if f.iter().all(Option::is_some) {
+                Some(f.map(|x| x.unwrap_or(&[0.0; CHUNK])))
+            } else {
+                None
+            }
+        } else {
+            None
+        };
+        let (p, q) = (&phase_row[c0..c0 + n], &validity_row[c0..c0 + n]);
+        match (
+            fields,
+            <&[f32; CHUNK]>::try_from(p),
+            <&[u8; CHUNK]>::try_from(q),
+        ) {
+            (Some(f), Ok(p), Ok(q)) => pass(f, p, q, z_min, z_max, &mut s, &mut code),
+            _ => {
+                let mut pad = [[0f32; CHUNK]; FIELDS];
+                let mut pp = [0f32; CHUNK];
+                let mut pq = [Validity::Dark as u8; CHUNK];
+                for (k, row) in pad.iter_mut().enumerate() {
+                    row[..n].copy_from_slice(&models[k * w + c0..k * w + c0 + n]);
+                }
+                pp[..n].copy_from_slice(p);
+                pq[..n].copy_from_slice(q);
+                let f: [&[f32; CHUNK]; FIELDS] = core::array::from_fn(|k| &pad[k]);
+                pass(f, &pp, &pq, z_min, z_max, &mut s, &mut code);
+            }
+        }
+        let (rx, ry) = (&models[c0..c0 + n], &models[w + c0..w + c0 + n]);
+        let xyz = &mut out_xyz[3 * c0..3 * (c0 + n)];
+        for (i, o) in xyz.chunks_exact_mut(3).enumerate() {
+            let good = code[i] == Validity::Valid as u8;
+            o[0] = if good { s[i] * rx[i] } else { CANONICAL_NAN };
+            o[1] = if good { s[i] * ry[i] } else { CANONICAL_NAN };
+            o[2] = if good { s[i] } else { CANONICAL_NAN };
+        }
+        for (o, c) in out_validity[c0..c0 + n].iter_mut().zip(&code) {
+            *o = *c;
+            search += (*c == LEFT_TO_SEARCH) as usize;
+        }
+        c0 += n;
+    }
+    Ok(search)
+}
+
+/// The input codes for the search pass over the pixels [`compiled_row`] left
+/// (`compiled_codes[u] == LEFT_TO_SEARCH`): their input code `validity_row[u]`, and
+/// [`Validity::OutOfDepth`] (a code the search keeps, and skips) for every other pixel; into
+/// `out` (all three of length `w`).
+pub fn search_mask(
+    compiled_codes: &[u8],
+    validity_row: &[u8],
+    out: &mut [u8],
+) -> Result<(), CompiledError> {
+    if validity_row.len() != compiled_codes.len() || out.len() != compiled_codes.len() {
+        return Err(CompiledError::Length);
+    }
+    for ((o, &q), &c) in out.iter_mut().zip(validity_row).zip(compiled_codes) {
+        *o = if c == LEFT_TO_SEARCH {
+            q
+        } else {
+            Validity::OutOfDepth as u8
+        };
+    }
+    Ok(())
+}
+
+/// Take the search's results (a row run with [`search_mask`]'s codes) for the pixels
+/// [`compiled_row`] left to it into the compiled row's outputs.
+pub fn merge_search(
+    search_xyz: &[f32],
+    search_validity: &[u8],
+    out_xyz: &mut [f32],
+    out_validity: &mut [u8],
+) -> Result<(), CompiledError> {
+    let w = out_validity.len();
+    if search_xyz.len() != 3 * w || search_validity.len() != w || out_xyz.len() != 3 * w {
+        return Err(CompiledError::Length);
+    }
+    let src = search_xyz.chunks_exact(3).zip(search_validity);
+    let dst = out_xyz.chunks_exact_mut(3).zip(out_validity.iter_mut());
+    for ((si, &sq), (o, oq)) in src.zip(dst) {
+        if *oq == LEFT_TO_SEARCH {
+            o.copy_from_slice(si);
+            *oq = sq;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model() -> PixelModel {
+        PixelModel {
+            ray: [0.1, -0.05],
+            phase_centre: 100.0,
+            phase_scale: 0.02,
+            depth_centre: 700.0,
+            pole: 0.1,
+            slope: [120.0, 2.0, -0.5, 0.01],
+        }
+    }
+
+    #[test]
+    fn bytes_round_trip_and_bad_models_are_search() {
+        let m = model();
+        let mut b = [0u8; PixelModel::BYTES];
+        m.emit(&mut b).unwrap();
+        assert_eq!(PixelModel::parse(&b), Some(m));
+        assert_eq!(PixelModel::parse(&b[..39]), None);
+        // A zero scale or a NaN anywhere: the search.
+        let mut z = m;
+        z.phase_scale = 0.0;
+        z.emit(&mut b).unwrap();
+        let bits = |m: PixelModel| m.to_array().map(f32::to_bits);
+        assert_eq!(
+            bits(PixelModel::parse(&b).unwrap()),
+            bits(PixelModel::SEARCH)
+        );
+        let mut n = m;
+        n.slope[2] = f32::INFINITY;
+        n.emit(&mut b).unwrap();
+        assert!(!PixelModel::parse(&b).unwrap().is_compiled());
+    }
+
+    #[test]
+    fn kernel_follows_the_f64_reference_and_the_codes() {
+        let m = model();
+        let mut clip = m;
+        clip.phase_scale = -m.phase_scale;
+        let list = [m, m, m, PixelModel::SEARCH, m, m, clip, clip];
+        let mut models = [0f32; 8 * FIELDS];
+        for (u, x) in list.iter().enumerate() {
+            x.store(&mut models, u).unwrap();
+        }
+        assert_eq!(PixelModel::load(&models, 6), Some(clip));
+        assert_eq!(PixelModel::load(&models, 8), None);
+        // The bytes of a row, parsed back.
+        let mut bytes = [0u8; 32 * FIELDS];
+        for (b, v) in bytes.chunks_exact_mut(4).zip(&models) {
+            b.copy_from_slice(&v.to_le_bytes());
+        }
+        let mut back = [0f32; 8 * FIELDS];
+        PixelModel::parse_row(&bytes, &mut back).unwrap();
+        assert!(
+            models
+                .iter()
+                .zip(&back)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
+        assert_eq!(PixelModel::parse_row(&bytes[1..], &mut back), None);
+        let phase = [100.0, 140.0, 200.0, 100.0, 100.0, f32::NAN, 140.0, 200.0];
+        let q = [0, 0, 0, 0, 1, 0, 0, 0];
+        let mut xyz = [0f32; 24];
+        let mut out = [0u8; 8];
+        let n = compiled_row(&models, 500.0, 900.0, &phase, &q, &mut xyz, &mut out).unwrap();
+        assert_eq!(n, 2);
+        let s = m.depth_f64(140.0).unwrap();
+        assert!((xyz[5] as f64 - s).abs() < 1e-4, "{} {}", xyz[5], s);
+        assert_eq!(xyz[0..3], [70.0, -35.0, 700.0]);
+        // τ = 2: outside the range; clipped, the same phase goes to the search.
+        assert_eq!(out[2], Validity::OutOfDepth as u8);
+        assert_eq!(out[7], LEFT_TO_SEARCH);
+        assert_eq!(xyz[18..21], xyz[3..6], "a clipped model inside its range");
+        assert_eq!(out[3], LEFT_TO_SEARCH);
+        assert!(xyz[9].is_nan());
+        assert_eq!(out[4], 1);
+        assert_eq!(out[5], Validity::PhaseOutOfRange as u8);
+        // The search's pass and its merge.
+        let mut mask = [0u8; 8];
+        search_mask(&out, &q, &mut mask).unwrap();
+        assert_eq!(mask, [7, 7, 7, 0, 7, 7, 7, 0]);
+        let sx = [1f32; 24];
+        merge_search(&sx, &[4; 8], &mut xyz, &mut out).unwrap();
+        assert_eq!((out[3], out[7]), (4, 4));
+        assert_eq!(xyz[9..12], [1.0; 3]);
+        assert_eq!((out[0], out[2]), (0, 7));
+        assert_eq!(
+            compiled_row(&models, 900.0, 500.0, &phase, &q, &mut xyz, &mut out),
+            Err(CompiledError::DepthRange)
+        );
+        assert_eq!(
+            compiled_row(&models[1..], 500.0, 900.0, &phase, &q, &mut xyz, &mut out),
+            Err(CompiledError::Length)
+        );
+    }
+
+    #[test]
+    fn kernel_matches_the_f64_reference_over_long_rows() {
+        // Several chunks and a tail: every pixel within a few ulp of the f64 reference.
+        const W: usize = 200;
+        let w = W;
+        let mut models = [0f32; W * FIELDS];
+        let mut phase = [0f32; W];
+        for (u, p) in phase.iter_mut().enumerate() {
+            let mut m = model();
+            m.pole = 0.001 * u as f32;
+            m.store(&mut models, u).unwrap();
+            *p = 60.0 + 0.4 * u as f32;
+        }
+        let q = [0u8; W];
+        let (mut xyz, mut out) = ([0f32; 3 * W], [0u8; W]);
+        compiled_row(&models, 500.0, 900.0, &phase, &q, &mut xyz, &mut out).unwrap();
+        for u in 0..w {
+            let m = PixelModel::load(&models, u).unwrap();
+            match m.depth_f64(phase[u] as f64) {
+                Some(s) if (500.0..=900.0).contains(&s) => {
+                    assert_eq!(out[u], 0, "pixel {u}");
+                    assert!((xyz[3 * u + 2] as f64 - s).abs() < 2e-4, "pixel {u}");
+                }
+                _ => assert_eq!(out[u], Validity::OutOfDepth as u8, "pixel {u}"),
+            }
+        }
+    }
+}

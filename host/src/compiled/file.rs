@@ -1,0 +1,353 @@
+//! The compiled-reconstruction file: a 72-byte header, then the pixel models row by row.
+//!
+//! | offset | bytes | field |
+//! |---:|---:|---|
+//! | 0 | 8 | magic `F3DCRC01` |
+//! | 8 | 4 | width, u32 LE |
+//! | 12 | 4 | height, u32 LE |
+//! | 16 | 4 | terms of the numerator polynomial, u32 LE (4) |
+//! | 20 | 4 | bytes per pixel, u32 LE (40) |
+//! | 24 | 4 | z_min, f32 LE, mm |
+//! | 28 | 4 | z_max, f32 LE, mm |
+//! | 32 | 4 | the build's tolerance, f32 LE, mm |
+//! | 36 | 4 | reserved, 0 |
+//! | 40 | 32 | SHA-256 of the calibration file's bytes followed by the reference map's |
+//! | 72 | width × height × 40 | the models, rows top to bottom |
+//!
+//! A row is its models field by field: ten arrays of `width` little-endian f32 (ray x, ray y, Φ_c,
+//! ±k, s_c, γ, d₁…d₄; [`PixelModel::store`]), the layout the kernel reads. A head reads the
+//! header once and then one row of `width × 40` bytes per camera row
+//! ([`PixelModel::parse_row`]).
+
+use fringe3d_core::reconstruct::compiled::{FIELDS, PixelModel, TERMS};
+use std::path::{Path, PathBuf};
+
+/// The file's first eight bytes.
+pub const MAGIC: [u8; 8] = *b"F3DCRC01";
+/// Header bytes.
+pub const HEADER: usize = 72;
+
+/// A compiled reconstruction, in memory.
+#[derive(Clone, Debug)]
+pub struct CompiledFile {
+    /// Camera width.
+    pub width: u32,
+    /// Camera height.
+    pub height: u32,
+    /// Depth range the models were compiled for, mm.
+    pub z_min: f32,
+    /// Far end, mm.
+    pub z_max: f32,
+    /// The build's tolerance, mm.
+    pub tolerance_mm: f32,
+    /// SHA-256 of the calibration file's bytes and then the reference map's.
+    pub source_digest: [u8; 32],
+    /// The models: `height` rows of [`FIELDS`] × `width` values, each row field by field
+    /// ([`PixelModel::store`]).
+    pub models: Vec<f32>,
+}
+
+/// Why a compiled file could not be read or used. Messages name the file.
+#[derive(Debug, thiserror::Error)]
+pub enum FileError {
+    /// Unreadable.
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// Not a compiled-reconstruction file, or a damaged one.
+    #[error("{path}: {message}")]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl CompiledFile {
+    /// The file's bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(HEADER + 4 * self.models.len());
+        b.extend_from_slice(&MAGIC);
+        for v in [
+            self.width,
+            self.height,
+            TERMS as u32,
+            PixelModel::BYTES as u32,
+        ] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in [self.z_min, self.z_max, self.tolerance_mm] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.extend_from_slice(&0u32.to_le_bytes());
+        b.extend_from_slice(&self.source_digest);
+        for v in &self.models {
+            b.extend_from_slice(&fringe3d_core::math::canonical(*v).to_le_bytes());
+        }
+        b
+    }
+
+    /// Write the file atomically.
+    pub fn write(&self, path: &Path) -> Result<(), crate::io::atomic::AtomicError> {
+        let bytes = self.to_bytes();
+        crate::io::atomic::write_atomic(path, |w| w.write_all(&bytes))
+    }
+
+    /// Read a file for a camera of `width × height`: the header is checked against it, and the
+    /// file's length against the header, before anything is allocated from it; the models are
+    /// read straight into their rows and checked rows in parallel.
+    pub fn read(path: &Path, width: u32, height: u32) -> Result<CompiledFile, FileError> {
+        use std::io::Read;
+        let io = |source| FileError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let bad = |m: String| FileError::Format {
+            path: path.to_path_buf(),
+            message: m,
+        };
+        let (mut f, len) = crate::io::input::open_regular(path).map_err(io)?;
+        let mut head = [0u8; HEADER];
+        if len < HEADER as u64 {
+            return Err(bad(format!(
+                "{len} bytes: not a compiled reconstruction (no F3DCRC01 header)"
+            )));
+        }
+        f.read_exact(&mut head).map_err(io)?;
+        let h = Header::parse(&head, width, height).map_err(bad)?;
+        let want = HEADER as u64 + 4 * h.values() as u64;
+        if len != want {
+            return Err(bad(format!(
+                "{len} bytes, but a {width}x{height} compiled reconstruction is {want} (truncated or padded)"
+            )));
+        }
+        let mut models = vec![0f32; h.values()];
+        f.read_exact(bytemuck::cast_slice_mut(&mut models))
+            .map_err(io)?;
+        for v in models.iter_mut() {
+            *v = f32::from_bits(u32::from_le(v.to_bits()));
+        }
+        check_models(&mut models, width as usize).map_err(bad)?;
+        Ok(h.with(models))
+    }
+
+    /// Parse the file's bytes for a camera of `width × height`.
+    pub fn parse(b: &[u8], width: u32, height: u32) -> Result<CompiledFile, String> {
+        let head = b
+            .get(..HEADER)
+            .ok_or("not a compiled reconstruction (no F3DCRC01 header)")?;
+        let h = Header::parse(head, width, height)?;
+        let want = HEADER + 4 * h.values();
+        if b.len() != want {
+            return Err(format!(
+                "{} bytes, but a {width}x{height} compiled reconstruction is {want} (truncated or padded)",
+                b.len()
+            ));
+        }
+        let mut models: Vec<f32> = b[HEADER..]
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        check_models(&mut models, width as usize)?;
+        Ok(h.with(models))
+    }
+
+    /// Pixels with a function.
+    pub fn compiled_count(&self) -> usize {
+        let w = self.width as usize;
+        self.models
+            .chunks_exact(FIELDS * w.max(1))
+            .map(|row| (0..w).filter(|&u| is_compiled(row, u)).count())
+            .sum()
+    }
+
+    /// The model of pixel `(u, v)`.
+    pub fn model(&self, u: usize, v: usize) -> Option<PixelModel> {
+        let w = self.width as usize;
+        PixelModel::load(self.models.get(v * FIELDS * w..(v + 1) * FIELDS * w)?, u)
+    }
+}
+
+/// Whether pixel `u` of a field-major row has a model.
+fn is_compiled(row: &[f32], u: usize) -> bool {
+    PixelModel::load(row, u).is_some_and(|m| m.is_compiled())
+}
+
+/// A checked header.
+struct Header {
+    width: u32,
+    height: u32,
+    z_min: f32,
+    z_max: f32,
+    tolerance_mm: f32,
+    source_digest: [u8; 32],
+}
+
+impl Header {
+    /// Check the header (`b` holds at least [`HEADER`] bytes) against the camera.
+    fn parse(b: &[u8], width: u32, height: u32) -> Result<Header, String> {
+        if b.len() < HEADER || b[..8] != MAGIC {
+            return Err("not a compiled reconstruction (no F3DCRC01 header)".into());
+        }
+        let u = |o: usize| u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]]);
+        let f = |o: usize| f32::from_bits(u(o));
+        let (w, h, terms, rec) = (u(8), u(12), u(16), u(20));
+        if terms != TERMS as u32 || rec != PixelModel::BYTES as u32 {
+            return Err(format!(
+                "models of {terms} terms and {rec} bytes; this build reads {TERMS} terms of {} bytes",
+                PixelModel::BYTES
+            ));
+        }
+        if (w, h) != (width, height) {
+            return Err(format!(
+                "compiled for a {w}x{h} camera, but the calibrated camera is {width}x{height}"
+            ));
+        }
+        let (z_min, z_max) = (f(24), f(28));
+        if !(z_min.is_finite() && z_max.is_finite() && z_min < z_max) {
+            return Err(format!(
+                "depth range [{z_min}, {z_max}] is not finite and increasing"
+            ));
+        }
+        let mut source_digest = [0u8; 32];
+        source_digest.copy_from_slice(&b[40..72]);
+        Ok(Header {
+            width,
+            height,
+            z_min,
+            z_max,
+            tolerance_mm: f(32),
+            source_digest,
+        })
+    }
+
+    /// Values of the models.
+    fn values(&self) -> usize {
+        self.width as usize * self.height as usize * FIELDS
+    }
+
+    fn with(self, models: Vec<f32>) -> CompiledFile {
+        CompiledFile {
+            width: self.width,
+            height: self.height,
+            z_min: self.z_min,
+            z_max: self.z_max,
+            tolerance_mm: self.tolerance_mm,
+            source_digest: self.source_digest,
+            models,
+        }
+    }
+}
+
+/// Check every model (rows in parallel): one with a scale must have every number finite; one
+/// without becomes [`PixelModel::SEARCH`].
+fn check_models(models: &mut [f32], w: usize) -> Result<(), String> {
+    use rayon::prelude::*;
+    models
+        .par_chunks_exact_mut(FIELDS * w.max(1))
+        .enumerate()
+        .try_for_each(|(v, row)| {
+            for u in 0..w {
+                let k = row[3 * w + u];
+                let m = PixelModel::load(row, u).unwrap_or(PixelModel::SEARCH);
+                if k.is_finite() && k != 0.0 && !m.is_compiled() {
+                    return Err(format!(
+                        "pixel ({u}, {v}): a model with a non-finite coefficient (a damaged file)"
+                    ));
+                }
+                if !m.is_compiled() {
+                    let _ = PixelModel::SEARCH.store(row, u);
+                }
+            }
+            Ok(())
+        })
+}
+
+/// The digest a compiled file carries: SHA-256 of the calibration file's bytes, then the
+/// reference map's.
+pub fn source_digest(calibration: &[u8], map: &[u8]) -> [u8; 32] {
+    use sha2::{Digest, Sha256};
+    let mut h = Sha256::new();
+    h.update(calibration);
+    h.update(map);
+    h.finalize().into()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_and_refusals() {
+        let m = PixelModel {
+            ray: [0.1, 0.2],
+            phase_centre: 50.0,
+            phase_scale: 0.01,
+            depth_centre: 700.0,
+            pole: 0.05,
+            slope: [100.0, 1.0, 0.1, 0.01],
+        };
+        let f = CompiledFile {
+            width: 3,
+            height: 2,
+            z_min: 500.0,
+            z_max: 900.0,
+            tolerance_mm: 1e-4,
+            source_digest: [7; 32],
+            models: vec![0.0; 6 * FIELDS],
+        };
+        let mut f = f;
+        for (i, x) in [m, PixelModel::SEARCH, m, m, m, m].iter().enumerate() {
+            x.store(
+                &mut f.models[(i / 3) * 3 * FIELDS..(i / 3 + 1) * 3 * FIELDS],
+                i % 3,
+            )
+            .unwrap();
+        }
+        let b = f.to_bytes();
+        assert_eq!(b.len(), HEADER + 6 * 40);
+        let g = CompiledFile::parse(&b, 3, 2).unwrap();
+        assert_eq!(g.model(0, 0), Some(m));
+        assert!(!g.model(1, 0).unwrap().is_compiled());
+        assert_eq!(g.model(2, 1), Some(m));
+        assert_eq!(g.compiled_count(), 5);
+        assert_eq!(g.source_digest, [7; 32]);
+        assert!(CompiledFile::parse(&b, 2, 3).unwrap_err().contains("3x2"));
+        assert!(
+            CompiledFile::parse(&b[..b.len() - 1], 3, 2)
+                .unwrap_err()
+                .contains("truncated")
+        );
+        let mut c = b.clone();
+        c[0] = b'X';
+        assert!(
+            CompiledFile::parse(&c, 3, 2)
+                .unwrap_err()
+                .contains("header")
+        );
+        let mut c = b.clone();
+        c[16] = 5;
+        assert!(CompiledFile::parse(&c, 3, 2).unwrap_err().contains("terms"));
+        let mut c = b.clone();
+        c[24..28].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert!(
+            CompiledFile::parse(&c, 3, 2)
+                .unwrap_err()
+                .contains("depth range")
+        );
+        // Pixel (0, 0)'s d₁ (field 6 of row 0) made infinite: a damaged model.
+        let mut c = b;
+        let at = HEADER + 4 * (6 * 3);
+        c[at..at + 4].copy_from_slice(&f32::INFINITY.to_le_bytes());
+        assert!(
+            CompiledFile::parse(&c, 3, 2)
+                .unwrap_err()
+                .contains("pixel (0, 0)")
+        );
+    }
+}

@@ -1,0 +1,640 @@
+//! Building the compiled reconstruction ([`fringe3d_core::reconstruct::compiled`]): one
+//! rational function of the phase per pixel, fitted to the reference map's geometry and checked
+//! against the exact §6 search before it is kept.
+//!
+//! # How a pixel is compiled
+//! 1. **Its phase along its ray (f64).** The pixel's ideal coordinates `m = (x, y)` (the camera's
+//!    inverse), then for [`NODES`] depths `z_j` at the Chebyshev nodes of the depth range widened
+//!    by [`WIDEN`] at each end: the crossing `N_I = m + t(z_j)·e` of §6 (module docs of
+//!    [`fringe3d_core::reconstruct`]: `t(z) = (z·a − h_R)/((z·a − h_R)·P_z + H·z)`), its
+//!    distorted pixel, and the bilinear value of the reference map there: `Φ_j`. Where the map
+//!    (the projector's light) covers only part of the range along the ray, the range is clipped
+//!    to its longest covered stretch and the model marked so ([`PixelModel::is_clipped`]); phases
+//!    that are not strictly monotonic in depth leave the pixel to the search.
+//! 2. **The fit (f64).** With `τ = (Φ − Φ_c)·k` mapping the widened range to `[−1, 1]` (Φ_c and
+//!    k rounded to f32 first, so their rounding is part of the fit) and `ŝ = (z − z_c)/σ`, the
+//!    linear least-squares problem `ŝ_j = Ĉ(τ_j) − γ·τ_j·ŝ_j` (a Möbius function times a
+//!    polynomial Ĉ of degree [`TERMS`], Levy's linearization) gives γ and Ĉ; rewritten about
+//!    `τ = 0` they are the kernel's `s_c`, `d₁…d₄` and `γ`.
+//!    The f64 function is then checked against the map's bilinear phase (what the search reads)
+//!    at depths half a pixel apart along the pixel's search segment (every cell it crosses
+//!    twice, up to [`MAX_FIT_SAMPLES`]); a miss larger than the tolerance leaves the pixel to the
+//!    search.
+//! 3. **The check (f32, the real kernels).** For [`CHECKS`] phases evenly spread over `τ ∈ [−1,
+//!    1]` the whole row is run through the exact search ([`Reconstructor::reconstruct_row`]) and
+//!    through [`compiled_row`]; a pixel is kept only if at every phase both give the same code
+//!    and points within the tolerance (or the search's point lies within the tolerance of an end
+//!    of the depth range, where a code may flip). Otherwise it is [`PixelModel::SEARCH`].
+//!
+//! The tolerance ([`DEFAULT_TOLERANCE_MM`], 0.1 µm) bounds the f64 function against the f64
+//! geometry the search reads, checked densely (step 2). Against the f32 search itself a point
+//! may differ by the tolerance plus [`F32_ALLOWANCE_ULP`] units in the last place of the
+//! coordinate: at 512–1024 mm one ulp is 61 nm, and the search and the function round
+//! differently, so two f32 answers cannot agree to 0.1 µm everywhere.
+
+mod file;
+
+pub use file::{CompiledFile, FileError, MAGIC, source_digest};
+
+use fringe3d_core::reconstruct::compiled::{
+    FIELDS, LEFT_TO_SEARCH, PixelModel, TERMS, compiled_row,
+};
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
+use fringe3d_core::validity::Validity;
+use rayon::prelude::*;
+
+/// Depths a pixel's function is fitted to.
+pub const NODES: usize = 16;
+/// Phases a pixel is checked at against the search.
+pub const CHECKS: usize = 33;
+/// The fitted depth range is the calibration's widened by this fraction of it at each end, so
+/// that the function covers the search's whole range whatever its rounding.
+pub const WIDEN: f64 = 0.005;
+/// How far a clipped range's end is pulled in from the map's edge, as a fraction of the depth
+/// range.
+pub const CLIP_INSET: f64 = 0.002;
+/// Units in the last place of a coordinate that the check allows on top of the tolerance: the
+/// search in f32 lands within about 2 ulp of its f64 crossing, the function within 1–2 (one
+/// ulp is 61 nm at 512–1024 mm), so two f32 answers to the same question differ by up to 4.
+pub const F32_ALLOWANCE_ULP: f64 = 4.0;
+/// Most depths a pixel's fit is checked at (half-pixel steps along its search segment).
+pub const MAX_FIT_SAMPLES: usize = 4096;
+/// Default tolerance on each coordinate of a point, mm (0.1 µm).
+pub const DEFAULT_TOLERANCE_MM: f64 = 1e-4;
+
+/// Why a pixel was left to the search.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reason {
+    /// Compiled.
+    Compiled,
+    /// The map covers less than 1 % of its ray's depth range.
+    OffMap,
+    /// Its phase is not strictly monotonic in depth along the ray.
+    NotMonotonic,
+    /// The function missed the search by more than the tolerance at a checked phase.
+    Check,
+}
+
+/// What a build did.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Report {
+    /// Pixels.
+    pub pixels: usize,
+    /// Pixels with a function.
+    pub compiled: usize,
+    /// Compiled pixels whose range is clipped to the part of the depth range the map covers.
+    pub clipped: usize,
+    /// Pixels left to the search because the map covers (almost) none of their depth range.
+    pub off_map: usize,
+    /// ... because their phase is not monotonic in depth.
+    pub not_monotonic: usize,
+    /// ... because the fit itself missed the tolerance at or between its nodes.
+    pub fit_failed: usize,
+    /// ... because the function missed the search at a checked phase.
+    pub check_failed: usize,
+    /// Kept pixels that differ from the search by more than the tolerance itself somewhere (but
+    /// within it plus the f32 allowance).
+    pub beyond_tolerance: usize,
+    /// Kept clipped pixels where the search found no crossing at some checked phase inside the
+    /// range (it gives up near the map's end) and the function's point matched the f64 crossing:
+    /// there the compiled reconstruction gives a point the search does not.
+    pub answered: usize,
+    /// Largest difference, any coordinate, between the function and the search over the kept
+    /// pixels' checked phases, mm.
+    pub max_difference_mm: f64,
+    /// Largest difference of the f64 function from its f64 nodes over the kept pixels, mm (the
+    /// fit alone, without f32 rounding).
+    pub max_fit_error_mm: f64,
+    /// The tolerance the build used, mm.
+    pub tolerance_mm: f64,
+    /// Checked phases per pixel.
+    pub checks: usize,
+}
+
+impl Report {
+    /// Pixels left to the search, as a fraction of all.
+    pub fn search_fraction(&self) -> f64 {
+        (self.pixels - self.compiled) as f64 / self.pixels.max(1) as f64
+    }
+}
+
+/// Compile every pixel of a reconstruction (rows in parallel) from its reconstructor and its
+/// prepared reference map (`map_width × map_height`, invalid samples NaN, as
+/// [`ReferenceMap::prepare`] leaves them; a scan's `ScanCalibration` holds both).
+/// `tolerance_mm`: the largest difference from the search's geometry a kept pixel may have on any
+/// coordinate.
+pub fn compile(
+    recon: &Reconstructor,
+    reference_phase: &[f32],
+    tolerance_mm: f64,
+) -> (CompiledFile, Report) {
+    let cal = &Source {
+        recon,
+        phase: reference_phase,
+    };
+    let (w, h) = (recon.width(), recon.height());
+    let (mw, mh) = (recon.map_width(), recon.map_height());
+    // A prepared map (the scan's own): never fails for a loaded calibration.
+    let map = ReferenceMap::from_prepared(reference_phase, mw, mh).ok();
+    let mut models = vec![0f32; FIELDS * w * h];
+    let rows: Vec<RowStats> = models
+        .par_chunks_mut(FIELDS * w)
+        .enumerate()
+        .map(|(v, out)| {
+            let mut st = RowStats::default();
+            let mut row = vec![PixelModel::SEARCH; w];
+            fit_row(cal, v, &mut row, tolerance_mm, &mut st);
+            if let Some(map) = &map {
+                check_row(cal, map, v, &mut row, tolerance_mm, &mut st);
+            }
+            for (u, m) in row.iter().enumerate() {
+                let _ = m.store(out, u);
+            }
+            st
+        })
+        .collect();
+    let mut rep = Report {
+        pixels: w * h,
+        tolerance_mm,
+        checks: CHECKS,
+        ..Report::default()
+    };
+    for st in rows {
+        rep.off_map += st.off_map;
+        rep.not_monotonic += st.not_monotonic;
+        rep.check_failed += st.check_failed;
+        rep.fit_failed += st.fit_failed;
+        rep.beyond_tolerance += st.beyond_tolerance;
+        rep.answered += st.answered;
+        rep.max_difference_mm = rep.max_difference_mm.max(st.max_difference);
+        rep.max_fit_error_mm = rep.max_fit_error_mm.max(st.max_fit);
+    }
+    let all = || {
+        models
+            .chunks_exact(FIELDS * w)
+            .flat_map(|row| (0..w).filter_map(|u| PixelModel::load(row, u)))
+    };
+    rep.compiled = all().filter(|m| m.is_compiled()).count();
+    rep.clipped = all().filter(|m| m.is_compiled() && m.is_clipped()).count();
+    let s = recon.setup();
+    let file = CompiledFile {
+        width: w as u32,
+        height: h as u32,
+        z_min: s.z_min as f32,
+        z_max: s.z_max as f32,
+        tolerance_mm: tolerance_mm as f32,
+        source_digest: [0; 32],
+        models,
+    };
+    (file, rep)
+}
+
+/// What a build reads: the reconstructor and its prepared map.
+struct Source<'a> {
+    recon: &'a Reconstructor,
+    phase: &'a [f32],
+}
+
+#[derive(Default)]
+struct RowStats {
+    off_map: usize,
+    not_monotonic: usize,
+    check_failed: usize,
+    beyond_tolerance: usize,
+    answered: usize,
+    fit_failed: usize,
+    max_difference: f64,
+    max_fit: f64,
+}
+
+/// Steps 1 and 2 for row `v` (module documentation).
+fn fit_row(cal: &Source<'_>, v: usize, row: &mut [PixelModel], tol: f64, st: &mut RowStats) {
+    // The kernel's own f32 rays (the search's, bit for bit), so that points differ only in depth.
+    let w = row.len();
+    let (mut xs, mut ys) = (vec![0f32; w], vec![0f32; w]);
+    cal.recon
+        .camera()
+        .undistort_row_f32(v as u32, &mut xs, &mut ys);
+    for (u, m) in row.iter_mut().enumerate() {
+        match fit_pixel(cal, u, v) {
+            // The fit itself, at and between its nodes, must be within the tolerance.
+            Ok((_, fit)) if fit > tol => st.fit_failed += 1,
+            Ok((mut model, fit)) => {
+                model.ray = [xs[u], ys[u]];
+                *m = model;
+                st.max_fit = st.max_fit.max(fit);
+            }
+            Err(Reason::OffMap) => st.off_map += 1,
+            Err(_) => st.not_monotonic += 1,
+        }
+    }
+}
+
+/// The f64 phase of the reference map at image pixel position `p` (bilinear, map coordinates
+/// offset by the margin), `None` off the map or on an invalid sample.
+fn map_phase(cal: &Source<'_>, p: [f64; 2]) -> Option<f64> {
+    let r = &cal.recon;
+    let m = r.margin();
+    let (mw, mh) = (r.map_width(), r.map_height());
+    let (x, y) = (p[0] + m.left as f64, p[1] + m.top as f64);
+    if !(x >= 0.0 && y >= 0.0 && x <= (mw - 1) as f64 && y <= (mh - 1) as f64) {
+        return None;
+    }
+    let (i, j) = ((x as usize).min(mw - 2), (y as usize).min(mh - 2));
+    let (fx, fy) = (x - i as f64, y - j as f64);
+    let at = |a: usize, b: usize| cal.phase[b * mw + a] as f64;
+    let (q00, q10, q01, q11) = (at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1));
+    let top = q00 + (q10 - q00) * fx;
+    let bot = q01 + (q11 - q01) * fx;
+    let g = top + (bot - top) * fy;
+    g.is_finite().then_some(g)
+}
+
+/// One pixel's ray and the reference phase along it (step 1 of the module documentation).
+struct Ray<'a> {
+    cal: &'a Source<'a>,
+    x: f64,
+    y: f64,
+    a: f64,
+    h_r: f64,
+    hh: f64,
+    pz: f64,
+    ex: f64,
+    ey: f64,
+}
+
+impl<'a> Ray<'a> {
+    fn new(cal: &'a Source<'a>, u: usize, v: usize) -> Self {
+        let s = cal.recon.setup();
+        let [x, y] = cal.recon.camera().pixel_to_normalized([u as f64, v as f64]);
+        let n = s.reference_normal;
+        let (o, p) = (s.reference_point, s.projector_centre);
+        Ray {
+            cal,
+            x,
+            y,
+            a: n.x * x + n.y * y + n.z,
+            h_r: n.x * o.x + n.y * o.y + n.z * o.z,
+            hh: n.x * (o.x - p.x) + n.y * (o.y - p.y) + n.z * (o.z - p.z),
+            pz: p.z,
+            ex: p.x - p.z * x,
+            ey: p.y - p.z * y,
+        }
+    }
+
+    /// The image position (distorted pixels) where the search meets depth `z` (eqs 16-18
+    /// inverted: `t(z)`).
+    fn pixel_at(&self, z: f64) -> [f64; 2] {
+        let num = z * self.a - self.h_r;
+        let t = num / (num * self.pz + self.hh * z);
+        let cam = self.cal.recon.camera();
+        cam.normalized_to_pixel([self.x + t * self.ex, self.y + t * self.ey])
+    }
+
+    /// The reference phase where the search meets depth `z`.
+    fn phase_at(&self, z: f64) -> Option<f64> {
+        map_phase(self.cal, self.pixel_at(z))
+    }
+
+    /// The depth in `[z0, z1]` where the reference phase along the ray is `phi` (60 bisections),
+    /// `None` if the ends do not bracket it or the map is invalid on the way.
+    fn depth_of(&self, phi: f64, z0: f64, z1: f64) -> Option<f64> {
+        let (mut lo, mut hi) = (z0, z1);
+        let below = self.phase_at(lo)? < phi;
+        if (self.phase_at(hi)? < phi) == below {
+            return None;
+        }
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if (self.phase_at(mid)? < phi) == below {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        Some(0.5 * (lo + hi))
+    }
+
+    /// The longest stretch of `[z0, z1]` over which the map is valid along the ray, its ends
+    /// found to 2⁻³⁰ of the range, each end at the map's edge pulled in by `inset` of the range;
+    /// `None` when it is shorter than 1 % of the range.
+    fn valid_run(&self, z0: f64, z1: f64, inset: f64) -> Option<(f64, f64)> {
+        const SAMPLES: usize = 129;
+        let at = |k: usize| z0 + (z1 - z0) * k as f64 / (SAMPLES - 1) as f64;
+        let ok: Vec<bool> = (0..SAMPLES)
+            .map(|k| self.phase_at(at(k)).is_some())
+            .collect();
+        let (mut best, mut start) = ((0, 0), None);
+        for k in 0..=SAMPLES {
+            match (ok.get(k).copied().unwrap_or(false), start) {
+                (true, None) => start = Some(k),
+                (false, Some(s0)) => {
+                    if k - s0 > best.1 - best.0 {
+                        best = (s0, k);
+                    }
+                    start = None;
+                }
+                _ => {}
+            }
+        }
+        let (first, end) = best;
+        if end - first < 3 {
+            return None;
+        }
+        // Refine each end between its last valid and first invalid sample.
+        let refine = |mut good: f64, mut bad: f64| {
+            for _ in 0..30 {
+                let mid = 0.5 * (good + bad);
+                if self.phase_at(mid).is_some() {
+                    good = mid;
+                } else {
+                    bad = mid;
+                }
+            }
+            good
+        };
+        // An end at the map's edge is pulled in by `inset` of the range.
+        let inset = inset * (z1 - z0);
+        let lo = if first == 0 {
+            z0
+        } else {
+            refine(at(first), at(first - 1)) + inset
+        };
+        let hi = if end == SAMPLES {
+            z1
+        } else {
+            refine(at(end - 1), at(end)) - inset
+        };
+        (hi - lo >= 0.01 * (z1 - z0)).then_some((lo, hi))
+    }
+}
+
+/// One pixel's model and its largest f64 fit error at the nodes and between them (mm): over the
+/// depth range widened by [`WIDEN`] where the map allows, else over the range itself (a map
+/// whose margin ends where the search's segments end), else over the longest part of the range
+/// the map covers along the ray, clipped.
+fn fit_pixel(cal: &Source<'_>, u: usize, v: usize) -> Result<(PixelModel, f64), Reason> {
+    let ray = Ray::new(cal, u, v);
+    let s = cal.recon.setup();
+    for widen in [WIDEN, 0.0] {
+        let d = widen * (s.z_max - s.z_min);
+        match fit_range(&ray, s.z_min - d, s.z_max + d, false) {
+            Err(Reason::OffMap) => continue,
+            r => return r,
+        }
+    }
+    // An end at the map's edge is pulled in by CLIP_INSET: the search needs its samples'
+    // neighbours there.
+    let (lo, hi) = ray
+        .valid_run(s.z_min, s.z_max, CLIP_INSET)
+        .ok_or(Reason::OffMap)?;
+    fit_range(&ray, lo, hi, true)
+}
+
+/// Fit a pixel's model over depths `[z_lo, z_hi]` (steps 1 and 2).
+fn fit_range(
+    ray: &Ray<'_>,
+    z_lo: f64,
+    z_hi: f64,
+    clipped: bool,
+) -> Result<(PixelModel, f64), Reason> {
+    let (zc, sig) = (0.5 * (z_lo + z_hi), 0.5 * (z_hi - z_lo));
+    // Chebyshev nodes in depth (increasing), and the ends.
+    let mut zs = [0f64; NODES + 2];
+    zs[0] = z_lo;
+    zs[NODES + 1] = z_hi;
+    for (j, z) in zs[1..=NODES].iter_mut().enumerate() {
+        let c = (core::f64::consts::PI * (j as f64 + 0.5) / NODES as f64).cos();
+        *z = zc - sig * c;
+    }
+    let mut ph = [0f64; NODES + 2];
+    for (p_, z) in ph.iter_mut().zip(&zs) {
+        *p_ = ray.phase_at(*z).ok_or(Reason::OffMap)?;
+    }
+    // The phases must be strictly monotonic in depth.
+    let up = ph[NODES + 1] > ph[0];
+    if !ph.windows(2).all(|q| (q[1] > q[0]) == up && q[1] != q[0]) {
+        return Err(Reason::NotMonotonic);
+    }
+    let phase_centre = (0.5 * (ph[0] + ph[NODES + 1])) as f32;
+    let k = (2.0 / (ph[NODES + 1] - ph[0]).abs()) as f32;
+    let tau = |phi: f64| (phi - phase_centre as f64) * k as f64;
+    let pts: Vec<(f64, f64)> = zs
+        .iter()
+        .zip(&ph)
+        .map(|(z, phi)| (tau(*phi), (z - zc) / sig))
+        .collect();
+    let (c, gamma) = fit_levy(&pts).ok_or(Reason::NotMonotonic)?;
+    // About τ = 0: s_c = z_c + σ·ĉ₀, d₁ = σ(ĉ₁ − ĉ₀γ), d_k = σ·ĉ_k.
+    let mut slope = [0f32; TERMS];
+    for (j, d) in slope.iter_mut().enumerate() {
+        let cj = if j == 0 {
+            c[1] - c[0] * gamma
+        } else {
+            c[j + 1]
+        };
+        *d = (sig * cj) as f32;
+    }
+    let model = PixelModel {
+        ray: [ray.x as f32, ray.y as f32],
+        phase_centre,
+        phase_scale: if clipped { -k } else { k },
+        depth_centre: (zc + sig * c[0]) as f32,
+        pole: gamma as f32,
+        slope,
+    };
+    // The fit's own error (f64 evaluation of the f32 model against the map's bilinear phase,
+    // which the search reads): at depths at most half a pixel apart along the search's segment,
+    // so that every cell the segment crosses is sampled twice (the bilinear phase bends at cell
+    // edges, where a smooth function departs from it most).
+    let ends = [z_lo, z_hi].map(|z| ray.pixel_at(z));
+    let len = ((ends[1][0] - ends[0][0]).powi(2) + (ends[1][1] - ends[0][1]).powi(2)).sqrt();
+    let m = ((2.0 * len).ceil() as usize).clamp(64, MAX_FIT_SAMPLES);
+    let mut fit = 0f64;
+    for j in 0..=m {
+        let z = z_lo + (z_hi - z_lo) * j as f64 / m as f64;
+        let phi = ray.phase_at(z).ok_or(Reason::OffMap)?;
+        fit = fit.max((model.depth_f64_unbounded(phi) - z).abs());
+    }
+    Ok((model, fit))
+}
+
+/// Levy's linearized least squares for `ŝ(1 + γτ) = Ĉ(τ)`, `Ĉ` of degree [`TERMS`]: returns
+/// `(ĉ₀…ĉ_TERMS, γ)`, `None` for a singular system.
+fn fit_levy(pts: &[(f64, f64)]) -> Option<([f64; TERMS + 1], f64)> {
+    const N: usize = TERMS + 2;
+    let mut ata = [[0f64; N]; N];
+    let mut atb = [0f64; N];
+    for &(t, s) in pts {
+        let mut row = [0f64; N];
+        let mut tk = 1.0;
+        for r in row.iter_mut().take(TERMS + 1) {
+            *r = tk;
+            tk *= t;
+        }
+        row[N - 1] = -t * s;
+        for i in 0..N {
+            atb[i] += row[i] * s;
+            for j in 0..N {
+                ata[i][j] += row[i] * row[j];
+            }
+        }
+    }
+    let x = solve(ata, atb)?;
+    let mut c = [0f64; TERMS + 1];
+    c.copy_from_slice(&x[..TERMS + 1]);
+    Some((c, x[N - 1]))
+}
+
+/// Gaussian elimination with partial pivoting.
+fn solve<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; N]> {
+    for col in 0..N {
+        let piv = (col..N).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if !(a[piv][col].abs() > 1e-300) {
+            return None;
+        }
+        a.swap(col, piv);
+        b.swap(col, piv);
+        for r in col + 1..N {
+            let f = a[r][col] / a[col][col];
+            for k in col..N {
+                a[r][k] -= f * a[col][k];
+            }
+            b[r] -= f * b[col];
+        }
+    }
+    let mut x = [0f64; N];
+    for r in (0..N).rev() {
+        let mut acc = b[r];
+        for k in r + 1..N {
+            acc -= a[r][k] * x[k];
+        }
+        x[r] = acc / a[r][r];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// The spacing of f32 values at `|x|` (one unit in the last place), as f64.
+pub fn ulp(x: f32) -> f64 {
+    let a = x.abs();
+    if !a.is_finite() {
+        return 0.0;
+    }
+    (f32::from_bits(a.to_bits() + 1) - a) as f64
+}
+
+/// Step 3 for row `v`: run the search and the function at [`CHECKS`] phases per pixel; a pixel
+/// that misses anywhere becomes [`PixelModel::SEARCH`]. Where the search finds no crossing
+/// inside a clipped range (it gives up near the map's end), the function's point is checked
+/// against the f64 crossing instead ([`Ray::depth_of`]) and counted in `answered`.
+fn check_row(
+    cal: &Source<'_>,
+    map: &ReferenceMap<'_>,
+    v: usize,
+    row: &mut [PixelModel],
+    tol: f64,
+    st: &mut RowStats,
+) {
+    let recon = &cal.recon;
+    let w = row.len();
+    let s = recon.setup();
+    let (z_min, z_max) = (s.z_min as f32, s.z_max as f32);
+    let mut phase = vec![0f32; w];
+    let mut q = vec![0u8; w];
+    let (mut ex, mut eq) = (vec![0f32; 3 * w], vec![0u8; w]);
+    let (mut cx, mut cq) = (vec![0f32; 3 * w], vec![0u8; w]);
+    let mut worst = vec![0f64; w];
+    let mut fail = vec![false; w];
+    let mut within = vec![true; w];
+    let mut answered = vec![false; w];
+    let valid = Validity::Valid as u8;
+    let mut soa = vec![0f32; FIELDS * w];
+    for (u, m) in row.iter().enumerate() {
+        let _ = m.store(&mut soa, u);
+    }
+    for k in 0..CHECKS {
+        let tau = -1.0 + 2.0 * k as f64 / (CHECKS - 1) as f64;
+        for ((p, qq), m) in phase.iter_mut().zip(q.iter_mut()).zip(row.iter()) {
+            if m.is_compiled() {
+                *p = (m.phase_centre as f64 + tau / (m.phase_scale as f64).abs()) as f32;
+                *qq = valid;
+            } else {
+                *p = f32::NAN;
+                *qq = Validity::OutOfDepth as u8;
+            }
+        }
+        let exact = recon.reconstruct_row(map, v as u32, &phase, &q, &mut ex, &mut eq);
+        let comp = compiled_row(&soa, z_min, z_max, &phase, &q, &mut cx, &mut cq);
+        if exact.is_err() || comp.is_err() {
+            fail.iter_mut().for_each(|f| *f = true);
+            break;
+        }
+        for u in 0..w {
+            // Beyond a clipped range by rounding, the search answers, as in a scan.
+            if !row[u].is_compiled() || cq[u] == LEFT_TO_SEARCH {
+                continue;
+            }
+            let c = &cx[3 * u..3 * u + 3];
+            let mut e = [ex[3 * u], ex[3 * u + 1], ex[3 * u + 2]];
+            let mut code = eq[u];
+            let lost =
+                code == Validity::NoCrossing as u8 || code == Validity::ReferenceInvalid as u8;
+            if row[u].is_clipped() && lost && cq[u] == valid {
+                // The f64 crossing, bracketed by the map's stretch along the ray, stands in for
+                // the search's.
+                let m = &row[u];
+                let ray = Ray::new(cal, u, v);
+                let z = ray
+                    .valid_run(s.z_min, s.z_max, 0.0)
+                    .and_then(|(a, b)| ray.depth_of(phase[u] as f64, a, b));
+                if let Some(z) = z {
+                    e = [
+                        (z * m.ray[0] as f64) as f32,
+                        (z * m.ray[1] as f64) as f32,
+                        z as f32,
+                    ];
+                    code = valid;
+                    answered[u] = true;
+                }
+            }
+            if code == valid && cq[u] == valid {
+                let mut d = 0f64;
+                for i in 0..3 {
+                    let di = (e[i] as f64 - c[i] as f64).abs();
+                    d = d.max(di);
+                    fail[u] |= di > tol + F32_ALLOWANCE_ULP * ulp(e[i]);
+                }
+                worst[u] = worst[u].max(d);
+                within[u] &= d <= tol;
+            } else if code != cq[u] {
+                // Codes may differ only at an end of the depth range, between a point and no
+                // point (out of depth, or no crossing where the search meets the range's end).
+                let none =
+                    |c: u8| c == Validity::OutOfDepth as u8 || c == Validity::NoCrossing as u8;
+                let ok = if code == valid || cq[u] == valid {
+                    let z = if code == valid { e[2] } else { c[2] } as f64;
+                    let allow = tol + F32_ALLOWANCE_ULP * ulp(z as f32);
+                    let near =
+                        (z - z_min as f64).abs() <= allow || (z - z_max as f64).abs() <= allow;
+                    near && (none(code) || none(cq[u]))
+                } else {
+                    none(code) && none(cq[u])
+                };
+                fail[u] |= !ok;
+            }
+        }
+    }
+    for u in 0..w {
+        if !row[u].is_compiled() {
+            continue;
+        }
+        if fail[u] {
+            row[u] = PixelModel::SEARCH;
+            st.check_failed += 1;
+        } else {
+            st.max_difference = st.max_difference.max(worst[u]);
+            st.beyond_tolerance += usize::from(!within[u]);
+            st.answered += usize::from(answered[u]);
+        }
+    }
+}

@@ -1,0 +1,263 @@
+//! The compiled reconstruction (`fringe3d compile`, `scan --compiled`, issue #24 item 1) on
+//! rendered scenes with virtual references: the points against the exact §6 search's, pixel by
+//! pixel, the share of pixels left to the search, and misuse refused with one clear error.
+
+use fringe3d::cli::common;
+use fringe3d::compiled::{F32_ALLOWANCE_ULP, ulp};
+use fringe3d::scan::{PointCloud, ScanCalibration};
+use fringe3d_core::validity::Validity;
+use std::path::Path;
+
+use crate::cli_support::{Tmp, fringe3d, run, s};
+
+/// The scan of `ds` with `calibration`, exact and compiled with `compiled` (the library path
+/// of `fringe3d scan`).
+fn both(ds: &Path, calibration: &Path, compiled: &Path) -> (PointCloud, PointCloud) {
+    let ls = common::load_set(&ds.join("patterns.toml")).expect("pattern set");
+    let cal = ScanCalibration::load(calibration, ls.set.axis()).expect("calibration");
+    let imgs = common::load_images(&ls, &[], true).expect("images");
+    let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).expect("decode");
+    let exact = cal.reconstruct(&d.phase, &d.validity, true).expect("exact");
+    let cal = cal.with_compiled(compiled).expect("compiled file");
+    let comp = cal
+        .reconstruct(&d.phase, &d.validity, true)
+        .expect("compiled");
+    (exact, comp)
+}
+
+/// Render `scene` at `size`, make its virtual reference, compile it with tolerance `tol_um`;
+/// compare the two scans.
+fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
+    let ds = t.0.join(label);
+    run(&[
+        "render",
+        "-q",
+        "--scene",
+        scene,
+        "--size",
+        size,
+        "--supersample",
+        "1",
+        "--noise",
+        "1",
+        "--bits",
+        "8",
+        "--out",
+        s(&ds),
+    ]);
+    let tol = tol_um * 1e-3;
+    let virt = t.0.join(format!("{label}-virtual/calibration.toml"));
+    run(&[
+        "calibrate",
+        "reference",
+        "-q",
+        "--virtual",
+        "--patterns",
+        s(&ds.join("patterns.toml")),
+        "--calibration",
+        s(&ds.join("calibration.toml")),
+        "-o",
+        s(&virt),
+    ]);
+    let file = t.0.join(format!("{label}.f3c"));
+    let tol_arg = tol_um.to_string();
+    let out = run(&[
+        "compile",
+        "--json",
+        "--tolerance",
+        &tol_arg,
+        "-p",
+        s(&ds.join("patterns.toml")),
+        "-c",
+        s(&virt),
+        "-o",
+        s(&file),
+    ]);
+    let rep: serde_json::Value = serde_json::from_str(&out).expect("json");
+    let rep = &rep["report"];
+    let pixels = rep["pixels"].as_u64().unwrap() as f64;
+    let compiled = rep["compiled"].as_u64().unwrap() as f64;
+    let off_map = rep["off_map"].as_u64().unwrap() as f64;
+
+    let (exact, comp) = both(&ds, &virt, &file);
+    let valid = Validity::Valid as u8;
+    let (mut same, mut max_diff, mut within, mut compared) = (0usize, 0f64, 0usize, 0usize);
+    let (mut only_compiled, mut only_exact) = (0usize, 0usize);
+    for i in 0..exact.validity.len() {
+        let (e, c) = (exact.validity[i], comp.validity[i]);
+        if e == valid && c == valid {
+            compared += 1;
+            let mut d = 0f64;
+            for k in 0..3 {
+                let (a, b) = (exact.xyz[3 * i + k], comp.xyz[3 * i + k]);
+                let dk = (a as f64 - b as f64).abs();
+                assert!(
+                    dk <= tol + F32_ALLOWANCE_ULP * ulp(a),
+                    "{label}: pixel {i} coordinate {k}: {a} against {b}"
+                );
+                d = d.max(dk);
+            }
+            max_diff = max_diff.max(d);
+            within += usize::from(d <= tol);
+        } else if e == c {
+            same += 1;
+        } else if c == valid {
+            only_compiled += 1;
+        } else if e == valid {
+            only_exact += 1;
+        } else {
+            // Two ways of saying "no point" (out of depth, no crossing) at the range's ends.
+            let none = |x: u8| x == Validity::OutOfDepth as u8 || x == Validity::NoCrossing as u8;
+            assert!(none(e) && none(c), "{label}: pixel {i}: codes {e} and {c}");
+        }
+    }
+    eprintln!(
+        "{label} {size}, tolerance {tol_um} µm: compiled {:.2} % of the pixels ({:.2} % of those \
+         the map covers), {compared} points compared: largest difference {:.3} µm, {:.3} % \
+         within the tolerance; {only_compiled} points only compiled, {only_exact} only exact, \
+         {same} same invalid codes",
+        100.0 * compiled / pixels,
+        100.0 * compiled / (pixels - off_map),
+        max_diff * 1e3,
+        100.0 * within as f64 / compared.max(1) as f64,
+    );
+    assert!(compared > 10_000, "{label}: {compared} points");
+    // Most pixels the projector lights compile, and nearly every point is the search's to the
+    // tolerance; every one within it plus the f32 allowance.
+    assert!(compiled >= 0.85 * (pixels - off_map), "{label}: {rep}");
+    assert!(within as f64 >= 0.85 * compared as f64, "{label}");
+    // A compiled point the search lacks is one it gives up on near the map's end: rare.
+    assert!(only_compiled + only_exact <= compared / 1000, "{label}");
+
+    // The CLI's scan with the file and without: the same points but the few above.
+    let pat = ds.join("patterns.toml");
+    let cli = |compiled: Option<&Path>, out: &str| {
+        let ply = t.0.join(out);
+        let mut args = vec!["scan", "--json", "-p", s(&pat)];
+        args.extend_from_slice(&["-c", s(&virt), s(&ds), "-o", s(&ply)]);
+        if let Some(f) = compiled {
+            args.extend_from_slice(&["--compiled", s(f)]);
+        }
+        let j: serde_json::Value = serde_json::from_str(&run(&args)).expect("json");
+        j["points"].as_u64().unwrap() as i64
+    };
+    let (a, b) = (
+        cli(None, &format!("{label}-exact.ply")),
+        cli(Some(&file), &format!("{label}-compiled.ply")),
+    );
+    assert!(
+        (a - b).unsigned_abs() as usize <= compared / 1000,
+        "{label}: scan gives {a} points, with --compiled {b}"
+    );
+}
+
+#[test]
+fn compiled_scans_match_the_search() {
+    let t = Tmp::new("compiled");
+    // The default rig at full size (projector lens distortion), at the issue's 0.1 µm.
+    scene(&t, "sphere", "sphere", "1280x1024", 0.1);
+    // Curved fringes, a skewed rig, a freeform at 640 × 512: the search's bilinear reading of a
+    // map of coarser pixels departs from any smooth function by ~0.2 µm (docs/compiled.md),
+    // so at 0.5 µm.
+    for sc in ["cylinder_curved", "skewed_rig", "freeform"] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../examples/scenes")
+            .join(format!("{sc}.toml"));
+        scene(&t, s(&path), sc, "640x512", 0.5);
+    }
+}
+
+#[test]
+fn a_compiled_file_for_another_calibration_is_refused() {
+    let t = Tmp::new("compiled-misuse");
+    let ds = t.0.join("ds");
+    run(&[
+        "render",
+        "-q",
+        "--scene",
+        "sphere",
+        "--size",
+        "160x128",
+        "--out",
+        s(&ds),
+    ]);
+    let pat = ds.join("patterns.toml");
+    let virt = t.0.join("v/calibration.toml");
+    run(&[
+        "calibrate",
+        "reference",
+        "-q",
+        "--virtual",
+        "--patterns",
+        s(&pat),
+        "--calibration",
+        s(&ds.join("calibration.toml")),
+        "-o",
+        s(&virt),
+    ]);
+    let file = t.0.join("r.f3c");
+    run(&[
+        "compile",
+        "-q",
+        "-p",
+        s(&pat),
+        "-c",
+        s(&virt),
+        "-o",
+        s(&file),
+    ]);
+    let scan = |cal: &Path, compiled: &Path, out: &str| {
+        let ply = t.0.join(out);
+        let r = fringe3d(&[
+            "scan",
+            "-q",
+            "-p",
+            s(&pat),
+            "-c",
+            s(cal),
+            "--compiled",
+            s(compiled),
+            s(&ds),
+            "-o",
+            s(&ply),
+        ]);
+        let ok = r.status.success();
+        assert_eq!(ply.exists(), ok, "{out}");
+        (ok, String::from_utf8_lossy(&r.stderr).into_owned())
+    };
+    // The dataset's own (captured) reference is another map: refused, naming the file.
+    let (ok, err) = scan(&ds.join("calibration.toml"), &file, "a.ply");
+    assert!(
+        !ok && err.contains("r.f3c") && err.contains("re-run `fringe3d compile`"),
+        "{err}"
+    );
+    // Damaged: truncated, or not a compiled file at all.
+    let bytes = std::fs::read(&file).unwrap();
+    let cut = t.0.join("cut.f3c");
+    std::fs::write(&cut, &bytes[..bytes.len() - 4]).unwrap();
+    let (ok, err) = scan(&virt, &cut, "b.ply");
+    assert!(
+        !ok && err.contains("cut.f3c") && err.contains("truncated"),
+        "{err}"
+    );
+    let (ok, err) = scan(&virt, &pat, "c.ply");
+    assert!(!ok && err.contains("F3DCRC01"), "{err}");
+    // A bad tolerance is refused before anything is read.
+    let r = fringe3d(&[
+        "compile",
+        "-p",
+        s(&pat),
+        "-c",
+        s(&virt),
+        "-o",
+        s(&t.0.join("x.f3c")),
+        "--tolerance",
+        "0",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(!r.status.success() && err.contains("--tolerance"), "{err}");
+    assert!(!t.0.join("x.f3c").exists());
+    // And the good file scans.
+    let (ok, err) = scan(&virt, &file, "d.ply");
+    assert!(ok, "{err}");
+}
