@@ -7,7 +7,7 @@
 //! (decode to the file's bytes) in one pass over bands of rows, without whole-frame buffers.
 
 use crate::batch::{CompiledRows, Isa, PointsOut as BatchOut};
-use crate::compiled::{CompiledFile, source_digest};
+use crate::compiled::{CompiledFile, FileError, source_digest};
 use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, ReadLimits, read_gray_limited, read_header};
 use fringe3d_core::filter::EdgeFilter;
@@ -194,7 +194,12 @@ impl ScanCalibration {
         };
         let (w, h) = (self.width() as u32, self.height() as u32);
         let (file, digest) = rayon::join(
-            || CompiledFile::read(path, w, h).map_err(|e| bad(e.to_string())),
+            || {
+                CompiledFile::read(path, w, h).map_err(|e| match e {
+                    FileError::Io { source, .. } => bad(format!("cannot read: {source}")),
+                    FileError::Format { message, .. } => bad(message),
+                })
+            },
             || self.source_digest(),
         );
         let (file, digest) = (file?, digest?);

@@ -6,7 +6,7 @@ use fringe3d::cli::common;
 use fringe3d::compiled::{F32_ALLOWANCE_ULP, ulp};
 use fringe3d::scan::{PointCloud, ScanCalibration};
 use fringe3d_core::validity::Validity;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::cli_support::{Tmp, fringe3d, run, s};
 
@@ -25,9 +25,9 @@ fn both(ds: &Path, calibration: &Path, compiled: &Path) -> (PointCloud, PointClo
     (exact, comp)
 }
 
-/// Render `scene` at `size`, make its virtual reference, compile it with tolerance `tol_um`;
-/// compare the two scans.
-fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
+/// Render `scene` at `size` into `label/` (σ = 1 gray level, 8 bits) and make its virtual
+/// reference: the dataset folder and the virtual reference's calibration.
+fn virtual_dataset(t: &Tmp, scene: &str, label: &str, size: &str) -> (PathBuf, PathBuf) {
     let ds = t.0.join(label);
     run(&[
         "render",
@@ -45,7 +45,6 @@ fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
         "--out",
         s(&ds),
     ]);
-    let tol = tol_um * 1e-3;
     let virt = t.0.join(format!("{label}-virtual/calibration.toml"));
     run(&[
         "calibrate",
@@ -59,6 +58,14 @@ fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
         "-o",
         s(&virt),
     ]);
+    (ds, virt)
+}
+
+/// Render `scene` at `size`, make its virtual reference, compile it with tolerance `tol_um`;
+/// compare the two scans.
+fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
+    let (ds, virt) = virtual_dataset(t, scene, label, size);
+    let tol = tol_um * 1e-3;
     let file = t.0.join(format!("{label}.f3c"));
     let tol_arg = tol_um.to_string();
     let out = run(&[
@@ -170,31 +177,8 @@ fn compiled_scans_match_the_search() {
 #[test]
 fn a_compiled_file_for_another_calibration_is_refused() {
     let t = Tmp::new("compiled-misuse");
-    let ds = t.0.join("ds");
-    run(&[
-        "render",
-        "-q",
-        "--scene",
-        "sphere",
-        "--size",
-        "160x128",
-        "--out",
-        s(&ds),
-    ]);
+    let (ds, virt) = virtual_dataset(&t, "sphere", "ds", "160x128");
     let pat = ds.join("patterns.toml");
-    let virt = t.0.join("v/calibration.toml");
-    run(&[
-        "calibrate",
-        "reference",
-        "-q",
-        "--virtual",
-        "--patterns",
-        s(&pat),
-        "--calibration",
-        s(&ds.join("calibration.toml")),
-        "-o",
-        s(&virt),
-    ]);
     let file = t.0.join("r.f3c");
     run(&[
         "compile",

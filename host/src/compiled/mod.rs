@@ -17,9 +17,9 @@
 //!    polynomial Ĉ of degree [`TERMS`], Levy's linearization) gives γ and Ĉ; rewritten about
 //!    `τ = 0` they are the kernel's `s_c`, `d₁…d₄` and `γ`.
 //!    The f64 function is then checked against the map's bilinear phase (what the search reads)
-//!    at depths half a pixel apart along the pixel's search segment (every cell it crosses
-//!    twice, up to [`MAX_FIT_SAMPLES`]); a miss larger than the tolerance leaves the pixel to the
-//!    search.
+//!    at points half a pixel apart along the pixel's search segment (evenly in its parameter t;
+//!    every cell it crosses about twice, up to [`MAX_FIT_SAMPLES`]); a miss larger than the
+//!    tolerance leaves the pixel to the search (after the unwidened range is tried).
 //! 3. **The check (f32, the real kernels).** For [`CHECKS`] phases evenly spread over `τ ∈ [−1,
 //!    1]` the whole row is run through the exact search ([`Reconstructor::reconstruct_row`]) and
 //!    through [`compiled_row`]; a pixel is kept only if at every phase both give the same code
@@ -71,6 +71,8 @@ pub enum Reason {
     OffMap,
     /// Its phase is not strictly monotonic in depth along the ray.
     NotMonotonic,
+    /// The fit's system is singular.
+    Singular,
     /// The function missed the search by more than the tolerance at a checked phase.
     Check,
 }
@@ -86,7 +88,7 @@ pub struct Report {
     pub clipped: usize,
     /// Pixels left to the search because the map covers (almost) none of their depth range.
     pub off_map: usize,
-    /// ... because their phase is not monotonic in depth.
+    /// ... because their phase is not monotonic in depth (or the fit's system is singular).
     pub not_monotonic: usize,
     /// ... because the fit itself missed the tolerance at or between its nodes.
     pub fit_failed: usize,
@@ -134,18 +136,34 @@ pub fn compile(
     };
     let (w, h) = (recon.width(), recon.height());
     let (mw, mh) = (recon.map_width(), recon.map_height());
-    // A prepared map (the scan's own): never fails for a loaded calibration.
-    let map = ReferenceMap::from_prepared(reference_phase, mw, mh).ok();
+    // A prepared map (the scan's own): never fails for a loaded calibration; a map too small
+    // to interpolate compiles nothing.
+    let map = ReferenceMap::from_prepared(reference_phase, mw, mh)
+        .ok()
+        .filter(|_| mw >= 2 && mh >= 2 && w > 0);
     let mut models = vec![0f32; FIELDS * w * h];
     let rows: Vec<RowStats> = models
-        .par_chunks_mut(FIELDS * w)
+        .par_chunks_mut(FIELDS * w.max(1))
         .enumerate()
         .map(|(v, out)| {
             let mut st = RowStats::default();
             let mut row = vec![PixelModel::SEARCH; w];
-            fit_row(cal, v, &mut row, tolerance_mm, &mut st);
-            if let Some(map) = &map {
-                check_row(cal, map, v, &mut row, tolerance_mm, &mut st);
+            let mut fits = vec![f64::NAN; w];
+            fit_row(cal, v, &mut row, &mut fits, tolerance_mm, &mut st);
+            match &map {
+                Some(map) => check_row(cal, map, v, &mut row, tolerance_mm, &mut st),
+                // Never for a prepared map of the reconstructor's size; but no model is kept
+                // unchecked.
+                None => {
+                    st.check_failed += row.iter().filter(|m| m.is_compiled()).count();
+                    row.fill(PixelModel::SEARCH);
+                }
+            }
+            // The fit's error over the pixels kept.
+            for (m, f) in row.iter().zip(&fits) {
+                if m.is_compiled() {
+                    st.max_fit = st.max_fit.max(*f);
+                }
             }
             for (u, m) in row.iter().enumerate() {
                 let _ = m.store(out, u);
@@ -207,22 +225,29 @@ struct RowStats {
     max_fit: f64,
 }
 
-/// Steps 1 and 2 for row `v` (module documentation).
-fn fit_row(cal: &Source<'_>, v: usize, row: &mut [PixelModel], tol: f64, st: &mut RowStats) {
+/// Steps 1 and 2 for row `v` (module documentation); each kept pixel's fit error into `fits`.
+fn fit_row(
+    cal: &Source<'_>,
+    v: usize,
+    row: &mut [PixelModel],
+    fits: &mut [f64],
+    tol: f64,
+    st: &mut RowStats,
+) {
     // The kernel's own f32 rays (the search's, bit for bit), so that points differ only in depth.
     let w = row.len();
     let (mut xs, mut ys) = (vec![0f32; w], vec![0f32; w]);
     cal.recon
         .camera()
         .undistort_row_f32(v as u32, &mut xs, &mut ys);
-    for (u, m) in row.iter_mut().enumerate() {
-        match fit_pixel(cal, u, v) {
-            // The fit itself, at and between its nodes, must be within the tolerance.
-            Ok((_, fit)) if fit > tol => st.fit_failed += 1,
+    for (u, (m, f)) in row.iter_mut().zip(fits.iter_mut()).enumerate() {
+        match fit_pixel(cal, u, v, tol) {
+            // The fit itself, checked densely, must be within the tolerance (NaN is not).
+            Ok((_, fit)) if !(fit <= tol) => st.fit_failed += 1,
             Ok((mut model, fit)) => {
                 model.ray = [xs[u], ys[u]];
                 *m = model;
-                st.max_fit = st.max_fit.max(fit);
+                *f = fit;
             }
             Err(Reason::OffMap) => st.off_map += 1,
             Err(_) => st.not_monotonic += 1,
@@ -237,7 +262,7 @@ fn map_phase(cal: &Source<'_>, p: [f64; 2]) -> Option<f64> {
     let m = r.margin();
     let (mw, mh) = (r.map_width(), r.map_height());
     let (x, y) = (p[0] + m.left as f64, p[1] + m.top as f64);
-    if !(x >= 0.0 && y >= 0.0 && x <= (mw - 1) as f64 && y <= (mh - 1) as f64) {
+    if mw < 2 || mh < 2 || !(x >= 0.0 && y >= 0.0 && x <= (mw - 1) as f64 && y <= (mh - 1) as f64) {
         return None;
     }
     let (i, j) = ((x as usize).min(mw - 2), (y as usize).min(mh - 2));
@@ -282,13 +307,26 @@ impl<'a> Ray<'a> {
         }
     }
 
-    /// The image position (distorted pixels) where the search meets depth `z` (eqs 16-18
-    /// inverted: `t(z)`).
-    fn pixel_at(&self, z: f64) -> [f64; 2] {
+    /// The search's parameter `t` for depth `z` (eqs 16-18 inverted).
+    fn t_at(&self, z: f64) -> f64 {
         let num = z * self.a - self.h_r;
-        let t = num / (num * self.pz + self.hh * z);
+        num / (num * self.pz + self.hh * z)
+    }
+
+    /// The depth for the search's parameter `t` (eqs 16-18 in closed form).
+    fn depth_at_t(&self, t: f64) -> f64 {
+        self.h_r * (1.0 - self.pz * t) / (self.a - (self.a * self.pz + self.hh) * t)
+    }
+
+    /// The image position (distorted pixels) of the search's point `N_I = m + t·e`.
+    fn pixel_at_t(&self, t: f64) -> [f64; 2] {
         let cam = self.cal.recon.camera();
         cam.normalized_to_pixel([self.x + t * self.ex, self.y + t * self.ey])
+    }
+
+    /// The image position where the search meets depth `z`.
+    fn pixel_at(&self, z: f64) -> [f64; 2] {
+        self.pixel_at_t(self.t_at(z))
     }
 
     /// The reference phase where the search meets depth `z`.
@@ -369,19 +407,23 @@ impl<'a> Ray<'a> {
     }
 }
 
-/// One pixel's model and its largest f64 fit error at the nodes and between them (mm): over the
-/// depth range widened by [`WIDEN`] where the map allows, else over the range itself (a map
-/// whose margin ends where the search's segments end), else over the longest part of the range
-/// the map covers along the ray, clipped.
-fn fit_pixel(cal: &Source<'_>, u: usize, v: usize) -> Result<(PixelModel, f64), Reason> {
+/// One pixel's model and its largest f64 fit error (mm, step 3): over the depth range widened by
+/// [`WIDEN`] where that fits within `tol`, else over the range itself (a map whose margin ends
+/// where the search's segments end), else, when the map does not cover the range, over the
+/// longest part of it the map covers along the ray, clipped.
+fn fit_pixel(cal: &Source<'_>, u: usize, v: usize, tol: f64) -> Result<(PixelModel, f64), Reason> {
     let ray = Ray::new(cal, u, v);
     let s = cal.recon.setup();
+    let mut last = Err(Reason::OffMap);
     for widen in [WIDEN, 0.0] {
         let d = widen * (s.z_max - s.z_min);
-        match fit_range(&ray, s.z_min - d, s.z_max + d, false) {
-            Err(Reason::OffMap) => continue,
-            r => return r,
+        last = fit_range(&ray, s.z_min - d, s.z_max + d, false);
+        if matches!(last, Ok((_, fit)) if fit <= tol) {
+            return last;
         }
+    }
+    if !matches!(last, Err(Reason::OffMap)) {
+        return last;
     }
     // An end at the map's edge is pulled in by CLIP_INSET: the search needs its samples'
     // neighbours there.
@@ -424,7 +466,7 @@ fn fit_range(
         .zip(&ph)
         .map(|(z, phi)| (tau(*phi), (z - zc) / sig))
         .collect();
-    let (c, gamma) = fit_levy(&pts).ok_or(Reason::NotMonotonic)?;
+    let (c, gamma) = fit_levy(&pts).ok_or(Reason::Singular)?;
     // About τ = 0: s_c = z_c + σ·ĉ₀, d₁ = σ(ĉ₁ − ĉ₀γ), d_k = σ·ĉ_k.
     let mut slope = [0f32; TERMS];
     for (j, d) in slope.iter_mut().enumerate() {
@@ -444,17 +486,27 @@ fn fit_range(
         slope,
     };
     // The fit's own error (f64 evaluation of the f32 model against the map's bilinear phase,
-    // which the search reads): at depths at most half a pixel apart along the search's segment,
-    // so that every cell the segment crosses is sampled twice (the bilinear phase bends at cell
-    // edges, where a smooth function departs from it most).
-    let ends = [z_lo, z_hi].map(|z| ray.pixel_at(z));
+    // which the search reads), at points half a pixel apart along the search's segment: evenly
+    // spaced in its parameter t, which is nearly linear in image position (depth is not), so
+    // that every cell the segment crosses is sampled about twice (the bilinear phase bends at
+    // cell edges, where a smooth function departs from it most). A NaN error fails.
+    let (t_lo, t_hi) = (ray.t_at(z_lo), ray.t_at(z_hi));
+    let ends = [t_lo, t_hi].map(|t| ray.pixel_at_t(t));
     let len = ((ends[1][0] - ends[0][0]).powi(2) + (ends[1][1] - ends[0][1]).powi(2)).sqrt();
-    let m = ((2.0 * len).ceil() as usize).clamp(64, MAX_FIT_SAMPLES);
+    let m = if len.is_finite() {
+        ((2.0 * len).ceil() as usize).clamp(64, MAX_FIT_SAMPLES)
+    } else {
+        MAX_FIT_SAMPLES
+    };
     let mut fit = 0f64;
     for j in 0..=m {
-        let z = z_lo + (z_hi - z_lo) * j as f64 / m as f64;
-        let phi = ray.phase_at(z).ok_or(Reason::OffMap)?;
-        fit = fit.max((model.depth_f64_unbounded(phi) - z).abs());
+        let t = t_lo + (t_hi - t_lo) * j as f64 / m as f64;
+        let z = ray.depth_at_t(t);
+        let phi = map_phase(ray.cal, ray.pixel_at_t(t)).ok_or(Reason::OffMap)?;
+        let err = (model.depth_f64_unbounded(phi) - z).abs();
+        if !(err <= fit) {
+            fit = err;
+        }
     }
     Ok((model, fit))
 }
@@ -602,7 +654,7 @@ fn check_row(
                 for i in 0..3 {
                     let di = (e[i] as f64 - c[i] as f64).abs();
                     d = d.max(di);
-                    fail[u] |= di > tol + F32_ALLOWANCE_ULP * ulp(e[i]);
+                    fail[u] |= !(di <= tol + F32_ALLOWANCE_ULP * ulp(e[i]));
                 }
                 worst[u] = worst[u].max(d);
                 within[u] &= d <= tol;

@@ -31,8 +31,8 @@
 //! [`Validity::PhaseOutOfRange`], as the search does; every invalid point is the canonical NaN.
 //!
 //! # Cost
-//! Per pixel: 9 multiplications, 7 additions, one division, 4 comparisons; no table, no gather,
-//! no iteration. The model is [`PixelModel::BYTES`] = 40 bytes a pixel, read row by row
+//! Per pixel: one division and about twenty other operations (the point's depth and its two
+//! products, their finiteness, the range and depth tests); no table, no gather, no iteration. The model is [`PixelModel::BYTES`] = 40 bytes a pixel, read row by row
 //! ([`PixelModel::parse_row`]); a head needs neither the camera's lens model nor the reference
 //! map for compiled pixels.
 //!
@@ -271,7 +271,7 @@ fn pass(
     code: &mut [u8; CHUNK],
 ) {
     const _: () = assert!(TERMS == 4);
-    let [_, _, pc, ps, dc, pole, d1, d2, d3, d4] = f;
+    let [rx, ry, pc, ps, dc, pole, d1, d2, d3, d4] = f;
     for i in 0..CHUNK {
         let act = (q[i] == Validity::Valid as u8) & (fabs(p[i]) < f32::INFINITY);
         let keep =
@@ -290,7 +290,12 @@ fn pass(
         let compiled = (k > 0.0) & (k < f32::INFINITY);
         // The search: no model, or a phase beyond a range the map's end clipped.
         let left = act & (!compiled | (!in_range & (ps[i] < 0.0)));
-        let degenerate = !(fabs(si) < f32::INFINITY);
+        // Inside the range only (beyond it the point is out of depth, as in the search), and
+        // the whole point: a model whose ray is not finite gives no point.
+        let finite = (fabs(si) < f32::INFINITY)
+            & (fabs(si * rx[i]) < f32::INFINITY)
+            & (fabs(si * ry[i]) < f32::INFINITY);
+        let degenerate = in_range & !finite;
         let inside = in_range & (si >= z_min) & (si <= z_max);
         s[i] = si;
         let c = if inside {
