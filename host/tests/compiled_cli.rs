@@ -241,7 +241,18 @@ fn a_compiled_file_for_another_calibration_is_refused() {
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(!r.status.success() && err.contains("--tolerance"), "{err}");
     assert!(!t.0.join("x.f3c").exists());
-    // And the good file scans.
+    // And the good file scans, and `info` describes it.
     let (ok, err) = scan(&virt, &file, "d.ply");
     assert!(ok, "{err}");
+    let j: serde_json::Value =
+        serde_json::from_str(&run(&["info", "--json", s(&file)])).expect("json");
+    assert_eq!(j["kind"], "compiled reconstruction");
+    assert_eq!(
+        (j["width"].as_u64(), j["height"].as_u64()),
+        (Some(160), Some(128))
+    );
+    let n = j["compiled"].as_u64().unwrap();
+    assert!(n > 0 && n + j["left_to_the_search"].as_u64().unwrap() == 160 * 128);
+    let r = fringe3d(&["info", s(&cut)]);
+    assert!(!r.status.success() && String::from_utf8_lossy(&r.stderr).contains("cut.f3c"));
 }

@@ -1,4 +1,5 @@
-//! `fringe3d info`: describe a dataset folder, calibration file, pattern-set file or image.
+//! `fringe3d info`: describe a dataset folder, calibration file, pattern-set file, image or
+//! compiled reconstruction.
 
 use super::{Global, common};
 use crate::io::calibration::Calibration;
@@ -15,7 +16,8 @@ use std::path::{Path, PathBuf};
     after_help = "Examples:\n  fringe3d info demo-out/dataset          # a dataset folder (manifest.json)\n  \
 fringe3d info calibration.toml          # a calibration\n  fringe3d info examples/patterns/paper8.toml\n  \
 fringe3d info stereo.yml                # another tool's calibration (OpenCV, SLStudio, SLMaster, Bouguet)\n  \
-fringe3d info phase.tif                 # an image or float map"
+fringe3d info phase.tif                 # an image or float map\n  \
+fringe3d info reconstruction.f3c        # a compiled reconstruction (fringe3d compile)"
 )]
 pub struct InfoArgs {
     /// What to describe.
@@ -51,8 +53,9 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
             "toml" => toml_info(p)?,
             "png" | "tif" | "tiff" | "bmp" | "pgm" | "npy" => image_info(p)?,
             "yml" | "yaml" | "xml" | "json" | "m" => foreign_info(p)?,
+            "f3c" => compiled_info(p)?,
             _ => bail!(
-                "{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif, .bmp, .pgm, .npy, or another tool's calibration: .yml, .yaml, .xml, .json, .m)",
+                "{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif, .bmp, .pgm, .npy, a compiled reconstruction .f3c, or another tool's calibration: .yml, .yaml, .xml, .json, .m)",
                 p.display()
             ),
         }
@@ -63,6 +66,26 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
         print_tree(&v, 0);
     }
     Ok(())
+}
+
+/// A compiled reconstruction (`fringe3d compile`): its size, range and how many pixels it covers.
+fn compiled_info(p: &Path) -> Result<serde_json::Value> {
+    let f = crate::compiled::CompiledFile::read_any(p)?;
+    let pixels = f.width as usize * f.height as usize;
+    let compiled = f.compiled_count();
+    let digest: String = f.source_digest.iter().map(|b| format!("{b:02x}")).collect();
+    Ok(json!({
+        "kind": "compiled reconstruction",
+        "width": f.width,
+        "height": f.height,
+        "depth_range_mm": [f.z_min, f.z_max],
+        "tolerance_um": (f.tolerance_mm as f64 * 1e9).round() / 1e6,
+        "pixels": pixels,
+        "compiled": compiled,
+        "clipped": f.clipped_count(),
+        "left_to_the_search": pixels - compiled,
+        "source_digest": format!("sha256:{digest}"),
+    }))
 }
 
 fn toml_info(p: &Path) -> Result<serde_json::Value> {

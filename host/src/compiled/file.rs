@@ -26,6 +26,9 @@ use std::path::{Path, PathBuf};
 pub const MAGIC: [u8; 8] = *b"F3DCRC01";
 /// Header bytes.
 pub const HEADER: usize = 72;
+/// Largest file [`CompiledFile::read_any`] reads (a 16 384 × 16 384 camera is 10 GiB; 4 GiB is a
+/// 10-megapixel camera ten times over).
+pub const MAX_FILE_BYTES: u64 = 4 << 30;
 
 /// A compiled reconstruction, in memory.
 #[derive(Clone, Debug)]
@@ -136,6 +139,29 @@ impl CompiledFile {
         Ok(h.with(models))
     }
 
+    /// Read a file whatever camera it was compiled for (`fringe3d info`): the size comes from
+    /// its header, and the file's length must match it (at most [`MAX_FILE_BYTES`]).
+    pub fn read_any(path: &Path) -> Result<CompiledFile, FileError> {
+        use std::io::Read;
+        let io = |source| FileError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let (mut f, len) = crate::io::input::open_regular(path).map_err(io)?;
+        let mut head = [0u8; HEADER];
+        if len < HEADER as u64 || len > MAX_FILE_BYTES {
+            return Err(FileError::Format {
+                path: path.to_path_buf(),
+                message: format!(
+                    "{len} bytes: not a compiled reconstruction (a header of {HEADER} bytes, at most {MAX_FILE_BYTES} in all)"
+                ),
+            });
+        }
+        f.read_exact(&mut head).map_err(io)?;
+        let u = |o: usize| u32::from_le_bytes([head[o], head[o + 1], head[o + 2], head[o + 3]]);
+        Self::read(path, u(8), u(12))
+    }
+
     /// Parse the file's bytes for a camera of `width × height`.
     pub fn parse(b: &[u8], width: u32, height: u32) -> Result<CompiledFile, String> {
         let head = b
@@ -163,6 +189,21 @@ impl CompiledFile {
         self.models
             .chunks_exact(FIELDS * w.max(1))
             .map(|row| (0..w).filter(|&u| is_compiled(row, u)).count())
+            .sum()
+    }
+
+    /// Pixels whose range is clipped to the map ([`PixelModel::is_clipped`]).
+    pub fn clipped_count(&self) -> usize {
+        let w = self.width as usize;
+        self.models
+            .chunks_exact(FIELDS * w.max(1))
+            .map(|row| {
+                (0..w)
+                    .filter(|&u| {
+                        PixelModel::load(row, u).is_some_and(|m| m.is_compiled() && m.is_clipped())
+                    })
+                    .count()
+            })
             .sum()
     }
 

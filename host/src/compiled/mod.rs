@@ -34,7 +34,7 @@
 
 mod file;
 
-pub use file::{CompiledFile, FileError, MAGIC, source_digest};
+pub use file::{CompiledFile, FileError, MAGIC, MAX_FILE_BYTES, source_digest};
 
 use fringe3d_core::reconstruct::compiled::{
     FIELDS, LEFT_TO_SEARCH, PixelModel, TERMS, compiled_row,
