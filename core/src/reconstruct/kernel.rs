@@ -12,7 +12,7 @@ use super::offset::{Lane, lane_coefficients, offset};
 use super::reconstructor::Reconstructor;
 use super::refrows::RefRows;
 use super::setup::Consts;
-use super::{LANES, MAX_BAND_ROWS, NEWTON_EVALS};
+use super::{LANES, MAX_BAND_ROWS, NEWTON_EVALS, input_code};
 use crate::camera::MAX_ROW_KNOTS as MAX_KNOTS;
 use crate::math::{CANONICAL_NAN, fabs};
 use crate::validity::Validity;
@@ -345,15 +345,10 @@ fn chunk<G: CellGather>(
         .zip(validity)
         .zip(phase)
     {
-        let act = (q == Validity::Valid as u8) & (fabs(p) < f32::INFINITY);
-        let keep = act | (((q as usize) < Validity::ALL.len()) & (q != Validity::Valid as u8));
+        let (act, code_in) = input_code(q, p);
         *a_ = act;
         *p_ = if act { p } else { 0.0 };
-        *c_ = if keep {
-            q
-        } else {
-            Validity::PhaseOutOfRange as u8
-        };
+        *c_ = code_in;
     }
 
     // A chunk with no pixel to search (masked by a compiled row, or all invalid) keeps its codes:

@@ -154,6 +154,24 @@ use crate::camera::ROW_KNOT_STEP;
 #[cfg(doc)]
 use crate::{camera::CameraModel, phase_function::Axis, validity::Validity};
 
+/// A pixel's input to reconstruction, as the search and the compiled row both read it: whether
+/// it is to be reconstructed (code `Valid` and a finite phase) and the code it keeps otherwise
+/// (its own when that is a known code, [`Validity::PhaseOutOfRange`] for an unknown code or a
+/// non-finite phase marked `Valid`). Branch-free, so a loop over a row vectorizes.
+#[inline(always)]
+pub(crate) fn input_code(q: u8, p: f32) -> (bool, u8) {
+    use crate::math::fabs;
+    let valid = crate::validity::Validity::Valid as u8;
+    let act = (q == valid) & (fabs(p) < f32::INFINITY);
+    let keep = act | (((q as usize) < crate::validity::Validity::ALL.len()) & (q != valid));
+    let code = if keep {
+        q
+    } else {
+        crate::validity::Validity::PhaseOutOfRange as u8
+    };
+    (act, code)
+}
+
 /// Interpolated evaluations of the fast path (the first at the slope-guided step from the pixel
 /// itself), each followed by a Newton step with the slope of the interpolated reference there.
 pub const NEWTON_EVALS: usize = 2;

@@ -273,14 +273,7 @@ fn pass(
     const _: () = assert!(TERMS == 4);
     let [rx, ry, pc, ps, dc, pole, d1, d2, d3, d4] = f;
     for i in 0..CHUNK {
-        let act = (q[i] == Validity::Valid as u8) & (fabs(p[i]) < f32::INFINITY);
-        let keep =
-            act | (((q[i] as usize) < Validity::ALL.len()) & (q[i] != Validity::Valid as u8));
-        let code_in = if keep {
-            q[i]
-        } else {
-            Validity::PhaseOutOfRange as u8
-        };
+        let (act, code_in) = super::input_code(q[i], p[i]);
         // The depth: PixelModel::depth_f64's expression, in its order, in f32.
         let k = fabs(ps[i]);
         let tau = ((if act { p[i] } else { 0.0 }) - pc[i]) * k;
