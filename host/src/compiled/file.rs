@@ -185,23 +185,22 @@ impl CompiledFile {
 
     /// Pixels with a function.
     pub fn compiled_count(&self) -> usize {
-        let w = self.width as usize;
-        self.models
-            .chunks_exact(FIELDS * w.max(1))
-            .map(|row| (0..w).filter(|&u| is_compiled(row, u)).count())
-            .sum()
+        self.count(|m| m.is_compiled())
     }
 
     /// Pixels whose range is clipped to the map ([`PixelModel::is_clipped`]).
     pub fn clipped_count(&self) -> usize {
+        self.count(|m| m.is_compiled() && m.is_clipped())
+    }
+
+    /// Pixels whose model satisfies `pred`.
+    fn count(&self, pred: impl Fn(&PixelModel) -> bool) -> usize {
         let w = self.width as usize;
         self.models
             .chunks_exact(FIELDS * w.max(1))
             .map(|row| {
                 (0..w)
-                    .filter(|&u| {
-                        PixelModel::load(row, u).is_some_and(|m| m.is_compiled() && m.is_clipped())
-                    })
+                    .filter(|&u| PixelModel::load(row, u).is_some_and(|m| pred(&m)))
                     .count()
             })
             .sum()
@@ -212,11 +211,6 @@ impl CompiledFile {
         let w = self.width as usize;
         PixelModel::load(self.models.get(v * FIELDS * w..(v + 1) * FIELDS * w)?, u)
     }
-}
-
-/// Whether pixel `u` of a field-major row has a model.
-fn is_compiled(row: &[f32], u: usize) -> bool {
-    PixelModel::load(row, u).is_some_and(|m| m.is_compiled())
 }
 
 /// A checked header.

@@ -187,13 +187,6 @@ pub fn compile(
         rep.max_difference_mm = rep.max_difference_mm.max(st.max_difference);
         rep.max_fit_error_mm = rep.max_fit_error_mm.max(st.max_fit);
     }
-    let all = || {
-        models
-            .chunks_exact(FIELDS * w)
-            .flat_map(|row| (0..w).filter_map(|u| PixelModel::load(row, u)))
-    };
-    rep.compiled = all().filter(|m| m.is_compiled()).count();
-    rep.clipped = all().filter(|m| m.is_compiled() && m.is_clipped()).count();
     let s = recon.setup();
     let file = CompiledFile {
         width: w as u32,
@@ -204,6 +197,8 @@ pub fn compile(
         source_digest: [0; 32],
         models,
     };
+    rep.compiled = file.compiled_count();
+    rep.clipped = file.clipped_count();
     (file, rep)
 }
 
