@@ -5,7 +5,8 @@
 //! benchmark's (`core/benches/reconstruct.rs`: seeded, from the tests' f64 ray caster), `exact`
 //! and `noisy` (σ = 0.01 rad phase noise). Every variant is first checked bit for bit against
 //! the core's portable `reconstruct_frame`. Then the compiled reconstruction (`compiled_*`,
-//! `fringe3d::compiled`, at 0.1 µm and `_1um`), each variant against its portable run.
+//! `fringe3d::compiled`, at 0.1 µm and `_1um`), each variant against its portable run; the
+//! build's report and how many pixels the scan leaves to the search are printed first.
 //! Run: `cargo bench -p fringe3d --bench reconstruct_batch`.
 
 #![allow(clippy::disallowed_methods)] // std maths for the synthetic scene
@@ -18,6 +19,7 @@ use fringe3d::batch::{
     CompiledRows, Isa, PointsOut, reconstruct_frame, reconstruct_frame_compiled,
 };
 use fringe3d::compiled::{DEFAULT_TOLERANCE_MM, compile};
+use fringe3d_core::reconstruct::compiled::{FIELDS, LEFT_TO_SEARCH, PixelModel, compiled_row};
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use std::hint::black_box;
 use support::*;
@@ -88,15 +90,49 @@ fn bench(c: &mut Criterion) {
         for (tol_label, tol) in [("", DEFAULT_TOLERANCE_MM), ("_1um", 1e-3)] {
             let (file, rep) = compile(&recon, &prep, tol);
             eprintln!(
-                "{name}, tolerance {} µm: compiled {} of {} pixels ({} off the map, {} fits and \
-                 {} checks missing), largest difference from the search {:.3} µm",
+                "{name}, tolerance {} µm: compiled {} of {} pixels ({} clipped, {} of them with \
+                 the far rule), {} with no reference along the ray; left to the search: {} off \
+                 the map, {} fits and {} checks missing; largest difference from the search \
+                 {:.3} µm",
                 tol * 1e3,
                 rep.compiled,
                 rep.pixels,
+                rep.clipped,
+                rep.clipped_far,
+                rep.no_reference,
                 rep.off_map,
                 rep.fit_failed,
                 rep.check_failed,
                 rep.max_difference_mm * 1e3
+            );
+            // What this scan leaves to the search: the compiled row alone, pixel by pixel.
+            let mut left = [0usize; 3];
+            let (mut rx, mut rq) = (vec![0f32; 3 * w], vec![0u8; w]);
+            for v in 0..h {
+                let m = &file.models[v * FIELDS * w..(v + 1) * FIELDS * w];
+                let r = v * w..(v + 1) * w;
+                let (p, q) = (&object.phase[r.clone()], &object.validity[r]);
+                compiled_row(m, file.z_min, file.z_max, p, q, &mut rx, &mut rq).expect("row");
+                for u in (0..w).filter(|&u| rq[u] == LEFT_TO_SEARCH) {
+                    let pm = PixelModel::load(m, u).expect("model");
+                    left[if pm.far_is_no_crossing() {
+                        0
+                    } else if pm.is_compiled() {
+                        1
+                    } else {
+                        2
+                    }] += 1;
+                }
+            }
+            eprintln!(
+                "{name}, tolerance {} µm: left to the search in this scan: {} pixels ({} clipped \
+                 with the far rule, just beyond their range; {} clipped without it; {} with no \
+                 function)",
+                tol * 1e3,
+                left.iter().sum::<usize>(),
+                left[0],
+                left[1],
+                left[2]
             );
             let rows = CompiledRows {
                 models: &file.models,

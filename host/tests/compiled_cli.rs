@@ -85,6 +85,8 @@ fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
     let pixels = rep["pixels"].as_u64().unwrap() as f64;
     let compiled = rep["compiled"].as_u64().unwrap() as f64;
     let off_map = rep["off_map"].as_u64().unwrap() as f64;
+    let no_reference = rep["no_reference"].as_u64().unwrap() as f64;
+    let covered = pixels - off_map - no_reference;
 
     let (exact, comp) = both(&ds, &virt, &file);
     let valid = Validity::Valid as u8;
@@ -122,16 +124,19 @@ fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
         "{label} {size}, tolerance {tol_um} µm: compiled {:.2} % of the pixels ({:.2} % of those \
          the map covers), {compared} points compared: largest difference {:.3} µm, {:.3} % \
          within the tolerance; {only_compiled} points only compiled, {only_exact} only exact, \
-         {same} same invalid codes",
+         {same} same invalid codes; {no_reference} pixels with no reference along the ray, \
+         {} clipped ({} with the far rule)",
         100.0 * compiled / pixels,
-        100.0 * compiled / (pixels - off_map),
+        100.0 * compiled / covered,
         max_diff * 1e3,
         100.0 * within as f64 / compared.max(1) as f64,
+        rep["clipped"],
+        rep["clipped_far"],
     );
     assert!(compared > 10_000, "{label}: {compared} points");
     // Most pixels the projector lights compile, and nearly every point is the search's to the
     // tolerance; every one within it plus the f32 allowance.
-    assert!(compiled >= 0.85 * (pixels - off_map), "{label}: {rep}");
+    assert!(compiled >= 0.85 * covered, "{label}: {rep}");
     assert!(within as f64 >= 0.85 * compared as f64, "{label}");
     // A compiled point the search lacks is one it gives up on near the map's end: rare.
     assert!(only_compiled + only_exact <= compared / 1000, "{label}");
@@ -225,7 +230,17 @@ fn a_compiled_file_for_another_calibration_is_refused() {
         "{err}"
     );
     let (ok, err) = scan(&virt, &pat, "c.ply");
-    assert!(!ok && err.contains("F3DCRC01"), "{err}");
+    assert!(!ok && err.contains("F3DCRC02"), "{err}");
+    // A file of the first format (no far rule of clipped pixels): refused, with what to do.
+    let mut old = bytes.clone();
+    old[..8].copy_from_slice(b"F3DCRC01");
+    let old_file = t.0.join("old.f3c");
+    std::fs::write(&old_file, &old).unwrap();
+    let (ok, err) = scan(&virt, &old_file, "o.ply");
+    assert!(
+        !ok && err.contains("old.f3c") && err.contains("re-run `fringe3d compile`"),
+        "{err}"
+    );
     // A bad tolerance is refused before anything is read.
     let r = fringe3d(&[
         "compile",
@@ -252,7 +267,9 @@ fn a_compiled_file_for_another_calibration_is_refused() {
         (Some(160), Some(128))
     );
     let n = j["compiled"].as_u64().unwrap();
-    assert!(n > 0 && n + j["left_to_the_search"].as_u64().unwrap() == 160 * 128);
+    let none = j["no_reference"].as_u64().unwrap();
+    let left = j["left_to_the_search"].as_u64().unwrap();
+    assert!(n > 0 && n + none + left == 160 * 128, "{j}");
     let r = fringe3d(&["info", s(&cut)]);
     assert!(!r.status.success() && String::from_utf8_lossy(&r.stderr).contains("cut.f3c"));
 }

@@ -61,12 +61,13 @@ pub fn run(a: CompileArgs, g: Global) -> Result<()> {
     } else if !g.quiet {
         let pct = |n: usize| 100.0 * n as f64 / rep.pixels.max(1) as f64;
         println!(
-            "compiled {} of {} pixels ({:.2} %, {} clipped to the map); the search keeps {} ({} off the map, {} not monotonic, {} fits and {} checks missing the tolerance)",
+            "compiled {} of {} pixels ({:.2} %, {} clipped to the map), {} with no reference along the ray; the search keeps {} ({} off the map, {} not monotonic, {} fits and {} checks missing the tolerance)",
             rep.compiled,
             rep.pixels,
             pct(rep.compiled),
             rep.clipped,
-            rep.pixels - rep.compiled,
+            rep.no_reference,
+            rep.pixels - rep.compiled - rep.no_reference,
             rep.off_map,
             rep.not_monotonic,
             rep.fit_failed,

@@ -73,6 +73,7 @@ fn compiled_info(p: &Path) -> Result<serde_json::Value> {
     let f = crate::compiled::CompiledFile::read_any(p)?;
     let pixels = f.width as usize * f.height as usize;
     let compiled = f.compiled_count();
+    let no_reference = f.no_reference_count();
     let digest: String = f.source_digest.iter().map(|b| format!("{b:02x}")).collect();
     Ok(json!({
         "kind": "compiled reconstruction",
@@ -83,7 +84,8 @@ fn compiled_info(p: &Path) -> Result<serde_json::Value> {
         "pixels": pixels,
         "compiled": compiled,
         "clipped": f.clipped_count(),
-        "left_to_the_search": pixels - compiled,
+        "no_reference": no_reference,
+        "left_to_the_search": pixels - compiled - no_reference,
         "source_digest": format!("sha256:{digest}"),
     }))
 }

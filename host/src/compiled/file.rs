@@ -2,7 +2,7 @@
 //!
 //! | offset | bytes | field |
 //! |---:|---:|---|
-//! | 0 | 8 | magic `F3DCRC01` |
+//! | 0 | 8 | magic `F3DCRC02` |
 //! | 8 | 4 | width, u32 LE |
 //! | 12 | 4 | height, u32 LE |
 //! | 16 | 4 | terms of the numerator polynomial, u32 LE (4) |
@@ -23,7 +23,7 @@ use fringe3d_core::reconstruct::compiled::{FIELDS, PixelModel, TERMS};
 use std::path::{Path, PathBuf};
 
 /// The file's first eight bytes.
-pub const MAGIC: [u8; 8] = *b"F3DCRC01";
+pub const MAGIC: [u8; 8] = *b"F3DCRC02";
 /// Header bytes.
 pub const HEADER: usize = 72;
 /// Largest file [`CompiledFile::read_any`] reads (a 16 384 × 16 384 camera is 10 GiB; 4 GiB is a
@@ -118,7 +118,7 @@ impl CompiledFile {
         let mut head = [0u8; HEADER];
         if len < HEADER as u64 {
             return Err(bad(format!(
-                "{len} bytes: not a compiled reconstruction (no F3DCRC01 header)"
+                "{len} bytes: not a compiled reconstruction (no F3DCRC02 header)"
             )));
         }
         f.read_exact(&mut head).map_err(io)?;
@@ -166,7 +166,7 @@ impl CompiledFile {
     pub fn parse(b: &[u8], width: u32, height: u32) -> Result<CompiledFile, String> {
         let head = b
             .get(..HEADER)
-            .ok_or("not a compiled reconstruction (no F3DCRC01 header)")?;
+            .ok_or("not a compiled reconstruction (no F3DCRC02 header)")?;
         let h = Header::parse(head, width, height)?;
         let want = HEADER + 4 * h.values();
         if b.len() != want {
@@ -188,13 +188,19 @@ impl CompiledFile {
         self.count(|m| m.is_compiled())
     }
 
+    /// Pixels with no reference along their ray ([`PixelModel::NO_REFERENCE`]): answered
+    /// without the search.
+    pub fn no_reference_count(&self) -> usize {
+        self.count(|m| m.is_no_reference())
+    }
+
     /// Pixels whose range is clipped to the map ([`PixelModel::is_clipped`]).
     pub fn clipped_count(&self) -> usize {
         self.count(|m| m.is_compiled() && m.is_clipped())
     }
 
     /// Pixels whose model satisfies `pred`.
-    fn count(&self, pred: impl Fn(&PixelModel) -> bool) -> usize {
+    pub fn count(&self, pred: impl Fn(&PixelModel) -> bool) -> usize {
         let w = self.width as usize;
         self.models
             .chunks_exact(FIELDS * w.max(1))
@@ -226,8 +232,15 @@ struct Header {
 impl Header {
     /// Check the header (`b` holds at least [`HEADER`] bytes) against the camera.
     fn parse(b: &[u8], width: u32, height: u32) -> Result<Header, String> {
+        if b.len() >= 8 && b[..8] == *b"F3DCRC01" {
+            return Err(
+                "a compiled reconstruction of an older format (F3DCRC01, without the far rule \
+                 of clipped pixels): re-run `fringe3d compile`"
+                    .into(),
+            );
+        }
         if b.len() < HEADER || b[..8] != MAGIC {
-            return Err("not a compiled reconstruction (no F3DCRC01 header)".into());
+            return Err("not a compiled reconstruction (no F3DCRC02 header)".into());
         }
         let u = |o: usize| u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]]);
         let f = |o: usize| f32::from_bits(u(o));
@@ -279,8 +292,9 @@ impl Header {
     }
 }
 
-/// Check every model (rows in parallel): one with a scale must have every number finite; one
-/// without becomes [`PixelModel::SEARCH`].
+/// Check every model (rows in parallel): one with a finite non-zero scale must have every number
+/// finite (and, unclipped, a positive s_c); the others become [`PixelModel::SEARCH`] or
+/// [`PixelModel::NO_REFERENCE`] (a zero scale), canonical.
 fn check_models(models: &mut [f32], w: usize) -> Result<(), String> {
     use rayon::prelude::*;
     models
@@ -292,11 +306,12 @@ fn check_models(models: &mut [f32], w: usize) -> Result<(), String> {
                 let m = PixelModel::load(row, u).unwrap_or(PixelModel::SEARCH);
                 if k.is_finite() && k != 0.0 && !m.is_compiled() {
                     return Err(format!(
-                        "pixel ({u}, {v}): a model with a non-finite coefficient (a damaged file)"
+                        "pixel ({u}, {v}): a model with a non-finite coefficient or a negative depth (a damaged file)"
                     ));
                 }
                 if !m.is_compiled() {
-                    let _ = PixelModel::SEARCH.store(row, u);
+                    // SEARCH or NO_REFERENCE, canonical.
+                    let _ = m.store(row, u);
                 }
             }
             Ok(())

@@ -25,6 +25,24 @@
 //!    through [`compiled_row`]; a pixel is kept only if at every phase both give the same code
 //!    and points within the tolerance (or the search's point lies within the tolerance of an end
 //!    of the depth range, where a code may flip). Otherwise it is [`PixelModel::SEARCH`].
+//!    A clipped model with the far rule is also run at the [`FAR_CHECKS`] phases beyond
+//!    [`CLIP_FAR`], where both must say `NoCrossing`.
+//!
+//! Two proofs walk a pixel's whole search segment (its ends as the search takes them, lengthened
+//! by 10⁻⁴ of it), at most [`PATH_STEP_PX`] apart, against tables of what the search can read
+//! within [`NEAR_PX`] of each map sample (`compiled/near.rs`): a bilinear sample reads samples
+//! within 1 px, and a walked point stands for the path within half a step plus the rounding to a
+//! sample.
+//! - A pixel whose ray the map does not cover (step 1) is [`PixelModel::NO_REFERENCE`] instead
+//!   of the search when no valid sample is near any walked point: no sample the f32 search takes
+//!   can be valid, and it answers [`Validity::ReferenceInvalid`] whatever the phase.
+//! - A clipped model gets the far rule ([`PixelModel::far_is_no_crossing`]; otherwise its s_c is
+//!   negative and every phase beyond its range goes to the search) when one end of the segment
+//!   has only valid samples near it and the other none, and the phases at `|τ| = CLIP_FAR` lie
+//!   beyond every valid value near the walk by a tenth of the largest cell spread there
+//!   ([`CLIP_FAR`] says why that gives `NoCrossing`).
+//!
+//! Step 3 checks both at its phases.
 //!
 //! The tolerance ([`DEFAULT_TOLERANCE_MM`], 0.1 µm) bounds the f64 function against the f64
 //! geometry the search reads, checked densely (step 2). Against the f32 search itself a point
@@ -33,20 +51,25 @@
 //! differently, so two f32 answers cannot agree to 0.1 µm everywhere.
 
 mod file;
+mod near;
 
 pub use file::{CompiledFile, FileError, MAGIC, MAX_FILE_BYTES, source_digest};
 
 use fringe3d_core::reconstruct::compiled::{
-    FIELDS, LEFT_TO_SEARCH, PixelModel, TERMS, compiled_row,
+    CLIP_FAR, FIELDS, LEFT_TO_SEARCH, PixelModel, TERMS, compiled_row,
 };
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use fringe3d_core::validity::Validity;
+use near::Near;
 use rayon::prelude::*;
 
 /// Depths a pixel's function is fitted to.
 pub const NODES: usize = 16;
 /// Phases a pixel is checked at against the search.
 pub const CHECKS: usize = 33;
+/// Phases beyond [`CLIP_FAR`] (as multiples of it, in τ) a clipped pixel is also checked at: the
+/// search must give `NoCrossing` there, as the kernel does.
+pub const FAR_CHECKS: [f64; 4] = [-3.0, -1.01, 1.01, 3.0];
 /// The fitted depth range is the calibration's widened by this fraction of it at each end, so
 /// that the function covers the search's whole range whatever its rounding.
 pub const WIDEN: f64 = 0.005;
@@ -59,6 +82,15 @@ pub const CLIP_INSET: f64 = 0.002;
 pub const F32_ALLOWANCE_ULP: f64 = 4.0;
 /// Most depths a pixel's fit is checked at (half-pixel steps along its search segment).
 pub const MAX_FIT_SAMPLES: usize = 4096;
+/// The reach (Chebyshev distance, pixels) of the tables the builder's proofs read: what the
+/// search can read near a walked point of a search segment is taken from every map sample this
+/// near it (module documentation). A bilinear sample reads samples within 1 px, a walked point
+/// stands for the path within half a [`PATH_STEP_PX`], and rounding it to a sample moves it by
+/// half a pixel; one more for the f32 search's rounding and the path's bend between walked
+/// points.
+pub const NEAR_PX: usize = 4;
+/// Largest distance between walked points of a search segment in the builder's proofs, pixels.
+pub const PATH_STEP_PX: f64 = 2.0;
 /// Default tolerance on each coordinate of a point, mm (0.1 µm).
 pub const DEFAULT_TOLERANCE_MM: f64 = 1e-4;
 
@@ -86,7 +118,19 @@ pub struct Report {
     pub compiled: usize,
     /// Compiled pixels whose range is clipped to the part of the depth range the map covers.
     pub clipped: usize,
-    /// Pixels left to the search because the map covers (almost) none of their depth range.
+    /// Clipped pixels for which the build showed that a phase far beyond the range
+    /// ([`CLIP_FAR`]) gets the search's `NoCrossing`, and which answer it without the search.
+    pub clipped_far: usize,
+    /// Clipped pixels whose far rule the build proved but the search contradicted at a
+    /// [`FAR_CHECKS`] phase: the rule is dropped (the model stays). Not zero means a proof's
+    /// assumption does not hold: report it.
+    pub far_rule_dropped: usize,
+    /// Pixels whose whole search segment lies away from the map: they answer
+    /// [`Validity::ReferenceInvalid`] without the search ([`PixelModel::NO_REFERENCE`]).
+    pub no_reference: usize,
+    /// Pixels left to the search because the map covers (almost) none of their depth range but
+    /// is near their segment somewhere (or because their proof of no reference failed its
+    /// check).
     pub off_map: usize,
     /// ... because their phase is not monotonic in depth (or the fit's system is singular).
     pub not_monotonic: usize,
@@ -109,14 +153,16 @@ pub struct Report {
     pub max_fit_error_mm: f64,
     /// The tolerance the build used, mm.
     pub tolerance_mm: f64,
-    /// Checked phases per pixel.
+    /// Checked phases per pixel over its range (a clipped pixel with the far rule is also checked
+    /// at the [`FAR_CHECKS`] phases, a pixel with no reference at all of them).
     pub checks: usize,
 }
 
 impl Report {
     /// Pixels left to the search, as a fraction of all.
     pub fn search_fraction(&self) -> f64 {
-        (self.pixels - self.compiled) as f64 / self.pixels.max(1) as f64
+        let left = self.pixels - self.compiled - self.no_reference;
+        left as f64 / self.pixels.max(1) as f64
     }
 }
 
@@ -130,12 +176,14 @@ pub fn compile(
     reference_phase: &[f32],
     tolerance_mm: f64,
 ) -> (CompiledFile, Report) {
+    let (w, h) = (recon.width(), recon.height());
+    let (mw, mh) = (recon.map_width(), recon.map_height());
+    let near = Near::new(reference_phase, mw, mh);
     let cal = &Source {
         recon,
         phase: reference_phase,
+        near: &near,
     };
-    let (w, h) = (recon.width(), recon.height());
-    let (mw, mh) = (recon.map_width(), recon.map_height());
     // A prepared map (the scan's own): never fails for a loaded calibration; a map too small
     // to interpolate compiles nothing.
     let map = ReferenceMap::from_prepared(reference_phase, mw, mh)
@@ -156,6 +204,7 @@ pub fn compile(
                 // unchecked.
                 None => {
                     st.check_failed += row.iter().filter(|m| m.is_compiled()).count();
+                    st.off_map += row.iter().filter(|m| m.is_no_reference()).count();
                     row.fill(PixelModel::SEARCH);
                 }
             }
@@ -179,6 +228,8 @@ pub fn compile(
     };
     for st in rows {
         rep.off_map += st.off_map;
+        rep.no_reference += st.no_reference;
+        rep.far_rule_dropped += st.far_rule_dropped;
         rep.not_monotonic += st.not_monotonic;
         rep.check_failed += st.check_failed;
         rep.fit_failed += st.fit_failed;
@@ -199,17 +250,22 @@ pub fn compile(
     };
     rep.compiled = file.compiled_count();
     rep.clipped = file.clipped_count();
+    rep.clipped_far = file.count(|m| m.far_is_no_crossing());
     (file, rep)
 }
 
-/// What a build reads: the reconstructor and its prepared map.
+/// What a build reads: the reconstructor and its prepared map, and what the search can read near
+/// each map sample ([`Near`]).
 struct Source<'a> {
     recon: &'a Reconstructor,
     phase: &'a [f32],
+    near: &'a Near,
 }
 
 #[derive(Default)]
 struct RowStats {
+    no_reference: usize,
+    far_rule_dropped: usize,
     off_map: usize,
     not_monotonic: usize,
     check_failed: usize,
@@ -240,9 +296,16 @@ fn fit_row(
             // The fit itself, checked densely, must be within the tolerance (NaN is not).
             Ok((_, fit)) if !(fit <= tol) => st.fit_failed += 1,
             Ok((mut model, fit)) => {
+                // A clipped model without the far rule: a negative s_c.
+                if model.is_clipped() && !Ray::new(cal, u, v).far_is_no_crossing(&model) {
+                    model.depth_centre = -model.depth_centre;
+                }
                 model.ray = [xs[u], ys[u]];
                 *m = model;
                 *f = fit;
+            }
+            Err(Reason::OffMap) if Ray::new(cal, u, v).away_from_map() => {
+                *m = PixelModel::NO_REFERENCE;
             }
             Err(Reason::OffMap) => st.off_map += 1,
             Err(_) => st.not_monotonic += 1,
@@ -273,6 +336,8 @@ fn map_phase(cal: &Source<'_>, p: [f64; 2]) -> Option<f64> {
 /// One pixel's ray and the reference phase along it (step 1 of the module documentation).
 struct Ray<'a> {
     cal: &'a Source<'a>,
+    /// The image row (the search reads the map's rows `rows_needed(v)`).
+    v: u32,
     x: f64,
     y: f64,
     a: f64,
@@ -291,6 +356,7 @@ impl<'a> Ray<'a> {
         let (o, p) = (s.reference_point, s.projector_centre);
         Ray {
             cal,
+            v: v as u32,
             x,
             y,
             a: n.x * x + n.y * y + n.z,
@@ -346,6 +412,99 @@ impl<'a> Ray<'a> {
             }
         }
         Some(0.5 * (lo + hi))
+    }
+
+    /// The map position of the search's point at parameter `t`.
+    fn map_at_t(&self, t: f64) -> [f64; 2] {
+        let m = self.cal.recon.margin();
+        let p = self.pixel_at_t(t);
+        [p[0] + m.left as f64, p[1] + m.top as f64]
+    }
+
+    /// The search's segment: `t` at the depth range's ends, as the search takes it.
+    fn segment(&self) -> (f64, f64) {
+        let s = self.cal.recon.setup();
+        (self.t_at(s.z_min), self.t_at(s.z_max))
+    }
+
+    /// Walk the search segment lengthened by 10⁻⁴ of it at each end (more than the f32 search's
+    /// rounding of its ends), its points at most [`PATH_STEP_PX`] apart (the step is set from
+    /// the largest chord between 64 probes, halved for the path's bend: a margin, not a bound;
+    /// the check of step 3 runs the search itself), calling `f` with the
+    /// sample nearest to each ([`Near::index`]: `None` off the map); `false` when `f` does, or
+    /// when the walk cannot be made (a segment that is not finite, or too long).
+    fn walk(&self, mut f: impl FnMut(Option<usize>) -> bool) -> bool {
+        const PROBE: usize = 64;
+        const MAX_STEPS: usize = 1 << 16;
+        let (ta, tb) = self.segment();
+        let d = 1e-4 * (tb - ta);
+        let (t0, t1) = (ta - d, tb + d);
+        let at = |f: f64| self.map_at_t(t0 + (t1 - t0) * f);
+        let mut chord = 0f64;
+        let mut prev = at(0.0);
+        for k in 1..=PROBE {
+            let p = at(k as f64 / PROBE as f64);
+            chord = chord.max((p[0] - prev[0]).abs().max((p[1] - prev[1]).abs()));
+            prev = p;
+        }
+        // Twice the probes' largest chord over the step: room for the path's bend.
+        let steps = (2.0 * PROBE as f64 * chord / PATH_STEP_PX).ceil();
+        if !(steps.is_finite() && steps <= MAX_STEPS as f64) {
+            return false;
+        }
+        let steps = (steps as usize).max(PROBE);
+        (0..=steps).all(|k| {
+            self.cal
+                .near
+                .index(at(k as f64 / steps as f64))
+                .is_some_and(&mut f)
+        })
+    }
+
+    /// Whether the search segment stays [`NEAR_PX`] away from every valid map sample (module
+    /// documentation): the search can read nothing along it.
+    fn away_from_map(&self) -> bool {
+        let near = self.cal.near;
+        self.walk(|k| !near.any_valid(k))
+    }
+
+    /// Whether every phase beyond a clipped model's [`CLIP_FAR`] gets `NoCrossing` from the
+    /// search (the constant's documentation): one end of the segment where every sample near it
+    /// is valid, the other where none is (so the search's end samples are one valid, one not,
+    /// and it brackets among valid samples), and the phases at `|τ| = CLIP_FAR` beyond every
+    /// valid value near the segment by `δ`. With `δ` a tenth of the largest cell spread there
+    /// (the interpolant's gradient is below 1.5 spreads a pixel), every valid sample differs
+    /// from such a phase by more than a Newton step of 0.07 px can close (the search accepts
+    /// 0.003 px), with one sign: no crossing is found, and none is bracketed.
+    fn far_is_no_crossing(&self, m: &PixelModel) -> bool {
+        let near = self.cal.near;
+        let (mut lo, mut hi, mut spread) = (f64::INFINITY, f64::NEG_INFINITY, 0f64);
+        let walked = self.walk(|k| {
+            if let Some(k) = k {
+                lo = lo.min(near.lo[k] as f64);
+                hi = hi.max(near.hi[k] as f64);
+                spread = spread.max(near.spread[k] as f64);
+            }
+            true
+        });
+        let (ta, tb) = self.segment();
+        let (pa, pb) = (self.map_at_t(ta), self.map_at_t(tb));
+        let off = |p| near.index(p).is_some_and(|k| !near.any_valid(k));
+        // The end on the map, the rows of its sample's cell (⌊y⌋ and the next, give or take the
+        // f32 search's rounding: a pixel) inside the band of rows the search reads.
+        let (first, last) = self.cal.recon.rows_needed(self.v);
+        let on = |p: [f64; 2]| {
+            near.all_valid(p) && p[1] - 1.0 >= first as f64 && p[1] + 2.0 <= last as f64
+        };
+        let ends = (on(pa) && off(pb)) || (off(pa) && on(pb));
+        if !(walked && ends && lo <= hi) {
+            return false;
+        }
+        // The f32 kernel's rounding of the phase difference, and of τ, on top.
+        let delta = 0.1 * spread + 1e-3 + 1e-5 * lo.abs().max(hi.abs());
+        let reach = CLIP_FAR as f64 * (1.0 - 1e-3) / (m.phase_scale as f64).abs();
+        let pc = m.phase_centre as f64;
+        pc - reach <= lo - delta && pc + reach >= hi + delta
     }
 
     /// The longest stretch of `[z0, z1]` over which the map is valid along the ray, its ends
@@ -589,9 +748,12 @@ fn check_row(
     let mut phase = vec![0f32; w];
     let mut q = vec![0u8; w];
     let (mut ex, mut eq) = (vec![0f32; 3 * w], vec![0u8; w]);
+    let ref_invalid = Validity::ReferenceInvalid as u8;
     let (mut cx, mut cq) = (vec![0f32; 3 * w], vec![0u8; w]);
     let mut worst = vec![0f64; w];
     let mut fail = vec![false; w];
+    // A far check missed: the rule goes (the model stays).
+    let mut far_fail = vec![false; w];
     let mut within = vec![true; w];
     let mut answered = vec![false; w];
     let valid = Validity::Valid as u8;
@@ -599,11 +761,19 @@ fn check_row(
     for (u, m) in row.iter().enumerate() {
         let _ = m.store(&mut soa, u);
     }
-    for k in 0..CHECKS {
-        let tau = -1.0 + 2.0 * k as f64 / (CHECKS - 1) as f64;
+    // CHECKS phases over the range, then FAR_CHECKS beyond CLIP_FAR (clipped models only).
+    let far = CLIP_FAR as f64;
+    let taus = (0..CHECKS)
+        .map(|k| (-1.0 + 2.0 * k as f64 / (CHECKS - 1) as f64, false))
+        .chain(FAR_CHECKS.map(|f| (f * far, true)));
+    for (tau, beyond) in taus {
         for ((p, qq), m) in phase.iter_mut().zip(q.iter_mut()).zip(row.iter()) {
-            if m.is_compiled() {
+            if m.is_compiled() && (!beyond || m.far_is_no_crossing()) {
                 *p = (m.phase_centre as f64 + tau / (m.phase_scale as f64).abs()) as f32;
+                *qq = valid;
+            } else if m.is_no_reference() {
+                // Any phase: the search must find no reference (phases of a map's usual span).
+                *p = (100.0 * tau) as f32;
                 *qq = valid;
             } else {
                 *p = f32::NAN;
@@ -617,6 +787,21 @@ fn check_row(
             break;
         }
         for u in 0..w {
+            if row[u].is_no_reference() {
+                let nan = |x: &[f32]| x.iter().all(|v| v.is_nan());
+                fail[u] |= !(eq[u] == ref_invalid
+                    && cq[u] == ref_invalid
+                    && nan(&ex[3 * u..3 * u + 3])
+                    && nan(&cx[3 * u..3 * u + 3]));
+                continue;
+            }
+            if beyond {
+                if row[u].far_is_no_crossing() {
+                    let nc = Validity::NoCrossing as u8;
+                    far_fail[u] |= !(eq[u] == nc && cq[u] == nc);
+                }
+                continue;
+            }
             // Beyond a clipped range by rounding, the search answers, as in a scan.
             if !row[u].is_compiled() || cq[u] == LEFT_TO_SEARCH {
                 continue;
@@ -672,6 +857,15 @@ fn check_row(
         }
     }
     for u in 0..w {
+        if row[u].is_no_reference() {
+            if fail[u] {
+                row[u] = PixelModel::SEARCH;
+                st.off_map += 1;
+            } else {
+                st.no_reference += 1;
+            }
+            continue;
+        }
         if !row[u].is_compiled() {
             continue;
         }
@@ -679,6 +873,10 @@ fn check_row(
             row[u] = PixelModel::SEARCH;
             st.check_failed += 1;
         } else {
+            if far_fail[u] {
+                row[u].depth_centre = -row[u].depth_centre.abs();
+                st.far_rule_dropped += 1;
+            }
             st.max_difference = st.max_difference.max(worst[u]);
             st.beyond_tolerance += usize::from(!within[u]);
             st.answered += usize::from(answered[u]);

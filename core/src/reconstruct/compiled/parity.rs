@@ -3,8 +3,10 @@
 //! f32 arithmetic, so every target builds the same bits, and [`run`] folds the kernel's outputs
 //! into a digest the host compares with its own.
 //!
-//! The row mixes what the kernel meets: phases inside and beyond the range, clipped models,
-//! pixels with no model, invalid input codes and non-finite phases.
+//! The row mixes what the kernel meets: phases inside and beyond the range, clipped models with
+//! and without the far rule,
+//! pixels with no model, pixels with no reference along the ray, invalid input codes and
+//! non-finite phases.
 
 use super::{FIELDS, PixelModel, compiled_row};
 use crate::decode::parity::Digest;
@@ -28,16 +30,26 @@ pub fn inputs(
             ray: [(x - 128.0) / 300.0, 0.1 - x / 2000.0],
             phase_centre: 50.0 + 0.1 * x,
             phase_scale: if u % 5 == 3 { -k } else { k },
-            depth_centre: 580.0 + 0.25 * x,
+            // Every other clipped model without the far rule (a negative s_c).
+            depth_centre: if u % 10 == 8 { -1.0 } else { 1.0 } * (580.0 + 0.25 * x),
             pole: 0.02 + x * 1e-4,
             slope: [120.0 - 0.05 * x, 3.0, -0.5, 0.05],
         };
-        let m = if u % 37 == 5 { PixelModel::SEARCH } else { m };
+        let m = match u % 37 {
+            5 => PixelModel::SEARCH,
+            20 => PixelModel::NO_REFERENCE,
+            _ => m,
+        };
         // `store` cannot fail: u < WIDTH.
         let _ = m.store(models, u);
-        // τ from −1.2 to 1.2 in a scrambled order.
+        // τ from −1.2 to 1.2 in a scrambled order; every fourth pixel from −2.4 to 2.4 (beyond
+        // CLIP_FAR = 1.25 there).
         let t = ((u * 97) % WIDTH) as f32 / WIDTH as f32;
-        let tau = -1.2 + 2.4 * t;
+        let tau = if u % 4 == 1 {
+            -2.4 + 4.8 * t
+        } else {
+            -1.2 + 2.4 * t
+        };
         phase[u] = (50.0 + 0.1 * x) + tau * (20.0 + 0.01 * x);
         codes[u] = match u % 29 {
             7 => 1,    // Dark
@@ -93,6 +105,8 @@ mod tests {
         assert!(count(Validity::OutOfDepth as u8) > 10);
         assert!(count(Validity::Dark as u8) > 0);
         assert!(count(Validity::PhaseOutOfRange as u8) > 0);
+        assert!(count(Validity::ReferenceInvalid as u8) > 0);
+        assert!(count(Validity::NoCrossing as u8) > 0);
         assert!(left > 0 && left == count(super::super::LEFT_TO_SEARCH));
         assert_ne!(run(1), run(0));
     }
