@@ -399,14 +399,10 @@ pub fn reconstruct_frame_compiled(
     parallel: bool,
 ) -> Result<(), ReconstructError> {
     let w = recon.width();
-    let n = w * recon.height();
-    if phase.len() != n || validity.len() != n || out.xyz.len() != 3 * n || out.validity.len() != n
-    {
+    if phase.len() != w * recon.height() {
         return Err(ReconstructError::Length);
     }
-    if compiled.is_some_and(|c| c.models.len() != FIELDS * n) {
-        return Err(ReconstructError::Length);
-    }
+    check_rows(recon, compiled, 0, phase, validity, &out)?;
     let f = ReconFrame {
         recon,
         map,
@@ -575,6 +571,29 @@ pub fn reconstruct_rows(
     reconstruct_rows_compiled(recon, map, None, v0, phase, validity, out, isa)
 }
 
+/// The lengths of a band of whole rows from `v0` (the batch entry points' one check): `phase`,
+/// `validity` and the outputs whole rows of the image, inside it, and compiled models for the
+/// whole camera.
+fn check_rows(
+    recon: &Reconstructor,
+    compiled: Option<CompiledRows<'_>>,
+    v0: usize,
+    phase: &[f32],
+    validity: &[u8],
+    out: &PointsOut<'_>,
+) -> Result<(), ReconstructError> {
+    let w = recon.width();
+    let n = phase.len();
+    let rows_fit = w > 0 && n.is_multiple_of(w) && v0 + n / w <= recon.height();
+    let same = validity.len() == n && out.xyz.len() == 3 * n && out.validity.len() == n;
+    let models = compiled.is_none_or(|c| c.models.len() == FIELDS * w * recon.height());
+    if rows_fit && same && models {
+        Ok(())
+    } else {
+        Err(ReconstructError::Length)
+    }
+}
+
 /// [`reconstruct_rows`] with compiled models (`Some`), as [`reconstruct_frame_compiled`].
 #[allow(clippy::too_many_arguments)]
 pub fn reconstruct_rows_compiled(
@@ -587,20 +606,7 @@ pub fn reconstruct_rows_compiled(
     out: PointsOut<'_>,
     isa: Isa,
 ) -> Result<(), ReconstructError> {
-    let w = recon.width();
-    let n = phase.len();
-    if w == 0
-        || !n.is_multiple_of(w)
-        || validity.len() != n
-        || out.xyz.len() != 3 * n
-        || out.validity.len() != n
-        || v0 + n / w > recon.height()
-    {
-        return Err(ReconstructError::Length);
-    }
-    if compiled.is_some_and(|c| c.models.len() != FIELDS * w * recon.height()) {
-        return Err(ReconstructError::Length);
-    }
+    check_rows(recon, compiled, v0, phase, validity, &out)?;
     let f = ReconFrame {
         recon,
         map,

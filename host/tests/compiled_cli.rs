@@ -3,7 +3,7 @@
 //! pixel, the share of pixels left to the search, and misuse refused with one clear error.
 
 use fringe3d::cli::common;
-use fringe3d::compiled::{F32_ALLOWANCE_ULP, ulp};
+use fringe3d::compiled::{F32_ALLOWANCE_ULP, crossing_depth_f64, ulp};
 use fringe3d::scan::{PointCloud, ScanCalibration};
 use fringe3d_core::validity::Validity;
 use std::path::{Path, PathBuf};
@@ -18,6 +18,37 @@ fn both(ds: &Path, calibration: &Path, compiled: &Path) -> (PointCloud, PointClo
     let imgs = common::load_images(&ls, &[], true).expect("images");
     let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).expect("decode");
     let exact = cal.reconstruct(&d.phase, &d.validity, true).expect("exact");
+    // The f32 search against the f64 crossing it approximates, on every 97th column of every
+    // 61st row: how far apart two f32 answers may be (docs/compiled.md, "How close").
+    let w = cal.recon.width();
+    let mut errs: Vec<f64> = (0..cal.recon.height())
+        .step_by(61)
+        .flat_map(|v| (0..w).step_by(97).map(move |u| (u, v)))
+        .filter(|&(u, v)| exact.validity[v * w + u] == Validity::Valid as u8)
+        .filter_map(|(u, v)| {
+            let z = crossing_depth_f64(
+                &cal.recon,
+                &cal.reference_phase,
+                u,
+                v,
+                d.phase[v * w + u] as f64,
+            )?;
+            Some((exact.xyz[3 * (v * w + u) + 2] as f64 - z).abs())
+        })
+        .collect();
+    errs.sort_by(f64::total_cmp);
+    assert!(errs.len() >= 5, "{} pixels", errs.len());
+    let (median, max) = (errs[errs.len() / 2], errs[errs.len() - 1]);
+    eprintln!(
+        "{}: the search's depth against the f64 crossing over {} pixels: median {:.3} µm, \
+         largest {:.3} µm",
+        ds.display(),
+        errs.len(),
+        median * 1e3,
+        max * 1e3
+    );
+    // The search's own added error is below 1 µm (core/tests, reconstruct_accuracy).
+    assert!(max < 1e-3, "{max} mm");
     let cal = cal.with_compiled(compiled).expect("compiled file");
     let comp = cal
         .reconstruct(&d.phase, &d.validity, true)

@@ -254,6 +254,34 @@ pub fn compile(
     (file, rep)
 }
 
+/// The f64 crossing of §6 for camera pixel `(u, v)` and phase `phase`: the depth, mm, where the
+/// bilinear reference phase along the pixel's search segment equals it (60 bisections over the
+/// longest stretch of the depth range the map covers along the ray), `None` where the ends of
+/// that stretch do not bracket it. What the compiled function is fitted to, and a yardstick for
+/// the f32 search (`reference_phase` as for [`compile`]).
+pub fn crossing_depth_f64(
+    recon: &Reconstructor,
+    reference_phase: &[f32],
+    u: usize,
+    v: usize,
+    phase: f64,
+) -> Option<f64> {
+    let near = Near::new(&[], 0, 0);
+    let cal = Source {
+        recon,
+        phase: reference_phase,
+        near: &near,
+    };
+    let (mw, mh) = (recon.map_width(), recon.map_height());
+    if reference_phase.len() != mw * mh || u >= recon.width() || v >= recon.height() {
+        return None;
+    }
+    let s = recon.setup();
+    let ray = Ray::new(&cal, u, v);
+    let (a, b) = ray.valid_run(s.z_min, s.z_max, 0.0)?;
+    ray.depth_of(phase, a, b)
+}
+
 /// What a build reads: the reconstructor and its prepared map, and what the search can read near
 /// each map sample ([`Near`]).
 struct Source<'a> {
