@@ -301,18 +301,28 @@ fn check_models(models: &mut [f32], w: usize) -> Result<(), String> {
         .par_chunks_exact_mut(FIELDS * w.max(1))
         .enumerate()
         .try_for_each(|(v, row)| {
-            for u in 0..w {
-                let k = row[3 * w + u];
+            // Field by field (contiguous): whether each pixel's numbers are all finite.
+            let mut finite = vec![true; w];
+            for field in row.chunks_exact(w.max(1)) {
+                for (f, x) in finite.iter_mut().zip(field) {
+                    *f &= x.is_finite();
+                }
+            }
+            for (u, &all_finite) in finite.iter().enumerate() {
+                let (k, s_c) = (row[3 * w + u], row[4 * w + u]);
+                // What `PixelModel::from_array` keeps as it is: nothing to do.
+                let usable = all_finite && k != 0.0 && (k < 0.0 || s_c >= 0.0);
+                if usable {
+                    continue;
+                }
                 let m = PixelModel::load(row, u).unwrap_or(PixelModel::SEARCH);
                 if k.is_finite() && k != 0.0 && !m.is_compiled() {
                     return Err(format!(
                         "pixel ({u}, {v}): a model with a non-finite coefficient or a negative depth (a damaged file)"
                     ));
                 }
-                if !m.is_compiled() {
-                    // SEARCH or NO_REFERENCE, canonical.
-                    let _ = m.store(row, u);
-                }
+                // SEARCH or NO_REFERENCE, canonical.
+                let _ = m.store(row, u);
             }
             Ok(())
         })
