@@ -10,7 +10,7 @@ use fringe3d::adapt::experiment::score;
 use fringe3d::cli::common;
 use fringe3d::scan::{ScanCalibration, filter_edges};
 
-use crate::cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, run, s, virtual_reference};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -81,18 +81,7 @@ fn adapted_and_template(
         &out.join("calibration.toml"),
     );
     let tcal = t.join("template/calibration.toml");
-    run(&[
-        "calibrate",
-        "reference",
-        "-q",
-        "--virtual",
-        "--patterns",
-        s(set),
-        "--calibration",
-        s(cal),
-        "-o",
-        s(&tcal),
-    ]);
+    virtual_reference(set, cal, &tcal);
     (adapted, scan_score(first, set, &tcal))
 }
 

@@ -12,7 +12,7 @@ use fringe3d::scan::ScanCalibration;
 use serde_json::Value;
 use std::path::Path;
 
-use crate::cli_support::{Tmp, run, s};
+use crate::cli_support::{Tmp, run, s, virtual_reference};
 
 fn render(scene: &str, size: &str, out: &Path) {
     run(&[
@@ -263,18 +263,7 @@ fn the_full_projector_from_boards_and_from_plates() {
     let sphere = t.0.join("sphere");
     render("sphere", "640x512", &sphere);
     let virt = t.0.join("v/calibration.toml");
-    run(&[
-        "calibrate",
-        "reference",
-        "-q",
-        "--virtual",
-        "--patterns",
-        s(&sphere.join("patterns.toml")),
-        "--calibration",
-        s(&out_b),
-        "-o",
-        s(&virt),
-    ]);
+    virtual_reference(&sphere.join("patterns.toml"), &out_b, &virt);
     let (r_true, r_self) = (
         scan_rms(&sphere, &sphere.join("calibration.toml")),
         scan_rms(&sphere, &virt),

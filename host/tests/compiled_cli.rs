@@ -8,7 +8,7 @@ use fringe3d::scan::{PointCloud, ScanCalibration};
 use fringe3d_core::validity::Validity;
 use std::path::{Path, PathBuf};
 
-use crate::cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, run, s, virtual_reference};
 
 /// The scan of `ds` with `calibration`, exact and compiled with `compiled` (the library path
 /// of `fringe3d scan`).
@@ -77,18 +77,11 @@ fn virtual_dataset(t: &Tmp, scene: &str, label: &str, size: &str) -> (PathBuf, P
         s(&ds),
     ]);
     let virt = t.0.join(format!("{label}-virtual/calibration.toml"));
-    run(&[
-        "calibrate",
-        "reference",
-        "-q",
-        "--virtual",
-        "--patterns",
-        s(&ds.join("patterns.toml")),
-        "--calibration",
-        s(&ds.join("calibration.toml")),
-        "-o",
-        s(&virt),
-    ]);
+    virtual_reference(
+        &ds.join("patterns.toml"),
+        &ds.join("calibration.toml"),
+        &virt,
+    );
     (ds, virt)
 }
 

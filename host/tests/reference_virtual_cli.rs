@@ -8,7 +8,7 @@ use fringe3d::cli::common;
 use fringe3d::scan::ScanCalibration;
 use std::path::Path;
 
-use crate::cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, run, s, virtual_reference};
 
 /// Interior RMS error of the scan of `ds` with `calibration` (the library path of `fringe3d scan`),
 /// mm, and the interior points compared. The CLI's `scan` is exercised on the same files too.
@@ -56,18 +56,7 @@ fn a_virtual_reference_through_the_cli() {
     ]);
     let cal = ds.join("calibration.toml");
     let virt = t.0.join("virtual/calibration.toml");
-    run(&[
-        "calibrate",
-        "reference",
-        "-q",
-        "--virtual",
-        "--patterns",
-        s(&ds.join("patterns.toml")),
-        "--calibration",
-        s(&cal),
-        "-o",
-        s(&virt),
-    ]);
+    virtual_reference(&ds.join("patterns.toml"), &cal, &virt);
     // The same without a margin (an image-sized map, as a head takes).
     let virt0 = t.0.join("virtual0/calibration.toml");
     run(&[

@@ -44,6 +44,23 @@ pub fn run(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// `fringe3d calibrate reference -q --virtual` for the pattern set `patterns` and the
+/// calibration `calibration`, written to `out` (a calibration with its virtual reference map).
+pub fn virtual_reference(patterns: &Path, calibration: &Path, out: &Path) {
+    run(&[
+        "calibrate",
+        "reference",
+        "-q",
+        "--virtual",
+        "--patterns",
+        s(patterns),
+        "--calibration",
+        s(calibration),
+        "-o",
+        s(out),
+    ]);
+}
+
 /// A path as the `&str` argument the binary takes.
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
