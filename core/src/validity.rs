@@ -44,11 +44,16 @@ pub enum Validity {
     /// margin of the DC term than the scheme tolerates (one for the plain code, two for the
     /// complementary one, [`crate::gray`]): the stripe, so the fringe order, is unknown.
     CodeAmbiguous = 11,
+    /// Edge filter: a 4-neighbour receives no usable light ([`Validity::Dark`],
+    /// [`Validity::Saturated`] or [`Validity::LowModulation`]), so the pixel straddles the edge
+    /// of the light (the projector's frame, a shadow, a black or clipped patch): its phase is the
+    /// lit part's, biased towards it by up to half a pixel's change of phase ([`crate::filter`]).
+    LightEdge = 12,
 }
 
 impl Validity {
     /// All codes, in numeric order.
-    pub const ALL: [Validity; 12] = [
+    pub const ALL: [Validity; 13] = [
         Validity::Valid,
         Validity::Dark,
         Validity::Saturated,
@@ -61,6 +66,7 @@ impl Validity {
         Validity::Degenerate,
         Validity::DepthEdge,
         Validity::CodeAmbiguous,
+        Validity::LightEdge,
     ];
 
     /// The code of a stored byte, or `None` for a byte that is no code.
@@ -92,6 +98,7 @@ impl Validity {
             Validity::Degenerate => "degenerate",
             Validity::DepthEdge => "depth-edge",
             Validity::CodeAmbiguous => "code-ambiguous",
+            Validity::LightEdge => "light-edge",
         }
     }
 }

@@ -23,6 +23,7 @@ mod decode_optional_outputs;
 mod decode_parity;
 mod decode_scratch_static;
 mod decode_single_period;
+mod filter_edges;
 mod patterns;
 mod reconstruct_accuracy;
 mod reconstruct_margin;

@@ -352,7 +352,7 @@ pub fn filter_edges(cloud: &mut PointCloud, f: &EdgeFilter) {
         f.filter_row(above, row(v), below, o);
     });
     for (i, (o, p)) in out.iter().zip(cloud.xyz.chunks_exact_mut(3)).enumerate() {
-        if *o == Validity::DepthEdge as u8 && cloud.validity[i] == Validity::Valid as u8 {
+        if *o != Validity::Valid as u8 && cloud.validity[i] == Validity::Valid as u8 {
             p.fill(fringe3d_core::math::CANONICAL_NAN);
         }
     }

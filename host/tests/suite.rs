@@ -36,6 +36,7 @@ mod noise_floor;
 mod pattern_design;
 mod reference_consistency;
 mod reference_fit;
+mod reference_near_coverage;
 mod reference_physical;
 mod reference_virtual_cli;
 mod render_checkerboard;

@@ -12,6 +12,9 @@ use super::{MAX_PAYLOAD, WireError};
 
 /// The protocol version this module speaks; frames of any other version are rejected.
 ///
+/// Version 5 adds the validity code 12, `light-edge` (the edge filter flags a point beside a
+/// pixel without light): a head of version 5 sends it in ResultRow, which a version-4 host
+/// would refuse row by row.
 /// Version 4 ends the pattern-set description with the levels' relation (hierarchical,
 /// multi-frequency heterodyne or coprime) and adds DefineCorrection, the decoder's phase-error table for
 /// the projector's response or a binary set's blur.
@@ -20,7 +23,7 @@ use super::{MAX_PAYLOAD, WireError};
 /// core's set-up consumes, so the head computes exactly what the desktop computes), describes
 /// knot profiles and curved fringes, and adds the edge-filter mode to Scan. Version 1 carried
 /// f32 and linear phase functions only.
-pub const PROTOCOL_VERSION: u8 = 4;
+pub const PROTOCOL_VERSION: u8 = 5;
 
 /// Length of the header in bytes.
 pub const HEADER_LEN: usize = 6;

@@ -107,11 +107,11 @@ impl Tx {
                 .get(c0 * k..c1 * k)
                 .ok_or(LinkError::Wire(WireError::BufferTooSmall))?;
             for (j, (v, dst)) in vals.iter().zip(self.row.chunks_exact_mut(4)).enumerate() {
-                // Points the edge filter flagged (valid before, DepthEdge now) go as canonical
-                // NaN, like every invalid point.
+                // Points the edge filter flagged (valid before, a depth or light edge now) go as
+                // canonical NaN, like every invalid point.
                 let c = c0 + j / k;
                 let flagged = before_filter.is_some_and(|b| {
-                    validity.get(c) == Some(&(Validity::DepthEdge as u8))
+                    validity.get(c).is_some_and(|v| *v != Validity::Valid as u8)
                         && b.get(c) == Some(&(Validity::Valid as u8))
                 });
                 let v = if flagged { CANONICAL_NAN } else { *v };

@@ -48,7 +48,8 @@ pub struct CloudArgs {
     /// Organized cloud: one vertex per camera pixel, invalid ones flagged (NaN position).
     #[arg(long)]
     pub organized: bool,
-    /// Keep points at depth discontinuities ("flying pixels" that mix two surfaces).
+    /// Keep points at depth discontinuities ("flying pixels" that mix two surfaces) and at the
+    /// edge of the projector's light (pixels that see it only in part).
     #[arg(long)]
     pub no_edge_filter: bool,
     /// Steepest accepted surface for the edge filter, degrees from facing the camera.
@@ -156,7 +157,7 @@ impl CloudOut {
     }
 }
 
-/// Apply the depth-edge filter unless `--no-edge-filter`.
+/// Apply the edge filter (depth and light edges) unless `--no-edge-filter`.
 pub fn apply_edge_filter(
     args: &CloudArgs,
     cal: &crate::scan::ScanCalibration,

@@ -42,7 +42,7 @@ pub struct DemoArgs {
     /// Noise seed.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Keep points at depth discontinuities (to see what the edge filter removes).
+    /// Keep points at depth discontinuities and light edges (to see what the edge filter removes).
     #[arg(long)]
     pub no_edge_filter: bool,
     /// Instead of scanning one scene: render the calibration data (checkerboard views, the plate

@@ -151,8 +151,8 @@ pub struct ScanArgs {
     /// Silence tolerated while the head captures, seconds (more than 0, at most 86400).
     #[arg(long, default_value_t = 30.0, value_parser = parse::scan_timeout_s)]
     pub scan_timeout_s: f64,
-    /// Keep points at depth discontinuities ("flying pixels" that mix two surfaces); by default
-    /// the head filters them as `fringe3d scan` does.
+    /// Keep points at depth discontinuities ("flying pixels" that mix two surfaces) and at the
+    /// edge of the light; by default the head filters them as `fringe3d scan` does.
     #[arg(long)]
     pub no_edge_filter: bool,
     /// Steepest accepted surface for the edge filter, degrees from facing the camera.

@@ -18,6 +18,7 @@ pub const VALIDITY_COLOURS: [[u8; 3]; fringe3d_core::Validity::ALL.len()] = [
     [160, 160, 0],   // degenerate
     [255, 255, 0],   // depth edge
     [255, 96, 160],  // code ambiguous
+    [200, 230, 255], // light edge
 ];
 
 /// A perceptually ordered blue-cyan-green-yellow-red ramp (piecewise linear), `t ∈ [0, 1]`.

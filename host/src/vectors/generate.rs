@@ -152,14 +152,14 @@ pub fn generate_from(inp: &Inputs) -> Result<GoldenVectors, VectorsError> {
         "filter/validity.u8".into(),
         Dtype::U8,
         vec![h, w],
-        "validity after the depth-edge filter (valid points at a depth discontinuity become 10 = depth-edge)".into(),
+        "validity after the edge filter (valid points at a depth discontinuity become 10 = depth-edge, those beside a pixel without light 12 = light-edge)".into(),
         p.filtered_validity.clone(),
     );
     arr(
         "filter/points.f32".into(),
         Dtype::F32,
         vec![h, w, 3],
-        "points after the depth-edge filter: canonical NaN where the filtered validity != 0".into(),
+        "points after the edge filter: canonical NaN where the filtered validity != 0".into(),
         f32_bytes(&p.filtered_points),
     );
     files.push(VectorFile {

@@ -1,0 +1,197 @@
+//! Issue #17's coverage bar through `fringe3d scan`: on scenes that fill the image down to the
+//! near end of the depth range (a tilted plane, the freeform surface brought near the camera),
+//! with a virtual reference on the default far plane and the margin the geometry needs, the scan
+//! keeps ≥ 99.5 % of the interior pixels whose true point lies in the depth range, and none of
+//! them is refused as "no-crossing". The same scans with an image-sized map lose the near points
+//! whose crossing lies off the image (the margin's reason to exist).
+
+use fringe3d::cli::common;
+use fringe3d::render::Scene;
+use fringe3d::render::scene::Overrides;
+use fringe3d::scan::{ScanCalibration, filter_edges};
+use fringe3d_core::Validity;
+use std::path::Path;
+
+use crate::cli_support::{Tmp, run, s, virtual_reference};
+
+/// The default rig's scene head (camera, projector, patterns, reference) with `objects`.
+fn scene_toml(objects: &str) -> String {
+    let base = Scene::builtin("plane", &Overrides::default())
+        .expect("builtin scene")
+        .spec
+        .to_toml()
+        .expect("toml");
+    let head = base.split("[[objects]]").next().expect("scene head");
+    format!("{head}{objects}")
+}
+
+/// A plane tilted about 40° from facing the camera, towards the projector: its near corner at
+/// about 465 mm (bottom left), its far one beyond the depth range (top right).
+const TILTED: &str = r#"
+[[objects]]
+name = "near-plane"
+albedo = 0.8
+[objects.shape]
+type = "plane"
+point = [0.0, 0.0, 575.0]
+normal = [0.6, -0.25, -0.76]
+"#;
+
+/// The built-in freeform surface 130 mm nearer the camera, so that it fills the image and its
+/// bumps reach the near end of the depth range.
+const FREEFORM_NEAR: &str = r#"
+[[objects]]
+name = "freeform-near"
+albedo = 0.8
+[objects.shape]
+type = "height_field"
+center = [0.0, 0.0, 530.0]
+euler_deg = [190.0, -8.0, 0.0]
+size = [400.0, 320.0]
+base = 0.0
+bumps = [[0.0, 0.0, 60.0, 45.0], [-80.0, 50.0, 35.0, 25.0], [85.0, -45.0, 40.0, 30.0], [70.0, 60.0, -25.0, 22.0], [-75.0, -55.0, 20.0, 18.0], [20.0, -70.0, 15.0, 12.0]]
+"#;
+
+/// What a scan kept of the pixels that count.
+struct Coverage {
+    /// Interior pixels (the renderer's mask 15: hit, on the DMD, lit, clean) whose true point's
+    /// depth lies in the calibration's range.
+    counted: usize,
+    /// Of those, valid after the edge filter.
+    valid: usize,
+    /// Of those, refused as no-crossing.
+    no_crossing: usize,
+    /// The nearest true depth among them, mm.
+    nearest: f64,
+}
+
+/// The library path of `fringe3d scan` (decode, reconstruct, the edge filter at 80°) on `ds` with
+/// `calibration`, against the renderer's truth; the CLI's own count of points must agree.
+fn coverage(ds: &Path, calibration: &Path, out: &Path) -> Coverage {
+    let json = run(&[
+        "scan",
+        "-q",
+        "--json",
+        "--patterns",
+        s(&ds.join("patterns.toml")),
+        "--calibration",
+        s(calibration),
+        s(ds),
+        "-o",
+        s(out),
+    ]);
+    let cli_points =
+        serde_json::from_str::<serde_json::Value>(&json).expect("scan --json")["points"]
+            .as_u64()
+            .expect("points");
+    let ls = common::load_set(&ds.join("patterns.toml")).expect("pattern set");
+    let cal = ScanCalibration::load(calibration, ls.set.axis()).expect("calibration");
+    let imgs = common::load_images(&ls, &[], true).expect("images");
+    let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).expect("decode");
+    let mut cloud = cal
+        .reconstruct(&d.phase, &d.validity, true)
+        .expect("reconstruct");
+    filter_edges(&mut cloud, &cal.edge_filter(80.0).expect("filter"));
+    assert_eq!(cloud.valid_count() as u64, cli_points, "CLI and library");
+    let truth = fringe3d::io::npy::decode_f64(&std::fs::read(ds.join("truth/points.npy")).unwrap())
+        .unwrap()
+        .1;
+    let (mask, _) = fringe3d::io::image::read_gray(&ds.join("truth/mask.png")).unwrap();
+    let fringe3d::io::image::Pixels::U8(mask) = mask.pixels else {
+        panic!("8-bit mask")
+    };
+    let [z0, z1] = fringe3d::io::calibration::Calibration::load(calibration)
+        .unwrap()
+        .depth_range;
+    let mut c = Coverage {
+        counted: 0,
+        valid: 0,
+        no_crossing: 0,
+        nearest: f64::INFINITY,
+    };
+    for (i, m) in mask.iter().enumerate() {
+        let z = truth[3 * i + 2];
+        if *m != 15 || !(z0..=z1).contains(&z) {
+            continue;
+        }
+        c.counted += 1;
+        c.nearest = c.nearest.min(z);
+        c.valid += usize::from(cloud.validity[i] == Validity::Valid as u8);
+        c.no_crossing += usize::from(cloud.validity[i] == Validity::NoCrossing as u8);
+    }
+    c
+}
+
+#[test]
+fn near_scenes_keep_their_interior_with_a_virtual_reference() {
+    for (name, objects) in [("tilted-plane", TILTED), ("freeform-near", FREEFORM_NEAR)] {
+        let t = Tmp::new(&format!("near-{name}"));
+        let scene = t.0.join("scene.toml");
+        std::fs::write(&scene, scene_toml(objects)).unwrap();
+        let ds = t.0.join("ds");
+        run(&[
+            "render",
+            "-q",
+            "--scene",
+            s(&scene),
+            "--size",
+            "640x512",
+            "--noise",
+            "1",
+            "--bits",
+            "8",
+            "--out",
+            s(&ds),
+        ]);
+        let cal = ds.join("calibration.toml");
+        let patterns = ds.join("patterns.toml");
+        let wide = t.0.join("wide/calibration.toml");
+        virtual_reference(&patterns, &cal, &wide);
+        let narrow = t.0.join("narrow/calibration.toml");
+        run(&[
+            "calibrate",
+            "reference",
+            "-q",
+            "--virtual",
+            "--margin",
+            "0",
+            "--patterns",
+            s(&patterns),
+            "--calibration",
+            s(&cal),
+            "-o",
+            s(&narrow),
+        ]);
+        let margin = fringe3d::io::calibration::Calibration::load(&wide)
+            .unwrap()
+            .reference
+            .unwrap()
+            .margin;
+        let w = coverage(&ds, &wide, &t.0.join("wide.ply"));
+        let n = coverage(&ds, &narrow, &t.0.join("narrow.ply"));
+        let pc = |c: &Coverage| 100.0 * c.valid as f64 / c.counted as f64;
+        eprintln!(
+            "{name}: {} interior pixels in the depth range (nearest at {:.1} mm); margin \
+             {margin:?}: {:.3} % kept, {} no-crossing; image-sized map: {:.3} % kept, {} \
+             no-crossing",
+            w.counted,
+            w.nearest,
+            pc(&w),
+            w.no_crossing,
+            pc(&n),
+            n.no_crossing
+        );
+        // The scene reaches the near end of the range and fills most of the image.
+        assert!(w.counted > 200_000, "{name}: {} pixels", w.counted);
+        assert!(w.nearest < 480.0, "{name}: nearest {} mm", w.nearest);
+        assert!(pc(&w) >= 99.5, "{name}: {:.3} % kept", pc(&w));
+        assert_eq!(w.no_crossing, 0, "{name}: no-crossing in the depth range");
+        // Without the margin the near points go: the scene does test it.
+        assert!(
+            n.valid + 1000 < w.valid,
+            "{name}: {} without the margin, {} with it",
+            n.valid,
+            w.valid
+        );
+    }
+}
