@@ -383,6 +383,8 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         "11x8",
         "--square",
         "25",
+        "--margin",
+        "auto",
     ]
     .iter()
     .map(|x| x.to_string())
@@ -417,9 +419,77 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         off.abs() <= 0.1 && ang <= 0.02,
         "reference plane {off} mm, {ang} degrees"
     );
-    // Its phase map: against the exact phase of the plane, no unwrapping error anywhere.
-    let map = read_f32(&cal_dir.join("reference_phase.tif"));
+    // Its phase map: against the exact phase of the plane, no unwrapping error anywhere. The
+    // calibration holds the projector model, so the map extends past the image (the capture's
+    // model inside, the projector model's continuation outside).
+    let wide = read_f32(&cal_dir.join("reference_phase.tif"));
+    let margin = fringe3d_core::reconstruct::Margin::from_array(r.margin.expect("a margin"));
+    let (w, h) = (c.camera.width as usize, c.camera.height as usize);
+    let mw = w + (margin.left + margin.right) as usize;
+    let map: Vec<f32> = (0..h)
+        .flat_map(|v| {
+            let row = (v + margin.top as usize) * mw + margin.left as usize;
+            wide[row..row + w].to_vec()
+        })
+        .collect();
     let true_map = read_f32(&data.reference.join("truth/reference_phase_true.tif"));
+    // The margin against the exact map of the true plane (the rig's projector): what is left of
+    // the calibrated projector model's error across the margin after the continued shift.
+    let ls = fringe3d::cli::common::load_set(&data.reference.join("patterns.toml")).unwrap();
+    let truth = data.rig.calibration(None, None, None);
+    let exact = fringe3d::calib::virtual_reference::virtual_reference(
+        &truth.camera,
+        truth.projector.as_ref().unwrap(),
+        &ls.set,
+        (data.rig.reference_point, data.rig.reference_normal),
+        margin,
+    )
+    .unwrap();
+    let mh = h + (margin.top + margin.bottom) as usize;
+    let outside: Vec<f64> = (0..mw * mh)
+        .filter(|&k| {
+            let (i, j) = ((k % mw) as isize, (k / mw) as isize);
+            let (u, v) = (i - margin.left as isize, j - margin.top as isize);
+            !((0..w as isize).contains(&u) && (0..h as isize).contains(&v))
+        })
+        .filter(|&k| wide[k].is_finite() && exact[k].is_finite())
+        .map(|k| f64::from(wide[k]) - f64::from(exact[k]))
+        .collect();
+    // By distance from the image: the calibrated model's error grows past the image, where no
+    // board constrained it.
+    let mut near = Vec::new();
+    for (a, b) in [(0isize, 10isize), (10, 40), (40, 80), (80, 1024)] {
+        let mut d = Vec::new();
+        for k in 0..mw * mh {
+            let (u, v) = (
+                (k % mw) as isize - margin.left as isize,
+                (k / mw) as isize - margin.top as isize,
+            );
+            let du = (-u).max(u - w as isize + 1).max(0);
+            let dv = (-v).max(v - h as isize + 1).max(0);
+            if (a + 1..=b).contains(&du.max(dv)) && wide[k].is_finite() && exact[k].is_finite() {
+                d.push(f64::from(wide[k]) - f64::from(exact[k]));
+            }
+        }
+        println!(
+            "  {}..{b} px past the image: {} samples, {:.4} rad RMS",
+            a + 1,
+            d.len(),
+            rms(&d)
+        );
+        if b <= 40 {
+            near.extend(d);
+        }
+    }
+    assert!(rms(&near) <= 0.02, "{} rad RMS within 40 px", rms(&near));
+    let worst_out = outside.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    println!(
+        "reference map's margin {:?}: {} samples, RMS {:.4} rad, max {worst_out:.4} rad from the exact phase",
+        margin.to_array(),
+        outside.len(),
+        rms(&outside)
+    );
+    assert!(outside.len() > 1000, "{} margin samples", outside.len());
     let d: Vec<f64> = map
         .iter()
         .zip(&true_map)
@@ -569,6 +639,8 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         "11x8",
         "--square",
         "25",
+        "--margin",
+        "auto",
     ]
     .iter()
     .map(|x| x.to_string())

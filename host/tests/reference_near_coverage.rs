@@ -2,8 +2,10 @@
 //! near end of the depth range (a tilted plane, the freeform surface brought near the camera),
 //! with a virtual reference on the default far plane and the margin the geometry needs, the scan
 //! keeps ≥ 99.5 % of the interior pixels whose true point lies in the depth range, and none of
-//! them is refused as "no-crossing". The same scans with an image-sized map lose the near points
-//! whose crossing lies off the image (the margin's reason to exist).
+//! them is refused as "no-crossing"; so does the model fitted to a capture of the rig's own
+//! reference plane, extended by the projector model (`--margin auto`). The same scans with an
+//! image-sized map lose the near points whose crossing lies off the image (the margin's reason
+//! to exist).
 
 use fringe3d::cli::common;
 use fringe3d::render::Scene;
@@ -162,6 +164,50 @@ fn near_scenes_keep_their_interior_with_a_virtual_reference() {
             "-o",
             s(&narrow),
         ]);
+        // A captured plane (the rig's reference plane, rendered on its own) with the fitted
+        // model extended by the projector model (`--margin auto`; the rendered calibration
+        // holds the true projector).
+        let refds = t.0.join("refds");
+        run(&[
+            "render",
+            "-q",
+            "--scene",
+            "reference",
+            "--size",
+            "640x512",
+            "--noise",
+            "1",
+            "--bits",
+            "8",
+            "--seed",
+            "5",
+            "--out",
+            s(&refds),
+        ]);
+        let r = fringe3d::io::calibration::Calibration::load(&cal)
+            .unwrap()
+            .reference
+            .unwrap();
+        let captured = t.0.join("captured/calibration.toml");
+        let fmt = |x: [f64; 3]| format!("{},{},{}", x[0], x[1], x[2]);
+        run(&[
+            "calibrate",
+            "reference",
+            "-q",
+            s(&refds),
+            "--patterns",
+            s(&patterns),
+            "--calibration",
+            s(&cal),
+            "--plane-point",
+            &fmt(r.point),
+            "--plane-normal",
+            &fmt(r.normal),
+            "--margin",
+            "auto",
+            "-o",
+            s(&captured),
+        ]);
         let margin = fringe3d::io::calibration::Calibration::load(&wide)
             .unwrap()
             .reference
@@ -169,6 +215,7 @@ fn near_scenes_keep_their_interior_with_a_virtual_reference() {
             .margin;
         let w = coverage(&ds, &wide, &t.0.join("wide.ply"));
         let n = coverage(&ds, &narrow, &t.0.join("narrow.ply"));
+        let c = coverage(&ds, &captured, &t.0.join("captured.ply"));
         let pc = |c: &Coverage| 100.0 * c.valid as f64 / c.counted as f64;
         eprintln!(
             "{name}: {} interior pixels in the depth range (nearest at {:.1} mm); margin \
@@ -181,6 +228,18 @@ fn near_scenes_keep_their_interior_with_a_virtual_reference() {
             pc(&n),
             n.no_crossing
         );
+        let cm = fringe3d::io::calibration::Calibration::load(&captured)
+            .unwrap()
+            .reference
+            .unwrap()
+            .margin;
+        eprintln!(
+            "{name}: captured plane's model, margin {cm:?} by the projector model: {:.3} % kept, {} no-crossing",
+            pc(&c),
+            c.no_crossing
+        );
+        assert!(pc(&c) >= 99.5, "{name}: captured, {:.3} % kept", pc(&c));
+        assert_eq!(c.no_crossing, 0, "{name}: captured, no-crossing in range");
         // The scene reaches the near end of the range and fills most of the image.
         assert!(w.counted > 200_000, "{name}: {} pixels", w.counted);
         assert!(w.nearest < 480.0, "{name}: nearest {} mm", w.nearest);
@@ -194,4 +253,93 @@ fn near_scenes_keep_their_interior_with_a_virtual_reference() {
             w.valid
         );
     }
+}
+
+#[test]
+fn a_margin_on_a_capture_without_the_projector_model_is_refused() {
+    let t = Tmp::new("margin-bad");
+    let ds = t.0.join("ds");
+    run(&[
+        "render",
+        "-q",
+        "--scene",
+        "reference",
+        "--size",
+        "320x256",
+        "--noise",
+        "1",
+        "--bits",
+        "8",
+        "--out",
+        s(&ds),
+    ]);
+    let cal = ds.join("calibration.toml");
+    let text = std::fs::read_to_string(&cal).unwrap();
+    let cut = text
+        .find("[projector")
+        .expect("the rendered calibration has [projector]");
+    let no_projector = t.0.join("no_projector.toml");
+    std::fs::write(&no_projector, &text[..cut]).unwrap();
+    let r = fringe3d::io::calibration::Calibration::load(&cal)
+        .unwrap()
+        .reference
+        .unwrap();
+    let fmt = |x: [f64; 3]| format!("{},{},{}", x[0], x[1], x[2]);
+    let (point, normal) = (fmt(r.point), fmt(r.normal));
+    let out_dir = t.0.join("out");
+    let out = out_dir.join("calibration.toml");
+    let patterns = ds.join("patterns.toml");
+    for (calibration, extra) in [
+        (&no_projector, vec!["--margin", "auto"]),
+        (&no_projector, vec!["--margin", "20"]),
+        (&cal, vec!["--margin", "auto", "--raw"]),
+    ] {
+        let mut args = vec![
+            "calibrate",
+            "reference",
+            s(&ds),
+            "--patterns",
+            s(&patterns),
+            "--calibration",
+            s(calibration),
+            "--plane-point",
+            &point,
+            "--plane-normal",
+            &normal,
+            "-o",
+            s(&out),
+        ];
+        args.extend(extra);
+        let o = crate::cli_support::fringe3d(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(
+            err.contains("--margin extends the model fitted to the capture")
+                && err.contains(s(calibration)),
+            "{args:?}: {err}"
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(!out_dir.exists(), "{args:?} wrote {}", out_dir.display());
+    }
+    // `--margin 0` is the default's image-sized map, with or without the model.
+    run(&[
+        "calibrate",
+        "reference",
+        "-q",
+        s(&ds),
+        "--patterns",
+        s(&ds.join("patterns.toml")),
+        "--calibration",
+        s(&no_projector),
+        "--plane-point",
+        &point,
+        "--plane-normal",
+        &normal,
+        "--margin",
+        "0",
+        "-o",
+        s(&out),
+    ]);
+    let written = fringe3d::io::calibration::Calibration::load(&out).unwrap();
+    assert_eq!(written.reference.unwrap().margin, None);
 }

@@ -1,8 +1,9 @@
 # Bump every frame vector in core/tests/wire_vectors.rs from protocol version OLD to NEW
 # (`python3 tools/wire_vectors/bump_version.py OLD NEW`):
 # COBS-decode each line literal (independent reference, tools/wire_vectors/wire_ref.py), check it
-# against its CRC literal, set the version byte (and the version byte of Hello/Capabilities
-# bodies, marked by the caller), recompute CRC-32C and COBS, and rewrite the literals.
+# against its CRC literal, set the version byte (and Hello's body, which is the version; the
+# Capabilities vector's version field is a value of its own and stays), recompute CRC-32C and
+# COBS, and rewrite the literals.
 import os, re, sys, struct
 HERE = os.path.dirname(os.path.abspath(__file__))
 exec(open(os.path.join(HERE, 'wire_ref.py')).read())

@@ -8,11 +8,12 @@ use super::projector_centre::PlateObservation;
 use super::reference::ReferencePose;
 use super::reference_fit::{ReferenceFit, fit_reference};
 use super::reference_physical::{PhysicalFit, fit_physical};
+pub use super::reference_write::write_reference;
 use super::report::{nice_scale, view_picture};
 use super::{CalibError, pose};
 use crate::batch::decode_image_set;
-use crate::io::calibration::{Calibration, CameraParams, ProjectorResponse, ReferencePlane};
-use crate::io::image::{Pixels, read_gray, write_tiff_f32};
+use crate::io::calibration::{Calibration, CameraParams, ProjectorResponse};
+use crate::io::image::{Pixels, read_gray};
 use crate::io::image_set;
 use crate::io::import::import_any_camera;
 use crate::io::pattern_file::PatternSetFile;
@@ -27,12 +28,7 @@ use std::path::{Path, PathBuf};
 /// A progress callback: called with the number of work items just finished.
 pub type Progress<'a> = &'a (dyn Fn(u64) + Sync);
 
-pub(crate) fn input(what: &Path, message: impl Into<String>) -> CalibError {
-    CalibError::Input {
-        what: what.display().to_string(),
-        message: message.into(),
-    }
-}
+pub(crate) use super::input;
 
 /// The images named on a command line: the files themselves, or every PNG/TIFF/BMP/PGM (or NPY)
 /// frame of one folder sorted by name.
@@ -518,6 +514,11 @@ pub struct ReferenceRun {
     /// The plane fitted to the capture through the calibration's projector model (when it has
     /// one): the flatness and pose check.
     pub physical: Option<PhysicalFit>,
+    /// The map's margin past the image.
+    pub margin: fringe3d_core::reconstruct::Margin,
+    /// With a margin: the largest shift between the capture's model and the projector model's
+    /// map at the image's border, radians ([`super::reference_margin`]).
+    pub seam_rad: Option<f64>,
 }
 
 /// The largest angle between the plane the fringes show (through the projector model) and the
@@ -539,6 +540,10 @@ pub struct ReferenceOptions<'a> {
     /// `None`: measure and report only (the deviation also holds the projector model's own error
     /// where its calibration did not reach; see [`super::reference_physical::FLATNESS_MM`]).
     pub flatness_limit_mm: Option<f64>,
+    /// How far the map extends past the image ([`super::reference_margin`]): `None` for what the
+    /// geometry needs; anything but zero needs the calibration's projector model and
+    /// [`MapSource::Model`].
+    pub margin: Option<fringe3d_core::reconstruct::Margin>,
 }
 
 /// What `calibrate reference` writes as Φ_R.
@@ -564,6 +569,8 @@ pub fn calibrate_reference_files(
     opts: &ReferenceOptions<'_>,
 ) -> Result<ReferenceRun, CalibError> {
     let (detect_opts, map_name, source) = (&opts.detect, opts.map_name, opts.source);
+    super::reference_margin::check_request(calibration, source == MapSource::Model, opts.margin)
+        .map_err(|m| input(images.first().map_or(out, |p| p.as_path()), m))?;
     let lens = Lens::from_model(&calibration.camera);
     let pose = match plane {
         PlaneSource::Board {
@@ -685,14 +692,28 @@ pub fn calibrate_reference_files(
             (std::mem::take(&mut f.phase), Some(f))
         }
     };
+    let plane = (pose.point.to_array(), pose.normal.to_array());
+    let (map, margin, seam_rad) = super::reference_margin::capture_map(
+        calibration,
+        &set,
+        map,
+        (plane, physical.as_ref().map(|f| (f.point, f.normal))),
+        fit.is_some(),
+        opts.margin,
+    )
+    .map_err(|m| input(&dec.images[0], m))?;
+    let size = (
+        dec.width + margin.left + margin.right,
+        dec.height + margin.top + margin.bottom,
+    );
     let (cal, map_path) = write_reference(
         calibration,
         out,
         pf,
         map_name,
-        (dec.width, dec.height, &map),
-        (pose.point.to_array(), pose.normal.to_array()),
-        fringe3d_core::reconstruct::Margin::ZERO,
+        (size.0, size.1, &map),
+        plane,
+        margin,
     )?;
     Ok(ReferenceRun {
         plane: pose,
@@ -701,50 +722,9 @@ pub fn calibrate_reference_files(
         valid_fraction: dec.valid_fraction,
         fit,
         physical,
+        margin,
+        seam_rad,
     })
-}
-
-/// Write a reference: the phase map `map_name` (float TIFF, `width × height` including the
-/// `margin` past the image) and `reference_patterns.toml` beside `out`, then `out`, the
-/// calibration with its `[reference]` (`plane` = point, normal). Returns the calibration written
-/// and the map's path. Shared by the captured and the virtual reference.
-pub fn write_reference(
-    calibration: &Calibration,
-    out: &Path,
-    mut pattern_file: PatternSetFile,
-    map_name: &str,
-    (width, height, map): (u32, u32, &[f32]),
-    (point, normal): ([f64; 3], [f64; 3]),
-    margin: fringe3d_core::reconstruct::Margin,
-) -> Result<(Calibration, PathBuf), CalibError> {
-    let digest =
-        crate::io::calibration::pattern_digest(&pattern_file.to_pattern_set()?).map_err(|m| {
-            CalibError::Input {
-                what: "the reference's pattern set".into(),
-                message: m,
-            }
-        })?;
-    let dir = out
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| input(dir, format!("cannot create: {e}")))?;
-    let map_path = dir.join(map_name);
-    write_tiff_f32(&map_path, width, height, map)?;
-    pattern_file.images = None;
-    let pat_name = "reference_patterns.toml";
-    pattern_file.save(&dir.join(pat_name))?;
-    let mut cal = calibration.clone();
-    cal.reference = Some(ReferencePlane {
-        point,
-        normal,
-        phase_map: PathBuf::from(map_name),
-        pattern_set: Some(PathBuf::from(pat_name)),
-        pattern_digest: Some(digest),
-        margin: (margin != fringe3d_core::reconstruct::Margin::ZERO).then(|| margin.to_array()),
-    });
-    cal.save(out)?;
-    Ok((cal, map_path))
 }
 
 /// Read a float phase map (TIFF).

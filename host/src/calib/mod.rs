@@ -22,12 +22,22 @@ pub mod projector_files;
 pub mod projector_model;
 pub mod reference;
 pub mod reference_fit;
+pub mod reference_margin;
 pub mod reference_physical;
+pub mod reference_write;
 pub mod report;
 pub mod virtual_reference;
 pub mod zhang;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// [`CalibError::Input`] naming `what`.
+pub(crate) fn input(what: &Path, message: impl Into<String>) -> CalibError {
+    CalibError::Input {
+        what: what.display().to_string(),
+        message: message.into(),
+    }
+}
 
 /// Why a calibration failed. Messages name the files (or views, plates) concerned.
 #[derive(Debug, thiserror::Error)]

@@ -25,11 +25,11 @@ use fringe3d_core::reconstruct::{Margin, Reconstructor};
 use rayon::prelude::*;
 
 use super::CalibError;
-use super::files::write_reference;
 use super::lens::Lens;
 use super::plane_projector::PlaneProjector;
 pub use super::plane_projector::VirtualError;
 use super::reference::ReferencePose;
+use super::reference_write::write_reference;
 use crate::io::calibration::Calibration;
 use crate::io::pattern_file::PatternSetFile;
 use crate::math::Vec3;

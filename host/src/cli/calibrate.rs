@@ -235,11 +235,14 @@ pub struct ReferenceArgs {
     /// perpendicular to the camera's axis at the far end of the depth range). No IMAGES, no board.
     #[arg(long = "virtual")]
     pub virtual_map: bool,
-    /// With --virtual: how far the map extends past the image, pixels: "auto" (what the depth
-    /// range and the geometry need, so that every pixel's search stays on the map), one number
-    /// for every side, or "LEFT,TOP,RIGHT,BOTTOM". 0 for a head (its maps are image-sized).
-    #[arg(long, value_name = "auto|N|L,T,R,B", default_value = "auto")]
-    pub margin: String,
+    /// How far the map extends past the image, pixels: "auto" (what the depth range and the
+    /// geometry need, so that every pixel's search stays on the map), one number for every side,
+    /// or "LEFT,TOP,RIGHT,BOTTOM"; 0 for an image-sized map. Default: auto with --virtual, 0 for
+    /// a captured plane, whose map is extended only on request, by the calibration's projector
+    /// model (`[projector]`, not with --raw; its error grows with the distance from the image:
+    /// docs/reference-model.md).
+    #[arg(long, value_name = "auto|N|L,T,R,B")]
+    pub margin: Option<String>,
 }
 
 /// `--margin`: `None` for auto.
@@ -597,11 +600,6 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
     if a.virtual_map {
         return virtual_reference(a, g);
     }
-    if a.margin != "auto" {
-        bail!(
-            "calibrate reference: --margin applies to --virtual maps only (a capture ends at the image)"
-        );
-    }
     let cal = Calibration::load(&a.calibration)?;
     let imgs = !a.board_image.is_empty();
     let plane = match (imgs, &a.plane_point, &a.plane_normal) {
@@ -621,6 +619,12 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
             "calibrate reference: give either --board-image or both --plane-point and --plane-normal, not a mix"
         ),
     };
+    let margin = match &a.margin {
+        None => Some(fringe3d_core::reconstruct::Margin::ZERO),
+        Some(m) => parse_margin(m)?,
+    };
+    crate::calib::reference_margin::check_request(&cal, !a.raw, margin)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", a.calibration.display()))?;
     let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
     common::file_out(&out, "--out")?;
     let run = files::calibrate_reference_files(
@@ -638,6 +642,7 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
                 MapSource::Model
             },
             flatness_limit_mm: a.flatness_limit,
+            margin,
         },
     )?;
     let model = run.fit.as_ref().map(|f| {
@@ -646,7 +651,8 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
             "outliers": f.outliers, "candidates": f.candidates})
     });
     let j = json!({"command": "calibrate reference", "out": out, "map": run.map_path, "valid_fraction": run.valid_fraction,
-        "plane": run.plane, "model": model, "projector_model_check": run.physical});
+        "plane": run.plane, "model": model, "projector_model_check": run.physical,
+        "margin": run.margin.to_array(), "seam_rad": run.seam_rad});
     if let Some(f) = &run.physical
         && !g.quiet
         && a.flatness_limit.is_none()
@@ -690,6 +696,16 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
             ),
             None => outln!("phase map: the decoded capture (--raw)"),
         }
+        if let Some(seam) = run.seam_rad {
+            let m = run.margin;
+            outln!(
+                "past the image by {}/{}/{}/{} px (left/top/right/bottom): the projector model's map on the plane the fringes show, meeting the capture's model at the border (largest shift {seam:.2e} rad)",
+                m.left,
+                m.top,
+                m.right,
+                m.bottom
+            );
+        }
         if let Some(f) = &run.physical {
             outln!(
                 "through the projector model: the fringes put the plane {:+.4} mm and {:.4} degrees from that pose; flat to {:+.4} mm (worst {BLOCK}-px block, around pixel ({}, {})); residual {:.2e} rad RMS",
@@ -725,7 +741,7 @@ fn virtual_reference(a: ReferenceArgs, g: Global) -> Result<()> {
             "calibrate reference --virtual: give both --plane-point and --plane-normal, or neither"
         ),
     };
-    let margin = parse_margin(&a.margin)?;
+    let margin = parse_margin(a.margin.as_deref().unwrap_or("auto"))?;
     let cal = Calibration::load(&a.calibration)?;
     let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
     common::file_out(&out, "--out")?;

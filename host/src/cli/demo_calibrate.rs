@@ -318,6 +318,7 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
             map_name: "reference_phase.tif",
             source: files::MapSource::Model,
             flatness_limit_mm: None,
+            margin: Some(fringe3d_core::reconstruct::Margin::ZERO),
         },
     )?;
     tick("calibrate_reference", &mut lap);
