@@ -112,10 +112,15 @@ impl Calibration {
     /// `docs/formats.md`, with a header naming frames and units). Floats are written in their
     /// shortest exact form, so `load(save(c)) == c`.
     pub fn save(&self, path: &Path) -> Result<(), FormatError> {
-        self.validate().map_err(|m| FormatError::invalid(path, m))?;
-        let text = self.to_toml().map_err(|m| FormatError::invalid(path, m))?;
+        let text = self.to_text(path)?;
         write_atomic(path, |w| w.write_all(text.as_bytes()))?;
         Ok(())
+    }
+
+    /// What [`Calibration::save`] writes to `path`, checked.
+    pub fn to_text(&self, path: &Path) -> Result<String, FormatError> {
+        self.validate().map_err(|m| FormatError::invalid(path, m))?;
+        self.to_toml().map_err(|m| FormatError::invalid(path, m))
     }
 
     /// The scan geometry of paper §6 (projector centre, reference plane, depth range); `None`

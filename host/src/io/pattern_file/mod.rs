@@ -679,17 +679,22 @@ impl PatternSetFile {
     /// Check the file ([`PatternSetFile::to_pattern_set`]), then write it atomically as TOML with
     /// a header comment. Floats are written exactly, so `load(save(f)) == f`.
     pub fn save(&self, path: &Path) -> Result<(), FormatError> {
+        let text = self.to_text(path)?;
+        write_atomic(path, |w| w.write_all(text.as_bytes()))?;
+        Ok(())
+    }
+
+    /// What [`PatternSetFile::save`] writes to `path`, checked.
+    pub fn to_text(&self, path: &Path) -> Result<String, FormatError> {
         let mut named = self.clone();
         named.source = Some(path.to_path_buf());
         named.to_pattern_set()?;
         let body = toml::to_string(&named)
             .map_err(|e| FormatError::invalid(path, format!("cannot write as TOML: {e}")))?;
-        let text = format!(
+        Ok(format!(
             "# fringe3d pattern set, format version {PATTERN_FILE_VERSION} (docs/formats.md).\n\
              # Angles in radians, positions in projector pixels (pixel centres at integers).\n{body}"
-        );
-        write_atomic(path, |w| w.write_all(text.as_bytes()))?;
-        Ok(())
+        ))
     }
 
     /// The image files (`images`), resolved against the folder of `file` (absolute paths are kept).
