@@ -19,10 +19,9 @@
 
 mod rendered;
 
+use fringe3d::render::Scene;
 use fringe3d::render::scene::Overrides;
-use fringe3d::render::{Scene, SceneSpec};
 use rendered::*;
-use std::path::Path;
 
 /// The bar of issue #17.
 const BAR: f64 = 1.05;
@@ -30,16 +29,6 @@ const BAR: f64 = 1.05;
 /// A cylinder lying across the volume, its axis tilted out of the image plane, before the
 /// background plane of the built-in object scenes.
 fn cylinder_scene(o: &Overrides) -> Scene {
-    let base = Scene::builtin("sphere", o)
-        .expect("builtin scene")
-        .spec
-        .to_toml()
-        .expect("toml");
-    let head = base
-        .split("[[objects]]")
-        .next()
-        .expect("scene head")
-        .replace("name = \"sphere\"", "name = \"cylinder\"");
     let objects = r#"
 [[objects]]
 name = "cylinder"
@@ -58,9 +47,7 @@ type = "plane"
 point = [0.0, 0.0, 725.0]
 normal = [0.0, 0.0, -1.0]
 "#;
-    let spec = SceneSpec::parse(&format!("{head}{objects}"), Path::new("cylinder.toml"))
-        .expect("scene parses");
-    Scene::new(spec, None).expect("scene is valid")
+    scene_with_objects("cylinder", o, objects)
 }
 
 /// What the edge filter's light-edge rule took out of the interior.

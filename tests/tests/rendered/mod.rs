@@ -31,16 +31,6 @@ impl Drop for Tmp {
 /// Three blocks tilted by 15-25° at the near, middle and far end of the 280×220×250 mm volume
 /// (z from 475 to 725 mm), on the default rig, with a background plane.
 pub fn volume_scene(o: &Overrides) -> Scene {
-    let base = Scene::builtin("sphere", o)
-        .expect("builtin scene")
-        .spec
-        .to_toml()
-        .expect("toml");
-    let head = base
-        .split("[[objects]]")
-        .next()
-        .expect("scene head")
-        .replace("name = \"sphere\"", "name = \"volume\"");
     let blocks = r#"
 [[objects]]
 name = "near"
@@ -67,8 +57,27 @@ center = [110.0, 0.0, 700.0]
 size = [90.0, 210.0, 20.0]
 euler_deg = [20.0, 15.0, 0.0]
 "#;
-    let spec = SceneSpec::parse(&format!("{head}{blocks}"), Path::new("volume.toml"))
-        .expect("scene parses");
+    scene_with_objects("volume", o, blocks)
+}
+
+/// A scene `name` on the default rig (the built-in object scenes' camera, projector, patterns
+/// and reference, with `o`) holding `objects` (TOML `[[objects]]` tables).
+pub fn scene_with_objects(name: &str, o: &Overrides, objects: &str) -> Scene {
+    let base = Scene::builtin("sphere", o)
+        .expect("builtin scene")
+        .spec
+        .to_toml()
+        .expect("toml");
+    let head = base
+        .split("[[objects]]")
+        .next()
+        .expect("scene head")
+        .replace("name = \"sphere\"", &format!("name = \"{name}\""));
+    let spec = SceneSpec::parse(
+        &format!("{head}{objects}"),
+        Path::new(&format!("{name}.toml")),
+    )
+    .expect("scene parses");
     Scene::new(spec, None).expect("scene is valid")
 }
 
