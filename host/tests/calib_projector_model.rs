@@ -12,24 +12,7 @@ use fringe3d::scan::ScanCalibration;
 use serde_json::Value;
 use std::path::Path;
 
-use crate::cli_support::{Tmp, run, s, virtual_reference};
-
-fn render(scene: &str, size: &str, out: &Path) {
-    run(&[
-        "render",
-        "-q",
-        "--scene",
-        scene,
-        "--size",
-        size,
-        "--noise",
-        "1",
-        "--bits",
-        "8",
-        "--out",
-        s(out),
-    ]);
-}
+use crate::cli_support::{Tmp, render_noisy, run, s, virtual_reference};
 
 /// `calibrate projector` on every pose folder of `ds` with `camera`; the report and the file.
 fn calibrate(ds: &Path, camera: &Path, out: &Path, extra: &[&str]) -> (Value, Calibration) {
@@ -187,8 +170,8 @@ fn scan_rms(ds: &Path, calibration: &Path) -> f64 {
 fn the_full_projector_from_boards_and_from_plates() {
     let t = Tmp::new("projector-model");
     let (boards, plates) = (t.0.join("boards"), t.0.join("plates"));
-    render("boards", "640x512", &boards);
-    render("plates", "640x512", &plates);
+    render_noisy("boards", "640x512", &boards, &[]);
+    render_noisy("plates", "640x512", &plates, &[]);
     let truth = Calibration::load(&boards.join("calibration.toml")).unwrap();
     let true_cam = boards.join("calibration.toml");
 
@@ -261,7 +244,7 @@ fn the_full_projector_from_boards_and_from_plates() {
     // End to end: the self-made projector gives a virtual reference; a sphere scanned with it
     // is as accurate as with the true calibration (true camera and captured reference).
     let sphere = t.0.join("sphere");
-    render("sphere", "640x512", &sphere);
+    render_noisy("sphere", "640x512", &sphere, &[]);
     let virt = t.0.join("v/calibration.toml");
     virtual_reference(&sphere.join("patterns.toml"), &out_b, &virt);
     let (r_true, r_self) = (

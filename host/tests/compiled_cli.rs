@@ -8,7 +8,7 @@ use fringe3d::scan::{PointCloud, ScanCalibration};
 use fringe3d_core::validity::Validity;
 use std::path::{Path, PathBuf};
 
-use crate::cli_support::{Tmp, fringe3d, run, s, virtual_reference};
+use crate::cli_support::{Tmp, fringe3d, render_noisy, run, s, virtual_reference};
 
 /// The scan of `ds` with `calibration`, exact and compiled with `compiled` (the library path
 /// of `fringe3d scan`).
@@ -60,22 +60,7 @@ fn both(ds: &Path, calibration: &Path, compiled: &Path) -> (PointCloud, PointClo
 /// reference: the dataset folder and the virtual reference's calibration.
 fn virtual_dataset(t: &Tmp, scene: &str, label: &str, size: &str) -> (PathBuf, PathBuf) {
     let ds = t.0.join(label);
-    run(&[
-        "render",
-        "-q",
-        "--scene",
-        scene,
-        "--size",
-        size,
-        "--supersample",
-        "1",
-        "--noise",
-        "1",
-        "--bits",
-        "8",
-        "--out",
-        s(&ds),
-    ]);
+    render_noisy(scene, size, &ds, &["--supersample", "1"]);
     let virt = t.0.join(format!("{label}-virtual/calibration.toml"));
     virtual_reference(
         &ds.join("patterns.toml"),

@@ -14,7 +14,7 @@ use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d_core::Validity;
 use std::path::Path;
 
-use crate::cli_support::{Tmp, run, s, virtual_reference};
+use crate::cli_support::{Tmp, render_noisy, run, s, virtual_reference};
 
 /// The default rig's scene head (camera, projector, patterns, reference) with `objects`.
 fn scene_toml(objects: &str) -> String {
@@ -53,26 +53,6 @@ size = [400.0, 320.0]
 base = 0.0
 bumps = [[0.0, 0.0, 60.0, 45.0], [-80.0, 50.0, 35.0, 25.0], [85.0, -45.0, 40.0, 30.0], [70.0, 60.0, -25.0, 22.0], [-75.0, -55.0, 20.0, 18.0], [20.0, -70.0, 15.0, 12.0]]
 "#;
-
-/// `fringe3d render` of `scene` at `size`, 8 bit with σ = 1 gray level, noise seed `seed`.
-fn render_noisy(scene: &str, size: &str, seed: &str, out: &Path) {
-    run(&[
-        "render",
-        "-q",
-        "--scene",
-        scene,
-        "--size",
-        size,
-        "--noise",
-        "1",
-        "--bits",
-        "8",
-        "--seed",
-        seed,
-        "--out",
-        s(out),
-    ]);
-}
 
 /// What a scan kept of the pixels that count.
 struct Coverage {
@@ -151,7 +131,7 @@ fn near_scenes_keep_their_interior_with_a_virtual_reference() {
         let scene = t.0.join("scene.toml");
         std::fs::write(&scene, scene_toml(objects)).unwrap();
         let ds = t.0.join("ds");
-        render_noisy(s(&scene), "640x512", "0", &ds);
+        render_noisy(s(&scene), "640x512", &ds, &[]);
         let cal = ds.join("calibration.toml");
         let patterns = ds.join("patterns.toml");
         let wide = t.0.join("wide/calibration.toml");
@@ -175,7 +155,7 @@ fn near_scenes_keep_their_interior_with_a_virtual_reference() {
         // model extended by the projector model (`--margin auto`; the rendered calibration
         // holds the true projector).
         let refds = t.0.join("refds");
-        render_noisy("reference", "640x512", "5", &refds);
+        render_noisy("reference", "640x512", &refds, &["--seed", "5"]);
         let r = fringe3d::io::calibration::Calibration::load(&cal)
             .unwrap()
             .reference
@@ -251,7 +231,7 @@ fn near_scenes_keep_their_interior_with_a_virtual_reference() {
 fn a_margin_on_a_capture_without_the_projector_model_is_refused() {
     let t = Tmp::new("margin-bad");
     let ds = t.0.join("ds");
-    render_noisy("reference", "320x256", "0", &ds);
+    render_noisy("reference", "320x256", &ds, &[]);
     let cal = ds.join("calibration.toml");
     let text = std::fs::read_to_string(&cal).unwrap();
     let cut = text

@@ -61,6 +61,27 @@ pub fn virtual_reference(patterns: &Path, calibration: &Path, out: &Path) {
     ]);
 }
 
+/// `fringe3d render -q` of `scene` (a built-in name or a scene file) at `size` ("WxH"), 8 bits
+/// with σ = 1 gray level of noise, into `out`, with `extra` options (e.g. `--seed 5`).
+pub fn render_noisy(scene: &str, size: &str, out: &Path, extra: &[&str]) {
+    let mut args = vec![
+        "render",
+        "-q",
+        "--scene",
+        scene,
+        "--size",
+        size,
+        "--noise",
+        "1",
+        "--bits",
+        "8",
+        "--out",
+        s(out),
+    ];
+    args.extend_from_slice(extra);
+    run(&args);
+}
+
 /// A path as the `&str` argument the binary takes.
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
