@@ -30,7 +30,7 @@ use crate::wire::setup::MAX_SETUP_BLOB;
 pub struct RowLayout {
     /// Reconstruct points (the reference ring and the point row); `false`: phase only.
     pub points: bool,
-    /// The depth-edge filter: a window of 3 point rows and its output codes.
+    /// The edge filter: a window of 3 point rows and its output codes.
     pub edge_filter: bool,
     /// Modulation and DC rows of their own (a head that sends them; the board lets them share
     /// the point row that is free while a row decodes, and the example passes empty rows).

@@ -16,7 +16,7 @@
 //! | `projector_line` | `PW` | 1 | one pattern row |
 //! | `phase_row`, `modulation_row`, `dc_row` | `W` | 4 | one decoded row |
 //! | `validity_row` | `W` | 1 | its codes |
-//! | `xyz_rows` | `9·W` | 4 | three point rows (the depth-edge filter's window) |
+//! | `xyz_rows` | `9·W` | 4 | three point rows (the edge filter's window) |
 //! | `point_codes` | `4·W` | 1 | their codes, and the filter's output codes |
 //! | `reference_phase`, `reference_validity` | `W` | 4 + 1 | one reference row from storage |
 //!

@@ -325,7 +325,7 @@ impl ScanCalibration {
         })
     }
 
-    /// The depth-edge filter for this camera, accepting surfaces up to `max_angle_deg` from facing
+    /// The edge filter for this camera, accepting surfaces up to `max_angle_deg` from facing
     /// the camera ([`fringe3d_core::filter`]).
     pub fn edge_filter(&self, max_angle_deg: f64) -> Result<EdgeFilter, ScanError> {
         let fx = self.calibration.camera.fx.min(self.calibration.camera.fy);
@@ -338,7 +338,7 @@ impl ScanCalibration {
     }
 }
 
-/// Apply the depth-edge filter to a whole cloud (rows in parallel; each output row reads its
+/// Apply the edge filter to a whole cloud (rows in parallel; each output row reads its
 /// neighbours' *input* codes, exactly as the streaming head does with a 3-row window). Flagged
 /// points become canonical NaN like every invalid point.
 pub fn filter_edges(cloud: &mut PointCloud, f: &EdgeFilter) {

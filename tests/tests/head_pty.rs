@@ -3,7 +3,7 @@
 //! (the renderer's, arbitrary f64 values) and reference map, scan, and compare the streamed
 //! phases and points bit for bit with what the desktop computes from the same images
 //! (`batch::decode_frames` through `cli::common::decode`, then
-//! `scan::ScanCalibration::reconstruct` and the depth-edge filter, the path of `fringe3d scan`).
+//! `scan::ScanCalibration::reconstruct` and the edge filter, the path of `fringe3d scan`).
 //! `fringe3d device scan --out` writes an organized PLY equal, vertex for vertex, to the one
 //! `fringe3d scan --organized` writes from the images. A scan interrupted mid-stream (the
 //! client's interrupt flag, as Ctrl-C sets it) is aborted on the head: it stops streaming and
@@ -259,7 +259,7 @@ fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplu
     let dir = dataset(&root);
     eprintln!("dataset rendered in {:.1} s", t0.elapsed().as_secs_f64());
 
-    // The desktop's answer, `fringe3d scan`'s path: decode, reconstruct, depth-edge filter (80°).
+    // The desktop's answer, `fringe3d scan`'s path: decode, reconstruct, edge filter (80°).
     let patterns = dir.join("patterns.toml");
     let calib = dir.join("calibration.toml");
     let ls = common::load_set(&patterns).unwrap();

@@ -343,7 +343,7 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         ]
         .concat(),
     );
-    // A scan as `fringe3d scan` does it by default (depth-edge filter at 80°), with the phase;
+    // A scan as `fringe3d scan` does it by default (edge filter at 80°), with the phase;
     // then one without the filter.
     let ply = root.join("head.ply");
     let tif = root.join("head_phase.tif");

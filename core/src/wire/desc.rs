@@ -11,7 +11,7 @@
 //!   `TAU * i as f64 / n as f64` bit for bit go as `Uniform { n, count }`, others as `Explicit`.
 //! - [`Calibration::from_core`] takes the very [`CameraParams`] and [`Setup`] the
 //!   desktop builds its [`Reconstructor`] from; [`Calibration::reconstructor`] builds the same
-//!   reconstructor on the head, and [`Calibration::edge_filter`] the same depth-edge filter as the
+//!   reconstructor on the head, and [`Calibration::edge_filter`] the same edge filter as the
 //!   desktop's (`EdgeFilter::new(min(fx, fy), angle)`).
 //!
 //! Wire pattern indices count levels in order and shifts in order within a level
@@ -396,7 +396,7 @@ impl Calibration {
         })
     }
 
-    /// The depth-edge filter the desktop uses for this camera: focal length `min(fx, fy)`,
+    /// The edge filter the desktop uses for this camera: focal length `min(fx, fy)`,
     /// surfaces up to `max_angle_deg` from facing the camera. `None` for an angle outside
     /// `(0, 90)`.
     pub fn edge_filter(&self, max_angle_deg: f64) -> Option<EdgeFilter> {

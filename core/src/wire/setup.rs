@@ -267,7 +267,7 @@ impl DecodeThresholds {
     }
 }
 
-/// The depth-edge filter's parameters ([`EdgeFilter::new`]).
+/// The edge filter's parameters ([`EdgeFilter::new`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EdgeFilterParams {
     /// Focal length, pixels (the desktop uses `min(fx, fy)`), finite and `> 0`.
@@ -304,7 +304,7 @@ pub struct HeadSetup {
     /// The projector axis the reference phase is monotonic along (the reconstruction's; the
     /// pattern set's axis for a consistent rig).
     pub axis: PatternAxis,
-    /// The depth-edge filter.
+    /// The edge filter.
     pub edge_filter: EdgeFilterParams,
     /// The decoder's phase-error table for the projector's response, if any (version 2).
     pub correction: Option<SetupCorrection>,
@@ -517,7 +517,7 @@ impl HeadSetup {
             .map_err(SetupError::Reconstruction)
     }
 
-    /// The depth-edge filter ([`EdgeFilter::new`]).
+    /// The edge filter ([`EdgeFilter::new`]).
     pub fn edge_filter(&self) -> Result<EdgeFilter, SetupError> {
         let e = self.edge_filter;
         EdgeFilter::new(e.focal_px, e.max_angle_deg).ok_or(SetupError::EdgeFilter)

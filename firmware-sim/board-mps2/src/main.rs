@@ -8,7 +8,7 @@
 //!    calibration, edge filter) → `Decoder`, `Reconstructor`, `EdgeFilter`;
 //! 2. per camera row `v`: the rows `v` of every image → `Decoder::decode_row` (and, for the
 //!    vectors only, `decode_row_level` per level); reference rows pushed into a `ReferenceRing`
-//!    of exactly the band's rows; `Reconstructor::reconstruct_row`; the depth-edge filter over a
+//!    of exactly the band's rows; `Reconstructor::reconstruct_row`; the edge filter over a
 //!    3-row window (one row of latency);
 //! 3. a report: flash, static RAM, stack high-water mark, instruction counts per stage.
 //!

@@ -32,7 +32,7 @@ pub struct Params {
     pub sample_bytes: usize,
     /// The reconstructor of the camera model and geometry.
     pub recon: Reconstructor,
-    /// The depth-edge filter.
+    /// The edge filter.
     pub filter: EdgeFilter,
 }
 

@@ -298,7 +298,7 @@ fn count_valid(codes: &[u8]) -> u32 {
 }
 
 /// Stream point row `t` from its slot (`t % 3`) of `xyz_rows` / `codes`; with `filter`, first run
-/// the depth-edge filter over it with its neighbours (rows `t ± 1`, read from their slots; the
+/// the edge filter over it with its neighbours (rows `t ± 1`, read from their slots; the
 /// row below only if `below`), exactly as the desktop's `filter_edges`: flagged points become
 /// canonical NaN. Returns the number of valid points sent.
 #[allow(clippy::too_many_arguments)]

@@ -34,7 +34,7 @@ pub struct VectorsArgs {
     /// Noise seed (default: the scene's).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Steepest surface the depth-edge filter accepts, degrees from facing the camera.
+    /// Steepest surface the edge filter accepts, degrees from facing the camera.
     #[arg(long, default_value_t = 80.0)]
     pub max_angle: f64,
     /// The projector's gamma (default: linear): the decoder, and the head through the set-up

@@ -1,4 +1,4 @@
-//! The streaming scan: decode, reconstruction (paper §6), the depth-edge filter and the encoding
+//! The streaming scan: decode, reconstruction (paper §6), the edge filter and the encoding
 //! of the output file in one pass over bands of rows, bands in parallel, the file written in row
 //! order while later bands are still being computed.
 //!
@@ -42,7 +42,7 @@ pub struct StreamConfig {
     pub band_rows: usize,
     /// Bands computed ahead of the one being written; 0: the thread count plus two.
     pub window: usize,
-    /// The depth-edge filter, or `None` to keep every point.
+    /// The edge filter, or `None` to keep every point.
     pub edge_filter: Option<EdgeFilter>,
     /// The kernel variant (the same bits whichever).
     pub isa: Isa,
@@ -66,7 +66,7 @@ pub struct StepTimes {
     pub decode: Duration,
     /// Reconstruction (halo rows included).
     pub reconstruct: Duration,
-    /// The depth-edge filter.
+    /// The edge filter.
     pub filter: Duration,
     /// Encoding the file's bytes.
     pub encode: Duration,

@@ -118,7 +118,7 @@ pub struct VectorOptions {
     pub noise: Option<f64>,
     /// Noise seed; `None`: the scene's.
     pub seed: Option<u64>,
-    /// Steepest accepted surface of the depth-edge filter, degrees from facing the camera.
+    /// Steepest accepted surface of the edge filter, degrees from facing the camera.
     pub max_angle_deg: f64,
     /// The projector's gamma (`None`: the scene's, linear). With a gamma the decoder (and the
     /// head, through the set-up blob) applies the response's phase-error table.
@@ -268,9 +268,9 @@ pub struct PointStage {
     pub points: Vec<f32>,
     /// Validity codes of the points.
     pub validity: Vec<u8>,
-    /// Validity after the depth-edge filter.
+    /// Validity after the edge filter.
     pub filtered_validity: Vec<u8>,
-    /// Points after the depth-edge filter (flagged points become canonical NaN).
+    /// Points after the edge filter (flagged points become canonical NaN).
     pub filtered_points: Vec<f32>,
 }
 

@@ -25,7 +25,7 @@ pub struct Inputs {
     pub calibration: ScanCalibration,
     /// Decoder thresholds.
     pub decode_config: DecodeConfig,
-    /// The depth-edge filter.
+    /// The edge filter.
     pub edge_filter: EdgeFilter,
     /// Its focal length, pixels (`min(fx, fy)`).
     pub edge_focal_px: f64,

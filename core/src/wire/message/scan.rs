@@ -16,7 +16,7 @@ pub enum ScanOutput {
     Both,
 }
 
-/// Whether a point scan runs the depth-edge filter ([`EdgeFilter`](crate::filter::EdgeFilter),
+/// Whether a point scan runs the edge filter ([`EdgeFilter`](crate::filter::EdgeFilter),
 /// as `fringe3d scan` does by default).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum EdgeFilterMode {
@@ -43,7 +43,7 @@ pub struct ScanRequest {
     pub first_row: u16,
     /// Number of rows (0 = to the last row).
     pub row_count: u16,
-    /// The depth-edge filter of point rows (ignored for phase rows).
+    /// The edge filter of point rows (ignored for phase rows).
     pub edge_filter: EdgeFilterMode,
 }
 

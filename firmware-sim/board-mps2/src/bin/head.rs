@@ -100,7 +100,7 @@ struct Lines {
     projector: [u8; MAX_PW],
     f32_rows: [[f32; MAX_W]; 4],
     u8_rows: [[u8; MAX_W]; 2],
-    /// Three point rows (the depth-edge filter's window).
+    /// Three point rows (the edge filter's window).
     xyz: [f32; 9 * MAX_W],
     /// Their codes and the filter's output codes.
     codes: [u8; 4 * MAX_W],

@@ -14,7 +14,7 @@ use crate::device::{DeviceError, Transport};
 impl<T: Transport> Client<T> {
     /// Scan: run the sequence, stream rows `first_row .. first_row + row_count` (0: to the last
     /// row) of `output`, and request lost rows again until all are in. Point rows go through the
-    /// head's depth-edge filter when `edge_filter` says so (`fringe3d scan` filters at 80° by
+    /// head's edge filter when `edge_filter` says so (`fringe3d scan` filters at 80° by
     /// default); the head filters each row with its true neighbours, so the rows of a partial
     /// scan or a re-request equal those of a whole-image scan.
     ///
