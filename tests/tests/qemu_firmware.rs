@@ -9,7 +9,7 @@
 
 mod common;
 use common::{coprime_set, gray_inverse_set, gray_set, heterodyne_set, small_u8};
-use fringe3d::vectors::{self, GoldenVectors, VectorOptions};
+use fringe3d::vectors::{self, GoldenVectors, VectorOptions, VectorReference};
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use std::collections::BTreeMap;
 use std::io::Read;
@@ -261,4 +261,20 @@ fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
         ..small_u8("sphere", 9)
     };
     check_scan(&elf, &inverse_opts, "sphere-160x128-u8-gray2-inverse");
+    // The reference maps of issue #17: the model fitted to a noisy capture, and the virtual map
+    // of the rig's projector (both image-sized, as a head takes them).
+    for reference in [VectorReference::Model, VectorReference::Virtual] {
+        let opts = VectorOptions {
+            reference,
+            bits: Some(8),
+            noise: Some(1.0),
+            seed: Some(3),
+            ..VectorOptions::default()
+        };
+        check_scan(
+            &elf,
+            &opts,
+            &format!("ballbar-320x240-u8-{}", reference.name()),
+        );
+    }
 }

@@ -6,7 +6,7 @@ mod common;
 use common::{coprime_set, gray_inverse_set, gray_set, heterodyne_set, small_u8};
 use fringe3d::batch::{FrameOut, Isa, decode_frames};
 use fringe3d::scan::{ScanCalibration, filter_edges};
-use fringe3d::vectors::{self, Dtype, GoldenVectors, VectorOptions};
+use fringe3d::vectors::{self, Dtype, GoldenVectors, VectorOptions, VectorReference};
 use fringe3d_core::decode::{Decoder, Sample, State};
 use fringe3d_core::pattern::{MAX_LEVELS, PatternSet};
 use std::path::{Path, PathBuf};
@@ -293,6 +293,23 @@ fn vectors_match_the_desktop_batch_paths_u16() {
 #[test]
 fn vectors_match_the_desktop_batch_paths_u8() {
     check_batch(&small_u8("steps", 7), "vectors-batch8");
+}
+
+/// Issue #17 item 5: with the fitted model of the capture and with the virtual map as the
+/// reference, the golden vectors (the row drivers) and the desktop's batch paths give the same
+/// bits (the QEMU test checks the board on the same two).
+#[test]
+fn vectors_match_the_desktop_batch_paths_with_model_and_virtual_references() {
+    for reference in [VectorReference::Model, VectorReference::Virtual] {
+        let opts = VectorOptions {
+            reference,
+            bits: Some(8),
+            noise: Some(1.0),
+            seed: Some(3),
+            ..VectorOptions::default()
+        };
+        check_batch(&opts, &format!("vectors-batch-{}", reference.name()));
+    }
 }
 
 #[test]

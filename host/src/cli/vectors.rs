@@ -49,6 +49,10 @@ pub struct VectorsArgs {
     /// decoded with the table of this blur (docs/binary.md).
     #[arg(long)]
     pub defocus: Option<f64>,
+    /// The reference map of the scan: the decoded capture of the plane, the model fitted to it
+    /// (`calibrate reference`), or the virtual map of the rig's projector (docs/reference-model.md).
+    #[arg(long, value_enum, default_value = "captured")]
+    pub reference: crate::vectors::VectorReference,
     /// Replace an existing, non-empty output folder.
     #[arg(long)]
     pub overwrite: bool,
@@ -92,6 +96,7 @@ pub fn run(a: VectorsArgs, g: Global) -> Result<()> {
             .map(crate::io::pattern_file::PatternSetFile::load)
             .transpose()?,
         defocus: a.defocus,
+        reference: a.reference,
     };
     let say = |s: String| {
         if !g.quiet && !g.json {

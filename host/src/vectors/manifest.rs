@@ -87,8 +87,9 @@ pub(super) fn manifest_info(
     m.insert(
         "scene".into(),
         json!({"name": spec.name, "width": w, "height": h, "camera_bits": inp.bits, "noise_sigma": spec.camera.noise, "seed": spec.seed,
-               "regenerate": format!("fringe3d vectors --out DIR --scene {} --size {w}x{h} --bits {} --noise {} --seed {} --max-angle {}",
-                                     spec.name, inp.bits, spec.camera.noise, spec.seed, inp.edge_max_angle_deg)}),
+               "reference": inp.reference.name(),
+               "regenerate": format!("fringe3d vectors --out DIR --scene {} --size {w}x{h} --bits {} --noise {} --seed {} --max-angle {} --reference {}",
+                                     spec.name, inp.bits, spec.camera.noise, spec.seed, inp.edge_max_angle_deg, inp.reference.name())}),
     );
     m.insert("sample_dtype".into(), json!(sample.name()));
     m.insert(

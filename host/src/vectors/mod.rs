@@ -129,6 +129,33 @@ pub struct VectorOptions {
     /// The projector's defocus σ, projector pixels (`None`: the scene's, 1). A binary set is
     /// decoded with the table of this blur (docs/binary.md), which the set-up blob carries.
     pub defocus: Option<f64>,
+    /// The reference map the scan uses (issue #17): the decoded capture of the plane, the
+    /// model fitted to it, or the virtual map of the rig's projector; image-sized in each case.
+    pub reference: VectorReference,
+}
+
+/// Which reference phase map the golden vectors' scan uses (`fringe3d vectors --reference`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum VectorReference {
+    /// The decoded render of the reference plane (`calibrate reference --raw`).
+    #[default]
+    Captured,
+    /// The smooth model fitted to that capture (`calibrate reference`, docs/reference-model.md).
+    Model,
+    /// The map computed from the rig's projector model on the same plane, no capture
+    /// (`calibrate reference --virtual --margin 0`).
+    Virtual,
+}
+
+impl VectorReference {
+    /// The option's value.
+    pub fn name(self) -> &'static str {
+        match self {
+            VectorReference::Captured => "captured",
+            VectorReference::Model => "model",
+            VectorReference::Virtual => "virtual",
+        }
+    }
 }
 
 impl Default for VectorOptions {
@@ -143,6 +170,7 @@ impl Default for VectorOptions {
             gamma: None,
             patterns: None,
             defocus: None,
+            reference: VectorReference::Captured,
         }
     }
 }

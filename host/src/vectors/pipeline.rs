@@ -33,6 +33,8 @@ pub struct Inputs {
     pub edge_max_angle_deg: f64,
     /// The decoder's phase-error table for the projector's gamma, if any.
     pub correction: Option<PhaseCorrection>,
+    /// Which reference map the calibration holds.
+    pub reference: super::VectorReference,
 }
 
 /// Render the scene of `opts` and set up its calibration (no decoding of the object yet).
@@ -85,7 +87,7 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
     let ropts = RenderOptions::default();
     let (frames, _truth) = scene.render_fringes(ropts)?;
     let (ref_frames, _) = scene.render_reference(ropts)?;
-    let reference = decode_phase_corrected(&scene.patterns, &ref_frames, correction.as_ref())?;
+    let captured = decode_phase_corrected(&scene.patterns, &ref_frames, correction.as_ref())?;
     let digest = crate::io::calibration::pattern_digest(&scene.patterns)
         .map_err(|m| VectorsError::Options(format!("reference pattern set: {m}")))?;
     let mut cal = scene.rig.calibration(
@@ -93,6 +95,33 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
         Some(PathBuf::from("patterns.toml")),
         Some(digest),
     );
+    let reference = match opts.reference {
+        super::VectorReference::Captured => captured,
+        super::VectorReference::Model => {
+            crate::calib::reference_fit::fit_reference(
+                &scene.patterns,
+                &captured,
+                w as usize,
+                h as usize,
+            )
+            .map_err(|e| VectorsError::Options(format!("reference model: {e}")))?
+            .phase
+        }
+        super::VectorReference::Virtual => {
+            let projector = cal
+                .projector
+                .as_ref()
+                .ok_or_else(|| VectorsError::Options("the rig has no projector model".into()))?;
+            crate::calib::virtual_reference::virtual_reference(
+                &cal.camera,
+                projector,
+                &scene.patterns,
+                (scene.rig.reference_point, scene.rig.reference_normal),
+                fringe3d_core::reconstruct::Margin::ZERO,
+            )
+            .map_err(|e| VectorsError::Options(format!("virtual reference: {e}")))?
+        }
+    };
     // What the table of the set-up blob is made from, so that the folder's calibration.toml
     // gives `fringe3d scan` the same decoding as the head's blob.
     scene.record_true_light(&mut cal);
@@ -115,6 +144,7 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
         edge_focal_px,
         edge_max_angle_deg: opts.max_angle_deg,
         correction,
+        reference: opts.reference,
     })
 }
 
