@@ -8,7 +8,7 @@
 //! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
 mod common;
-use common::{coprime_set, gray_inverse_set, gray_set, heterodyne_set, small_u8};
+use common::{ballbar_u8_with, coprime_set, gray_inverse_set, gray_set, heterodyne_set, small_u8};
 use fringe3d::vectors::{self, GoldenVectors, VectorOptions, VectorReference};
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use std::collections::BTreeMap;
@@ -264,13 +264,7 @@ fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
     // The reference maps of issue #17: the model fitted to a noisy capture, and the virtual map
     // of the rig's projector (both image-sized, as a head takes them).
     for reference in [VectorReference::Model, VectorReference::Virtual] {
-        let opts = VectorOptions {
-            reference,
-            bits: Some(8),
-            noise: Some(1.0),
-            seed: Some(3),
-            ..VectorOptions::default()
-        };
+        let opts = ballbar_u8_with(reference);
         check_scan(
             &elf,
             &opts,

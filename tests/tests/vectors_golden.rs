@@ -3,7 +3,7 @@
 //! over the whole reference map, the whole-cloud edge filter) reproduce every stage's digest.
 
 mod common;
-use common::{coprime_set, gray_inverse_set, gray_set, heterodyne_set, small_u8};
+use common::{ballbar_u8_with, coprime_set, gray_inverse_set, gray_set, heterodyne_set, small_u8};
 use fringe3d::batch::{FrameOut, Isa, decode_frames};
 use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d::vectors::{self, Dtype, GoldenVectors, VectorOptions, VectorReference};
@@ -301,14 +301,10 @@ fn vectors_match_the_desktop_batch_paths_u8() {
 #[test]
 fn vectors_match_the_desktop_batch_paths_with_model_and_virtual_references() {
     for reference in [VectorReference::Model, VectorReference::Virtual] {
-        let opts = VectorOptions {
-            reference,
-            bits: Some(8),
-            noise: Some(1.0),
-            seed: Some(3),
-            ..VectorOptions::default()
-        };
-        check_batch(&opts, &format!("vectors-batch-{}", reference.name()));
+        check_batch(
+            &ballbar_u8_with(reference),
+            &format!("vectors-batch-{}", reference.name()),
+        );
     }
 }
 

@@ -1,7 +1,7 @@
 //! Pattern sets shared by the end-to-end tests (`mod common;` in each test file that needs them).
 
 use fringe3d::io::pattern_file::PatternSetFile;
-use fringe3d::vectors::VectorOptions;
+use fringe3d::vectors::{VectorOptions, VectorReference};
 
 /// A 160 × 128 scan of `scene` by an 8-bit camera with σ = 1 code of noise, noise seed `seed`:
 /// the small case of the golden-vector tests (the u8 kernels; fits the mps2 board).
@@ -12,6 +12,19 @@ pub fn small_u8(scene: &str, seed: u64) -> VectorOptions {
         bits: Some(8),
         noise: Some(1.0),
         seed: Some(seed),
+        ..VectorOptions::default()
+    }
+}
+
+/// The default ballbar scan at 320 × 240 by an 8-bit camera with σ = 1 code of noise (seed 3),
+/// reconstructed with `reference` (issue #17's fitted model or virtual map; a fit needs the
+/// noise).
+pub fn ballbar_u8_with(reference: VectorReference) -> VectorOptions {
+    VectorOptions {
+        reference,
+        bits: Some(8),
+        noise: Some(1.0),
+        seed: Some(3),
         ..VectorOptions::default()
     }
 }
