@@ -10,7 +10,7 @@ use fringe3d::scan::{PointCloud, ScanCalibration};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use crate::cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, run, s, virtual_reference_with};
 
 /// The command fails with one error line holding every `must`.
 fn fails(args: &[&str], must: &[&str]) -> String {
@@ -171,22 +171,12 @@ fn export_import_scan_and_a_virtual_reference() {
     // negative coordinates, as `--plane-point -10,5,600` (no `=`).
     let patterns = ds.join("patterns.toml");
     let virt = t.0.join("virt/calibration.toml");
-    run(&[
-        "calibrate",
-        "reference",
-        "-q",
-        "--virtual",
-        "--patterns",
-        s(&patterns),
-        "--calibration",
-        s(&imp),
-        "--plane-point",
-        "-10,5,600",
-        "--plane-normal",
-        "-0.05,0,-1",
-        "-o",
-        s(&virt),
-    ]);
+    virtual_reference_with(
+        &patterns,
+        &imp,
+        &virt,
+        &["--plane-point", "-10,5,600", "--plane-normal", "-0.05,0,-1"],
+    );
     let v = Calibration::load(&virt).unwrap();
     let r = v.reference.as_ref().unwrap();
     assert!(r.point[0] == -10.0 && r.normal[0] < 0.0, "{:?}", r);

@@ -14,7 +14,7 @@ use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d_core::Validity;
 use std::path::Path;
 
-use crate::cli_support::{Tmp, render_noisy, run, s, virtual_reference};
+use crate::cli_support::{Tmp, render_noisy, run, s, virtual_reference, virtual_reference_with};
 
 /// The default rig's scene head (camera, projector, patterns, reference) with `objects`.
 fn scene_toml(objects: &str) -> String {
@@ -137,20 +137,7 @@ fn near_scenes_keep_their_interior_with_a_virtual_reference() {
         let wide = t.0.join("wide/calibration.toml");
         virtual_reference(&patterns, &cal, &wide);
         let narrow = t.0.join("narrow/calibration.toml");
-        run(&[
-            "calibrate",
-            "reference",
-            "-q",
-            "--virtual",
-            "--margin",
-            "0",
-            "--patterns",
-            s(&patterns),
-            "--calibration",
-            s(&cal),
-            "-o",
-            s(&narrow),
-        ]);
+        virtual_reference_with(&patterns, &cal, &narrow, &["--margin", "0"]);
         // A captured plane (the rig's reference plane, rendered on its own) with the fitted
         // model extended by the projector model (`--margin auto`; the rendered calibration
         // holds the true projector).

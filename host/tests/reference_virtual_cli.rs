@@ -8,7 +8,7 @@ use fringe3d::cli::common;
 use fringe3d::scan::ScanCalibration;
 use std::path::Path;
 
-use crate::cli_support::{Tmp, fringe3d, run, s, virtual_reference};
+use crate::cli_support::{Tmp, fringe3d, run, s, virtual_reference, virtual_reference_with};
 
 /// Interior RMS error of the scan of `ds` with `calibration` (the library path of `fringe3d scan`),
 /// mm, and the interior points compared. The CLI's `scan` is exercised on the same files too.
@@ -59,20 +59,7 @@ fn a_virtual_reference_through_the_cli() {
     virtual_reference(&ds.join("patterns.toml"), &cal, &virt);
     // The same without a margin (an image-sized map, as a head takes).
     let virt0 = t.0.join("virtual0/calibration.toml");
-    run(&[
-        "calibrate",
-        "reference",
-        "-q",
-        "--virtual",
-        "--margin",
-        "0",
-        "--patterns",
-        s(&ds.join("patterns.toml")),
-        "--calibration",
-        s(&cal),
-        "-o",
-        s(&virt0),
-    ]);
+    virtual_reference_with(&ds.join("patterns.toml"), &cal, &virt0, &["--margin", "0"]);
     let margin = fringe3d::io::calibration::Calibration::load(&virt)
         .unwrap()
         .reference
@@ -112,24 +99,19 @@ fn a_virtual_reference_through_the_cli() {
     let same = t.0.join("same/calibration.toml");
     let point = format!("{},{},{}", r.point[0], r.point[1], r.point[2]);
     let normal = format!("{},{},{}", r.normal[0], r.normal[1], r.normal[2]);
-    run(&[
-        "calibrate",
-        "reference",
-        "-q",
-        "--virtual",
-        "--margin",
-        "0",
-        "--patterns",
-        s(&ds.join("patterns.toml")),
-        "--calibration",
-        s(&cal),
-        "--plane-point",
-        &point,
-        "--plane-normal",
-        &normal,
-        "-o",
-        s(&same),
-    ]);
+    virtual_reference_with(
+        &ds.join("patterns.toml"),
+        &cal,
+        &same,
+        &[
+            "--margin",
+            "0",
+            "--plane-point",
+            &point,
+            "--plane-normal",
+            &normal,
+        ],
+    );
     let (rms_same, n_same) = scan_rms(&ds, &same, &t.0.join("same.ply"));
     eprintln!(
         "on the dataset's plane: virtual reference {:.2} µm ({n_same} points)",

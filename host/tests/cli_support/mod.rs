@@ -47,7 +47,12 @@ pub fn run(args: &[&str]) -> String {
 /// `fringe3d calibrate reference -q --virtual` for the pattern set `patterns` and the
 /// calibration `calibration`, written to `out` (a calibration with its virtual reference map).
 pub fn virtual_reference(patterns: &Path, calibration: &Path, out: &Path) {
-    run(&[
+    virtual_reference_with(patterns, calibration, out, &[]);
+}
+
+/// [`virtual_reference`] with `extra` options (`--margin 0`, `--plane-point …`).
+pub fn virtual_reference_with(patterns: &Path, calibration: &Path, out: &Path, extra: &[&str]) {
+    let mut args = vec![
         "calibrate",
         "reference",
         "-q",
@@ -58,7 +63,9 @@ pub fn virtual_reference(patterns: &Path, calibration: &Path, out: &Path) {
         s(calibration),
         "-o",
         s(out),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    run(&args);
 }
 
 /// `fringe3d render -q` of `scene` (a built-in name or a scene file) at `size` ("WxH"), 8 bits
