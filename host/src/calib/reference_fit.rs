@@ -291,15 +291,25 @@ impl Spline {
         idx.iter().zip(&w).map(|(&i, &w)| self.coef[i] * w).sum()
     }
 
-    /// Weighted least squares of `tau` over the pixels with `weight > 0`, with the
-    /// second-difference penalty `λ·Σ(Δ²c)²` along both axes (λ a 1e-6 fraction of the mean data
-    /// weight per control value): where there is data it changes nothing measurable, where there
-    /// is none it continues the surface linearly.
-    fn fit(&mut self, width: usize, tau: &[f64], weight: &[f64]) -> Result<(), FitError> {
+    /// Weighted least squares of `tau` over its finite pixels, pixel `p` weighing
+    /// `weight(p, tau[p])` (pixels of weight 0 or less are left out), with the second-difference
+    /// penalty `λ·Σ(Δ²c)²` along both axes (λ a 1e-6 fraction of the mean data weight per
+    /// control value): where there is data it changes nothing measurable, where there is none it
+    /// continues the surface linearly.
+    fn fit(
+        &mut self,
+        width: usize,
+        tau: &[f64],
+        weight: impl Fn(usize, f64) -> f64,
+    ) -> Result<(), FitError> {
         let n = self.len();
         let mut a = vec![0.0; n * n];
         let mut b = vec![0.0; n];
-        for (p, (&t, &wt)) in tau.iter().zip(weight).enumerate() {
+        for (p, &t) in tau.iter().enumerate() {
+            if !t.is_finite() {
+                continue;
+            }
+            let wt = weight(p, t);
             if !(wt > 0.0) {
                 continue;
             }
@@ -347,43 +357,69 @@ impl Spline {
     }
 }
 
-/// Residuals `Φ − c_K·g(τ̂)` (NaN where `weight` is 0) and their RMS.
+/// The residual `Φ − c_K·g(τ̂)` of pixel `p`.
+fn residual(spline: &Spline, transfer: &Transfer, phase: f32, p: usize, width: usize) -> f64 {
+    f64::from(phase) - transfer.to_phase(spline.eval(p % width, p / width))
+}
+
+/// Residuals `Φ − c_K·g(τ̂)` of the pixels whose `tau` is finite (NaN elsewhere), written into
+/// `r` (one per pixel), and their RMS.
 fn residuals(
     spline: &Spline,
     transfer: &Transfer,
     phase: &[f32],
-    weight: &[f64],
+    tau: &[f64],
     width: usize,
-) -> (Vec<f64>, f64) {
+    r: &mut Vec<f64>,
+) -> f64 {
     let mut sum = 0.0;
     let mut n = 0usize;
-    let r: Vec<f64> = phase
-        .iter()
-        .zip(weight)
-        .enumerate()
-        .map(|(p, (&ph, &w))| {
-            if w > 0.0 {
-                let e = f64::from(ph) - transfer.to_phase(spline.eval(p % width, p / width));
-                sum += e * e;
-                n += 1;
-                e
-            } else {
-                f64::NAN
-            }
-        })
-        .collect();
-    (r, (sum / n.max(1) as f64).sqrt())
+    r.clear();
+    r.extend(phase.iter().zip(tau).enumerate().map(|(p, (&ph, &t))| {
+        if t.is_finite() {
+            let e = residual(spline, transfer, ph, p, width);
+            sum += e * e;
+            n += 1;
+            e
+        } else {
+            f64::NAN
+        }
+    }));
+    (sum / n.max(1) as f64).sqrt()
+}
+
+/// The RMS of [`residuals`], without writing them.
+fn residual_rms(
+    spline: &Spline,
+    transfer: &Transfer,
+    phase: &[f32],
+    tau: &[f64],
+    width: usize,
+) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (p, (&ph, &t)) in phase.iter().zip(tau).enumerate() {
+        if t.is_finite() {
+            let e = residual(spline, transfer, ph, p, width);
+            sum += e * e;
+            n += 1;
+        }
+    }
+    (sum / n.max(1) as f64).sqrt()
 }
 
 /// 1.4826 × the median absolute value of the finite entries (0 without any).
 fn robust_sigma(r: &[f64]) -> f64 {
-    let mut a: Vec<f64> = r
-        .iter()
-        .filter(|x| x.is_finite())
-        .map(|x| x.abs())
-        .collect();
+    robust_sigma_of(r.to_vec())
+}
+
+/// [`robust_sigma`] of values the caller no longer needs (sorted in place: no copy).
+fn robust_sigma_of(mut a: Vec<f64>) -> f64 {
+    a.retain(|x| x.is_finite());
     if a.is_empty() {
         return 0.0;
+    }
+    for x in &mut a {
+        *x = x.abs();
     }
     let mid = a.len() / 2;
     let (_, m, _) = a.select_nth_unstable_by(mid, f64::total_cmp);
@@ -397,7 +433,7 @@ fn white_sigma(r: &[f64], width: usize) -> f64 {
         .filter(|&p| (p + 1) % width != 0)
         .map(|p| r[p + 1] - r[p])
         .collect();
-    robust_sigma(&d) / std::f64::consts::SQRT_2
+    robust_sigma_of(d) / std::f64::consts::SQRT_2
 }
 
 /// Structure of the residuals: `sqrt(max(0, mean(r²) − mean((r[u+1] − r[u])²)/2))`. White noise
@@ -461,8 +497,10 @@ pub fn fit_reference(
 ) -> Result<ReferenceFit, FitError> {
     let transfer = Transfer::of(set);
     let n = width * height;
-    let mut tau = vec![0.0; n];
-    let mut weight = vec![0.0; n];
+    // τ per pixel, NaN where the capture is invalid (and, below, where it is an outlier): with
+    // the residuals, what the fit keeps per pixel (16 bytes) besides the capture. A pixel's
+    // weight `(c_K·g′(τ))²` is computed from its τ when needed.
+    let mut tau = vec![f64::NAN; n];
     let mut valid = 0usize;
     for p in 0..n.min(phase.len()) {
         if phase[p].is_finite() {
@@ -470,11 +508,14 @@ pub fn fit_reference(
             let s = transfer.slope(t);
             if t.is_finite() && s > 0.0 {
                 tau[p] = t;
-                weight[p] = s * s;
                 valid += 1;
             }
         }
     }
+    let base = |t: f64| {
+        let s = transfer.slope(t);
+        s * s
+    };
     let spacings: Vec<u32> = SPACINGS_PX
         .iter()
         .copied()
@@ -490,32 +531,22 @@ pub fn fit_reference(
     // is well above the white noise between neighbours, iterate reweighted least squares towards
     // the least-absolute-deviation fit (weights `1 / max(|r|, σ_white)`).
     let mut spline = Spline::new(width, height, finest);
-    spline.fit(width, &tau, &weight)?;
-    let (mut r, _) = residuals(&spline, &transfer, phase, &weight, width);
+    spline.fit(width, &tau, |_, t| base(t))?;
+    let mut r = Vec::with_capacity(n);
+    residuals(&spline, &transfer, phase, &tau, width, &mut r);
     for _ in 0..ROBUST_ROUNDS {
         let white = white_sigma(&r, width);
         if !(robust_sigma(&r) > 1.5 * white) || !(white > 0.0) {
             break;
         }
-        let w: Vec<f64> = weight
-            .iter()
-            .zip(&r)
-            .map(|(&b, &e)| {
-                if b > 0.0 {
-                    b * white / e.abs().max(white)
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        spline.fit(width, &tau, &w)?;
-        r = residuals(&spline, &transfer, phase, &weight, width).0;
+        spline.fit(width, &tau, |p, t| base(t) * white / r[p].abs().max(white))?;
+        residuals(&spline, &transfer, phase, &tau, width, &mut r);
     }
     let sigma0 = robust_sigma(&r);
     let mut outliers = 0usize;
-    for (w, e) in weight.iter_mut().zip(&r) {
-        if *w > 0.0 && !(e.abs() <= OUTLIER_SIGMAS * sigma0.max(NOISE_FLOOR_RAD)) {
-            *w = 0.0;
+    for (t, e) in tau.iter_mut().zip(&r) {
+        if t.is_finite() && !(e.abs() <= OUTLIER_SIGMAS * sigma0.max(NOISE_FLOOR_RAD)) {
+            *t = f64::NAN;
             outliers += 1;
         }
     }
@@ -529,17 +560,18 @@ pub fn fit_reference(
     let mut fits = Vec::new();
     for &s in &spacings {
         let mut sp = Spline::new(width, height, s);
-        sp.fit(width, &tau, &weight)?;
-        let (r, rms) = residuals(&sp, &transfer, phase, &weight, width);
-        fits.push((s, sp, r, rms));
+        sp.fit(width, &tau, |_, t| base(t))?;
+        let rms = residual_rms(&sp, &transfer, phase, &tau, width);
+        fits.push((s, sp, rms));
     }
-    let best_rms = fits.last().map_or(0.0, |f| f.3);
+    let best_rms = fits.last().map_or(0.0, |f| f.2);
     let pick = fits
         .iter()
-        .position(|f| f.3 <= SPACING_TOLERANCE * best_rms)
+        .position(|f| f.2 <= SPACING_TOLERANCE * best_rms)
         .unwrap_or(fits.len() - 1);
-    let candidates = fits.iter().map(|f| (f.0, f.3)).collect();
-    let (spacing_px, spline, r, residual_rms_rad) = fits.swap_remove(pick);
+    let candidates = fits.iter().map(|f| (f.0, f.2)).collect();
+    let (spacing_px, spline, residual_rms_rad) = fits.swap_remove(pick);
+    residuals(&spline, &transfer, phase, &tau, width, &mut r);
     let noise_rad = white_sigma(&r, width);
     let (structure_rad, (u, v)) = structure(&r, width, height);
     if structure_rad > MAX_STRUCTURE_OF_NOISE * noise_rad.max(NOISE_FLOOR_RAD) {
@@ -553,8 +585,8 @@ pub fn fit_reference(
     // The map, on every pixel within one knot cell of a cell holding data.
     let (cu, cv) = (spline.cells[0], spline.cells[1]);
     let mut has = vec![false; cu * cv];
-    for (p, &w) in weight.iter().enumerate() {
-        if w > 0.0 {
+    for (p, &t) in tau.iter().enumerate() {
+        if t.is_finite() {
             let (iu, _) = spline.locate((p % width) as f64, 0);
             let (iv, _) = spline.locate((p / width) as f64, 1);
             has[iv * cu + iu] = true;
