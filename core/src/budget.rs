@@ -12,10 +12,14 @@
 //! | row `v` of each of the N images | `N·s` (`s` bytes per sample) | always |
 //! | decoded phase (f32) and validity (u8) | 5 | always |
 //! | modulation and DC rows (f32 each) | 8 | [`RowLayout::modulation_rows`] |
-//! | reference ring: B rows of f32 phase | `4·B` | points |
-//! | the reference row on its way into the ring | 4 | points, [`RowLayout::staging_row`] |
+//! | reference ring: B rows of f32 phase | `4·B` per map column | points |
+//! | the reference row on its way into the ring | 4 per map column | points, [`RowLayout::staging_row`] |
 //! | points: x, y, z (f32) and codes (u8) | 13, or 39 for the edge filter's 3 rows | points |
 //! | the edge filter's output codes | 1 | [`RowLayout::edge_filter`] |
+//!
+//! The reference map may extend past the image (issue #17, [`crate::reconstruct::Margin`]): its
+//! rows are then `left + W + right` columns wide ([`RowBudget::margin_columns`] = `left + right`),
+//! and so are the ring's and the staging row's; every other buffer is `W` columns.
 //!
 //! plus, not per column: the decoder (a `static Option<Decoder>` built in place by
 //! `HeadSetup::decoder_into`), the decoder's scratch (`DecodeScratch`, for
@@ -100,6 +104,10 @@ pub struct RowBudget {
     pub sample_bytes: usize,
     /// Reference rows the ring holds: the reconstruction's band (`Reconstructor::band`).
     pub band_rows: usize,
+    /// Columns of the reference map beyond the image, `left + right` of its margin
+    /// (`Reconstructor::map_width` − width; 0 for an image-sized map): the ring and the staging
+    /// row are this much wider than the image.
+    pub margin_columns: usize,
     /// What is kept.
     pub layout: RowLayout,
 }
@@ -110,29 +118,39 @@ impl RowBudget {
         let w = self.width;
         let l = &self.layout;
         let point_rows = if l.edge_filter { 3 } else { 1 };
-        let rows: [(bool, &'static str, usize); 7] = [
+        // (kept, name, bytes per column, spans the reference map's columns)
+        let rows: [(bool, &'static str, usize, bool); 7] = [
             (
                 true,
                 "image rows (one row of each image)",
                 self.images * self.sample_bytes,
+                false,
             ),
-            (true, "decoded phase (f32) and validity (u8)", 5),
-            (l.modulation_rows, "modulation and DC rows (f32)", 8),
+            (true, "decoded phase (f32) and validity (u8)", 5, false),
+            (l.modulation_rows, "modulation and DC rows (f32)", 8, false),
             (
                 l.points,
                 "reference ring (band rows of f32 phase)",
                 4 * self.band_rows,
+                true,
             ),
-            (l.points && l.staging_row, "reference row staging (f32)", 4),
+            (
+                l.points && l.staging_row,
+                "reference row staging (f32)",
+                4,
+                true,
+            ),
             (
                 l.points,
                 "point rows (x, y, z f32 and a code)",
                 13 * point_rows,
+                false,
             ),
             (
                 l.points && l.edge_filter,
                 "edge filter output codes (u8)",
                 1,
+                false,
             ),
         ];
         let fixed: [(bool, &'static str, usize); 3] = [
@@ -158,7 +176,10 @@ impl RowBudget {
             bytes: 0,
         }; MAX_BUDGET_LINES];
         let mut n = 0;
-        let per = rows.iter().map(|&(on, name, c)| (on, name, c, c * w));
+        let map_w = w + self.margin_columns;
+        let per = rows
+            .iter()
+            .map(|&(on, name, c, map)| (on, name, c, c * if map { map_w } else { w }));
         let all = per.chain(fixed.iter().map(|&(on, name, b)| (on, name, 0, b)));
         for (on, name, per_column, bytes) in all {
             if let (true, Some(slot)) = (on, out.get_mut(n)) {
@@ -173,7 +194,8 @@ impl RowBudget {
         (out, n)
     }
 
-    /// Bytes per image column over all per-column buffers.
+    /// Bytes per image column over all per-column buffers (the ring's and the staging row's per
+    /// column of the reference map, which has [`RowBudget::margin_columns`] more).
     pub fn per_column(&self) -> usize {
         let (lines, n) = self.lines();
         lines.iter().take(n).map(|l| l.per_column).sum()
@@ -198,6 +220,7 @@ mod tests {
             images: 8,
             sample_bytes: 2,
             band_rows: 25,
+            margin_columns: 0,
             layout: RowLayout::BOARD,
         };
         assert_eq!(b.per_column(), 2 * 8 + 45 + 4 * 25);
@@ -213,10 +236,18 @@ mod tests {
             images: 8,
             sample_bytes: 2,
             band_rows: 16,
+            margin_columns: 0,
             layout: RowLayout::MINIMAL,
         };
         let fixed = core::mem::size_of::<DecodeScratch>() + MAX_SETUP_BLOB;
         assert_eq!(b.total(), (16 + 4 + 1 + 64 + 4 + 12 + 1) * 640 + fixed);
+        // A map 96 columns wider than the image widens the ring and the staging row only.
+        let wide = RowBudget {
+            margin_columns: 96,
+            ..b
+        };
+        assert_eq!(wide.total(), b.total() + (4 * 16 + 4) * 96);
+        assert_eq!(wide.per_column(), b.per_column());
         // Phase only: no ring and no point row.
         let phase = RowBudget {
             layout: RowLayout {

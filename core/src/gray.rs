@@ -19,6 +19,14 @@
 //! The *complementary* scheme adds image `bits`: bit 0 of `G(h)`, stripes half a period wide,
 //! whose edges fall at the middles of the other images' stripes.
 //!
+//! # Shifted code
+//! A *shifted* code (Wu et al., Opt. Express 27(16), 2019; SLMaster's "sinus shift Gray code")
+//! moves every stripe by half a period, so that its edges fall in the middle of the fringes
+//! (`φ = 0`) instead of on the phase's wraps (`φ = ±π`): the code of `h + 1` is projected, its
+//! period stripe `g = ⌊u + 1⌋ + B` covers `u ∈ [g − B − 1, g − B)` and the code covers
+//! `u ∈ [−B − 1, B − 1)`. It cannot be combined with the complementary image (which already
+//! puts an edge at every half period).
+//!
 //! # Inverse patterns
 //! An *inverse* code projects every image followed by its inverse (image `2j` the bit, `2j + 1`
 //! its complement; [`GrayCode::inverted`]), doubling the images for the classic per-pixel
@@ -38,6 +46,13 @@
 //!   truth and rounding is decided by the wrapped phase alone at the stripe edges, where the
 //!   blurred code is least reliable. Pixels with an ambiguous bit, or within the range
 //!   tolerance of a period edge, are refused ([`GrayCode::tolerance`]).
+//! - **shifted** (`bits` images): the estimate is the centre of the shifted stripe (a wrap of
+//!   the phase), within ±π of the truth, and rounding is decided by the wrapped phase at the
+//!   stripe edges, now in the middle of the fringes. Per pixel it is as robust as the plain code:
+//!   pixels with an ambiguous bit, or within the range tolerance of a stripe edge (`φ ≈ 0`), are
+//!   refused; the lost pixels lie mid-fringe instead of at the wraps. (Published decoders of this
+//!   code correct the edges from the neighbouring pixels along a row; a pixel-wise decoder cannot
+//!   tell an edge pixel's side. For robust edges project the complementary image.)
 //! - **complementary** (`bits + 1` images): the estimate is the centre of a half-period stripe,
 //!   within ±π/2 of the truth. Near any stripe edge only one bit changes (the Gray property), so
 //!   a wrong or ambiguous bit there moves the estimate by one half stripe, still within the
@@ -57,6 +72,7 @@ pub struct GrayCode {
     bits: u8,
     complementary: bool,
     inverse: bool,
+    shifted: bool,
 }
 
 impl GrayCode {
@@ -67,7 +83,24 @@ impl GrayCode {
             bits,
             complementary,
             inverse: false,
+            shifted: false,
         }
+    }
+
+    /// A plain code of `bits` bits with its stripes moved by half a period (the module docs'
+    /// "Shifted code").
+    pub const fn shifted(bits: u8) -> Self {
+        GrayCode {
+            bits,
+            complementary: false,
+            inverse: false,
+            shifted: true,
+        }
+    }
+
+    /// Whether the stripes are moved by half a period ([`Self::shifted`]).
+    pub const fn is_shifted(&self) -> bool {
+        self.shifted
     }
 
     /// The same code with every image followed by its inverse (the per-pixel threshold of the
@@ -116,6 +149,7 @@ impl GrayCode {
         self.bits >= 1
             && self.bits as usize <= MAX_GRAY_BITS
             && self.images() <= crate::limits::MAX_SHIFTS
+            && !(self.shifted && self.complementary)
     }
 
     /// `B = 2^(bits−1)`, the period code of `u = 0`.
@@ -123,16 +157,19 @@ impl GrayCode {
         1i64 << (self.bits.saturating_sub(1) as u32)
     }
 
-    /// The range of `u = c·Φ/2π` (periods) the code covers: `[−B − ½, B − ½)`.
+    /// The range of `u = c·Φ/2π` (periods) the code covers: `[−B − ½, B − ½)`; shifted
+    /// `[−B − 1, B − 1)`.
     pub fn period_range(&self) -> (f64, f64) {
         let b = self.bias() as f64;
-        (-b - 0.5, b - 0.5)
+        let s = if self.shifted { 0.5 } else { 0.0 };
+        (-b - 0.5 - s, b - 0.5 - s)
     }
 
-    /// The half-stripe index `h = ⌊2u + 1⌋ + 2B` of `u` periods (not clamped: outside
-    /// [`Self::period_range`] it leaves `0..2^(bits+1)`).
+    /// The half-stripe index whose code word is projected at `u` periods: `h = ⌊2u + 1⌋ + 2B`,
+    /// plus one for a shifted code (not clamped: outside [`Self::period_range`] it leaves
+    /// `0..2^(bits+1)`).
     pub fn half_stripe(&self, u: f64) -> i64 {
-        libm::floor(2.0 * u + 1.0) as i64 + 2 * self.bias()
+        libm::floor(2.0 * u + 1.0) as i64 + 2 * self.bias() + self.shifted as i64
     }
 
     /// Whether image `j` of the level (0 = most significant bit; an inverse code's odd images
@@ -153,7 +190,8 @@ impl GrayCode {
     /// The phase estimate of a decoded word (laid out as `G(h)`, [`Self::word_bit`]; a plain
     /// code's bit 0 is 0) in quarter turns `n`, the estimate being `n·π/2` radians of `c·Φ`:
     /// the centre of the half stripe, `2(h − 2B) − 1`, for the complementary code; the centre of
-    /// the period, `4(g − B)` with `g = h >> 1`, for the plain one.
+    /// the period, `4(g − B)` with `g = h >> 1`, for the plain one, `4(g − B) − 2` for the
+    /// shifted one (its stripes start half a period lower).
     pub const fn quarter_turns(&self, word: u32) -> i32 {
         // Gray to binary: prefix XOR from the top (a word of ≤ 11 bits, [`MAX_GRAY_BITS`] + 1).
         let mut h = word;
@@ -165,7 +203,7 @@ impl GrayCode {
         if self.complementary {
             2 * (h as i32 - 2 * b) - 1
         } else {
-            4 * ((h >> 1) as i32 - b)
+            4 * ((h >> 1) as i32 - b) - 2 * self.shifted as i32
         }
     }
 
@@ -177,7 +215,8 @@ impl GrayCode {
     /// The largest accepted residual (radians) between the code's estimate and the unwrapped
     /// phase: `3π/4` for the complementary code (the estimate is within `π/2`, one wrong bit
     /// adds the edge distance); `π − range_tolerance` for the plain one (its estimate is only
-    /// within `π`: pixels within the phase noise allowance of a period edge are refused).
+    /// within `π`: pixels within the phase noise allowance of a period edge are refused; the
+    /// shifted one's likewise).
     pub fn tolerance(&self, range_tolerance: f64) -> f64 {
         if self.complementary {
             0.75 * core::f64::consts::PI
@@ -217,6 +256,46 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_shifted_stripe_decodes_to_its_centre_half_a_period_off_the_plain_one() {
+        for bits in 1..=MAX_GRAY_BITS as u8 {
+            for inverse in [false, true] {
+                let mut g = GrayCode::shifted(bits);
+                if inverse {
+                    g = g.inverted();
+                }
+                let plain = GrayCode::new(bits, false);
+                let (lo, hi) = g.period_range();
+                assert_eq!(
+                    (lo, hi),
+                    (plain.period_range().0 - 0.5, plain.period_range().1 - 0.5)
+                );
+                let mut u = lo + 0.05;
+                while u < hi {
+                    let h = g.half_stripe(u);
+                    let mut word = 0u32;
+                    for j in 0..g.images() {
+                        if g.bright(j, h) != g.is_inverse_image(j) {
+                            word |= 1 << g.word_bit(j);
+                        }
+                    }
+                    let est = g.quarter_turns(word) as f64 / 4.0;
+                    // The stripe [k, k + 1) of integer k decodes to its centre k + ½.
+                    assert_eq!(est, libm::floor(u) + 0.5, "bits {bits} u {u}");
+                    // The plain code's word here is the one half a period on.
+                    assert_eq!(h, plain.half_stripe(u + 0.5));
+                    u += 0.1;
+                }
+            }
+        }
+        assert!(GrayCode::shifted(4).is_valid() && GrayCode::shifted(4).inverted().is_valid());
+        let both = GrayCode {
+            complementary: true,
+            ..GrayCode::shifted(4)
+        };
+        assert!(!both.is_valid(), "shifted and complementary");
     }
 
     #[test]

@@ -515,6 +515,7 @@ impl PatternSet {
                     min: periods(min),
                     max: periods(max),
                     bits: code.bits(),
+                    shifted: code.is_shifted(),
                 });
             }
             r => r?,
@@ -527,6 +528,7 @@ impl PatternSet {
                 min: (lo / tau) as f32,
                 max: (hi / tau) as f32,
                 bits: code.bits(),
+                shifted: code.is_shifted(),
             });
         }
         self.coarse_range = (lo, hi);

@@ -56,6 +56,8 @@ pub enum PatternError {
         max: f32,
         /// The code's bits.
         bits: u8,
+        /// Whether the code is shifted by half a period ([`crate::gray::GrayCode::shifted`]).
+        shifted: bool,
     },
 }
 
@@ -161,14 +163,21 @@ impl core::fmt::Display for PatternError {
                 "a Gray-code level needs a level with 3 or more shifts: its threshold is that \
                  level's DC term A"
             ),
-            Self::GrayRange { min, max, bits } => {
+            Self::GrayRange {
+                min,
+                max,
+                bits,
+                shifted,
+            } => {
                 let b = (1u32 << (bits.saturating_sub(1) as u32)) as f32;
+                let s = if *shifted { 0.5 } else { 0.0 };
                 write!(
                     f,
                     "the Gray-coded level spans periods {min:.2} to {max:.2} (c*Phi/2pi) over \
-                     the projector; {bits} bits cover [{}, {})",
-                    -b - 0.5,
-                    b - 0.5
+                     the projector; {bits} {}bits cover [{}, {})",
+                    if *shifted { "shifted " } else { "" },
+                    -b - 0.5 - s,
+                    b - 0.5 - s
                 )
             }
         }

@@ -163,7 +163,7 @@ fn header_layout() {
     let mut out = [0u8; HEADER_LEN];
     assert_eq!(h.emit(&mut out), Ok(6));
     // version, flags (bit 0 + bit 3), seq, command, length LE.
-    assert_eq!(out, [0x05, 0x09, 0xA5, 0x12, 0x02, 0x01]);
+    assert_eq!(out, [0x06, 0x09, 0xA5, 0x12, 0x02, 0x01]);
     assert_eq!(Header::parse(&out), Ok(h));
 
     assert_eq!(Flags::WRITE.bits(), 0x01);
@@ -191,22 +191,26 @@ fn header_rejects() {
         Header::parse(&[0x03, 0, 0, 0, 0, 0]),
         Err(WireError::Version(3))
     );
-    // Version 4 (before the light-edge code) too.
+    // Version 4 (before the light-edge code) too, and 5 (before the map's margin).
     assert_eq!(
         Header::parse(&[0x04, 0, 0, 0, 0, 0]),
         Err(WireError::Version(4))
     );
     assert_eq!(
-        Header::parse(&[0x05, 0x10, 0, 0, 0, 0]),
+        Header::parse(&[0x05, 0, 0, 0, 0, 0]),
+        Err(WireError::Version(5))
+    );
+    assert_eq!(
+        Header::parse(&[0x06, 0x10, 0, 0, 0, 0]),
         Err(WireError::ReservedFlags)
     );
     // 4097 = 0x1001 > MAX_PAYLOAD.
     assert_eq!(
-        Header::parse(&[0x05, 0, 0, 0, 0x01, 0x10]),
+        Header::parse(&[0x06, 0, 0, 0, 0x01, 0x10]),
         Err(WireError::Length)
     );
     assert_eq!(
-        Header::parse(&[0x05, 0, 0, 0, 0]),
+        Header::parse(&[0x06, 0, 0, 0, 0]),
         Err(WireError::Truncated)
     );
     let h = Header {
@@ -347,6 +351,50 @@ fn enum_wire_values() {
         enc(Message::ConfirmUpload(UploadTarget::PhaseMap), &mut b),
         vec![1]
     );
+    // A level's shifts: [2] Gray, [3] GrayInverse, [4] GrayShifted (protocol version 6), each
+    // after the level's scale (32.0 = 00 00 00 00 00 00 40 40).
+    let level = |shifts| {
+        let mut out = [0u8; 32];
+        postcard::to_slice(
+            &Level {
+                scale: 32.0,
+                shifts,
+            },
+            &mut out,
+        )
+        .unwrap()
+        .to_vec()
+    };
+    let scale = [0, 0, 0, 0, 0, 0, 0x40, 0x40];
+    for (shifts, tail) in [
+        (
+            Shifts::Gray {
+                bits: 6,
+                complementary: true,
+            },
+            [2, 6, 1],
+        ),
+        (
+            Shifts::GrayInverse {
+                bits: 6,
+                complementary: false,
+            },
+            [3, 6, 0],
+        ),
+        (
+            Shifts::GrayShifted {
+                bits: 6,
+                inverse: true,
+            },
+            [4, 6, 1],
+        ),
+    ] {
+        assert_eq!(
+            level(shifts),
+            [&scale[..], &tail[..]].concat(),
+            "{shifts:?}"
+        );
+    }
 }
 
 #[test]
@@ -356,7 +404,7 @@ fn invalid_codes_round_trip() {
             assert_eq!(i as u8, code);
             assert!(!i.name().is_empty());
         } else {
-            assert!(code == 0 || code > 22);
+            assert!(code == 0 || code > 24);
         }
     }
 }

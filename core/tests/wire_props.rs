@@ -2,6 +2,7 @@
 //! arbitrary valid messages round-trip; damaged lines never deliver a frame that was not sent.
 
 use fringe3d_core::Validity;
+use fringe3d_core::reconstruct::{MAX_MARGIN, Margin};
 use fringe3d_core::wire::*;
 use proptest::prelude::*;
 
@@ -67,17 +68,23 @@ fn pattern_set(r: &mut XorShift64) -> PatternSetDesc {
                 count: 1 + r.below(n as u32) as u8,
             }
         } else if r.below(4) == 0 {
-            // Gray-code levels, plain or inverse (the wire's field checks only).
+            // Gray-code levels, plain, inverse or shifted (the wire's field checks only).
             let complementary = r.below(2) == 0;
-            if r.below(2) == 0 {
-                Shifts::Gray {
+            match r.below(3) {
+                0 => Shifts::Gray {
                     bits: 1 + r.below(10) as u8,
                     complementary,
-                }
-            } else {
-                Shifts::GrayInverse {
+                },
+                1 => Shifts::GrayInverse {
                     bits: 1 + r.below(7) as u8,
                     complementary,
+                },
+                _ => {
+                    let inverse = r.below(2) == 0;
+                    Shifts::GrayShifted {
+                        bits: 1 + r.below(if inverse { 8 } else { 10 }) as u8,
+                        inverse,
+                    }
                 }
             }
         } else {
@@ -207,10 +214,17 @@ fn random_message<'a>(
         Command::UploadCalibration => Message::UploadCalibration(calibration(r)),
         Command::BeginPhaseMapUpload => {
             let (w, h) = (1 + r.below(20_000), 1 + r.below(20_000));
+            let mut side = || r.below(MAX_MARGIN + 1);
+            let margin = Margin::from_array([side(), side(), side(), side()]);
+            let (mw, mh) = (
+                w + margin.left + margin.right,
+                h + margin.top + margin.bottom,
+            );
             Message::BeginPhaseMapUpload(BeginPhaseMap {
                 width: w as u16,
                 height: h as u16,
-                total_bytes: w * h * PHASE_MAP_BYTES_PER_PIXEL as u32,
+                margin,
+                total_bytes: mw * mh * PHASE_MAP_BYTES_PER_PIXEL as u32,
                 digest: r.next_u32(),
             })
         }

@@ -12,7 +12,7 @@ use fringe3d_core::geometry::Vec3;
 use fringe3d_core::params::{CameraParams, Distortion};
 use fringe3d_core::pattern::{self, Binarization, Convention, ImageId, Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
-use fringe3d_core::reconstruct::{Reconstructor, Setup};
+use fringe3d_core::reconstruct::{MAX_MARGIN, Margin, Reconstructor, Setup};
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::setup::{
     MAX_SETUP_BLOB, MAX_SETUP_PAYLOAD, SETUP_CRC_LEN, SETUP_HEADER_LEN, SETUP_VERSION,
@@ -161,8 +161,8 @@ fn seal(payload: &[u8]) -> Vec<u8> {
 /// The hand-laid blob of [`small_setup`].
 #[rustfmt::skip]
 const SMALL_BLOB: &[u8] = &[
-    // header: magic F3DS, version 4, reserved 0, payload length 346 (LE)
-    0x46, 0x33, 0x44, 0x53, 0x04, 0x00, 0x5A, 0x01,
+    // header: magic F3DS, version 5, reserved 0, payload length 350 (LE)
+    0x46, 0x33, 0x44, 0x53, 0x05, 0x00, 0x5E, 0x01,
     // frames: width 4, height 3, sample_bits 12, sample_bytes 2
     0x04, 0x03, 0x0C, 0x02,
     // patterns: width 8, height 2, bit_depth 8
@@ -243,17 +243,43 @@ const SMALL_BLOB: &[u8] = &[
     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x54, 0x40,
     // correction: none (field 8)
     0x00,
-    // CRC-32C 0xD46AF71D (LE)
-    0x1D, 0xF7, 0x6A, 0xD4,
+    // margin (field 9, version 5): left 0, top 0, right 0, bottom 0
+    0x00, 0x00, 0x00, 0x00,
+    // CRC-32C 0x4621FCE7 (LE)
+    0xE7, 0xFC, 0x21, 0x46,
 ];
+
+/// [`SMALL_BLOB`]'s payload with the margin (field 9) `[130, 1, 0, 300]` in place of the zero
+/// one: varints `82 01`, `01`, `00`, `AC 02` (payload 352 bytes; CRC-32C 0x303AC545, computed
+/// with the independent Python CRC of tools/wire_vectors).
+fn small_blob_with_margin() -> Vec<u8> {
+    let mut payload = SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN - 4].to_vec();
+    payload.extend_from_slice(&[0x82, 0x01, 0x01, 0x00, 0xAC, 0x02]);
+    let b = seal(&payload);
+    assert_eq!(crc32c(&b[..b.len() - SETUP_CRC_LEN]), 0x303A_C545);
+    b
+}
+
+/// [`SMALL_BLOB`] as format version 4 wrote it: no field 9 (358 bytes; its CRC-32C was
+/// 0xD46AF71D when it was the current version's vector). Still read, as an image-sized map.
+fn small_blob_v4() -> Vec<u8> {
+    let payload = &SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN - 4];
+    let mut b = seal(payload);
+    b[4] = 4;
+    let crc = crc32c(&b[..b.len() - SETUP_CRC_LEN]);
+    let n = b.len();
+    b[n - SETUP_CRC_LEN..].copy_from_slice(&crc.to_le_bytes());
+    assert_eq!(crc, 0xD46A_F71D);
+    b
+}
 
 /// Where [`SMALL_BLOB`] holds the pattern set's relation (field 2's last byte, version 4).
 const SMALL_BLOB_RELATION_AT: usize = 141;
 
-/// [`SMALL_BLOB`] as format version 3 wrote it: no relation byte in field 2 (357 bytes; its
-/// CRC-32C was 0x2D93EB66 when it was the current version's vector). Still read.
+/// [`SMALL_BLOB`] as format version 3 wrote it: no relation byte in field 2 and no field 9 (357
+/// bytes; its CRC-32C was 0x2D93EB66 when it was the current version's vector). Still read.
 fn small_blob_v3() -> Vec<u8> {
-    let mut payload = SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN].to_vec();
+    let mut payload = SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN - 4].to_vec();
     assert_eq!(payload.remove(SMALL_BLOB_RELATION_AT - SETUP_HEADER_LEN), 0);
     let mut b = seal(&payload);
     b[4] = 3;
@@ -479,6 +505,7 @@ fn small_setup() -> HeadSetup {
             max_angle_deg: 80.0,
         },
         correction: None,
+        margin: Margin::ZERO,
     }
 }
 
@@ -487,6 +514,17 @@ fn the_small_blob_is_laid_out_as_documented() {
     let s = small_setup();
     assert_eq!(emit(&s), SMALL_BLOB);
     assert_eq!(HeadSetup::parse(SMALL_BLOB), Ok(s));
+    assert_eq!(
+        HeadSetup::parse(&small_blob_v4()),
+        Ok(s),
+        "version 4 still reads, as an image-sized map"
+    );
+    // Field 9: a reference map wider than the image (issue #17).
+    let wide = s
+        .with_margin(Margin::from_array([130, 1, 0, 300]))
+        .expect("a margin within MAX_MARGIN");
+    assert_eq!(emit(&wide), small_blob_with_margin());
+    assert_eq!(HeadSetup::parse(&small_blob_with_margin()), Ok(wide));
     assert_eq!(
         HeadSetup::parse(&small_blob_v3()),
         Ok(s),
@@ -557,15 +595,20 @@ fn round_trips_rebuild_the_desktop_objects_exactly() {
         );
         // The same set-up gives the same bytes.
         assert_eq!(emit(&back), blob);
+        // With a reference map wider than the image: the desktop's reconstructor for it.
+        let m = Margin::from_array([40, 3, 17, 9]);
+        let wide = HeadSetup::parse(&emit(&s.with_margin(m).expect("margin"))).expect("parse");
+        assert_eq!(wide.reconstructor().ok(), recon.with_margin(m).ok());
+        assert_eq!(wide.reconstructor().map(|r| r.map_width()), Ok(160 + 57));
     }
 }
 
 #[test]
 fn emit_needs_room() {
     let s = small_setup();
-    let mut out = [0u8; 358];
-    assert_eq!(s.emit(&mut out), Ok(358));
-    for n in [0, 11, 12, 100, 357] {
+    let mut out = [0u8; 362];
+    assert_eq!(s.emit(&mut out), Ok(362));
+    for n in [0, 11, 12, 100, 361] {
         let mut short = vec![0u8; n];
         assert_eq!(
             s.emit(&mut short),
@@ -586,14 +629,14 @@ fn header_errors_are_named() {
     assert_eq!(HeadSetup::parse(&good[..11]), Err(SetupError::Truncated));
     assert_eq!(HeadSetup::parse(&[]), Err(SetupError::Truncated));
     assert_eq!(with(&|b| b[0] = b'G'), Err(SetupError::Magic));
-    assert_eq!(with(&|b| b[4] = 5), Err(SetupError::Version(5)));
+    assert_eq!(with(&|b| b[4] = 6), Err(SetupError::Version(6)));
     assert_eq!(with(&|b| b[4] = 0), Err(SetupError::Version(0)));
     assert_eq!(with(&|b| b[5] = 1), Err(SetupError::Reserved));
     assert_eq!(with(&|b| b[6] += 1), Err(SetupError::Length));
     assert_eq!(with(&|b| b.push(0)), Err(SetupError::Length));
     assert_eq!(with(&|b| b[7] = 0x10), Err(SetupError::Length)); // 4185 > MAX_SETUP_PAYLOAD
     assert_eq!(with(&|b| b[40] ^= 1), Err(SetupError::Crc));
-    assert_eq!(with(&|b| b[357] ^= 0x80), Err(SetupError::Crc));
+    assert_eq!(with(&|b| b[361] ^= 0x80), Err(SetupError::Crc));
     // Past the CRC: a byte too many, and a payload that is not a set-up.
     let payload = &good[SETUP_HEADER_LEN..good.len() - SETUP_CRC_LEN];
     let mut longer = payload.to_vec();
@@ -674,6 +717,10 @@ fn field_errors_are_named_on_both_ends() {
         (
             |s| s.calibration.camera.fx = f64::NAN,
             SetupError::Invalid(Invalid::NotFinite),
+        ),
+        (
+            |s| s.margin.bottom = MAX_MARGIN + 1,
+            SetupError::Invalid(Invalid::Margin),
         ),
     ];
     for (i, (edit, want)) in cases.iter().enumerate() {

@@ -2,6 +2,7 @@
 //! rows, scan requests). Frame-level errors are in `wire_frame_errors.rs`.
 
 use fringe3d_core::Validity;
+use fringe3d_core::reconstruct::{MAX_MARGIN, Margin};
 use fringe3d_core::wire::*;
 
 use crate::wire_support::raw_frame;
@@ -345,10 +346,35 @@ fn upload_rules() {
     let p = BeginPhaseMap {
         width: 10,
         height: 2,
+        margin: Margin::ZERO,
         total_bytes: 100,
         digest: 0,
     };
     assert_eq!(p.validate(), Ok(()));
+    // A map wider than the image: (3 + 10 + 1) × (2 + 2 + 0) samples of 5 bytes.
+    let wide = BeginPhaseMap {
+        margin: Margin::from_array([3, 2, 1, 0]),
+        total_bytes: 14 * 4 * 5,
+        ..p
+    };
+    assert_eq!(wide.validate(), Ok(()));
+    assert_eq!(
+        BeginPhaseMap {
+            total_bytes: 100,
+            ..wide
+        }
+        .validate(),
+        invalid(Invalid::TotalBytes)
+    );
+    assert_eq!(
+        BeginPhaseMap {
+            margin: Margin::from_array([0, MAX_MARGIN + 1, 0, 0]),
+            total_bytes: 10 * (2 + MAX_MARGIN + 1) * 5,
+            ..p
+        }
+        .validate(),
+        invalid(Invalid::Margin)
+    );
     assert_eq!(
         BeginPhaseMap {
             total_bytes: 80,

@@ -10,18 +10,22 @@
 //! |---|---|---|---|
 //! | `decode_state` | `(1 + 2L)·W·H` | 4 | the frame-sequential decoder's accumulators |
 //! | `decode_flags` | `W·H` | 1 | its saturation flags |
-//! | `ring_phase` | `band·W` | 4 | the reference-row ring of the reconstruction |
-//! | `ring_validity` | `band·W` | 1 | its validity codes |
+//! | `ring_phase` | `band·MW` | 4 | the reference-row ring of the reconstruction |
+//! | `ring_validity` | `band·MW` | 1 | its validity codes |
 //! | `camera_line` | `W` | 2 | one camera row |
 //! | `projector_line` | `PW` | 1 | one pattern row |
 //! | `phase_row`, `modulation_row`, `dc_row` | `W` | 4 | one decoded row |
 //! | `validity_row` | `W` | 1 | its codes |
 //! | `xyz_rows` | `9·W` | 4 | three point rows (the edge filter's window) |
 //! | `point_codes` | `4·W` | 1 | their codes, and the filter's output codes |
-//! | `reference_phase`, `reference_validity` | `W` | 4 + 1 | one reference row from storage |
+//! | `reference_phase`, `reference_validity` | `MW` | 4 + 1 | one reference row from storage |
 //!
 //! `W × H` is the camera, `PW` the projector width, `L` the pattern set's levels and `band` the
-//! reference rows a point row needs (`Reconstructor::band`).
+//! reference rows a point row needs (`Reconstructor::band`). `MW` is the reference map's width:
+//! `W` for an image-sized map, `left + W + right` for a map with a margin past the image
+//! (issue #17; `Reconstructor::map_width`), which a head takes up to the width these buffers
+//! hold (a wider map's upload is refused with Nak OutOfMemory). The map itself,
+//! `MW × (top + H + bottom) × 5` bytes, lives in the board's map store (external memory).
 
 /// The head's working buffers (see the module documentation for their sizes).
 pub struct HeadMemory<'a> {
@@ -29,9 +33,9 @@ pub struct HeadMemory<'a> {
     pub decode_state: &'a mut [f32],
     /// Decoder flags, `W·H` bytes.
     pub decode_flags: &'a mut [u8],
-    /// Reference ring phases, `band·W` f32.
+    /// Reference ring phases, `band·MW` f32.
     pub ring_phase: &'a mut [f32],
-    /// Reference ring validity, `band·W` bytes.
+    /// Reference ring validity, `band·MW` bytes.
     pub ring_validity: &'a mut [u8],
     /// One camera row, `W` samples.
     pub camera_line: &'a mut [u16],
@@ -49,9 +53,9 @@ pub struct HeadMemory<'a> {
     pub xyz_rows: &'a mut [f32],
     /// Their validity codes, then the edge filter's output codes: `4·W`.
     pub point_codes: &'a mut [u8],
-    /// One reference row's phases, `W`.
+    /// One reference row's phases, `MW`.
     pub reference_phase: &'a mut [f32],
-    /// One reference row's validity, `W`.
+    /// One reference row's validity, `MW`.
     pub reference_validity: &'a mut [u8],
 }
 
@@ -68,6 +72,8 @@ pub struct MemoryPlan {
     pub line: usize,
     /// Projector line length.
     pub projector_line: usize,
+    /// Reference row length (`MW`: the widest map row, the camera line and the margins).
+    pub map_line: usize,
 }
 
 impl MemoryPlan {
@@ -86,6 +92,21 @@ impl MemoryPlan {
             ring: band_rows * width,
             line: width,
             projector_line: projector_width,
+            map_line: width,
+        }
+    }
+
+    /// The lengths for reference maps up to `columns` wider than the image (the left and right
+    /// margins together): the ring and the reference row widen, nothing else.
+    pub const fn with_margin_columns(self, columns: usize) -> Self {
+        let band_rows = match self.ring.checked_div(self.line) {
+            Some(rows) => rows,
+            None => 0,
+        };
+        MemoryPlan {
+            ring: band_rows * (self.line + columns),
+            map_line: self.line + columns,
+            ..self
         }
     }
 
@@ -94,15 +115,16 @@ impl MemoryPlan {
         self.decode_state * 4
             + self.decode_flags
             + self.ring * 5
-            + self.line * (2 + 3 * 4 + 1 + 9 * 4 + 4 + 4 + 1)
+            + self.line * (2 + 3 * 4 + 1 + 9 * 4 + 4)
+            + self.map_line * (4 + 1)
             + self.projector_line
     }
 }
 
 /// A complete set of buffers in one value, for a `static` on a board. The const parameters are
-/// the lengths of [`MemoryPlan`] (`LINE9 = 9·LINE`, `LINE4 = 4·LINE`); compute them where the
-/// type is named, e.g.
-/// `HeadBuffers<{ 7 * 64 * 48 }, { 64 * 48 }, 64, { 9 * 64 }, { 4 * 64 }, 64, { 20 * 64 }>`.
+/// the lengths of [`MemoryPlan`] (`LINE9 = 9·LINE`, `LINE4 = 4·LINE`, `MAP_LINE` the widest
+/// reference map row, `LINE` for image-sized maps); compute them where the type is named, e.g.
+/// `HeadBuffers<{ 7 * 64 * 48 }, { 64 * 48 }, 64, { 9 * 64 }, { 4 * 64 }, 64, { 20 * 64 }, 64>`.
 pub struct HeadBuffers<
     const STATE: usize,
     const PIXELS: usize,
@@ -111,6 +133,7 @@ pub struct HeadBuffers<
     const LINE4: usize,
     const PLINE: usize,
     const RING: usize,
+    const MAP_LINE: usize,
 > {
     decode_state: [f32; STATE],
     decode_flags: [u8; PIXELS],
@@ -124,8 +147,8 @@ pub struct HeadBuffers<
     validity_row: [u8; LINE],
     xyz_rows: [f32; LINE9],
     point_codes: [u8; LINE4],
-    reference_phase: [f32; LINE],
-    reference_validity: [u8; LINE],
+    reference_phase: [f32; MAP_LINE],
+    reference_validity: [u8; MAP_LINE],
 }
 
 impl<
@@ -136,7 +159,8 @@ impl<
     const LINE4: usize,
     const PLINE: usize,
     const RING: usize,
-> Default for HeadBuffers<STATE, PIXELS, LINE, LINE9, LINE4, PLINE, RING>
+    const MAP_LINE: usize,
+> Default for HeadBuffers<STATE, PIXELS, LINE, LINE9, LINE4, PLINE, RING, MAP_LINE>
 {
     fn default() -> Self {
         Self::new()
@@ -151,7 +175,8 @@ impl<
     const LINE4: usize,
     const PLINE: usize,
     const RING: usize,
-> HeadBuffers<STATE, PIXELS, LINE, LINE9, LINE4, PLINE, RING>
+    const MAP_LINE: usize,
+> HeadBuffers<STATE, PIXELS, LINE, LINE9, LINE4, PLINE, RING, MAP_LINE>
 {
     /// Zeroed buffers (a `const fn`: usable in a `static` initialiser, placed in `.bss`).
     pub const fn new() -> Self {
@@ -168,8 +193,8 @@ impl<
             validity_row: [0; LINE],
             xyz_rows: [0.0; LINE9],
             point_codes: [0; LINE4],
-            reference_phase: [0.0; LINE],
-            reference_validity: [0; LINE],
+            reference_phase: [0.0; MAP_LINE],
+            reference_validity: [0; MAP_LINE],
         }
     }
 

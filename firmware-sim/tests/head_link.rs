@@ -348,6 +348,7 @@ static BUFFERS: std::sync::Mutex<
         { 4 * 64 },
         128,
         { 16 * 64 },
+        64,
     >,
 > = std::sync::Mutex::new(fringe3d_head::HeadBuffers::new());
 

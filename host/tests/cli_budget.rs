@@ -76,3 +76,59 @@ fn a_budget_without_a_rig_says_what_it_needs() {
         assert!(!o.status.success() && err.contains(want), "{args:?}: {err}");
     }
 }
+
+/// A reference map wider than the image (issue #17 item 3): the ring and the staging row are the
+/// map's width, the image's plus the margin the calibration records; the band is the
+/// reconstructor's for that margin; every other buffer keeps the image's width.
+#[test]
+fn a_map_wider_than_the_image_widens_the_ring() {
+    let dir = std::env::temp_dir().join(format!("fringe3d-budget-margin-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("calibration.toml");
+    crate::cli_support::virtual_reference(Path::new(SET), Path::new(CAL), &out);
+    let cal = Calibration::load(&out).unwrap();
+    let margin = cal.reference.as_ref().unwrap().margin();
+    let columns = (margin.left + margin.right) as u64;
+    assert!(columns > 0, "the far plane needs a margin: {margin:?}");
+    let (cam, setup) = cal.core_setup(Axis::Xi).unwrap();
+    let recon = Reconstructor::new(&cam, &setup)
+        .unwrap()
+        .with_margin(margin)
+        .unwrap();
+    let band = recon.band().rows() as u64;
+    let j = json(&["-p", SET, "-c", out.to_str().unwrap()]);
+    let w = cal.camera.width as u64;
+    assert_eq!(j["margin_columns"], columns);
+    assert_eq!(j["band_rows"], band);
+    let bytes = |name: &str| {
+        j["buffers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|b| b["buffer"].as_str().unwrap().starts_with(name))
+            .unwrap()["bytes"]
+            .as_u64()
+            .unwrap()
+    };
+    assert_eq!(bytes("reference ring"), 4 * band * (w + columns));
+    assert_eq!(bytes("reference row staging"), 4 * (w + columns));
+    assert_eq!(bytes("point rows"), 13 * w);
+    // The same by hand, and the ring's bytes as the core counts them (its phase plane).
+    let by_hand = json(&[
+        "-p",
+        SET,
+        "--width",
+        &w.to_string(),
+        "--band",
+        &band.to_string(),
+        "--margin-columns",
+        &columns.to_string(),
+    ]);
+    assert_eq!(by_hand["total_bytes"], j["total_bytes"]);
+    assert_eq!(
+        4 * band * (w + columns),
+        (recon.ring_bytes(band as u32) / 5 * 4) as u64
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

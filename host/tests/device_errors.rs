@@ -216,11 +216,11 @@ fn a_device_speaking_garbage_is_not_mistaken_for_a_head() {
     h.join().unwrap();
 }
 
-/// A reference map wider than the image (issue #17 item 3) cannot travel on the wire: `device
-/// upload` refuses it by name before the line is touched; the same reference without a margin
-/// passes that check and only then meets the (missing) port.
+/// A reference map wider than the image (issue #17 item 3) travels on the wire since protocol
+/// version 6: `device upload` prepares it like an image-sized one and only then meets the
+/// (missing) port. (`tests/tests/head_pty.rs` scans with such a map on a simulated head.)
 #[test]
-fn a_reference_wider_than_the_image_is_refused_before_the_line() {
+fn a_reference_wider_than_the_image_goes_to_the_line_like_any_other() {
     let dir = std::env::temp_dir().join(format!("fringe3d-dev-margin-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
@@ -249,7 +249,7 @@ fn a_reference_wider_than_the_image_is_refused_before_the_line() {
         s(&ds.join("calibration.toml")),
     );
     let port = "/dev/fringe3d-no-such-port";
-    for (margin, wide) in [("auto", true), ("0", false)] {
+    for margin in ["auto", "0"] {
         let out = dir.join(format!("v{margin}/calibration.toml"));
         cli(&[
             "calibrate",
@@ -277,16 +277,7 @@ fn a_reference_wider_than_the_image_is_refused_before_the_line() {
         ])
         .unwrap_err();
         let m = format!("{e:#}");
-        if wide {
-            assert!(
-                m.contains("extends past the image")
-                    && m.contains("--margin 0")
-                    && !m.contains(port),
-                "{m}"
-            );
-        } else {
-            assert!(m.contains(port) && !m.contains("margin"), "{m}");
-        }
+        assert!(m.contains(port) && !m.contains("margin"), "{m}");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -169,7 +169,7 @@ fn every_example_loads() {
             n += 1;
         }
     }
-    assert_eq!(n, 12);
+    assert_eq!(n, 13);
 }
 
 #[test]
@@ -227,6 +227,45 @@ fn gray_code_sets_round_trip() {
         .unwrap();
     assert_eq!(set.image_count(), 10);
     round_trip(&set, 8, "gray-plain-rt");
+}
+
+#[test]
+fn a_shifted_gray_code_round_trips_and_is_checked() {
+    let p = examples().join("gray-shifted.toml");
+    let set = PatternSetFile::load(&p).unwrap().to_pattern_set().unwrap();
+    assert_eq!(set.image_count(), 10);
+    let g = set.gray().unwrap();
+    assert_eq!(
+        (g.bits(), g.complementary(), g.is_shifted()),
+        (6, false, true)
+    );
+    let (f, text) = round_trip(&set, 8, "gray-shifted");
+    assert_eq!(f.levels.unwrap()[0].shifted, Some(true));
+    assert!(text.contains("shifted = true"), "{text}");
+    let d = scratch("gray-shifted-bad");
+    let original = fs::read_to_string(&p).unwrap();
+    for (edit, want) in [
+        // With the complementary image: refused by name.
+        (
+            original.replace("complementary = false", "complementary = true"),
+            "shifted = true needs complementary = false",
+        ),
+        // 5 bits: the shifted code covers [-17, 15) periods, the 32 centred ones leave it.
+        (original.replace("gray_bits = 6", "gray_bits = 5"), "bits"),
+        // On a phase level.
+        (
+            original.replace("steps = 4", "steps = 4\nshifted = true"),
+            "Gray-code level (gray_bits) only",
+        ),
+    ] {
+        let f = d.join("bad.toml");
+        fs::write(&f, edit).unwrap();
+        let e = PatternSetFile::load(&f)
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want), "{want}: {e}");
+    }
 }
 
 fn round_trip(set: &PatternSet, bits: u8, name: &str) -> (PatternSetFile, String) {
@@ -379,10 +418,10 @@ fn bad_files_get_clear_messages() {
         m.contains("levels[0]: gray_bits = 11; a Gray-code level has 1 to 10 bits"),
         "{m}"
     );
-    for key in ["complementary", "inverse"] {
+    for key in ["complementary", "inverse", "shifted"] {
         let m = gray(&format!("steps = 4\n{key} = true\n"));
         assert!(
-            m.contains("complementary and inverse apply to a Gray-code level"),
+            m.contains("complementary, inverse and shifted apply to a Gray-code level"),
             "{m}"
         );
     }

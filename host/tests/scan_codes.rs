@@ -31,11 +31,16 @@ use fringe3d_core::validity::Validity;
 /// 32 periods across a 1024-column projector (32 projector pixels per period), ordered by a
 /// 6-bit Gray code (complementary or not), then a 4-step level.
 fn set_file(complementary: bool) -> String {
+    gray_set_file(&format!("complementary = {complementary}"))
+}
+
+/// [`set_file`]'s set with the Gray level's options `code` (e.g. `shifted = true`).
+fn gray_set_file(code: &str) -> String {
     format!(
         "version = 2\n\
          [projector]\nwidth = 1024\nheight = 768\n\
          [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 511.5\nslope = {slope}\n\
-         [[levels]]\nscale = 32.0\ngray_bits = 6\ncomplementary = {complementary}\n\
+         [[levels]]\nscale = 32.0\ngray_bits = 6\n{code}\n\
          [[levels]]\nscale = 32.0\nsteps = 4\n",
         slope = std::f64::consts::TAU / 1024.0,
     )
@@ -104,6 +109,8 @@ struct Score {
     normalized_rms: f64,
     /// Pixels refused as `CodeAmbiguous` or `UnwrapInconsistent` among the lit ones.
     edge_refusals: usize,
+    /// Of those, the ones in the middle of a fringe (true wrapped phase within ±π/2).
+    mid_fringe_refusals: usize,
 }
 
 fn score(scene: &Scene) -> Score {
@@ -140,7 +147,7 @@ fn score(scene: &Scene) -> Score {
         .map(|i| i.iter().map(|&v| v as u8).collect())
         .collect();
     let sigma2: f64 = 1.0 + 1.0 / 12.0;
-    let (mut valid, mut order_errors, mut edge_refusals) = (0, 0, 0);
+    let (mut valid, mut order_errors, mut edge_refusals, mut mid_fringe_refusals) = (0, 0, 0, 0);
     let (mut sum, mut n) = (0.0, 0usize);
     let (mut ph, mut mo, mut dc, mut va) =
         (vec![0f32; w], vec![0f32; w], vec![0f32; w], vec![0u8; w]);
@@ -161,6 +168,9 @@ fn score(scene: &Scene) -> Score {
             if va[x] == Validity::CodeAmbiguous as u8 || va[x] == Validity::UnwrapInconsistent as u8
             {
                 edge_refusals += 1;
+                let tau = std::f64::consts::TAU;
+                let wrapped = truth[p] - tau * (truth[p] / tau).round();
+                mid_fringe_refusals += (wrapped.abs() < std::f64::consts::FRAC_PI_2) as usize;
             }
             if va[x] != Validity::Valid as u8 {
                 continue;
@@ -187,6 +197,7 @@ fn score(scene: &Scene) -> Score {
         order_errors,
         normalized_rms: (sum / n as f64).sqrt(),
         edge_refusals,
+        mid_fringe_refusals,
     }
 }
 
@@ -228,6 +239,46 @@ fn gray_code_scans_meet_the_quality_bar() {
             assert!(refusals > 0, "the plain code refused no edge pixel");
         }
     }
+}
+
+/// The shifted Gray code (stripes moved by half a period, SLMaster's and Wu et al.'s layout):
+/// the bar, with its edge pixels refused in the middle of the fringes, where its stripe edges
+/// lie, instead of at the wraps as for the plain code.
+#[test]
+fn shifted_gray_code_scans_meet_the_quality_bar() {
+    let t = Tmp::new("gray-shift");
+    let (mut mid, mut all, mut plain_mid, mut plain_all) = (0, 0, 0, 0);
+    for (code, what) in [
+        ("complementary = false\nshifted = true", "shifted"),
+        (
+            "complementary = false\nshifted = true\ninverse = true",
+            "shifted, inverse",
+        ),
+        ("complementary = false", "plain"),
+    ] {
+        let f = t.0.join(format!("{}.toml", what.replace(", ", "-")));
+        std::fs::write(&f, gray_set_file(code)).unwrap();
+        for name in ["plane", "sphere", "steps"] {
+            let s = meets_the_bar(&scene(name, &f), &format!("{name}, {what}"));
+            if what == "plain" {
+                (plain_mid, plain_all) = (
+                    plain_mid + s.mid_fringe_refusals,
+                    plain_all + s.edge_refusals,
+                );
+            } else {
+                (mid, all) = (mid + s.mid_fringe_refusals, all + s.edge_refusals);
+            }
+        }
+    }
+    eprintln!("edge refusals mid-fringe: shifted {mid} of {all}, plain {plain_mid} of {plain_all}");
+    assert!(
+        all > 0 && mid * 10 >= all * 9,
+        "shifted: {mid} of {all} mid-fringe"
+    );
+    assert!(
+        plain_all > 0 && plain_mid * 10 <= plain_all,
+        "plain: {plain_mid} of {plain_all}"
+    );
 }
 
 /// The complementary code with inverse patterns (26 images): every bit against its own inverse.

@@ -29,6 +29,7 @@ use fringe3d::render::{Overrides, SceneSpec};
 use fringe3d::scan::{PointCloud, ScanCalibration, filter_edges};
 use fringe3d_core::math::canonical;
 use fringe3d_core::phase_function::Profile;
+use fringe3d_core::reconstruct::Margin;
 use fringe3d_core::validity::Validity;
 use fringe3d_core::wire::{EdgeFilterMode, HeadState, ScanOutput, ValidationStatus};
 use fringe3d_head::desktop::{OwnedMemory, Pty, Replay, serve, sim_board};
@@ -130,14 +131,17 @@ fn spawn_head(
         let o = *replay.set.output();
         let (w, h) = (replay.width() as usize, replay.height() as usize);
         let world = SimWorld::new(1_000_000);
-        let mut mem = OwnedMemory::new(MemoryPlan::new(w, h, o.width as usize, 3, h));
+        // Reference maps up to 256 px past the image on each side (issue #17).
+        let m = 256;
+        let plan = MemoryPlan::new(w, h, o.width as usize, 3, h).with_margin_columns(2 * m);
+        let mut mem = OwnedMemory::new(plan);
         let board = sim_board(
             &world,
             replay,
             NoSink,
             (o.width as u16, o.height as u16),
             8 << 20,
-            w * h * 5,
+            (w + 2 * m) * (h + 2 * m) * 5,
         );
         let mut head = Head::new(board, mem.memory(), HeadConfig::DEFAULT).unwrap();
         head.set_queue_sizes(QUEUE_LEN, QUEUE_LEN);
@@ -325,8 +329,14 @@ fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplu
         up.wire_bytes as f64 / up.seconds / 1e6
     );
     c.upload_calibration(&wcal).unwrap();
-    c.upload_phase_map(CAM.0 as u16, CAM.1 as u16, &map, &mut |_, _| {})
-        .unwrap();
+    c.upload_phase_map(
+        CAM.0 as u16,
+        CAM.1 as u16,
+        Margin::ZERO,
+        &map,
+        &mut |_, _| {},
+    )
+    .unwrap();
     c.configure_sequence(
         0,
         false,
@@ -633,7 +643,13 @@ fn pty_throughput_full_size() {
     );
     c.upload_calibration(&wcal).unwrap();
     let m = c
-        .upload_phase_map(sc.width() as u16, sc.height() as u16, &map, &mut |_, _| {})
+        .upload_phase_map(
+            sc.width() as u16,
+            sc.height() as u16,
+            Margin::ZERO,
+            &map,
+            &mut |_, _| {},
+        )
         .unwrap();
     println!(
         "PTY upload of the 1280x1024 reference map: {} bytes in {:.3} s",
@@ -729,19 +745,24 @@ struct HeadCase {
     seq: Vec<fringe3d_core::wire::LutEntry>,
     wcal: fringe3d_core::wire::Calibration,
     map: Vec<u8>,
+    margin: Margin,
 }
 
 fn head_case(dir: &Path) -> HeadCase {
+    head_case_with(dir, &dir.join("calibration.toml"))
+}
+
+/// [`head_case`] with the calibration file `calib`.
+fn head_case_with(dir: &Path, calib: &Path) -> HeadCase {
     let patterns = dir.join("patterns.toml");
-    let calib = dir.join("calibration.toml");
     let ls = common::load_set(&patterns).unwrap();
     let set = &ls.set;
-    let cal = Calibration::load(&calib).unwrap();
-    let table = common::response_correction(&cal, &calib, &ls).unwrap();
+    let cal = Calibration::load(calib).unwrap();
+    let table = common::response_correction(&cal, calib, &ls).unwrap();
     let imgs = common::load_images(&ls, &[], true).unwrap();
     let dec =
         common::decode_corrected(set, &imgs, common::decode_config(&imgs), table.as_ref()).unwrap();
-    let sc = ScanCalibration::load(&calib, set.axis()).unwrap();
+    let sc = ScanCalibration::load(calib, set.axis()).unwrap();
     let mut cloud = sc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
     filter_edges(&mut cloud, &sc.edge_filter(80.0).unwrap());
     assert!(cloud.valid_count() > (CAM.0 * CAM.1 / 4) as usize);
@@ -754,7 +775,8 @@ fn head_case(dir: &Path) -> HeadCase {
     HeadCase {
         seq: capture_sequence(set, &desc, 10_000, 2_000).unwrap(),
         wcal: wire_calibration(&cal).unwrap(),
-        map: phase_map_bytes(&sc.reference_phase, sc.width()),
+        map: phase_map_bytes(&sc.reference_phase, sc.recon.map_width()),
+        margin: sc.recon.margin(),
         set: *set,
         dec,
         cloud,
@@ -786,8 +808,14 @@ fn on_head(
             .unwrap();
     }
     c.upload_calibration(&case.wcal).unwrap();
-    c.upload_phase_map(CAM.0 as u16, CAM.1 as u16, &case.map, &mut |_, _| {})
-        .unwrap();
+    c.upload_phase_map(
+        CAM.0 as u16,
+        CAM.1 as u16,
+        case.margin,
+        &case.map,
+        &mut |_, _| {},
+    )
+    .unwrap();
     c.configure_sequence(0, false, &case.seq).unwrap();
     let v = c.validate().unwrap();
     f(&mut c, v);
@@ -806,6 +834,83 @@ fn scan_both(c: &mut Client<fringe3d::device::SerialTransport>) -> ScanOutcome {
         &mut |_, _| {},
     )
     .unwrap()
+}
+
+/// A shifted Gray code on the head (issue #20, protocol version 6: `Shifts::GrayShifted`): the
+/// head renders the set itself from its description, captures it DC level first and decodes it
+/// bit for bit as the desktop.
+#[test]
+fn a_shifted_gray_code_scans_on_the_head_bit_identical_to_the_desktop() {
+    let root = fresh_root("gray-shifted");
+    let dir = dataset_with(
+        &root,
+        "version = 2\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
+         [phase]\naxis = \"xi\"\nkind = \"centered\"\nspan = 6.0\n\
+         [[levels]]\nscale = 20.0\ngray_bits = 5\ncomplementary = false\nshifted = true\n\
+         [[levels]]\nscale = 20.0\nsteps = 4\n",
+    );
+    let case = head_case(&dir);
+    assert!(case.set.gray().is_some_and(|g| g.is_shifted()));
+    assert!(matches!(
+        case.desc.levels[0].shifts,
+        fringe3d_core::wire::Shifts::GrayShifted {
+            bits: 5,
+            inverse: false
+        }
+    ));
+    on_head(&dir, &case, None, true, |c, v| {
+        assert_eq!(v, ValidationStatus::OK);
+        assert_desktop_bits(&scan_both(c), &case.dec, &case.cloud);
+    });
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// A reference map wider than the image on the head (issue #17 item 3, protocol version 6):
+/// the virtual map of the rig's projector on the default plane at the far end of the depth
+/// range, with the margin the geometry needs (`calibrate reference --virtual`'s defaults). The
+/// head's phases and points equal the desktop's bit for bit, and the margin carries points that
+/// the same reference without it (`--margin 0`) loses.
+#[test]
+fn a_reference_map_wider_than_the_image_scans_on_the_head_bit_identical_to_the_desktop() {
+    let root = fresh_root("margin");
+    let dir = dataset(&root);
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let (patterns, cal) = (dir.join("patterns.toml"), dir.join("calibration.toml"));
+    let virtual_reference = |margin: &str, out: &Path| {
+        let args = [
+            "fringe3d",
+            "--quiet",
+            "calibrate",
+            "reference",
+            "--virtual",
+            "-p",
+            &s(&patterns),
+            "-c",
+            &s(&cal),
+            "--margin",
+            margin,
+            "-o",
+            &s(out),
+        ];
+        fringe3d::cli::run(args).unwrap();
+    };
+    let image_sized = root.join("image-sized/calibration.toml");
+    virtual_reference("0", &image_sized);
+    virtual_reference("auto", &cal);
+    let case = head_case(&dir);
+    assert_ne!(case.margin, Margin::ZERO);
+    let narrow = head_case_with(&dir, &image_sized);
+    let (with, without) = (case.cloud.valid_count(), narrow.cloud.valid_count());
+    assert!(
+        with > without + 100,
+        "margin {:?}: {with} points against {without}",
+        case.margin.to_array()
+    );
+    on_head(&dir, &case, None, true, |c, v| {
+        assert_eq!(v, ValidationStatus::OK);
+        assert_desktop_bits(&scan_both(c), &case.dec, &case.cloud);
+    });
+    let _ = std::fs::remove_dir_all(&root);
 }
 
 /// Multi-frequency heterodyne on the head (issue #20, protocol version 4): periods of about

@@ -8,7 +8,10 @@
 //! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
 mod common;
-use common::{ballbar_u8_with, coprime_set, gray_inverse_set, gray_set, heterodyne_set, small_u8};
+use common::{
+    ballbar_u8_with, coprime_set, gray_inverse_set, gray_set, gray_shifted_set, heterodyne_set,
+    small_u8,
+};
 use fringe3d::vectors::{self, GoldenVectors, VectorOptions, VectorReference};
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 use std::collections::BTreeMap;
@@ -261,9 +264,20 @@ fn qemu_firmware_matches_the_golden_vectors_bit_for_bit() {
         ..small_u8("sphere", 9)
     };
     check_scan(&elf, &inverse_opts, "sphere-160x128-u8-gray2-inverse");
-    // The reference maps of issue #17: the model fitted to a noisy capture, and the virtual map
-    // of the rig's projector (both image-sized, as a head takes them).
-    for reference in [VectorReference::Model, VectorReference::Virtual] {
+    // A shifted 4-bit Gray code: stripes moved by half a period (protocol version 6).
+    let shifted_opts = VectorOptions {
+        patterns: Some(gray_shifted_set()),
+        ..small_u8("sphere", 10)
+    };
+    check_scan(&elf, &shifted_opts, "sphere-160x128-u8-gray4-shifted");
+    // The reference maps of issue #17: the model fitted to a noisy capture, the virtual map of
+    // the rig's projector (both image-sized), and the virtual map on the default far plane
+    // with the margin past the image the geometry needs (the set-up blob's field 9).
+    for reference in [
+        VectorReference::Model,
+        VectorReference::Virtual,
+        VectorReference::VirtualMargin,
+    ] {
         let opts = ballbar_u8_with(reference);
         check_scan(
             &elf,

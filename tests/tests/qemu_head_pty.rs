@@ -5,7 +5,9 @@
 //! `Head` on the CMSDK UART0 of QEMU's `mps2-an386`, its camera reading the frames of a rendered
 //! scene from a file on the host through semihosting), starts QEMU with `-serial pty`, reads the
 //! PTY QEMU announces, then runs `fringe3d device info`, `fringe3d device upload` (pattern images
-//! into the head's PSRAM store, calibration, reference phase map) and `fringe3d device scan`
+//! into the head's PSRAM store, calibration, reference phase map: the virtual map of the rig's
+//! projector on the default far plane, wider than the image by the margin the geometry needs,
+//! issue #17) and `fringe3d device scan`
 //! (points to a PLY, phase to a float TIFF) against it. The scan must be bit-identical (canonical
 //! NaN) to what the desktop computes from the same images — the decode and reconstruction of
 //! `fringe3d scan` (`cli::common::decode`, `ScanCalibration::reconstruct`) — and the PLY, organized
@@ -303,12 +305,22 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
     let dir = dataset(&root);
     let patterns = dir.join("patterns.toml");
     let calib = dir.join("calibration.toml");
+    // The reference the head gets: `calibrate reference --virtual` with its defaults (the far
+    // plane, the margin the geometry needs past the image), written into the calibration.
+    let (p, c) = (patterns.to_str().unwrap(), calib.to_str().unwrap());
+    fringe3d(&["calibrate", "reference", "--virtual", "-p", p, "-c", c]);
 
     // The desktop's answer, from the images: the decode and reconstruction of `fringe3d scan`.
     let ls = common::load_set(&patterns).unwrap();
     let imgs = common::load_images(&ls, &[], true).unwrap();
     let dec = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).unwrap();
     let sc = ScanCalibration::load(&calib, ls.set.axis()).unwrap();
+    let margin = sc.recon.margin();
+    assert_ne!(
+        margin,
+        fringe3d_core::reconstruct::Margin::ZERO,
+        "a map wider than the image"
+    );
     let cloud = sc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
     let (w, h) = (CAM.0 as usize, CAM.1 as usize);
     assert_eq!((cloud.width, cloud.height), (w, h));
@@ -375,9 +387,10 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
     let console = qemu.console();
     drop(qemu);
     eprintln!(
-        "upload of {} pattern bytes, calibration and {} map bytes: {t_up:.1} s; scan of {w}x{h} (phase and filtered points): {t_scan:.1} s",
+        "upload of {} pattern bytes, calibration and {} map bytes (margin {:?}): {t_up:.1} s; scan of {w}x{h} (phase and filtered points): {t_scan:.1} s",
         8 * PROJ.0 * PROJ.1,
-        w * h * 5
+        sc.recon.map_width() * sc.recon.map_height() * 5,
+        margin.to_array()
     );
     eprintln!("firmware console:\n{console}");
 

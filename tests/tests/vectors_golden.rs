@@ -3,7 +3,10 @@
 //! over the whole reference map, the whole-cloud edge filter) reproduce every stage's digest.
 
 mod common;
-use common::{ballbar_u8_with, coprime_set, gray_inverse_set, gray_set, heterodyne_set, small_u8};
+use common::{
+    ballbar_u8_with, coprime_set, gray_inverse_set, gray_set, gray_shifted_set, heterodyne_set,
+    small_u8,
+};
 use fringe3d::batch::{FrameOut, Isa, decode_frames};
 use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d::vectors::{self, Dtype, GoldenVectors, VectorOptions, VectorReference};
@@ -164,7 +167,7 @@ fn levels_whole_frame<P: Sample>(
     out
 }
 
-fn check_batch(opts: &VectorOptions, name: &str) {
+fn check_batch(opts: &VectorOptions, name: &str) -> (ScanCalibration, Vec<f32>, Vec<u8>) {
     let dir = scratch(name);
     let v = vectors::generate_into(opts, &dir, false).expect("vectors");
     let (w, h) = (v.width, v.height);
@@ -283,6 +286,7 @@ fn check_batch(opts: &VectorOptions, name: &str) {
         bad.join("\n")
     );
     let _ = std::fs::remove_dir_all(Path::new(&dir));
+    (cal, phase, validity)
 }
 
 #[test]
@@ -306,6 +310,45 @@ fn vectors_match_the_desktop_batch_paths_with_model_and_virtual_references() {
             &format!("vectors-batch-{}", reference.name()),
         );
     }
+}
+
+/// Issue #17 items 3 and 5: the virtual map on the default far plane with the margin the
+/// geometry needs (a map wider than the image, as a head takes it since protocol version 6):
+/// the golden vectors equal the desktop's batch paths, and the margin carries points, which
+/// the same map cropped to the image loses.
+#[test]
+fn vectors_match_the_desktop_batch_paths_with_a_map_wider_than_the_image() {
+    let reference = VectorReference::VirtualMargin;
+    let (cal, phase, validity) = check_batch(
+        &ballbar_u8_with(reference),
+        &format!("vectors-batch-{}", reference.name()),
+    );
+    let m = cal.recon.margin();
+    assert_ne!(m, fringe3d_core::reconstruct::Margin::ZERO);
+    let valid = |c: &ScanCalibration| {
+        c.reconstruct(&phase, &validity, true)
+            .unwrap()
+            .valid_count()
+    };
+    let (w, h) = (cal.width(), cal.height());
+    let mw = cal.recon.map_width();
+    let (l, t) = (m.left as usize, m.top as usize);
+    let cropped: Vec<f32> = (0..h)
+        .flat_map(|y| cal.reference_phase[(t + y) * mw + l..(t + y) * mw + l + w].to_vec())
+        .collect();
+    let mut file = cal.calibration.clone();
+    if let Some(r) = file.reference.as_mut() {
+        r.margin = None;
+    }
+    let image_sized =
+        ScanCalibration::from_parts(file, cropped, cal.recon.setup().axis, Path::new("cropped"))
+            .unwrap();
+    let (with, without) = (valid(&cal), valid(&image_sized));
+    println!(
+        "margin {:?}: {with} points, {without} with the map cropped to the image",
+        m.to_array()
+    );
+    assert!(with > without + 100, "{with} against {without}");
 }
 
 #[test]
@@ -345,6 +388,12 @@ fn vectors_match_the_desktop_batch_paths_with_tables_and_gray_codes() {
         ..small_u8("sphere", 9)
     };
     check_batch(&opts, "vectors-batch-gray-inverse");
+    // A shifted Gray code (Shifts::GrayShifted).
+    let opts = VectorOptions {
+        patterns: Some(gray_shifted_set()),
+        ..small_u8("sphere", 10)
+    };
+    check_batch(&opts, "vectors-batch-gray-shifted");
 }
 
 #[test]

@@ -135,6 +135,15 @@ pub enum Shifts {
         /// Whether the complementary image (and its inverse) is projected.
         complementary: bool,
     },
+    /// A Gray-code level whose stripes are moved by half a period, edges in the middle of the
+    /// fringes ([`crate::gray::GrayCode::shifted`]; wire value 4): `bits` images, twice that
+    /// with every image followed by its inverse.
+    GrayShifted {
+        /// Bits of the period code.
+        bits: u8,
+        /// Whether every image is followed by its inverse.
+        inverse: bool,
+    },
 }
 
 impl Shifts {
@@ -150,6 +159,7 @@ impl Shifts {
                 bits,
                 complementary,
             } => 2 * (bits as usize + complementary as usize),
+            Shifts::GrayShifted { bits, inverse } => bits as usize * (1 + inverse as usize),
         }
     }
 }

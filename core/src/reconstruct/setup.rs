@@ -48,7 +48,10 @@ impl Band {
 /// pixel near the image border on the map when its reference crossing lies outside the image (a
 /// point near the camera); [`crate::reconstruct::Reconstructor::margin_needed`] measures the
 /// margin a geometry needs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+///
+/// On the wire (a phase-map upload, the head set-up blob) it is four varints in this order
+/// (docs/device.md, docs/setup-blob.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Margin {
     /// Columns left of column 0.
     pub left: u32,

@@ -30,7 +30,7 @@ use crate::filter::EdgeFilter;
 use crate::params::ScanGeometry;
 use crate::pattern::{self, Binarization, Convention, ImageId, Output, PatternError, PatternSet};
 use crate::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
-use crate::reconstruct::{ReconstructError, Reconstructor, Setup};
+use crate::reconstruct::{Margin, ReconstructError, Reconstructor, Setup};
 
 /// Why a desktop value has no wire description.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -175,6 +175,10 @@ impl PatternSetDesc {
             *dst = Level {
                 scale: l.scale(),
                 shifts: match l.gray() {
+                    Some(g) if g.is_shifted() => Shifts::GrayShifted {
+                        bits: g.bits(),
+                        inverse: g.inverse(),
+                    },
                     Some(g) if g.inverse() => Shifts::GrayInverse {
                         bits: g.bits(),
                         complementary: g.complementary(),
@@ -281,6 +285,10 @@ impl PatternSetDesc {
                     l.scale,
                     pattern::GrayCode::new(bits, complementary).inverted(),
                 ),
+                Shifts::GrayShifted { bits, inverse } => {
+                    let code = pattern::GrayCode::shifted(bits);
+                    pattern::Level::gray_code(l.scale, if inverse { code.inverted() } else { code })
+                }
             };
         }
         let output = Output {
@@ -388,12 +396,29 @@ impl Calibration {
 
     /// The core reconstructor (band and tables) for phases monotonic along `axis`.
     pub fn reconstructor(&self, axis: PatternAxis) -> Result<Reconstructor, Invalid> {
+        self.reconstructor_with_margin(axis, Margin::ZERO)
+    }
+
+    /// The core reconstructor for a reference map with margin `margin` past the image
+    /// ([`Reconstructor::with_margin`]; [`Invalid::Margin`] for a side above
+    /// [`MAX_MARGIN`](crate::reconstruct::MAX_MARGIN)).
+    pub fn reconstructor_with_margin(
+        &self,
+        axis: PatternAxis,
+        margin: Margin,
+    ) -> Result<Reconstructor, Invalid> {
         let cam = self.camera_model()?;
-        Reconstructor::new(&cam, &self.setup(axis)).map_err(|e| match e {
+        let why = |e| match e {
             ReconstructError::DepthRange => Invalid::DepthRange,
             ReconstructError::ReferencePlane => Invalid::PlaneNormal,
+            ReconstructError::Margin => Invalid::Margin,
             _ => Invalid::Intrinsics,
-        })
+        };
+        let r = Reconstructor::new(&cam, &self.setup(axis)).map_err(why)?;
+        if margin == Margin::ZERO {
+            return Ok(r);
+        }
+        r.with_margin(margin).map_err(why)
     }
 
     /// The edge filter the desktop uses for this camera: focal length `min(fx, fy)`,

@@ -34,7 +34,7 @@
 //!
 //! | offset   | size | field                                                    |
 //! |---------:|-----:|----------------------------------------------------------|
-//! | 0        | 1    | protocol version = 4 ([`PROTOCOL_VERSION`])              |
+//! | 0        | 1    | protocol version = 6 ([`PROTOCOL_VERSION`])              |
 //! | 1        | 1    | flags (below)                                            |
 //! | 2        | 1    | sequence number                                          |
 //! | 3        | 1    | command id (table below)                                 |
@@ -89,7 +89,7 @@
 //! | `0x14` | ConfirmUpload       | 1 | target T                                                                    | Ack |
 //! | `0x15` | DefineCorrection    | 1 | set_id u8, table: `[0]` none or `[1]` [`SetupCorrection`] (levels u8, 6 × 32 × i16 zigzag varints, 2⁻¹³ rad) | Ack |
 //! | `0x18` | UploadCalibration   | 1 | width u16, height u16, fx, fy, cx, cy, skew f64, k1, k2, p1, p2, k3 f64, projector_centre 3×f64, plane_point 3×f64, plane_normal 3×f64, depth_min f64, depth_max f64 | Ack |
-//! | `0x19` | BeginPhaseMapUpload | 1 | width u16, height u16, total_bytes u32, digest u32                          | UploadAck |
+//! | `0x19` | BeginPhaseMapUpload | 1 | width u16, height u16, margin left, top, right, bottom u32 (≤ 1024 each), total_bytes u32, digest u32 | UploadAck |
 //! | `0x20` | ConfigureSequence   | 1 | set_id u8, repeat bool, entries bytes (n × 12-byte [`LutEntry`], 1..=256)   | Ack |
 //! | `0x21` | ValidateSequence    | 0 | (empty)                                                                     | Validation |
 //! | `0x22` | Start               | 1 | (empty)                                                                     | Ack |
@@ -117,7 +117,9 @@
 //! each: scale f64, shifts = `[0]` Uniform n u8, count u8 (shifts `2π·i/n`, `i < count`) or `[1]`
 //! Explicit count u8, 16 × f64, or `[2]` Gray bits u8, complementary u8 (a Gray-code level:
 //! `bits` binary images, one more if complementary, [`crate::gray`]), or `[3]` GrayInverse bits
-//! u8, complementary u8 (the same, every image followed by its inverse: twice the images). Unused levels are `0.0, [0] 0 0`; unused knots and explicit shifts
+//! u8, complementary u8 (the same, every image followed by its inverse: twice the images), or
+//! `[4]` GrayShifted bits u8, inverse u8 (a Gray code whose stripes are moved by half a period,
+//! twice the images with inverses; protocol version 6). Unused levels are `0.0, [0] 0 0`; unused knots and explicit shifts
 //! are `0.0`. Last, the levels' relation ([`Relation`]): `[0]`
 //! hierarchical (eqs 12-13 from the coarsest level or a Gray code), `[1]` heterodyne (the
 //! beats of 2 or 3 phase levels) or `[2]` coprime (number-theoretic: the first two levels'
@@ -129,18 +131,22 @@
 //!
 //! ResultRow `data`, and each row of the reference phase map upload: first the f32 values of all
 //! its columns, LE (points x, y, z interleaved), then one [`Validity`](crate::Validity) byte per
-//! column. Pattern image uploads: one byte per pixel, row-major, images in order.
+//! column. The reference map is `left + width + right` columns by `top + height + bottom` rows
+//! (its [`Margin`](crate::reconstruct::Margin) past the image, [`BeginPhaseMap`]), rows from
+//! the map's top. Pattern image uploads: one byte per pixel, row-major, images in order.
 //!
 //! Worked example: GetStatus (`0x32`), seq 7, REPLY_WANTED, empty payload. Header
-//! `04 02 07 32 00 00`; CRC-32C of those six bytes `0x5274F8FC`, sent LE: decoded frame
-//! `04 02 07 32 00 00 FC F8 74 52`; COBS and delimiter: `05 04 02 07 32 01 05 FC F8 74 52 00`.
+//! `06 02 07 32 00 00`; CRC-32C of those six bytes `0x89F8583F`, sent LE: decoded frame
+//! `06 02 07 32 00 00 3F 58 F8 89`; COBS and delimiter: `05 06 02 07 32 01 05 3F 58 F8 89 00`.
 //!
 //! Version history: 1 carried the pattern set (linear phase only) and the calibration as f32 and
 //! had no edge-filter field in Scan. 2 had no `scan_id` in Scan, ResultRow and ScanDone (rows of
 //! an earlier scan still in flight were taken for the new scan's; issue #21 item 1). 3 had no
 //! relation at the end of [`PatternSetDesc`] (hierarchical sets only) and no
 //! DefineCorrection (a head decoded every set uncorrected, so binary sets and a measured
-//! projector response were scanned on the desktop only). A head and a host of different versions refuse each other's
+//! projector response were scanned on the desktop only). 4 had no validity code 12
+//! (`light-edge`). 5 had no margin in BeginPhaseMapUpload (a head took image-sized reference
+//! maps only). A head and a host of different versions refuse each other's
 //! frames: the head answers a frame of another version with Nak Version (detail: its version),
 //! which the host reports as such.
 //! `core/tests/wire_vectors.rs` spells out more, one per kind of body.
@@ -330,6 +336,9 @@ pub enum Invalid {
     /// A phase-error table's knot is beyond `PhaseCorrection::MAX_DELTA`, its level count is
     /// outside `1..=MAX_LEVELS` or not the set's.
     Correction = 23,
+    /// A side of a reference map's margin exceeds
+    /// [`MAX_MARGIN`](crate::reconstruct::MAX_MARGIN).
+    Margin = 24,
 }
 
 impl Invalid {
@@ -359,12 +368,13 @@ impl Invalid {
             Invalid::ValidityCode => "validity-code",
             Invalid::EdgeFilter => "edge-filter",
             Invalid::Correction => "correction",
+            Invalid::Margin => "margin",
         }
     }
 
     /// The rule with code `code`, if any.
     pub const fn from_u8(code: u8) -> Option<Invalid> {
-        const ALL: [Invalid; 23] = [
+        const ALL: [Invalid; 24] = [
             Invalid::Dimension,
             Invalid::BitDepth,
             Invalid::Intensity,
@@ -388,6 +398,7 @@ impl Invalid {
             Invalid::ValidityCode,
             Invalid::EdgeFilter,
             Invalid::Correction,
+            Invalid::Margin,
         ];
         if code >= 1 && (code as usize) <= ALL.len() {
             Some(ALL[code as usize - 1])

@@ -14,7 +14,7 @@
 //! | offset  | size | field                                                             |
 //! |--------:|-----:|-------------------------------------------------------------------|
 //! | 0       | 4    | magic `F3DS` ([`SETUP_MAGIC`])                                    |
-//! | 4       | 1    | format version = 4 ([`SETUP_VERSION`]; 1 to 3 are still read)     |
+//! | 4       | 1    | format version = 5 ([`SETUP_VERSION`]; 1 to 4 are still read)     |
 //! | 5       | 1    | reserved, 0                                                       |
 //! | 6       | 2    | payload length `L`, u16 LE, `L <= 4096` ([`MAX_SETUP_PAYLOAD`])   |
 //! | 8       | `L`  | payload: the postcard encoding of a [`HeadSetup`]                 |
@@ -37,7 +37,12 @@
 //! 8. (version 2) the projector-response correction, an `Option` (one byte 0 = none, 1 = some)
 //!    of [`SetupCorrection`]: levels u8, then 6 × 32 × i16 knots (zigzag varints, 2⁻¹³ rad;
 //!    unused levels 0) — the decoder's [`PhaseCorrection`] (docs/gamma.md). A version-1 blob has no field 8 and
-//!    means "no correction".
+//!    means "no correction";
+//! 9. (version 5) the reference map's [`Margin`] past the image: left, top, right, bottom as
+//!    u32 varints, each at most [`MAX_MARGIN`] (issue #17: a map wider than the image keeps
+//!    the search of a point near the camera on the map). The head's map is
+//!    `(left + width + right) × (top + height + bottom)` samples. Versions 1 to 4 have no
+//!    field 9 and mean an image-sized map.
 //!
 //! Everything is checked on [`HeadSetup::emit`] and [`HeadSetup::parse`] ([`HeadSetup::validate`]);
 //! what only the whole set can tell (monotonic phase, coarse range, …) is checked when the head
@@ -55,7 +60,7 @@ use crate::decode::{DecodeConfig, Decoder, PhaseCorrection};
 use crate::filter::EdgeFilter;
 use crate::params::CameraParams;
 use crate::pattern::PatternSet;
-use crate::reconstruct::{Reconstructor, Setup};
+use crate::reconstruct::{MAX_MARGIN, Margin, Reconstructor, Setup};
 
 mod capture_order;
 mod legacy;
@@ -64,9 +69,10 @@ use legacy::payload_fields;
 
 /// First four bytes of a set-up blob.
 pub const SETUP_MAGIC: [u8; 4] = *b"F3DS";
-/// The blob format version this core writes (it also reads versions 1 to 3: no relation in the
-/// pattern set; 1 and 2 a capture order of 32 fixed entries; 1 no correction field).
-pub const SETUP_VERSION: u8 = 4;
+/// The blob format version this core writes (it also reads versions 1 to 4: no margin; 1 to 3
+/// no relation in the pattern set; 1 and 2 a capture order of 32 fixed entries; 1 no
+/// correction field).
+pub const SETUP_VERSION: u8 = 5;
 /// Bytes before the payload: magic, version, reserved, length.
 pub const SETUP_HEADER_LEN: usize = 8;
 /// Bytes of the trailing CRC-32C.
@@ -308,6 +314,8 @@ pub struct HeadSetup {
     pub edge_filter: EdgeFilterParams,
     /// The decoder's phase-error table for the projector's response, if any (version 2).
     pub correction: Option<SetupCorrection>,
+    /// The reference map's margin past the image (version 5; [`Margin::ZERO`] before).
+    pub margin: Margin,
 }
 
 impl HeadSetup {
@@ -336,9 +344,18 @@ impl HeadSetup {
             axis: setup.axis.into(),
             edge_filter,
             correction: None,
+            margin: Margin::ZERO,
         };
         s.validate()?;
         Ok(s)
+    }
+
+    /// This set-up for a reference map with margin `m` past the image (field 9,
+    /// [`Reconstructor::with_margin`]), checked like [`HeadSetup::parse`].
+    pub fn with_margin(mut self, m: Margin) -> Result<Self, SetupError> {
+        self.margin = m;
+        self.validate()?;
+        Ok(self)
     }
 
     /// This set-up with the decoder's phase-error table `c` (field 8), checked like
@@ -364,6 +381,9 @@ impl HeadSetup {
             return Err(SetupError::ImageSize);
         }
         self.edge_filter.validate()?;
+        if self.margin.to_array().iter().any(|&m| m > MAX_MARGIN) {
+            return Err(SetupError::Invalid(Invalid::Margin));
+        }
         match &self.correction {
             Some(c) if !c.is_sane() || c.levels != self.patterns.level_count => {
                 Err(SetupError::Correction)
@@ -510,10 +530,11 @@ impl HeadSetup {
         self.calibration.setup(self.axis)
     }
 
-    /// The reconstructor ([`Reconstructor::new`] over the camera model and set-up).
+    /// The reconstructor ([`Reconstructor::new`] over the camera model and set-up) for the
+    /// reference map of field 9's margin ([`Reconstructor::with_margin`]).
     pub fn reconstructor(&self) -> Result<Reconstructor, SetupError> {
         self.calibration
-            .reconstructor(self.axis)
+            .reconstructor_with_margin(self.axis, self.margin)
             .map_err(SetupError::Reconstruction)
     }
 

@@ -243,8 +243,11 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
         ));
     }
     let band = recon.band();
-    let ring_rows = (band.rows() as usize).min(h);
-    if ring_rows * w > RING_ROWS * MAX_W {
+    // The reference map's rows are its own width: the image's and its margin past the image
+    // (field 9 of the set-up blob). A row is staged in a free point row (3 · MAX_W).
+    let (mw, mh) = (recon.map_width(), recon.map_height());
+    let ring_rows = (band.rows() as usize).min(mh);
+    if ring_rows * mw > RING_ROWS * MAX_W || mw > 3 * MAX_W {
         return Err(Fail("the reference band does not fit the ring buffer"));
     }
     let _ = writeln!(
@@ -268,7 +271,7 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
         },
     )?)?;
     let mut ref_file = File::open(join(&mut path, dir, "input/reference_phase.f32")?)?;
-    if img_file.len()? != n * w * h * p.sample_bytes || ref_file.len()? != 4 * w * h {
+    if img_file.len()? != n * w * h * p.sample_bytes || ref_file.len()? != 4 * mw * mh {
         return Err(Fail("images or reference map have the wrong size"));
     }
 
@@ -281,7 +284,7 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
         point_validity,
         filtered,
     } = b;
-    let mut ring = ReferenceRing::new(recon, &mut ring_phase[..ring_rows * w], &mut [])
+    let mut ring = ReferenceRing::new(recon, &mut ring_phase[..ring_rows * mw], &mut [])
         .map_err(|_| Fail("reference ring refused"))?;
     let (phase, validity) = (&mut phase[..w], &mut validity[..w]);
 
@@ -388,8 +391,8 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
         let (_, last) = recon.rows_needed(v as u32);
         while ring.rows_pushed() <= last {
             let r = ring.rows_pushed() as usize;
-            let ref_phase = &mut points[slot][..w];
-            ref_file.read_at(4 * r * w, bytes_of_mut(ref_phase))?;
+            let ref_phase = &mut points[slot][..mw];
+            ref_file.read_at(4 * r * mw, bytes_of_mut(ref_phase))?;
             let t = clock.now();
             ring.push_row(ref_phase, &[])
                 .map_err(|_| Fail("reference ring push failed"))?;
@@ -588,6 +591,7 @@ fn report(
         images: MAX_IMAGES,
         sample_bytes: 2,
         band_rows: RING_ROWS,
+        margin_columns: 0,
         layout: fringe3d_core::budget::RowLayout::BOARD,
     };
     let _ = writeln!(t, "budget_bytes={}", budget.total());

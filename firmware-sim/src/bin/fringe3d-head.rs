@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N] [--tx-stall-s S]
+//!               [--max-margin PX]
 //! ```
 //!
 //! DATASET is a dataset folder (or its `patterns.toml`): the pattern-set file lists the camera
@@ -9,7 +10,9 @@
 //! head prints `PTY /dev/pts/N`; use that path as `fringe3d device --port`. `--link PATH` also
 //! makes a symlink to it. `--tx-stall-s S` (default 10): when the host stops reading for S
 //! seconds while the head sends (a scan nobody reads), the head ends the scan (it leaves
-//! Scanning). Stop with Ctrl-C.
+//! Scanning). `--max-margin PX` (default 256, at most 1024): the widest margin past the image, on
+//! any side, of a reference map the head takes (issue #17): its map store and reference buffers
+//! are sized for it, and a wider map's upload is refused with Nak OutOfMemory. Stop with Ctrl-C.
 
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -17,7 +20,7 @@ use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 
 use fringe3d_core::pattern::MAX_LEVELS;
-use fringe3d_core::reconstruct::MAX_BAND_ROWS;
+use fringe3d_core::reconstruct::{MAX_BAND_ROWS, MAX_MARGIN};
 use fringe3d_head::desktop::{OwnedMemory, Pty, Replay, TX_STALL, serve_with, sim_board};
 use fringe3d_head::port::QUEUE_LEN;
 use fringe3d_head::sim::{FrameSource, NoSink, SimWorld};
@@ -25,7 +28,7 @@ use fringe3d_head::{Head, HeadConfig, MemoryPlan};
 
 fn usage() -> ExitCode {
     eprintln!(
-        "usage: fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N] [--tx-stall-s S]"
+        "usage: fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N] [--tx-stall-s S] [--max-margin PX]"
     );
     eprintln!(
         "  DATASET: a dataset folder (its patterns.toml lists the camera images) or a pattern-set file"
@@ -40,11 +43,20 @@ fn main() -> ExitCode {
     let mut readout_us: u32 = 1_000;
     let mut store_mib: usize = 64;
     let mut stall = TX_STALL;
+    let mut max_margin: usize = 256;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--link" => link = args.next().map(PathBuf::from),
             "--readout-us" => match args.next().and_then(|v| v.parse().ok()) {
                 Some(v) => readout_us = v,
+                None => return usage(),
+            },
+            "--max-margin" => match args
+                .next()
+                .and_then(|v| v.parse().ok())
+                .filter(|&m| m <= MAX_MARGIN as usize)
+            {
+                Some(v) => max_margin = v,
                 None => return usage(),
             },
             "--pattern-store-mib" => match args.next().and_then(|v| v.parse().ok()) {
@@ -90,9 +102,11 @@ fn main() -> ExitCode {
     };
     let (w, h) = (replay.width() as usize, replay.height() as usize);
     let world = SimWorld::new(readout_us as u64 * 1_000);
-    let plan = MemoryPlan::new(w, h, pw as usize, MAX_LEVELS, MAX_BAND_ROWS.min(h));
+    let plan = MemoryPlan::new(w, h, pw as usize, MAX_LEVELS, MAX_BAND_ROWS.min(h))
+        .with_margin_columns(2 * max_margin);
     let mut mem = OwnedMemory::new(plan);
-    let board = sim_board(&world, replay, NoSink, (pw, ph), store_mib << 20, w * h * 5);
+    let map_store = (w + 2 * max_margin) * (h + 2 * max_margin) * 5;
+    let board = sim_board(&world, replay, NoSink, (pw, ph), store_mib << 20, map_store);
     let cfg = HeadConfig {
         readout_us,
         ..HeadConfig::DEFAULT

@@ -116,9 +116,9 @@ impl OwnedMemory {
                 std::vec![0.0; w],
                 std::vec![0.0; w],
                 std::vec![0.0; w],
-                std::vec![0.0; w],
+                std::vec![0.0; plan.map_line],
             ],
-            rows_u8: [std::vec![0; w], std::vec![0; w]],
+            rows_u8: [std::vec![0; w], std::vec![0; plan.map_line]],
             point_codes: std::vec![0; 4 * w],
             xyz: std::vec![0.0; 9 * w],
         }

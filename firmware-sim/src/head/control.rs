@@ -103,7 +103,8 @@ pub(super) struct Control {
     pub(super) image_owner: Option<u8>,
     pub(super) pattern_upload: Option<Upload>,
     pub(super) map_upload: Option<Upload>,
-    pub(super) map_confirmed: bool,
+    /// The confirmed reference map's announcement (its size and margin), if any.
+    pub(super) map_confirmed: Option<BeginPhaseMap>,
     pub(super) calibration: Option<Calibration>,
     pub(super) lut: Option<Lut>,
     pub(super) validated: bool,
@@ -119,6 +120,8 @@ pub(super) struct Control {
     pub(super) state_capacity: usize,
     pub(super) flags_capacity: usize,
     pub(super) ring_capacity: usize,
+    /// Samples of one reference row the head can stage (the widest map row it takes).
+    pub(super) reference_capacity: usize,
     pub(super) report: MemoryReport,
 }
 
@@ -132,7 +135,7 @@ impl Control {
             image_owner: None,
             pattern_upload: None,
             map_upload: None,
-            map_confirmed: false,
+            map_confirmed: None,
             calibration: None,
             lut: None,
             validated: false,
@@ -148,6 +151,7 @@ impl Control {
             state_capacity: mem.decode_state.len(),
             flags_capacity: mem.decode_flags.len(),
             ring_capacity: mem.ring_phase.len().min(mem.ring_validity.len()),
+            reference_capacity: mem.reference_phase.len().min(mem.reference_validity.len()),
             report: MemoryReport::default(),
         }
     }
@@ -181,7 +185,7 @@ impl Control {
         if self.calibration.is_none() {
             v |= ValidationStatus::NO_CALIBRATION;
         }
-        if !self.map_confirmed {
+        if self.map_confirmed.is_none() {
             v |= ValidationStatus::NO_REFERENCE;
         }
         let Some(lut) = &self.lut else {
@@ -246,9 +250,7 @@ impl Control {
                     s.desc.pattern_count() as u32 * s.desc.width as u32 * s.desc.height as u32
                 })
             }
-            UploadTarget::PhaseMap => self
-                .map_confirmed
-                .then(|| self.caps.sensor_width as u32 * self.caps.sensor_height as u32 * 5),
+            UploadTarget::PhaseMap => self.map_confirmed.map(|m| m.total_bytes),
         }
     }
 

@@ -307,7 +307,10 @@ fn dispatch<T: Write, B: BoardIo>(
             if m.width != ctl.caps.sensor_width || m.height != ctl.caps.sensor_height {
                 nak!(NakCode::Invalid, Invalid::Dimension);
             }
-            if m.total_bytes > board.map_store().capacity() {
+            // A map wider than the image (its margin) must fit the store and a staged row.
+            if m.total_bytes > board.map_store().capacity()
+                || m.map_width() as usize > ctl.reference_capacity
+            {
                 nak!(NakCode::OutOfMemory, 0);
             }
             let key = UploadKey::Map(m);
@@ -315,7 +318,7 @@ fn dispatch<T: Write, B: BoardIo>(
                 Some(u) if u.key == key => u.next,
                 _ => {
                     ctl.map_upload = Some(Upload { key, next: 0 });
-                    ctl.map_confirmed = false;
+                    ctl.map_confirmed = None;
                     0
                 }
             };
@@ -396,7 +399,10 @@ fn dispatch<T: Write, B: BoardIo>(
                 }
                 UploadTarget::PhaseMap => {
                     ctl.map_upload = None;
-                    ctl.map_confirmed = true;
+                    ctl.map_confirmed = match u.key {
+                        UploadKey::Map(m) => Some(m),
+                        UploadKey::Patterns(_) => None,
+                    };
                 }
             }
             reply!(ack);

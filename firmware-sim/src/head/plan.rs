@@ -78,10 +78,17 @@ pub(super) fn plan_scan(
             .calibration
             .as_ref()
             .ok_or((NakCode::SequenceInvalid, ValidationStatus::NO_CALIBRATION))?;
+        let map = ctl
+            .map_confirmed
+            .ok_or((NakCode::SequenceInvalid, ValidationStatus::NO_REFERENCE))?;
         let r = cal
-            .reconstructor(slot.desc.phase.axis)
+            .reconstructor_with_margin(slot.desc.phase.axis, map.margin)
             .map_err(|why| (NakCode::Invalid, why as u32))?;
-        if (r.band().rows() as usize).min(h) * w > ctl.ring_capacity {
+        // The ring and the staged row are the map's width (the image's and its margin).
+        let mw = r.map_width();
+        if (r.band().rows() as usize).min(r.map_height()) * mw > ctl.ring_capacity
+            || mw > ctl.reference_capacity
+        {
             return Err((NakCode::OutOfMemory, 0));
         }
         Some(r)

@@ -128,9 +128,14 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
     let points = !matches!(sc.output, ScanOutput::Phase);
     // Camera line, decoded row; projector line; three point rows with their codes, the
     // reference row, and with the edge filter its output codes.
+    // The reference map's rows: the image's width and its margin (`Reconstructor::with_margin`).
+    let mw = match (points, sc.recon.as_ref()) {
+        (true, Some(rc)) => rc.map_width(),
+        _ => w,
+    };
     let lines = w * (2 + 12 + 1)
         + board.projector().width() as usize
-        + if points { w * (3 * 13 + 5) } else { 0 }
+        + if points { w * 3 * 13 + mw * 5 } else { 0 }
         + if points && sc.filter.is_some() { w } else { 0 };
     r.lines = r.lines.max(lines);
 
@@ -155,14 +160,14 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
     let mut ring = None;
     let mut recon = None;
     if let (true, Some(rc)) = (points, sc.recon.as_ref()) {
-        let rows = (rc.band().rows() as usize).min(h);
-        let rp = ring_phase.get_mut(..rows * w).ok_or(ScanFail::Internal)?;
+        let rows = (rc.band().rows() as usize).min(rc.map_height());
+        let rp = ring_phase.get_mut(..rows * mw).ok_or(ScanFail::Internal)?;
         let rv = ring_validity
-            .get_mut(..rows * w)
+            .get_mut(..rows * mw)
             .ok_or(ScanFail::Internal)?;
         ring = Some(ReferenceRing::new(rc, rp, rv).map_err(|_| ScanFail::Internal)?);
         recon = Some(rc);
-        link.ctl.report.ring = link.ctl.report.ring.max(rows * w * 5);
+        link.ctl.report.ring = link.ctl.report.ring.max(rows * mw * 5);
     }
     let (phase_row, modulation_row, dc_row, validity_row) = (
         &mut phase_row[..w],
@@ -172,8 +177,12 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
     );
     let (xyz_rows, point_codes) = (&mut xyz_rows[..9 * w], &mut point_codes[..4 * w]);
     let (point_codes, filtered) = point_codes.split_at_mut(3 * w);
-    let (reference_phase, reference_validity) =
-        (&mut reference_phase[..w], &mut reference_validity[..w]);
+    let (Some(reference_phase), Some(reference_validity)) = (
+        reference_phase.get_mut(..mw),
+        reference_validity.get_mut(..mw),
+    ) else {
+        return Err(ScanFail::Internal);
+    };
     let filter = sc.filter.filter(|_| recon.is_some());
     let end = sc.first.saturating_add(sc.count);
     let wanted = |r: u16| r >= sc.first && r < end;
@@ -225,7 +234,7 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
             read_reference_row(
                 board.map_store(),
                 ring.rows_pushed(),
-                w,
+                mw,
                 reference_phase,
                 reference_validity,
             )?;
@@ -345,7 +354,8 @@ fn emit_points<T: Write>(
     Ok(count_valid(filtered))
 }
 
-/// Read row `r` of the reference phase map from `store` (phases LE, then validity codes).
+/// Read row `r` (from the map's top) of the reference phase map, `w` samples wide (the image's
+/// width and the map's margin), from `store` (phases LE, then validity codes).
 fn read_reference_row<S: Storage>(
     store: &mut S,
     r: u32,

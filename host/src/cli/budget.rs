@@ -36,6 +36,10 @@ pub struct BudgetArgs {
     /// Reference rows the ring holds (default: the calibration's band).
     #[arg(long)]
     pub band: Option<usize>,
+    /// Columns of the reference map past the image, left + right (default: the calibration's
+    /// `[reference] margin`, 0 without one): the ring and the staging row are this much wider.
+    #[arg(long)]
+    pub margin_columns: Option<usize>,
     /// Camera bits per sample: 8 (one byte) or up to 16 (two).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub bits: u32,
@@ -54,17 +58,31 @@ pub fn run(a: BudgetArgs, g: Global) -> Result<()> {
     let ls = common::load_set(&a.patterns)?;
     let set = &ls.set;
     let (mut width, mut height, mut band) = (a.width, a.height, a.band);
+    let mut margin_columns = a.margin_columns;
     if let Some(path) = &a.calibration {
         let cal = Calibration::load(path)?;
         let axis = PatternAxis::from(set.axis());
+        let margin = cal
+            .reference
+            .as_ref()
+            .map(|r| r.margin())
+            .unwrap_or_default();
         let recon = wire_calibration(&cal)
             .map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?
-            .reconstructor(axis)
+            .reconstructor_with_margin(axis, margin)
             .map_err(|why| anyhow::anyhow!("{}: no reconstruction: {}", path.display(), why.name()))
             .with_context(|| "the band of reference rows".to_string())?;
         width.get_or_insert(cal.camera.width as usize);
         height.get_or_insert(cal.camera.height as usize);
         band.get_or_insert(recon.band().rows() as usize);
+        margin_columns.get_or_insert(recon.map_width() - recon.width());
+    }
+    let margin_columns = margin_columns.unwrap_or(0);
+    if margin_columns > 2 * fringe3d_core::reconstruct::MAX_MARGIN as usize {
+        bail!(
+            "--margin-columns: {margin_columns} is more than two margins of {} pixels",
+            fringe3d_core::reconstruct::MAX_MARGIN
+        );
     }
     let layout = match a.layout.as_str() {
         "board" => RowLayout::BOARD,
@@ -90,6 +108,7 @@ pub fn run(a: BudgetArgs, g: Global) -> Result<()> {
         images: set.image_count(),
         sample_bytes: if a.bits > 8 { 2 } else { 1 },
         band_rows: band,
+        margin_columns: if layout.points { margin_columns } else { 0 },
         layout,
     };
     let (lines, n) = b.lines();
@@ -106,18 +125,27 @@ pub fn run(a: BudgetArgs, g: Global) -> Result<()> {
             "{}",
             json!({"command": "budget", "width": width, "height": height, "images": b.images,
                 "levels": levels, "sample_bytes": b.sample_bytes, "band_rows": band,
+                "margin_columns": b.margin_columns,
                 "layout": a.layout, "buffers": rows, "bytes_per_column": b.per_column(),
                 "total_bytes": b.total(),
                 "frame_sequential": {"bytes_per_pixel": per_pixel, "bytes": frame}})
         );
     } else if !g.quiet {
         outln!(
-            "row pipeline, {} layout: {} images of {} byte(s) per sample, {} pixels wide, {} reference rows",
+            "row pipeline, {} layout: {} images of {} byte(s) per sample, {} pixels wide, {} reference rows{}",
             a.layout,
             b.images,
             b.sample_bytes,
             width,
-            band
+            band,
+            if b.margin_columns > 0 {
+                format!(
+                    " of {} columns (the map's margin)",
+                    width + b.margin_columns
+                )
+            } else {
+                String::new()
+            }
         );
         outln!("  {:<44} {:>10} {:>12}", "buffer", "B/column", "bytes");
         for l in lines {

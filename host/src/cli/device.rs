@@ -416,19 +416,18 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
             let axis = set.axis();
             let sc = common::load_calibration(path, axis)
                 .with_context(|| format!("{}: preparing the reconstruction", path.display()))?;
-            if sc.recon.margin() != fringe3d_core::reconstruct::Margin::ZERO {
-                anyhow::bail!(
-                    "{}: its reference map extends past the image (margin {:?}); the head's \
-                     wire protocol carries image-sized maps only: make the reference for the \
-                     head with `calibrate reference --margin 0`",
-                    path.display(),
-                    sc.recon.margin().to_array()
-                );
-            }
             let w =
                 wire_calibration(cal).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
-            let map = phase_map_bytes(&sc.reference_phase, sc.width());
-            Some((path.clone(), w, map, sc.width(), sc.height()))
+            // The map's rows are its own width: the image's and its margin past the image.
+            let map = phase_map_bytes(&sc.reference_phase, sc.recon.map_width());
+            Some((
+                path.clone(),
+                w,
+                map,
+                sc.width(),
+                sc.height(),
+                sc.recon.margin(),
+            ))
         }
         _ => None,
     };
@@ -483,7 +482,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
             desc.pattern_count()
         );
     }
-    if let Some((_, w, map, mw, mh)) = &calib {
+    if let Some((_, w, map, mw, mh, margin)) = &calib {
         if (caps.sensor_width as usize, caps.sensor_height as usize) != (*mw, *mh) {
             bail!(
                 "the head's camera is {}x{}, the calibration's {}x{}",
@@ -495,13 +494,34 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
         }
         c.upload_calibration(w)?;
         let (pb, mut cb) = bar(map.len() as u64, "phase map", g.quiet);
-        let r = c.upload_phase_map(*mw as u16, *mh as u16, map, &mut cb);
+        let r = c.upload_phase_map(*mw as u16, *mh as u16, *margin, map, &mut cb);
         pb.finish_and_clear();
-        let r = r?;
-        summary["phase_map_upload"] = serde_json::json!({"bytes": r.total, "resumed_from": r.resumed_from, "wire_bytes": r.wire_bytes, "seconds": r.seconds});
+        let r = match r {
+            Err(crate::device::DeviceError::Refused {
+                code: fringe3d_core::wire::NakCode::OutOfMemory,
+                ..
+            }) if *margin != fringe3d_core::reconstruct::Margin::ZERO => bail!(
+                "the head has not enough memory for the reference map of {}: {} bytes, \
+                 {:?} px past the image (left, top, right, bottom); make the head's reference \
+                 with a smaller `calibrate reference --margin` (0: image-sized)",
+                calib
+                    .as_ref()
+                    .map_or(String::new(), |c| c.0.display().to_string()),
+                map.len(),
+                margin.to_array()
+            ),
+            r => r?,
+        };
+        summary["phase_map_upload"] = serde_json::json!({"bytes": r.total, "resumed_from": r.resumed_from, "wire_bytes": r.wire_bytes, "seconds": r.seconds, "margin": margin.to_array()});
         if !g.quiet && !g.json {
+            let past = if *margin == fringe3d_core::reconstruct::Margin::ZERO {
+                String::new()
+            } else {
+                let [l, t, r, b] = margin.to_array();
+                format!(", {l}/{t}/{r}/{b} px past the image (left/top/right/bottom)")
+            };
             outln!(
-                "uploaded the calibration and the reference phase map ({} bytes) in {:.2} s; digest confirmed",
+                "uploaded the calibration and the reference phase map ({} bytes{past}) in {:.2} s; digest confirmed",
                 r.total,
                 r.seconds
             );

@@ -121,7 +121,7 @@ fn toml_info(p: &Path) -> Result<serde_json::Value> {
             .levels()
             .iter()
             .map(|l| match l.gray() {
-                Some(g) => json!({"scale": l.scale(), "gray_bits": g.bits(), "complementary": g.complementary(), "images": l.len(), "dc_level": false}),
+                Some(g) => json!({"scale": l.scale(), "gray_bits": g.bits(), "complementary": g.complementary(), "shifted": g.is_shifted(), "inverse": g.inverse(), "images": l.len(), "dc_level": false}),
                 None => json!({"scale": l.scale(), "shifts_rad": l.shifts(), "images": l.len(), "dc_level": l.has_dc()}),
             })
             .collect();

@@ -21,6 +21,7 @@ use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use fringe3d_core::decode::PhaseCorrection;
+use fringe3d_core::reconstruct::Margin;
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::{
     BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, DefineCorrection,
@@ -467,28 +468,37 @@ impl<T: Transport> Client<T> {
         )
     }
 
-    /// Upload the reference phase map (`data` as [`super::desc::phase_map_bytes`] lays it out) and
-    /// confirm it.
+    /// Upload the reference phase map of a `width × height` camera, extending `margin` past the
+    /// image (issue #17; [`Margin::ZERO`] for an image-sized map), with `data` as
+    /// [`super::desc::phase_map_bytes`] lays it out, and confirm it.
     pub fn upload_phase_map(
         &mut self,
         width: u16,
         height: u16,
+        margin: Margin,
         data: &[u8],
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<UploadReport, DeviceError> {
-        let want = width as usize * height as usize * PHASE_MAP_BYTES_PER_PIXEL;
-        if data.len() != want {
-            return Err(DeviceError::Input(format!(
-                "phase map: {} bytes, expected {want} for {width}x{height}",
-                data.len()
-            )));
-        }
-        let begin = BeginPhaseMap {
+        let mut begin = BeginPhaseMap {
             width,
             height,
-            total_bytes: want as u32,
+            margin,
+            total_bytes: 0,
             digest: crc32c(data),
         };
+        let (mw, mh) = (begin.map_width() as usize, begin.map_height() as usize);
+        let want = mw * mh * PHASE_MAP_BYTES_PER_PIXEL;
+        if data.len() != want {
+            return Err(DeviceError::Input(format!(
+                "phase map: {} bytes, expected {want} for a {mw}x{mh} map ({width}x{height} and \
+                 the margin {:?})",
+                data.len(),
+                margin.to_array()
+            )));
+        }
+        begin.total_bytes = u32::try_from(want).map_err(|_| {
+            DeviceError::Input(format!("phase map: {want} bytes exceed the wire's 4 GiB"))
+        })?;
         self.upload(
             "the reference phase map",
             UploadTarget::PhaseMap,

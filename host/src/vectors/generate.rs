@@ -81,8 +81,8 @@ pub fn generate_from(inp: &Inputs) -> Result<GoldenVectors, VectorsError> {
     arr(
         "input/reference_phase.f32".into(),
         Dtype::F32,
-        vec![h, w],
-        "reference-plane absolute phase map Phi_R (radians), prepared: canonical NaN where invalid"
+        vec![recon.map_height(), recon.map_width()],
+        "reference-plane absolute phase map Phi_R (radians), prepared: canonical NaN where invalid; the image and its margin past it (reconstruction.margin_left_top_right_bottom)"
             .into(),
         f32_bytes(&cal.reference_phase),
     );
@@ -165,14 +165,14 @@ pub fn generate_from(inp: &Inputs) -> Result<GoldenVectors, VectorsError> {
     files.push(VectorFile {
         path: "input/setup.bin".into(),
         array: None,
-        format: "fringe3d head set-up blob v1 (docs/setup-blob.md)",
-        description: "the core's head set-up blob (fringe3d_core::wire::setup): pattern set, capture order, decoder thresholds, camera model, reconstruction set-up and edge filter, versioned and CRC-checked, for firmware and ports".into(),
+        format: "fringe3d head set-up blob v5 (docs/setup-blob.md)",
+        description: "the core's head set-up blob (fringe3d_core::wire::setup): pattern set, capture order, decoder thresholds, camera model, reconstruction set-up, edge filter, phase-error table and the reference map's margin, versioned and CRC-checked, for firmware and ports".into(),
         bytes: setup_bytes(inp, &set, &dec)?,
     });
     let tif = encode_tiff_f32(
         Path::new("input/reference_phase.tif"),
-        w as u32,
-        h as u32,
+        recon.map_width() as u32,
+        recon.map_height() as u32,
         &canonical_vec(&cal.reference_phase),
     )
     .map_err(|e| file_err(Path::new("input/reference_phase.tif"), e))?;

@@ -46,6 +46,7 @@ pub(super) fn manifest_info(
                 "level": k,
                 "gray_bits": g.bits(),
                 "complementary": g.complementary(),
+                "shifted": g.is_shifted(),
             }));
             continue;
         }
@@ -107,7 +108,7 @@ pub(super) fn manifest_info(
             "bend_center": f.bend_center(),
             "levels": set.levels().iter().map(|l| match l.gray() {
                 // A Gray-code level: its code, no shifts and no wrapped-phase files.
-                Some(g) => json!({"scale": l.scale(), "gray_bits": g.bits(), "complementary": g.complementary()}),
+                Some(g) => json!({"scale": l.scale(), "gray_bits": g.bits(), "complementary": g.complementary(), "shifted": g.is_shifted()}),
                 None => json!({"scale": l.scale(), "shifts": l.shifts()}),
             }).collect::<Vec<_>>(),
             "output": {"width": set.output().width, "height": set.output().height, "i_min": set.output().i_min, "i_max": set.output().i_max},
@@ -136,6 +137,8 @@ pub(super) fn manifest_info(
     m.insert(
         "reconstruction".into(),
         json!({"band": {"above": band.above, "below": band.below, "rows": band.rows()},
+               "margin_left_top_right_bottom": recon.margin().to_array(),
+               "map_size": [recon.map_width(), recon.map_height()],
                "ring_bytes": recon.ring_bytes(band.rows()),
                "max_segment_px": recon.max_segment_px(),
                "fallback_bisections": recon.fallback_bisections()}),
@@ -157,7 +160,7 @@ pub(super) fn manifest_info(
         "pipeline".into(),
         json!([
             "decode: for every row y, Decoder::new(pattern_set, decode_config) (.with_correction(table) when input/setup.bin carries the projector-response table).decode_row(rows y of every image) -> phase, modulation, dc, validity; decode_row_level(rows, k) -> wrapped_level{k}, modulation_level{k}",
-            "reconstruct: Reconstructor::new(camera, setup); a ReferenceRing of band.rows reference rows (pushed in order, invalid samples as canonical NaN); reconstruct_row(ring, v, phase row, validity row) -> points, validity",
+            "reconstruct: Reconstructor::new(camera, setup).with_margin(reconstruction.margin_left_top_right_bottom) (the map is reconstruction.map_size: the image and its margin past it; sample (i, j) at pixel (i - left, j - top)); a ReferenceRing of band.rows map rows (pushed in order from the map's top, invalid samples as canonical NaN); reconstruct_row(ring, v, phase row, validity row) -> points, validity",
             "edge filter: EdgeFilter::new(focal_px, max_angle_deg).filter_row(row above, row, row below) on the reconstructed points and codes -> filter/validity; points whose filtered code != 0 become canonical NaN",
         ]),
     );

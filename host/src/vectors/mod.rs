@@ -130,7 +130,8 @@ pub struct VectorOptions {
     /// decoded with the table of this blur (docs/binary.md), which the set-up blob carries.
     pub defocus: Option<f64>,
     /// The reference map the scan uses (issue #17): the decoded capture of the plane, the
-    /// model fitted to it, or the virtual map of the rig's projector; image-sized in each case.
+    /// model fitted to it, or the virtual map of the rig's projector (image-sized), or the
+    /// virtual map on the default far plane with the margin past the image the geometry needs.
     pub reference: VectorReference,
 }
 
@@ -145,6 +146,11 @@ pub enum VectorReference {
     /// The map computed from the rig's projector model on the same plane, no capture
     /// (`calibrate reference --virtual --margin 0`).
     Virtual,
+    /// The map computed from the rig's projector model on the default plane, perpendicular to
+    /// the camera's axis at the far end of the depth range, extending past the image by the
+    /// margin the geometry needs (`calibrate reference --virtual`, its defaults): a map wider
+    /// than the image, as a head takes it since protocol version 6.
+    VirtualMargin,
 }
 
 impl VectorReference {
@@ -154,6 +160,7 @@ impl VectorReference {
             VectorReference::Captured => "captured",
             VectorReference::Model => "model",
             VectorReference::Virtual => "virtual",
+            VectorReference::VirtualMargin => "virtual-margin",
         }
     }
 }

@@ -2,6 +2,7 @@
 //! decode and reconstruct whole frames one row at a time, as a streaming head does.
 
 use super::{DecodeStage, PointStage, VectorOptions, VectorsError, kernel};
+use crate::io::calibration::Calibration;
 use crate::render::scene::{Overrides, SceneSpec};
 use crate::render::{RenderOptions, Scene, decode_phase_corrected};
 use crate::scan::ScanCalibration;
@@ -107,19 +108,23 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
             .map_err(|e| VectorsError::Options(format!("reference model: {e}")))?
             .phase
         }
-        super::VectorReference::Virtual => {
-            let projector = cal
-                .projector
-                .as_ref()
-                .ok_or_else(|| VectorsError::Options("the rig has no projector model".into()))?;
-            crate::calib::virtual_reference::virtual_reference(
-                &cal.camera,
-                projector,
-                &scene.patterns,
-                (scene.rig.reference_point, scene.rig.reference_normal),
-                fringe3d_core::reconstruct::Margin::ZERO,
-            )
-            .map_err(|e| VectorsError::Options(format!("virtual reference: {e}")))?
+        super::VectorReference::Virtual => virtual_map(
+            &cal,
+            &scene,
+            (scene.rig.reference_point, scene.rig.reference_normal),
+        )?,
+        super::VectorReference::VirtualMargin => {
+            use crate::calib::virtual_reference::{default_plane, margin_needed};
+            let plane = default_plane(cal.depth_range);
+            let margin = margin_needed(&cal, &scene.patterns, plane)
+                .map_err(|e| VectorsError::Options(format!("virtual reference: {e}")))?;
+            let reference = cal
+                .reference
+                .as_mut()
+                .ok_or_else(|| VectorsError::Options("the rig has no reference plane".into()))?;
+            (reference.point, reference.normal) = plane;
+            reference.margin = Some(margin.to_array());
+            virtual_map(&cal, &scene, plane)?
         }
     };
     // What the table of the set-up blob is made from, so that the folder's calibration.toml
@@ -217,16 +222,18 @@ pub fn reconstruct_rows(
 ) -> Result<PointStage, VectorsError> {
     let (w, h) = (recon.width(), recon.height());
     let n = w * h;
-    if reference_phase.len() != n
-        || reference_validity.len() != n
+    // The map's rows are its own width: the image's and its margin past the image.
+    let (mw, mh) = (recon.map_width(), recon.map_height());
+    if reference_phase.len() != mw * mh
+        || reference_validity.len() != mw * mh
         || phase.len() != n
         || validity.len() != n
     {
         return Err(kernel("reconstruct", "map sizes differ from the camera"));
     }
-    let band = recon.band().rows().min(h as u32) as usize;
-    let mut ring_phase = vec![0.0f32; band * w];
-    let mut ring_validity = vec![0u8; band * w];
+    let band = recon.band().rows().min(mh as u32) as usize;
+    let mut ring_phase = vec![0.0f32; band * mw];
+    let mut ring_validity = vec![0u8; band * mw];
     let mut ring = ReferenceRing::new(recon, &mut ring_phase, &mut ring_validity)
         .map_err(|e| kernel("reconstruct", e))?;
     let mut out = PointStage {
@@ -238,7 +245,7 @@ pub fn reconstruct_rows(
     for v in 0..h {
         let (_, last) = recon.rows_needed(v as u32);
         while ring.rows_pushed() <= last {
-            let r = ring.rows_pushed() as usize * w..(ring.rows_pushed() as usize + 1) * w;
+            let r = ring.rows_pushed() as usize * mw..(ring.rows_pushed() as usize + 1) * mw;
             ring.push_row(&reference_phase[r.clone()], &reference_validity[r])
                 .map_err(|e| kernel("reconstruct (reference ring)", e))?;
         }
@@ -279,4 +286,30 @@ pub fn reconstruct_rows(
         }
     }
     Ok(out)
+}
+
+/// The virtual reference map of the rig's projector model on `plane` (its point and normal),
+/// extending past the image by the margin `cal`'s reference records (none: image-sized).
+fn virtual_map(
+    cal: &Calibration,
+    scene: &Scene,
+    plane: ([f64; 3], [f64; 3]),
+) -> Result<Vec<f32>, VectorsError> {
+    let projector = cal
+        .projector
+        .as_ref()
+        .ok_or_else(|| VectorsError::Options("the rig has no projector model".into()))?;
+    let margin = cal
+        .reference
+        .as_ref()
+        .map(|r| r.margin())
+        .unwrap_or_default();
+    crate::calib::virtual_reference::virtual_reference(
+        &cal.camera,
+        projector,
+        &scene.patterns,
+        plane,
+        margin,
+    )
+    .map_err(|e| VectorsError::Options(format!("virtual reference: {e}")))
 }

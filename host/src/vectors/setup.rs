@@ -37,6 +37,8 @@ pub(super) fn setup_bytes(
             max_angle_deg: inp.edge_max_angle_deg,
         },
     )
+    .map_err(|e| kernel(stage, e))?
+    .with_margin(recon.margin())
     .map_err(|e| kernel(stage, e))?;
     let setup = match &inp.correction {
         Some(c) => setup.with_correction(c).map_err(|e| kernel(stage, e))?,

@@ -72,6 +72,20 @@ pub fn gray_inverse_set() -> PatternSetFile {
     set_file("gray-inverse", &text)
 }
 
+/// A shifted 4-bit Gray code (stripes moved by half a period, issue #20 item 1) over the 8
+/// periods of [`gray_set`] (within the shifted code's [−9, 7)), then a 4-step level: 8 images.
+pub fn gray_shifted_set() -> PatternSetFile {
+    let text = format!(
+        "version = 2\n\
+         [projector]\nwidth = 1024\nheight = 768\n\
+         [phase]\naxis = \"xi\"\nkind = \"linear\"\norigin = 575.5\nslope = {}\n\
+         [[levels]]\nscale = 8.0\ngray_bits = 4\ncomplementary = false\nshifted = true\n\
+         [[levels]]\nscale = 8.0\nsteps = 4\n",
+        std::f64::consts::TAU / 1024.0
+    );
+    set_file("gray-shifted", &text)
+}
+
 /// The pattern-set file of `text`, loaded (through a temporary file named for `tag`).
 fn set_file(tag: &str, text: &str) -> PatternSetFile {
     let path = std::env::temp_dir().join(format!(

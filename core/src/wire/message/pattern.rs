@@ -29,6 +29,12 @@ impl Shifts {
             Shifts::GrayInverse { bits, .. } => {
                 check(bits >= 1 && self.count() <= MAX_SHIFTS, Invalid::Shifts)
             }
+            Shifts::GrayShifted { bits, .. } => check(
+                bits >= 1
+                    && bits as usize <= crate::limits::MAX_GRAY_BITS
+                    && self.count() <= MAX_SHIFTS,
+                Invalid::Shifts,
+            ),
         }
     }
 }

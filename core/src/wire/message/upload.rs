@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{Body, Invalid, MAX_CHUNK, PHASE_MAP_BYTES_PER_PIXEL, WireError, bit_depth_ok, check};
+use crate::reconstruct::{MAX_MARGIN, Margin};
 use crate::wire::crc::crc32c;
 #[cfg(doc)]
 use {
@@ -58,25 +59,47 @@ impl BeginUpload {
 
 /// Host → head: start uploading the reference phase map.
 ///
-/// The data is `height` rows, each `width` little-endian f32 phases then `width` validity bytes
-/// ([`Validity`] codes), as in a phase [`ResultRow`]; `digest` is the CRC-32C of all of it.
+/// The map covers the image and `margin` past it on each side (issue #17 item 3,
+/// [`Margin`]): `(left + width + right)` columns by `(top + height + bottom)` rows, its
+/// sample `(i, j)` at image pixel `(i − left, j − top)`. The data is the map's rows from the
+/// top, each its columns' little-endian f32 phases then as many validity bytes ([`Validity`]
+/// codes), as in a phase [`ResultRow`]; `digest` is the CRC-32C of all of it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct BeginPhaseMap {
-    /// Map width (the camera's), `>= 1`.
+    /// The image width (the camera's), `>= 1`.
     pub width: u16,
-    /// Map height, `>= 1`.
+    /// The image height, `>= 1`.
     pub height: u16,
-    /// `width · height · PHASE_MAP_BYTES_PER_PIXEL`.
+    /// How far the map extends past the image, each side at most [`MAX_MARGIN`]
+    /// ([`Margin::ZERO`]: an image-sized map).
+    pub margin: Margin,
+    /// `map_width · map_height · PHASE_MAP_BYTES_PER_PIXEL`.
     pub total_bytes: u32,
     /// CRC-32C of all bytes.
     pub digest: u32,
 }
 
 impl BeginPhaseMap {
+    /// Columns of the map: the image's and the left and right margins.
+    pub fn map_width(&self) -> u32 {
+        u32::from(self.width) + self.margin.left + self.margin.right
+    }
+
+    /// Rows of the map: the image's and the top and bottom margins.
+    pub fn map_height(&self) -> u32 {
+        u32::from(self.height) + self.margin.top + self.margin.bottom
+    }
+
     /// Check the fields' ranges and `total_bytes`.
     pub fn validate(&self) -> Result<(), WireError> {
         check(self.width >= 1 && self.height >= 1, Invalid::Dimension)?;
-        let want = self.width as u64 * self.height as u64 * PHASE_MAP_BYTES_PER_PIXEL as u64;
+        check(
+            self.margin.to_array().iter().all(|&m| m <= MAX_MARGIN),
+            Invalid::Margin,
+        )?;
+        let want = u64::from(self.map_width())
+            * u64::from(self.map_height())
+            * PHASE_MAP_BYTES_PER_PIXEL as u64;
         check(want == self.total_bytes as u64, Invalid::TotalBytes)
     }
 }

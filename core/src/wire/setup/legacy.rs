@@ -4,9 +4,10 @@
 //! - Version 2: fields 1-8; field 3, the capture order, as a count u8 and always 32 pattern
 //!   indices (unused 0).
 //! - Version 3: field 3 as postcard bytes, up to 64 indices ([`CaptureOrder`]'s own serde).
-//! - Version 4 (written today): field 2, the pattern set, ends with the levels' relation
-//!   (hierarchical, heterodyne or coprime); versions 1-3 have no such byte and mean
-//!   hierarchical.
+//! - Version 4: field 2, the pattern set, ends with the levels' relation (hierarchical,
+//!   heterodyne or coprime); versions 1-3 have no such byte and mean hierarchical.
+//! - Version 5 (written today): field 9, the reference map's margin past the image; versions
+//!   1-4 have none and mean an image-sized map.
 
 use serde::Deserialize;
 
@@ -15,12 +16,13 @@ use super::{
     SetupError,
 };
 use crate::pattern::{MAX_IMAGES, Relation};
+use crate::reconstruct::Margin;
 use crate::wire::message::{
     Calibration, Level, MAX_LEVELS, PatternAxis, PatternSetDesc, PhaseDesc, Waveform,
 };
 
 /// Decode a payload of `version` (1: fields 1-7; 2: and field 8; 3: field 3 as bytes; 4: a
-/// relation in field 2). The current version decodes straight into the result (no copy of the
+/// relation in field 2; 5: and field 9). The current version decodes straight into the result (no copy of the
 /// fields on the way: a head's set-up stack is tight); the old ones each in a frame of their
 /// own, which only they pay for.
 #[inline(never)]
@@ -29,6 +31,7 @@ pub(super) fn payload_fields(version: u8, payload: &[u8]) -> Result<HeadSetup, S
         1 => version_1(payload),
         2 => version_2(payload),
         3 => version_3(payload),
+        4 => version_4(payload),
         _ => whole(postcard::take_from_bytes::<HeadSetup>(payload)),
     }
 }
@@ -61,6 +64,15 @@ fn version_2(payload: &[u8]) -> Result<HeadSetup, SetupError> {
 fn version_3(payload: &[u8]) -> Result<HeadSetup, SetupError> {
     let v = whole(postcard::take_from_bytes::<
         HeadSetupOld<Option<SetupCorrection>, CaptureOrder>,
+    >(payload))?;
+    let correction = v.tail;
+    Ok(v.into_setup(correction))
+}
+
+#[inline(never)]
+fn version_4(payload: &[u8]) -> Result<HeadSetup, SetupError> {
+    let v = whole(postcard::take_from_bytes::<
+        HeadSetupOld<Option<SetupCorrection>, CaptureOrder, PatternSetDesc>,
     >(payload))?;
     let correction = v.tail;
     Ok(v.into_setup(correction))
@@ -120,12 +132,12 @@ impl From<CaptureOrder32> for CaptureOrder {
 }
 
 /// The payload of a version-1 blob (fields 1-7; `T = ()`, which postcard writes as nothing), a
-/// version-2 one (and field 8, `T = Option<SetupCorrection>`) or, with `O = CaptureOrder`, a
-/// version-3 one.
+/// version-2 one (and field 8, `T = Option<SetupCorrection>`), with `O = CaptureOrder` a
+/// version-3 one and with `P = PatternSetDesc` a version-4 one (no field 9: no margin).
 #[derive(Deserialize)]
-struct HeadSetupOld<T, O = CaptureOrder32> {
+struct HeadSetupOld<T, O = CaptureOrder32, P = PatternSetDesc3> {
     frames: FrameFormat,
-    patterns: PatternSetDesc3,
+    patterns: P,
     capture_order: O,
     thresholds: DecodeThresholds,
     calibration: Calibration,
@@ -134,7 +146,7 @@ struct HeadSetupOld<T, O = CaptureOrder32> {
     tail: T,
 }
 
-impl<T, O: Into<CaptureOrder>> HeadSetupOld<T, O> {
+impl<T, O: Into<CaptureOrder>, P: Into<PatternSetDesc>> HeadSetupOld<T, O, P> {
     fn into_setup(self, correction: Option<SetupCorrection>) -> HeadSetup {
         HeadSetup {
             frames: self.frames,
@@ -145,6 +157,7 @@ impl<T, O: Into<CaptureOrder>> HeadSetupOld<T, O> {
             axis: self.axis,
             edge_filter: self.edge_filter,
             correction,
+            margin: Margin::ZERO,
         }
     }
 }

@@ -57,10 +57,15 @@ use fringe3d_head::sim::{FrameSource, NoSink, SimBoard, SimWorld};
 use semihosting::{Console, File};
 use uart::CmsdkUart;
 
-/// Widest camera the SRAM line buffers hold.
+/// Widest camera the SRAM line buffers hold (and the widest reference map row: a 320-wide
+/// camera's with [`MAX_MARGIN_PX`] on each side fits).
 const MAX_W: usize = 640;
 /// Most camera pixels the PSRAM per-pixel buffers hold (320 × 256).
 const MAX_PIXELS: usize = 320 * 256;
+/// Widest margin past the image, on any side, of a reference map the map store holds for a
+/// 320 × 256 camera (issue #17: a map wider than the image; a wider one is refused with Nak
+/// OutOfMemory at its upload).
+const MAX_MARGIN_PX: usize = 128;
 /// Widest projector the SRAM pattern-row buffer holds.
 const MAX_PW: usize = 2048;
 /// Pattern levels the decoder state is sized for (the core's maximum).
@@ -71,8 +76,9 @@ const STATE_LEN: usize = (1 + 2 * MAX_LEVELS) * MAX_PIXELS;
 const RING_LEN: usize = MAX_PIXELS;
 /// Pattern-image store: room for the paper's 8 × 1024 × 768 set (6 MiB) and more.
 const PATTERN_STORE: usize = 8 << 20;
-/// Reference-map store: `W·H` × (f32 phase + validity byte).
-const MAP_STORE: usize = 5 * MAX_PIXELS;
+/// Reference-map store: the map's samples (the 320 × 256 image and [`MAX_MARGIN_PX`] on each
+/// side) × (f32 phase + validity byte).
+const MAP_STORE: usize = 5 * (320 + 2 * MAX_MARGIN_PX) * (256 + 2 * MAX_MARGIN_PX);
 /// The simulated camera's readout time (the head's default `readout_us` is 1 000).
 const READOUT_NS: u64 = 1_000_000;
 /// Baud rate programmed into UART0 (QEMU does not pace the PTY by it).

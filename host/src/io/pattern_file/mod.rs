@@ -242,6 +242,11 @@ pub struct LevelSection {
     /// it rather than the DC term (twice the images; `fringe3d_core::gray`). Default false.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub inverse: Option<bool>,
+    /// With `gray_bits`: move the code's stripes by half a period, their edges to the middle of
+    /// the fringes (the "shifted Gray code" of SLMaster and Wu et al. 2019;
+    /// `fringe3d_core::gray`). Needs `complementary = false`. Default false.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shifted: Option<bool>,
 }
 
 impl PatternSetFile {
@@ -566,10 +571,12 @@ impl PatternSetFile {
                             "levels[{i}]: give exactly one of steps, shifts, shifts_deg or gray_bits"
                         )));
                     }
-                    if (l.complementary.is_some() || l.inverse.is_some()) && l.gray_bits.is_none() {
+                    if (l.complementary.is_some() || l.inverse.is_some() || l.shifted.is_some())
+                        && l.gray_bits.is_none()
+                    {
                         return Err(self.err(format!(
-                            "levels[{i}]: complementary and inverse apply to a Gray-code level \
-                             (gray_bits) only"
+                            "levels[{i}]: complementary, inverse and shifted apply to a Gray-code \
+                             level (gray_bits) only"
                         )));
                     }
                     let level = if let Some(bits) = l.gray_bits {
@@ -584,7 +591,18 @@ impl PatternSetFile {
                                 "levels[{i}]: a Gray-code level (gray_bits) must be the first level"
                             )));
                         }
-                        let mut code = GrayCode::new(bits as u8, l.complementary.unwrap_or(true));
+                        let mut code = if l.shifted == Some(true) {
+                            if l.complementary == Some(true) {
+                                return Err(self.err(format!(
+                                    "levels[{i}]: shifted = true needs complementary = false (the \
+                                     complementary image already puts an edge at every half \
+                                     period)"
+                                )));
+                            }
+                            GrayCode::shifted(bits as u8)
+                        } else {
+                            GrayCode::new(bits as u8, l.complementary.unwrap_or(true))
+                        };
                         if l.inverse == Some(true) {
                             code = code.inverted();
                             if !code.is_valid() {

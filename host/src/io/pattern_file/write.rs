@@ -63,6 +63,7 @@ impl PatternSetFile {
                             gray_bits: gray.map(|g| u32::from(g.bits())),
                             complementary: gray.map(|g| g.complementary()),
                             inverse: gray.filter(|g| g.inverse()).map(|_| true),
+                            shifted: gray.filter(|g| g.is_shifted()).map(|_| true),
                         }
                     })
                     .collect(),
