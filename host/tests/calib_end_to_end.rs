@@ -3,7 +3,7 @@
 //! three parallel positions with vertical and horizontal fringes, the reference plane and a board
 //! lying on it) at σ = 1 gray level noise and 8 bits, run `fringe3d calibrate camera | projector |
 //! reference` on the files through the binary, compare each estimate with the rig the data were
-//! rendered with, then scan a sphere, a ball bar, the steps and the freeform surface with the true
+//! rendered with, then scan a sphere, a ball bar, the steps, a cylinder and the freeform surface with the true
 //! and with the self-calibrated file (issue #18's bar: ≤ 1.15× the true calibration's RMS, step
 //! heights within 0.01 mm).
 //! Also: intrinsics imported from OpenCV (XML, JSON) and Bouguet files instead of `calibrate
@@ -643,7 +643,7 @@ fn calibrate_from_rendered_files_noisy_8bit() {
         seed: Some(5),
         ..Overrides::default()
     };
-    for name in ["sphere", "ballbar", "steps", "freeform"] {
+    for name in ["sphere", "ballbar", "steps", "cylinder", "freeform"] {
         let mut spec = SceneSpec::builtin(name).unwrap();
         spec.apply(&ov);
         let dir = t.0.join(name);
@@ -695,7 +695,7 @@ fn calibrate_from_rendered_files_noisy_8bit() {
             a_true.interior.rms
         );
         assert!(
-            matches!(name, "steps" | "freeform")
+            matches!(name, "steps" | "cylinder" | "freeform")
                 || (!sd_s.is_empty() && sd_s.iter().all(|e| e.abs() < 0.1)),
             "{name}: sphere diameter errors {sd_s:?} mm"
         );

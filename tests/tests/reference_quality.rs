@@ -26,30 +26,6 @@ use rendered::*;
 /// The bar of issue #17.
 const BAR: f64 = 1.05;
 
-/// A cylinder lying across the volume, its axis tilted out of the image plane, before the
-/// background plane of the built-in object scenes.
-fn cylinder_scene(o: &Overrides) -> Scene {
-    let objects = r#"
-[[objects]]
-name = "cylinder"
-albedo = 0.8
-[objects.shape]
-type = "cylinder"
-center = [0.0, 10.0, 615.0]
-axis = [1.0, 0.15, 0.25]
-radius = 45.0
-length = 220.0
-[[objects]]
-name = "background"
-albedo = 0.6
-[objects.shape]
-type = "plane"
-point = [0.0, 0.0, 725.0]
-normal = [0.0, 0.0, -1.0]
-"#;
-    scene_with_objects("cylinder", o, objects)
-}
-
 /// What the edge filter's light-edge rule took out of the interior.
 struct LightEdges {
     /// Interior pixels (as [`errors_within`]) valid before the edge filter and flagged
@@ -87,10 +63,7 @@ fn light_edges(sc: &Scene, s: &Scanned, noise: f64) -> LightEdges {
 }
 
 fn scene(name: &str, o: &Overrides) -> Scene {
-    match name {
-        "cylinder" => cylinder_scene(o),
-        _ => Scene::builtin(name, o).expect("builtin scene"),
-    }
+    Scene::builtin(name, o).expect("builtin scene")
 }
 
 /// Scans `name` under each family at 8 bit (σ = 1 gray level) and 16 bit (σ = 120), with the

@@ -65,10 +65,13 @@ pub fn run(a: DemoArgs, g: Global) -> Result<()> {
         return run_calibrate(a, g);
     }
     if !BUILTIN_SCENES.contains(&a.scene.as_str())
-        || matches!(a.scene.as_str(), "reference" | "checkerboard" | "plates")
+        || matches!(
+            a.scene.as_str(),
+            "reference" | "checkerboard" | "plates" | "boards"
+        )
     {
         bail!(
-            "--scene {:?}: the demo scans one of sphere, ballbar, steps, freeform, plane",
+            "--scene {:?}: the demo scans one of sphere, ballbar, cylinder, steps, freeform, plane",
             a.scene
         );
     }

@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 const AFTER_HELP: &str = "\
-Built-in scenes: sphere, ballbar, steps, freeform, plane, reference, checkerboard, plates, boards
+Built-in scenes: sphere, ballbar, cylinder, steps, freeform, plane, reference, checkerboard, plates, boards
 (all on the default rig: camera 1280x1024, f = 1550 px; projector 1024x768 at 225 mm to the
 right, aimed at z = 600 mm; measurement volume 280 x 220 x 250 mm, reference plane z = 730 mm).
 

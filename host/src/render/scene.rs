@@ -16,9 +16,10 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// The names of the built-in scenes.
-pub const BUILTIN_SCENES: [&str; 9] = [
+pub const BUILTIN_SCENES: [&str; 10] = [
     "sphere",
     "ballbar",
+    "cylinder",
     "steps",
     "freeform",
     "plane",

@@ -1,6 +1,6 @@
 //! The built-in scenes ([`BUILTIN_SCENES`](super::BUILTIN_SCENES)): the default rig with spheres, a
-//! ball bar, steps, a freeform surface, a tilted plane, the reference plane alone, a checkerboard
-//! and the calibration plates.
+//! cylinder, a ball bar, steps, a freeform surface, a tilted plane, the reference plane alone, a
+//! checkerboard and the calibration plates.
 
 use super::super::light::ProjectorMode;
 use super::super::math::{Mat3, Vec3};
@@ -93,6 +93,21 @@ pub(super) fn builtin(name: &str) -> Option<SceneSpec> {
                 Shape::Sphere {
                     center: [10.0, -5.0, 590.0],
                     radius: 60.0,
+                },
+            ));
+            s.objects.push(background());
+        }
+        "cylinder" => {
+            // A cylinder lying across the volume, its axis tilted out of the image plane.
+            s.objects.push(obj(
+                "cylinder",
+                0.8,
+                Shape::Cylinder {
+                    center: [0.0, 10.0, 615.0],
+                    axis: [1.0, 0.15, 0.25],
+                    radius: 45.0,
+                    length: 220.0,
+                    caps: true,
                 },
             ));
             s.objects.push(background());
