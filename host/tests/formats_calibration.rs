@@ -5,7 +5,8 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use fringe3d::io::calibration::{
-    Calibration, CameraParams, Distortion, FormatError, ProjectorParams, ReferencePlane,
+    Calibration, CameraCovariance, CameraParams, Distortion, FormatError, ProjectorParams,
+    ReferencePlane,
 };
 use fringe3d::io::import::{import_bouguet, import_bouguet_file, import_opencv};
 
@@ -68,6 +69,7 @@ fn sample() -> Calibration {
         }),
         projector_response: None,
         projector_defocus: None,
+        camera_covariance: None,
     }
 }
 
@@ -164,6 +166,69 @@ fn awkward_floats_round_trip_exactly() {
     let back = Calibration::load(&p).unwrap();
     assert_eq!(back, c);
     assert_eq!(back.camera.distortion.k2.to_bits(), (-0.0f64).to_bits());
+}
+
+/// `[camera_covariance]` (issue #18 item 4): round-trips exactly, and a matrix that is no
+/// covariance is refused by name.
+#[test]
+fn a_camera_covariance_round_trips_and_is_checked() {
+    let d = scratch("covariance");
+    let p = d.join("c.toml");
+    let mut c = sample();
+    let mut m = [[0.0; 10]; 10];
+    let sd = [0.05, 0.06, 1e-6, 0.1, 0.12, 2e-4, 1e-3, 1e-5, 2e-5, 0.0];
+    for i in 0..10 {
+        for j in 0..10 {
+            let rho = if i == j {
+                1.0
+            } else {
+                0.3 / (1.0 + (i + j) as f64)
+            };
+            m[i][j] = rho * sd[i] * sd[j];
+        }
+    }
+    c.camera_covariance = Some(CameraCovariance { matrix: m });
+    c.save(&p).unwrap();
+    let text = fs::read_to_string(&p).unwrap();
+    assert!(
+        text.contains("[camera_covariance]") && text.contains("fx, fy, skew, cx, cy"),
+        "{text}"
+    );
+    assert_eq!(Calibration::load(&p).unwrap(), c);
+    for (edit, want) in [
+        ((0, 1, 1.0), "not symmetric"),
+        ((3, 3, -1e-4), "the variance of cx is negative"),
+        ((0, 0, f64::NAN), "must be finite"),
+    ] {
+        let mut bad = c.clone();
+        let cv = bad.camera_covariance.as_mut().unwrap();
+        let ((i, j, v), _) = (edit, want);
+        cv.matrix[i][j] = v;
+        let e = bad.save(&d.join("bad.toml")).unwrap_err().to_string();
+        assert!(e.contains(want) && e.contains("camera_covariance"), "{e}");
+    }
+    // An OpenCV camera file with fringe3d's `intrinsics_covariance` carries it on.
+    let yml = d.join("camera.yml");
+    let flat = CameraCovariance { matrix: m }.flat();
+    fs::write(
+        &yml,
+        format!(
+            "%YAML:1.0\n---\nimage_width: 640\nimage_height: 512\n\
+             camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 600., 0., 320., 0., 600., 256., 0., 0., 1. ]\n\
+             distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n\
+             intrinsics_covariance: !!opencv-matrix\n   rows: 10\n   cols: 10\n   dt: d\n   data: [ {} ]\n",
+            flat.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ")
+        ),
+    )
+    .unwrap();
+    let got = fringe3d::calib::files::load_camera_covariance(&yml).unwrap();
+    assert_eq!(got, Some(CameraCovariance { matrix: m }));
+    // A file without it (OpenCV's own) has none.
+    let plain = examples().join("calibration").join("opencv.yml");
+    assert_eq!(
+        fringe3d::calib::files::load_camera_covariance(&plain).unwrap(),
+        None
+    );
 }
 
 fn err_of(text: &str) -> FormatError {

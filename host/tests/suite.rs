@@ -11,6 +11,7 @@ mod adapt_quality;
 mod calib_bad_input;
 mod calib_end_to_end;
 mod calib_projector_model;
+mod calib_sigma;
 mod cli_budget;
 mod cli_errors;
 mod cli_gamma;

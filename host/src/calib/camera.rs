@@ -85,6 +85,13 @@ pub struct CameraCalibration {
     /// Standard deviations of the intrinsics (`σ²(JᵀJ)⁻¹`, σ from the residuals), in
     /// [`PARAM_NAMES`] order; 0 for held parameters.
     pub std: [f64; N_INTRINSICS],
+    /// The intrinsics' covariance, the same block of `σ²(JᵀJ)⁻¹`, row-major in [`PARAM_NAMES`]
+    /// order; rows and columns of held parameters 0. The later steps add it to their σ.
+    pub covariance: [f64; N_INTRINSICS * N_INTRINSICS],
+    /// The delete-one-view jackknife's variance of each intrinsic over the formal one
+    /// (`σ²(JᵀJ)⁻¹`), averaged over the free intrinsics: about 1 when the corners' errors are
+    /// independent, above when they are correlated within a view.
+    pub jackknife_ratio: f64,
     /// The views used.
     pub views: Vec<ViewResult>,
     /// The views left out.
@@ -116,8 +123,9 @@ impl CameraCalibration {
         serde_json::json!({
             "width": self.lens.width, "height": self.lens.height,
             "intrinsics": intr,
+            "intrinsics_covariance": {"order": PARAM_NAMES, "matrix": self.covariance.chunks(N_INTRINSICS).collect::<Vec<_>>()},
             "skew_convention": "alpha of paper eq 4: u = fx*x + alpha*fx*y + cx (OpenCV K[0][1] = alpha*fx)",
-            "rms_px": self.rms, "sigma_px": self.sigma, "corners": self.corners, "parameters": self.parameters,
+            "rms_px": self.rms, "sigma_px": self.sigma, "jackknife_ratio": self.jackknife_ratio, "corners": self.corners, "parameters": self.parameters,
             "iterations": self.iterations,
             "zhang_initial": {"fx": self.initial[0], "fy": self.initial[1], "gamma": self.initial[2], "cx": self.initial[3], "cy": self.initial[4]},
             "views": self.views, "rejected": self.rejected,
@@ -154,6 +162,36 @@ pub(crate) fn d_point(d_xy: &[[f64; 2]; 2], xc: Vec3) -> [[f64; 3]; 2] {
         }
     }
     o
+}
+
+/// The delete-one-view jackknife variance of each intrinsic ([`PARAM_NAMES`] order): the bundle
+/// adjustment re-solved without each view in turn (from `state` without it),
+/// `(G − 1)/G · Σ (θ₍ᵥ₎ − θ̄)²` over the `G` views.
+fn jackknife(
+    board: &Board,
+    views: &[View],
+    state: &State,
+    free: &[usize],
+) -> Option<[f64; N_INTRINSICS]> {
+    let g = views.len();
+    if g < 4 {
+        return None;
+    }
+    let mut thetas = Vec::with_capacity(g);
+    for v in 0..g {
+        let mut vs = views.to_vec();
+        vs.remove(v);
+        let mut st = state.clone();
+        st.rot.remove(v);
+        st.t.remove(v);
+        thetas.push(bundle(board, &vs, st, free)?.state.lens.p);
+    }
+    let mut out = [0.0; N_INTRINSICS];
+    for (k, o) in out.iter_mut().enumerate() {
+        let mean = thetas.iter().map(|t| t[k]).sum::<f64>() / g as f64;
+        *o = (g - 1) as f64 / g as f64 * thetas.iter().map(|t| (t[k] - mean).powi(2)).sum::<f64>();
+    }
+    Some(out)
 }
 
 fn bundle(
@@ -359,16 +397,30 @@ pub fn calibrate(
         let n = free.len() + 6 * used.len();
         let cov = sol.covariance(n);
         let mut std = [0.0; N_INTRINSICS];
+        let mut covariance = [0.0; N_INTRINSICS * N_INTRINSICS];
         if let Some(c) = &cov {
             for (i, &k) in free.iter().enumerate() {
                 std[k] = c[i * n + i].max(0.0).sqrt();
+                for (j, &l) in free.iter().enumerate() {
+                    covariance[k * N_INTRINSICS + l] = c[i * n + j];
+                }
             }
         }
+        let jackknife_ratio = jackknife(board, &used, &sol.state, &free).map_or(f64::NAN, |jk| {
+            let r: Vec<f64> = free
+                .iter()
+                .filter(|&&k| std[k] > 0.0)
+                .map(|&k| jk[k] / (std[k] * std[k]))
+                .collect();
+            r.iter().sum::<f64>() / r.len().max(1) as f64
+        });
         let m = sol.residuals.len();
         let ss: f64 = sol.cost;
         return Ok(CameraCalibration {
             lens: sol.state.lens,
             std,
+            covariance,
+            jackknife_ratio,
             views: vr,
             rejected,
             rms: (ss / (m / 2) as f64).sqrt(),

@@ -29,6 +29,7 @@
 mod grid;
 mod refine;
 
+use super::lens::Lens;
 use grid::{candidates, find_grid};
 use refine::{edge_angles, saddle_hessian};
 pub use refine::{refine_model, refine_saddle};
@@ -273,6 +274,11 @@ pub struct DetectOptions {
     pub window_ratio: f64,
     /// The final refinement.
     pub method: Refinement,
+    /// The camera's lens, when known: the model fit then straightens the board's edges, which
+    /// the lens's distortion curves ([`refine_model`]). `calibrate camera` detects once without,
+    /// calibrates, detects again with its result and calibrates again; the later steps, whose
+    /// camera is calibrated, detect with it.
+    pub lens: Option<Lens>,
 }
 
 impl Default for DetectOptions {
@@ -282,6 +288,7 @@ impl Default for DetectOptions {
             refine_sigma_range: (1.0, 4.0),
             window_ratio: 0.45,
             method: Refinement::Model,
+            lens: None,
         }
     }
 }
@@ -407,7 +414,8 @@ fn finish(
                         .ok_or("too close to the image border");
                     h.and_then(|h| edge_angles(h).ok_or("not a saddle"))
                         .and_then(|a| {
-                            refine_model(img, coarse, (opts.window_ratio * sp).clamp(4.0, 20.0), a)
+                            let r = (opts.window_ratio * sp).clamp(4.0, 20.0);
+                            refine_model(img, coarse, r, a, opts.lens.as_ref())
                         })
                 }
             }

@@ -12,7 +12,7 @@ pub use super::reference_write::write_reference;
 use super::report::{nice_scale, view_picture};
 use super::{CalibError, pose};
 use crate::batch::decode_image_set;
-use crate::io::calibration::{Calibration, CameraParams, ProjectorResponse};
+use crate::io::calibration::{Calibration, CameraCovariance, CameraParams, ProjectorResponse};
 use crate::io::image::{Pixels, read_gray};
 use crate::io::image_set;
 use crate::io::import::import_any_camera;
@@ -138,7 +138,19 @@ pub fn calibrate_camera_files(
     opts: &CameraOptions,
     progress: Progress<'_>,
 ) -> Result<(CameraCalibration, DetectedViews), CalibError> {
-    let dv = detect_views(paths, board, detect_opts, progress)?;
+    let first = detect_views(paths, board, detect_opts, progress)?;
+    // Calibrated once, the corners are refined again with the lens's distortion straightened
+    // out of their windows (`DetectOptions::lens`), and the camera calibrated on them.
+    let dv = match calibrate(board, &first.views, first.width, first.height, opts) {
+        Ok(c) if detect_opts.lens.is_none() => {
+            let again = DetectOptions {
+                lens: Some(c.lens),
+                ..*detect_opts
+            };
+            detect_views(paths, board, &again, progress)?
+        }
+        _ => first,
+    };
     match calibrate(board, &dv.views, dv.width, dv.height, opts) {
         Ok(mut c) => {
             let mut all = dv.rejected.clone();
@@ -190,7 +202,10 @@ pub fn write_opencv_yaml(
          image_width: {}\nimage_height: {}\nboard_width: {ni}\nboard_height: {nj}\nsquare_size: {}\nnr_of_frames: {}\n\
          camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {}, {}, {}, 0., {}, {}, 0., 0., 1. ]\n\
          distortion_coefficients: !!opencv-matrix\n   rows: 5\n   cols: 1\n   dt: d\n   data: [ {}, {}, {}, {}, {} ]\n\
-         avg_reprojection_error: {}\n",
+         avg_reprojection_error: {}\n\
+         # fringe3d: the covariance of [fx, fy, skew, cx, cy, k1, k2, p1, p2, k3] (skew = alpha),\n\
+         # for calibrate projector / reference to add the camera's uncertainty to theirs.\n\
+         intrinsics_covariance: !!opencv-matrix\n   rows: 10\n   cols: 10\n   dt: d\n   data: [ {} ]\n",
         cal.lens.width,
         cal.lens.height,
         num(board.square),
@@ -206,6 +221,11 @@ pub fn write_opencv_yaml(
         num(p[8]),
         num(p[9]),
         num(cal.rms),
+        cal.covariance
+            .iter()
+            .map(|&x| num(x))
+            .collect::<Vec<_>>()
+            .join(", "),
     );
     crate::io::atomic::write_atomic(path, |w| w.write_all(text.as_bytes()))
         .map_err(|e| input(path, e.to_string()))
@@ -313,6 +333,22 @@ pub fn load_camera(path: &Path, size: Option<(u32, u32)>) -> Result<CameraParams
         ));
     }
     Ok(cam)
+}
+
+/// The covariance of the camera's intrinsics a camera file holds, if any: a fringe3d
+/// calibration's `[camera_covariance]`, or the `intrinsics_covariance` of `calibrate camera`'s
+/// OpenCV file; `None` for files without one (other tools' files).
+pub fn load_camera_covariance(path: &Path) -> Result<Option<CameraCovariance>, CalibError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    Ok(match ext.as_str() {
+        "toml" => Calibration::load(path)?.camera_covariance,
+        "yml" | "yaml" | "xml" | "json" => crate::io::import::import_opencv_covariance(path)?,
+        _ => None,
+    })
 }
 
 /// A decoded fringe set.
@@ -572,6 +608,11 @@ pub fn calibrate_reference_files(
     super::reference_margin::check_request(calibration, source == MapSource::Model, opts.margin)
         .map_err(|m| input(images.first().map_or(out, |p| p.as_path()), m))?;
     let lens = Lens::from_model(&calibration.camera);
+    // The boards' corners with the camera's distortion straightened out of their windows.
+    let detect_opts = &DetectOptions {
+        lens: Some(lens),
+        ..*detect_opts
+    };
     let pose = match plane {
         PlaneSource::Board {
             images,
@@ -596,16 +637,22 @@ pub fn calibrate_reference_files(
                 })?;
                 all.push(d.corners);
             }
-            ReferencePose::from_boards(&lens, board, &all, *offset_mm).map_err(|e| {
-                CalibError::Input {
-                    what: images
-                        .iter()
-                        .map(|p| p.display().to_string())
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    message: format!("board pose: {e}"),
-                }
-            })?
+            let plane =
+                ReferencePose::from_boards(&lens, board, &all, *offset_mm).map_err(|e| {
+                    CalibError::Input {
+                        what: images
+                            .iter()
+                            .map(|p| p.display().to_string())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        message: format!("board pose: {e}"),
+                    }
+                })?;
+            // The camera's own uncertainty, when the calibration records it.
+            match &calibration.camera_covariance {
+                Some(c) => plane.with_camera(&lens, board, &all, *offset_mm, c),
+                None => plane,
+            }
         }
         PlaneSource::Given { point, normal } => ReferencePose::given(
             Vec3::from_array(*point),

@@ -26,6 +26,7 @@ pub mod reference_margin;
 pub mod reference_physical;
 pub mod reference_write;
 pub mod report;
+pub mod uncertainty;
 pub mod virtual_reference;
 pub mod zhang;
 

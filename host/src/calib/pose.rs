@@ -5,9 +5,10 @@
 use super::camera::d_point;
 use super::corners::Board;
 use super::lens::Lens;
-use super::linalg::rodrigues;
+use super::linalg::{rodrigues, rot_log};
 use super::lm::{self, Eval};
-use super::zhang;
+use super::{uncertainty, zhang};
+use crate::io::calibration::CameraCovariance;
 use crate::math::{Mat3, Vec3};
 
 /// A board's pose: board frame → camera frame, `X_c = R X_b + t`.
@@ -54,6 +55,66 @@ impl PlanePose {
     /// Standard deviations of the local parameters (rad, rad, rad, mm, mm, mm).
     pub fn std(&self) -> [f64; 6] {
         std::array::from_fn(|i| self.covariance[i * 6 + i].max(0.0).sqrt())
+    }
+
+    /// σ of the plane's distance from the camera centre along its normal, mm: `h = n·t` moves
+    /// by `(n × t)·δω + n·δt`.
+    pub fn distance_std(&self) -> f64 {
+        let n = self.rotation.column(2);
+        let a = n.cross(self.translation);
+        let g = [a[0], a[1], a[2], n[0], n[1], n[2]];
+        let mut v = 0.0;
+        for i in 0..6 {
+            for j in 0..6 {
+                v += g[i] * self.covariance[i * 6 + j] * g[j];
+            }
+        }
+        v.max(0.0).sqrt()
+    }
+
+    /// σ of the plane's normal direction, degrees: the rotation's variance across the normal
+    /// (a turn about the normal leaves the plane).
+    pub fn tilt_std_deg(&self) -> f64 {
+        let n = self.rotation.column(2);
+        let c = &self.covariance;
+        let trace: f64 = (0..3).map(|i| c[i * 6 + i]).sum();
+        let about: f64 = (0..3)
+            .flat_map(|i| (0..3).map(move |j| (i, j)))
+            .map(|(i, j)| n[i] * c[i * 6 + j] * n[j])
+            .sum();
+        (trace - about).max(0.0).sqrt().to_degrees()
+    }
+
+    /// The local parameters `(δω, δt)` that move this pose to `other`.
+    pub fn difference(&self, other: &PlanePose) -> [f64; 6] {
+        let w = rot_log(&other.rotation.mul_mat(&self.rotation.transpose()));
+        let t = other.translation - self.translation;
+        [w[0], w[1], w[2], t[0], t[1], t[2]]
+    }
+
+    /// This pose with the covariance the camera's intrinsics (covariance `cov`) add to it: the
+    /// pose re-fitted to the same `corners` with the camera moved by one σ of each intrinsic
+    /// ([`uncertainty::camera_part`]). Unchanged if a re-fit fails.
+    pub fn with_camera(
+        mut self,
+        lens: &Lens,
+        board: &Board,
+        corners: &[[f64; 2]],
+        cov: &CameraCovariance,
+    ) -> PlanePose {
+        let add = uncertainty::camera_part::<6>(lens, cov, |l| {
+            board_pose(l, board, corners)
+                .ok()
+                .map(|p| self.difference(&p))
+        });
+        if let Some(a) = add {
+            for i in 0..6 {
+                for j in 0..6 {
+                    self.covariance[i * 6 + j] += a[i][j];
+                }
+            }
+        }
+        self
     }
 }
 

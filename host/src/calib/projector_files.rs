@@ -139,6 +139,11 @@ pub fn calibrate_projector_files(
 ) -> Result<ProjectorRun, CalibError> {
     let (sv, sh) = load_sets(set_v, set_h)?;
     let lens = Lens::from_model(camera);
+    // The boards' corners with the camera's distortion straightened out of their windows.
+    let detect_opts = &DetectOptions {
+        lens: Some(lens),
+        ..*detect_opts
+    };
     if plate_dirs.len() < 2 {
         return Err(CalibError::Input {
             what: "projector calibration".into(),
@@ -227,6 +232,7 @@ pub fn calibrate_projector_files(
         projector: Some(params),
         projector_response: None,
         projector_defocus: None,
+        camera_covariance: model.covariance_camera,
     };
     calibration.validate().map_err(|m| CalibError::Degenerate {
         what: format!("the resulting calibration: {m}"),
@@ -234,11 +240,19 @@ pub fn calibrate_projector_files(
     let summary = plates
         .iter()
         .zip(&views)
-        .map(|(p, v)| {
+        .zip(&corners)
+        .map(|((p, v), c)| {
             let frac = |m: &[f32]| m.iter().filter(|x| x.is_finite()).count() as f64 / m.len().max(1) as f64;
             let lit = v.projector.iter().filter(|x| x.is_some()).count();
+            // The plate pose's σ with the held camera's uncertainty when known.
+            let pose = match &opts.model.camera_covariance {
+                Some(cc) if !opts.model.refine_camera => p.pose.clone().with_camera(&lens, board, c, cc),
+                _ => p.pose.clone(),
+            };
             json!({"plate": p.name, "plane_point": p.pose.point(), "plane_normal": p.pose.normal(), "board_rms_px": p.pose.rms,
-                   "pose_std": p.pose.std(), "valid_v": frac(&p.phase_v), "valid_h": frac(&p.phase_h),
+                   "pose_std": pose.std(), "distance_std_mm": pose.distance_std(), "tilt_std_deg": pose.tilt_std_deg(),
+                   "distance_mm": p.pose.normal().dot(p.pose.point()).abs(),
+                   "valid_v": frac(&p.phase_v), "valid_h": frac(&p.phase_h),
                    "corners_with_projector_coordinates": lit})
         })
         .collect();

@@ -16,8 +16,11 @@
 //! The projector pose is solved as camera → projector, `X_p = Q·X_c + s`; the file's
 //! convention is `X_c = R·X_p + T`, so `R = Qᵀ` and `T = −Qᵀ·s` (the centre P of §6).
 //! Uncertainties are `σ²(JᵀJ)⁻¹` of the weighted problem; `T`'s covariance is propagated from
-//! the pose's through `∂T/∂(δω, δs) = [−Qᵀ[s]×, −Qᵀ]`. The camera's own uncertainty (from its
-//! calibration) is not propagated when the camera is held fixed.
+//! the pose's through `∂T/∂(δω, δs) = [−Qᵀ[s]×, −Qᵀ]`. With the camera held and its
+//! covariance known ([`ModelOptions::camera_covariance`], from `calibrate camera`), the camera's
+//! own uncertainty is added to every parameter's ([`super::uncertainty::held_covariance`]): a
+//! camera error moves the projector and the board poses alike in every seed of noise, and the
+//! residuals cannot show it.
 
 use fringe3d_core::params::ProjectorParams;
 
@@ -28,7 +31,8 @@ use super::dlt::dlt;
 use super::lens::{Lens, N_INTRINSICS, PARAM_NAMES};
 use super::linalg::rodrigues;
 use super::lm::{self, Eval};
-use super::pose;
+use super::{pose, uncertainty};
+use crate::io::calibration::CameraCovariance;
 use crate::math::{Mat3, Vec3};
 
 /// The largest relative σ of the projector's focal length a calibration may have.
@@ -84,6 +88,9 @@ pub struct ModelOptions {
     pub outlier_sigmas: f64,
     /// Fewest projector corners a view needs to be used.
     pub min_view_corners: usize,
+    /// The held camera's covariance, to add its uncertainty to the results' (none: the σ are
+    /// those of the corners' noise alone). Not used when the camera is refined.
+    pub camera_covariance: Option<CameraCovariance>,
 }
 
 impl Default for ModelOptions {
@@ -97,6 +104,7 @@ impl Default for ModelOptions {
             },
             outlier_sigmas: 5.0,
             min_view_corners: 8,
+            camera_covariance: None,
         }
     }
 }
@@ -116,6 +124,9 @@ pub struct ModelView {
     pub rotation: Mat3,
     /// Board origin, camera frame, mm.
     pub translation: Vec3,
+    /// σ of the board plane's distance from the camera centre along its normal, mm (the held
+    /// camera's uncertainty included when known).
+    pub distance_std_mm: f64,
 }
 
 /// The result of [`calibrate`].
@@ -131,6 +142,9 @@ pub struct ProjectorModel {
     pub translation: Vec3,
     /// σ of the camera's intrinsics ([`PARAM_NAMES`] order; 0 when held).
     pub std_camera: [f64; N_INTRINSICS],
+    /// The camera's covariance: the joint adjustment's when the camera is refined, the given
+    /// one when it is held (what the calibration file records for the next steps).
+    pub covariance_camera: Option<CameraCovariance>,
     /// σ of the projector's intrinsics.
     pub std_projector: [f64; N_INTRINSICS],
     /// Covariance of T, mm², row-major.
@@ -275,11 +289,28 @@ impl Problem<'_> {
                         e.vals.push(w * dp[row][a]);
                     }
                 }
-                // Projector corner.
+                // Projector corner: the point where the camera's ray through the detected corner
+                // meets the board's plane. The corner's own error moves the phase it is sampled
+                // at and that ray alike, so it cancels: the residual is the phase's noise, and
+                // the projector's rows are independent of the camera's (a point of the board's
+                // model would carry the corner's error into both, counted twice).
                 let Some(pc) = v.projector[k].filter(|_| self.use_proj[vi][k]) else {
                     continue;
                 };
-                let qx = s.q.mul_vec(xc);
+                let (x, y) = s.cam.undistort(c[0], c[1])?;
+                let ((_, _), jr) = s.cam.project_jac(x, y);
+                let d = Vec3::new(x, y, 1.0);
+                let nrm = r.column(2);
+                let (h, nd) = (nrm.dot(t), nrm.dot(d));
+                if !(nd.abs() > 1e-9) {
+                    return None;
+                }
+                let lam = h / nd;
+                let xr = d * lam;
+                if !(xr[2] > 1e-9) {
+                    return None;
+                }
+                let qx = s.q.mul_vec(xr);
                 let xp = qx + s.s;
                 if !(xp[2] > 1e-9) {
                     return None;
@@ -294,12 +325,32 @@ impl Problem<'_> {
                     }
                 }
                 let skq = Mat3::cross_matrix(qx);
+                // λ = h / (n·d), h = n·t, n = R·e_z: δn = δω × n, δh = δω·(n × t) + n·δt.
+                let dl_dw = (nrm.cross(t) * nd - nrm.cross(d) * h) * (1.0 / (nd * nd));
+                let dl_dt = nrm * (1.0 / nd);
+                // The ray's dependence on the camera's intrinsics: project(x, y) = corner, so
+                // ∂(x, y)/∂c = −(∂(u, v)/∂(x, y))⁻¹·∂(u, v)/∂c.
+                let [[a0, b0], [c0, d0]] = jr.d_xy;
+                let det = a0 * d0 - b0 * c0;
+                if !(det.abs() > 1e-300) {
+                    return None;
+                }
+                let dxy = |kk: usize| {
+                    let (ju, jv) = (jr.d_intr[0][kk], jr.d_intr[1][kk]);
+                    [-(d0 * ju - b0 * jv) / det, -(-c0 * ju + a0 * jv) / det]
+                };
                 for (row, res) in [(0usize, xi - pc[0]), (1, eta - pc[1])] {
                     let w = self.weight[1];
                     e.r.push(w * res);
-                    for _ in 0..nc {
-                        e.cols.push(0);
-                        e.vals.push(0.0);
+                    let dd: f64 = (0..3).map(|b| dc[row][b] * d[b]).sum();
+                    for (i, &kk) in self.cam_free.iter().enumerate() {
+                        // ∂X/∂c = λ·∂d/∂c + d·∂λ/∂c, ∂λ/∂c = −h·(n·∂d/∂c)/(n·d)².
+                        let g = dxy(kk);
+                        let ddc = Vec3::new(g[0], g[1], 0.0);
+                        let dlc = -h * nrm.dot(ddc) / (nd * nd);
+                        let dx: f64 = (0..3).map(|b| dc[row][b] * (lam * ddc[b])).sum();
+                        e.cols.push(i);
+                        e.vals.push(w * (dx + dd * dlc));
                     }
                     for (i, &kk) in self.proj_free.iter().enumerate() {
                         e.cols.push(nc + i);
@@ -307,23 +358,22 @@ impl Problem<'_> {
                     }
                     // Projector pose: ∂X_p/∂δω = −[Q X_c]×, ∂X_p/∂δs = I.
                     for a in 0..3 {
-                        let d: f64 = (0..3).map(|b| -dq[row][b] * skq[b][a]).sum();
+                        let g: f64 = (0..3).map(|b| -dq[row][b] * skq[b][a]).sum();
                         e.cols.push(pp + a);
-                        e.vals.push(w * d);
+                        e.vals.push(w * g);
                     }
                     for a in 0..3 {
                         e.cols.push(pp + 3 + a);
                         e.vals.push(w * dq[row][a]);
                     }
-                    // Board pose through X_c.
+                    // Board pose through the plane: ∂X/∂(δω, δt) = d·∂λ/∂(δω, δt).
                     for a in 0..3 {
-                        let d: f64 = (0..3).map(|b| -dc[row][b] * sk[b][a]).sum();
                         e.cols.push(vc + a);
-                        e.vals.push(w * d);
+                        e.vals.push(w * dd * dl_dw[a]);
                     }
                     for a in 0..3 {
                         e.cols.push(vc + 3 + a);
-                        e.vals.push(w * dc[row][a]);
+                        e.vals.push(w * dd * dl_dt[a]);
                     }
                 }
             }
@@ -528,8 +578,45 @@ pub fn calibrate(
         .ok_or_else(|| degenerate("joint adjustment".into()))?;
     let st = &sol.state;
     let n = problem.n();
-    let cov = sol.covariance(n);
+    let mut cov = sol.covariance(n);
     let (nc, np) = (problem.cam_free.len(), problem.proj_free.len());
+    // The held camera's uncertainty, through the normal matrix with its columns.
+    let mut covariance_camera = None;
+    match (&opts.camera_covariance, cov.as_mut()) {
+        (Some(cc), Some(c)) if !opts.refine_camera => {
+            let held = uncertainty::uncertain_intrinsics(cc);
+            let with = Problem {
+                obj: problem.obj.clone(),
+                views: problem.views,
+                use_proj: problem.use_proj.clone(),
+                cam_free: held.clone(),
+                proj_free: problem.proj_free.clone(),
+                weight: problem.weight,
+            };
+            let normal = with
+                .eval(st)
+                .map(|e| e.normal_equations(with.n()).0)
+                .ok_or_else(|| degenerate("the camera's uncertainty: no Jacobian".into()))?;
+            let sigma: Vec<f64> = held
+                .iter()
+                .flat_map(|&i| held.iter().map(move |&j| cc.matrix[i][j]))
+                .collect();
+            if let Some(add) = uncertainty::held_covariance(&normal, held.len(), &sigma) {
+                c.iter_mut().zip(add).for_each(|(x, a)| *x += a);
+            }
+            covariance_camera = Some(*cc);
+        }
+        (_, Some(c)) if opts.refine_camera => {
+            let mut m = [[0.0; N_INTRINSICS]; N_INTRINSICS];
+            for (i, &k) in problem.cam_free.iter().enumerate() {
+                for (j, &l) in problem.cam_free.iter().enumerate() {
+                    m[k][l] = c[i * n + j];
+                }
+            }
+            covariance_camera = Some(CameraCovariance { matrix: m });
+        }
+        _ => {}
+    }
     let diag = |i: usize| cov.as_ref().map_or(0.0, |c| c[i * n + i].max(0.0).sqrt());
     let mut std_camera = [0.0; N_INTRINSICS];
     for (i, &k) in problem.cam_free.iter().enumerate() {
@@ -586,13 +673,28 @@ pub fn calibrate(
     let per = problem.split(&sol.residuals);
     let mut mviews = Vec::new();
     for (vi, (c, p)) in per.iter().enumerate() {
+        // The plane's distance h = n·t (n its unit normal): δh = (n × t)·δω + n·δt.
+        let (rot, t) = (st.rot[vi], st.t[vi]);
+        let nrm = rot.column(2);
+        let g = {
+            let a = nrm.cross(t);
+            [a[0], a[1], a[2], nrm[0], nrm[1], nrm[2]]
+        };
+        let vb = nc + np + 6 + 6 * vi;
+        let var_h = cov.as_ref().map_or(0.0, |c| {
+            (0..6)
+                .flat_map(|i| (0..6).map(move |j| (i, j)))
+                .map(|(i, j)| g[i] * c[(vb + i) * n + vb + j] * g[j])
+                .sum::<f64>()
+        });
         mviews.push(ModelView {
             name: used[vi].name.clone(),
             rms_camera_px: rms2(c.iter().copied()).0,
             rms_projector_px: rms2(p.iter().map(|x| x.1)).0,
             projector_corners: p.len(),
-            rotation: st.rot[vi],
-            translation: st.t[vi],
+            rotation: rot,
+            translation: t,
+            distance_std_mm: var_h.max(0.0).sqrt(),
         });
     }
     let (rc, _) = rms2(per.iter().flat_map(|(c, _)| c.iter().copied()));
@@ -603,6 +705,7 @@ pub fn calibrate(
         rotation: qt,
         translation: qt.mul_vec(st.s) * -1.0,
         std_camera,
+        covariance_camera,
         std_projector,
         covariance_translation: cov_t,
         std_rotation_deg: std_rot,
@@ -667,6 +770,68 @@ mod tests {
             view("p1", [8.0, -12.0, 0.0], [0.0, 0.0, 600.0]),
             view("p2", [8.0, -12.0, 0.0], [0.0, 0.0, 490.0]),
         ];
+        // The joint problem's Jacobian (camera intrinsics free too) against central differences,
+        // at a state off the solution.
+        {
+            let used = &tilted;
+            let problem = Problem {
+                obj: obj.clone(),
+                views: used,
+                use_proj: used.iter().map(|v| vec![true; v.projector.len()]).collect(),
+                cam_free: (0..N_INTRINSICS).collect(),
+                proj_free: ModelOptions::default().projector.free(),
+                weight: [1.0, 2.0],
+            };
+            let mut rot = Vec::new();
+            let mut t = Vec::new();
+            for v in used.iter() {
+                let p = pose::board_pose(&cam, &board, &v.corners).unwrap();
+                rot.push(rodrigues(Vec3::new(1e-3, -2e-3, 5e-4)).mul_mat(&p.rotation));
+                t.push(p.translation + Vec3::new(0.3, -0.2, 0.5));
+            }
+            let mut c2 = cam;
+            c2.p[0] += 2.0;
+            c2.p[5] += 0.01;
+            let mut p2 = proj;
+            p2.p[3] += 1.5;
+            let st = State {
+                cam: c2,
+                proj: p2,
+                q: r.transpose(),
+                s: r.transpose().mul_vec(tt) * -1.0 + Vec3::new(0.2, 0.1, -0.3),
+                rot,
+                t,
+            };
+            let n = problem.n();
+            let e = problem.eval(&st).unwrap();
+            let m = e.r.len();
+            let mut jac = vec![0.0; m * n];
+            for i in 0..m {
+                for k in 0..e.width {
+                    jac[i * n + e.cols[i * e.width + k]] += e.vals[i * e.width + k];
+                }
+            }
+            for j in 0..n {
+                let h = if j < N_INTRINSICS {
+                    1e-6 * cam.p[j].abs().max(1.0)
+                } else {
+                    1e-6
+                };
+                let mut dp = vec![0.0; n];
+                dp[j] = h;
+                let rp = problem.eval(&problem.apply(&st, &dp)).unwrap().r;
+                dp[j] = -h;
+                let rm = problem.eval(&problem.apply(&st, &dp)).unwrap().r;
+                for i in 0..m {
+                    let fd = (rp[i] - rm[i]) / (2.0 * h);
+                    let an = jac[i * n + j];
+                    assert!(
+                        (fd - an).abs() <= 1e-4 * (1.0 + fd.abs()),
+                        "row {i} column {j}: {an} vs {fd}"
+                    );
+                }
+            }
+        }
         for (views, opts) in [
             (&tilted, ModelOptions::default()),
             (&parallel, ModelOptions::default()),

@@ -309,7 +309,8 @@ fn camera(a: CameraArgs, g: Global) -> Result<()> {
         outlier_factor: a.outlier_factor,
         ..Default::default()
     };
-    let pb = common::progress(paths.len() as u64, "corners", g.quiet || g.json);
+    // Two detection passes: before and after the lens is known (calibrate_camera_files).
+    let pb = common::progress(2 * paths.len() as u64, "corners", g.quiet || g.json);
     let inc = |n: u64| pb.inc(n);
     let (cal, dv) =
         files::calibrate_camera_files(&paths, &board, &DetectOptions::default(), &opts, &inc)?;
@@ -399,6 +400,8 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
         .map(|(i, _)| (i.width, i.height));
     common::input_file(&a.camera_from)?;
     let camera = files::load_camera(&a.camera_from, size)?;
+    // Its covariance, when the file records it (calibrate camera's), for honest σ.
+    let camera_covariance = files::load_camera_covariance(&a.camera_from)?;
     let depth = match &a.depth_range {
         Some(s) => {
             let v: Vec<f64> = s
@@ -433,6 +436,7 @@ fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
                 fix_k3: !a.projector_free_k3,
                 fix_tangential: a.projector_fix_tangential,
             },
+            camera_covariance,
             ..Default::default()
         },
         corner_radius: a.corner_window,

@@ -107,6 +107,7 @@ pub fn import(a: ImportArgs, g: Global) -> Result<()> {
         projector: Some(rig.projector),
         projector_response: None,
         projector_defocus: None,
+        camera_covariance: None,
     };
     cal.validate()
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.file.display()))?;

@@ -286,6 +286,9 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
     say("calibration demo 4/6: calibrate projector ...");
     let pl_board = data.plate_board;
     let camera = files::load_camera(&cam_file, Some((cam.lens.width, cam.lens.height)))?;
+    // As `calibrate projector --camera-from camera.yml` does: with the camera's covariance.
+    let mut popts = ProjectorFileOptions::default();
+    popts.model.camera_covariance = files::load_camera_covariance(&cam_file)?;
     let pr = projector_files::calibrate_projector_files(
         &camera,
         &data.plate_dirs,
@@ -293,7 +296,7 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         &pl_dir.join("patterns_h.toml"),
         &pl_board,
         &DetectOptions::default(),
-        &ProjectorFileOptions::default(),
+        &popts,
         o.volume_depth_range.then_some(rig.depth_range),
         &|_| {},
     )?;
@@ -352,10 +355,11 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         .acos()
         .to_degrees();
     let corner_truth = corner_errors(cb_dir, &dv)?;
+    let plates_j = plate_errors(pl_dir, &pr.plates)?;
     let mut report = json!({
         "work_dir": work_dir, "calibration": cal_path,
         "camera": {"parameters": cam_j, "fx_relative_error": fx_rel, "fy_relative_error": fy_rel, "principal_point_error_px": pp_err,
-                   "reprojection_rms_px": cam.rms, "sigma_px": cam.sigma, "views_used": cam.views.len(), "views_rejected": cam.rejected,
+                   "reprojection_rms_px": cam.rms, "sigma_px": cam.sigma, "jackknife_ratio": cam.jackknife_ratio, "views_used": cam.views.len(), "views_rejected": cam.rejected,
                    "corner_error_vs_truth_px": corner_truth},
         "projector": {"estimate": p_est, "truth": p_true, "error": p_err, "error_norm_mm": p_err.norm(),
                       "std": pr.model.std_translation(), "intrinsics": proj_j,
@@ -364,7 +368,9 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
                       "depth_range_source": if o.volume_depth_range { "the rig's measurement volume (--depth-range)" } else { "the plates' z range padded by 10 %" }},
         "reference": {"point": rr.plane.point, "normal": rr.plane.normal, "truth_point": rig.reference_point, "truth_normal": n_true,
                       "offset_along_normal_mm": plane_offset, "normal_angle_deg": plane_angle,
-                      "distance_std_mm": rr.plane.distance_std_mm, "valid_fraction": rr.valid_fraction},
+                      "distance_std_mm": rr.plane.distance_std_mm, "tilt_std_deg": rr.plane.tilt_std_deg,
+                      "valid_fraction": rr.valid_fraction},
+        "plates": plates_j,
     });
 
     // 6. Scans.
@@ -407,6 +413,50 @@ pub fn demo_calibrate_with(work_dir: &Path, o: &DemoOptions) -> Result<(PathBuf,
         w.write_all(text.as_bytes())
     })?;
     Ok((cal_path, report))
+}
+
+/// Each plate's plane against the rendered truth (`truth/plates.json` of the plates dataset):
+/// the estimate's offset along the true normal, its angle, and the σ `calibrate projector`
+/// reported for its distance.
+fn plate_errors(pl_dir: &Path, plates: &[Value]) -> Result<Value> {
+    let p = pl_dir.join("truth/plates.json");
+    let truth: Value = serde_json::from_str(
+        &std::fs::read_to_string(&p).with_context(|| format!("{}: cannot read", p.display()))?,
+    )?;
+    let v3 = |v: &Value| -> Option<Vec3> {
+        let a = v.as_array()?;
+        Some(Vec3::new(
+            a.first()?.as_f64()?,
+            a.get(1)?.as_f64()?,
+            a.get(2)?.as_f64()?,
+        ))
+    };
+    let mut out = Vec::new();
+    for t in truth["plates"].as_array().into_iter().flatten() {
+        let folder = t["folder"].as_str().unwrap_or_default();
+        let Some(est) = plates.iter().find(|e| {
+            e["plate"]
+                .as_str()
+                .is_some_and(|n| !folder.is_empty() && (n.ends_with(folder) || folder.ends_with(n)))
+        }) else {
+            continue;
+        };
+        let (Some(tp), Some(tn), Some(ep), Some(en)) = (
+            v3(&t["plane_point"]),
+            v3(&t["plane_normal"]),
+            v3(&est["plane_point"]),
+            v3(&est["plane_normal"]),
+        ) else {
+            continue;
+        };
+        let tn = tn.try_normalized().unwrap_or(tn);
+        out.push(
+            json!({"plate": est["plate"], "offset_along_normal_mm": tn.dot(ep - tp),
+            "normal_angle_deg": tn.dot(en).abs().clamp(-1.0, 1.0).acos().to_degrees(),
+            "distance_std_mm": est["distance_std_mm"], "tilt_std_deg": est["tilt_std_deg"]}),
+        );
+    }
+    Ok(json!(out))
 }
 
 /// Decode a rendered fringe dataset and reconstruct it with `calibration`, then score it.

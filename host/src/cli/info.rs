@@ -112,6 +112,18 @@ fn toml_info(p: &Path) -> Result<serde_json::Value> {
                 "projector_model_present".into(),
                 json!(c.projector.is_some()),
             );
+            // The camera's σ from its covariance (what the later steps add to theirs).
+            o.insert(
+                "camera_std".into(),
+                json!(c.camera_covariance.map(|cv| {
+                    let sd = cv.std();
+                    crate::io::calibration::COVARIANCE_ORDER
+                        .iter()
+                        .zip(sd)
+                        .map(|(n, s)| (n.to_string(), json!(s)))
+                        .collect::<serde_json::Map<_, _>>()
+                })),
+            );
         }
         Ok(v)
     } else if raw.contains_key("projector") {

@@ -188,6 +188,7 @@ impl Rig {
             }),
             projector_response: None,
             projector_defocus: None,
+            camera_covariance: None,
         }
     }
 }

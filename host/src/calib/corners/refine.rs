@@ -3,7 +3,76 @@
 //! ([`refine_model`]).
 
 use super::{Image, dist};
+use crate::calib::lens::Lens;
 use crate::calib::{linalg, lm};
+
+/// Pixel positions around a centre `c` with the lens's distortion straightened: `w(p) = c +
+/// A⁻¹·(P(p) − P(c))`, `P` the ideal (undistorted) pixel of `p` and `A = ∂P/∂p` at `c`. Straight
+/// lines of the scene are straight in `w`, and `w(p) = p + O(|p − c|²)`: near `c` a pixel's box
+/// keeps its size and shape, and only the curvature that distortion gives the board's edges is
+/// taken out. Fitting straight edges to curved ones pulls a corner towards the edges' centres of
+/// curvature: with the default rig's barrel distortion every board came out 4·10⁻⁶ smaller than
+/// it is (docs/calibration.md, "Corners and lens distortion").
+struct Straighten {
+    lens: Lens,
+    c: [f64; 2],
+    pc: [f64; 2],
+    /// `A⁻¹`, row-major.
+    ainv: [f64; 4],
+}
+
+impl Straighten {
+    fn new(lens: &Lens, c: [f64; 2]) -> Option<Straighten> {
+        let p = |u: f64, v: f64| ideal(lens, u, v);
+        let pc = p(c[0], c[1])?;
+        let (xp, xm) = (p(c[0] + 1.0, c[1])?, p(c[0] - 1.0, c[1])?);
+        let (yp, ym) = (p(c[0], c[1] + 1.0)?, p(c[0], c[1] - 1.0)?);
+        let a = [
+            0.5 * (xp[0] - xm[0]),
+            0.5 * (yp[0] - ym[0]),
+            0.5 * (xp[1] - xm[1]),
+            0.5 * (yp[1] - ym[1]),
+        ];
+        let det = a[0] * a[3] - a[1] * a[2];
+        if !(det.abs() > 1e-9) {
+            return None;
+        }
+        Some(Straighten {
+            lens: *lens,
+            c,
+            pc,
+            ainv: [a[3] / det, -a[1] / det, -a[2] / det, a[0] / det],
+        })
+    }
+
+    fn apply(&self, p: [f64; 2]) -> Option<[f64; 2]> {
+        let q = ideal(&self.lens, p[0], p[1])?;
+        let (dx, dy) = (q[0] - self.pc[0], q[1] - self.pc[1]);
+        let a = &self.ainv;
+        Some([
+            self.c[0] + a[0] * dx + a[1] * dy,
+            self.c[1] + a[2] * dx + a[3] * dy,
+        ])
+    }
+
+    /// The pixel `p` with `w(p) = q` (`w` is the identity to first order near `c`: a few
+    /// fixed-point steps).
+    fn invert(&self, q: [f64; 2]) -> Option<[f64; 2]> {
+        let mut p = q;
+        for _ in 0..4 {
+            let w = self.apply(p)?;
+            p = [p[0] + q[0] - w[0], p[1] + q[1] - w[1]];
+        }
+        Some(p)
+    }
+}
+
+/// The ideal (undistorted) pixel of `(u, v)`: the pinhole's projection of its ray.
+fn ideal(lens: &Lens, u: f64, v: f64) -> Option<[f64; 2]> {
+    let (x, y) = lens.undistort(u, v)?;
+    let [fx, fy, skew, cx, cy, ..] = lens.p;
+    Some([fx * x + skew * fx * y + cx, fy * y + cy])
+}
 
 /// Saddle point of `Σ_k G_σ(q − k) I(k)` near `q0` by Newton's method.
 pub fn refine_saddle(img: &Image, q0: [f64; 2], sigma: f64) -> Result<[f64; 2], &'static str> {
@@ -214,16 +283,23 @@ pub(super) fn edge_angles(h: [f64; 3]) -> Option<(f64, f64)> {
 /// the integrals, exact for edges along the pixel axes) is point-symmetric about q and confined to
 /// the pixels at the corner.
 /// Levenberg–Marquardt over the 11 parameters; the window is re-centred once on the result.
+///
+/// With the camera's `lens` known, the pixels' positions are first straightened (the lens's
+/// distortion taken out around the window's centre, to second order), so that the board's edges,
+/// which distortion curves, are straight as the model has them; the corner is mapped back.
 pub fn refine_model(
     img: &Image,
     q0: [f64; 2],
     radius: f64,
     angles: (f64, f64),
+    lens: Option<&Lens>,
 ) -> Result<[f64; 2], &'static str> {
     let taper = 3.0f64.min(0.5 * radius);
     // Pixels within `radius` of `c` with a cosine taper over the outer `taper` pixels (so that
     // the estimate does not jump when a rim pixel enters or leaves the window).
-    let window = |c: [f64; 2]| -> Result<Vec<(f64, f64, f64, f64)>, &'static str> {
+    let window = |c: [f64; 2],
+                  warp: Option<&Straighten>|
+     -> Result<Vec<(f64, f64, f64, f64)>, &'static str> {
         let r = radius.ceil() as isize;
         let (cx, cy) = (c[0].round() as isize, c[1].round() as isize);
         if cx - r < 0 || cy - r < 0 || cx + r >= img.width as isize || cy + r >= img.height as isize
@@ -242,9 +318,15 @@ pub fn refine_model(
                     } else {
                         1.0
                     };
+                    let at = match warp {
+                        Some(s) => s
+                            .apply([x as f64, y as f64])
+                            .ok_or("outside the lens model")?,
+                        None => [x as f64, y as f64],
+                    };
                     px.push((
-                        x as f64,
-                        y as f64,
+                        at[0],
+                        at[1],
                         img.at(x as usize, y as usize) as f64,
                         w.sqrt(),
                     ));
@@ -268,7 +350,10 @@ pub fn refine_model(
     let mut q = q0;
     let mut state: Option<Vec<f64>> = None;
     for _pass in 0..2 {
-        let px = window(q)?;
+        // The model's coordinates: the pixels' own, or straightened about the window's centre
+        // (the identity there, so `q` and the previous solution carry over).
+        let warp = lens.and_then(|l| Straighten::new(l, q));
+        let px = window(q, warp.as_ref())?;
         let lo = px.iter().map(|p| p.2).fold(f64::INFINITY, f64::min);
         let hi = px.iter().map(|p| p.2).fold(f64::NEG_INFINITY, f64::max);
         let span = hi - lo;
@@ -379,7 +464,10 @@ pub fn refine_model(
         )
         .ok_or("model fit failed")?;
         let x = sol.state;
-        let nq = [x[0], x[1]];
+        let nq = match &warp {
+            Some(w) => w.invert([x[0], x[1]]).ok_or("outside the lens model")?,
+            None => [x[0], x[1]],
+        };
         if !(nq[0].is_finite() && nq[1].is_finite()) || dist(nq, q0) > 0.5 * radius {
             return Err("model fit wandered off");
         }
@@ -387,6 +475,9 @@ pub fn refine_model(
             return Err("no contrast at the corner");
         }
         q = nq;
+        // The next window is straightened about `q`, where its coordinates are the pixels'.
+        let mut x = x;
+        (x[0], x[1]) = (q[0], q[1]);
         state = Some(x);
     }
     Ok(q)

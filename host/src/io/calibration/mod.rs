@@ -16,6 +16,7 @@
 //!
 //! The file format is specified field by field in `docs/formats.md`.
 
+mod covariance;
 mod pattern_digest;
 mod response;
 mod schema;
@@ -24,6 +25,7 @@ mod validate;
 
 pub use super::camera_check::validate_camera;
 pub use super::error::FormatError;
+pub use covariance::{COVARIANCE_ORDER, CameraCovariance};
 pub use fringe3d_core::params::{CameraParams, Distortion, ProjectorParams, ScanGeometry};
 pub use pattern_digest::{
     DIGEST_PREFIX, PatternCheck, PatternSetError, ReferenceDigest, ScanPatterns, check_pattern_set,

@@ -54,6 +54,11 @@ pub struct Calibration {
     /// (`response::binary::binary_correction`, docs/binary.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub projector_defocus: Option<f64>,
+    /// The covariance of the camera's intrinsics from its calibration, when known (`calibrate
+    /// camera`'s file or `calibrate projector --camera-intrinsics refine`): the later steps add
+    /// the camera's uncertainty to the σ they report (docs/calibration.md, "Honest σ").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_covariance: Option<super::CameraCovariance>,
 }
 
 /// The reference plane of paper §6 and its phase map.

@@ -90,6 +90,18 @@ impl Calibration {
             let _ = writeln!(s, "levels = {}  # x, 0..1", arr(&r.levels));
             let _ = writeln!(s, "response = {}  # r(x), 0..1", arr(&r.response));
         }
+        if let Some(c) = &self.camera_covariance {
+            let _ = writeln!(
+                s,
+                "\n[camera_covariance]  # of the camera's [{}], from its calibration",
+                super::COVARIANCE_ORDER.join(", ")
+            );
+            s.push_str("matrix = [\n");
+            for row in &c.matrix {
+                let _ = writeln!(s, "  {},", arr(row));
+            }
+            s.push_str("]\n");
+        }
         Ok(s)
     }
 }

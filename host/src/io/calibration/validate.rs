@@ -58,6 +58,11 @@ impl Calibration {
         {
             errs.push(m);
         }
+        if let Some(c) = &self.camera_covariance
+            && let Err(m) = c.validate()
+        {
+            errs.push(m);
+        }
         if let Some(d) = self.projector_defocus
             && !(d.is_finite() && (0.0..=super::MAX_DEFOCUS).contains(&d))
         {

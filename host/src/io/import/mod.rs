@@ -24,7 +24,7 @@ mod stereo_fs;
 use std::path::Path;
 
 pub use bouguet::{import_bouguet, import_bouguet_file};
-pub use opencv::import_opencv;
+pub use opencv::{import_opencv, import_opencv_covariance};
 pub use opencv_export::{export_opencv_stereo, opencv_stereo_yaml};
 pub use rig::{ImportedRig, RigFormat, RigSizes};
 

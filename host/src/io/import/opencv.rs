@@ -3,6 +3,7 @@
 use std::path::Path;
 
 use super::filestorage::{Node, matrix_values, parse_filestorage};
+use crate::io::calibration::{COVARIANCE_ORDER, CameraCovariance};
 use crate::io::camera_check::validate_camera;
 use crate::io::error::{FormatError, read_text};
 use fringe3d_core::params::CameraParams;
@@ -22,6 +23,33 @@ pub fn import_opencv(path: &Path, width: u32, height: u32) -> Result<CameraParam
     let text = read_text(path)?;
     let root = parse_filestorage(&text).map_err(|m| FormatError::parse(path, m))?;
     opencv_camera(&root, width, height).map_err(|m| FormatError::invalid(path, m))
+}
+
+/// The covariance of the camera's intrinsics an OpenCV `cv::FileStorage` camera file holds
+/// under `intrinsics_covariance` (fringe3d's own key: a 10 × 10 matrix over `[fx, fy, skew, cx,
+/// cy, k1, k2, p1, p2, k3]`, as `calibrate camera` writes it), validated; `None` when the file
+/// has none (OpenCV's own files never do).
+pub fn import_opencv_covariance(path: &Path) -> Result<Option<CameraCovariance>, FormatError> {
+    let text = read_text(path)?;
+    let root = parse_filestorage(&text).map_err(|m| FormatError::parse(path, m))?;
+    let Some(node) = root.get("intrinsics_covariance") else {
+        return Ok(None);
+    };
+    let v = matrix_values(node)
+        .map_err(|m| FormatError::invalid(path, format!("intrinsics_covariance: {m}")))?;
+    let flat: [f64; 100] = v.as_slice().try_into().map_err(|_| {
+        FormatError::invalid(
+            path,
+            format!(
+                "intrinsics_covariance has {} values, expected 100 (10x10 over {})",
+                v.len(),
+                COVARIANCE_ORDER.join(", ")
+            ),
+        )
+    })?;
+    let c = CameraCovariance::from_flat(&flat);
+    c.validate().map_err(|m| FormatError::invalid(path, m))?;
+    Ok(Some(c))
 }
 
 fn opencv_camera(root: &Node, width: u32, height: u32) -> Result<CameraParams, String> {
