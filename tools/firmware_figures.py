@@ -148,7 +148,7 @@ def update(doc, g, h):
 
     # The head binary's table.
     i, part = section(doc, "Figures (release build; printed by the firmware", "**The test**")
-    stack = parse_num(re.search(rf"\| stack high-water, after a scan \| ({NUM}) \|", part)[1])
+    stack = parse_num(re.search(rf"\| stack high-water, after a scan \| ({NUM})(?= \(| \|)", part)[1])
     peak = h["static"] + stack
     subs = [
         (rf"(\| flash \| ){NUM}( \|)", rf"\g<1>{num(h['flash'])}\g<2>"),
