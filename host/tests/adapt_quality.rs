@@ -132,7 +132,7 @@ fn no_unwrapping_failure_at_b_over_sigma_14() {
 }
 
 /// Curved fringes (issue #22 item 1): on a rig whose projector epipole is near the DMD, the bend
-/// about it lowers the predicted error (by under 1 %: `adapt` keeps such fringes straight), the
+/// about it lowers the predicted error (by a few per cent: docs/adaptive.md gives the figure), the
 /// epipole it bends about is the one found independently (where two camera rays' images on the
 /// projector cross), and the core accepts the bent file.
 #[test]
@@ -184,7 +184,7 @@ fn curved_fringes_pay_where_the_epipolar_lines_fan() {
     let d1 = solve(&rig.with_bend(a, w0).samples(&map), &template, &goal).unwrap();
     let gain = d0.adaptive.rms_per_rad / d1.adaptive.rms_per_rad;
     eprintln!("near epipole at ({:.0}, {w0:.0}): bend gain x{gain:.3}", e);
-    assert!(gain > 1.002 && gain < 1.01, "{gain}");
+    assert!(gain > 1.002 && gain < 1.08, "{gain}");
     // The file carries the bend and the core accepts it.
     let file = fringe3d::adapt::bent_file(
         &fringe3d::io::pattern_file::PatternSetFile::from_pattern_set(&set, 8),

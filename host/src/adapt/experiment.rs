@@ -26,6 +26,7 @@ use crate::render::dataset::{DatasetOptions, write_dataset};
 use crate::render::scene::{Overrides, PatternSpec, ReferenceMode, SceneSpec};
 use crate::scan::{PointCloud, ScanCalibration, filter_edges};
 use fringe3d_core::decode::{DecodeConfig, Decoder};
+use fringe3d_core::validity::Validity;
 
 /// What one scene's experiment runs.
 #[derive(Clone, Debug)]
@@ -66,6 +67,9 @@ pub struct Point {
     pub predicted_gain: Option<f64>,
     /// Why no set was designed at this ratio (adaptive only).
     pub refused: Option<String>,
+    /// The unresolvable pixels by cause, shares of the scored pixels: a validity code's name,
+    /// or `gross` for a point more than [`Config::gross_mm`] from the truth.
+    pub lost: std::collections::BTreeMap<&'static str, f64>,
 }
 
 impl Point {
@@ -80,22 +84,58 @@ impl Point {
             pixels: 0,
             predicted_gain: None,
             refused: None,
+            lost: Default::default(),
         }
     }
 
-    /// Scored by [`score`].
-    fn scored(self, (rms_mm, unresolvable, pixels): (f64, f64, usize)) -> Point {
+    /// Scored by [`score_detail`].
+    fn scored(self, s: Score) -> Point {
+        let n = s.pixels.max(1) as f64;
         Point {
-            rms_mm,
-            unresolvable,
-            pixels,
+            rms_mm: s.rms_mm,
+            unresolvable: s.unresolvable,
+            pixels: s.pixels,
+            lost: s.lost.into_iter().map(|(k, c)| (k, c as f64 / n)).collect(),
             ..self
         }
     }
 }
 
-/// The score of a cloud on the object (every primitive but the one named `background`).
+/// A cloud's score on the object ([`score_detail`]).
+#[derive(Clone, Debug)]
+pub struct Score {
+    /// RMS point error over the resolved pixels, mm.
+    pub rms_mm: f64,
+    /// Unresolvable share of the scored pixels.
+    pub unresolvable: f64,
+    /// Object interior pixels scored.
+    pub pixels: usize,
+    /// Unresolvable pixels by cause: a validity code's name, or `gross`.
+    pub lost: std::collections::BTreeMap<&'static str, usize>,
+    /// Per pixel: [`NOT_SCORED`], [`RESOLVED`] or [`UNRESOLVABLE`].
+    pub status: Vec<u8>,
+}
+
+/// [`Score::status`]: not an interior pixel of the object.
+pub const NOT_SCORED: u8 = 0;
+/// [`Score::status`]: a point within the gross limit.
+pub const RESOLVED: u8 = 1;
+/// [`Score::status`]: no point, or one beyond the gross limit.
+pub const UNRESOLVABLE: u8 = 2;
+
+/// The score of a cloud on the object (every primitive but the one named `background`): RMS,
+/// unresolvable share, pixels scored ([`score_detail`]).
 pub fn score(cloud: &PointCloud, truth: &Truth, gross_mm: f64) -> (f64, f64, usize) {
+    let s = score_detail(cloud, truth, gross_mm);
+    (s.rms_mm, s.unresolvable, s.pixels)
+}
+
+/// The score of a cloud on the object's interior pixels (lit, seen, the 3×3 neighbourhood on
+/// one primitive): a pixel without a point, or with one more than `gross_mm` from the truth, is
+/// unresolvable; the RMS is over the others.
+pub fn score_detail(cloud: &PointCloud, truth: &Truth, gross_mm: f64) -> Score {
+    let mut lost = std::collections::BTreeMap::new();
+    let mut status = vec![NOT_SCORED; truth.width * truth.height];
     let (w, h) = (truth.width, truth.height);
     let background: Vec<u16> = truth
         .primitives
@@ -121,15 +161,21 @@ pub fn score(cloud: &PointCloud, truth: &Truth, gross_mm: f64) -> (f64, f64, usi
                 continue;
             }
             n += 1;
+            status[i] = UNRESOLVABLE;
             if cloud.validity[i] != 0 {
+                let name = Validity::from_u8(cloud.validity[i]).map_or("unknown", |v| v.name());
+                *lost.entry(name).or_insert(0) += 1;
                 continue;
             }
             let d2: f64 = (0..3)
                 .map(|k| (f64::from(cloud.xyz[3 * i + k]) - truth.points[3 * i + k]).powi(2))
                 .sum();
             if d2 <= gross_mm * gross_mm {
+                status[i] = RESOLVED;
                 ok += 1;
                 sq += d2;
+            } else {
+                *lost.entry("gross").or_insert(0) += 1;
             }
         }
     }
@@ -138,7 +184,13 @@ pub fn score(cloud: &PointCloud, truth: &Truth, gross_mm: f64) -> (f64, f64, usi
     } else {
         f64::NAN
     };
-    (rms, 1.0 - ok as f64 / n.max(1) as f64, n)
+    Score {
+        rms_mm: rms,
+        unresolvable: 1.0 - ok as f64 / n.max(1) as f64,
+        pixels: n,
+        lost,
+        status,
+    }
 }
 
 /// Render `spec` with `patterns` into `dir`, give it a virtual reference, scan it: the cloud and
@@ -273,7 +325,11 @@ pub fn run_scene(scene: &Path, cfg: &Config, work: &Path) -> Result<Vec<Point>> 
         let (cloud, d) = render_scan(&spec, fixed_spec(r), &dir)
             .with_context(|| format!("{}: the fixed set of ratio {r}", scene.display()))?;
         let truth = load_truth(&dir)?;
-        points.push(Point::new("fixed", r, span).scored(score(&cloud, &truth, cfg.gross_mm)));
+        points.push(Point::new("fixed", r, span).scored(score_detail(
+            &cloud,
+            &truth,
+            cfg.gross_mm,
+        )));
         // The first scan: the coarsest fixed set (the most robust).
         if first.is_none() {
             first = Some(((cloud, d), dir));
@@ -305,7 +361,7 @@ pub fn run_scene(scene: &Path, cfg: &Config, work: &Path) -> Result<Vec<Point>> 
                 predicted_gain: Some(design.fixed.rms_per_rad / design.adaptive.rms_per_rad),
                 ..Point::new("adaptive", r, span)
             }
-            .scored(score(&cloud, &truth, cfg.gross_mm)),
+            .scored(score_detail(&cloud, &truth, cfg.gross_mm)),
         );
     }
     Ok(points)

@@ -159,7 +159,8 @@ pub enum Binding {
 /// Predicted figures of one phase function on the object.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Prediction {
-    /// RMS point error per radian of phase noise, mm/rad (× σ_φ gives mm).
+    /// RMS point error per radian of phase noise, mm/rad (× σ_φ gives mm; σ_φ the phase noise
+    /// at the fringes' full contrast: what the optics lose at each pixel's period is counted).
     pub rms_per_rad: f64,
     /// Fraction of the object's pixels whose finest fringes the optics or the noise do not
     /// resolve (steeper than the pixel's limit).
@@ -295,26 +296,60 @@ pub fn contrast(p: f64, sigma: f64) -> f64 {
     (-2.0 * x * x * sigma * sigma).exp() * if x > 0.0 { x.sin() / x } else { 1.0 }
 }
 
+/// The share of the fringes' contrast the projector's and the camera's optics pass at base slope
+/// `s` on a pixel of gradient `grad` (projector pixels per camera pixel): the finest period is
+/// `p = 2π/(c_K·s)` on the DMD and `p/grad` in the image, each blurred with its pixel's box
+/// ([`contrast`]). The phase noise grows as it falls (σ_φ ∝ 1/B).
+pub fn optics_contrast(finest: f64, s: f64, grad: f64, g: &Goal) -> f64 {
+    let p = TAU / (finest * s);
+    contrast(p, g.projector_blur) * contrast(p / grad, g.camera_blur)
+}
+
+/// `d ln C/dp` of [`contrast`] at period `p`: `4π²σ²/p³ − (π/p²)·(cot x − 1/x)`, `x = π/p`.
+fn log_contrast_per_period(p: f64, sigma: f64) -> f64 {
+    let x = std::f64::consts::PI / p;
+    let pi = std::f64::consts::PI;
+    4.0 * pi * pi * sigma * sigma / (p * p * p) - (pi / (p * p)) * (x.cos() / x.sin() - 1.0 / x)
+}
+
+/// `d ln(optics_contrast)/ds` at slope `s` ([`optics_contrast`]; `dp/ds = −p/s`): negative, the
+/// contrast falls as the fringes get denser.
+pub fn log_contrast_rate(finest: f64, s: f64, grad: f64, g: &Goal) -> f64 {
+    let p = TAU / (finest * s);
+    let d = log_contrast_per_period(p, g.projector_blur)
+        + log_contrast_per_period(p / grad, g.camera_blur) / grad;
+    -d * p / s
+}
+
+/// One pixel's squared point error per squared radian of full-contrast phase noise,
+/// `w/(c_K·s·C)²`: the triangulation's `w = 1/(dξ/dt)²`, the slope, and the contrast the optics
+/// leave at that slope ([`optics_contrast`]).
+pub fn point_variance(s: &Sample, slope: f64, finest: f64, g: &Goal) -> f64 {
+    let c = optics_contrast(finest, slope, s.grad, g);
+    s.weight / (finest * slope * c).powi(2)
+}
+
 /// Predicted figures of the slope profile `slope(column)` on `samples` whose largest resolvable
-/// slopes are `limits`.
+/// slopes are `limits`, with the optics of `g`.
 pub fn predict(
     samples: &[Sample],
     limits: &[f64],
     finest: f64,
     percentile_period: f64,
+    g: &Goal,
     slope: impl Fn(f64) -> f64,
 ) -> Prediction {
     let (mut sum, mut lost) = (0.0, 0usize);
     for (s, &limit) in samples.iter().zip(limits) {
         let k = slope(s.along);
-        sum += s.weight / (k * k);
+        sum += point_variance(s, k, finest, g);
         if k > limit * (1.0 + 1e-9) {
             lost += 1;
         }
     }
     let n = samples.len().max(1) as f64;
     Prediction {
-        rms_per_rad: (sum / n).sqrt() / finest,
+        rms_per_rad: (sum / n).sqrt(),
         unresolvable: lost as f64 / n,
         min_camera_period: percentile_period,
     }
