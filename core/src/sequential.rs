@@ -19,8 +19,14 @@
 //! memory figures hold for every backend.
 
 use crate::arith::{Arith, F32Accurate};
-use crate::decode::{DecodeError, Decoder, RowOut, Sample, State};
+use crate::decode::hdr::MAX_EXPOSURES;
+use crate::decode::{BLOCK, DecodeError, Decoder, RowOut, Sample, State};
 use crate::pattern::MAX_LEVELS;
+
+/// Flag bit: some sample of the pixel saturated (the decoder's bit 0).
+const SATURATED: u8 = 1;
+/// Flag bit: an earlier exposure decoded the pixel unsaturated ([`FrameDecoder::next_exposure`]).
+const LOCKED: u8 = 2;
 
 /// Decodes a set whose frames arrive one after another, in the arithmetic `A` of its decoder.
 pub struct FrameDecoder<'d, 's, A: Arith = F32Accurate> {
@@ -30,6 +36,8 @@ pub struct FrameDecoder<'d, 's, A: Arith = F32Accurate> {
     st: State<'s, A::Acc>,
     image: usize,
     row: usize,
+    /// Exposures completed before the current one ([`FrameDecoder::next_exposure`]).
+    exposure: usize,
 }
 
 fn sub<T>(s: &mut [T], from: usize, len: usize) -> &mut [T] {
@@ -92,11 +100,18 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
             st: State { dc, s, c, flags },
             image: 0,
             row: 0,
+            exposure: 0,
         })
     }
 
     fn view(&mut self, y: usize) -> State<'_, A::Acc> {
-        let (o, w) = (y * self.width, self.width);
+        let w = self.width;
+        self.view_cols(y, 0, w)
+    }
+
+    /// The state of columns `x0..x0 + w` of row `y`.
+    fn view_cols(&mut self, y: usize, x0: usize, w: usize) -> State<'_, A::Acc> {
+        let o = y * self.width + x0;
         let [s0, s1, s2, s3, s4, s5] = &mut self.st.s;
         let [c0, c1, c2, c3, c4, c5] = &mut self.st.c;
         State {
@@ -134,8 +149,12 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
         }
         let (image, y) = (self.image, self.row);
         let decoder = self.decoder;
-        let mut v = self.view(y);
-        decoder.accumulate(image, row, &mut v)?;
+        if self.exposure == 0 {
+            let mut v = self.view(y);
+            decoder.accumulate(image, row, &mut v)?;
+        } else {
+            self.accumulate_unlocked(image, y, row)?;
+        }
         self.row += 1;
         if self.row == self.height {
             self.row = 0;
@@ -163,6 +182,117 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
     /// `true` once every frame of the set is in.
     pub fn is_complete(&self) -> bool {
         self.image == self.decoder.image_count()
+    }
+
+    /// End an exposure and start the next, shorter one of the same set (HDR, [`crate::decode::hdr`]):
+    /// once every frame of the exposure is in, each pixel whose samples did not saturate is
+    /// locked (its sums stay that exposure's, and later frames pass it by), and every other
+    /// pixel's sums and flags are cleared, so that the next exposure's frames accumulate into it
+    /// from zero, as a decode of that exposure alone would. Frames then start again at the set's
+    /// first. At most [`MAX_EXPOSURES`] exposures.
+    pub fn next_exposure(&mut self) -> Result<(), DecodeError> {
+        if !self.is_complete() || self.exposure + 1 >= MAX_EXPOSURES {
+            return Err(DecodeError::Sequence);
+        }
+        let levels = self.decoder.level_count();
+        let plane = self.width * self.height;
+        let st = &mut self.st;
+        for i in 0..plane {
+            let Some(f) = st.flags.get_mut(i) else { break };
+            if *f & SATURATED == 0 {
+                *f |= LOCKED;
+                continue;
+            }
+            *f = 0;
+            if let Some(x) = st.dc.get_mut(i) {
+                *x = A::ZERO;
+            }
+            for l in 0..levels {
+                if let Some(x) = st.s[l].get_mut(i) {
+                    *x = A::ZERO;
+                }
+                if let Some(x) = st.c[l].get_mut(i) {
+                    *x = A::ZERO;
+                }
+            }
+        }
+        self.exposure += 1;
+        self.image = 0;
+        self.row = 0;
+        Ok(())
+    }
+
+    /// Exposures begun so far minus one: 0 during the first ([`Self::next_exposure`]).
+    pub fn exposure(&self) -> usize {
+        self.exposure
+    }
+
+    /// [`Decoder::accumulate`] of row `y` of image `image` into the pixels that no earlier
+    /// exposure locked: blocks of [`BLOCK`] columns with no locked pixel are accumulated
+    /// directly, blocks of locked pixels only are passed by, and in a mixed block the locked
+    /// pixels' sums are kept aside on the stack and put back (the kernel is elementwise, so
+    /// its other pixels get the bits they would get in a whole row).
+    #[inline(never)]
+    fn accumulate_unlocked<P: Sample>(
+        &mut self,
+        image: usize,
+        y: usize,
+        row: &[P],
+    ) -> Result<(), DecodeError> {
+        let decoder = self.decoder;
+        let levels = decoder.level_count();
+        let mut x0 = 0;
+        while x0 < self.width {
+            let n = BLOCK.min(self.width - x0);
+            let cols = row.get(x0..x0 + n).ok_or(DecodeError::Length)?;
+            let mut v = self.view_cols(y, x0, n);
+            if v.flags.len() != n {
+                return Err(DecodeError::Length);
+            }
+            let mut lock = [false; BLOCK];
+            for (l, &f) in lock.iter_mut().zip(v.flags.iter()) {
+                *l = f & LOCKED != 0;
+            }
+            let locked = lock[..n].iter().filter(|&&l| l).count();
+            if locked == 0 {
+                decoder.accumulate(image, cols, &mut v)?;
+            } else if locked < n {
+                // Kept aside: DC, then S and C per level, then the flags.
+                let mut keep = [[A::ZERO; BLOCK]; 1 + 2 * MAX_LEVELS];
+                let mut keep_flags = [0u8; BLOCK];
+                let save = |k: &mut [A::Acc; BLOCK], p: &[A::Acc]| {
+                    for (d, &s) in k.iter_mut().zip(p) {
+                        *d = s;
+                    }
+                };
+                save(&mut keep[0], v.dc);
+                for l in 0..levels {
+                    save(&mut keep[1 + 2 * l], v.s[l]);
+                    save(&mut keep[2 + 2 * l], v.c[l]);
+                }
+                keep_flags[..n].copy_from_slice(v.flags);
+                decoder.accumulate(image, cols, &mut v)?;
+                let restore = |p: &mut [A::Acc], k: &[A::Acc; BLOCK]| {
+                    for ((d, &s), &l) in p.iter_mut().zip(k).zip(&lock) {
+                        if l {
+                            *d = s;
+                        }
+                    }
+                };
+                restore(v.dc, &keep[0]);
+                for l in 0..levels {
+                    restore(v.s[l], &keep[1 + 2 * l]);
+                    restore(v.c[l], &keep[2 + 2 * l]);
+                }
+                for ((d, &s), &l) in v.flags.iter_mut().zip(&keep_flags).zip(&lock) {
+                    if l {
+                        *d = s;
+                    }
+                }
+            }
+            x0 += n;
+        }
+        Ok(())
     }
 
     /// Write the outputs of row `y` (any order, any number of times) once the set is complete.

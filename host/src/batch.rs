@@ -13,7 +13,7 @@ use crate::gather::Avx2Pairs;
 #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
 use crate::gather::Avx512Pairs;
 use crate::io::image_set::{Frames, ImageSet};
-use fringe3d_core::decode::{DecodeError, DecodeScratch, Decoder, RowOut, Sample};
+use fringe3d_core::decode::{DecodeError, DecodeScratch, Decoder, RowOut, Sample, hdr};
 use fringe3d_core::reconstruct::compiled::{FIELDS, compiled_row, merge_search, search_mask};
 use fringe3d_core::reconstruct::{
     CellGather, ReconstructError, Reconstructor, ReferenceMap, ScalarGather,
@@ -321,19 +321,58 @@ pub fn decode_whole<P: Sample + Sync>(
     Ok(o)
 }
 
-/// [`decode_whole`] over a loaded image set (8- or 16-bit).
+/// [`decode_exposures`] over a loaded image set (8- or 16-bit): [`decode_whole`] for one
+/// exposure of the set, the HDR fusion for several.
 pub fn decode_image_set(d: &Decoder, imgs: &ImageSet) -> Result<Decoded, DecodeError> {
     let (w, h) = (imgs.width as usize, imgs.height as usize);
     match &imgs.frames {
         Frames::U8(f) => {
             let fr: Vec<&[u8]> = f.iter().map(|v| v.as_slice()).collect();
-            decode_whole(d, &fr, w, h)
+            decode_exposures(d, &fr, w, h)
         }
         Frames::U16(f) => {
             let fr: Vec<&[u16]> = f.iter().map(|v| v.as_slice()).collect();
-            decode_whole(d, &fr, w, h)
+            decode_exposures(d, &fr, w, h)
         }
     }
+}
+
+/// Whole frames of the set's images once per exposure, longest exposure first (at most
+/// [`hdr::MAX_EXPOSURES`]), decoded into one frame: each pixel from the longest exposure in which
+/// it did not saturate ([`fringe3d_core::decode::hdr`]). One exposure is [`decode_whole`].
+pub fn decode_exposures<P: Sample + Sync>(
+    d: &Decoder,
+    frames: &[&[P]],
+    width: usize,
+    height: usize,
+) -> Result<Decoded, DecodeError> {
+    let n = d.image_count().max(1);
+    let exposures = frames.len() / n;
+    if frames.len() != exposures * n || !(1..=hdr::MAX_EXPOSURES).contains(&exposures) {
+        return Err(DecodeError::Length);
+    }
+    let mut best = decode_whole(d, &frames[..n], width, height)?;
+    for shorter in frames[n..].chunks_exact(n) {
+        if !hdr::any_saturated(&best.validity) {
+            break;
+        }
+        let next = decode_whole(d, shorter, width, height)?;
+        hdr::fuse_exposure(
+            &mut RowOut {
+                phase: &mut best.phase,
+                modulation: &mut best.modulation,
+                dc: &mut best.dc,
+                validity: &mut best.validity,
+            },
+            &hdr::RowRef {
+                phase: &next.phase,
+                modulation: &next.modulation,
+                dc: &next.dc,
+                validity: &next.validity,
+            },
+        )?;
+    }
+    Ok(best)
 }
 
 /// Whole-frame outputs of a reconstruction: `xyz` is `3 × width × height` (x, y, z per pixel, mm),

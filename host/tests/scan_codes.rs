@@ -95,6 +95,7 @@ fn scene_with(name: &str, set: &Path, defocus: Option<f64>) -> Scene {
         noise: Some(1.0),
         pattern_bits: Some(8),
         seed: Some(11),
+        exposure: None,
     });
     spec.patterns.set = Some(PatternSetFile::load(set).unwrap());
     Scene::new(spec, None).unwrap()

@@ -31,6 +31,7 @@ mod hardening_bounds;
 mod hardening_cli;
 mod hardening_input;
 mod hardening_output;
+mod hdr_scan;
 mod import_cli;
 mod import_formats;
 mod noise_floor;

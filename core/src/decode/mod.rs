@@ -51,6 +51,7 @@
 //! | `finish` | pass 1 from planes, pass 2 (unwrapping, validity, outputs: [`Decoder::finish`]) |
 //! | `gray` | the Gray-code pass of both drivers (code words, ambiguity, the level-0 estimate) |
 //! | `correction` | [`PhaseCorrection`]: the per-level phase-error table (projector gamma) |
+//! | [`hdr`] | multi-exposure fusion: each pixel from the longest exposure that did not saturate |
 //! | `level` | one level's wrapped phase ([`Decoder::finish_level`], [`Decoder::decode_row_level`]) |
 //! | `buffers` | [`RowOut`], [`State`], [`DecodeScratch`] and the per-block arrays |
 //! | `any` | [`AnyDecoder`]: a decoder of any backend chosen at run time ([`Backend`]) |
@@ -68,6 +69,7 @@ mod decoder;
 mod finish;
 mod fused;
 mod gray;
+pub mod hdr;
 mod level;
 pub mod parity;
 pub mod reference;

@@ -5,7 +5,7 @@ use crate::batch::decode_image_set;
 use crate::io::calibration::{
     Calibration, PatternCheck, ScanPatterns, check_pattern_set, pattern_digest,
 };
-use crate::io::image_set::{self, ImageSet};
+use crate::io::image_set::{self, Frames, ImageSet};
 use crate::io::pattern_file::PatternSetFile;
 use crate::scan::ScanCalibration;
 use anyhow::{Context, Result, bail};
@@ -188,6 +188,86 @@ pub fn load_images(set: &LoadedSet, args: &[PathBuf], quiet: bool) -> Result<Ima
         }
     }
     Ok(imgs)
+}
+
+/// The images of an HDR scan (`--hdr`): one folder per exposure of the whole set, longest
+/// exposure first, loaded and checked as [`load_images`] does each, then one [`ImageSet`] of
+/// their frames in that order ([`crate::batch::decode_exposures`]). The folders must agree in
+/// size and bit depth, and their mean levels must fall from one to the next (the order the
+/// fusion relies on).
+pub fn load_exposures(set: &LoadedSet, folders: &[PathBuf], quiet: bool) -> Result<ImageSet> {
+    let max = fringe3d_core::decode::hdr::MAX_EXPOSURES;
+    if !(2..=max).contains(&folders.len()) {
+        bail!(
+            "--hdr takes 2 to {max} folders, one per exposure, longest first; got {}",
+            folders.len()
+        );
+    }
+    if let Some(f) = folders.iter().find(|f| !f.is_dir()) {
+        bail!(
+            "{}: --hdr takes folders, one per exposure; this is not one",
+            f.display()
+        );
+    }
+    let mut all: Option<ImageSet> = None;
+    let mut last_mean = f64::INFINITY;
+    for (k, folder) in folders.iter().enumerate() {
+        let imgs = load_images(set, std::slice::from_ref(folder), quiet)?;
+        let mean = frames_mean(&imgs.frames);
+        if mean >= last_mean {
+            bail!(
+                "{}: the exposures must be listed longest first, but this folder's mean level \
+                 ({mean:.1}) is not below the previous folder's ({last_mean:.1})",
+                folder.display()
+            );
+        }
+        last_mean = mean;
+        all = Some(match all {
+            None => imgs,
+            Some(mut a) => {
+                if (a.width, a.height, a.bits) != (imgs.width, imgs.height, imgs.bits) {
+                    bail!(
+                        "{}: exposure {} is {}x{} at {} bits, but the first ({}) is {}x{} at {} bits",
+                        folder.display(),
+                        k + 1,
+                        imgs.width,
+                        imgs.height,
+                        imgs.bits,
+                        folders[0].display(),
+                        a.width,
+                        a.height,
+                        a.bits
+                    );
+                }
+                match (&mut a.frames, imgs.frames) {
+                    (Frames::U8(x), Frames::U8(y)) => x.extend(y),
+                    (Frames::U16(x), Frames::U16(y)) => x.extend(y),
+                    _ => bail!(
+                        "{}: its images are stored at another sample size than the first exposure's ({})",
+                        folder.display(),
+                        folders[0].display()
+                    ),
+                }
+                a.paths.extend(imgs.paths);
+                a.warnings.extend(imgs.warnings);
+                a
+            }
+        });
+    }
+    all.ok_or_else(|| anyhow::anyhow!("--hdr: no folders"))
+}
+
+/// The mean sample of every frame.
+fn frames_mean(f: &Frames) -> f64 {
+    fn mean<T: Copy + Into<f64>>(v: &[Vec<T>]) -> f64 {
+        let n: usize = v.iter().map(Vec::len).sum();
+        let s: f64 = v.iter().flat_map(|x| x.iter()).map(|&x| x.into()).sum();
+        s / n.max(1) as f64
+    }
+    match f {
+        Frames::U8(v) => mean(v),
+        Frames::U16(v) => mean(v),
+    }
 }
 
 impl Decoded {

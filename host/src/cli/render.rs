@@ -55,6 +55,10 @@ pub struct RenderArgs {
     /// Camera image size (same field of view), e.g. 640x512.
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
+    /// Relative exposure: the gain (given or automatic) times this, e.g. 0.25 for the short
+    /// exposure of an HDR series (render each with its own --seed).
+    #[arg(long, value_name = "F")]
+    pub exposure: Option<f64>,
     /// Replace an existing, non-empty output folder.
     #[arg(long)]
     pub overwrite: bool,
@@ -113,6 +117,7 @@ pub fn run(a: RenderArgs, g: super::Global) -> anyhow::Result<()> {
         supersample: a.supersample,
         defocus: a.defocus,
         size: a.size.as_deref().map(parse_size).transpose()?,
+        exposure: a.exposure,
     };
     let is_file = scene_arg.ends_with(".toml") || Path::new(scene_arg).is_file();
     let scene = if is_file {

@@ -26,8 +26,13 @@ pub struct ScanArgs {
     /// The calibration file (TOML).
     #[arg(long, short = 'c')]
     pub calibration: PathBuf,
-    /// Images in set order, or one folder.
+    /// Images in set order, or one folder; with `--hdr`, one folder per exposure.
     pub images: Vec<PathBuf>,
+    /// HDR: the arguments are 2 to 4 folders, each the whole set at one exposure, longest
+    /// exposure first; each pixel is decoded from the longest exposure in which none of its
+    /// samples saturated (docs/hdr.md).
+    #[arg(long)]
+    pub hdr: bool,
     /// Output.
     #[command(flatten)]
     pub cloud: CloudArgs,
@@ -73,7 +78,10 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
                 None => anyhow::Ok(cal),
             }
         },
-        || common::load_images(&ls, &a.images, g.quiet),
+        || match a.hdr {
+            true => common::load_exposures(&ls, &a.images, g.quiet),
+            false => common::load_images(&ls, &a.images, g.quiet),
+        },
     );
     let (cal, imgs) = (cal?, imgs?);
     if (imgs.width as usize, imgs.height as usize) != (cal.width(), cal.height()) {

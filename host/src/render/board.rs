@@ -42,6 +42,7 @@ pub fn board_object(
             dark: b.dark,
             light: b.light,
         }),
+        specular: None,
     }
 }
 

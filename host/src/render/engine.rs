@@ -6,14 +6,19 @@
 //! camera), with P the projector centre:
 //!
 //! ```text
-//! E = ρ·[ambient + lit·cos θ·(d_ref/|P − X|)²·L(ξ, η)]        (relative radiance)
+//! E = ρ·ambient + lit·[ρ·cos θ + k_s·(n·h)^m]·(d_ref/|P − X|)²·L(ξ, η)   (relative radiance)
 //! cos θ = n·(P − X)/|P − X|,  lit = cos θ > 0 ∧ the segment X→P is free ∧ X projects onto the DMD
+//! h = (l + v)/|l + v|,  l = (P − X)/|P − X|,  v = −X/|X|   (Blinn-Phong half vector)
 //! ```
+//!
+//! The specular lobe (strength k_s, exponent m; objects with `specular`) reflects the light of
+//! the projector pixel that lights X, so it carries the same fringe phase: a highlight adds
+//! light, up to clipping, not a phase error.
 //!
 //! (the `(d_ref/|P − X|)²` falloff can be switched off). The pixel value is the mean of `E` over
 //! `n × n` sample positions `((i + ½)/n − ½, (j + ½)/n − ½)` around the pixel centre (a box pixel),
 //! refined to `n_e × n_e` samples where the samples of the pixel or of its 8 neighbours disagree
-//! about object, face, texture cell, shadow or DMD frame (edges). Then: `gain·E`, optional
+//! about object, face, texture cell, shadow or DMD frame (edges). Then: `gain·E` (the gain given, or automatic — metering the diffuse light under full white, so a highlight clips as it does for a camera exposed for the part — times the relative exposure), optional
 //! Gaussian camera blur (σ in camera pixels, edges replicated), plus Gaussian noise (σ in gray
 //! levels, one seeded stream per image row), clipped to `[0, 2^bits − 1]` and rounded to the
 //! nearest code.
@@ -78,6 +83,9 @@ pub struct Photometry {
     /// on the geometry only, so renders of different slides get the same gain) or shows nothing
     /// (`false`: ambient light only, for images without projector light).
     pub auto_with_projector: bool,
+    /// The exposure, relative: the gain (given or automatic) is multiplied by it (an HDR series
+    /// renders the same scene at several; 1 = as set).
+    pub exposure: f64,
 }
 
 /// Everything one render needs.
@@ -172,6 +180,9 @@ struct Shade {
     base: f64,
     /// ρ·cos θ·falloff (multiplies L).
     direct: f64,
+    /// The specular lobe's `k_s·(n·h)^m·falloff` (multiplies L; not metered by automatic
+    /// exposure).
+    glossy: f64,
     xi: f64,
     eta: f64,
 }
@@ -197,6 +208,7 @@ impl Tracer<'_> {
             in_frame: false,
             base,
             direct: 0.0,
+            glossy: 0.0,
             xi: f64::NAN,
             eta: f64::NAN,
         };
@@ -222,6 +234,13 @@ impl Tracer<'_> {
                     1.0
                 };
                 s.direct = hit.albedo * cos * fall;
+                if let Some((ks, m)) = hit.specular {
+                    // Blinn-Phong: the half vector of the light and view directions.
+                    let view = -dir.normalized();
+                    let half = (l + view).normalized();
+                    let nh = hit.normal.dot(half).max(0.0);
+                    s.glossy = ks * nh.powf(m) * fall;
+                }
             }
         }
         s.class ^= (u32::from(s.lit) << 30) | (u32::from(s.in_frame) << 31);
@@ -269,6 +288,9 @@ fn check(job: &Job<'_>) -> Result<(), EngineError> {
             p.auto_level
         ));
     }
+    if !(p.exposure.is_finite() && p.exposure > 0.0 && p.exposure <= 1e3) {
+        return e(format!("exposure must be in (0, 1000], got {}", p.exposure));
+    }
     if !(p.reference_distance.is_finite() && p.reference_distance > 0.0) {
         return e("reference_distance must be positive".into());
     }
@@ -289,10 +311,11 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
         proj_rmax: job.rig.projector.max_radius(),
     };
     let full = ((1u32 << job.sensor.bits) - 1) as f64;
-    let gain = match job.photometry.gain {
-        Some(g) => g,
-        None => auto_gain(&tr, full),
-    };
+    let gain = job.photometry.exposure
+        * match job.photometry.gain {
+            Some(g) => g,
+            None => auto_gain(&tr, full),
+        };
     let n = job.sensor.supersample as usize;
     let ne = job.sensor.edge_supersample as usize;
     let offsets =
@@ -327,7 +350,7 @@ pub fn render(job: &Job<'_>) -> Result<(Frames, Truth), EngineError> {
         if s.lit && s.in_frame {
             job.lights.eval(s.xi, s.eta, tmp);
             for (a, t) in acc.iter_mut().zip(tmp.iter()) {
-                *a += s.base + s.direct * t;
+                *a += s.base + (s.direct + s.glossy) * t;
             }
         } else {
             for a in acc.iter_mut() {

@@ -282,6 +282,7 @@ impl Scene {
                 u_axis: None,
             },
             texture: None,
+            specular: None,
         };
         Geometry::build(&[o]).unwrap_or_default()
     }

@@ -137,6 +137,22 @@ pub struct ObjectSpec {
     /// An albedo pattern (planes only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub texture: Option<Texture>,
+    /// A glossy surface: a Blinn-Phong lobe on top of the Lambertian albedo.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specular: Option<Specular>,
+}
+
+/// A Blinn-Phong specular lobe: the projector's light reflected towards the camera with the
+/// relative radiance `strength·(n·h)^exponent` (h the half vector of the directions to the
+/// projector and to the camera), on top of the Lambertian `albedo·cos θ`. At the mirror angle it
+/// is `strength` times a white Lambertian surface facing the projector: a highlight.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Specular {
+    /// Peak relative radiance (0..100).
+    pub strength: f64,
+    /// Sharpness of the lobe (1..10 000; larger is smaller).
+    pub exponent: f64,
 }
 
 /// A primitive ready for intersection.
@@ -179,6 +195,8 @@ pub struct Primitive {
     pub part: u8,
     /// Albedo.
     pub albedo: f64,
+    /// The specular lobe `(strength, exponent)`, if glossy.
+    pub specular: Option<(f64, f64)>,
     texture: Option<Texture>,
     pub(crate) prim: Prim,
 }
@@ -196,6 +214,8 @@ pub struct Hit {
     pub prim: usize,
     /// Albedo at the point (texture applied).
     pub albedo: f64,
+    /// The primitive's specular lobe `(strength, exponent)`, if glossy.
+    pub specular: Option<(f64, f64)>,
     /// A code that differs between primitives, faces and texture cells: the renderer
     /// supersamples pixels more finely where it changes.
     pub class: u32,
@@ -281,11 +301,23 @@ impl ObjectSpec {
                 return Err(e("textures are supported on planes only".into()));
             }
         }
+        if let Some(sp) = &self.specular
+            && !(sp.strength.is_finite()
+                && (0.0..=100.0).contains(&sp.strength)
+                && sp.exponent.is_finite()
+                && (1.0..=1e4).contains(&sp.exponent))
+        {
+            return Err(e(format!(
+                "specular strength must be in [0, 100] and exponent in [1, 10000], got {} and {}",
+                sp.strength, sp.exponent
+            )));
+        }
         let mk = |part: u8, id: u16, prim: Prim| Primitive {
             id,
             object: index,
             part,
             albedo: self.albedo,
+            specular: self.specular.map(|s| (s.strength, s.exponent)),
             texture: self.texture.clone(),
             prim,
         };
@@ -684,6 +716,7 @@ impl Geometry {
             normal: n,
             prim: i,
             albedo,
+            specular: self.prims[i].specular,
             class,
         })
     }

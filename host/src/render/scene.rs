@@ -126,6 +126,8 @@ pub struct Overrides {
     pub defocus: Option<f64>,
     /// Camera size (same field of view).
     pub size: Option<(u32, u32)>,
+    /// Relative exposure (the scene's `photometry.exposure`).
+    pub exposure: Option<f64>,
 }
 
 impl SceneSpec {
@@ -193,6 +195,9 @@ impl SceneSpec {
         }
         if let Some((w, h)) = o.size {
             self.camera.lens = self.camera.lens.scaled(w, h);
+        }
+        if let Some(e) = o.exposure {
+            self.photometry.exposure = e;
         }
     }
 

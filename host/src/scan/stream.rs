@@ -19,7 +19,7 @@ use super::{ScanCalibration, ScanError};
 use crate::batch::{FrameOut, Isa, PointsOut, decode_rows, reconstruct_rows_compiled};
 use crate::io::image_set::{Frames, ImageSet};
 use crate::io::ply::{Encoded, PointRow, RowEncoder};
-use fringe3d_core::decode::{Decoder, Sample};
+use fringe3d_core::decode::{Decoder, RowOut, Sample, hdr};
 use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::reconstruct::ReferenceMap;
 use fringe3d_core::validity::Validity;
@@ -160,6 +160,9 @@ struct Scratch {
     xyz: Vec<f32>,
     codes: Vec<u8>,
     filtered: Vec<u8>,
+    /// A shorter exposure's decode (HDR), folded into the above.
+    shorter: [Vec<f32>; 3],
+    shorter_codes: Vec<u8>,
 }
 
 /// What every band of one scan reads.
@@ -175,6 +178,54 @@ struct Job<'a, P> {
 }
 
 impl<P: Sample> Job<'_, P> {
+    /// HDR ([`fringe3d_core::decode::hdr`]): the decode of rows `a..` (`n` pixels) from the
+    /// longest exposure, in `s`, takes each saturated pixel from the next shorter exposure, while
+    /// any is left; a shorter exposure is decoded only for bands that need it.
+    fn fuse_shorter_exposures(&self, a: usize, n: usize, s: &mut Scratch) -> Result<(), ScanError> {
+        let images = self.decoder.image_count();
+        let w = self.cal.width();
+        for frames in self.frames.chunks_exact(images).skip(1) {
+            if !hdr::any_saturated(&s.decoded[..n]) {
+                break;
+            }
+            for v in &mut s.shorter {
+                v.resize(n, 0.0);
+            }
+            s.shorter_codes.resize(n, 0);
+            let [ph, mo, dc] = &mut s.shorter;
+            decode_rows(
+                self.decoder,
+                frames,
+                w,
+                a,
+                FrameOut {
+                    phase: &mut ph[..n],
+                    modulation: &mut mo[..n],
+                    dc: &mut dc[..n],
+                    validity: &mut s.shorter_codes[..n],
+                },
+                self.isa,
+            )
+            .map_err(ScanError::Decode)?;
+            hdr::fuse_exposure(
+                &mut RowOut {
+                    phase: &mut s.phase[..n],
+                    modulation: &mut s.modulation[..n],
+                    dc: &mut s.dc[..n],
+                    validity: &mut s.decoded[..n],
+                },
+                &hdr::RowRef {
+                    phase: &ph[..n],
+                    modulation: &mo[..n],
+                    dc: &dc[..n],
+                    validity: &s.shorter_codes[..n],
+                },
+            )
+            .map_err(ScanError::Decode)?;
+        }
+        Ok(())
+    }
+
     /// Compute band `b` into `out` (cleared first).
     fn band(
         &self,
@@ -196,9 +247,11 @@ impl<P: Sample> Job<'_, P> {
         s.xyz.resize(3 * n, 0.0);
         s.codes.resize(n, 0);
         let t0 = Instant::now();
+        // The longest exposure (the only one without HDR); shorter ones where it saturated.
+        let images = self.decoder.image_count();
         decode_rows(
             self.decoder,
-            self.frames,
+            &self.frames[..images.min(self.frames.len())],
             w,
             a,
             FrameOut {
@@ -210,6 +263,7 @@ impl<P: Sample> Job<'_, P> {
             self.isa,
         )
         .map_err(ScanError::Decode)?;
+        self.fuse_shorter_exposures(a, n, s)?;
         let t1 = Instant::now();
         reconstruct_rows_compiled(
             &self.cal.recon,
@@ -310,7 +364,9 @@ pub fn stream_image_set(
 }
 
 /// [`stream_image_set`] over frames in memory (`frames[i]` is image `i` of the set, whole, of the
-/// calibrated camera's size); the workers run on rayon's current pool.
+/// calibrated camera's size); the workers run on rayon's current pool. HDR: the set's images
+/// once per exposure, longest exposure first (at most [`hdr::MAX_EXPOSURES`]), each pixel
+/// decoded from the longest exposure in which it did not saturate.
 pub fn stream_frames<P: Sample + Sync>(
     cal: &ScanCalibration,
     decoder: &Decoder,
@@ -321,7 +377,11 @@ pub fn stream_frames<P: Sample + Sync>(
 ) -> Result<StreamStats, ScanError> {
     let t0 = Instant::now();
     let (w, h) = (cal.width(), cal.height());
-    if frames.iter().any(|f| f.len() != w * h) || frames.len() != decoder.image_count() {
+    let exposures = frames.len() / decoder.image_count().max(1);
+    if frames.iter().any(|f| f.len() != w * h)
+        || frames.len() != exposures * decoder.image_count()
+        || !(1..=hdr::MAX_EXPOSURES).contains(&exposures)
+    {
         return Err(ScanError::Decode(
             fringe3d_core::decode::DecodeError::Length,
         ));

@@ -54,6 +54,7 @@ fn obj(name: &str, albedo: f64, shape: Shape) -> ObjectSpec {
         albedo,
         shape,
         texture: None,
+        specular: None,
     }
 }
 

@@ -248,6 +248,14 @@ pub struct PhotometrySpec {
     /// or by ambient light only (`ambient`).
     #[serde(default)]
     pub board_light: BoardLight,
+    /// Relative exposure: the gain, given or automatic, times this (default 1; an HDR series
+    /// renders the scene at several, e.g. with `fringe3d render --exposure`).
+    #[serde(default = "d_one")]
+    pub exposure: f64,
+}
+
+fn d_one() -> f64 {
+    1.0
 }
 
 impl Default for PhotometrySpec {
@@ -259,6 +267,7 @@ impl Default for PhotometrySpec {
             falloff: true,
             reference_distance: d_refdist(),
             board_light: BoardLight::Projector,
+            exposure: 1.0,
         }
     }
 }
@@ -273,6 +282,7 @@ impl PhotometrySpec {
             falloff: self.falloff,
             reference_distance: self.reference_distance,
             auto_with_projector: true,
+            exposure: self.exposure,
         }
     }
 }
