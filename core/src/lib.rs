@@ -15,6 +15,7 @@ pub mod estimator;
 pub mod filter;
 pub mod geometry;
 pub mod gray;
+pub mod hdr_parity;
 pub mod limits;
 pub mod math;
 pub mod params;

@@ -148,10 +148,8 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
             return Err(DecodeError::Length);
         }
         let (image, y) = (self.image, self.row);
-        let decoder = self.decoder;
         if self.exposure == 0 {
-            let mut v = self.view(y);
-            decoder.accumulate(image, row, &mut v)?;
+            self.accumulate_at(image, y, 0, row)?;
         } else {
             self.accumulate_unlocked(image, y, row)?;
         }
@@ -227,6 +225,22 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
         self.exposure
     }
 
+    /// [`Decoder::accumulate`] of `cols`, columns `x0..` of row `y` of image `image`: the one
+    /// instance of the kernel's accumulation in a frame-sequential build (both exposure paths
+    /// call it, so that a head carries one copy).
+    #[inline(never)]
+    fn accumulate_at<P: Sample>(
+        &mut self,
+        image: usize,
+        y: usize,
+        x0: usize,
+        cols: &[P],
+    ) -> Result<(), DecodeError> {
+        let decoder = self.decoder;
+        let mut v = self.view_cols(y, x0, cols.len());
+        decoder.accumulate(image, cols, &mut v)
+    }
+
     /// [`Decoder::accumulate`] of row `y` of image `image` into the pixels that no earlier
     /// exposure locked: blocks of [`BLOCK`] columns with no locked pixel are accumulated
     /// directly, blocks of locked pixels only are passed by, and in a mixed block the locked
@@ -245,7 +259,7 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
         while x0 < self.width {
             let n = BLOCK.min(self.width - x0);
             let cols = row.get(x0..x0 + n).ok_or(DecodeError::Length)?;
-            let mut v = self.view_cols(y, x0, n);
+            let v = self.view_cols(y, x0, n);
             if v.flags.len() != n {
                 return Err(DecodeError::Length);
             }
@@ -255,7 +269,7 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
             }
             let locked = lock[..n].iter().filter(|&&l| l).count();
             if locked == 0 {
-                decoder.accumulate(image, cols, &mut v)?;
+                self.accumulate_at(image, y, x0, cols)?;
             } else if locked < n {
                 // Kept aside: DC, then S and C per level, then the flags.
                 let mut keep = [[A::ZERO; BLOCK]; 1 + 2 * MAX_LEVELS];
@@ -271,7 +285,8 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
                     save(&mut keep[2 + 2 * l], v.c[l]);
                 }
                 keep_flags[..n].copy_from_slice(v.flags);
-                decoder.accumulate(image, cols, &mut v)?;
+                self.accumulate_at(image, y, x0, cols)?;
+                let v = self.view_cols(y, x0, n);
                 let restore = |p: &mut [A::Acc], k: &[A::Acc; BLOCK]| {
                     for ((d, &s), &l) in p.iter_mut().zip(k).zip(&lock) {
                         if l {

@@ -117,3 +117,22 @@ fn the_workload_exercises_every_validity_code_it_should() {
         );
     }
 }
+
+/// The HDR case ([`fringe3d_core::hdr_parity`]): both drivers agree (else the digest is an
+/// error) and the bits are those x86-64 recorded, per backend; `arith_qemu.rs` holds the
+/// Cortex-M builds to them.
+#[test]
+fn hdr_digests_are_the_golden_ones() {
+    use fringe3d_core::hdr_parity;
+    const GOLDEN_HDR: [(&str, u64); 4] = [
+        ("f32", 0x670a7b7f0646be56),
+        ("f32-fast", 0xb5fa95a30257737e),
+        ("f32-micromath", 0xb9914700b619d9b9),
+        ("fixed", 0xce7c7ba505d69628),
+    ];
+    for (b, (name, want)) in Backend::ALL.into_iter().zip(GOLDEN_HDR) {
+        assert_eq!(b.name(), name);
+        let got = hdr_parity::digest(b).unwrap();
+        assert_eq!(got, want, "{b}: 0x{got:016x}");
+    }
+}

@@ -145,6 +145,13 @@ fn every_backend_gives_the_same_bits_on_cortex_m3_and_m4f() {
             ));
         }
     }
+    for b in Backend::ALL {
+        want.push(format!(
+            "hdr {} {:016x}",
+            b.name(),
+            fringe3d_core::hdr_parity::digest(b).unwrap()
+        ));
+    }
     want.push(format!(
         "compiled {:016x}",
         fringe3d_core::reconstruct::compiled::parity::run(1)
@@ -168,7 +175,9 @@ fn every_backend_gives_the_same_bits_on_cortex_m3_and_m4f() {
         let got: Vec<&str> = out
             .lines()
             .map(str::trim)
-            .filter(|l| l.starts_with("parity ") || l.starts_with("compiled "))
+            .filter(|l| {
+                l.starts_with("parity ") || l.starts_with("hdr ") || l.starts_with("compiled ")
+            })
             .collect();
         assert_eq!(
             got.len(),

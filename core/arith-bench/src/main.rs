@@ -18,6 +18,7 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hio};
 use fringe3d_core::arith::{Arith, Backend, TargetDefault};
 use fringe3d_core::decode::parity;
+use fringe3d_core::hdr_parity;
 use fringe3d_core::reconstruct::compiled::parity as compiled;
 
 /// SYS_GET_CMDLINE: the command line QEMU was given (`-semihosting-config arg=…`).
@@ -43,6 +44,10 @@ fn run(out: &mut hio::HostStream, args: &str) -> Result<(), &'static str> {
                     let d = parity::digest(b, case).map_err(|_| "decoder refused a parity case")?;
                     let _ = writeln!(out, "parity {} {} {:016x}", b.name(), case, d);
                 }
+            }
+            for b in Backend::ALL {
+                let d = hdr_parity::digest(b).map_err(|_| "the HDR parity case failed")?;
+                let _ = writeln!(out, "hdr {} {:016x}", b.name(), d);
             }
             let _ = writeln!(out, "compiled {:016x}", compiled::run(1));
             Ok(())
