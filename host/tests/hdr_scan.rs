@@ -14,15 +14,13 @@
 
 use std::path::{Path, PathBuf};
 
-use clap::Parser;
 use fringe3d::accuracy::load_truth;
 use fringe3d::adapt::experiment::{RESOLVED, Score, score_detail};
-use fringe3d::cli::scan::run_whole_frame;
-use fringe3d::cli::{Cli, Command as Cmd, Global, common};
+use fringe3d::cli::common;
 use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d_core::decode::DecodeConfig;
 
-use crate::cli_support::{Tmp, fringe3d, run, s};
+use crate::cli_support::{Tmp, fringe3d, run, s, scan_whole_frame};
 
 fn scene() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes/specular.toml")
@@ -186,19 +184,7 @@ fn scan_hdr_streams_the_whole_frame_file_and_refuses_bad_series() {
     let argv: Vec<&str> = args.iter().map(String::as_str).collect();
     run(&argv);
     let whole = t.0.join("whole.ply");
-    let mut argv = vec!["fringe3d".to_string()];
-    argv.extend(scan_args(&long, &whole, &[&long, &short]));
-    let Cmd::Scan(a) = Cli::try_parse_from(&argv).unwrap().command else {
-        panic!("not a scan")
-    };
-    run_whole_frame(
-        a,
-        Global {
-            quiet: true,
-            json: false,
-        },
-    )
-    .unwrap();
+    scan_whole_frame(&scan_args(&long, &whole, &[&long, &short]));
     let (x, y) = (
         std::fs::read(&streamed).unwrap(),
         std::fs::read(&whole).unwrap(),

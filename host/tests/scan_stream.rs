@@ -6,8 +6,7 @@
 
 use clap::Parser;
 use fringe3d::cli::cloud_out::{CloudFormat, CloudSink};
-use fringe3d::cli::scan::run_whole_frame;
-use fringe3d::cli::{Cli, Command as Cmd, Global, common};
+use fringe3d::cli::{Cli, Command as Cmd, common};
 use fringe3d::io::image_set::ImageSet;
 use fringe3d::scan::stream::{StreamConfig, stream_image_set};
 use fringe3d::scan::{ScanCalibration, ScanError};
@@ -57,20 +56,7 @@ fn scan_args(ds: &Path, out: &Path, extra: &[&str]) -> Vec<String> {
 
 /// The whole-frame `scan`, in this process.
 fn whole_frame(ds: &Path, out: &Path, extra: &[&str]) -> Vec<u8> {
-    let mut argv = vec!["fringe3d".to_string()];
-    argv.extend(scan_args(ds, out, extra));
-    let cli = Cli::try_parse_from(&argv).unwrap();
-    let Cmd::Scan(a) = cli.command else {
-        panic!("not a scan")
-    };
-    run_whole_frame(
-        a,
-        Global {
-            quiet: true,
-            json: false,
-        },
-    )
-    .unwrap();
+    crate::cli_support::scan_whole_frame(&scan_args(ds, out, extra));
     std::fs::read(out).unwrap()
 }
 

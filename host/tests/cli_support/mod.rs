@@ -108,3 +108,22 @@ pub fn npy_file(dict: &str, data: &[u8]) -> Vec<u8> {
     b.extend_from_slice(data);
     b
 }
+
+/// `fringe3d scan` with `args` (without the program name) the whole-frame way
+/// (`cli::scan::run_whole_frame`, the reference of the streaming pass), in this process, quiet.
+pub fn scan_whole_frame(args: &[String]) {
+    use clap::Parser;
+    use fringe3d::cli::{Cli, Command as Cmd, Global};
+    let argv = std::iter::once("fringe3d".to_string()).chain(args.iter().cloned());
+    let Cmd::Scan(a) = Cli::try_parse_from(argv).unwrap().command else {
+        panic!("not a scan")
+    };
+    fringe3d::cli::scan::run_whole_frame(
+        a,
+        Global {
+            quiet: true,
+            json: false,
+        },
+    )
+    .unwrap();
+}
