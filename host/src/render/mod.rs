@@ -154,9 +154,13 @@ impl Scene {
         self.spec.projector.optics()
     }
 
-    /// The projector's true normalised response, when it is not linear (gamma ≠ 1): what a
-    /// perfect `fringe3d calibrate gamma` measures ([`crate::response::power_law`]).
+    /// The projector's true normalised response, when it is not linear (a response table, or
+    /// gamma ≠ 1): what a perfect `fringe3d calibrate gamma` measures (the table, or
+    /// [`crate::response::power_law`]).
     pub fn true_response(&self) -> Option<crate::io::calibration::ProjectorResponse> {
+        if let Some(t) = self.optics().response {
+            return Some(t.to_response());
+        }
         let g = self.spec.projector.gamma;
         (g != 1.0).then(|| crate::response::power_law(g))
     }

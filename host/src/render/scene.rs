@@ -370,6 +370,13 @@ impl SceneSpec {
         if !(self.reference.albedo.is_finite() && (0.0..=1.0).contains(&self.reference.albedo)) {
             return Err(self.invalid("reference.albedo must be in [0, 1]"));
         }
+        if let Some(r) = &self.projector.response {
+            super::light::ResponseLut::new(r)
+                .map_err(|e| self.invalid(format!("projector.{e}")))?;
+            if self.projector.gamma != 1.0 {
+                return Err(self.invalid("projector: give a gamma or a response table, not both"));
+            }
+        }
         for (i, o) in self.objects.iter().enumerate() {
             o.validate(i).map_err(|m| self.invalid(m))?;
         }

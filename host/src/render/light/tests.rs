@@ -51,6 +51,7 @@ fn worst(curvature: f64, sigma: f64) -> (f64, f64) {
         defocus: sigma,
         gamma: 1.0,
         black_level: 0.0,
+        response: None,
     };
     let ls = LightSet::new(256, 192, &slides, optics).unwrap();
     let mut out = vec![0.0; slides.len()];
@@ -106,6 +107,7 @@ fn sharp_pixels_are_exact() {
         defocus: 0.0,
         gamma: 1.0,
         black_level: 0.0,
+        response: None,
     };
     let ls = LightSet::new(256, 192, &slides, optics).unwrap();
     let mut row = vec![0u16; 256];
@@ -117,4 +119,27 @@ fn sharp_pixels_are_exact() {
     }
     ls.eval(-0.51, 7.0, &mut out);
     assert_eq!(out[0], 0.0);
+}
+
+#[test]
+fn response_tables_are_checked() {
+    use super::ResponseLut;
+    assert!(ResponseLut::new(&[0.0, 0.3, 1.0]).is_ok());
+    for bad in [
+        &[0.0][..],
+        &[0.0, 0.5, 0.4, 1.0],
+        &[0.1, 0.5, 1.0],
+        &[0.0, 0.5, 0.9],
+        &[0.0, f64::NAN, 1.0],
+    ] {
+        assert!(ResponseLut::new(bad).is_err(), "{bad:?}");
+    }
+    assert!(ResponseLut::new(&vec![0.5; 66]).is_err());
+    // The table is the model: at its knots the light is the table's value.
+    let t = ResponseLut::new(&[0.0, 0.1, 0.45, 1.0])
+        .unwrap()
+        .to_response();
+    for (k, v) in [0.0, 0.1, 0.45, 1.0].iter().enumerate() {
+        assert!((t.eval(k as f64 / 3.0) - v).abs() < 1e-12);
+    }
 }

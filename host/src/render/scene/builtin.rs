@@ -30,6 +30,7 @@ fn base(name: &str) -> SceneSpec {
             defocus: d_defocus(),
             gamma: 1.0,
             black_level: 0.0,
+            response: None,
             gray_levels: 0,
             bits: 16,
             unknown: BTreeMap::new(),

@@ -3,7 +3,7 @@
 
 use super::super::camera::CameraParams;
 use super::super::engine::{Photometry, Sensor};
-use super::super::light::{Optics, ProjectorMode};
+use super::super::light::{Optics, ProjectorMode, ResponseLut};
 use super::super::math::{Mat3, Vec3};
 use crate::io::pattern_file::{PatternSetFile, Preset};
 use serde::{Deserialize, Serialize};
@@ -145,6 +145,10 @@ pub struct ProjectorSpec {
     /// Relative radiance of code 0 (default 0).
     #[serde(default)]
     pub black_level: f64,
+    /// A measured response table instead of the gamma: relative light at equally spaced
+    /// pattern values from 0 to 1, increasing from 0 to 1 (2 to 65 values; docs/render.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub response: Option<Vec<f64>>,
     /// Pattern bits, 8 or 16 (default 16).
     #[serde(default = "d_bits16")]
     pub bits: u8,
@@ -159,13 +163,18 @@ pub struct ProjectorSpec {
 }
 
 impl ProjectorSpec {
-    /// The optics.
+    /// The optics (a response table that [`ResponseLut::new`] refuses is left out here; the
+    /// scene's check, [`super::SceneSpec`]'s validation, reports it).
     pub fn optics(&self) -> Optics {
         Optics {
             mode: self.mode,
             defocus: self.defocus,
             gamma: self.gamma,
             black_level: self.black_level,
+            response: self
+                .response
+                .as_deref()
+                .and_then(|r| ResponseLut::new(r).ok()),
         }
     }
 }
