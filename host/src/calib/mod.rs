@@ -8,6 +8,7 @@
 //! α of eq 4 (`u = fx·x + α·fx·y + u0`; OpenCV's camera matrix holds `α·fx`).
 
 pub mod camera;
+pub mod camera_files;
 pub mod corners;
 pub mod dlt;
 pub mod files;
