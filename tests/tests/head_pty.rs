@@ -589,7 +589,7 @@ fn full_scan_through_a_pty_is_bit_identical_to_the_desktop_and_survives_an_unplu
 
 /// Throughput over an unthrottled PTY at full size (1280 × 1024 camera): the upload of the
 /// 8 × 1024 × 768 set and the stream of the point cloud. Slow-ish (renders a full-size dataset),
-/// so run on demand: `cargo test -p fringe3d-tests --test head_pty -- --ignored --nocapture`.
+/// so run on demand: `cargo test -p fringe3d-tests --test suite -- --ignored --nocapture head_pty::`.
 #[test]
 #[ignore]
 fn pty_throughput_full_size() {

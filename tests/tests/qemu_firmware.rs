@@ -7,8 +7,7 @@
 //! Skips with a notice when `qemu-system-arm` or the `thumbv7em-none-eabihf` target is missing;
 //! `.ci/run` installs both and sets `FRINGE3D_REQUIRE_QEMU=1`, which turns the skip into a failure.
 
-mod common;
-use common::{
+use crate::common::{
     ballbar_u8_with, coprime_set, gray_inverse_set, gray_set, gray_shifted_set, heterodyne_set,
     small_u8,
 };

@@ -461,7 +461,7 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
 
 /// Not a check: writes the emulated head's frames file for a dataset folder, for running the head
 /// by hand (docs/firmware.md): `FRINGE3D_DATASET=scan FRINGE3D_FRAMES=scan/frames.bin cargo test
-/// -p fringe3d-tests --test qemu_head_pty -- --ignored frames_file`.
+/// -p fringe3d-tests --test suite -- --ignored qemu_head_pty::frames_file`.
 #[test]
 #[ignore]
 fn frames_file() {

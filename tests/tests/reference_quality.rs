@@ -17,11 +17,9 @@
 // `!(x <= t)` fails NaN ratios on purpose.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-mod rendered;
-
+use crate::rendered::*;
 use fringe3d::render::Scene;
 use fringe3d::render::scene::Overrides;
-use rendered::*;
 
 /// The bar of issue #17.
 const BAR: f64 = 1.05;

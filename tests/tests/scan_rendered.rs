@@ -5,11 +5,9 @@
 // `!(x <= t)` rejects NaN angles on purpose.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-mod rendered;
-
+use crate::rendered::*;
 use fringe3d::render::Scene;
 use fringe3d::render::scene::Overrides;
-use rendered::*;
 
 #[test]
 fn noise_free_16bit_scan_is_within_2um_rms_over_the_volume() {

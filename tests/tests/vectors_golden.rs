@@ -2,8 +2,7 @@
 //! batch paths (whole-frame decode on all threads with the widest kernel, parallel reconstruction
 //! over the whole reference map, the whole-cloud edge filter) reproduce every stage's digest.
 
-mod common;
-use common::{
+use crate::common::{
     ballbar_u8_with, coprime_set, gray_inverse_set, gray_set, gray_shifted_set, heterodyne_set,
     small_u8,
 };

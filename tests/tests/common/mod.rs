@@ -1,4 +1,4 @@
-//! Pattern sets shared by the end-to-end tests (`mod common;` in each test file that needs them).
+//! Pattern sets shared by the end-to-end tests (`crate::common` in the test files that need them).
 
 use fringe3d::io::pattern_file::PatternSetFile;
 use fringe3d::vectors::{VectorOptions, VectorReference};

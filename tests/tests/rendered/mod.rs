@@ -1,4 +1,4 @@
-//! The rendered-scan harness shared by the end-to-end tests (`mod rendered;`): render a scene,
+//! The rendered-scan harness shared by the end-to-end tests (`crate::rendered`): render a scene,
 //! write it as a dataset, scan it through the library path of `fringe3d scan`, and compare the
 //! points with the renderer's truth; the per-pixel noise prediction the quality bars use.
 // Each test file uses a part of it.
@@ -8,6 +8,7 @@
 
 use fringe3d::accuracy::{self, Accuracy};
 use fringe3d::cli::common;
+use fringe3d::render::camera::LensModel;
 use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::scene::Overrides;
 use fringe3d::render::{Scene, SceneSpec};
@@ -275,6 +276,9 @@ pub fn measured_and_predicted(scene: &Scene, s: &Scanned, noise: f64) -> (f64, f
 pub fn predicted_sigmas(scene: &Scene, s: &Scanned, idx: &[usize], noise: f64) -> Vec<Option<f64>> {
     let (truth, _) = truth_and_angles(&s.dataset, s.cloud.width, s.cloud.height);
     let rig = &scene.rig;
+    // `Rig::projector_pixel` with the lens model's radius found once, not per call.
+    let r_max = rig.projector.max_radius();
+    let projector_pixel = |p| rig.projector.project(rig.to_projector_frame(p), r_max);
     let sigma_i = (noise * noise + 1.0 / 12.0).sqrt();
     let n_fine = s.set.levels().last().map_or(4, |l| l.shifts().len()) as f64;
     idx.iter()
@@ -288,7 +292,7 @@ pub fn predicted_sigmas(scene: &Scene, s: &Scanned, idx: &[usize], noise: f64) -
                 p[2] * (1.0 + d / l),
             ];
             let v3 = |a: [f64; 3]| fringe3d::render::math::Vec3::new(a[0], a[1], a[2]);
-            let (a, b) = (rig.projector_pixel(v3(p))?, rig.projector_pixel(v3(q))?);
+            let (a, b) = (projector_pixel(v3(p))?, projector_pixel(v3(q))?);
             let dphi = (s.set.finest_phase(b.0, b.1) - s.set.finest_phase(a.0, a.1)).abs() / d;
             let sigma_phi = (2.0 / n_fine).sqrt() * sigma_i / s.modulation[i] as f64;
             Some(sigma_phi / dphi)
