@@ -163,7 +163,7 @@ fn header_layout() {
     let mut out = [0u8; HEADER_LEN];
     assert_eq!(h.emit(&mut out), Ok(6));
     // version, flags (bit 0 + bit 3), seq, command, length LE.
-    assert_eq!(out, [0x06, 0x09, 0xA5, 0x12, 0x02, 0x01]);
+    assert_eq!(out, [0x07, 0x09, 0xA5, 0x12, 0x02, 0x01]);
     assert_eq!(Header::parse(&out), Ok(h));
 
     assert_eq!(Flags::WRITE.bits(), 0x01);
@@ -200,17 +200,22 @@ fn header_rejects() {
         Header::parse(&[0x05, 0, 0, 0, 0, 0]),
         Err(WireError::Version(5))
     );
+    // Version 6 (before DefineThresholds) too.
     assert_eq!(
-        Header::parse(&[0x06, 0x10, 0, 0, 0, 0]),
+        Header::parse(&[0x06, 0, 0, 0, 0, 0]),
+        Err(WireError::Version(6))
+    );
+    assert_eq!(
+        Header::parse(&[0x07, 0x10, 0, 0, 0, 0]),
         Err(WireError::ReservedFlags)
     );
     // 4097 = 0x1001 > MAX_PAYLOAD.
     assert_eq!(
-        Header::parse(&[0x06, 0, 0, 0, 0x01, 0x10]),
+        Header::parse(&[0x07, 0, 0, 0, 0x01, 0x10]),
         Err(WireError::Length)
     );
     assert_eq!(
-        Header::parse(&[0x06, 0, 0, 0, 0]),
+        Header::parse(&[0x07, 0, 0, 0, 0]),
         Err(WireError::Truncated)
     );
     let h = Header {
@@ -240,6 +245,7 @@ fn command_ids() {
         (Command::QueryUpload, 0x13, false),
         (Command::ConfirmUpload, 0x14, true),
         (Command::DefineCorrection, 0x15, true),
+        (Command::DefineThresholds, 0x16, true),
         (Command::UploadCalibration, 0x18, true),
         (Command::BeginPhaseMapUpload, 0x19, true),
         (Command::ConfigureSequence, 0x20, true),
@@ -404,7 +410,7 @@ fn invalid_codes_round_trip() {
             assert_eq!(i as u8, code);
             assert!(!i.name().is_empty());
         } else {
-            assert!(code == 0 || code > 24);
+            assert!(code == 0 || code > 25);
         }
     }
 }

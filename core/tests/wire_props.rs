@@ -211,6 +211,20 @@ fn random_message<'a>(
                 table: (r.below(2) == 0).then_some(table),
             })
         }
+        Command::DefineThresholds => {
+            let mut v = |scale: f32| (r.below(1 << 20) as f32) * scale;
+            let t = DecodeThresholds {
+                dark_level: v(0.01),
+                saturation_level: 1.0 + v(0.06),
+                min_modulation: v(0.01),
+                unwrap_tolerance: v(3.0e-6),
+                range_tolerance: v(1.0e-6),
+            };
+            Message::DefineThresholds(DefineThresholds {
+                set_id: r.next_u32() as u8,
+                thresholds: (r.below(2) == 0).then_some(t),
+            })
+        }
         Command::UploadCalibration => Message::UploadCalibration(calibration(r)),
         Command::BeginPhaseMapUpload => {
             let (w, h) = (1 + r.below(20_000), 1 + r.below(20_000));

@@ -70,6 +70,7 @@ fn sample() -> Calibration {
         projector_response: None,
         projector_defocus: None,
         camera_covariance: None,
+        sensor: None,
     }
 }
 

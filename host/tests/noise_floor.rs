@@ -2,13 +2,18 @@
 //! 8-bit camera with σ = 1 code and on a 16-bit one with the same noise relative to full scale
 //! (σ = 257 codes). At 2 % of full scale the 16-bit floor admitted pixels down to B/σ ≈ 5, and
 //! with them phase errors the 8-bit floor (12 codes = 12σ) refuses; `--noise auto` of `decode`
-//! and `scan` estimates σ from the 16-bit images and holds B ≥ 12σ, as for 8 bits.
+//! and `scan` estimates σ from the 16-bit images and holds B ≥ 12σ, as for 8 bits; and a
+//! calibration that records the sensor's noise makes 12σ `scan`'s default.
 
-use fringe3d::cli::common::{NoiseArg, ThresholdArgs};
+use crate::cli_support::{Tmp, run, s};
+use fringe3d::cli::common::{self, NoiseArg, ThresholdArgs};
+use fringe3d::io::calibration::Calibration;
 use fringe3d::io::image_set::{Frames, ImageSet};
 use fringe3d::render::{MASK_VALID, Overrides, RenderOptions, Scene, SceneSpec};
+use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut};
 use fringe3d_core::validity::Validity;
+use std::path::Path;
 
 fn render(bits: u8, noise: f64) -> (Scene, ImageSet, Vec<f64>, Vec<u8>) {
     let mut spec = SceneSpec::builtin("sphere").unwrap();
@@ -112,12 +117,18 @@ fn sixteen_bit_images_get_the_eight_bit_floor_in_physical_terms() {
         noise: Some(NoiseArg::Codes(4.0)),
         ..Default::default()
     };
-    let eight = count(&s8, &i8, &t8, &m8, told.config(&s8.patterns, &i8).unwrap());
+    let eight = count(
+        &s8,
+        &i8,
+        &t8,
+        &m8,
+        told.config(&s8.patterns, &i8, None).unwrap(),
+    );
     let auto = ThresholdArgs {
         noise: Some(NoiseArg::Auto),
         ..Default::default()
     };
-    let cfg16 = auto.config(&s16.patterns, &i16).unwrap();
+    let cfg16 = auto.config(&s16.patterns, &i16, None).unwrap();
     assert_eq!(cfg16.min_modulation, 12.0 * est.sigma);
     let new = count(&s16, &i16, &t16, &m16, cfg16);
     let old = count(&s16, &i16, &t16, &m16, DecodeConfig::for_bit_depth(16));
@@ -136,4 +147,161 @@ fn sixteen_bit_images_get_the_eight_bit_floor_in_physical_terms() {
         DecodeConfig::for_sensor(8, 1.0),
         DecodeConfig::for_bit_depth(8)
     );
+}
+
+/// Pixels with a valid point, and those more than 1 mm from the renderer's truth, of `ds`
+/// scanned with `calibration` as `fringe3d scan` scans (its thresholds: the calibration's
+/// `[sensor]` noise unless `args` say otherwise; edge filter on).
+fn scan_counts(ds: &Path, calibration: &Path, args: &ThresholdArgs) -> (usize, usize) {
+    let ls = common::load_set(&ds.join("patterns.toml")).unwrap();
+    let cal = ScanCalibration::load(calibration, ls.set.axis()).unwrap();
+    let imgs = common::load_images(&ls, &[], true).unwrap();
+    let cfg = args
+        .config(&ls.set, &imgs, cal.calibration.sensor.as_ref())
+        .unwrap();
+    let d = common::decode(&ls.set, &imgs, cfg).unwrap();
+    let mut cloud = cal.reconstruct(&d.phase, &d.validity, true).unwrap();
+    filter_edges(&mut cloud, &cal.edge_filter(80.0).unwrap());
+    let truth = fringe3d::accuracy::load_truth(ds).unwrap();
+    let (mut valid, mut off) = (0, 0);
+    for i in 0..cloud.validity.len() {
+        if cloud.validity[i] != Validity::Valid as u8 {
+            continue;
+        }
+        valid += 1;
+        let e: f64 = (0..3)
+            .map(|k| (cloud.xyz[3 * i + k] as f64 - truth.points[3 * i + k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        // A NaN point counts as off.
+        off += usize::from(e.is_nan() || e > 1.0);
+    }
+    (valid, off)
+}
+
+/// The calibration records the sensor's noise (`calibrate reference`, from the plane's
+/// captures) and `scan` decodes with 12σ of it by default: on a 16-bit camera with σ = 1028
+/// codes (4 of 8 bits) the 2 %-of-full-scale floor lets through points a fringe order off,
+/// which the calibrated floor refuses, as `--noise` does. The same thresholds go to a head
+/// (`device upload`, DefineThresholds; `tests/tests/head_pty.rs`).
+#[test]
+fn the_calibrated_sensor_noise_sets_the_scan_floor() {
+    let t = Tmp::new("noise-floor-cal");
+    let ds = t.0.join("sphere");
+    let plane = t.0.join("plane");
+    let common_args = [
+        "--size",
+        "320x256",
+        "--noise",
+        "1028",
+        "--bits",
+        "16",
+        "--supersample",
+        "1",
+    ];
+    let mut a = vec![
+        "render",
+        "-q",
+        "--scene",
+        "sphere",
+        "--seed",
+        "5",
+        "--out",
+        s(&ds),
+    ];
+    a.extend_from_slice(&common_args);
+    run(&a);
+    let mut a = vec![
+        "render",
+        "-q",
+        "--scene",
+        "reference",
+        "--seed",
+        "6",
+        "--out",
+        s(&plane),
+    ];
+    a.extend_from_slice(&common_args);
+    run(&a);
+    let truth_cal = Calibration::load(&ds.join("calibration.toml")).unwrap();
+    let r = truth_cal.reference.as_ref().unwrap();
+    let join = |v: [f64; 3]| format!("{},{},{}", v[0], v[1], v[2]);
+    let (point, normal) = (join(r.point), join(r.normal));
+    let measured = t.0.join("cal/calibration.toml");
+    let out = run(&[
+        "--json",
+        "calibrate",
+        "reference",
+        "--patterns",
+        s(&plane.join("patterns.toml")),
+        "--calibration",
+        s(&ds.join("calibration.toml")),
+        &format!("--plane-point={point}"),
+        &format!("--plane-normal={normal}"),
+        "-o",
+        s(&measured),
+        s(&plane),
+    ]);
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let cal = Calibration::load(&measured).unwrap();
+    let sensor = cal.sensor.expect("calibrate reference records [sensor]");
+    assert_eq!(sensor.bits, 16);
+    assert!(
+        (sensor.noise / 1028.0 - 1.0).abs() < 0.05,
+        "measured σ {}",
+        sensor.noise
+    );
+    assert_eq!(
+        j["sensor"]["min_modulation"].as_f64().unwrap() as f32,
+        12.0 * sensor.noise as f32
+    );
+    // The same calibration without its [sensor] section: the bit depth's defaults.
+    let bare = t.0.join("cal/bare.toml");
+    Calibration {
+        sensor: None,
+        ..cal.clone()
+    }
+    .save(&bare)
+    .unwrap();
+    let defaults = ThresholdArgs::default();
+    let with_sensor = scan_counts(&ds, &measured, &defaults);
+    let without = scan_counts(&ds, &bare, &defaults);
+    let told = scan_counts(
+        &ds,
+        &bare,
+        &ThresholdArgs {
+            noise: Some(NoiseArg::Codes(sensor.noise as f32)),
+            ..Default::default()
+        },
+    );
+    eprintln!(
+        "16-bit sphere, σ = 1028 codes (measured {:.1}): valid points, > 1 mm off: with [sensor] \
+         {with_sensor:?}, without {without:?}, told --noise {told:?}",
+        sensor.noise
+    );
+    assert!(without.1 >= 10, "the 2 % floor's outliers: {without:?}");
+    assert!(
+        with_sensor.1 * 10 <= without.1,
+        "{with_sensor:?} vs {without:?}"
+    );
+    assert_eq!(with_sensor, told, "[sensor] is --noise σ");
+    // `fringe3d scan` itself: the calibration's noise is its default.
+    let ply = t.0.join("cloud.ply");
+    let scan = |cal: &Path| -> u64 {
+        let out = run(&[
+            "--json",
+            "scan",
+            "-p",
+            s(&ds.join("patterns.toml")),
+            "-c",
+            s(cal),
+            s(&ds),
+            "-o",
+            s(&ply),
+        ]);
+        let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+        j["points"].as_u64().unwrap()
+    };
+    assert_eq!(scan(&measured), with_sensor.0 as u64);
+    assert_eq!(scan(&bare), without.0 as u64);
 }

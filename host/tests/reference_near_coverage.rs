@@ -89,7 +89,11 @@ fn coverage(ds: &Path, calibration: &Path, out: &Path) -> Coverage {
     let ls = common::load_set(&ds.join("patterns.toml")).expect("pattern set");
     let cal = ScanCalibration::load(calibration, ls.set.axis()).expect("calibration");
     let imgs = common::load_images(&ls, &[], true).expect("images");
-    let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).expect("decode");
+    // `scan`'s thresholds: 12σ of the calibration's measured noise, when it has one.
+    let cfg = common::ThresholdArgs::default()
+        .config(&ls.set, &imgs, cal.calibration.sensor.as_ref())
+        .expect("thresholds");
+    let d = common::decode(&ls.set, &imgs, cfg).expect("decode");
     let mut cloud = cal
         .reconstruct(&d.phase, &d.validity, true)
         .expect("reconstruct");

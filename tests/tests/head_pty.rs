@@ -1024,3 +1024,45 @@ fn an_inverse_gray_set_scans_code_first_on_the_head_bit_identical_to_the_desktop
     });
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// The host's decoder thresholds on the head (issue #19 item 5, protocol version 7:
+/// DefineThresholds): with a floor of 12σ for σ = 4 codes and a lower saturation level, the
+/// head's phases and points equal the desktop `scan`'s with the same thresholds bit for bit (and
+/// differ from its defaults'); cleared, the head decodes with its camera's defaults again. A set
+/// slot without a set is refused.
+#[test]
+fn the_hosts_thresholds_decode_on_the_head_bit_identical_to_the_desktop() {
+    let root = fresh_root("thresholds");
+    let dir = dataset(&root);
+    let case = head_case(&dir);
+    let args = fringe3d::cli::common::ThresholdArgs {
+        noise: Some(fringe3d::cli::common::NoiseArg::Codes(4.0)),
+        saturation: Some(240.0),
+        ..Default::default()
+    };
+    let cfg = args.config_for_camera(8, None).unwrap();
+    assert_eq!((cfg.min_modulation, cfg.saturation_level), (48.0, 240.0));
+    // The desktop with these thresholds (`fringe3d scan --noise 4 --saturation 240`).
+    let calib = dir.join("calibration.toml");
+    let ls = common::load_set(&dir.join("patterns.toml")).unwrap();
+    let imgs = common::load_images(&ls, &[], true).unwrap();
+    let dec = common::decode_corrected(&ls.set, &imgs, cfg, case.table.as_ref()).unwrap();
+    let sc = ScanCalibration::load(&calib, ls.set.axis()).unwrap();
+    let mut cloud = sc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
+    filter_edges(&mut cloud, &sc.edge_filter(80.0).unwrap());
+    let refused = |v: &[u8]| v.iter().filter(|&&c| c != 0).count();
+    assert!(
+        refused(&dec.validity) > refused(&case.dec.validity),
+        "the thresholds refuse more pixels than the defaults"
+    );
+    on_head(&dir, &case, None, true, |c, v| {
+        assert_eq!(v, ValidationStatus::OK);
+        c.define_thresholds(0, Some(&cfg)).unwrap();
+        assert_desktop_bits(&scan_both(c), &dec, &cloud);
+        c.define_thresholds(0, None).unwrap();
+        assert_desktop_bits(&scan_both(c), &case.dec, &case.cloud);
+        let e = c.define_thresholds(3, Some(&cfg)).unwrap_err().to_string();
+        assert!(e.to_lowercase().contains("set"), "{e}");
+    });
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -12,6 +12,9 @@ use super::{MAX_PAYLOAD, WireError};
 
 /// The protocol version this module speaks; frames of any other version are rejected.
 ///
+/// Version 7 adds DefineThresholds: a head of version 7 decodes a set with the host's thresholds
+/// (the minimum modulation in the sensor's noise, the saturation level), not only with its camera
+/// bit depth's defaults.
 /// Version 6 adds the reference map's margin past the image (issue #17) to BeginPhaseMapUpload:
 /// a head of version 6 reconstructs with a map wider than the image, which a version-5 head would
 /// take for a map of the wrong size; and the shifted Gray code (`Shifts` value 4, issue #20).
@@ -26,7 +29,7 @@ use super::{MAX_PAYLOAD, WireError};
 /// core's set-up consumes, so the head computes exactly what the desktop computes), describes
 /// knot profiles and curved fringes, and adds the edge-filter mode to Scan. Version 1 carried
 /// f32 and linear phase functions only.
-pub const PROTOCOL_VERSION: u8 = 6;
+pub const PROTOCOL_VERSION: u8 = 7;
 
 /// Length of the header in bytes.
 pub const HEADER_LEN: usize = 6;

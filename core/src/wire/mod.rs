@@ -34,7 +34,7 @@
 //!
 //! | offset   | size | field                                                    |
 //! |---------:|-----:|----------------------------------------------------------|
-//! | 0        | 1    | protocol version = 6 ([`PROTOCOL_VERSION`])              |
+//! | 0        | 1    | protocol version = 7 ([`PROTOCOL_VERSION`])              |
 //! | 1        | 1    | flags (below)                                            |
 //! | 2        | 1    | sequence number                                          |
 //! | 3        | 1    | command id (table below)                                 |
@@ -88,6 +88,7 @@
 //! | `0x13` | QueryUpload         | 0 | target T                                                                    | UploadAck |
 //! | `0x14` | ConfirmUpload       | 1 | target T                                                                    | Ack |
 //! | `0x15` | DefineCorrection    | 1 | set_id u8, table: `[0]` none or `[1]` [`SetupCorrection`] (levels u8, 6 × 32 × i16 zigzag varints, 2⁻¹³ rad) | Ack |
+//! | `0x16` | DefineThresholds    | 1 | set_id u8, thresholds: `[0]` none (the camera bit depth's defaults) or `[1]` dark_level, saturation_level, min_modulation, unwrap_tolerance, range_tolerance f32 ([`DecodeThresholds`]) | Ack |
 //! | `0x18` | UploadCalibration   | 1 | width u16, height u16, fx, fy, cx, cy, skew f64, k1, k2, p1, p2, k3 f64, projector_centre 3×f64, plane_point 3×f64, plane_normal 3×f64, depth_min f64, depth_max f64 | Ack |
 //! | `0x19` | BeginPhaseMapUpload | 1 | width u16, height u16, margin left, top, right, bottom u32 (≤ 1024 each), total_bytes u32, digest u32 | UploadAck |
 //! | `0x20` | ConfigureSequence   | 1 | set_id u8, repeat bool, entries bytes (n × 12-byte [`LutEntry`], 1..=256)   | Ack |
@@ -136,8 +137,8 @@
 //! the map's top. Pattern image uploads: one byte per pixel, row-major, images in order.
 //!
 //! Worked example: GetStatus (`0x32`), seq 7, REPLY_WANTED, empty payload. Header
-//! `06 02 07 32 00 00`; CRC-32C of those six bytes `0x89F8583F`, sent LE: decoded frame
-//! `06 02 07 32 00 00 3F 58 F8 89`; COBS and delimiter: `05 06 02 07 32 01 05 3F 58 F8 89 00`.
+//! `07 02 07 32 00 00`; CRC-32C of those six bytes `0x66C83326`, sent LE: decoded frame
+//! `07 02 07 32 00 00 26 33 C8 66`; COBS and delimiter: `05 07 02 07 32 01 05 26 33 C8 66 00`.
 //!
 //! Version history: 1 carried the pattern set (linear phase only) and the calibration as f32 and
 //! had no edge-filter field in Scan. 2 had no `scan_id` in Scan, ResultRow and ScanDone (rows of
@@ -146,7 +147,8 @@
 //! DefineCorrection (a head decoded every set uncorrected, so binary sets and a measured
 //! projector response were scanned on the desktop only). 4 had no validity code 12
 //! (`light-edge`). 5 had no margin in BeginPhaseMapUpload (a head took image-sized reference
-//! maps only). A head and a host of different versions refuse each other's
+//! maps only). 6 had no DefineThresholds (a head decoded with its camera bit depth's default
+//! thresholds, whatever the host's: at 16 bit a floor of 2 % of full scale, not 12σ). A head and a host of different versions refuse each other's
 //! frames: the head answers a frame of another version with Nak Version (detail: its version),
 //! which the host reports as such.
 //! `core/tests/wire_vectors.rs` spells out more, one per kind of body.
@@ -339,6 +341,9 @@ pub enum Invalid {
     /// A side of a reference map's margin exceeds
     /// [`MAX_MARGIN`](crate::reconstruct::MAX_MARGIN).
     Margin = 24,
+    /// A decoder threshold is not finite or negative, the saturation level is zero, or the
+    /// unwrapping tolerance exceeds π (DefineThresholds, protocol version 7).
+    Thresholds = 25,
 }
 
 impl Invalid {
@@ -369,12 +374,13 @@ impl Invalid {
             Invalid::EdgeFilter => "edge-filter",
             Invalid::Correction => "correction",
             Invalid::Margin => "margin",
+            Invalid::Thresholds => "thresholds",
         }
     }
 
     /// The rule with code `code`, if any.
     pub const fn from_u8(code: u8) -> Option<Invalid> {
-        const ALL: [Invalid; 24] = [
+        const ALL: [Invalid; 25] = [
             Invalid::Dimension,
             Invalid::BitDepth,
             Invalid::Intensity,
@@ -399,6 +405,7 @@ impl Invalid {
             Invalid::EdgeFilter,
             Invalid::Correction,
             Invalid::Margin,
+            Invalid::Thresholds,
         ];
         if code >= 1 && (code as usize) <= ALL.len() {
             Some(ALL[code as usize - 1])

@@ -52,8 +52,8 @@ use serde::{Deserialize, Serialize};
 
 use super::crc::crc32c;
 use super::desc::DescError;
-pub use super::message::SetupCorrection;
 use super::message::{Calibration, PatternAxis, PatternSetDesc, Waveform};
+pub use super::message::{DecodeThresholds, SetupCorrection};
 use super::{Invalid, WireError};
 use crate::camera::CameraModel;
 use crate::decode::{DecodeConfig, Decoder, PhaseCorrection};
@@ -211,68 +211,6 @@ impl FrameFormat {
     }
 }
 
-/// The wire description of the decoder's thresholds ([`DecodeConfig`]), field for field, as the
-/// f32 the desktop holds.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DecodeThresholds {
-    /// [`DecodeConfig::dark_level`].
-    pub dark_level: f32,
-    /// [`DecodeConfig::saturation_level`].
-    pub saturation_level: f32,
-    /// [`DecodeConfig::min_modulation`].
-    pub min_modulation: f32,
-    /// [`DecodeConfig::unwrap_tolerance`].
-    pub unwrap_tolerance: f32,
-    /// [`DecodeConfig::range_tolerance`].
-    pub range_tolerance: f32,
-}
-
-impl From<DecodeConfig> for DecodeThresholds {
-    fn from(c: DecodeConfig) -> Self {
-        DecodeThresholds {
-            dark_level: c.dark_level,
-            saturation_level: c.saturation_level,
-            min_modulation: c.min_modulation,
-            unwrap_tolerance: c.unwrap_tolerance,
-            range_tolerance: c.range_tolerance,
-        }
-    }
-}
-
-impl From<DecodeThresholds> for DecodeConfig {
-    fn from(t: DecodeThresholds) -> Self {
-        DecodeConfig {
-            dark_level: t.dark_level,
-            saturation_level: t.saturation_level,
-            min_modulation: t.min_modulation,
-            unwrap_tolerance: t.unwrap_tolerance,
-            range_tolerance: t.range_tolerance,
-        }
-    }
-}
-
-impl DecodeThresholds {
-    /// The decoder's rules: every threshold finite and `>= 0`, the saturation level `> 0`, the
-    /// unwrapping tolerance `<= π` (eqs 12-13 cannot tell fringe orders apart beyond it).
-    pub fn validate(&self) -> Result<(), SetupError> {
-        let all = [
-            self.dark_level,
-            self.saturation_level,
-            self.min_modulation,
-            self.unwrap_tolerance,
-            self.range_tolerance,
-        ];
-        let ok = all.iter().all(|v| v.is_finite() && *v >= 0.0)
-            && self.saturation_level > 0.0
-            && self.unwrap_tolerance <= core::f32::consts::PI;
-        if ok {
-            Ok(())
-        } else {
-            Err(SetupError::Thresholds)
-        }
-    }
-}
-
 /// The edge filter's parameters ([`EdgeFilter::new`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EdgeFilterParams {
@@ -374,7 +312,9 @@ impl HeadSetup {
             .validate_up_to(MAX_SETUP_BIT_DEPTH)
             .map_err(field)?;
         self.capture_order.validate(&self.patterns)?;
-        self.thresholds.validate()?;
+        self.thresholds
+            .validate()
+            .map_err(|_| SetupError::Thresholds)?;
         self.calibration.validate().map_err(field)?;
         let c = &self.calibration.camera;
         if u32::from(self.frames.width) != c.width || u32::from(self.frames.height) != c.height {

@@ -5,8 +5,9 @@ use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::pattern::PatternSet;
 use fringe3d_core::reconstruct::Reconstructor;
 use fringe3d_core::wire::{
-    BeginPhaseMap, BeginUpload, Calibration, Capabilities, HeadState, LUT_ENTRY_LEN, LutEntry,
-    MAX_LUT_ENTRIES, PatternSetDesc, ScanOutput, SetupCorrection, UploadTarget, ValidationStatus,
+    BeginPhaseMap, BeginUpload, Calibration, Capabilities, DecodeThresholds, HeadState,
+    LUT_ENTRY_LEN, LutEntry, MAX_LUT_ENTRIES, PatternSetDesc, ScanOutput, SetupCorrection,
+    UploadTarget, ValidationStatus,
 };
 
 use super::config::{HeadConfig, MAX_SETS};
@@ -24,13 +25,14 @@ pub(super) enum Source {
 }
 
 /// A pattern-set slot: its description, the core's set, its source, and the phase-error table
-/// it is decoded with (DefineCorrection).
+/// (DefineCorrection) and thresholds (DefineThresholds) it is decoded with.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Slot {
     pub(super) desc: PatternSetDesc,
     pub(super) set: PatternSet,
     pub(super) source: Source,
     pub(super) correction: Option<SetupCorrection>,
+    pub(super) thresholds: Option<DecodeThresholds>,
 }
 
 /// What an upload is for, as announced (a repeated Begin with the same key resumes it).

@@ -224,6 +224,7 @@ fn dispatch<T: Write, B: BoardIo>(
                     set,
                     source: Source::Generated,
                     correction: None,
+                    thresholds: None,
                 });
                 if ctl.image_owner == Some(id) {
                     ctl.image_owner = None;
@@ -249,6 +250,19 @@ fn dispatch<T: Write, B: BoardIo>(
                 nak!(NakCode::Invalid, Invalid::Correction);
             }
             slot.correction = c.table;
+            ctl.validated = false;
+            reply!(ack);
+        }
+        Message::DefineThresholds(d) => {
+            let slot = ctl
+                .slots
+                .get_mut(d.set_id as usize)
+                .and_then(|s| s.as_mut())
+                .filter(|_| d.set_id < ctl.caps.max_sets);
+            let Some(slot) = slot else {
+                nak!(NakCode::NoSuchSet, 0);
+            };
+            slot.thresholds = d.thresholds;
             ctl.validated = false;
             reply!(ack);
         }

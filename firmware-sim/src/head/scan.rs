@@ -91,8 +91,11 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
     let w = board.camera().width() as usize;
     let h = board.camera().height() as usize;
     let bits = board.camera().bit_depth() as u32;
-    let mut decoder =
-        Decoder::new(&sc.set, DecodeConfig::for_bit_depth(bits)).map_err(|_| ScanFail::Internal)?;
+    // The host's thresholds (DefineThresholds), else the camera bit depth's defaults.
+    let config = slot
+        .thresholds
+        .map_or_else(|| DecodeConfig::for_bit_depth(bits), DecodeConfig::from);
+    let mut decoder = Decoder::new(&sc.set, config).map_err(|_| ScanFail::Internal)?;
     if let Some(c) = &slot.correction {
         decoder
             .set_correction_knots(c.levels, |l, j| c.knot(l, j))

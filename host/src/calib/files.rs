@@ -15,7 +15,7 @@ use super::reference_physical::{PhysicalFit, fit_physical};
 pub use super::reference_write::write_reference;
 use super::{CalibError, pose};
 use crate::batch::decode_image_set;
-use crate::io::calibration::{Calibration, ProjectorResponse};
+use crate::io::calibration::{Calibration, ProjectorResponse, SensorNoise};
 use crate::io::image::{Pixels, read_gray};
 use crate::io::image_set;
 use crate::io::pattern_file::PatternSetFile;
@@ -176,6 +176,9 @@ pub struct DecodedSet {
     pub axis: Axis,
     /// The images decoded.
     pub images: Vec<PathBuf>,
+    /// The camera's read noise measured on them ([`crate::noise::estimate`]: the set needs a
+    /// level of 4, 6, … uniform shifts), in codes of their bit depth.
+    pub sensor: Option<SensorNoise>,
 }
 
 /// Decode the fringe images of the pattern set `set_path`: `images` empty → the set file's own
@@ -209,8 +212,21 @@ pub fn decode_set_with(
         list => (list.to_vec(), "the images given".to_string()),
     };
     let imgs = image_set::load(&paths, n, &what)?;
-    let mut dec = Decoder::new(&set, DecodeConfig::for_bit_depth(imgs.bits as u32))
-        .map_err(|e| input(set_path, format!("decoder: {e}")))?;
+    // The sensor's noise as these images show it (a level of 4, 6, … uniform shifts): the
+    // decoder's floor is 12σ of it, as `scan` will use (docs/gamma.md, "Thresholds"); without
+    // such a level, the bit depth's default.
+    let sensor = crate::noise::estimate(&set, &imgs)
+        .map(|e| SensorNoise {
+            bits: imgs.bits,
+            noise: f64::from(e.sigma),
+        })
+        .filter(|s| s.validate().is_ok());
+    let config = sensor.map_or_else(
+        || DecodeConfig::for_bit_depth(imgs.bits as u32),
+        |s| s.decode_config(imgs.bits),
+    );
+    let mut dec =
+        Decoder::new(&set, config).map_err(|e| input(set_path, format!("decoder: {e}")))?;
     if let Some(t) =
         response_table_for(&file, &set, response, defocus).map_err(|m| input(set_path, m))?
     {
@@ -233,6 +249,7 @@ pub fn decode_set_with(
     }
     let valid = phase.iter().filter(|p| p.is_finite()).count();
     Ok(DecodedSet {
+        sensor,
         width: imgs.width,
         height: imgs.height,
         phase,
@@ -561,6 +578,18 @@ pub fn calibrate_reference_files(
         dec.width + margin.left + margin.right,
         dec.height + margin.top + margin.bottom,
     );
+    // The sensor's noise as these captures show it: the decoder's floor for later scans.
+    let measured;
+    let calibration = match dec.sensor {
+        Some(s) => {
+            measured = Calibration {
+                sensor: Some(s),
+                ..calibration.clone()
+            };
+            &measured
+        }
+        None => calibration,
+    };
     let (cal, map_path) = write_reference(
         calibration,
         out,

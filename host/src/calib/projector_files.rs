@@ -233,6 +233,7 @@ pub fn calibrate_projector_files(
         projector_response: None,
         projector_defocus: None,
         camera_covariance: model.covariance_camera,
+        sensor: None,
     };
     calibration.validate().map_err(|m| CalibError::Degenerate {
         what: format!("the resulting calibration: {m}"),

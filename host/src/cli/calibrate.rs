@@ -656,7 +656,9 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
     });
     let j = json!({"command": "calibrate reference", "out": out, "map": run.map_path, "valid_fraction": run.valid_fraction,
         "plane": run.plane, "model": model, "projector_model_check": run.physical,
-        "margin": run.margin.to_array(), "seam_rad": run.seam_rad});
+        "margin": run.margin.to_array(), "seam_rad": run.seam_rad,
+        "sensor": run.calibration.sensor.map(|s| json!({"bits": s.bits, "noise": s.noise,
+            "min_modulation": s.decode_config(s.bits).min_modulation}))});
     if let Some(f) = &run.physical
         && !g.quiet
         && a.flatness_limit.is_none()
@@ -688,6 +690,15 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
             "reference capture: {:.1} % of the pixels valid",
             100.0 * run.valid_fraction
         );
+        if let Some(s) = &run.calibration.sensor {
+            outln!(
+                "sensor read noise σ {:.3} codes ({}-bit images): scans decode with a minimum \
+                 modulation of 12σ = {:.1} codes unless told otherwise",
+                s.noise,
+                s.bits,
+                s.decode_config(s.bits).min_modulation
+            );
+        }
         match &run.fit {
             Some(f) => outln!(
                 "phase map: smooth model (cubic spline, knots every {} px) fitted to {} pixels ({} outliers dropped); residual {:.2e} rad RMS, noise {:.2e} rad, structure {:.2e} rad",

@@ -108,6 +108,7 @@ pub fn import(a: ImportArgs, g: Global) -> Result<()> {
         projector_response: None,
         projector_defocus: None,
         camera_covariance: None,
+        sensor: None,
     };
     cal.validate()
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.file.display()))?;

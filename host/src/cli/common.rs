@@ -3,7 +3,7 @@
 pub use crate::batch::Decoded;
 use crate::batch::decode_image_set;
 use crate::io::calibration::{
-    Calibration, PatternCheck, ScanPatterns, check_pattern_set, pattern_digest,
+    Calibration, PatternCheck, ScanPatterns, SensorNoise, check_pattern_set, pattern_digest,
 };
 use crate::io::image_set::{self, Frames, ImageSet};
 use crate::io::pattern_file::PatternSetFile;
@@ -332,8 +332,9 @@ pub struct ThresholdArgs {
     pub min_modulation: Option<f32>,
     /// The camera's read noise σ, camera codes, or `auto` to estimate it from the images (a
     /// level of 4, 6, … uniform shifts); the minimum modulation is then 12σ, the 8-bit floor's
-    /// rule (12 codes at σ = 1). Without it, the bit depth's default (for deeper images 2 % of
-    /// full scale, which is what a head given the same set decodes with).
+    /// rule (12 codes at σ = 1). Without it, 12σ of the noise the calibration's `[sensor]`
+    /// records (`calibrate reference` measures it), which a head set up by `device upload` also
+    /// decodes with; without that, the bit depth's default (for deeper images 2 % of full scale).
     #[arg(long, value_name = "CODES|auto")]
     pub noise: Option<NoiseArg>,
     /// Saturation level, camera codes (default: full scale of the images' bit depth).
@@ -355,32 +356,63 @@ impl ThresholdArgs {
     /// The bit depth's defaults with the given thresholds applied; each checked against its
     /// meaningful range (codes within the images' full scale, radians within (0, π]). The
     /// modulation floor: `--min-modulation`, else 12σ of `--noise` (estimated from the images of
-    /// `set` for `auto`), else the bit depth's.
-    pub fn config(&self, set: &PatternSet, imgs: &ImageSet) -> Result<DecodeConfig> {
-        let mut cfg = decode_config(imgs);
-        match self.noise {
-            Some(NoiseArg::Codes(s)) => cfg = DecodeConfig::for_sensor(imgs.bits as u32, s),
-            Some(NoiseArg::Auto) => match crate::noise::estimate(set, imgs) {
-                Some(e) => cfg = DecodeConfig::for_sensor(imgs.bits as u32, e.sigma),
-                None if self.noise.is_some() => anyhow::bail!(
-                    "--noise auto: the pattern set has no level of 4, 6, ... uniform shifts to \
-                     estimate the noise from, or too few lit, unsaturated pixels; give --noise \
-                     CODES or --min-modulation"
-                ),
-                None => {}
-            },
-            None => {}
+    /// `set` for `auto`), else 12σ of the calibration's `[sensor]` noise, else the bit depth's.
+    pub fn config(
+        &self,
+        set: &PatternSet,
+        imgs: &ImageSet,
+        sensor: Option<&SensorNoise>,
+    ) -> Result<DecodeConfig> {
+        let estimate = || match crate::noise::estimate(set, imgs) {
+            Some(e) => Ok(e.sigma),
+            None => anyhow::bail!(
+                "--noise auto: the pattern set has no level of 4, 6, ... uniform shifts to \
+                 estimate the noise from, or too few lit, unsaturated pixels; give --noise \
+                 CODES or --min-modulation"
+            ),
+        };
+        self.config_for(imgs.bits, sensor, estimate)
+    }
+
+    /// [`Self::config`] for a camera of `bits` bits whose images are not at hand (a head's, set
+    /// by `device upload`): `--noise auto` is refused.
+    pub fn config_for_camera(
+        &self,
+        bits: u8,
+        sensor: Option<&SensorNoise>,
+    ) -> Result<DecodeConfig> {
+        self.config_for(bits, sensor, || {
+            anyhow::bail!(
+                "--noise auto needs the images; for a head give --noise CODES (or calibrate the \
+                 reference, which records the sensor's noise)"
+            )
+        })
+    }
+
+    fn config_for(
+        &self,
+        bits: u8,
+        sensor: Option<&SensorNoise>,
+        estimate: impl FnOnce() -> Result<f32>,
+    ) -> Result<DecodeConfig> {
+        let mut cfg = DecodeConfig::for_bit_depth(u32::from(bits));
+        match (self.noise, sensor) {
+            (Some(NoiseArg::Codes(s)), _) => cfg = DecodeConfig::for_sensor(u32::from(bits), s),
+            (Some(NoiseArg::Auto), _) => {
+                cfg = DecodeConfig::for_sensor(u32::from(bits), estimate()?)
+            }
+            (None, Some(s)) => cfg = s.decode_config(bits),
+            (None, None) => {}
         }
-        let full = ((1u64 << imgs.bits.clamp(1, 16)) - 1) as f32;
+        let full = ((1u64 << bits.clamp(1, 16)) - 1) as f32;
         let codes = |v: Option<f32>, name: &str, lo_open: bool| -> Result<Option<f32>> {
             match v {
                 Some(x) if x.is_finite() && (x > 0.0 || (!lo_open && x == 0.0)) && x <= full => {
                     Ok(Some(x))
                 }
                 Some(x) => anyhow::bail!(
-                    "--{name} {x}: expected {} to {full} camera codes ({}-bit images)",
+                    "--{name} {x}: expected {} to {full} camera codes ({bits}-bit images)",
                     if lo_open { "more than 0" } else { "0" },
-                    imgs.bits
                 ),
                 None => Ok(None),
             }

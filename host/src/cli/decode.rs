@@ -120,7 +120,7 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
         None => None,
     };
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;
-    let cfg = a.thresholds.config(&ls.set, &imgs)?;
+    let cfg = a.thresholds.config(&ls.set, &imgs, None)?;
     let dir = AtomicDir::create(&a.out, a.overwrite)?;
     let d = common::decode_corrected(&ls.set, &imgs, cfg, corr.as_ref())?;
     let (w, h) = (imgs.width, imgs.height);

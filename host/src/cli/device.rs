@@ -108,6 +108,15 @@ pub struct UploadArgs {
     /// always runs it once).
     #[arg(long)]
     pub repeat: bool,
+    /// The decoder's thresholds the head scans with (DefineThresholds), as `scan` takes them;
+    /// `--noise` takes codes only (the images are the head's). Without any, and without a
+    /// `[sensor]` noise in the calibration, the head uses its camera bit depth's defaults.
+    #[command(flatten)]
+    pub thresholds: common::ThresholdArgs,
+    /// The head camera's bit depth (8 to 16), for the thresholds' defaults; needed with
+    /// thresholds when the calibration records no `[sensor]` noise (whose bit depth it is).
+    #[arg(long, value_name = "BITS", value_parser = clap::value_parser!(u8).range(8..=16))]
+    pub camera_bits: Option<u8>,
 }
 
 /// What a scan streams.
@@ -329,6 +338,33 @@ fn bar(len: u64, msg: &str, quiet: bool) -> (indicatif::ProgressBar, impl FnMut(
     })
 }
 
+/// The thresholds `device upload` sends: those `scan` would use with the calibration's
+/// `[sensor]` noise and the given options, for the head camera's bit depth; `None` (the head's
+/// own defaults) when nothing sets them.
+fn head_thresholds(
+    a: &UploadArgs,
+    cal: Option<&Calibration>,
+) -> Result<Option<fringe3d_core::decode::DecodeConfig>> {
+    let t = &a.thresholds;
+    let given = t.noise.is_some()
+        || t.min_modulation.is_some()
+        || t.saturation.is_some()
+        || t.dark_level.is_some()
+        || t.unwrap_tolerance.is_some()
+        || t.range_tolerance.is_some();
+    let sensor = cal.and_then(|c| c.sensor.as_ref());
+    if !given && sensor.is_none() {
+        return Ok(None);
+    }
+    let Some(bits) = a.camera_bits.or(sensor.map(|s| s.bits)) else {
+        bail!(
+            "decoder thresholds for the head: give --camera-bits (the head camera's bit depth), \
+             or a calibration whose reference recorded the sensor's noise ([sensor])"
+        );
+    };
+    t.config_for_camera(bits, sensor).map(Some)
+}
+
 fn upload(a: UploadArgs, g: Global) -> Result<()> {
     let ls = common::load_set(&a.patterns)?;
     // The head's reference and pattern set must match, as for `fringe3d scan`; checked before
@@ -432,6 +468,8 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
         _ => None,
     };
 
+    let thresholds = head_thresholds(&a, cal_file.as_ref())?;
+
     let mut c = connect(&a.port, None)?;
     let caps = *c.capabilities();
     if (caps.projector_width, caps.projector_height) != (desc.width, desc.height) {
@@ -446,9 +484,26 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
     c.define_pattern_set(a.set_id, &desc)?;
     // Always sent: a table left from an earlier upload of the same set must not stay.
     c.define_correction(a.set_id, correction.as_ref())?;
+    // Always sent too: thresholds left from an earlier upload must not stay.
+    c.define_thresholds(a.set_id, thresholds.as_ref())?;
     let mut summary = serde_json::json!({"command": "device upload", "port": a.port.port, "set_id": a.set_id,
         "patterns_exact": fid.patterns, "decoder_exact": fid.decoder,
-        "phase_correction": correction.is_some()});
+        "phase_correction": correction.is_some(),
+        "thresholds": thresholds.map(|t| serde_json::json!({"dark_level": t.dark_level,
+            "saturation_level": t.saturation_level, "min_modulation": t.min_modulation,
+            "unwrap_tolerance": t.unwrap_tolerance, "range_tolerance": t.range_tolerance}))});
+    if let Some(t) = &thresholds
+        && !g.quiet
+        && !g.json
+    {
+        outln!(
+            "decoder thresholds sent: minimum modulation {} codes, saturation {} codes, dark {} \
+             codes",
+            t.min_modulation,
+            t.saturation_level,
+            t.dark_level
+        );
+    }
     if correction.is_some() && !g.quiet && !g.json {
         outln!(
             "phase-error table of the projector's light sent: the head decodes with it, as the \

@@ -97,7 +97,9 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
     }
     let t_load = t0.elapsed();
     let comments = vec![format!("fringe3d scan of {}", a.patterns.display())];
-    let config = a.thresholds.config(&ls.set, &imgs)?;
+    let config = a
+        .thresholds
+        .config(&ls.set, &imgs, cal.calibration.sensor.as_ref())?;
     let corr = common::response_correction(&cal.calibration, &a.calibration, &ls)?;
     let (n, hist, seconds) = if pipeline == Pipeline::WholeFrame {
         let d = common::decode_corrected(&ls.set, &imgs, config, corr.as_ref())?;

@@ -20,14 +20,15 @@
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use fringe3d_core::decode::PhaseCorrection;
+use fringe3d_core::decode::{DecodeConfig, PhaseCorrection};
 use fringe3d_core::reconstruct::Margin;
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::{
-    BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, DefineCorrection,
-    DefinePatternSet, FirmwareVersion, Hello, LutEntry, LutTable, Message, Nak, NakCode,
-    PHASE_MAP_BYTES_PER_PIXEL, PROTOCOL_VERSION, Packet, PatternSetDesc, Sequence, SetupCorrection,
-    Status, UploadAck, UploadChunk, UploadTarget, ValidationStatus, WireError, check_header, frame,
+    BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, DecodeThresholds,
+    DefineCorrection, DefinePatternSet, DefineThresholds, FirmwareVersion, Hello, LutEntry,
+    LutTable, Message, Nak, NakCode, PHASE_MAP_BYTES_PER_PIXEL, PROTOCOL_VERSION, Packet,
+    PatternSetDesc, Sequence, SetupCorrection, Status, UploadAck, UploadChunk, UploadTarget,
+    ValidationStatus, WireError, check_header, frame,
 };
 
 use super::{DeviceError, Link, Transport, nak_reason};
@@ -382,6 +383,22 @@ impl<T: Transport> Client<T> {
             Message::DefineCorrection(DefineCorrection {
                 set_id,
                 table: table.map(SetupCorrection::from),
+            }),
+        )
+    }
+
+    /// Set (or with `None` clear: the camera bit depth's defaults) the decoder thresholds
+    /// pattern set `set_id` is decoded with (protocol version 7).
+    pub fn define_thresholds(
+        &mut self,
+        set_id: u8,
+        config: Option<&DecodeConfig>,
+    ) -> Result<(), DeviceError> {
+        self.expect_ack(
+            "DefineThresholds",
+            Message::DefineThresholds(DefineThresholds {
+                set_id,
+                thresholds: config.map(|c| DecodeThresholds::from(*c)),
             }),
         )
     }

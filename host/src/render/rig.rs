@@ -189,6 +189,7 @@ impl Rig {
             projector_response: None,
             projector_defocus: None,
             camera_covariance: None,
+            sensor: None,
         }
     }
 }

@@ -26,6 +26,7 @@ mod hello;
 mod pattern;
 mod scan;
 mod status;
+mod thresholds;
 mod trigger;
 mod upload;
 
@@ -35,6 +36,7 @@ pub use hello::{Capabilities, FirmwareVersion, Hello};
 pub use pattern::DefinePatternSet;
 pub use scan::{EdgeFilterMode, ResultRow, RowKind, ScanDone, ScanOutput, ScanRequest};
 pub use status::{Ack, HeadErrors, HeadState, Nak, NakCode, Status};
+pub use thresholds::{DecodeThresholds, DefineThresholds};
 pub use trigger::{LutEntry, LutTable, Sequence, ValidationStatus};
 pub use upload::{BeginPhaseMap, BeginUpload, UploadAck, UploadChunk, UploadTarget};
 
@@ -71,6 +73,9 @@ commands! {
     /// [`DefineCorrection`] → Ack.
     DefineCorrection = 0x15 => write(DefineCorrection),
         "Set or clear a pattern set's phase-error table (protocol version 4).";
+    /// [`DefineThresholds`] → Ack.
+    DefineThresholds = 0x16 => write(DefineThresholds),
+        "Set or clear a pattern set's decoder thresholds (protocol version 7).";
     /// [`Calibration`] → Ack.
     UploadCalibration = 0x18 => write(Calibration), "Upload the calibration.";
     /// [`BeginPhaseMap`] → [`UploadAck`].

@@ -20,6 +20,7 @@ mod covariance;
 mod pattern_digest;
 mod response;
 mod schema;
+mod sensor;
 mod toml_writer;
 mod validate;
 
@@ -33,3 +34,4 @@ pub use pattern_digest::{
 };
 pub use response::ProjectorResponse;
 pub use schema::{CALIBRATION_VERSION, Calibration, MAX_DEFOCUS, ReferencePlane};
+pub use sensor::SensorNoise;

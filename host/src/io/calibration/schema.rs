@@ -59,6 +59,11 @@ pub struct Calibration {
     /// the camera's uncertainty to the σ they report (docs/calibration.md, "Honest σ").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera_covariance: Option<super::CameraCovariance>,
+    /// The camera's read noise, when measured (`calibrate reference`, from the plane's
+    /// captures): `scan` and `device upload` then put the decoder's minimum modulation at 12σ
+    /// unless told otherwise (docs/gamma.md, "Thresholds").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<super::SensorNoise>,
 }
 
 /// The reference plane of paper §6 and its phase map.

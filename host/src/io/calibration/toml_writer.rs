@@ -90,6 +90,13 @@ impl Calibration {
             let _ = writeln!(s, "levels = {}  # x, 0..1", arr(&r.levels));
             let _ = writeln!(s, "response = {}  # r(x), 0..1", arr(&r.response));
         }
+        if let Some(n) = &self.sensor {
+            s.push_str(
+                "\n[sensor]  # the camera's read noise, from the reference plane's captures\n",
+            );
+            let _ = writeln!(s, "bits = {}  # of the images it was measured on", n.bits);
+            let _ = writeln!(s, "noise = {}  # sigma of one sample, codes", num(n.noise));
+        }
         if let Some(c) = &self.camera_covariance {
             let _ = writeln!(
                 s,

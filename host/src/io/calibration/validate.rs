@@ -63,6 +63,11 @@ impl Calibration {
         {
             errs.push(m);
         }
+        if let Some(s) = &self.sensor
+            && let Err(m) = s.validate()
+        {
+            errs.push(m);
+        }
         if let Some(d) = self.projector_defocus
             && !(d.is_finite() && (0.0..=super::MAX_DEFOCUS).contains(&d))
         {
