@@ -305,3 +305,63 @@ fn the_calibrated_sensor_noise_sets_the_scan_floor() {
     assert_eq!(scan(&measured), with_sensor.0 as u64);
     assert_eq!(scan(&bare), without.0 as u64);
 }
+
+/// `[sensor]` round-trips through the calibration file, scales with the bit depth as the same
+/// noise relative to full scale, and a bad value is refused with an error naming the file and
+/// the section.
+#[test]
+fn a_sensor_section_round_trips_and_bad_values_are_refused() {
+    use fringe3d::io::calibration::SensorNoise;
+    let t = Tmp::new("noise-floor-sensor");
+    std::fs::create_dir_all(&t.0).unwrap();
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/calibration/calib.toml");
+    let mut c = Calibration::load(&example).unwrap();
+    assert_eq!(c.sensor, None, "the example has no [sensor]");
+    let sensor = SensorNoise {
+        bits: 16,
+        noise: 257.0,
+    };
+    c.sensor = Some(sensor);
+    let p = t.0.join("c.toml");
+    c.save(&p).unwrap();
+    let text = std::fs::read_to_string(&p).unwrap();
+    assert!(
+        text.contains("[sensor]") && text.contains("noise = 257.0"),
+        "{text}"
+    );
+    assert_eq!(Calibration::load(&p).unwrap(), c);
+    // σ = 257 codes of 16 bits is 1 code of 8 bits (257 · 255 / 65535): the 12-code floor.
+    assert_eq!(sensor.sigma_at(8), 1.0);
+    assert_eq!(sensor.decode_config(8), DecodeConfig::for_bit_depth(8));
+    assert_eq!(sensor.decode_config(16).min_modulation, 12.0 * 257.0);
+    for (edit, want) in [
+        ("bits = 17", "bits must be 1 to 16"),
+        ("noise = 0.0", "noise must be more than 0"),
+        ("noise = 70000.0", "below full scale"),
+        ("noise = nan", "noise must be more than 0"),
+        ("gain = 2.0", "unknown field"),
+    ] {
+        let key = edit.split(' ').next().unwrap();
+        let bad_text = match key {
+            "gain" => text.replace("[sensor]", &format!("[sensor]\n{edit}")),
+            _ => text
+                .lines()
+                .map(|l| {
+                    if l.starts_with(&format!("{key} =")) {
+                        edit
+                    } else {
+                        l
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join("\n"),
+        };
+        let bad = t.0.join("bad.toml");
+        std::fs::write(&bad, bad_text).unwrap();
+        let e = Calibration::load(&bad).unwrap_err().to_string();
+        assert!(e.contains(want) && e.contains("bad.toml"), "{edit}: {e}");
+        if key != "gain" {
+            assert!(e.contains("[sensor]"), "{edit}: {e}");
+        }
+    }
+}

@@ -72,19 +72,14 @@ impl From<DecodeThresholds> for DecodeConfig {
 }
 
 impl DecodeThresholds {
-    /// The decoder's rules: every threshold finite and `>= 0`, the saturation level `> 0`, the
-    /// unwrapping tolerance `<= π` (eqs 12-13 cannot tell fringe orders apart beyond it).
+    /// The decoder's rules ([`DecodeConfig`]'s, the one check): every threshold finite and
+    /// `>= 0`, the saturation level `> 0`, the unwrapping tolerance `<= π` (eqs 12-13 cannot
+    /// tell fringe orders apart beyond it).
     pub fn validate(&self) -> Result<(), Invalid> {
-        let all = [
-            self.dark_level,
-            self.saturation_level,
-            self.min_modulation,
-            self.unwrap_tolerance,
-            self.range_tolerance,
-        ];
-        let ok = all.iter().all(|v| v.is_finite() && *v >= 0.0)
-            && self.saturation_level > 0.0
-            && self.unwrap_tolerance <= core::f32::consts::PI;
-        if ok { Ok(()) } else { Err(Invalid::Thresholds) }
+        if DecodeConfig::from(*self).is_sane() {
+            Ok(())
+        } else {
+            Err(Invalid::Thresholds)
+        }
     }
 }
