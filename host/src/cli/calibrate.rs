@@ -1,7 +1,7 @@
 //! `fringe3d calibrate camera | projector | reference`: the calibration workflow of paper §7
 //! (see `docs/calibration.md`).
 
-use super::{Global, common};
+use super::{Global, common, parse};
 use crate::calib::camera::CameraOptions;
 use crate::calib::corners::{Board, DetectOptions};
 use crate::calib::files::{self, MapSource, PlaneSource, ReferenceOptions};
@@ -245,26 +245,6 @@ pub struct ReferenceArgs {
     pub margin: Option<String>,
 }
 
-/// `--margin`: `None` for auto.
-fn parse_margin(s: &str) -> Result<Option<fringe3d_core::reconstruct::Margin>> {
-    use fringe3d_core::reconstruct::Margin;
-    if s.trim() == "auto" {
-        return Ok(None);
-    }
-    let v: Vec<u32> = s
-        .split(',')
-        .map(|x| x.trim().parse::<u32>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| {
-            anyhow::anyhow!("--margin: \"auto\", N or L,T,R,B (whole pixels), got \"{s}\"")
-        })?;
-    match v[..] {
-        [n] => Ok(Some(Margin::uniform(n))),
-        [l, t, r, b] => Ok(Some(Margin::from_array([l, t, r, b]))),
-        _ => bail!("--margin: \"auto\", N or L,T,R,B (whole pixels), got \"{s}\""),
-    }
-}
-
 /// Run `fringe3d calibrate`.
 pub fn run(a: CalibrateArgs, g: Global) -> Result<()> {
     match a.step {
@@ -358,18 +338,6 @@ fn camera(a: CameraArgs, g: Global) -> Result<()> {
         );
     }
     Ok(())
-}
-
-fn parse3(s: &str, what: &str) -> Result<[f64; 3]> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("{what} {s:?}: expected X,Y,Z"))?;
-    let [x, y, z] = v[..] else {
-        bail!("{what} {s:?}: expected three numbers X,Y,Z")
-    };
-    Ok([x, y, z])
 }
 
 fn projector(a: ProjectorArgs, g: Global) -> Result<()> {
@@ -613,8 +581,8 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
             offset_mm: a.board_offset,
         },
         (false, Some(p), Some(n)) => PlaneSource::Given {
-            point: parse3(p, "--plane-point")?,
-            normal: parse3(n, "--plane-normal")?,
+            point: parse::point3(p, "--plane-point")?,
+            normal: parse::point3(n, "--plane-normal")?,
         },
         (false, None, None) => bail!(
             "calibrate reference: give the plane's pose, either --board-image (with --board, --square) or --plane-point and --plane-normal"
@@ -625,7 +593,7 @@ fn reference(a: ReferenceArgs, g: Global) -> Result<()> {
     };
     let margin = match &a.margin {
         None => Some(fringe3d_core::reconstruct::Margin::ZERO),
-        Some(m) => parse_margin(m)?,
+        Some(m) => parse::margin(m)?,
     };
     crate::calib::reference_margin::check_request(&cal, !a.raw, margin)
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.calibration.display()))?;
@@ -750,13 +718,16 @@ fn virtual_reference(a: ReferenceArgs, g: Global) -> Result<()> {
         );
     }
     let plane = match (&a.plane_point, &a.plane_normal) {
-        (Some(p), Some(n)) => Some((parse3(p, "--plane-point")?, parse3(n, "--plane-normal")?)),
+        (Some(p), Some(n)) => Some((
+            parse::point3(p, "--plane-point")?,
+            parse::point3(n, "--plane-normal")?,
+        )),
         (None, None) => None,
         _ => bail!(
             "calibrate reference --virtual: give both --plane-point and --plane-normal, or neither"
         ),
     };
-    let margin = parse_margin(a.margin.as_deref().unwrap_or("auto"))?;
+    let margin = parse::margin(a.margin.as_deref().unwrap_or("auto"))?;
     let cal = Calibration::load(&a.calibration)?;
     let out = a.out.clone().unwrap_or_else(|| a.calibration.clone());
     common::file_out(&out, "--out")?;

@@ -99,6 +99,40 @@ pub fn six(s: &str) -> Result<[f64; 6], String> {
     <[f64; 6]>::try_from(v).map_err(|v| format!("`{s}`: expected six numbers, got {}", v.len()))
 }
 
+/// `--margin`: `None` for auto.
+pub fn margin(s: &str) -> anyhow::Result<Option<fringe3d_core::reconstruct::Margin>> {
+    use fringe3d_core::reconstruct::Margin;
+    if s.trim() == "auto" {
+        return Ok(None);
+    }
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<u32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| {
+            anyhow::anyhow!("--margin: \"auto\", N or L,T,R,B (whole pixels), got \"{s}\"")
+        })?;
+    match v[..] {
+        [n] => Ok(Some(Margin::uniform(n))),
+        [l, t, r, b] => Ok(Some(Margin::from_array([l, t, r, b]))),
+        _ => anyhow::bail!("--margin: \"auto\", N or L,T,R,B (whole pixels), got \"{s}\""),
+    }
+}
+
+/// `X,Y,Z` of option `what` (camera frame, mm).
+pub fn point3(s: &str, what: &str) -> anyhow::Result<[f64; 3]> {
+    use anyhow::Context;
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{what} {s:?}: expected X,Y,Z"))?;
+    let [x, y, z] = v[..] else {
+        anyhow::bail!("{what} {s:?}: expected three numbers X,Y,Z")
+    };
+    Ok([x, y, z])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
