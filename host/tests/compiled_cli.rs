@@ -173,10 +173,15 @@ fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
 }
 
 #[test]
-fn compiled_scans_match_the_search() {
+fn compiled_scans_match_the_search_at_full_size() {
     let t = Tmp::new("compiled");
     // The default rig at full size (projector lens distortion), at the 0.1 µm.
     scene(&t, "sphere", "sphere", "1280x1024", 0.1);
+}
+
+#[test]
+fn compiled_scans_match_the_search_on_curved_skewed_and_freeform() {
+    let t = Tmp::new("compiled-scenes");
     // Curved fringes, a skewed rig, a freeform at 640 × 512: the search's bilinear reading of a
     // map of coarser pixels departs from any smooth function by ~0.2 µm (docs/compiled.md),
     // so at 0.5 µm.

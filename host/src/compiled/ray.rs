@@ -8,6 +8,7 @@ use fringe3d_core::reconstruct::compiled::PixelModel;
 
 /// The f64 phase of the reference map at image pixel position `p` (bilinear, map coordinates
 /// offset by the margin), `None` off the map or on an invalid sample.
+#[inline(always)]
 pub(super) fn map_phase(cal: &Source<'_>, p: [f64; 2]) -> Option<f64> {
     let r = &cal.recon;
     let m = r.margin();
@@ -73,6 +74,7 @@ impl<'a> Ray<'a> {
     }
 
     /// The image position (distorted pixels) of the search's point `N_I = m + t·e`.
+    #[inline]
     pub(super) fn pixel_at_t(&self, t: f64) -> [f64; 2] {
         let cam = self.cal.recon.camera();
         cam.normalized_to_pixel([self.x + t * self.ex, self.y + t * self.ey])

@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 mod kernels;
 
 pub use kernels::box_gauss;
-use kernels::{blur_1d, lagrange4, reach_of, tap_table, window};
+use kernels::{blur_1d, blur_columns, lagrange4, reach_of, tap_table, window};
 
 /// How the projector image is modelled.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -506,16 +506,7 @@ impl LightSet {
                 rows[j * nx..(j + 1) * nx].copy_from_slice(&b);
             }
             let mut table = vec![0f32; nx * ny];
-            let mut col = vec![0f64; h];
-            for i in 0..nx {
-                for j in 0..h {
-                    col[j] = rows[j * nx + i];
-                }
-                let b = blur_1d(&col, y0, m, ny, &taps);
-                for (jj, v) in b.iter().enumerate() {
-                    table[jj * nx + i] = *v as f32;
-                }
-            }
+            blur_columns(&rows, nx, y0, m, ny, &taps, &mut table);
             ls.slides.push(Eval::Grid { table });
         }
         ls.layout = Layout::Grid {

@@ -58,6 +58,10 @@ pub(super) fn tap_table(sigma: f64, m: usize, reach: f64) -> Vec<(i64, Vec<f64>)
 
 /// Blur the staircase `v` (pixel i at position i) onto positions `t0 + q/m`, q = 0..len.
 /// `t0` must be an integer.
+///
+/// Each output is `0 + v[i₀]·k₀ + v[i₀+1]·k₁ + …` over the taps whose pixel exists, summed in
+/// that order: [`blur_columns`] adds the same products in the same order, so the two passes of
+/// the 2-D tables round alike.
 pub(super) fn blur_1d(
     v: &[f64],
     t0: f64,
@@ -69,16 +73,58 @@ pub(super) fn blur_1d(
     let t0 = t0 as i64;
     (0..len)
         .map(|q| {
-            let base = t0 + (q / m) as i64;
             let (lo, ks) = &taps[q % m];
+            let first = t0 + (q / m) as i64 + lo;
             let mut acc = 0.0;
-            for (d, k) in ks.iter().enumerate() {
-                let i = base + lo + d as i64;
-                if i >= 0 && i < n {
-                    acc += v[i as usize] * k;
+            if first >= 0 && first + ks.len() as i64 <= n {
+                // Every tap inside: no test per tap.
+                let src = &v[first as usize..first as usize + ks.len()];
+                for (x, k) in src.iter().zip(ks) {
+                    acc += x * k;
+                }
+            } else {
+                for (d, k) in ks.iter().enumerate() {
+                    let i = first + d as i64;
+                    if i >= 0 && i < n {
+                        acc += v[i as usize] * k;
+                    }
                 }
             }
             acc
         })
         .collect()
+}
+
+/// [`blur_1d`] down the columns of `rows` (`h` rows of `nx` values): output row `q` (of `len`)
+/// into `out[q·nx..]`, as f32. Whole rows at a time, so the reads are contiguous; each value is
+/// the f64 sum [`blur_1d`] gives for its column, to the bit.
+pub(super) fn blur_columns(
+    rows: &[f64],
+    nx: usize,
+    t0: f64,
+    m: usize,
+    len: usize,
+    taps: &[(i64, Vec<f64>)],
+    out: &mut [f32],
+) {
+    let h = (rows.len() / nx.max(1)) as i64;
+    let t0 = t0 as i64;
+    let mut acc = vec![0f64; nx];
+    for (q, dst) in out.chunks_exact_mut(nx).take(len).enumerate() {
+        let (lo, ks) = &taps[q % m];
+        let first = t0 + (q / m) as i64 + lo;
+        acc.fill(0.0);
+        for (d, k) in ks.iter().enumerate() {
+            let j = first + d as i64;
+            if j >= 0 && j < h {
+                let src = &rows[j as usize * nx..(j as usize + 1) * nx];
+                for (a, x) in acc.iter_mut().zip(src) {
+                    *a += x * k;
+                }
+            }
+        }
+        for (o, a) in dst.iter_mut().zip(&acc) {
+            *o = *a as f32;
+        }
+    }
 }
