@@ -7,6 +7,7 @@
 
 use crate::rendered::*;
 use fringe3d::render::Scene;
+use fringe3d::render::dataset::{DatasetOptions, write_dataset};
 use fringe3d::render::scene::Overrides;
 
 #[test]
@@ -154,8 +155,13 @@ fn a_virtual_reference_matches_the_exact_map_and_a_captured_one() {
     };
     for family in ["knots", "curved"] {
         let scene = volume_scene_with(&o, family);
+        // One render for both scans: the captured map kept aside for the second.
         let t = Tmp::new(&format!("virtual-{family}"));
-        let v = scan_with(&scene, &t.0, Reference::Virtual);
+        let ds = t.0.join("dataset");
+        write_dataset(&scene, &ds, DatasetOptions::default()).expect("render");
+        let (map, captured) = (ds.join("reference_phase.tif"), t.0.join("captured.tif"));
+        std::fs::copy(&map, &captured).expect("keep the captured map");
+        let v = scan_dataset(&scene, ds.clone(), Reference::Virtual);
         let exact = fringe3d::calib::files::read_phase_map(
             &v.dataset.join("truth/reference_phase_true.tif"),
         )
@@ -173,8 +179,8 @@ fn a_virtual_reference_matches_the_exact_map_and_a_captured_one() {
         }
         let map_rms = (s2 / n as f64).sqrt();
         let (mv, pv, nv) = measured_and_predicted(&scene, &v, 1.0);
-        let t2 = Tmp::new(&format!("captured-{family}"));
-        let c = scan_with(&scene, &t2.0, Reference::Model);
+        std::fs::copy(&captured, &map).expect("restore the captured map");
+        let c = scan_dataset(&scene, ds, Reference::Model);
         let (mc, pc, nc) = measured_and_predicted(&scene, &c, 1.0);
         eprintln!(
             "{family}: virtual map {map_rms:.2e} rad RMS from the exact one ({n} pixels); scan with it {:.2} µm ({:.3}× prediction, {nv} points), with the captured model {:.2} µm ({:.3}×, {nc} points)",

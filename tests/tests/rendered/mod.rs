@@ -112,6 +112,12 @@ pub enum Reference {
 pub fn scan_with(scene: &Scene, dir: &Path, reference: Reference) -> Scanned {
     let ds = dir.join("dataset");
     write_dataset(scene, &ds, DatasetOptions::default()).expect("render");
+    scan_dataset(scene, ds, reference)
+}
+
+/// [`scan_with`] on the dataset `ds` of `scene`, already rendered (its `reference_phase.tif` the
+/// decoded capture of the plane, which the model and virtual references replace).
+pub fn scan_dataset(scene: &Scene, ds: PathBuf, reference: Reference) -> Scanned {
     if reference == Reference::Model {
         let path = ds.join("reference_phase.tif");
         let (w, h, raw) = fringe3d::calib::files::read_phase_map(&path).expect("reference map");
