@@ -434,16 +434,18 @@ fn fit_range(
     } else {
         MAX_FIT_SAMPLES
     };
-    let (mut fit, mut nan) = (0f64, false);
+    let mut fit = 0f64;
     for j in 0..=m {
         let t = t_lo + (t_hi - t_lo) * j as f64 / m as f64;
         let z = ray.depth_at_t(t);
         let phi = map_phase(ray.cal, ray.pixel_at_t(t)).ok_or(Reason::OffMap)?;
         let err = (model.depth_f64_unbounded(phi) - z).abs();
-        nan |= err.is_nan();
+        if err.is_nan() {
+            return Ok((model, f64::NAN));
+        }
         fit = fit.max(err);
     }
-    Ok((model, if nan { f64::NAN } else { fit }))
+    Ok((model, fit))
 }
 
 /// Levy's linearized least squares for `ŝ(1 + γτ) = Ĉ(τ)`, `Ĉ` of degree [`TERMS`]: returns

@@ -75,19 +75,13 @@ pub(super) fn blur_1d(
         .map(|q| {
             let (lo, ks) = &taps[q % m];
             let first = t0 + (q / m) as i64 + lo;
+            // The taps whose pixel exists, in order.
+            let (d0, d1) = taps_inside(first, ks.len(), n);
             let mut acc = 0.0;
-            if first >= 0 && first + ks.len() as i64 <= n {
-                // Every tap inside: no test per tap.
-                let src = &v[first as usize..first as usize + ks.len()];
-                for (x, k) in src.iter().zip(ks) {
+            if d0 < d1 {
+                let src = &v[(first + d0 as i64) as usize..(first + d1 as i64) as usize];
+                for (x, k) in src.iter().zip(&ks[d0..d1]) {
                     acc += x * k;
-                }
-            } else {
-                for (d, k) in ks.iter().enumerate() {
-                    let i = first + d as i64;
-                    if i >= 0 && i < n {
-                        acc += v[i as usize] * k;
-                    }
                 }
             }
             acc
@@ -114,17 +108,23 @@ pub(super) fn blur_columns(
         let (lo, ks) = &taps[q % m];
         let first = t0 + (q / m) as i64 + lo;
         acc.fill(0.0);
-        for (d, k) in ks.iter().enumerate() {
-            let j = first + d as i64;
-            if j >= 0 && j < h {
-                let src = &rows[j as usize * nx..(j as usize + 1) * nx];
-                for (a, x) in acc.iter_mut().zip(src) {
-                    *a += x * k;
-                }
+        let (d0, d1) = taps_inside(first, ks.len(), h);
+        for (d, k) in (d0..d1).zip(&ks[d0..d1]) {
+            let j = (first + d as i64) as usize;
+            for (a, x) in acc.iter_mut().zip(&rows[j * nx..(j + 1) * nx]) {
+                *a += x * k;
             }
         }
         for (o, a) in dst.iter_mut().zip(&acc) {
             *o = *a as f32;
         }
     }
+}
+
+/// The taps `d0..d1` of `taps` taps starting at pixel `first` whose pixel `first + d` lies in
+/// `0..n` (empty, `d0 == d1`, when none does).
+fn taps_inside(first: i64, taps: usize, n: i64) -> (usize, usize) {
+    let d0 = (-first).clamp(0, taps as i64) as usize;
+    let d1 = (n - first).clamp(d0 as i64, taps as i64) as usize;
+    (d0, d1)
 }
