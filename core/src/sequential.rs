@@ -220,6 +220,19 @@ impl<'d, 's, A: Arith> FrameDecoder<'d, 's, A> {
         Ok(())
     }
 
+    /// `true` if some pixel saturated in the exposure whose frames are in: the next, shorter
+    /// exposure can change it. `false`: every pixel is final (locked, or unsaturated now), so a
+    /// driver may skip the remaining exposures, as the row driver stops when no decoded pixel
+    /// is [`crate::Validity::Saturated`] ([`crate::decode::hdr::any_saturated`]; the decoder
+    /// gives that code exactly when a sample saturated).
+    pub fn saturated_left(&self) -> bool {
+        let plane = self.width * self.height;
+        self.st
+            .flags
+            .get(..plane)
+            .is_some_and(|f| f.iter().any(|&f| f & SATURATED != 0))
+    }
+
     /// Exposures begun so far minus one: 0 during the first ([`Self::next_exposure`]).
     pub fn exposure(&self) -> usize {
         self.exposure

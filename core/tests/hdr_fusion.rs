@@ -135,6 +135,7 @@ fn fused_frames(d: &Decoder, exposures: &[Vec<Vec<u8>>]) -> Out {
     let mut state = vec![0.0f32; FrameDecoder::state_len(d, W, H)];
     let mut flags = vec![0u8; W * H];
     let mut fd = FrameDecoder::new(d, W, H, &mut state, &mut flags).unwrap();
+    let sat = d.config().saturation_level;
     for (e, frames) in exposures.iter().enumerate() {
         if e > 0 {
             fd.next_exposure().unwrap();
@@ -143,6 +144,11 @@ fn fused_frames(d: &Decoder, exposures: &[Vec<Vec<u8>>]) -> Out {
         for f in frames {
             fd.push_frame(f).unwrap();
         }
+        // Some pixel still saturated, from the images: one that clipped in every exposure so
+        // far (`saturated_left` lets a head skip the shorter exposures when there is none).
+        let clipped_in = |k: usize, i: usize| exposures[k].iter().any(|f| f32::from(f[i]) >= sat);
+        let left = (0..W * H).any(|i| (0..=e).all(|k| clipped_in(k, i)));
+        assert_eq!(fd.saturated_left(), left, "exposure {e}");
     }
     let mut o: Out = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut ph, mut mo, mut dc, mut va) =
@@ -250,6 +256,8 @@ fn exposures_follow_a_complete_set_and_are_bounded() {
         for _ in 0..set.image_count() {
             fd.push_frame(&frame).unwrap();
         }
+        // Nothing clipped: nothing left for a shorter exposure.
+        assert!(!fd.saturated_left());
         let r = fd.next_exposure();
         if e + 1 < MAX_EXPOSURES {
             r.unwrap();

@@ -163,7 +163,7 @@ fn header_layout() {
     let mut out = [0u8; HEADER_LEN];
     assert_eq!(h.emit(&mut out), Ok(6));
     // version, flags (bit 0 + bit 3), seq, command, length LE.
-    assert_eq!(out, [0x07, 0x09, 0xA5, 0x12, 0x02, 0x01]);
+    assert_eq!(out, [0x08, 0x09, 0xA5, 0x12, 0x02, 0x01]);
     assert_eq!(Header::parse(&out), Ok(h));
 
     assert_eq!(Flags::WRITE.bits(), 0x01);
@@ -200,22 +200,26 @@ fn header_rejects() {
         Header::parse(&[0x05, 0, 0, 0, 0, 0]),
         Err(WireError::Version(5))
     );
-    // Version 6 (before DefineThresholds) too.
+    // Version 6 (before DefineThresholds) too, and 7 (before the exposure list).
     assert_eq!(
         Header::parse(&[0x06, 0, 0, 0, 0, 0]),
         Err(WireError::Version(6))
     );
     assert_eq!(
-        Header::parse(&[0x07, 0x10, 0, 0, 0, 0]),
+        Header::parse(&[0x07, 0, 0, 0, 0, 0]),
+        Err(WireError::Version(7))
+    );
+    assert_eq!(
+        Header::parse(&[0x08, 0x10, 0, 0, 0, 0]),
         Err(WireError::ReservedFlags)
     );
     // 4097 = 0x1001 > MAX_PAYLOAD.
     assert_eq!(
-        Header::parse(&[0x07, 0, 0, 0, 0x01, 0x10]),
+        Header::parse(&[0x08, 0, 0, 0, 0x01, 0x10]),
         Err(WireError::Length)
     );
     assert_eq!(
-        Header::parse(&[0x07, 0, 0, 0, 0]),
+        Header::parse(&[0x08, 0, 0, 0, 0]),
         Err(WireError::Truncated)
     );
     let h = Header {
@@ -285,8 +289,8 @@ fn command_ids() {
 #[test]
 fn enum_wire_values() {
     // Enum variant indices are part of the format: check a few directly.
-    let mut b = [0u8; 8];
-    let enc = |m: Message<'_>, b: &mut [u8; 8]| {
+    let mut b = [0u8; 16];
+    let enc = |m: Message<'_>, b: &mut [u8; 16]| {
         let n = m.encode(b).unwrap();
         b[..n].to_vec()
     };
@@ -345,9 +349,13 @@ fn enum_wire_values() {
             first_row: 1,
             row_count: 2,
             edge_filter: EdgeFilterMode::Off,
+            exposures: Exposures::NONE,
         });
-        // scan_id 300 = varint AC 02 first.
-        assert_eq!(enc(m, &mut b), vec![0xAC, 0x02, i as u8, 1, 2, 0]);
+        // scan_id 300 = varint AC 02 first; no exposure list: count 0 and four zeros.
+        assert_eq!(
+            enc(m, &mut b),
+            vec![0xAC, 0x02, i as u8, 1, 2, 0, 0, 0, 0, 0, 0]
+        );
     }
     assert_eq!(
         enc(Message::QueryUpload(UploadTarget::PatternSet(7)), &mut b),

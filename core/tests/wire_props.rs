@@ -217,7 +217,8 @@ fn random_message<'a>(
                 dark_level: v(0.01),
                 saturation_level: 1.0 + v(0.06),
                 min_modulation: v(0.01),
-                unwrap_tolerance: v(3.0e-6),
+                // Below π: 2^20 · 2.99e-6 = 3.135 (3.0e-6 reached 3.146 > π, refused).
+                unwrap_tolerance: v(2.99e-6),
                 range_tolerance: v(1.0e-6),
             };
             Message::DefineThresholds(DefineThresholds {
@@ -272,6 +273,15 @@ fn random_message<'a>(
                 EdgeFilterMode::Off
             } else {
                 EdgeFilterMode::MaxAngle((1 + r.below(89_999)) as f64 / 1000.0)
+            },
+            exposures: {
+                // 0 to 4 exposures in 1 ..= MAX_EXPOSURE_US, longest first, distinct.
+                let mut us: Vec<u32> = (0..r.below(5))
+                    .map(|_| 1 + r.below(MAX_EXPOSURE_US))
+                    .collect();
+                us.sort_unstable_by(|a, b| b.cmp(a));
+                us.dedup();
+                Exposures::new(&us).unwrap()
             },
         }),
         Command::Abort => Message::Abort,

@@ -654,6 +654,7 @@ fn scan_request_rules() {
         first_row: 0,
         row_count: 0,
         edge_filter,
+        exposures: Exposures::NONE,
     };
     assert_eq!(req(EdgeFilterMode::Off).validate(), Ok(()));
     assert_eq!(req(EdgeFilterMode::MaxAngle(80.0)).validate(), Ok(()));
@@ -674,11 +675,76 @@ fn scan_request_rules() {
         invalid(Invalid::NotFinite)
     );
     // An out-of-range angle on the wire is refused on decode: scan_id 9, [1] Points, 0, 0,
-    // [1] 90.0.
+    // [1] 90.0, no exposure list.
     let mut p = vec![0x09, 0x01, 0x00, 0x00, 0x01];
     p.extend(90.0f64.to_le_bytes());
+    p.extend([0, 0, 0, 0, 0]);
     assert_eq!(
         Message::decode(Command::Scan as u8, &p),
         Err(WireError::Invalid(Invalid::EdgeFilter))
     );
+}
+
+/// The exposure list of an HDR scan (protocol version 8): at most four, each 1 µs to 60 s,
+/// longest first and distinct; unused slots zero; refused on encode and on decode alike.
+#[test]
+fn scan_exposure_rules() {
+    let req = |exposures| ScanRequest {
+        scan_id: 0,
+        output: ScanOutput::Points,
+        first_row: 0,
+        row_count: 0,
+        edge_filter: EdgeFilterMode::Off,
+        exposures,
+    };
+    for ok in [
+        &[][..],
+        &[1],
+        &[MAX_EXPOSURE_US],
+        &[10_000, 2_500],
+        &[4, 3, 2, 1],
+    ] {
+        let e = Exposures::new(ok).unwrap();
+        assert_eq!(e.as_slice(), ok);
+        assert_eq!(e.passes(), ok.len().max(1));
+        assert_eq!(req(e).validate(), Ok(()));
+    }
+    for bad in [
+        &[0][..],
+        &[MAX_EXPOSURE_US + 1],
+        &[2_500, 10_000],
+        &[5_000, 5_000],
+        &[5, 4, 3, 2, 1],
+    ] {
+        assert_eq!(
+            Exposures::new(bad).map(|_| ()),
+            invalid(Invalid::Exposures),
+            "{bad:?}"
+        );
+    }
+    let mut e = Exposures::new(&[10_000]).unwrap();
+    e.exposure_us[2] = 7;
+    assert_eq!(req(e).validate(), invalid(Invalid::UnusedSlot));
+    let e = Exposures {
+        count: 5,
+        exposure_us: [4, 3, 2, 1],
+    };
+    assert_eq!(req(e).validate(), invalid(Invalid::Exposures));
+    assert_eq!(
+        Message::Scan(req(e)).encode(&mut [0u8; 64]),
+        Err(WireError::Invalid(Invalid::Exposures))
+    );
+    // On the wire: scan_id 9, [1] Points, 0, 0, [0] Off, then count 2, 2500 (C4 13), 10000
+    // (90 4E), 0, 0: increasing, refused.
+    let p = [
+        0x09, 0x01, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x13, 0x90, 0x4E, 0x00, 0x00,
+    ];
+    assert_eq!(
+        Message::decode(Command::Scan as u8, &p),
+        Err(WireError::Invalid(Invalid::Exposures))
+    );
+    let p = [
+        0x09, 0x01, 0x00, 0x00, 0x00, 0x02, 0x90, 0x4E, 0xC4, 0x13, 0x00, 0x00,
+    ];
+    assert!(Message::decode(Command::Scan as u8, &p).is_ok());
 }

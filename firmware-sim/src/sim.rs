@@ -8,9 +8,10 @@
 //! - Virtual time advances only through [`SimDelay`] (exposures, dark times, polling waits).
 //! - The projector shows the last pattern loaded ([`Projector::end_frame`]) while the projector
 //!   trigger is high.
-//! - An exposure runs while the camera trigger is high; it captures the pattern lit when it began
-//!   if that pattern is still lit when it ends, otherwise nothing (a blurred frame, which the
-//!   camera delivers dark). The frame is ready [`SimWorld::readout_ns`] after the exposure ends:
+//! - An exposure runs while the camera trigger is high (trigger-width exposure: its length is
+//!   the pulse's, which the frame's [`Shot`] carries to the [`FrameSource`]); it captures the
+//!   pattern lit when it began if that pattern is still lit when it ends, otherwise nothing (a
+//!   blurred frame, which the camera delivers dark). The frame is ready [`SimWorld::readout_ns`] after the exposure ends:
 //!   the camera-ready input is high from then until the head has read the frame's last row.
 //! - The external trigger input is high when armed ([`SimWorld::set_external_trigger`]).
 //!
@@ -73,6 +74,8 @@ pub enum EventKind {
     Captured {
         /// The pattern it captured (`None`: nothing steadily lit).
         pattern: Option<u16>,
+        /// How long it lasted (the camera trigger's pulse), ns.
+        exposure_ns: u64,
     },
     /// The head read a frame's last row.
     FrameRead {
@@ -111,8 +114,10 @@ struct World {
     stats: WorldStats,
     loaded: Option<u16>,
     lit: Option<u16>,
-    exposing: Option<Option<u16>>,
-    frames: Deque<(Option<u16>, u64), CAMERA_FRAMES>,
+    /// The pattern lit when the running exposure began, and when it began.
+    exposing: Option<(Option<u16>, u64)>,
+    /// Frames taken and not yet read: the shot and when it is ready.
+    frames: Deque<(Shot, u64), CAMERA_FRAMES>,
     external: bool,
     readout_ns: u64,
     projector_high: bool,
@@ -204,24 +209,35 @@ impl SimWorld {
             }
             Line::CameraTrigger => {
                 if high && !w.camera_high {
-                    w.exposing = Some(w.lit);
+                    w.exposing = Some((w.lit, w.now_ns));
                 } else if !high && w.camera_high {
-                    let began = w.exposing.take().flatten();
+                    let (began, since) = w.exposing.take().unwrap_or((None, w.now_ns));
                     let pattern = if began.is_some() && began == w.lit {
                         began
                     } else {
                         None
+                    };
+                    let exposure_ns = w.now_ns.saturating_sub(since);
+                    let shot = Shot {
+                        pattern,
+                        exposure_ns,
                     };
                     w.stats.exposures += 1;
                     if pattern.is_none() {
                         w.stats.blurred += 1;
                     }
                     let ready_at = w.now_ns.saturating_add(w.readout_ns);
-                    if w.frames.push_back((pattern, ready_at)).is_err() {
+                    if w.frames.push_back((shot, ready_at)).is_err() {
                         w.stats.lost_frames += 1;
                     }
                     Self::record(w, EventKind::Drive { line, high });
-                    Self::record(w, EventKind::Captured { pattern });
+                    Self::record(
+                        w,
+                        EventKind::Captured {
+                            pattern,
+                            exposure_ns,
+                        },
+                    );
                     w.camera_high = high;
                     return;
                 }
@@ -254,16 +270,21 @@ impl SimWorld {
         Self::record(&mut w, EventKind::PatternLoaded { pattern, crc });
     }
 
-    /// The pattern of the oldest unread frame (`Some(None)`: a blurred frame).
-    fn frame_pattern(&self) -> Option<Option<u16>> {
+    /// The shot of the oldest unread frame, once it is ready.
+    fn frame_shot(&self) -> Option<Shot> {
         let w = self.w.borrow();
         w.frames.front().filter(|f| w.now_ns >= f.1).map(|f| f.0)
     }
 
     fn release_frame(&self) {
         let mut w = self.w.borrow_mut();
-        if let Some((pattern, _)) = w.frames.pop_front() {
-            Self::record(&mut w, EventKind::FrameRead { pattern });
+        if let Some((shot, _)) = w.frames.pop_front() {
+            Self::record(
+                &mut w,
+                EventKind::FrameRead {
+                    pattern: shot.pattern,
+                },
+            );
         }
     }
 }
@@ -448,6 +469,25 @@ impl<R: RowSink> Projector for SimProjector<'_, R> {
     }
 }
 
+/// One exposure of the simulated camera: what was lit, and for how long.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Shot {
+    /// The pattern steadily lit through the exposure (`None`: nothing, a dark frame).
+    pub pattern: Option<u16>,
+    /// The exposure's length (the camera trigger's pulse), ns.
+    pub exposure_ns: u64,
+}
+
+impl Shot {
+    /// Pattern `pattern` exposed for `exposure_ns`.
+    pub const fn new(pattern: Option<u16>, exposure_ns: u64) -> Shot {
+        Shot {
+            pattern,
+            exposure_ns,
+        }
+    }
+}
+
 /// Where the simulated camera's pictures come from: the scene under each pattern.
 pub trait FrameSource {
     /// Width, pixels.
@@ -456,8 +496,9 @@ pub trait FrameSource {
     fn height(&self) -> u16;
     /// Significant bits per sample.
     fn bit_depth(&self) -> u8;
-    /// Row `y` of the picture of the scene lit by pattern `pattern` (`None`: unlit).
-    fn row(&self, pattern: Option<u16>, y: u16, out: &mut [u16]) -> Result<(), HwError>;
+    /// Row `y` of the picture `shot` takes: the scene lit by its pattern (`None`: unlit) for
+    /// its exposure.
+    fn row(&self, shot: Shot, y: u16, out: &mut [u16]) -> Result<(), HwError>;
 }
 
 /// A simulated camera: delivers the frame of each exposure from its [`FrameSource`].
@@ -492,11 +533,11 @@ impl<F: FrameSource> Camera for SimCamera<'_, F> {
     }
 
     fn read_row(&mut self, y: u16, out: &mut [u16]) -> Result<(), HwError> {
-        let pattern = self.world.frame_pattern().ok_or(HwError::Camera)?;
+        let shot = self.world.frame_shot().ok_or(HwError::Camera)?;
         if y >= self.source.height() || out.len() != self.source.width() as usize {
             return Err(HwError::Camera);
         }
-        self.source.row(pattern, y, out)?;
+        self.source.row(shot, y, out)?;
         if y + 1 == self.source.height() {
             self.world.release_frame();
         }
@@ -602,8 +643,8 @@ impl<'w, F: FrameSource, R: RowSink, S: Storage> BoardIo for SimBoard<'w, F, R, 
 
 /// A scene seen straight on: camera pixel `(u, v)` sees projector pixel
 /// `(u·pw/cw, v·ph/ch)`, with `I = offset + gain·pattern` (clamped to the bit depth). Patterns
-/// are rendered on the fly from a core pattern set (wire pattern indices). For tests and
-/// throughput runs without image files.
+/// are rendered on the fly from a core pattern set (wire pattern indices), whatever the
+/// exposure. For tests and throughput runs without image files.
 pub struct DirectView {
     /// The projected set.
     pub set: fringe3d_core::pattern::PatternSet,
@@ -634,10 +675,10 @@ impl FrameSource for DirectView {
         self.bits
     }
 
-    fn row(&self, pattern: Option<u16>, y: u16, out: &mut [u16]) -> Result<(), HwError> {
+    fn row(&self, shot: Shot, y: u16, out: &mut [u16]) -> Result<(), HwError> {
         let full = ((1u32 << self.bits.clamp(1, 16)) - 1) as f32;
         let o = self.set.output();
-        let Some(p) = pattern else {
+        let Some(p) = shot.pattern else {
             out.fill(0);
             return Ok(());
         };

@@ -310,7 +310,10 @@ fn trigger_timeline_follows_the_sequence() {
                     line: Line::CameraTrigger,
                     high: false
                 },
-                EventKind::Captured { pattern: Some(p) },
+                EventKind::Captured {
+                    pattern: Some(p),
+                    exposure_ns: EXPOSURE_US as u64 * 1000
+                },
                 EventKind::Drive {
                     line: Line::ProjectorTrigger,
                     high: false

@@ -9,8 +9,8 @@ use embedded_io::ErrorKind;
 use fringe3d::device::Client;
 use fringe3d::device::desc::pattern_desc;
 use fringe3d_core::wire::{
-    EdgeFilterMode, FaultConfig, HeadErrors, HeadState, MAX_ENCODED_FRAME, MAX_FRAME, Message,
-    Packet, ScanOutput, ScanRequest, emit_packet,
+    EdgeFilterMode, Exposures, FaultConfig, HeadErrors, HeadState, MAX_ENCODED_FRAME, MAX_FRAME,
+    Message, Packet, ScanOutput, ScanRequest, emit_packet,
 };
 use fringe3d_head::LinkError;
 use fringe3d_head::desktop::{InProcess, OwnedMemory};
@@ -64,6 +64,7 @@ fn a_scan_nobody_reads_ends_after_the_stall_limit_and_the_head_serves_again() {
         first_row: 0,
         row_count: 0,
         edge_filter: EdgeFilterMode::Off,
+        exposures: Exposures::NONE,
     });
     let p = Packet::request(5, msg);
     let (mut scratch, mut line) = ([0u8; MAX_FRAME], [0u8; MAX_ENCODED_FRAME]);

@@ -32,12 +32,12 @@ use fringe3d_core::phase_function::Profile;
 use fringe3d_core::reconstruct::Margin;
 use fringe3d_core::validity::Validity;
 use fringe3d_core::wire::{EdgeFilterMode, HeadState, ScanOutput, ValidationStatus};
-use fringe3d_head::desktop::{OwnedMemory, Pty, Replay, serve, sim_board};
+use fringe3d_head::desktop::{OwnedMemory, Pty, Replay, ReplaySeries, serve, sim_board};
 use fringe3d_head::port::QUEUE_LEN;
 use fringe3d_head::sim::{FrameSource, NoSink, SimWorld};
 use fringe3d_head::{Head, HeadConfig, MemoryPlan, MemoryReport};
 
-const CAM: (u32, u32) = (320, 256);
+pub(crate) const CAM: (u32, u32) = (320, 256);
 
 /// A small rendered sphere scene under the curved fringes of examples/patterns/curved.toml
 /// (parameters and derived slope not f32-exact).
@@ -50,7 +50,7 @@ fn dataset(root: &Path) -> PathBuf {
 }
 
 /// An empty scratch folder `fringe3d-head-pty[-TAG]-PID` under the temp dir.
-fn fresh_root(tag: &str) -> PathBuf {
+pub(crate) fn fresh_root(tag: &str) -> PathBuf {
     let name = if tag.is_empty() {
         format!("fringe3d-head-pty-{}", std::process::id())
     } else {
@@ -109,7 +109,7 @@ fn has_non_f32_values(c: &Calibration) -> bool {
     all.iter().filter(|&&v| (v as f32) as f64 != v).count() >= 3
 }
 
-enum Cmd {
+pub(crate) enum Cmd {
     Replug,
     Exit,
 }
@@ -124,11 +124,27 @@ fn spawn_head(
     mpsc::Sender<Cmd>,
     std::thread::JoinHandle<MemoryReport>,
 ) {
+    spawn_head_series(vec![(10_000, dataset)], stop)
+}
+
+/// [`spawn_head`] whose camera replays one dataset per exposure (µs; `ReplaySeries`).
+pub(crate) fn spawn_head_series(
+    takes: Vec<(u32, PathBuf)>,
+    stop: Arc<AtomicBool>,
+) -> (
+    mpsc::Receiver<String>,
+    mpsc::Sender<Cmd>,
+    std::thread::JoinHandle<MemoryReport>,
+) {
     let (path_tx, path_rx) = mpsc::channel();
     let (cmd_tx, cmd_rx) = mpsc::channel();
     let h = std::thread::spawn(move || {
-        let replay = Replay::load_dir(&dataset).unwrap();
-        let o = *replay.set.output();
+        let takes = takes
+            .iter()
+            .map(|(us, d)| (*us, Replay::load_dir(d).unwrap()))
+            .collect();
+        let replay = ReplaySeries::new(takes).unwrap();
+        let o = *replay.first().set.output();
         let (w, h) = (replay.width() as usize, replay.height() as usize);
         let world = SimWorld::new(1_000_000);
         // Reference maps up to 256 px past the image on each side (issue #17).
@@ -170,7 +186,7 @@ fn opts() -> ClientOptions {
 }
 
 /// A head's scan (phase and points) equals the desktop's decode and filtered cloud, bit for bit.
-fn assert_desktop_bits(out: &ScanOutcome, dec: &Decoded, cloud: &PointCloud) {
+pub(crate) fn assert_desktop_bits(out: &ScanOutcome, dec: &Decoded, cloud: &PointCloud) {
     assert!(
         bits(out.phase.as_ref().unwrap()) == bits(&dec.phase),
         "phases differ from the desktop's"
@@ -736,13 +752,13 @@ fn a_gray_coded_set_scans_on_the_head_bit_identical_to_the_desktop() {
 /// (12 images of 1024 × 768 exceed the simulated head's 8 MiB pattern store: it renders them
 /// itself, which `fidelity` shows exact), the trigger sequence, the wire calibration and the
 /// reference map.
-struct HeadCase {
-    set: fringe3d_core::pattern::PatternSet,
-    dec: Decoded,
-    cloud: PointCloud,
-    table: Option<fringe3d_core::decode::PhaseCorrection>,
+pub(crate) struct HeadCase {
+    pub(crate) set: fringe3d_core::pattern::PatternSet,
+    pub(crate) dec: Decoded,
+    pub(crate) cloud: PointCloud,
+    pub(crate) table: Option<fringe3d_core::decode::PhaseCorrection>,
     desc: fringe3d_core::wire::PatternSetDesc,
-    seq: Vec<fringe3d_core::wire::LutEntry>,
+    pub(crate) seq: Vec<fringe3d_core::wire::LutEntry>,
     wcal: fringe3d_core::wire::Calibration,
     map: Vec<u8>,
     margin: Margin,
@@ -753,7 +769,7 @@ fn head_case(dir: &Path) -> HeadCase {
 }
 
 /// [`head_case`] with the calibration file `calib`.
-fn head_case_with(dir: &Path, calib: &Path) -> HeadCase {
+pub(crate) fn head_case_with(dir: &Path, calib: &Path) -> HeadCase {
     let patterns = dir.join("patterns.toml");
     let ls = common::load_set(&patterns).unwrap();
     let set = &ls.set;
@@ -795,8 +811,25 @@ fn on_head(
     send_table: bool,
     f: impl FnOnce(&mut Client<fringe3d::device::SerialTransport>, ValidationStatus),
 ) {
+    on_head_series(
+        vec![(10_000, dir.to_path_buf())],
+        case,
+        images,
+        send_table,
+        f,
+    )
+}
+
+/// [`on_head`] with a camera that replays one dataset per exposure (µs).
+pub(crate) fn on_head_series(
+    takes: Vec<(u32, PathBuf)>,
+    case: &HeadCase,
+    images: Option<&[u8]>,
+    send_table: bool,
+    f: impl FnOnce(&mut Client<fringe3d::device::SerialTransport>, ValidationStatus),
+) {
     let stop = Arc::new(AtomicBool::new(false));
-    let (paths, cmd, head) = spawn_head(dir.to_path_buf(), stop.clone());
+    let (paths, cmd, head) = spawn_head_series(takes, stop.clone());
     let port = paths.recv().unwrap();
     let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
     c.define_pattern_set(0, &case.desc).unwrap();

@@ -29,7 +29,7 @@ use fringe3d::render::{Overrides, SceneSpec};
 use fringe3d::scan::ScanCalibration;
 use fringe3d_core::math::canonical;
 use fringe3d_head::desktop::Replay;
-use fringe3d_head::sim::FrameSource;
+use fringe3d_head::sim::{FrameSource, Shot};
 use fringe3d_tests::qemu::{build_firmware, skip_without_tools};
 
 const BIN: &str = "fringe3d-board-mps2-head";
@@ -197,7 +197,7 @@ fn write_frames(dataset: &Path, out: &Path) {
     let mut row = vec![0u16; w as usize];
     for p in 0..count {
         for y in 0..h {
-            replay.row(Some(p), y, &mut row).unwrap();
+            replay.row(Shot::new(Some(p), 0), y, &mut row).unwrap();
             for s in &row {
                 if sb == 1 {
                     f.push(*s as u8);

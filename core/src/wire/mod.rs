@@ -95,7 +95,7 @@
 //! | `0x21` | ValidateSequence    | 0 | (empty)                                                                     | Validation |
 //! | `0x22` | Start               | 1 | (empty)                                                                     | Ack |
 //! | `0x23` | Stop                | 1 | (empty)                                                                     | Ack |
-//! | `0x30` | Scan                | 1 | scan_id u32, output `[0]` Phase `[1]` Points `[2]` Both, first_row u16, row_count u16, edge filter `[0]` Off `[1]` MaxAngle f64 (degrees, `0 < a < 90`) | Ack, rows, ScanDone |
+//! | `0x30` | Scan                | 1 | scan_id u32, output `[0]` Phase `[1]` Points `[2]` Both, first_row u16, row_count u16, edge filter `[0]` Off `[1]` MaxAngle f64 (degrees, `0 < a < 90`), exposures: count u8 (0..=4), 4 × exposure_us u32 (longest first, unused 0; [`Exposures`]) | Ack, rows, ScanDone |
 //! | `0x31` | Abort               | 1 | (empty)                                                                     | Ack |
 //! | `0x32` | GetStatus           | 0 | (empty)                                                                     | Status |
 //! | `0x80` | Capabilities        | 0 | protocol_version u8, fw major u8, minor u8, patch u8, sensor_width u16, sensor_height u16, projector_width u16, projector_height u16, free_memory u32, max_chunk u16, max_sets u8, max_lut_entries u16 | |
@@ -148,7 +148,8 @@
 //! projector response were scanned on the desktop only). 4 had no validity code 12
 //! (`light-edge`). 5 had no margin in BeginPhaseMapUpload (a head took image-sized reference
 //! maps only). 6 had no DefineThresholds (a head decoded with its camera bit depth's default
-//! thresholds, whatever the host's: at 16 bit a floor of 2 % of full scale, not 12σ). A head and a host of different versions refuse each other's
+//! thresholds, whatever the host's: at 16 bit a floor of 2 % of full scale, not 12σ). 7 had no
+//! exposure list in Scan (a head captured each pattern once: no HDR). A head and a host of different versions refuse each other's
 //! frames: the head answers a frame of another version with Nak Version (detail: its version),
 //! which the host reports as such.
 //! `core/tests/wire_vectors.rs` spells out more, one per kind of body.
@@ -344,6 +345,9 @@ pub enum Invalid {
     /// A decoder threshold is not finite or negative, the saturation level is zero, or the
     /// unwrapping tolerance exceeds π (DefineThresholds, protocol version 7).
     Thresholds = 25,
+    /// A scan's exposure list holds more than `MAX_EXPOSURES` values, an exposure outside
+    /// `1..=MAX_EXPOSURE_US`, or exposures not strictly decreasing (Scan, protocol version 8).
+    Exposures = 26,
 }
 
 impl Invalid {
@@ -375,12 +379,13 @@ impl Invalid {
             Invalid::Correction => "correction",
             Invalid::Margin => "margin",
             Invalid::Thresholds => "thresholds",
+            Invalid::Exposures => "exposures",
         }
     }
 
     /// The rule with code `code`, if any.
     pub const fn from_u8(code: u8) -> Option<Invalid> {
-        const ALL: [Invalid; 25] = [
+        const ALL: [Invalid; 26] = [
             Invalid::Dimension,
             Invalid::BitDepth,
             Invalid::Intensity,
@@ -406,6 +411,7 @@ impl Invalid {
             Invalid::Correction,
             Invalid::Margin,
             Invalid::Thresholds,
+            Invalid::Exposures,
         ];
         if code >= 1 && (code as usize) <= ALL.len() {
             Some(ALL[code as usize - 1])

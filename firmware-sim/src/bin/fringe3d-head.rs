@@ -1,12 +1,15 @@
 //! `fringe3d-head`: the simulated scan head on a pseudo-terminal.
 //!
 //! ```text
-//! fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N] [--tx-stall-s S]
-//!               [--max-margin PX]
+//! fringe3d-head DATASET[@US]... [--link PATH] [--readout-us N] [--pattern-store-mib N]
+//!               [--tx-stall-s S] [--max-margin PX]
 //! ```
 //!
 //! DATASET is a dataset folder (or its `patterns.toml`): the pattern-set file lists the camera
-//! image of every pattern, which the simulated camera replays whatever the head projects. The
+//! image of every pattern, which the simulated camera replays whatever the head projects. For
+//! HDR scans (`fringe3d device scan --exposures-us`) give one dataset per exposure, each as
+//! `DIR@US` (the exposure it was captured at, µs): an exposure replays the dataset whose
+//! exposure is nearest (`ReplaySeries`). The
 //! head prints `PTY /dev/pts/N`; use that path as `fringe3d device --port`. `--link PATH` also
 //! makes a symlink to it. `--tx-stall-s S` (default 10): when the host stops reading for S
 //! seconds while the head sends (a scan nobody reads), the head ends the scan (it leaves
@@ -21,24 +24,29 @@ use std::sync::atomic::AtomicBool;
 
 use fringe3d_core::pattern::MAX_LEVELS;
 use fringe3d_core::reconstruct::{MAX_BAND_ROWS, MAX_MARGIN};
-use fringe3d_head::desktop::{OwnedMemory, Pty, Replay, TX_STALL, serve_with, sim_board};
+use fringe3d_head::desktop::{
+    OwnedMemory, Pty, Replay, ReplaySeries, TX_STALL, serve_with, sim_board,
+};
 use fringe3d_head::port::QUEUE_LEN;
 use fringe3d_head::sim::{FrameSource, NoSink, SimWorld};
 use fringe3d_head::{Head, HeadConfig, MemoryPlan};
 
 fn usage() -> ExitCode {
     eprintln!(
-        "usage: fringe3d-head DATASET [--link PATH] [--readout-us N] [--pattern-store-mib N] [--tx-stall-s S] [--max-margin PX]"
+        "usage: fringe3d-head DATASET[@US]... [--link PATH] [--readout-us N] [--pattern-store-mib N] [--tx-stall-s S] [--max-margin PX]"
     );
     eprintln!(
-        "  DATASET: a dataset folder (its patterns.toml lists the camera images) or a pattern-set file"
+        "  DATASET: a dataset folder (its patterns.toml lists the camera images) or a pattern-set file;"
+    );
+    eprintln!(
+        "  several, each DATASET@US (its exposure, µs), for HDR scans: an exposure replays the nearest"
     );
     ExitCode::from(2)
 }
 
 fn main() -> ExitCode {
     let mut args = std::env::args().skip(1);
-    let mut dataset: Option<PathBuf> = None;
+    let mut datasets: Vec<(PathBuf, Option<u32>)> = Vec::new();
     let mut link: Option<PathBuf> = None;
     let mut readout_us: u32 = 1_000;
     let mut store_mib: usize = 64;
@@ -76,26 +84,55 @@ fn main() -> ExitCode {
                 usage();
                 return ExitCode::SUCCESS;
             }
-            s if !s.starts_with('-') && dataset.is_none() => dataset = Some(PathBuf::from(s)),
+            s if !s.starts_with('-') => match s.rsplit_once('@') {
+                Some((dir, us)) => match us.parse::<u32>().ok().filter(|&u| u > 0) {
+                    Some(u) => datasets.push((PathBuf::from(dir), Some(u))),
+                    None => {
+                        eprintln!(
+                            "fringe3d-head: {s}: the exposure after @ must be a whole number of µs above 0"
+                        );
+                        return usage();
+                    }
+                },
+                None => datasets.push((PathBuf::from(s), None)),
+            },
             _ => return usage(),
         }
     }
-    let Some(dataset) = dataset else {
-        return usage();
+    let dataset = match datasets.as_slice() {
+        [] => return usage(),
+        [(d, _), ..] => d.clone(),
     };
-    let patterns = if dataset.is_dir() {
-        dataset.join("patterns.toml")
-    } else {
-        dataset.clone()
-    };
-    let replay = match Replay::load(&patterns) {
+    if datasets.len() > 1 && datasets.iter().any(|d| d.1.is_none()) {
+        eprintln!(
+            "fringe3d-head: with several datasets, give each its exposure as DATASET@US (µs)"
+        );
+        return ExitCode::from(2);
+    }
+    let mut takes = Vec::new();
+    for (dir, us) in &datasets {
+        let patterns = if dir.is_dir() {
+            dir.join("patterns.toml")
+        } else {
+            dir.clone()
+        };
+        match Replay::load(&patterns) {
+            // One dataset replays for every exposure: its own is not needed.
+            Ok(r) => takes.push((us.unwrap_or(1), r)),
+            Err(e) => {
+                eprintln!("fringe3d-head: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let replay = match ReplaySeries::new(takes) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("fringe3d-head: {e}");
             return ExitCode::FAILURE;
         }
     };
-    let o = *replay.set.output();
+    let o = *replay.first().set.output();
     let (Ok(pw), Ok(ph)) = (u16::try_from(o.width), u16::try_from(o.height)) else {
         eprintln!("fringe3d-head: projector larger than 65535 pixels");
         return ExitCode::FAILURE;
@@ -137,8 +174,12 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     }
+    let more = match datasets.len() {
+        1 => String::new(),
+        n => format!(" and {} more (one per exposure)", n - 1),
+    };
     println!(
-        "fringe3d-head: {} — camera {w}x{h}, projector {pw}x{ph}",
+        "fringe3d-head: {}{more} — camera {w}x{h}, projector {pw}x{ph}",
         dataset.display()
     );
     println!("PTY {}", pty.path());

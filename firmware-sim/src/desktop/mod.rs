@@ -1,6 +1,7 @@
 //! The desktop side of the simulated head (feature `std`): a pseudo-terminal front so that
 //! `fringe3d device` talks to it like to a USB serial device, a camera that replays a dataset's
-//! images, heap-backed stores and buffers, and an in-process link for deterministic tests.
+//! images (one dataset per exposure for HDR), heap-backed stores and buffers, and an in-process
+//! link for deterministic tests.
 //!
 //! None of this is firmware: it plays the board (interrupts, external memory, peripherals) around
 //! the `no_std` [`Head`].
@@ -11,7 +12,7 @@ mod replay;
 
 pub use inprocess::{Device, HeadPort, InProcess, VecSink};
 pub use pty::{Pty, ServeReport, TX_STALL, serve, serve_with};
-pub use replay::{Replay, wire_index};
+pub use replay::{Replay, ReplaySeries, wire_index};
 
 use crate::hal::{HwError, Storage};
 use crate::head::Head;

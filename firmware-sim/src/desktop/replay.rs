@@ -1,5 +1,6 @@
 //! A camera that replays a dataset folder: the pattern-set file there lists the camera image of
-//! each pattern (`images = [...]`, in the set's image order).
+//! each pattern (`images = [...]`, in the set's image order). [`ReplaySeries`] replays one
+//! folder per exposure (HDR: the same set captured at several exposures).
 
 use std::prelude::rust_2024::*;
 use std::{format, vec};
@@ -11,7 +12,7 @@ use fringe3d::io::pattern_file::PatternSetFile;
 use fringe3d_core::pattern::{ImageId, PatternSet};
 
 use crate::hal::HwError;
-use crate::sim::FrameSource;
+use crate::sim::{FrameSource, Shot};
 
 /// The wire pattern index (levels in order, shifts in order) of `id` in `set`.
 pub fn wire_index(set: &PatternSet, id: ImageId) -> Option<u16> {
@@ -91,9 +92,10 @@ impl FrameSource for Replay {
         self.bits
     }
 
-    fn row(&self, pattern: Option<u16>, y: u16, out: &mut [u16]) -> Result<(), HwError> {
+    /// Whatever the shot's exposure: the dataset's images as they were captured.
+    fn row(&self, shot: Shot, y: u16, out: &mut [u16]) -> Result<(), HwError> {
         let w = self.width as usize;
-        let Some(p) = pattern else {
+        let Some(p) = shot.pattern else {
             out.fill(0);
             return Ok(());
         };
@@ -112,5 +114,95 @@ impl FrameSource for Replay {
             }
         }
         Ok(())
+    }
+}
+
+/// One dataset per exposure of the same set and camera: a shot replays the dataset whose
+/// exposure is nearest to the shot's (by ratio, `max(t/E, E/t)`; the first listed on a tie). A
+/// replayed camera cannot take what nobody captured, so a shot between two exposures gets the
+/// nearer one's images, not a blend; a scan whose exposures are the datasets' gets exactly their
+/// images, as `fringe3d scan --hdr` reads them.
+pub struct ReplaySeries {
+    takes: Vec<(u32, Replay)>,
+}
+
+impl ReplaySeries {
+    /// The datasets `takes`, each with the exposure it was captured at (µs, distinct, non-zero).
+    /// They must hold the same pattern set and images of the same size and bit depth.
+    pub fn new(takes: Vec<(u32, Replay)>) -> Result<ReplaySeries, String> {
+        let Some((_, first)) = takes.first() else {
+            return Err("no dataset to replay".into());
+        };
+        for (k, (us, r)) in takes.iter().enumerate() {
+            if *us == 0 {
+                return Err(format!("{}: exposure 0 µs", r.path.display()));
+            }
+            if takes[..k].iter().any(|(u, _)| u == us) {
+                return Err(format!(
+                    "{}: exposure {us} µs is given twice",
+                    r.path.display()
+                ));
+            }
+            if r.set != first.set {
+                return Err(format!(
+                    "{}: another pattern set than {}'s",
+                    r.path.display(),
+                    first.path.display()
+                ));
+            }
+            if (r.width, r.height, r.bits) != (first.width, first.height, first.bits) {
+                return Err(format!(
+                    "{}: {}x{} images at {} bits, but {} has {}x{} at {} bits",
+                    r.path.display(),
+                    r.width,
+                    r.height,
+                    r.bits,
+                    first.path.display(),
+                    first.width,
+                    first.height,
+                    first.bits
+                ));
+            }
+        }
+        Ok(ReplaySeries { takes })
+    }
+
+    /// The first dataset (the set, the projector's size).
+    pub fn first(&self) -> &Replay {
+        &self.takes[0].1
+    }
+
+    /// The dataset a shot of `exposure_ns` replays.
+    pub fn pick(&self, exposure_ns: u64) -> &Replay {
+        let t = exposure_ns.max(1) as f64;
+        let off = |us: u32| {
+            let e = us as f64 * 1e3;
+            (t / e).max(e / t)
+        };
+        let mut best = &self.takes[0];
+        for take in &self.takes[1..] {
+            if off(take.0) < off(best.0) {
+                best = take;
+            }
+        }
+        &best.1
+    }
+}
+
+impl FrameSource for ReplaySeries {
+    fn width(&self) -> u16 {
+        self.first().width
+    }
+
+    fn height(&self) -> u16 {
+        self.first().height
+    }
+
+    fn bit_depth(&self) -> u8 {
+        self.first().bits
+    }
+
+    fn row(&self, shot: Shot, y: u16, out: &mut [u16]) -> Result<(), HwError> {
+        self.pick(shot.exposure_ns).row(shot, y, out)
     }
 }

@@ -5,7 +5,7 @@ use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::pattern::PatternSet;
 use fringe3d_core::reconstruct::Reconstructor;
 use fringe3d_core::wire::{
-    BeginPhaseMap, BeginUpload, Calibration, Capabilities, DecodeThresholds, HeadState,
+    BeginPhaseMap, BeginUpload, Calibration, Capabilities, DecodeThresholds, Exposures, HeadState,
     LUT_ENTRY_LEN, LutEntry, MAX_LUT_ENTRIES, PatternSetDesc, ScanOutput, SetupCorrection,
     UploadTarget, ValidationStatus,
 };
@@ -96,6 +96,8 @@ pub(super) struct PendingScan {
     pub(super) slot: u8,
     pub(super) recon: Option<Reconstructor>,
     pub(super) filter: Option<EdgeFilter>,
+    /// The exposure list (HDR): the sequence runs once per exposure.
+    pub(super) exposures: Exposures,
 }
 
 /// The head's state: slots, uploads, calibration, sequence, what runs, and its counters.

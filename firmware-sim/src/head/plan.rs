@@ -112,5 +112,6 @@ pub(super) fn plan_scan(
         slot: lut.set_id,
         recon,
         filter,
+        exposures: req.exposures,
     })
 }

@@ -142,21 +142,36 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
         + if points && sc.filter.is_some() { w } else { 0 };
     r.lines = r.lines.max(lines);
 
-    // Capture: the sequence once, every camera-triggered frame into the decoder.
+    // Capture: the sequence once per exposure (once with the entries' own without a list),
+    // every camera-triggered frame into the decoder. Between exposures the decoder locks each
+    // pixel that did not saturate (HDR, `FrameDecoder::next_exposure`); once none is left
+    // saturated, the shorter exposures could change nothing and are not captured (the row
+    // driver, `hdr::any_saturated`, stops there too).
     let mut lines_buf = Lines {
         camera: camera_line,
         projector: projector_line,
     };
-    for i in 0..lut.len {
-        link.pump(io, None::<&mut B>)?;
-        if link.ctl.abort {
-            return Ok(ScanEnd::Aborted);
+    for pass in 0..sc.exposures.passes() {
+        if pass > 0 {
+            if !fd.saturated_left() {
+                break;
+            }
+            fd.next_exposure().map_err(|_| ScanFail::Internal)?;
         }
-        let e = lut.entry(i).ok_or(ScanFail::Internal)?;
-        entry(board, &mut lines_buf, link.cfg, &slot, e, Some(&mut fd))?;
-    }
-    if !fd.is_complete() {
-        return Err(ScanFail::Internal);
+        for i in 0..lut.len {
+            link.pump(io, None::<&mut B>)?;
+            if link.ctl.abort {
+                return Ok(ScanEnd::Aborted);
+            }
+            let mut e = lut.entry(i).ok_or(ScanFail::Internal)?;
+            if let (true, Some(us)) = (e.trigger_out, sc.exposures.of_pass(pass)) {
+                e.exposure_us = us;
+            }
+            entry(board, &mut lines_buf, link.cfg, &slot, e, Some(&mut fd))?;
+        }
+        if !fd.is_complete() {
+            return Err(ScanFail::Internal);
+        }
     }
 
     // Output rows: decode, reconstruct, stream.

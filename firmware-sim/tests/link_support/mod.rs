@@ -13,7 +13,7 @@ use fringe3d_core::phase_function::{Axis, PhaseFunction};
 use fringe3d_core::wire::FaultConfig;
 use fringe3d_core::wire::PatternSetDesc;
 use fringe3d_head::desktop::{Device, InProcess, OwnedMemory, SimHead, sim_board};
-use fringe3d_head::sim::{DirectView, FrameSource, RowSink, SimWorld};
+use fringe3d_head::sim::{DirectView, FrameSource, RowSink, Shot, SimWorld};
 use fringe3d_head::{Head, HeadConfig, MemoryPlan};
 use std::time::Duration;
 
@@ -76,7 +76,7 @@ pub fn desktop_phase(set: &PatternSet, desc: &PatternSetDesc) -> (Vec<f32>, Vec<
             let p = desc.pattern_index(*id).unwrap();
             let mut f = vec![0u16; w * h];
             for (y, row) in f.chunks_exact_mut(w).enumerate() {
-                v.row(Some(p), y as u16, row).unwrap();
+                v.row(Shot::new(Some(p), 0), y as u16, row).unwrap();
             }
             f
         })

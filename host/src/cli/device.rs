@@ -15,7 +15,8 @@ use crate::io::image::{Pixels, ReadLimits, read_gray_limited, write_tiff_f32};
 use crate::io::ply::{PlyOptions, PointRow};
 use anyhow::{Context, Result, bail};
 use fringe3d_core::wire::{
-    EdgeFilterMode, HeadErrors, HeadState, NakCode, PROTOCOL_VERSION, ScanOutput, ValidationStatus,
+    EdgeFilterMode, Exposures, HeadErrors, HeadState, NakCode, PROTOCOL_VERSION, ScanOutput,
+    ValidationStatus,
 };
 use std::path::PathBuf;
 use std::time::Duration;
@@ -167,6 +168,13 @@ pub struct ScanArgs {
     /// Steepest accepted surface for the edge filter, degrees from facing the camera.
     #[arg(long, default_value_t = 80.0)]
     pub max_angle: f64,
+    /// HDR: capture the whole set at each of these exposures (µs, 1 to 4 comma-separated,
+    /// longest first) and keep, per pixel, the decode of the longest exposure in which it did
+    /// not saturate, as `fringe3d scan --hdr` does (docs/hdr.md). The head stops early when no
+    /// pixel is left saturated. One value sets the exposure of a plain scan; without the
+    /// option the sequence's own exposures (`device upload --exposure-us`) are used.
+    #[arg(long, value_name = "US,US,...", value_parser = parse::exposures_us)]
+    pub exposures_us: Option<fringe3d_core::wire::Exposures>,
 }
 
 fn connect(p: &PortArgs, scan_timeout: Option<f64>) -> Result<Client<SerialTransport>> {
@@ -653,7 +661,8 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
     let busy = interrupt::Busy::enter();
     c.set_interrupt(interrupt::process_flag());
     let (pb, mut cb) = bar(0, "rows", g.quiet);
-    let r = c.scan(output, a.first_row, a.rows, edge_filter, &mut cb);
+    let exposures = a.exposures_us.unwrap_or(Exposures::NONE);
+    let r = c.scan_exposed(output, a.first_row, a.rows, edge_filter, exposures, &mut cb);
     pb.finish_and_clear();
     drop(busy);
     let r = match r {
@@ -707,11 +716,23 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
     };
     if g.json {
         say(serde_json::json!({"command": "device scan", "port": a.port.port, "protocol_version": PROTOCOL_VERSION, "width": w, "first_row": r.first_row,
-                "rows": rows, "points": valid, "rescans": r.rescans, "stale_rows_dropped": r.stale_rows, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
+                "rows": rows, "exposures_us": exposures.as_slice(), "points": valid, "rescans": r.rescans, "stale_rows_dropped": r.stale_rows, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
             .to_string());
     } else if !g.quiet {
+        let hdr = match exposures.as_slice() {
+            [_, _, ..] => format!(
+                " at {} µs (HDR)",
+                exposures
+                    .as_slice()
+                    .iter()
+                    .map(|u| u.to_string())
+                    .collect::<Vec<_>>()
+                    .join("/")
+            ),
+            _ => String::new(),
+        };
         say(format!(
-            "scanned rows {}..{} ({} x {}) in {:.2} s, {} bytes received{}",
+            "scanned rows {}..{} ({} x {}){hdr} in {:.2} s, {} bytes received{}",
             r.first_row,
             r.first_row + rows,
             w,

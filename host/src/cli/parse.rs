@@ -40,6 +40,30 @@ pub fn exposure_us(s: &str) -> Result<u32, String> {
     whole(s, 1, 60_000_000, " µs").map(|v| v as u32)
 }
 
+/// `--exposures-us`: an HDR scan's exposures, 1 to 4 comma-separated values of 1 µs to 60 s,
+/// longest first (each shorter than the one before), as the head takes them (the wire's
+/// [`Exposures`](fringe3d_core::wire::Exposures)).
+pub fn exposures_us(s: &str) -> Result<fringe3d_core::wire::Exposures, String> {
+    let max = fringe3d_core::decode::hdr::MAX_EXPOSURES;
+    let us = s
+        .split(',')
+        .map(exposure_us)
+        .collect::<Result<Vec<u32>, String>>()?;
+    if us.len() > max {
+        return Err(format!(
+            "{} exposures: at most {max}, longest first",
+            us.len()
+        ));
+    }
+    if let Some(p) = us.windows(2).find(|p| p[1] >= p[0]) {
+        return Err(format!(
+            "{} µs after {} µs: list the exposures longest first, each shorter than the one before",
+            p[1], p[0]
+        ));
+    }
+    fringe3d_core::wire::Exposures::new(&us).map_err(|e| e.to_string())
+}
+
 /// `--dark-us`: 0 to 60 s.
 pub fn dark_us(s: &str) -> Result<u32, String> {
     whole(s, 0, 60_000_000, " µs").map(|v| v as u32)

@@ -34,7 +34,10 @@ pub use calibration::Calibration;
 pub use correction::{DefineCorrection, SetupCorrection};
 pub use hello::{Capabilities, FirmwareVersion, Hello};
 pub use pattern::DefinePatternSet;
-pub use scan::{EdgeFilterMode, ResultRow, RowKind, ScanDone, ScanOutput, ScanRequest};
+pub use scan::{
+    EdgeFilterMode, Exposures, MAX_EXPOSURE_US, ResultRow, RowKind, ScanDone, ScanOutput,
+    ScanRequest,
+};
 pub use status::{Ack, HeadErrors, HeadState, Nak, NakCode, Status};
 pub use thresholds::{DecodeThresholds, DefineThresholds};
 pub use trigger::{LutEntry, LutTable, Sequence, ValidationStatus};

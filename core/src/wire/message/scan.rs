@@ -4,6 +4,74 @@ use serde::{Deserialize, Serialize};
 
 use super::{Body, Invalid, MAX_ROW_DATA, WireError, check, finite64};
 use crate::Validity;
+use crate::decode::hdr::MAX_EXPOSURES;
+
+/// The longest exposure a scan may ask for, µs (60 s; the trigger table's bound too).
+pub const MAX_EXPOSURE_US: u32 = 60_000_000;
+
+/// The exposures of an HDR scan (protocol version 8, issue #19 item 4): the sequence runs once
+/// per exposure, longest first, each camera-triggered entry exposed for that time, and the head
+/// keeps for each pixel the decode of the longest exposure in which none of its samples
+/// saturated ([`crate::decode::hdr`], [`crate::sequential::FrameDecoder::next_exposure`]).
+///
+/// Wire: `count u8, 4 × exposure_us u32` (unused slots 0). `count` 0 runs the sequence once with
+/// its own entries' exposures (a plain scan); 1 runs it once with every camera-triggered entry
+/// exposed for `exposure_us[0]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Exposures {
+    /// Exposures in use, `0..=MAX_EXPOSURES`.
+    pub count: u8,
+    /// The exposures, µs, strictly decreasing, each `1..=MAX_EXPOSURE_US`; unused slots 0.
+    pub exposure_us: [u32; MAX_EXPOSURES],
+}
+
+impl Exposures {
+    /// No list: the sequence's own exposures, one pass.
+    pub const NONE: Exposures = Exposures {
+        count: 0,
+        exposure_us: [0; MAX_EXPOSURES],
+    };
+
+    /// The list `us` (longest first), if it is one: at most [`MAX_EXPOSURES`] values, each
+    /// `1..=MAX_EXPOSURE_US`, strictly decreasing.
+    pub fn new(us: &[u32]) -> Result<Exposures, WireError> {
+        let mut e = Exposures::NONE;
+        check(us.len() <= MAX_EXPOSURES, Invalid::Exposures)?;
+        e.count = us.len() as u8;
+        e.exposure_us[..us.len()].copy_from_slice(us);
+        e.validate()?;
+        Ok(e)
+    }
+
+    /// The exposures in use, longest first.
+    pub fn as_slice(&self) -> &[u32] {
+        let n = (self.count as usize).min(MAX_EXPOSURES);
+        &self.exposure_us[..n]
+    }
+
+    /// The number of passes of the sequence a scan makes: `count`, at least 1.
+    pub fn passes(&self) -> usize {
+        self.as_slice().len().max(1)
+    }
+
+    /// The exposure of pass `pass` (`None`: the entries' own).
+    pub fn of_pass(&self, pass: usize) -> Option<u32> {
+        self.as_slice().get(pass).copied()
+    }
+
+    /// Check the rules of [`Exposures::new`] and that unused slots are 0.
+    pub fn validate(&self) -> Result<(), WireError> {
+        let n = self.count as usize;
+        check(n <= MAX_EXPOSURES, Invalid::Exposures)?;
+        let (used, unused) = self.exposure_us.split_at(n);
+        check(unused.iter().all(|&u| u == 0), Invalid::UnusedSlot)?;
+        check(
+            used.iter().all(|&u| (1..=MAX_EXPOSURE_US).contains(&u))
+                && used.windows(2).all(|p| p[0] > p[1]),
+            Invalid::Exposures,
+        )
+    }
+}
 
 /// What a scan streams back.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -45,18 +113,21 @@ pub struct ScanRequest {
     pub row_count: u16,
     /// The edge filter of point rows (ignored for phase rows).
     pub edge_filter: EdgeFilterMode,
+    /// The exposure list of an HDR scan ([`Exposures::NONE`]: the sequence's own, one pass).
+    pub exposures: Exposures,
 }
 
 impl ScanRequest {
-    /// Check the filter angle.
+    /// Check the filter angle and the exposure list.
     pub fn validate(&self) -> Result<(), WireError> {
         match self.edge_filter {
-            EdgeFilterMode::Off => Ok(()),
+            EdgeFilterMode::Off => {}
             EdgeFilterMode::MaxAngle(a) => {
                 finite64(&[a])?;
-                check(a > 0.0 && a < 90.0, Invalid::EdgeFilter)
+                check(a > 0.0 && a < 90.0, Invalid::EdgeFilter)?;
             }
         }
+        self.exposures.validate()
     }
 }
 

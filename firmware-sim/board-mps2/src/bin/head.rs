@@ -52,7 +52,7 @@ use cortex_m_rt::{ExceptionFrame, entry, exception};
 use fringe3d_head::hal::{HwError, SliceStore};
 use fringe3d_head::head::{Activity, Head, HeadConfig};
 use fringe3d_head::memory::HeadMemory;
-use fringe3d_head::sim::{FrameSource, NoSink, SimBoard, SimWorld};
+use fringe3d_head::sim::{FrameSource, NoSink, Shot, SimBoard, SimWorld};
 
 use semihosting::{Console, File};
 use uart::CmsdkUart;
@@ -274,10 +274,11 @@ impl FrameSource for HostFrames {
         self.bits
     }
 
-    fn row(&self, pattern: Option<u16>, y: u16, out: &mut [u16]) -> Result<(), HwError> {
+    /// Whatever the shot's exposure: the file holds one capture of each pattern.
+    fn row(&self, shot: Shot, y: u16, out: &mut [u16]) -> Result<(), HwError> {
         let w = self.width as usize;
         let out = out.get_mut(..w).ok_or(HwError::Camera)?;
-        let Some(p) = pattern else {
+        let Some(p) = shot.pattern else {
             out.fill(0);
             return Ok(());
         };

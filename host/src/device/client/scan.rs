@@ -4,8 +4,8 @@ use std::collections::HashSet;
 use std::time::Instant;
 
 use fringe3d_core::wire::{
-    Command, EdgeFilterMode, HeadState, Message, NakCode, PROTOCOL_VERSION, Packet, RowKind,
-    ScanOutput, ScanRequest,
+    Command, EdgeFilterMode, Exposures, HeadState, Message, NakCode, PROTOCOL_VERSION, Packet,
+    RowKind, ScanOutput, ScanRequest,
 };
 
 use super::{Client, Got, ScanOutcome, classify};
@@ -29,7 +29,36 @@ impl<T: Transport> Client<T> {
         edge_filter: EdgeFilterMode,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<ScanOutcome, DeviceError> {
-        match self.scan_rows(output, first_row, row_count, edge_filter, progress) {
+        self.scan_exposed(
+            output,
+            first_row,
+            row_count,
+            edge_filter,
+            Exposures::NONE,
+            progress,
+        )
+    }
+
+    /// [`Client::scan`] at each exposure of `exposures` (protocol version 8): the head runs
+    /// the sequence once per exposure, longest first, with every camera-triggered entry exposed
+    /// for it, and streams for each pixel the decode of the longest exposure in which it did
+    /// not saturate (HDR, docs/hdr.md). Lost rows requested again are captured again, at every
+    /// exposure.
+    pub fn scan_exposed(
+        &mut self,
+        output: ScanOutput,
+        first_row: u16,
+        row_count: u16,
+        edge_filter: EdgeFilterMode,
+        exposures: Exposures,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<ScanOutcome, DeviceError> {
+        let spec = Spec {
+            output,
+            edge_filter,
+            exposures,
+        };
+        match self.scan_rows(spec, first_row, row_count, progress) {
             Err(DeviceError::Interrupted { what, .. }) => {
                 let flag = self.link.set_interrupt(None);
                 let retries = std::mem::replace(&mut self.opts.retries, 1);
@@ -51,12 +80,12 @@ impl<T: Transport> Client<T> {
 
     fn scan_rows(
         &mut self,
-        output: ScanOutput,
+        spec: Spec,
         first_row: u16,
         row_count: u16,
-        edge_filter: EdgeFilterMode,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<ScanOutcome, DeviceError> {
+        let output = spec.output;
         let t0 = Instant::now();
         let recv0 = self.link.stats().bytes_received;
         let (w, h) = (
@@ -95,7 +124,7 @@ impl<T: Transport> Client<T> {
         let mut rescans = 0u32;
         loop {
             for &(f, n) in &ranges {
-                self.scan_stream(output, f as u16, n as u16, edge_filter, &mut acc, progress)?;
+                self.scan_stream(spec, f as u16, n as u16, &mut acc, progress)?;
             }
             let missing: Vec<usize> = (0..rows).filter(|&r| !acc.complete(r)).collect();
             if missing.is_empty() {
@@ -137,10 +166,9 @@ impl<T: Transport> Client<T> {
     /// request again.
     fn scan_stream(
         &mut self,
-        output: ScanOutput,
+        spec: Spec,
         first: u16,
         count: u16,
-        edge_filter: EdgeFilterMode,
         acc: &mut Assembly,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<(), DeviceError> {
@@ -149,10 +177,11 @@ impl<T: Transport> Client<T> {
         let scan_id = self.link.next_scan_id();
         let msg = Message::Scan(ScanRequest {
             scan_id,
-            output,
+            output: spec.output,
             first_row: first,
             row_count: count,
-            edge_filter,
+            edge_filter: spec.edge_filter,
+            exposures: spec.exposures,
         });
         let mut seqs: Vec<u8> = Vec::new();
         let mut started = false;
@@ -244,6 +273,14 @@ impl<T: Transport> Client<T> {
             self.link.stats_mut().retries += 1;
         }
     }
+}
+
+/// What a scan asks of the head besides its rows.
+#[derive(Clone, Copy)]
+struct Spec {
+    output: ScanOutput,
+    edge_filter: EdgeFilterMode,
+    exposures: Exposures,
 }
 
 /// Rows being assembled.
