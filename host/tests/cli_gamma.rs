@@ -138,6 +138,48 @@ fn measured_gamma_makes_scans_as_good_as_a_linear_projector() {
         valid("dec_c") > valid("dec"),
         "decode -c must recover pixels"
     );
+
+    // Without gray captures: γ from the scan's own fringe images (`--fringes`), and the scan
+    // with it as good as with the gray levels' response.
+    let from_fringes = gam.join("fringes.toml");
+    let json = run(&[
+        "--json",
+        "calibrate",
+        "gamma",
+        "--fringes",
+        "-c",
+        s(&before),
+        "-p",
+        s(&patterns),
+        s(&gam),
+        "-o",
+        s(&from_fringes),
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let g = v["gamma"].as_f64().unwrap();
+    assert!((g - 2.2).abs() < 0.05, "gamma from the fringes {g}");
+    assert_eq!(v["from"], "fringes");
+    let (f_rms, f_n) = scan_accuracy(&gam, &from_fringes);
+    eprintln!("gamma {g:.4} from the fringes: {f_rms:.4} mm ({f_n})");
+    assert!(f_rms <= 1.15 * lin_rms, "{f_rms} mm vs linear {lin_rms}");
+    assert!(f_n as f64 >= 0.995 * lin_n as f64);
+    // The gray captures are not fringes of the set: refused, naming them.
+    let e = fringe3d(&[
+        "calibrate",
+        "gamma",
+        "--fringes",
+        "-c",
+        s(&before),
+        "-p",
+        s(&patterns),
+        s(&gam.join("gray")),
+        "-o",
+        s(&gam.join("bad.toml")),
+    ]);
+    assert!(!e.status.success());
+    let err = String::from_utf8_lossy(&e.stderr);
+    assert!(err.contains("gray"), "{err}");
+    assert!(!gam.join("bad.toml").exists(), "nothing written");
 }
 
 #[test]

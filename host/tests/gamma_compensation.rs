@@ -328,3 +328,53 @@ fn a_known_defocus_sharpens_the_table() {
     // The renderer's own truth table is the same model.
     assert_eq!(s.true_correction(&s.patterns).unwrap(), Some(blurred));
 }
+
+/// The response from the fringe captures themselves (`calibrate gamma --fringes`): the power
+/// law's γ fitted to the samples of every pixel of the paper set's 8 images, with the phase of
+/// their own (uncorrected) decode. Within 1 % of the rendered response over the patterns'
+/// range (black level and ambient cancel), at γ = 2.2 and for a linear projector; and the
+/// decoder's table from it gives the quality bar's accuracy.
+#[test]
+fn a_power_law_is_measured_from_the_fringes_within_one_percent() {
+    use fringe3d::response::harmonics::from_fringes;
+    for gamma in [GAMMA, 1.0] {
+        let s = scene(gamma);
+        let (f, t) = s.render_fringes(RenderOptions::default()).unwrap();
+        let (ph, va, _) = decode(&s, &f, None);
+        let frames: Vec<&[u16]> = f.images.iter().map(|i| i.as_slice()).collect();
+        let (r, rep) = from_fringes(&s.patterns, 255.0, &frames, &ph, &va, 255.0).unwrap();
+        let [lo, hi] = rep.used_range;
+        let worst = (0..=1000)
+            .map(|k| lo + (hi - lo) * k as f64 / 1000.0)
+            .map(|x| (r.eval(x) - x.powf(gamma)).abs())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "rendered gamma {gamma}: fitted {:.4} from {} pixels, residual {:.3} codes RMS \
+             (linear {:.3}), worst {:.5} over [{lo:.3}, {hi:.3}]",
+            r.gamma, rep.pixels, rep.residual_rms, rep.linear_rms, worst
+        );
+        assert!(rep.pixels > 100_000, "{} pixels", rep.pixels);
+        assert!(
+            worst < 0.01,
+            "gamma {gamma}: response off by {worst:.4} of full scale"
+        );
+        // The power law holds: what is left is the camera's noise (σ = 1 code, plus the
+        // patterns' quantization), and for a gamma projector the fit removed much more.
+        assert!(rep.residual_rms < 1.5, "residual {}", rep.residual_rms);
+        if gamma != 1.0 {
+            assert!(rep.linear_rms > 2.0 * rep.residual_rms);
+            let (table, _) = phase_correction(&s.patterns, &r).unwrap();
+            let corrected = stats(&s, &f, &t, Some(&table));
+            let lin_scene = scene(1.0);
+            let (lf, lt) = lin_scene.render_fringes(RenderOptions::default()).unwrap();
+            let lin = stats(&lin_scene, &lf, &lt, None);
+            eprintln!(
+                "  its table: {:.4} rad ({:.4} valid, {} order errors) against linear {:.4}",
+                corrected.rms, corrected.coverage, corrected.order_errors, lin.rms
+            );
+            assert!(corrected.rms <= 1.1 * lin.rms);
+            assert_eq!(corrected.order_errors, 0);
+            assert!(corrected.coverage >= 0.995);
+        }
+    }
+}

@@ -304,6 +304,37 @@ fn the_calibrated_sensor_noise_sets_the_scan_floor() {
     };
     assert_eq!(scan(&measured), with_sensor.0 as u64);
     assert_eq!(scan(&bare), without.0 as u64);
+    // `fringe3d decode -c` decodes with the same floor: its validity is `scan`'s decode's.
+    let decoded = |cal: &Path| -> Vec<u8> {
+        let out = t.0.join("decoded");
+        run(&[
+            "decode",
+            "-q",
+            "-p",
+            s(&ds.join("patterns.toml")),
+            "-c",
+            s(cal),
+            s(&ds),
+            "-o",
+            s(&out),
+            "--overwrite",
+        ]);
+        let (img, _) = fringe3d::io::image::read_gray(&out.join("validity.png")).unwrap();
+        match img.pixels {
+            fringe3d::io::image::Pixels::U8(v) => v,
+            _ => panic!("validity.png is 8-bit"),
+        }
+    };
+    let scan_validity = |cal: &Path| {
+        let ls = common::load_set(&ds.join("patterns.toml")).unwrap();
+        let c = Calibration::load(cal).unwrap();
+        let imgs = common::load_images(&ls, &[], true).unwrap();
+        let cfg = defaults.config(&ls.set, &imgs, c.sensor.as_ref()).unwrap();
+        common::decode(&ls.set, &imgs, cfg).unwrap().validity
+    };
+    let with = decoded(&measured);
+    assert_eq!(with, scan_validity(&measured));
+    assert_ne!(with, decoded(&bare), "[sensor] changes what decode refuses");
 }
 
 /// `[sensor]` round-trips through the calibration file, scales with the bit depth as the same

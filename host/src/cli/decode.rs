@@ -94,7 +94,9 @@ pub struct DecodeArgs {
     pub overwrite: bool,
     /// Correct the phase for the projector response this calibration records
     /// (`[projector_response]`, from `calibrate gamma`; docs/gamma.md), or for a binary set, for
-    /// its `projector_defocus` (required then; docs/binary.md).
+    /// its `projector_defocus` (required then; docs/binary.md); and decode with the modulation
+    /// floor of its `[sensor]` noise (12σ, as `scan` does; `--noise` and the single thresholds
+    /// override it).
     #[arg(long, short = 'c', value_name = "CALIBRATION")]
     pub calibration: Option<PathBuf>,
 }
@@ -110,17 +112,24 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
         pattern_digest: ls.scan_patterns()?.digest,
     }
     .text()?;
-    let corr = match &a.calibration {
-        Some(c) => common::response_correction(&Calibration::load(c)?, c, &ls)?,
-        None if ls.set.binarization().is_binary() => anyhow::bail!(
+    let cal = a
+        .calibration
+        .as_ref()
+        .map(|c| Calibration::load(c))
+        .transpose()?;
+    let corr = match (&a.calibration, &cal) {
+        (Some(c), Some(cal)) => common::response_correction(cal, c, &ls)?,
+        _ if ls.set.binarization().is_binary() => anyhow::bail!(
             "{}: {}; pass it with --calibration",
             a.patterns.display(),
             crate::calib::files::BINARY_NEEDS_DEFOCUS
         ),
-        None => None,
+        _ => None,
     };
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;
-    let cfg = a.thresholds.config(&ls.set, &imgs, None)?;
+    // The calibration's `[sensor]` noise sets the modulation floor, as for `scan`.
+    let sensor = cal.as_ref().and_then(|c| c.sensor.as_ref());
+    let cfg = a.thresholds.config(&ls.set, &imgs, sensor)?;
     let dir = AtomicDir::create(&a.out, a.overwrite)?;
     let d = common::decode_corrected(&ls.set, &imgs, cfg, corr.as_ref())?;
     let (w, h) = (imgs.width, imgs.height);

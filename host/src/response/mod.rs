@@ -3,6 +3,7 @@
 //! | module | holds |
 //! |---|---|
 //! | [`estimate`] | [`estimate()`](estimate::estimate): r(x) from captures under uniform gray levels |
+//! | [`harmonics`] | [`from_fringes`](harmonics::from_fringes): a power law's γ from the fringe captures themselves |
 //! | [`table`] | [`phase_correction`](table::phase_correction): a pattern set's phase-error table for the core's decoder |
 //!
 //! The response itself is the calibration file's
@@ -12,6 +13,7 @@
 pub mod binary;
 pub mod defocus;
 pub mod estimate;
+pub mod harmonics;
 pub mod table;
 
 pub use crate::io::calibration::ProjectorResponse;
