@@ -8,7 +8,9 @@
 //! into the head's PSRAM store, calibration, reference phase map: the virtual map of the rig's
 //! projector on the default far plane, wider than the image by the margin the geometry needs,
 //! issue #17) and `fringe3d device scan`
-//! (points to a PLY, phase to a float TIFF) against it. The scan must be bit-identical (canonical
+//! (points to a PLY, phase to a float TIFF) against it, and an HDR scan (`--exposures-us`: the
+//! camera reads a frames file per exposure, the scene rendered 4× brighter and as metered). The
+//! scans must be bit-identical (canonical
 //! NaN) to what the desktop computes from the same images — the decode and reconstruction of
 //! `fringe3d scan` (`cli::common::decode`, `ScanCalibration::reconstruct`) — and the PLY, organized
 //! (one vertex per pixel with its validity code), must hold exactly the desktop's points and codes.
@@ -47,7 +49,8 @@ struct Qemu {
 
 impl Qemu {
     /// Start the head on `frames`; returns it and the PTY QEMU connected UART0 to.
-    fn start(elf: &Path, frames: &Path) -> (Qemu, String) {
+    /// QEMU running `elf` whose camera reads the frames files `frames` (`PATH` or `PATH@US`).
+    fn start(elf: &Path, frames: &[String]) -> (Qemu, String) {
         let mut child = Command::new("qemu-system-arm")
             .args([
                 "-M",
@@ -62,8 +65,11 @@ impl Qemu {
             ])
             .arg("-semihosting-config")
             .arg(format!(
-                "enable=on,target=native,arg={BIN},arg={}",
-                frames.display()
+                "enable=on,target=native,arg={BIN}{}",
+                frames
+                    .iter()
+                    .map(|f| format!(",arg={f}"))
+                    .collect::<String>()
             ))
             .arg("-kernel")
             .arg(elf)
@@ -133,8 +139,9 @@ impl Drop for Qemu {
 
 /// A small rendered sphere scene: the default rig with a `PROJ`-sized projector (same field of
 /// view), its pattern set with exact binary parameters.
-fn dataset(root: &Path) -> PathBuf {
-    let dir = root.join("sphere");
+/// The sphere scene, exposed `exposure` times the metered light, in `root/name`.
+fn dataset(root: &Path, name: &str, exposure: f64) -> PathBuf {
+    let dir = root.join(name);
     let set_file = root.join("set.toml");
     std::fs::write(
         &set_file,
@@ -154,6 +161,7 @@ fn dataset(root: &Path) -> PathBuf {
         size: Some(CAM),
         supersample: Some(1),
         pattern_bits: Some(8),
+        exposure: Some(exposure),
         ..Default::default()
     });
     // The rig's projector with a coarser DMD over the same field of view.
@@ -302,7 +310,9 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
     let root = std::env::temp_dir().join(format!("fringe3d-qemu-head-pty-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&root);
     std::fs::create_dir_all(&root).unwrap();
-    let dir = dataset(&root);
+    let dir = dataset(&root, "sphere", 1.0);
+    // The same scene four times as bright (HDR's long exposure: the sphere's lit side clips).
+    let bright = dataset(&root, "bright", 4.0);
     let patterns = dir.join("patterns.toml");
     let calib = dir.join("calibration.toml");
     // The reference the head gets: `calibrate reference --virtual` with its defaults (the far
@@ -335,7 +345,10 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
     let t0 = Instant::now();
     let elf = build_firmware(BIN);
     eprintln!("firmware built in {:.1} s", t0.elapsed().as_secs_f64());
-    let (qemu, port) = Qemu::start(&elf, &frames);
+    let frames_bright = root.join("frames_bright.bin");
+    write_frames(&bright, &frames_bright);
+    let at = |f: &Path, us: u32| format!("{}@{us}", f.display());
+    let (qemu, port) = Qemu::start(&elf, &[at(&frames_bright, 40_000), at(&frames, 10_000)]);
     eprintln!("emulated head on {port}");
 
     // The same commands as for the simulated head. The emulated UART takes PTY input slowly,
@@ -383,6 +396,24 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         ]
         .concat(),
     );
+    // HDR (protocol version 8): the bright capture, then the sequence's own exposure where it
+    // clipped, fused on the head as its frames arrive.
+    let tif_hdr = root.join("head_hdr_phase.tif");
+    let t_hdr = fringe3d(
+        &[
+            &["device", "scan"][..],
+            &port_args[..],
+            &[
+                "--exposures-us",
+                "40000,10000",
+                "--output",
+                "phase",
+                "--phase-out",
+                tif_hdr.to_str().unwrap(),
+            ][..],
+        ]
+        .concat(),
+    );
     fringe3d(&[&["device", "info"][..], &port_args[..]].concat());
     let console = qemu.console();
     drop(qemu);
@@ -411,6 +442,29 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         "phases differ from the desktop's at {} of {} pixels",
         w * h - same_phase,
         w * h
+    );
+
+    // HDR: the desktop's `scan --hdr bright sphere` decode, bit for bit; the bright capture
+    // alone clips where the fused one does not.
+    let hdr_imgs = common::load_exposures(&ls, &[bright.clone(), dir.clone()], true).unwrap();
+    let hdr = common::decode(&ls.set, &hdr_imgs, common::decode_config(&hdr_imgs)).unwrap();
+    let bright_imgs = common::load_images(&ls, std::slice::from_ref(&bright), true).unwrap();
+    let bright_dec =
+        common::decode(&ls.set, &bright_imgs, common::decode_config(&bright_imgs)).unwrap();
+    let saturated = |v: &[u8]| v.iter().filter(|&&c| c == 2).count();
+    eprintln!(
+        "HDR scan (2 exposures) {t_hdr:.1} s: {} pixels saturated in the bright capture, {} fused",
+        saturated(&bright_dec.validity),
+        saturated(&hdr.validity)
+    );
+    assert!(saturated(&bright_dec.validity) > saturated(&hdr.validity) + 100);
+    let (img, _) = read_gray(&tif_hdr).unwrap();
+    let Pixels::F32(hdr_phase) = img.pixels else {
+        panic!("the HDR phase TIFF is not f32")
+    };
+    assert!(
+        bits(&hdr_phase) == bits(&hdr.phase),
+        "HDR phases differ from the desktop's"
     );
 
     // Points: each PLY is organized (a vertex per pixel, row-major, with its validity code) and
@@ -451,9 +505,9 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         }
     }
 
-    // The firmware's own report: it ran the scan in its SRAM budget.
+    // The firmware's own report: it ran the three scans in its SRAM budget.
     assert!(
-        console.matches(&format!("scan: {h} rows sent")).count() == 2,
+        console.matches(&format!("scan: {h} rows sent")).count() == 3,
         "{console}"
     );
     let _ = std::fs::remove_dir_all(&root);

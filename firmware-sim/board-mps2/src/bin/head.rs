@@ -17,7 +17,9 @@
 //!   SRAM stays limited to 256 KiB by `memory.x`.
 //!
 //! Arguments (semihosting, `-semihosting-config enable=on,target=native,arg=NAME,arg=FRAMES`):
-//! the program name, then the frames file (default `frames.bin`).
+//! the program name, then the frames file (default `frames.bin`). For HDR scans, up to four
+//! frames files, each `PATH@US` (the exposure it was captured at, µs): an exposure reads the
+//! file whose exposure is nearest by ratio, as the desktop's `ReplaySeries` does.
 //!
 //! # The frames file
 //! A 16-byte header, all little-endian: `"F3DC"`, camera width `u16`, camera height `u16`,
@@ -194,9 +196,19 @@ fn psram_bytes() -> usize {
 /// A failure at start-up, printed before exiting with status 1.
 struct Fail(&'static str);
 
-/// The camera's pictures: a frames file on the host, read through semihosting (module docs).
-struct HostFrames {
+/// Most frames files (exposures) the camera takes.
+const MAX_TAKES: usize = 4;
+
+/// One frames file and the exposure it was captured at (µs; 0: not given).
+struct Take {
     file: RefCell<File>,
+    exposure_us: u32,
+}
+
+/// The camera's pictures: frames files on the host, one per exposure, read through
+/// semihosting (module docs).
+struct HostFrames {
+    takes: [Option<Take>; MAX_TAKES],
     width: u16,
     height: u16,
     bits: u8,
@@ -208,7 +220,90 @@ struct HostFrames {
 }
 
 impl HostFrames {
-    fn open(path: &str) -> Result<HostFrames, Fail> {
+    /// The frames files of the arguments `args` (`PATH` or `PATH@US` each), which must agree in
+    /// their headers.
+    fn open_all<'a>(args: impl Iterator<Item = &'a str>) -> Result<HostFrames, Fail> {
+        let mut all: Option<HostFrames> = None;
+        for (k, arg) in args.enumerate() {
+            let (path, us) = match arg.rsplit_once('@') {
+                Some((p, u)) => (
+                    p,
+                    u.parse::<u32>()
+                        .ok()
+                        .filter(|&u| u > 0)
+                        .ok_or(Fail("frames file: the exposure after @ must be µs above 0"))?,
+                ),
+                None => (arg, 0),
+            };
+            let f = HostFrames::open(path, us)?;
+            match all.as_mut() {
+                None => all = Some(f),
+                Some(a) => {
+                    if (
+                        f.width,
+                        f.height,
+                        f.bits,
+                        f.sample_bytes,
+                        f.count,
+                        f.projector,
+                    ) != (
+                        a.width,
+                        a.height,
+                        a.bits,
+                        a.sample_bytes,
+                        a.count,
+                        a.projector,
+                    ) {
+                        return Err(Fail("frames files: their headers differ"));
+                    }
+                    let [Some(t), ..] = f.takes else {
+                        return Err(Fail("frames file: not opened"));
+                    };
+                    let slot = a
+                        .takes
+                        .get_mut(k)
+                        .ok_or(Fail("more than four frames files"))?;
+                    *slot = Some(t);
+                }
+            }
+        }
+        let all = all.ok_or(Fail("no frames file"))?;
+        if all.takes.iter().flatten().count() > 1
+            && all.takes.iter().flatten().any(|t| t.exposure_us == 0)
+        {
+            return Err(Fail(
+                "with several frames files, give each its exposure as PATH@US",
+            ));
+        }
+        Ok(all)
+    }
+
+    /// The take whose exposure is nearest to `exposure_ns` by ratio (the first on a tie).
+    fn take(&self, exposure_ns: u64) -> Option<&Take> {
+        let t = exposure_ns.max(1) as u128;
+        // max(t, e) / min(t, e), compared as fractions.
+        let off = |us: u32| {
+            let e = (us.max(1) as u128) * 1000;
+            (t.max(e), t.min(e))
+        };
+        let mut best: Option<&Take> = None;
+        for take in self.takes.iter().flatten() {
+            best = match best {
+                Some(b) => {
+                    let ((n1, d1), (n2, d2)) = (off(take.exposure_us), off(b.exposure_us));
+                    if n1 * d2 < n2 * d1 {
+                        Some(take)
+                    } else {
+                        Some(b)
+                    }
+                }
+                None => Some(take),
+            };
+        }
+        best
+    }
+
+    fn open(path: &str, exposure_us: u32) -> Result<HostFrames, Fail> {
         let mut file = File::open(path).map_err(|_| Fail("cannot open the frames file"))?;
         let len = file
             .len()
@@ -249,7 +344,15 @@ impl HostFrames {
             return Err(Fail("frames file: its length does not match its header"));
         }
         Ok(HostFrames {
-            file: RefCell::new(file),
+            takes: [
+                Some(Take {
+                    file: RefCell::new(file),
+                    exposure_us,
+                }),
+                None,
+                None,
+                None,
+            ],
             width,
             height,
             bits,
@@ -274,7 +377,7 @@ impl FrameSource for HostFrames {
         self.bits
     }
 
-    /// Whatever the shot's exposure: the file holds one capture of each pattern.
+    /// From the file whose exposure is nearest to the shot's.
     fn row(&self, shot: Shot, y: u16, out: &mut [u16]) -> Result<(), HwError> {
         let w = self.width as usize;
         let out = out.get_mut(..w).ok_or(HwError::Camera)?;
@@ -289,7 +392,9 @@ impl FrameSource for HostFrames {
         let at = HEADER_LEN + (p as usize * self.height as usize + y as usize) * w * sb;
         let mut row = self.row.borrow_mut();
         let bytes = row.get_mut(..w * sb).ok_or(HwError::Camera)?;
-        self.file
+        self.take(shot.exposure_ns)
+            .ok_or(HwError::Camera)?
+            .file
             .borrow_mut()
             .read_at(at, bytes)
             .map_err(|_| HwError::Camera)?;
@@ -306,21 +411,20 @@ impl FrameSource for HostFrames {
     }
 }
 
-/// The frames file: the first semihosting argument after the program name, else `frames.bin`.
-fn frames_path(buf: &mut [u8; 256]) -> &str {
+/// The frames files: the semihosting arguments after the program name, else `frames.bin`.
+fn frames_args(buf: &mut [u8; 256]) -> impl Iterator<Item = &str> {
     let n = semihosting::cmdline(buf);
     let s = core::str::from_utf8(&buf[..n]).unwrap_or("");
-    s.split(' ')
-        .filter(|t| !t.is_empty())
-        .nth(1)
-        .unwrap_or("frames.bin")
+    let mut args = s.split(' ').filter(|t| !t.is_empty()).skip(1).peekable();
+    let none = args.peek().is_none();
+    args.chain(none.then_some("frames.bin"))
 }
 
 fn run(uart: &mut CmsdkUart) -> Result<(), Fail> {
     let mut c = Console;
     let mut cmd = [0u8; 256];
-    let path = frames_path(&mut cmd);
-    let frames = HostFrames::open(path)?;
+    let frames = HostFrames::open_all(frames_args(&mut cmd))?;
+    let files = frames.takes.iter().flatten().count();
     let (w, h, bits, n, (pw, ph)) = (
         frames.width,
         frames.height,
@@ -383,7 +487,7 @@ fn run(uart: &mut CmsdkUart) -> Result<(), Fail> {
     let lay = measure::layout();
     let _ = writeln!(
         c,
-        "fringe3d-board-mps2-head: camera {w}x{h} {bits}-bit, {n} frames from {path}; projector {pw}x{ph}"
+        "fringe3d-board-mps2-head: camera {w}x{h} {bits}-bit, {n} frames in each of {files} frames file(s); projector {pw}x{ph}"
     );
     let _ = writeln!(
         c,
