@@ -1,4 +1,5 @@
-//! Raw camera frames (PGM `P5`, NumPy `.npy`): read exactly, refused with the reason when bad,
+//! Raw camera frames (PGM `P5`, NumPy `.npy`, headerless `.raw` with a `raw.toml`): read
+//! exactly, refused with the reason when bad,
 //! and a scan from them gives the bits of the same scan from PNG. The files are written here by
 //! hand, from the formats' specifications, not by the readers' code.
 
@@ -287,10 +288,11 @@ fn a_scan_from_pgm_or_npy_frames_gives_the_png_scans_bits() {
         .collect();
     assert_eq!(names.len(), 8, "{names:?}");
     let png: Vec<PathBuf> = names.iter().map(|n| ds.join(n)).collect();
-    let (pgm_dir, npy_dir) = (t.0.join("pgm"), t.0.join("npy"));
-    std::fs::create_dir_all(&pgm_dir).unwrap();
-    std::fs::create_dir_all(&npy_dir).unwrap();
-    let (mut pgms, mut npys) = (Vec::new(), Vec::new());
+    let (pgm_dir, npy_dir, raw_dir) = (t.0.join("pgm"), t.0.join("npy"), t.0.join("raw"));
+    for d in [&pgm_dir, &npy_dir, &raw_dir] {
+        std::fs::create_dir_all(d).unwrap();
+    }
+    let (mut pgms, mut npys, mut raws) = (Vec::new(), Vec::new(), Vec::new());
     for (i, p) in png.iter().enumerate() {
         let (img, _) = read_gray(p).unwrap();
         let Pixels::U8(v) = &img.pixels else {
@@ -304,6 +306,12 @@ fn a_scan_from_pgm_or_npy_frames_gives_the_png_scans_bits() {
         ));
         let dict = format!("{{'descr': '|u1', 'fortran_order': False, 'shape': ({h}, {w}), }}");
         npys.push(put(&npy_dir, &format!("f{i}.npy"), &npy(&dict, v)));
+        raws.push(put(&raw_dir, &format!("f{i}.raw"), v));
+        put(
+            &raw_dir,
+            "raw.toml",
+            format!("width = {w}\nheight = {h}\nbits = 8\n").as_bytes(),
+        );
     }
     let from_png = scan(&png, &t.0.join("png.ply"));
     assert!(from_png.len() > 10_000, "the scan found points");
@@ -315,6 +323,10 @@ fn a_scan_from_pgm_or_npy_frames_gives_the_png_scans_bits() {
     assert!(
         scan(&npys, &t.0.join("npy.ply")) == from_png,
         "NPY scan differs"
+    );
+    assert!(
+        scan(&raws, &t.0.join("raw.ply")) == from_png,
+        "headerless raw scan differs"
     );
     // A folder of NPY frames is read as one (sorted by name: f0..f7 are in set order) when the
     // pattern file names no images.
@@ -340,5 +352,109 @@ fn a_scan_from_pgm_or_npy_frames_gives_the_png_scans_bits() {
     assert!(
         vertices(&std::fs::read(&out).unwrap()) == vertices(&from_png),
         "NPY folder scan differs"
+    );
+}
+
+/// Headerless `.raw` frames: the size, bit depth and byte order come from the folder's
+/// `raw.toml`; 8-, 12- (both byte orders) and 16-bit frames are read exactly, a folder lists
+/// them, and every inconsistency is refused naming the frame and the reason.
+#[test]
+fn headerless_raw_frames_are_read_by_their_descriptor_and_refused_when_inconsistent() {
+    let t = Tmp::new("raw-headerless");
+    let (w, h) = (5u32, 3u32);
+    let v8: Vec<u8> = (0..15).map(|i| (i * 17) as u8).collect();
+    let v12: Vec<u16> = (0..15).map(|i| (i * 273) as u16).collect(); // up to 3822 ≤ 4095
+    let v16: Vec<u16> = (0..15).map(|i| (i * 4681) as u16).collect();
+    let case = |name: &str, desc: &str, bytes: &[u8]| -> PathBuf {
+        let dir = t.0.join(name);
+        std::fs::create_dir_all(&dir).unwrap();
+        put(&dir, "raw.toml", desc.as_bytes());
+        put(&dir, "frame.raw", bytes)
+    };
+    let size = format!("width = {w}\nheight = {h}\n");
+    let good: Vec<(PathBuf, Pixels, u8)> = vec![
+        (
+            case("u8", &format!("{size}bits = 8\n"), &v8),
+            Pixels::U8(v8.clone()),
+            8,
+        ),
+        (
+            case("u12le", &format!("{size}bits = 12\n"), &u16_le(&v12)),
+            Pixels::U16(v12.clone()),
+            12,
+        ),
+        (
+            case(
+                "u12be",
+                &format!("{size}bits = 12\nbyte_order = \"big\"\n"),
+                &u16_be(&v12),
+            ),
+            Pixels::U16(v12.clone()),
+            12,
+        ),
+        (
+            case("u16", &format!("{size}bits = 16\n"), &u16_le(&v16)),
+            Pixels::U16(v16.clone()),
+            16,
+        ),
+    ];
+    for (p, pixels, bits) in good {
+        let hd = read_header(&p).unwrap();
+        assert_eq!((hd.format, hd.width, hd.height), (ImageFormat::Raw, w, h));
+        let (img, info): (GrayImage, _) = read_gray(&p).unwrap();
+        assert_eq!(info.format, ImageFormat::Raw);
+        assert_eq!((img.width, img.height, img.significant_bits), (w, h, bits));
+        assert_eq!(img.pixels, pixels, "{}", p.display());
+        let listed = fringe3d::io::image_set::list_folder(p.parent().unwrap()).unwrap();
+        assert_eq!(listed, vec![p.clone()], "a folder lists its .raw frames");
+    }
+    let refused = |name: &str, desc: Option<&str>, bytes: &[u8], why: &str| {
+        let dir = t.0.join(name);
+        std::fs::create_dir_all(&dir).unwrap();
+        if let Some(d) = desc {
+            put(&dir, "raw.toml", d.as_bytes());
+        }
+        let p = put(&dir, "frame.raw", bytes);
+        let e = read_gray(&p).unwrap_err().to_string();
+        assert!(e.contains(&p.display().to_string()), "{name}: {e}");
+        assert!(e.contains(why), "{name}: {e}");
+        // Through the binary: one error line, a non-zero exit.
+        let out = fringe3d(&["info", s(&p)]);
+        assert!(!out.status.success(), "{name}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(why), "{name}: {err}");
+    };
+    refused("nodesc", None, &v8, "raw.toml");
+    refused(
+        "short",
+        Some(&format!("{size}bits = 8\n")),
+        &v8[..14],
+        "15 bytes",
+    );
+    refused("long", Some(&format!("{size}bits = 12\n")), &v8, "30 bytes");
+    refused(
+        "over",
+        Some(&format!("{size}bits = 10\n")),
+        &u16_le(&v12),
+        "above 1023",
+    );
+    refused(
+        "order",
+        Some(&format!("{size}bits = 12\nbyte_order = \"middle\"\n")),
+        &u16_le(&v12),
+        "byte_order",
+    );
+    refused("bits", Some(&format!("{size}bits = 17\n")), &v8, "bits");
+    refused(
+        "key",
+        Some(&format!("{size}bits = 8\nstride = 6\n")),
+        &v8,
+        "stride",
+    );
+    refused(
+        "huge",
+        Some("width = 100000\nheight = 100000\nbits = 8\n"),
+        &v8,
+        "100000x100000",
     );
 }

@@ -51,11 +51,11 @@ pub fn run(a: InfoArgs, g: Global) -> Result<()> {
             .to_ascii_lowercase();
         match ext.as_str() {
             "toml" => toml_info(p)?,
-            "png" | "tif" | "tiff" | "bmp" | "pgm" | "npy" => image_info(p)?,
+            "png" | "tif" | "tiff" | "bmp" | "pgm" | "npy" | "raw" => image_info(p)?,
             "yml" | "yaml" | "xml" | "json" | "m" => foreign_info(p)?,
             "f3c" => compiled_info(p)?,
             _ => bail!(
-                "{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif, .bmp, .pgm, .npy, a compiled reconstruction .f3c, or another tool's calibration: .yml, .yaml, .xml, .json, .m)",
+                "{}: unknown kind of file (expected a dataset folder, .toml, .png, .tif, .bmp, .pgm, .npy, .raw (with raw.toml), a compiled reconstruction .f3c, or another tool's calibration: .yml, .yaml, .xml, .json, .m)",
                 p.display()
             ),
         }

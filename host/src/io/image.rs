@@ -34,6 +34,7 @@ mod read_bmp;
 mod read_npy;
 mod read_pgm;
 mod read_png;
+mod read_raw;
 mod read_tiff;
 
 /// The most pixels an image may declare: 16384 × 16384 (the largest `render --size`).
@@ -93,8 +94,11 @@ pub enum ImageError {
         /// The OS error.
         source: std::io::Error,
     },
-    /// The file starts with none of the PNG, TIFF, BMP, PGM (P5) and NPY signatures.
-    #[error("{path}: not a PNG, TIFF, BMP, PGM (P5) or NPY image")]
+    /// The file starts with none of the PNG, TIFF, BMP, PGM (P5) and NPY signatures (and is not
+    /// a headerless `.raw` frame).
+    #[error(
+        "{path}: not a PNG, TIFF, BMP, PGM (P5) or NPY image (a headerless frame needs the .raw extension and a raw.toml beside it)"
+    )]
     UnknownFormat {
         /// The file.
         path: PathBuf,
@@ -174,6 +178,8 @@ pub enum ImageFormat {
     Pgm,
     /// NumPy array file (`.npy`).
     Npy,
+    /// Headerless samples (`.raw`), described by the folder's `raw.toml`.
+    Raw,
 }
 
 /// Samples of a gray image, row-major, top row first.
@@ -284,7 +290,7 @@ fn read_file(path: &Path) -> Result<Vec<u8>, ImageError> {
     })
 }
 
-/// Read a gray image from `path` (format by signature, not by extension), with the default
+/// Read a gray image from `path` (format by signature, not by extension; a headerless `.raw` frame by its extension and its folder's `raw.toml`), with the default
 /// [`ReadLimits`].
 pub fn read_gray(path: &Path) -> Result<(GrayImage, ReadInfo), ImageError> {
     read_gray_limited(path, &ReadLimits::default())
@@ -303,6 +309,9 @@ pub fn read_gray_limited(
 /// The format and declared size of the image at `path`, from its header only (the pixels are
 /// not read).
 pub fn read_header(path: &Path) -> Result<ImageHeader, ImageError> {
+    if read_raw::is_raw(path) {
+        return read_raw::header(path);
+    }
     let io = |source| ImageError::Io {
         path: path.to_path_buf(),
         source,
@@ -333,7 +342,7 @@ pub fn read_header(path: &Path) -> Result<ImageHeader, ImageError> {
             f.seek(std::io::SeekFrom::Start(0)).map_err(io)?;
             read_tiff::header(BufReader::new(f), path)
         }
-        None => Err(ImageError::UnknownFormat {
+        Some(ImageFormat::Raw) | None => Err(ImageError::UnknownFormat {
             path: path.to_path_buf(),
         }),
     }
@@ -371,13 +380,16 @@ pub fn decode_gray_limited(
     path: &Path,
     lim: &ReadLimits,
 ) -> Result<(GrayImage, ReadInfo), ImageError> {
+    if read_raw::is_raw(path) {
+        return read_raw::decode(bytes, path, lim);
+    }
     match format_of(bytes) {
         Some(ImageFormat::Png) => read_png::decode(bytes, path, lim),
         Some(ImageFormat::Tiff) => read_tiff::decode(bytes, path, lim),
         Some(ImageFormat::Bmp) => read_bmp::decode(bytes, path, lim),
         Some(ImageFormat::Pgm) => read_pgm::decode(bytes, path, lim),
         Some(ImageFormat::Npy) => read_npy::decode(bytes, path, lim),
-        None => Err(ImageError::UnknownFormat {
+        Some(ImageFormat::Raw) | None => Err(ImageError::UnknownFormat {
             path: path.to_path_buf(),
         }),
     }

@@ -111,7 +111,8 @@ pub enum ImageSetError {
     },
 }
 
-/// The image files of a folder (PNG, TIFF, BMP, PGM by extension), sorted by name; its `.npy`
+/// The image files of a folder (PNG, TIFF, BMP, PGM, headerless `.raw` by extension), sorted
+/// by name; its `.npy`
 /// files only when it holds none of those: `render` keeps ground-truth arrays (`points.npy`)
 /// beside its PNG frames, and they are not frames.
 pub fn list_folder(dir: &Path) -> Result<Vec<PathBuf>, ImageSetError> {
@@ -128,7 +129,7 @@ pub fn list_folder(dir: &Path) -> Result<Vec<PathBuf>, ImageSetError> {
                     .map(|e| {
                         matches!(
                             e.to_ascii_lowercase().as_str(),
-                            "png" | "tif" | "tiff" | "bmp" | "pgm" | "npy"
+                            "png" | "tif" | "tiff" | "bmp" | "pgm" | "npy" | "raw"
                         )
                     })
                     .unwrap_or(false)
@@ -146,7 +147,7 @@ pub fn list_folder(dir: &Path) -> Result<Vec<PathBuf>, ImageSetError> {
     if v.is_empty() {
         return Err(ImageSetError::Folder {
             path: dir.to_path_buf(),
-            message: "no PNG, TIFF, BMP, PGM or NPY images in this folder".into(),
+            message: "no PNG, TIFF, BMP, PGM, RAW or NPY images in this folder".into(),
         });
     }
     Ok(v)
