@@ -14,7 +14,9 @@ use crate::gather::Avx2Pairs;
 use crate::gather::Avx512Pairs;
 use crate::io::image_set::{Frames, ImageSet};
 use fringe3d_core::decode::{DecodeError, DecodeScratch, Decoder, RowOut, Sample, hdr};
-use fringe3d_core::reconstruct::compiled::{FIELDS, compiled_row, merge_search, search_mask};
+use fringe3d_core::reconstruct::compiled::{
+    FIELDS, compiled_row_inline, merge_search, search_mask,
+};
 use fringe3d_core::reconstruct::{
     CellGather, ReconstructError, Reconstructor, ReferenceMap, ScalarGather,
 };
@@ -424,8 +426,9 @@ pub fn reconstruct_frame(
     reconstruct_frame_compiled(recon, map, None, phase, validity, out, isa, parallel)
 }
 
-/// [`reconstruct_frame`] with compiled models (`Some`): each row runs [`compiled_row`], and the
-/// search only for the pixels it leaves ([`search_mask`], [`merge_search`]).
+/// [`reconstruct_frame`] with compiled models (`Some`): each row runs [`compiled_row_inline`]
+/// (inlined into the AVX2 build), and the search only for the pixels it leaves
+/// ([`search_mask`], [`merge_search`]).
 #[allow(clippy::too_many_arguments)]
 pub fn reconstruct_frame_compiled(
     recon: &Reconstructor,
@@ -491,7 +494,7 @@ fn recon_rows<G: CellGather>(
             .models
             .get(v * FIELDS * w..(v + 1) * FIELDS * w)
             .ok_or(ReconstructError::Length)?;
-        let n = compiled_row(models, c.z_min, c.z_max, p, q, o, ov)
+        let n = compiled_row_inline(models, c.z_min, c.z_max, p, q, o, ov)
             .map_err(|_| ReconstructError::Length)?;
         if n > 0 {
             let (mask, sx, sq) =

@@ -22,7 +22,12 @@ impl<A: Arith> Decoder<A> {
     /// Works block by block of [`BLOCK`] pixels on a [`DecodeScratch`] of its own (about 3.4 KiB
     /// of stack in f32); a caller decoding many rows saves clearing it every row by keeping one
     /// and calling [`Self::decode_row_with`]. Same bits either way.
-    #[inline(always)]
+    ///
+    /// Out of line (the flash policy, docs/integration.md): one copy of the kernel per sample
+    /// type, however many places call it. A caller that compiles the kernel into its own
+    /// `#[target_feature]` function (the desktop's AVX2 build) calls
+    /// [`Self::decode_row_lanes`], which is always inlined.
+    #[inline(never)]
     pub fn decode_row<P: Sample>(&self, rows: &[&[P]], out: RowOut<'_>) -> Result<(), DecodeError> {
         self.decode_row_with(&mut DecodeScratch::new(), rows, out)
     }
@@ -35,7 +40,9 @@ impl<A: Arith> Decoder<A> {
     /// the level's image rows (`level_from_rows`); pass 2, the unwrapping and validity
     /// (`unwrap_block`). The frame-sequential path ([`Self::accumulate`] then
     /// [`Self::finish`]) computes the same values in the same order: the same bits.
-    #[inline(always)]
+    ///
+    /// Out of line, as [`Self::decode_row`].
+    #[inline(never)]
     pub fn decode_row_with<P: Sample>(
         &self,
         scratch: &mut DecodeScratch<A>,
@@ -54,6 +61,10 @@ impl<A: Arith> Decoder<A> {
     /// four independent chains per iteration are the fastest, while the AVX2 and AVX-512 builds
     /// of a four-lane pass 2 do not vectorize (LLVM 20) and take 2-4× longer, so they take 2.
     /// The host's batch path picks per ISA.
+    ///
+    /// Always inlined: for a caller that compiles the kernel with its own target features.
+    /// Each call site gets its own copy of the kernel (tens of KB on a Cortex-M4F): a firmware
+    /// calls [`Self::decode_row_with`] instead.
     #[inline(always)]
     pub fn decode_row_lanes<P: Sample, const N: usize>(
         &self,

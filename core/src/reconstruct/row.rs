@@ -24,10 +24,12 @@ impl Reconstructor {
     /// [`Reconstructor::with_margin`]) and must hold the rows [`Reconstructor::rows_needed`]
     /// returns.
     ///
-    /// Always inlined with its kernel: a host may call it from a `#[target_feature(enable =
-    /// "avx2")]` function to get 8-wide vectors; the results are the same bits (no FMA is enabled
-    /// or contracted).
-    #[inline(always)]
+    /// Out of line (the flash policy, docs/integration.md): one copy of the kernel per
+    /// reference-row source type, however many places call it. A host that wants the kernel
+    /// compiled inside its own `#[target_feature(enable = "avx2")]` function (8-wide vectors,
+    /// the same bits: no FMA is enabled or contracted) calls
+    /// [`Reconstructor::reconstruct_row_gather`], which is always inlined.
+    #[inline(never)]
     pub fn reconstruct_row<R: ReferenceRows + ?Sized>(
         &self,
         reference: &R,
@@ -43,7 +45,8 @@ impl Reconstructor {
 
     /// [`Reconstructor::reconstruct_row`] with the reference samples fetched by `gather` (a
     /// host's wider gather, e.g. AVX-512 pairs): the same bits as [`ScalarGather`], which
-    /// `reconstruct_row` uses.
+    /// `reconstruct_row` uses. Always inlined, with its kernel: each call site gets its own copy
+    /// (a firmware calls [`Reconstructor::reconstruct_row`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub fn reconstruct_row_gather<R: ReferenceRows + ?Sized, G: CellGather>(

@@ -386,9 +386,36 @@ fn pass(
 /// [`search_mask`], the search, and [`merge_search`]). A valid pixel whose model is
 /// [`PixelModel::NO_REFERENCE`] gets [`Validity::ReferenceInvalid`] and a NaN point. `z_min`,
 /// `z_max`: the depth range the models were compiled for, mm.
+///
+/// Out of line (the flash policy, docs/integration.md): one copy however many places call it.
+/// [`compiled_row_inline`] is the same, always inlined, for a caller that compiles the kernel
+/// with its own target features (the desktop's AVX2 build).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+pub fn compiled_row(
+    models: &[f32],
+    z_min: f32,
+    z_max: f32,
+    phase_row: &[f32],
+    validity_row: &[u8],
+    out_xyz: &mut [f32],
+    out_validity: &mut [u8],
+) -> Result<usize, CompiledError> {
+    compiled_row_inline(
+        models,
+        z_min,
+        z_max,
+        phase_row,
+        validity_row,
+        out_xyz,
+        out_validity,
+    )
+}
+
+/// [`compiled_row`], always inlined: each call site gets its own copy of the kernel.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub fn compiled_row(
+pub fn compiled_row_inline(
     models: &[f32],
     z_min: f32,
     z_max: f32,
