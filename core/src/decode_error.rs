@@ -21,6 +21,9 @@ pub enum DecodeError {
     /// before the last image of the DC level: it thresholds each Gray image against A as it
     /// arrives ([`crate::gray`]). The row decoder takes any order.
     GrayBeforeDc,
+    /// A row narrower than [`crate::decode::BLOCK`] pixels, in a build of the core without its
+    /// `short-rows` feature (which decodes such rows through a padded block).
+    ShortRow,
 }
 
 impl DecodeError {
@@ -43,6 +46,9 @@ impl core::fmt::Display for DecodeError {
             Self::Sequence => f.write_str("frame or row pushed out of order"),
             Self::GrayBeforeDc => f.write_str(
                 "frame-sequential decoding needs the DC level's images before the Gray-code images",
+            ),
+            Self::ShortRow => f.write_str(
+                "a row narrower than 64 pixels: this build of the core has no `short-rows` feature",
             ),
         }
     }

@@ -104,6 +104,13 @@ fn qemu_example_matches_the_golden_vectors() {
         assert_eq!(value(&console, key), Some(want.as_str()), "{path} differs");
     }
 
+    // The example leaves out the core's `short-rows` path: a 1-pixel row is refused.
+    assert_eq!(
+        value(&console, "short_row_refused"),
+        Some("true"),
+        "{console}"
+    );
+
     // Each call's measured stack is there, non-zero and inside the painted 48 KiB.
     for key in ["setup", "decode_row", "push_row", "reconstruct_row"] {
         let bytes: usize = value(&console, key)

@@ -11,6 +11,7 @@ use super::decoder::{
 };
 use crate::arith::Arith;
 use crate::decode_error::DecodeError;
+#[cfg(feature = "short-rows")]
 use crate::limits::MAX_IMAGES;
 use crate::sample::Sample;
 
@@ -83,7 +84,13 @@ impl<A: Arith> Decoder<A> {
             return Ok(());
         }
         if w < BLOCK {
+            // Rows narrower than a block: padded into one (feature `short-rows`, on by default;
+            // a firmware whose rows are never that narrow saves its code, about 35 KB on a
+            // Cortex-M4F, and gets `ShortRow` instead).
+            #[cfg(feature = "short-rows")]
             return self.decode_short_row::<P, N>(scratch, rows, out);
+            #[cfg(not(feature = "short-rows"))]
+            return Err(DecodeError::ShortRow);
         }
         let RowOut {
             phase,
@@ -119,6 +126,7 @@ impl<A: Arith> Decoder<A> {
 
     /// A row shorter than [`BLOCK`]: copied into a padded block (the padding decodes to values
     /// that are dropped).
+    #[cfg(feature = "short-rows")]
     fn decode_short_row<P: Sample, const N: usize>(
         &self,
         scratch: &mut DecodeScratch<A>,
@@ -449,6 +457,7 @@ fn peak_of<P: Sample, const N: usize>(
 }
 
 /// `dst[i] = src[i]` for every `i` of both (the short-row path's lengths are checked before).
+#[cfg(feature = "short-rows")]
 fn copy<T: Copy>(dst: &mut [T], src: &[T]) {
     for (d, s) in dst.iter_mut().zip(src) {
         *d = *s;

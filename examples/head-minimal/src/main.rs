@@ -67,6 +67,20 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
     if w > MAX_W || n > MAX_IMAGES || ring_rows > RING_ROWS || recon.map_width() != w {
         return Err("the scan does not fit this build's buffers");
     }
+    // This build leaves out the core's `short-rows` path (Cargo.toml): a row narrower than one
+    // 64-pixel block is refused, not decoded.
+    let short = decoder.decode_row_with(
+        &mut b.scratch,
+        &[&b.images[0][..1]; MAX_IMAGES][..n],
+        RowOut {
+            phase: &mut b.phase[..1],
+            modulation: &mut [],
+            dc: &mut [],
+            validity: &mut b.validity[..1],
+        },
+    );
+    let refused = matches!(short, Err(fringe3d_core::decode::DecodeError::ShortRow));
+    let _ = writeln!(Console, "short_row_refused={refused}");
 
     // 2. The reference ring over the band's rows, fed in order from the reference map.
     let mut ring = ReferenceRing::new(&recon, &mut b.ring_phase[..ring_rows * w], &mut [])
