@@ -19,6 +19,7 @@ pub fn digest(backend: Backend) -> Result<u64, DecodeError> {
     match AnyDecoder::new(&set, config(0), backend)? {
         AnyDecoder::F32Accurate(d) => hdr_run(&d),
         AnyDecoder::F32Fast(d) => hdr_run(&d),
+        #[cfg(feature = "micromath")]
         AnyDecoder::F32Micromath(d) => hdr_run(&d),
         AnyDecoder::Fixed(d) => hdr_run(&d),
     }

@@ -27,6 +27,9 @@ pub struct F32Fast;
 ///
 /// The functions are called on micromath's own `F32` type, never through its `F32Ext` trait:
 /// under `std` the inherent `f32` methods shadow that trait's and would silently change results.
+///
+/// Behind the core's `micromath` feature (on by default).
+#[cfg(feature = "micromath")]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct F32Micromath;
 
@@ -67,6 +70,7 @@ pub trait FloatKernels:
 
 impl Sealed for F32Accurate {}
 impl Sealed for F32Fast {}
+#[cfg(feature = "micromath")]
 impl Sealed for F32Micromath {}
 
 impl FloatKernels for F32Accurate {
@@ -114,6 +118,7 @@ impl FloatKernels for F32Fast {
     }
 }
 
+#[cfg(feature = "micromath")]
 impl FloatKernels for F32Micromath {
     const NAME: &'static str = "f32-micromath";
     #[inline(always)]

@@ -42,7 +42,9 @@ mod float;
 pub use backend::Backend;
 pub use cordic::{CORDIC_ANGLES, CORDIC_INV_GAIN_Q32, CORDIC_ITERATIONS, cordic_atan2};
 pub use fixed::{Fixed, FixedFormat, PHASE_TURNS_LIMIT};
-pub use float::{F32Accurate, F32Fast, F32Micromath};
+#[cfg(feature = "micromath")]
+pub use float::F32Micromath;
+pub use float::{F32Accurate, F32Fast};
 
 /// The recommended backend for the target being compiled (`docs/arithmetic.md`): [`Fixed`] on
 /// ARM without the hard-float ABI (thumbv6m/thumbv7m/thumbv7em-none-eabi: no FPU in use, f32 would

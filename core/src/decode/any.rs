@@ -4,7 +4,9 @@
 use super::buffers::RowOut;
 use super::correction::PhaseCorrection;
 use super::decoder::Decoder;
-use crate::arith::{Backend, F32Accurate, F32Fast, F32Micromath, Fixed, FixedFormat};
+#[cfg(feature = "micromath")]
+use crate::arith::F32Micromath;
+use crate::arith::{Backend, F32Accurate, F32Fast, Fixed, FixedFormat};
 use crate::decode_config::DecodeConfig;
 use crate::decode_error::DecodeError;
 use crate::pattern::PatternSet;
@@ -17,7 +19,8 @@ pub enum AnyDecoder {
     F32Accurate(Decoder<F32Accurate>),
     /// [`F32Fast`].
     F32Fast(Decoder<F32Fast>),
-    /// [`F32Micromath`].
+    /// [`F32Micromath`] (the core's `micromath` feature).
+    #[cfg(feature = "micromath")]
     F32Micromath(Decoder<F32Micromath>),
     /// [`Fixed`].
     Fixed(Decoder<Fixed>),
@@ -29,6 +32,7 @@ macro_rules! dispatch {
         match $self {
             AnyDecoder::F32Accurate($d) => $body,
             AnyDecoder::F32Fast($d) => $body,
+            #[cfg(feature = "micromath")]
             AnyDecoder::F32Micromath($d) => $body,
             AnyDecoder::Fixed($d) => $body,
         }
@@ -45,6 +49,7 @@ impl AnyDecoder {
         Ok(match backend {
             Backend::F32Accurate => AnyDecoder::F32Accurate(Decoder::with_arith(set, config)?),
             Backend::F32Fast => AnyDecoder::F32Fast(Decoder::with_arith(set, config)?),
+            #[cfg(feature = "micromath")]
             Backend::F32Micromath => AnyDecoder::F32Micromath(Decoder::with_arith(set, config)?),
             Backend::Fixed => AnyDecoder::Fixed(Decoder::with_arith(set, config)?),
         })
@@ -55,6 +60,7 @@ impl AnyDecoder {
         Ok(match self {
             AnyDecoder::F32Accurate(d) => AnyDecoder::F32Accurate(d.with_correction(c)?),
             AnyDecoder::F32Fast(d) => AnyDecoder::F32Fast(d.with_correction(c)?),
+            #[cfg(feature = "micromath")]
             AnyDecoder::F32Micromath(d) => AnyDecoder::F32Micromath(d.with_correction(c)?),
             AnyDecoder::Fixed(d) => AnyDecoder::Fixed(d.with_correction(c)?),
         })
@@ -65,6 +71,7 @@ impl AnyDecoder {
         match self {
             AnyDecoder::F32Accurate(_) => Backend::F32Accurate,
             AnyDecoder::F32Fast(_) => Backend::F32Fast,
+            #[cfg(feature = "micromath")]
             AnyDecoder::F32Micromath(_) => Backend::F32Micromath,
             AnyDecoder::Fixed(_) => Backend::Fixed,
         }
