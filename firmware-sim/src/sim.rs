@@ -486,6 +486,39 @@ impl Shot {
             exposure_ns,
         }
     }
+
+    /// Which of the captures made at `exposures_us` (µs each) this shot replays: the one whose
+    /// exposure is nearest to the shot's by ratio, `max(t/E, E/t)` (compared exactly, as
+    /// fractions), the first on a tie; `None` if there are none. A replayed camera cannot take
+    /// what nobody captured, so a shot between two exposures gets the nearer one's images.
+    pub fn nearest(&self, exposures_us: impl IntoIterator<Item = u32>) -> Option<usize> {
+        let t = u128::from(self.exposure_ns.max(1));
+        let off = |us: u32| {
+            let e = u128::from(us.max(1)) * 1000;
+            (t.max(e), t.min(e))
+        };
+        let mut best: Option<(usize, (u128, u128))> = None;
+        for (i, us) in exposures_us.into_iter().enumerate() {
+            let (n, d) = off(us);
+            match best {
+                Some((_, (bn, bd))) if n * bd >= bn * d => {}
+                _ => best = Some((i, (n, d))),
+            }
+        }
+        best.map(|b| b.0)
+    }
+}
+
+/// A capture's argument `PATH` or `PATH@US` (the exposure it was made at, µs, above 0): the path
+/// and the exposure, if given; `Err` for an exposure that is not such a number.
+pub fn split_exposure(arg: &str) -> Result<(&str, Option<u32>), &'static str> {
+    match arg.rsplit_once('@') {
+        None => Ok((arg, None)),
+        Some((path, us)) => match us.parse::<u32>() {
+            Ok(u) if u > 0 => Ok((path, Some(u))),
+            _ => Err("the exposure after @ must be a whole number of µs above 0"),
+        },
+    }
 }
 
 /// Where the simulated camera's pictures come from: the scene under each pattern.
@@ -698,5 +731,35 @@ impl FrameSource for DirectView {
             };
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Shot, split_exposure};
+
+    #[test]
+    fn a_shot_replays_the_capture_nearest_by_ratio() {
+        let at = |us: u64| Shot::new(Some(0), us * 1000);
+        let takes = [40_000u32, 10_000, 2_500];
+        assert_eq!(at(40_000).nearest(takes), Some(0));
+        assert_eq!(at(10_000).nearest(takes), Some(1));
+        assert_eq!(at(3_000).nearest(takes), Some(2));
+        // 20 000 µs is ×2 from both 40 000 and 10 000: the first listed.
+        assert_eq!(at(20_000).nearest(takes), Some(0));
+        // By ratio, not difference: 6 000 is ×2.4 from 2 500 and ×1.67 from 10 000.
+        assert_eq!(at(6_000).nearest(takes), Some(1));
+        assert_eq!(at(1).nearest([]), None);
+    }
+
+    #[test]
+    fn capture_arguments_split_at_the_last_at_sign() {
+        assert_eq!(split_exposure("a/b.bin"), Ok(("a/b.bin", None)));
+        assert_eq!(
+            split_exposure("x@y/long@10000"),
+            Ok(("x@y/long", Some(10_000)))
+        );
+        assert!(split_exposure("long@0").is_err());
+        assert!(split_exposure("long@ten").is_err());
     }
 }

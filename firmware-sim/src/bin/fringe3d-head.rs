@@ -28,7 +28,7 @@ use fringe3d_head::desktop::{
     OwnedMemory, Pty, Replay, ReplaySeries, TX_STALL, serve_with, sim_board,
 };
 use fringe3d_head::port::QUEUE_LEN;
-use fringe3d_head::sim::{FrameSource, NoSink, SimWorld};
+use fringe3d_head::sim::{FrameSource, NoSink, SimWorld, split_exposure};
 use fringe3d_head::{Head, HeadConfig, MemoryPlan};
 
 fn usage() -> ExitCode {
@@ -84,17 +84,12 @@ fn main() -> ExitCode {
                 usage();
                 return ExitCode::SUCCESS;
             }
-            s if !s.starts_with('-') => match s.rsplit_once('@') {
-                Some((dir, us)) => match us.parse::<u32>().ok().filter(|&u| u > 0) {
-                    Some(u) => datasets.push((PathBuf::from(dir), Some(u))),
-                    None => {
-                        eprintln!(
-                            "fringe3d-head: {s}: the exposure after @ must be a whole number of µs above 0"
-                        );
-                        return usage();
-                    }
-                },
-                None => datasets.push((PathBuf::from(s), None)),
+            s if !s.starts_with('-') => match split_exposure(s) {
+                Ok((dir, us)) => datasets.push((PathBuf::from(dir), us)),
+                Err(why) => {
+                    eprintln!("fringe3d-head: {s}: {why}");
+                    return usage();
+                }
             },
             _ => return usage(),
         }

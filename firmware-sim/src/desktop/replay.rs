@@ -118,10 +118,8 @@ impl FrameSource for Replay {
 }
 
 /// One dataset per exposure of the same set and camera: a shot replays the dataset whose
-/// exposure is nearest to the shot's (by ratio, `max(t/E, E/t)`; the first listed on a tie). A
-/// replayed camera cannot take what nobody captured, so a shot between two exposures gets the
-/// nearer one's images, not a blend; a scan whose exposures are the datasets' gets exactly their
-/// images, as `fringe3d scan --hdr` reads them.
+/// exposure is nearest to the shot's ([`Shot::nearest`]); a scan whose exposures are the
+/// datasets' gets exactly their images, as `fringe3d scan --hdr` reads them.
 pub struct ReplaySeries {
     takes: Vec<(u32, Replay)>,
 }
@@ -172,20 +170,10 @@ impl ReplaySeries {
         &self.takes[0].1
     }
 
-    /// The dataset a shot of `exposure_ns` replays.
-    pub fn pick(&self, exposure_ns: u64) -> &Replay {
-        let t = exposure_ns.max(1) as f64;
-        let off = |us: u32| {
-            let e = us as f64 * 1e3;
-            (t / e).max(e / t)
-        };
-        let mut best = &self.takes[0];
-        for take in &self.takes[1..] {
-            if off(take.0) < off(best.0) {
-                best = take;
-            }
-        }
-        &best.1
+    /// The dataset `shot` replays ([`Shot::nearest`]).
+    pub fn pick(&self, shot: Shot) -> &Replay {
+        let i = shot.nearest(self.takes.iter().map(|t| t.0)).unwrap_or(0);
+        &self.takes[i].1
     }
 }
 
@@ -203,6 +191,6 @@ impl FrameSource for ReplaySeries {
     }
 
     fn row(&self, shot: Shot, y: u16, out: &mut [u16]) -> Result<(), HwError> {
-        self.pick(shot.exposure_ns).row(shot, y, out)
+        self.pick(shot).row(shot, y, out)
     }
 }

@@ -112,23 +112,22 @@ pub fn run(a: DecodeArgs, g: Global) -> Result<()> {
         pattern_digest: ls.scan_patterns()?.digest,
     }
     .text()?;
-    let cal = a
-        .calibration
-        .as_ref()
-        .map(|c| Calibration::load(c))
-        .transpose()?;
-    let corr = match (&a.calibration, &cal) {
-        (Some(c), Some(cal)) => common::response_correction(cal, c, &ls)?,
-        _ if ls.set.binarization().is_binary() => anyhow::bail!(
+    let cal = match &a.calibration {
+        Some(c) => Some((c, Calibration::load(c)?)),
+        None => None,
+    };
+    let corr = match &cal {
+        Some((c, cal)) => common::response_correction(cal, c, &ls)?,
+        None if ls.set.binarization().is_binary() => anyhow::bail!(
             "{}: {}; pass it with --calibration",
             a.patterns.display(),
             crate::calib::files::BINARY_NEEDS_DEFOCUS
         ),
-        _ => None,
+        None => None,
     };
     let imgs = common::load_images(&ls, &a.images, g.quiet)?;
     // The calibration's `[sensor]` noise sets the modulation floor, as for `scan`.
-    let sensor = cal.as_ref().and_then(|c| c.sensor.as_ref());
+    let sensor = cal.as_ref().and_then(|(_, c)| c.sensor.as_ref());
     let cfg = a.thresholds.config(&ls.set, &imgs, sensor)?;
     let dir = AtomicDir::create(&a.out, a.overwrite)?;
     let d = common::decode_corrected(&ls.set, &imgs, cfg, corr.as_ref())?;

@@ -719,17 +719,12 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
                 "rows": rows, "exposures_us": exposures.as_slice(), "points": valid, "rescans": r.rescans, "stale_rows_dropped": r.stale_rows, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
             .to_string());
     } else if !g.quiet {
-        let hdr = match exposures.as_slice() {
-            [_, _, ..] => format!(
-                " at {} µs (HDR)",
-                exposures
-                    .as_slice()
-                    .iter()
-                    .map(|u| u.to_string())
-                    .collect::<Vec<_>>()
-                    .join("/")
-            ),
-            _ => String::new(),
+        let list = exposures.as_slice();
+        let hdr = if list.len() > 1 {
+            let us: Vec<String> = list.iter().map(|u| u.to_string()).collect();
+            format!(" at {} µs (HDR)", us.join("/"))
+        } else {
+            String::new()
         };
         say(format!(
             "scanned rows {}..{} ({} x {}){hdr} in {:.2} s, {} bytes received{}",

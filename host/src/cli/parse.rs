@@ -37,7 +37,8 @@ pub fn retries(s: &str) -> Result<u32, String> {
 
 /// `--exposure-us`: 1 µs to 60 s.
 pub fn exposure_us(s: &str) -> Result<u32, String> {
-    whole(s, 1, 60_000_000, " µs").map(|v| v as u32)
+    let max = fringe3d_core::wire::MAX_EXPOSURE_US;
+    whole(s, 1, u64::from(max), " µs").map(|v| v as u32)
 }
 
 /// `--exposures-us`: an HDR scan's exposures, 1 to 4 comma-separated values of 1 µs to 60 s,

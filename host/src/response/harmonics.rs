@@ -59,11 +59,22 @@ pub struct FringeReport {
     pub used_range: [f64; 2],
 }
 
-/// One pixel's samples: camera values, and per sample the pattern values it averages (one for a
-/// single image, the finest level's shifts for its mean).
-struct Pixel {
+/// Every used pixel's samples, flat: the groups of images each sample averages (one image, or
+/// the finest level's shifts for its mean) are the same at every pixel.
+struct Samples {
+    /// `groups[j]`: the images sample `j` averages.
+    groups: Vec<Vec<usize>>,
+    /// Per pixel, the camera value of each sample (`groups.len()` values).
     c: Vec<f64>,
-    x: Vec<Vec<f64>>,
+    /// Per pixel, the pattern value of each image of each group, groups in order
+    /// (`image_count` values).
+    x: Vec<f64>,
+}
+
+impl Samples {
+    fn pixels(&self) -> usize {
+        self.c.len() / self.groups.len().max(1)
+    }
 }
 
 /// γ of a power-law projector from the fringe captures `frames` of `set` (in the set's image
@@ -127,7 +138,11 @@ pub fn from_fringes(
         ));
     }
     let stride = (len / MAX_PIXELS).max(1);
-    let mut pixels = Vec::new();
+    let mut samples = Samples {
+        groups,
+        c: Vec::new(),
+        x: Vec::new(),
+    };
     for i in (0..len).step_by(stride) {
         let p = phase[i] as f64;
         if validity[i] != Validity::Valid as u8 || !p.is_finite() {
@@ -136,26 +151,25 @@ pub fn from_fringes(
         if frames.iter().any(|f| f64::from(f[i]) >= saturation) {
             continue;
         }
-        let mut px = Pixel {
-            c: Vec::with_capacity(groups.len()),
-            x: Vec::with_capacity(groups.len()),
-        };
-        for g in &groups {
+        for g in &samples.groups {
             let sum: f64 = g.iter().map(|&k| f64::from(frames[k][i])).sum();
-            px.c.push(sum / g.len() as f64);
-            px.x.push(g.iter().filter_map(|&k| value(k, p)).collect());
+            samples.c.push(sum / g.len() as f64);
+            for &k in g {
+                samples
+                    .x
+                    .push(value(k, p).ok_or("an image outside the set")?);
+            }
         }
-        pixels.push(px);
     }
-    if pixels.len() < MIN_PIXELS {
+    let pixels = samples.pixels();
+    if pixels < MIN_PIXELS {
         return Err(format!(
-            "{} usable pixels (validly decoded, none of their samples saturated): at least \
-             {MIN_PIXELS} are needed",
-            pixels.len()
+            "{pixels} usable pixels (validly decoded, none of their samples saturated): at least \
+             {MIN_PIXELS} are needed"
         ));
     }
     // Scan log γ, then refine the best bracket by golden section.
-    let cost = |g: f64| residual(&pixels, g);
+    let cost = |g: f64| residual(&samples, g);
     let (lo, hi) = (GAMMA_RANGE.0.ln(), GAMMA_RANGE.1.ln());
     let steps = 48;
     let at = |j: usize| lo + (hi - lo) * j as f64 / steps as f64;
@@ -190,16 +204,15 @@ pub fn from_fringes(
         }
     }
     let gamma = (0.5 * (a + b)).exp();
-    let samples: usize = pixels.iter().map(|p| p.c.len()).sum();
-    let dof = samples.saturating_sub(2 * pixels.len()).max(1) as f64;
+    let dof = samples.c.len().saturating_sub(2 * pixels).max(1) as f64;
     let used = [o.i_min / pattern_full, o.i_max / pattern_full];
     let nonlinearity = (0..=200)
         .map(|j| used[0] + (used[1] - used[0]) * j as f64 / 200.0)
         .map(|x| (x.powf(gamma) - x).abs())
         .fold(0.0, f64::max);
     let report = FringeReport {
-        pixels: pixels.len(),
-        samples: groups.len(),
+        pixels,
+        samples: samples.groups.len(),
         residual_rms: (cost(gamma) / dof).sqrt(),
         linear_rms: (cost(1.0) / dof).sqrt(),
         nonlinearity,
@@ -209,18 +222,23 @@ pub fn from_fringes(
 }
 
 /// The sum over pixels of the squared residuals of each pixel's best `a + b·r` with
-/// `r(x) = x^gamma`.
-fn residual(pixels: &[Pixel], gamma: f64) -> f64 {
+/// `r(x) = x^gamma`. One buffer of `r` for all pixels: this runs some 90 times over up to
+/// 200 000 pixels.
+fn residual(s: &Samples, gamma: f64) -> f64 {
+    let (m, n) = (s.groups.len(), s.x.len() / s.pixels().max(1));
+    let mut r = vec![0.0f64; m];
     let mut total = 0.0;
-    for p in pixels {
-        let m = p.c.len() as f64;
-        let r: Vec<f64> =
-            p.x.iter()
-                .map(|xs| xs.iter().map(|x| x.max(0.0).powf(gamma)).sum::<f64>() / xs.len() as f64)
-                .collect();
-        let (mr, mc) = (r.iter().sum::<f64>() / m, p.c.iter().sum::<f64>() / m);
+    for (c, x) in s.c.chunks_exact(m).zip(s.x.chunks_exact(n)) {
+        let mut at = 0;
+        for (rj, g) in r.iter_mut().zip(&s.groups) {
+            let xs = &x[at..at + g.len()];
+            at += g.len();
+            *rj = xs.iter().map(|x| x.max(0.0).powf(gamma)).sum::<f64>() / xs.len() as f64;
+        }
+        let mf = m as f64;
+        let (mr, mc) = (r.iter().sum::<f64>() / mf, c.iter().sum::<f64>() / mf);
         let (mut srr, mut src, mut scc) = (0.0, 0.0, 0.0);
-        for (ri, ci) in r.iter().zip(&p.c) {
+        for (ri, ci) in r.iter().zip(c) {
             let (dr, dc) = (ri - mr, ci - mc);
             srr += dr * dr;
             src += dr * dc;

@@ -6,7 +6,8 @@ use super::{Body, Invalid, MAX_ROW_DATA, WireError, check, finite64};
 use crate::Validity;
 use crate::decode::hdr::MAX_EXPOSURES;
 
-/// The longest exposure a scan may ask for, µs (60 s; the trigger table's bound too).
+/// The longest exposure a scan may ask for, µs (60 s; `device upload --exposure-us` has the same
+/// bound).
 pub const MAX_EXPOSURE_US: u32 = 60_000_000;
 
 /// The exposures of an HDR scan (protocol version 8, issue #19 item 4): the sequence runs once

@@ -54,7 +54,7 @@ use cortex_m_rt::{ExceptionFrame, entry, exception};
 use fringe3d_head::hal::{HwError, SliceStore};
 use fringe3d_head::head::{Activity, Head, HeadConfig};
 use fringe3d_head::memory::HeadMemory;
-use fringe3d_head::sim::{FrameSource, NoSink, Shot, SimBoard, SimWorld};
+use fringe3d_head::sim::{FrameSource, NoSink, Shot, SimBoard, SimWorld, split_exposure};
 
 use semihosting::{Console, File};
 use uart::CmsdkUart;
@@ -225,17 +225,8 @@ impl HostFrames {
     fn open_all<'a>(args: impl Iterator<Item = &'a str>) -> Result<HostFrames, Fail> {
         let mut all: Option<HostFrames> = None;
         for (k, arg) in args.enumerate() {
-            let (path, us) = match arg.rsplit_once('@') {
-                Some((p, u)) => (
-                    p,
-                    u.parse::<u32>()
-                        .ok()
-                        .filter(|&u| u > 0)
-                        .ok_or(Fail("frames file: the exposure after @ must be µs above 0"))?,
-                ),
-                None => (arg, 0),
-            };
-            let f = HostFrames::open(path, us)?;
+            let (path, us) = split_exposure(arg).map_err(Fail)?;
+            let f = HostFrames::open(path, us.unwrap_or(0))?;
             match all.as_mut() {
                 None => all = Some(f),
                 Some(a) => {
@@ -278,29 +269,10 @@ impl HostFrames {
         Ok(all)
     }
 
-    /// The take whose exposure is nearest to `exposure_ns` by ratio (the first on a tie).
-    fn take(&self, exposure_ns: u64) -> Option<&Take> {
-        let t = exposure_ns.max(1) as u128;
-        // max(t, e) / min(t, e), compared as fractions.
-        let off = |us: u32| {
-            let e = (us.max(1) as u128) * 1000;
-            (t.max(e), t.min(e))
-        };
-        let mut best: Option<&Take> = None;
-        for take in self.takes.iter().flatten() {
-            best = match best {
-                Some(b) => {
-                    let ((n1, d1), (n2, d2)) = (off(take.exposure_us), off(b.exposure_us));
-                    if n1 * d2 < n2 * d1 {
-                        Some(take)
-                    } else {
-                        Some(b)
-                    }
-                }
-                None => Some(take),
-            };
-        }
-        best
+    /// The take `shot` reads ([`Shot::nearest`]).
+    fn take(&self, shot: Shot) -> Option<&Take> {
+        let takes = || self.takes.iter().flatten();
+        takes().nth(shot.nearest(takes().map(|t| t.exposure_us))?)
     }
 
     fn open(path: &str, exposure_us: u32) -> Result<HostFrames, Fail> {
@@ -392,7 +364,7 @@ impl FrameSource for HostFrames {
         let at = HEADER_LEN + (p as usize * self.height as usize + y as usize) * w * sb;
         let mut row = self.row.borrow_mut();
         let bytes = row.get_mut(..w * sb).ok_or(HwError::Camera)?;
-        self.take(shot.exposure_ns)
+        self.take(shot)
             .ok_or(HwError::Camera)?
             .file
             .borrow_mut()
