@@ -12,10 +12,15 @@
 //! | row `v` of each of the N images | `N·s` (`s` bytes per sample) | always |
 //! | decoded phase (f32) and validity (u8) | 5 | always |
 //! | modulation and DC rows (f32 each) | 8 | [`RowLayout::modulation_rows`] |
-//! | reference ring: B rows of f32 phase | `4·B` per map column | points |
+//! | reference ring: B rows of f32 phase | `4·B` per map column | points, unless [`RowLayout::map_in_place`] |
 //! | the reference row on its way into the ring | 4 per map column | points, [`RowLayout::staging_row`] |
 //! | points: x, y, z (f32) and codes (u8) | 13, or 39 for the edge filter's 3 rows | points |
 //! | the edge filter's output codes | 1 | [`RowLayout::edge_filter`] |
+//!
+//! A head whose reference map lies in memory it can address (a QSPI/OSPI flash in memory-mapped
+//! mode, PSRAM; [`RowLayout::map_in_place`]) reads it there through
+//! [`ReferenceMap::from_prepared`](crate::reconstruct::ReferenceMap::from_prepared) and keeps no
+//! ring: the map's `4·MW·MH` bytes are then in that memory, not in SRAM.
 //!
 //! The reference map may extend past the image (issue #17, [`crate::reconstruct::Margin`]): its
 //! rows are then `left + W + right` columns wide ([`RowBudget::margin_columns`] = `left + right`),
@@ -34,6 +39,10 @@ use crate::wire::setup::MAX_SETUP_BLOB;
 pub struct RowLayout {
     /// Reconstruct points (the reference ring and the point row); `false`: phase only.
     pub points: bool,
+    /// The reference map is read where it lies, in memory-mapped storage (`ReferenceMap`): no
+    /// ring and no staging row in SRAM (the example); `false`: the map streams from storage
+    /// through a `ReferenceRing` of the band's rows (the board).
+    pub map_in_place: bool,
     /// The edge filter: a window of 3 point rows and its output codes.
     pub edge_filter: bool,
     /// Modulation and DC rows of their own (a head that sends them; the board lets them share
@@ -58,6 +67,7 @@ impl RowLayout {
     /// blob in the ring's storage.
     pub const BOARD: RowLayout = RowLayout {
         points: true,
+        map_in_place: false,
         edge_filter: true,
         modulation_rows: false,
         staging_row: false,
@@ -66,10 +76,25 @@ impl RowLayout {
         blob_static: false,
     };
 
-    /// `examples/head-minimal`: phase, validity and points; no edge filter and no modulation or
-    /// DC rows; a staging row; the scratch and the blob in statics, the decoder on the stack.
+    /// `examples/head-minimal`: phase, validity and points, the reference map read in place
+    /// (memory-mapped); no edge filter and no modulation or DC rows; the scratch and the blob in
+    /// statics, the decoder on the stack.
     pub const MINIMAL: RowLayout = RowLayout {
         points: true,
+        map_in_place: true,
+        edge_filter: false,
+        modulation_rows: false,
+        staging_row: false,
+        decoder_static: false,
+        scratch_static: true,
+        blob_static: true,
+    };
+
+    /// [`RowLayout::MINIMAL`] for a map streamed from storage the core cannot address: the
+    /// reference ring and a row to stage each reference row in.
+    pub const MINIMAL_RING: RowLayout = RowLayout {
+        points: true,
+        map_in_place: false,
         edge_filter: false,
         modulation_rows: false,
         staging_row: true,
@@ -129,13 +154,13 @@ impl RowBudget {
             (true, "decoded phase (f32) and validity (u8)", 5, false),
             (l.modulation_rows, "modulation and DC rows (f32)", 8, false),
             (
-                l.points,
+                l.points && !l.map_in_place,
                 "reference ring (band rows of f32 phase)",
                 4 * self.band_rows,
                 true,
             ),
             (
-                l.points && l.staging_row,
+                l.points && !l.map_in_place && l.staging_row,
                 "reference row staging (f32)",
                 4,
                 true,
@@ -230,14 +255,23 @@ mod tests {
 
     #[test]
     fn the_minimal_layout_is_the_examples_formula() {
-        // examples/head-minimal: (2N + 4 + 1 + 4B + 4 + 4·3 + 1)·W, scratch and blob.
-        let b = RowBudget {
+        // examples/head-minimal, the map in place: (2N + 4 + 1 + 4·3 + 1)·W, scratch and blob;
+        // neither the band nor the map's margin costs SRAM.
+        let fixed = core::mem::size_of::<DecodeScratch>() + MAX_SETUP_BLOB;
+        let in_place = RowBudget {
             width: 640,
             images: 8,
             sample_bytes: 2,
             band_rows: 16,
-            margin_columns: 0,
+            margin_columns: 96,
             layout: RowLayout::MINIMAL,
+        };
+        assert_eq!(in_place.total(), (16 + 4 + 1 + 12 + 1) * 640 + fixed);
+        // Streamed through a ring: (2N + 4 + 1 + 4B + 4 + 4·3 + 1)·W.
+        let b = RowBudget {
+            margin_columns: 0,
+            layout: RowLayout::MINIMAL_RING,
+            ..in_place
         };
         let fixed = core::mem::size_of::<DecodeScratch>() + MAX_SETUP_BLOB;
         assert_eq!(b.total(), (16 + 4 + 1 + 64 + 4 + 12 + 1) * 640 + fixed);
@@ -252,7 +286,7 @@ mod tests {
         let phase = RowBudget {
             layout: RowLayout {
                 points: false,
-                ..RowLayout::MINIMAL
+                ..RowLayout::MINIMAL_RING
             },
             ..b
         };

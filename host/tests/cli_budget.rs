@@ -24,11 +24,12 @@ fn the_budget_of_a_rig_is_its_buffers() {
     let cal = Calibration::load(Path::new(CAL)).unwrap();
     let (cam, setup) = cal.core_setup(Axis::Xi).unwrap();
     let band = Reconstructor::new(&cam, &setup).unwrap().band().rows() as u64;
-    let j = json(&["-p", SET, "-c", CAL]);
+    let j = json(&["-p", SET, "-c", CAL, "--layout", "minimal-ring"]);
     let (w, h) = (cal.camera.width as u64, cal.camera.height as u64);
     assert_eq!(j["width"], w);
     assert_eq!(j["band_rows"], band);
-    // The example head's layout, 8-bit samples: (N + 5 + 4B + 4 + 13)·W plus scratch and blob.
+    // The example head's layout with the map streamed through a ring, 8-bit samples:
+    // (N + 5 + 4B + 4 + 13)·W plus scratch and blob.
     let per_column = 8 + 5 + 4 * band + 4 + 13;
     assert_eq!(j["bytes_per_column"], per_column);
     let buffers = j["buffers"].as_array().unwrap();
@@ -46,6 +47,11 @@ fn the_budget_of_a_rig_is_its_buffers() {
     assert_eq!(sum, per_column * w + fixed);
     // The frame-sequential state: 4 bytes for A and S, C of 3 levels, and a flag byte.
     assert_eq!(j["frame_sequential"]["bytes"], (4 * 7 + 1) * w * h);
+    // The example itself reads the map in place (memory-mapped): no ring, no staging row, and
+    // no band needed; the same fixed buffers.
+    let in_place = json(&["-p", SET, "--width", &w.to_string()]);
+    assert_eq!(in_place["bytes_per_column"], 8 + 5 + 13);
+    assert_eq!(in_place["total_bytes"], (8 + 5 + 13) * w + fixed);
 
     // The board's layout at its 1280-wide, 25-row build: (2N + 45 + 4B)·W + the decoder.
     let b = json(&[
@@ -61,7 +67,10 @@ fn the_budget_of_a_rig_is_its_buffers() {
 fn a_budget_without_a_rig_says_what_it_needs() {
     for (args, want) in [
         (&["-p", SET][..], "--width"),
-        (&["-p", SET, "--width", "640"][..], "--band"),
+        (
+            &["-p", SET, "--width", "640", "--layout", "minimal-ring"][..],
+            "--band",
+        ),
         (&["-p", SET, "--width", "0", "--band", "9"][..], "--width"),
         (&["-p", SET, "--width", "640", "--band", "0"][..], "--band"),
         (
@@ -97,7 +106,14 @@ fn a_map_wider_than_the_image_widens_the_ring() {
         .with_margin(margin)
         .unwrap();
     let band = recon.band().rows() as u64;
-    let j = json(&["-p", SET, "-c", out.to_str().unwrap()]);
+    let j = json(&[
+        "-p",
+        SET,
+        "-c",
+        out.to_str().unwrap(),
+        "--layout",
+        "minimal-ring",
+    ]);
     let w = cal.camera.width as u64;
     assert_eq!(j["margin_columns"], columns);
     assert_eq!(j["band_rows"], band);
@@ -124,6 +140,8 @@ fn a_map_wider_than_the_image_widens_the_ring() {
         &band.to_string(),
         "--margin-columns",
         &columns.to_string(),
+        "--layout",
+        "minimal-ring",
     ]);
     assert_eq!(by_hand["total_bytes"], j["total_bytes"]);
     assert_eq!(

@@ -1,10 +1,12 @@
 //! The smallest scan head around `fringe3d-core` (docs/integration.md): load the set-up blob,
 //! then per camera row decode the images' rows and reconstruct the row's points, with every
-//! buffer in one `static`. It runs under `qemu-system-arm -M mps2-an386` (Cortex-M4F) in a
-//! golden-vectors folder of a 16-bit camera (`fringe3d vectors`, docs/golden-vectors.md; an
-//! 8-bit camera's rows are `&[u8]`, the same calls), reads the frames and the
-//! reference map through semihosting (standing for a head's frame store), and prints digests of
-//! its outputs that `tests/tests/qemu_example.rs` compares with the desktop's files.
+//! buffer in one `static` and the whole head in 64 KiB of SRAM at 640 pixels wide (`memory.x`).
+//! It runs under `qemu-system-arm -M mps2-an386` (Cortex-M4F) in a golden-vectors folder of a
+//! 16-bit camera (`fringe3d vectors`, docs/golden-vectors.md; an 8-bit camera's rows are
+//! `&[u8]`, the same calls), reads the frames through semihosting (standing for a head's frame
+//! store) and the reference map where it lies in memory-mapped storage (QEMU loads it into the
+//! board's PSRAM, standing for a QSPI flash in XIP mode), and prints digests of its outputs that
+//! `tests/tests/qemu_example.rs` compares with the desktop's files.
 #![no_std]
 #![no_main]
 
@@ -13,28 +15,35 @@ mod stack;
 
 use core::fmt::Write as _;
 use cortex_m_rt::entry;
+use fringe3d_core::budget::{RowBudget, RowLayout};
 use fringe3d_core::decode::parity::Digest;
-use fringe3d_core::decode::{DecodeScratch, RowOut};
-use fringe3d_core::reconstruct::ReferenceRing;
-use fringe3d_core::wire::HeadSetup;
+use fringe3d_core::decode::{DecodeScratch, Decoder, RowOut};
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
+use fringe3d_core::wire::{HeadSetup, SetupError};
 use host::{Console, File};
 
-/// Widest image, most images per set and most reference rows (the band) this build holds.
+/// Widest image and most images per set this build holds.
 const MAX_W: usize = 640;
 const MAX_IMAGES: usize = 8;
-const RING_ROWS: usize = 16;
 
-/// Every per-pixel buffer: (2·N + 4 + 1 + 4·B + 4 + 4·3 + 1)·W bytes, plus the decoder's scratch
-/// and the set-up blob. Lean where the core allows it: no modulation or DC rows (this head wants
-/// phase and validity only; `RowOut` takes empty rows), and no validity plane in the reference
-/// ring or codes for its rows (the map arrives NaN-encoded, and the kernel reads only the phase).
+/// Where the reference map lies, memory-mapped: the board's 16 MiB PSRAM (`qemu-system-arm
+/// -device loader,file=input/reference_phase.f32,addr=0x21000000,force-raw=on`), standing for
+/// a QSPI/OSPI flash in memory-mapped (XIP) mode, where a head keeps its calibration tables.
+const MAP_BASE: usize = 0x2100_0000;
+/// Bytes of that region.
+const MAP_CAPACITY: usize = 16 << 20;
+
+/// Every per-pixel buffer: (2·N + 4 + 1 + 4·3 + 1)·W bytes, plus the decoder's scratch and the
+/// set-up blob ([`RowLayout::MINIMAL`]). Lean where the core allows it: no modulation or DC rows
+/// (this head wants phase and validity only; `RowOut` takes empty rows), and no reference ring:
+/// the kernel reads the map where it lies (a head that streams its map from storage it cannot
+/// map keeps a `ReferenceRing` of the band's rows instead, 4·B·W bytes more: the board
+/// firmware, docs/integration.md).
 struct Buffers {
     blob: [u8; fringe3d_core::wire::setup::MAX_SETUP_BLOB],
     images: [[u16; MAX_W]; MAX_IMAGES],
     phase: [f32; MAX_W],
     validity: [u8; MAX_W],
-    ring_phase: [f32; RING_ROWS * MAX_W],
-    reference_row: [f32; MAX_W],
     xyz: [f32; 3 * MAX_W],
     point_validity: [u8; MAX_W],
     scratch: DecodeScratch,
@@ -45,8 +54,6 @@ static mut BUFFERS: Buffers = Buffers {
     images: [[0; MAX_W]; MAX_IMAGES],
     phase: [0.0; MAX_W],
     validity: [0; MAX_W],
-    ring_phase: [0.0; RING_ROWS * MAX_W],
-    reference_row: [0.0; MAX_W],
     xyz: [0.0; 3 * MAX_W],
     point_validity: [0; MAX_W],
     scratch: DecodeScratch::new(), // a `const fn`
@@ -57,14 +64,10 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
     let mut file = File::open("input/setup.bin")?;
     let blob = b.blob.get_mut(..file.len()).ok_or("setup.bin too large")?;
     file.read_at(0, blob)?;
-    let (objects, setup_stack) = stack::measure(|| {
-        let setup = HeadSetup::parse(blob)?;
-        Ok::<_, fringe3d_core::wire::SetupError>((setup.decoder()?, setup.reconstructor()?))
-    });
+    let (objects, setup_stack) = stack::measure(|| load(blob));
     let (decoder, recon) = objects.map_err(|e| e.what())?;
     let (w, h, n) = (recon.width(), recon.height(), decoder.image_count());
-    let ring_rows = (recon.band().rows() as usize).min(h);
-    if w > MAX_W || n > MAX_IMAGES || ring_rows > RING_ROWS || recon.map_width() != w {
+    if w > MAX_W || n > MAX_IMAGES {
         return Err("the scan does not fit this build's buffers");
     }
     // This build leaves out the core's `short-rows` path (Cargo.toml): a row narrower than one
@@ -82,15 +85,21 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
     let refused = matches!(short, Err(fringe3d_core::decode::DecodeError::ShortRow));
     let _ = writeln!(Console, "short_row_refused={refused}");
 
-    // 2. The reference ring over the band's rows, fed in order from the reference map.
-    let mut ring = ReferenceRing::new(&recon, &mut b.ring_phase[..ring_rows * w], &mut [])
-        .map_err(|_| "reference ring refused")?;
+    // 2. The reference map where it lies: `(mw, mh)` f32 samples, prepared on the desktop (the
+    // canonical NaN where invalid; `from_prepared` checks that, and reads no copy).
+    let (mw, mh) = (recon.map_width(), recon.map_height());
+    let samples = mw.checked_mul(mh).filter(|&s| 4 * s <= MAP_CAPACITY);
+    let samples = samples.ok_or("the reference map does not fit the mapped region")?;
+    // SAFETY: MAP_BASE..MAP_BASE + MAP_CAPACITY is the board's PSRAM, memory this program never
+    // writes; QEMU loaded the map there before reset. Any bit pattern is a valid f32.
+    let map = unsafe { core::slice::from_raw_parts(MAP_BASE as *const f32, samples) };
+    let reference =
+        ReferenceMap::from_prepared(map, mw, mh).map_err(|_| "reference map refused")?;
     let mut frames = File::open("input/images.u16")?;
-    let mut reference = File::open("input/reference_phase.f32")?;
     let mut digests = [Digest::default(); 4];
-    let (mut decode_stack, mut push_stack, mut reconstruct_stack) = (0, 0, 0);
+    let (mut decode_stack, mut reconstruct_stack) = (0, 0);
 
-    // 3. Per camera row: decode, top up the ring, reconstruct.
+    // 3. Per camera row: decode, reconstruct.
     for v in 0..h {
         for (i, row) in b.images.iter_mut().take(n).enumerate() {
             frames.read_at(2 * (i * h + v) * w, bytes_of(&mut row[..w]))?;
@@ -107,21 +116,10 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
         r.map_err(|_| "decode_row failed")?;
         decode_stack = decode_stack.max(used);
 
-        let (_, last) = recon.rows_needed(v as u32);
-        while ring.rows_pushed() <= last {
-            let r = ring.rows_pushed() as usize;
-            reference.read_at(4 * r * w, bytes_of(&mut b.reference_row[..w]))?;
-            // NaN where the map is invalid: no codes needed.
-            let row = &b.reference_row[..w];
-            let (r, used) = stack::measure(|| ring.push_row(row, &[]));
-            r.map_err(|_| "reference ring push failed")?;
-            push_stack = push_stack.max(used);
-        }
-
         let (phase, validity) = (&b.phase[..w], &b.validity[..w]);
         let (xyz, point_validity) = (&mut b.xyz[..3 * w], &mut b.point_validity[..w]);
         let (r, used) = stack::measure(|| {
-            recon.reconstruct_row(&ring, v as u32, phase, validity, xyz, point_validity)
+            recon.reconstruct_row(&reference, v as u32, phase, validity, xyz, point_validity)
         });
         r.map_err(|_| "reconstruct_row failed")?;
         reconstruct_stack = reconstruct_stack.max(used);
@@ -133,9 +131,19 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
     }
 
     let [p, q, x, xq] = digests.map(|d| d.0);
-    let _ = writeln!(Console, "scan {w}x{h}, {n} images, band {ring_rows} rows");
+    let _ = writeln!(Console, "scan {w}x{h}, {n} images, map {mw}x{mh} in place");
     let _ = writeln!(Console, "digest phase={p:016x} validity={q:016x}");
     let _ = writeln!(Console, "digest points={x:016x} point_validity={xq:016x}");
+    // The core's account of this layout at this build's capacity, with this target's type sizes
+    // (`fringe3d budget --layout minimal` prints the host's): equal to the statics' size.
+    let budget = RowBudget {
+        width: MAX_W,
+        images: MAX_IMAGES,
+        sample_bytes: 2,
+        band_rows: 0,
+        margin_columns: 0,
+        layout: RowLayout::MINIMAL,
+    };
     let sizes = (
         size_of_val(&decoder),
         size_of_val(&recon),
@@ -143,20 +151,33 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
     );
     let _ = writeln!(
         Console,
-        "sizeof decoder={} reconstructor={} buffers={}",
-        sizes.0, sizes.1, sizes.2
+        "sizeof decoder={} reconstructor={} buffers={} budget={}",
+        sizes.0,
+        sizes.1,
+        sizes.2,
+        budget.total()
     );
     let _ = writeln!(
         Console,
-        "stack_bytes setup={setup_stack} decode_row={decode_stack} push_row={push_stack} reconstruct_row={reconstruct_stack}"
+        "stack_bytes setup={setup_stack} decode_row={decode_stack} reconstruct_row={reconstruct_stack}"
     );
+    let _ = writeln!(Console, "sram_bytes={}", stack::sram_high_water());
     Ok(())
 }
 
-/// The bytes of a row of u16 or f32 samples (plain numbers: every bit pattern is valid).
+/// Parse the set-up blob and build the decoder and the reconstructor. Out of line: the parsed
+/// set-up and the build's temporaries live in this call's frame, gone when it returns, not in
+/// the frame of the loop that runs for the whole scan.
+#[inline(never)]
+fn load(blob: &[u8]) -> Result<(Decoder, Reconstructor), SetupError> {
+    let setup = HeadSetup::parse(blob)?;
+    Ok((setup.decoder()?, setup.reconstructor()?))
+}
+
+/// The bytes of a row of u16 samples (plain numbers: every bit pattern is valid).
 fn bytes_of<T: Copy>(s: &mut [T]) -> &mut [u8] {
     let len = core::mem::size_of_val(s);
-    // SAFETY: only used on u16 and f32 slices, whose every byte pattern is a valid value.
+    // SAFETY: only used on u16 slices, whose every byte pattern is a valid value.
     unsafe { core::slice::from_raw_parts_mut(s.as_mut_ptr().cast(), len) }
 }
 

@@ -43,10 +43,11 @@ pub struct BudgetArgs {
     /// Camera bits per sample: 8 (one byte) or up to 16 (two).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub bits: u32,
-    /// Which buffers the firmware keeps: `minimal` (examples/head-minimal), `board`
-    /// (firmware-sim/board-mps2: the edge filter, the decoder in a static) or `phase` (no
-    /// points).
-    #[arg(long, default_value = "minimal", value_parser = ["minimal", "board", "phase"])]
+    /// Which buffers the firmware keeps: `minimal` (examples/head-minimal: the reference map
+    /// read in place from memory-mapped flash or PSRAM, no ring), `minimal-ring` (the same with
+    /// the map streamed through the band's ring), `board` (firmware-sim/board-mps2: a ring, the
+    /// edge filter, the decoder in a static) or `phase` (no points).
+    #[arg(long, default_value = "minimal", value_parser = ["minimal", "minimal-ring", "board", "phase"])]
     pub layout: String,
 }
 
@@ -86,9 +87,10 @@ pub fn run(a: BudgetArgs, g: Global) -> Result<()> {
     }
     let layout = match a.layout.as_str() {
         "board" => RowLayout::BOARD,
+        "minimal-ring" => RowLayout::MINIMAL_RING,
         "phase" => RowLayout {
             points: false,
-            ..RowLayout::MINIMAL
+            ..RowLayout::MINIMAL_RING
         },
         _ => RowLayout::MINIMAL,
     };
@@ -98,7 +100,7 @@ pub fn run(a: BudgetArgs, g: Global) -> Result<()> {
     let band = match band {
         Some(b) if (1..=MAX_SIZE).contains(&b) => b,
         Some(b) => bail!("--band: {b} rows is not in 1 to {MAX_SIZE}"),
-        None if !layout.points => 0,
+        None if !layout.points || layout.map_in_place => 0,
         None => bail!(
             "the reference ring's rows depend on the rig: give --calibration (its band) or --band"
         ),
@@ -108,7 +110,11 @@ pub fn run(a: BudgetArgs, g: Global) -> Result<()> {
         images: set.image_count(),
         sample_bytes: if a.bits > 8 { 2 } else { 1 },
         band_rows: band,
-        margin_columns: if layout.points { margin_columns } else { 0 },
+        margin_columns: if layout.points && !layout.map_in_place {
+            margin_columns
+        } else {
+            0
+        },
         layout,
     };
     let (lines, n) = b.lines();
@@ -131,21 +137,24 @@ pub fn run(a: BudgetArgs, g: Global) -> Result<()> {
                 "frame_sequential": {"bytes_per_pixel": per_pixel, "bytes": frame}})
         );
     } else if !g.quiet {
+        let reference = if !layout.points {
+            "no points".to_string()
+        } else if layout.map_in_place {
+            "the reference map read in place (memory-mapped: no ring)".to_string()
+        } else if b.margin_columns > 0 {
+            format!(
+                "{band} reference rows of {} columns (the map's margin)",
+                width + b.margin_columns
+            )
+        } else {
+            format!("{band} reference rows")
+        };
         outln!(
-            "row pipeline, {} layout: {} images of {} byte(s) per sample, {} pixels wide, {} reference rows{}",
+            "row pipeline, {} layout: {} images of {} byte(s) per sample, {} pixels wide, {reference}",
             a.layout,
             b.images,
             b.sample_bytes,
             width,
-            band,
-            if b.margin_columns > 0 {
-                format!(
-                    " of {} columns (the map's margin)",
-                    width + b.margin_columns
-                )
-            } else {
-                String::new()
-            }
         );
         outln!("  {:<44} {:>10} {:>12}", "buffer", "B/column", "bytes");
         for l in lines {
