@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
 
 /// The board crate, relative to the repository.
 pub const BOARD: &str = "firmware-sim/board-mps2";
@@ -122,4 +123,74 @@ pub fn build_firmware(bin: &str) -> PathBuf {
     let elf = target_dir.join(TARGET).join("release").join(bin);
     assert!(elf.exists(), "no firmware at {}", elf.display());
     elf
+}
+
+/// Run the bare-metal ELF `elf` on QEMU `mps2-an386` in the golden-vectors folder `dir`
+/// (semihosting reads its files) with the folder's reference map loaded into the board's PSRAM
+/// at `0x2100_0000` (a memory-mapped map, as `examples/head-minimal` and `examples/head-c` read
+/// it); returns its console output. Panics if it fails or runs longer than 300 s.
+pub fn run_in_vectors(elf: &Path, dir: &Path) -> String {
+    let mut child = Command::new("qemu-system-arm")
+        .args(["-M", "mps2-an386", "-cpu", "cortex-m4", "-display", "none"])
+        .args(["-monitor", "none"])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args([
+            "-device",
+            "loader,file=input/reference_phase.f32,addr=0x21000000,force-raw=on",
+        ])
+        .arg("-kernel")
+        .arg(elf)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start qemu-system-arm");
+    let deadline = Instant::now() + Duration::from_secs(300);
+    while child.try_wait().expect("wait for qemu").is_none() {
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{} did not finish within 300 s", elf.display());
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().expect("qemu output");
+    let console =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "{} failed ({}):\n{console}",
+        elf.display(),
+        out.status
+    );
+    console
+}
+
+/// The value of `key=value` in a console output (the first one).
+pub fn console_value<'a>(console: &'a str, key: &str) -> Option<&'a str> {
+    console
+        .split_whitespace()
+        .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('='))
+}
+
+/// Check the digests a head example printed in `console` (`phase=… validity=… points=…
+/// point_validity=…`, FNV-1a 64 as `fringe3d_core::decode::parity::Digest`) against the golden
+/// files of the vectors folder `dir`; `what` names the run in a failure.
+pub fn assert_golden_digests(console: &str, dir: &Path, what: &str) {
+    for (key, path) in [
+        ("phase", "decode/phase.f32"),
+        ("validity", "decode/validity.u8"),
+        ("points", "reconstruct/points.f32"),
+        ("point_validity", "reconstruct/validity.u8"),
+    ] {
+        let mut d = fringe3d_core::decode::parity::Digest::default();
+        d.bytes(&std::fs::read(dir.join(path)).expect("golden file"));
+        let want = format!("{:016x}", d.0);
+        assert_eq!(
+            console_value(console, key),
+            Some(want.as_str()),
+            "{what}: {path} differs"
+        );
+    }
 }

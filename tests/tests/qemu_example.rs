@@ -10,11 +10,11 @@
 //! `FRINGE3D_REQUIRE_QEMU=1` (set by `.ci/run`) turns the skip into a failure.
 
 use fringe3d::vectors::{self, VectorOptions};
-use fringe3d_core::decode::parity::Digest;
-use fringe3d_tests::qemu::{TARGET, board_target_dir, repo, skip_without_tools};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use fringe3d_tests::qemu::{
+    TARGET, assert_golden_digests, board_target_dir, repo, run_in_vectors, skip_without_tools,
+};
+use std::path::PathBuf;
+use std::process::Command;
 
 /// Build the example (release, its own workspace) and return its ELF.
 fn build_example() -> PathBuf {
@@ -39,53 +39,7 @@ fn build_example() -> PathBuf {
         .join("release/fringe3d-head-minimal")
 }
 
-/// Run the example in the vectors folder `dir`; returns its console output.
-fn run_qemu(elf: &Path, dir: &Path) -> String {
-    let mut child = Command::new("qemu-system-arm")
-        .args(["-M", "mps2-an386", "-cpu", "cortex-m4", "-display", "none"])
-        .args([
-            "-monitor",
-            "none",
-            "-semihosting-config",
-            "enable=on,target=native",
-        ])
-        .args([
-            "-device",
-            "loader,file=input/reference_phase.f32,addr=0x21000000,force-raw=on",
-        ])
-        .arg("-kernel")
-        .arg(elf)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start qemu-system-arm");
-    let deadline = Instant::now() + Duration::from_secs(300);
-    while child.try_wait().expect("wait for qemu").is_none() {
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("the example did not finish within 300 s");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    let out = child.wait_with_output().expect("qemu output");
-    let console =
-        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success(),
-        "the example failed ({}):\n{console}",
-        out.status
-    );
-    console
-}
-
-fn value<'a>(console: &'a str, key: &str) -> Option<&'a str> {
-    console
-        .split_whitespace()
-        .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('='))
-}
+use fringe3d_tests::qemu::console_value as value;
 
 #[test]
 fn qemu_example_matches_the_golden_vectors() {
@@ -96,20 +50,10 @@ fn qemu_example_matches_the_golden_vectors() {
     let dir = std::env::temp_dir().join(format!("fringe3d-qemu-example-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     vectors::generate_into(&VectorOptions::default(), &dir, false).expect("vectors");
-    let console = run_qemu(&elf, &dir);
+    let console = run_in_vectors(&elf, &dir);
     println!("{console}");
 
-    for (key, path) in [
-        ("phase", "decode/phase.f32"),
-        ("validity", "decode/validity.u8"),
-        ("points", "reconstruct/points.f32"),
-        ("point_validity", "reconstruct/validity.u8"),
-    ] {
-        let mut d = Digest::default();
-        d.bytes(&std::fs::read(dir.join(path)).expect("golden file"));
-        let want = format!("{:016x}", d.0);
-        assert_eq!(value(&console, key), Some(want.as_str()), "{path} differs");
-    }
+    assert_golden_digests(&console, &dir, "the example");
 
     // The example leaves out the core's `short-rows` path: a 1-pixel row is refused.
     assert_eq!(

@@ -9,6 +9,7 @@ mod rendered;
 
 mod head_hdr;
 mod head_pty;
+mod qemu_c_example;
 mod qemu_example;
 mod qemu_firmware;
 mod qemu_head_pty;

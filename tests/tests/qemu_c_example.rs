@@ -1,0 +1,143 @@
+//! The C ABI (`core/ffi`, `include/fringe3d.h`) in a C firmware (`examples/head-c`), compiled with
+//! `arm-none-eabi-gcc` and run on an emulated Cortex-M4F (QEMU `mps2-an386`): it decodes and
+//! reconstructs the golden-vector scan twice, with the reference map read in place and streamed
+//! through a ring, and each pass's FNV-1a digests of phase, validity, points and point validity
+//! must equal those of the desktop's golden files. The library is linked with its `no-panic`
+//! feature, so the link itself shows that no panic path is left in what the firmware calls. The
+//! example also shows two refusals: a damaged blob (with its reason) and rows of the wrong sample
+//! size.
+//!
+//! Skips with a notice when `qemu-system-arm`, the `thumbv7em-none-eabihf` target or
+//! `arm-none-eabi-gcc` is missing; `FRINGE3D_REQUIRE_QEMU=1` (set by `.ci/run`) turns the skip
+//! into a failure.
+
+use fringe3d::vectors::{self, VectorOptions};
+use fringe3d_tests::qemu::{
+    TARGET, assert_golden_digests, board_target_dir, console_value as value, repo, run_in_vectors,
+    skip_without_tools,
+};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The C compiler for the Cortex-M4F.
+const CC: &str = "arm-none-eabi-gcc";
+
+fn check(out: Output, what: &str) {
+    assert!(
+        out.status.success(),
+        "{what} failed:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Build the static library (release, `no-panic`, its own workspace and target folder, as
+/// `.ci/run` builds it ahead) and return its path.
+fn build_library() -> PathBuf {
+    let target_dir = board_target_dir().with_file_name("ffi");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .args([
+            "build",
+            "--release",
+            "--target",
+            TARGET,
+            "--features",
+            "no-panic",
+        ])
+        .current_dir(repo().join("core/ffi"))
+        .env("CARGO_TARGET_DIR", &target_dir)
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS")
+        .env_remove("CARGO_BUILD_TARGET")
+        .output()
+        .expect("run cargo for the C ABI library");
+    check(out, "the C ABI library's build");
+    target_dir.join(TARGET).join("release/libfringe3d_ffi.a")
+}
+
+/// Compile and link the C example against `lib` into `elf` (the commands docs/integration.md
+/// gives).
+fn build_example(lib: &Path, elf: &Path) {
+    let dir = repo().join("examples/head-c");
+    let out = Command::new(CC)
+        .args([
+            "-mcpu=cortex-m4",
+            "-mthumb",
+            "-mfloat-abi=hard",
+            "-mfpu=fpv4-sp-d16",
+        ])
+        .args([
+            "-O2",
+            "-std=c11",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-ffreestanding",
+        ])
+        .args(["-ffunction-sections", "-fdata-sections"])
+        .arg("-I")
+        .arg(repo().join("core/ffi/include"))
+        .args(["main.c", "semihost.c", "startup.c"])
+        .arg(lib)
+        .args([
+            "-nostdlib",
+            "-T",
+            "link.ld",
+            "-Wl,--gc-sections",
+            "-Wl,-z,noexecstack",
+        ])
+        .args(["-lgcc", "-o"])
+        .arg(elf)
+        .current_dir(&dir)
+        .output()
+        .expect("run arm-none-eabi-gcc");
+    check(
+        out,
+        "the C example's compile and link (a panic path left in the library fails it)",
+    );
+}
+
+#[test]
+fn c_firmware_matches_the_golden_vectors() {
+    if skip_without_tools("c_firmware_matches_the_golden_vectors") {
+        return;
+    }
+    if Command::new(CC).arg("--version").output().is_err() {
+        assert!(
+            std::env::var_os("FRINGE3D_REQUIRE_QEMU").is_none(),
+            "FRINGE3D_REQUIRE_QEMU is set but {CC} is not installed"
+        );
+        println!(
+            "SKIPPED c_firmware_matches_the_golden_vectors: {CC} is not installed (Debian: apt-get install gcc-arm-none-eabi)"
+        );
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("fringe3d-qemu-c-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    vectors::generate_into(&VectorOptions::default(), &dir, false).expect("vectors");
+    let elf = dir.join("head-c.elf");
+    build_example(&build_library(), &elf);
+    let console = run_in_vectors(&elf, &dir);
+    println!("{console}");
+
+    // Both passes, line by line: the map in place, then the ring.
+    for pass in ["map", "ring"] {
+        let line = console
+            .lines()
+            .find(|l| l.starts_with(&format!("{pass} ")))
+            .unwrap_or_else(|| panic!("no {pass} pass:\n{console}"));
+        assert_golden_digests(line, &dir, pass);
+    }
+    // The refusals: a blob with a broken CRC says so; u8 rows for a 16-bit camera are refused.
+    assert!(
+        console.contains("damaged_blob=setup (set-up: CRC mismatch)"),
+        "{console}"
+    );
+    assert_eq!(value(&console, "u8_rows"), Some("sample-size"), "{console}");
+    let sram: usize = value(&console, "sram_bytes")
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    assert!(sram > 0 && sram <= 128 * 1024, "{console}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
