@@ -138,6 +138,33 @@ struct F32Params {
     k3: f32,
 }
 
+/// What [`CameraModel::new`]'s checks of the inverse found: the costly part of building a model
+/// (the inverse run over the image's border, a 16-pixel grid and every 16th row, in f64, which a
+/// Cortex-M4F does in software: about 100 M instructions at 320 × 240). A desktop reads it off
+/// its model ([`CameraModel::check`]) and ships it in the head set-up blob (field 10); the head
+/// builds the same model from it ([`CameraModel::from_check`]) without running the inverse.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CameraCheck {
+    /// Undistorted radius up to which `ρ(r)` was verified strictly increasing.
+    pub monotonic_radius: f64,
+    /// Worst round-trip error of the f64 inverse, pixels.
+    pub max_error_f64: f64,
+    /// Worst round-trip error of the f32 inverses, pixels.
+    pub max_error_f32: f64,
+}
+
+impl CameraCheck {
+    /// Whether the numbers are ones the checks can give: a finite, non-negative radius, and
+    /// errors within [`UNDISTORT_TOLERANCE_PX`] and [`UNDISTORT_TOLERANCE_F32_PX`].
+    pub fn is_sane(&self) -> bool {
+        let within = |e: f64, tol: f64| e >= 0.0 && e <= tol;
+        self.monotonic_radius.is_finite()
+            && self.monotonic_radius >= 0.0
+            && within(self.max_error_f64, UNDISTORT_TOLERANCE_PX)
+            && within(self.max_error_f32, UNDISTORT_TOLERANCE_F32_PX)
+    }
+}
+
 /// A validated, invertible camera model (eqs 2-4 and their inverse).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraModel {
@@ -202,39 +229,43 @@ macro_rules! distort_fns {
 distort_fns!(f64, distort64, distort_jac64, newton64);
 distort_fns!(f32, distort32, distort_jac32, newton32);
 
+/// The parameters' own checks (finite, positive focal lengths, skew, size) and their f32 copy.
+fn f32_params(params: &CameraParams) -> Result<F32Params, CameraError> {
+    let i = params;
+    let d = params.distortion;
+    if !params.is_finite() {
+        return Err(CameraError::NotFinite);
+    }
+    if !(i.fx > 0.0 && i.fy > 0.0) {
+        return Err(CameraError::NonPositiveFocal);
+    }
+    if !(libm::fabs(i.skew) < 0.5) {
+        return Err(CameraError::Skew);
+    }
+    if !(2..=MAX_DIMENSION).contains(&i.width) || !(2..=MAX_DIMENSION).contains(&i.height) {
+        return Err(CameraError::Size);
+    }
+    Ok(F32Params {
+        fx: i.fx as f32,
+        fy: i.fy as f32,
+        sfx: (i.skew * i.fx) as f32,
+        u0: i.cx as f32,
+        v0: i.cy as f32,
+        k1: d.k1 as f32,
+        k2: d.k2 as f32,
+        p1: d.p1 as f32,
+        p2: d.p2 as f32,
+        k3: d.k3 as f32,
+    })
+}
+
 impl CameraModel {
     /// Validate a model and check that it can be inverted over the whole image (see the module
     /// documentation).
     pub fn new(params: CameraParams) -> Result<Self, CameraError> {
-        let i = params;
-        let d = params.distortion;
-        if !params.is_finite() {
-            return Err(CameraError::NotFinite);
-        }
-        if !(i.fx > 0.0 && i.fy > 0.0) {
-            return Err(CameraError::NonPositiveFocal);
-        }
-        if !(libm::fabs(i.skew) < 0.5) {
-            return Err(CameraError::Skew);
-        }
-        if !(2..=MAX_DIMENSION).contains(&i.width) || !(2..=MAX_DIMENSION).contains(&i.height) {
-            return Err(CameraError::Size);
-        }
-        let f = F32Params {
-            fx: i.fx as f32,
-            fy: i.fy as f32,
-            sfx: (i.skew * i.fx) as f32,
-            u0: i.cx as f32,
-            v0: i.cy as f32,
-            k1: d.k1 as f32,
-            k2: d.k2 as f32,
-            p1: d.p1 as f32,
-            p2: d.p2 as f32,
-            k3: d.k3 as f32,
-        };
         let mut cam = CameraModel {
             params,
-            f,
+            f: f32_params(&params)?,
             monotonic_radius: 0.0,
             max_error_f64: 0.0,
             max_error_f32: 0.0,
@@ -242,6 +273,50 @@ impl CameraModel {
         cam.monotonic_radius = cam.check_monotonic()?;
         cam.check_convergence()?;
         Ok(cam)
+    }
+
+    /// The model [`CameraModel::new`] makes of `params`, from what its checks found
+    /// ([`CameraModel::check`], computed on a desktop) instead of running them again: the
+    /// parameters' own checks are made, the inverse is not run. A check that is not
+    /// [sane](CameraCheck::is_sane) is refused ([`CameraError::NotMonotonic`] for its radius,
+    /// [`CameraError::NotConvergent`] at pixel (0, 0) for its errors); a sane one of other
+    /// parameters is not detected here (the set-up blob's CRC and its maker vouch for it).
+    pub fn from_check(params: CameraParams, c: &CameraCheck) -> Result<Self, CameraError> {
+        let f = f32_params(&params)?;
+        if !c.is_sane() {
+            if !(c.monotonic_radius.is_finite() && c.monotonic_radius >= 0.0) {
+                let radius = c.monotonic_radius as f32;
+                return Err(CameraError::NotMonotonic { radius });
+            }
+            let worst = if c.max_error_f64 > c.max_error_f32 || c.max_error_f64.is_nan() {
+                c.max_error_f64
+            } else {
+                c.max_error_f32
+            };
+            let error_px = worst as f32;
+            return Err(CameraError::NotConvergent {
+                u: 0,
+                v: 0,
+                error_px,
+            });
+        }
+        Ok(CameraModel {
+            params,
+            f,
+            monotonic_radius: c.monotonic_radius,
+            max_error_f64: c.max_error_f64,
+            max_error_f32: c.max_error_f32,
+        })
+    }
+
+    /// What this model's checks found: what [`CameraModel::from_check`] takes to make it again,
+    /// bit for bit.
+    pub fn check(&self) -> CameraCheck {
+        CameraCheck {
+            monotonic_radius: self.monotonic_radius,
+            max_error_f64: self.max_error_f64,
+            max_error_f32: self.max_error_f32,
+        }
     }
 
     /// Scan `ρ(r) = r·R(r²)` from 0 until it exceeds the largest distorted radius of the image

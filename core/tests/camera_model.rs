@@ -7,7 +7,7 @@
 use crate::reconstruct_support as support;
 
 use fringe3d_core::camera::{
-    CameraError, CameraErrorKind, CameraModel, CameraParams, Distortion,
+    CameraCheck, CameraError, CameraErrorKind, CameraModel, CameraParams, Distortion,
     UNDISTORT_TOLERANCE_F32_PX, UNDISTORT_TOLERANCE_PX,
 };
 use fringe3d_core::geometry::Vec3;
@@ -160,4 +160,45 @@ fn nan_input_gives_nan_not_panic() {
     let mut xs = [0f32; 3];
     let mut ys = [0f32; 2];
     cam.undistort_row_f32(5000, &mut xs, &mut ys); // shorter buffer and off-image row: no panic
+}
+
+/// A model built from a shipped check (`CameraModel::from_check`, the head set-up blob's field
+/// 10) is the model `new` checked, bit for bit; checks no model gives are refused, and the
+/// parameters' own checks still run.
+#[test]
+fn a_shipped_check_rebuilds_the_model_without_the_inverse() {
+    let m = CameraModel::new(intr()).expect("the strong model inverts");
+    let c = m.check();
+    assert!(c.is_sane(), "{c:?}");
+    assert!(c.monotonic_radius > 0.0 && c.max_error_f32 > 0.0, "{c:?}");
+    assert_eq!(CameraModel::from_check(intr(), &c), Ok(m));
+    let bad = |c: CameraCheck| CameraModel::from_check(intr(), &c).map(|_| ());
+    assert!(matches!(
+        bad(CameraCheck {
+            monotonic_radius: f64::NAN,
+            ..c
+        }),
+        Err(CameraError::NotMonotonic { .. })
+    ));
+    for e in [-1.0, 2.0 * UNDISTORT_TOLERANCE_PX, f64::INFINITY] {
+        assert!(matches!(
+            bad(CameraCheck {
+                max_error_f64: e,
+                ..c
+            }),
+            Err(CameraError::NotConvergent { .. })
+        ));
+    }
+    assert!(matches!(
+        bad(CameraCheck {
+            max_error_f32: 2.0 * UNDISTORT_TOLERANCE_F32_PX,
+            ..c
+        }),
+        Err(CameraError::NotConvergent { .. })
+    ));
+    let no_focal = CameraParams { fx: 0.0, ..intr() };
+    assert_eq!(
+        CameraModel::from_check(no_focal, &c),
+        Err(CameraError::NonPositiveFocal)
+    );
 }

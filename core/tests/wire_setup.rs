@@ -5,14 +5,16 @@
 //! The byte vector was laid out by hand field by field (postcard rules as in wire_vectors.rs) and
 //! its CRC-32C computed with an independent bitwise Python implementation, not with this crate.
 
-use fringe3d_core::camera::CameraModel;
+use fringe3d_core::camera::{CameraCheck, CameraModel};
 use fringe3d_core::decode::{DecodeConfig, Decoder, PhaseCorrection};
 use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::geometry::Vec3;
 use fringe3d_core::params::{CameraParams, Distortion};
 use fringe3d_core::pattern::{self, Binarization, Convention, ImageId, Output, PatternSet};
 use fringe3d_core::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
-use fringe3d_core::reconstruct::{MAX_MARGIN, Margin, Reconstructor, Setup};
+use fringe3d_core::reconstruct::{
+    MAX_BAND_ROWS, MAX_MARGIN, Margin, Reconstructor, Setup, SetupAnalysis,
+};
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::setup::{
     MAX_SETUP_BLOB, MAX_SETUP_PAYLOAD, SETUP_CRC_LEN, SETUP_HEADER_LEN, SETUP_VERSION,
@@ -161,8 +163,8 @@ fn seal(payload: &[u8]) -> Vec<u8> {
 /// The hand-laid blob of [`small_setup`].
 #[rustfmt::skip]
 const SMALL_BLOB: &[u8] = &[
-    // header: magic F3DS, version 5, reserved 0, payload length 350 (LE)
-    0x46, 0x33, 0x44, 0x53, 0x05, 0x00, 0x5E, 0x01,
+    // header: magic F3DS, version 6, reserved 0, payload length 351 (LE)
+    0x46, 0x33, 0x44, 0x53, 0x06, 0x00, 0x5F, 0x01,
     // frames: width 4, height 3, sample_bits 12, sample_bytes 2
     0x04, 0x03, 0x0C, 0x02,
     // patterns: width 8, height 2, bit_depth 8
@@ -245,25 +247,79 @@ const SMALL_BLOB: &[u8] = &[
     0x00,
     // margin (field 9, version 5): left 0, top 0, right 0, bottom 0
     0x00, 0x00, 0x00, 0x00,
-    // CRC-32C 0x4621FCE7 (LE)
-    0xE7, 0xFC, 0x21, 0x46,
+    // analysis (field 10, version 6): none
+    0x00,
+    // CRC-32C 0x3BBA4352 (LE)
+    0x52, 0x43, 0xBA, 0x3B,
 ];
 
-/// [`SMALL_BLOB`]'s payload with the margin (field 9) `[130, 1, 0, 300]` in place of the zero
-/// one: varints `82 01`, `01`, `00`, `AC 02` (payload 352 bytes; CRC-32C 0x303AC545, computed
-/// with the independent Python CRC of tools/wire_vectors).
-fn small_blob_with_margin() -> Vec<u8> {
-    let mut payload = SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN - 4].to_vec();
-    payload.extend_from_slice(&[0x82, 0x01, 0x01, 0x00, 0xAC, 0x02]);
+/// Bytes of fields 9 and 10 at the end of [`SMALL_BLOB`]'s payload.
+const TAIL_9_10: usize = 5;
+
+/// [`SMALL_BLOB`] as format version 5 wrote it: no field 10 (362 bytes; its CRC-32C was
+/// 0x4621FCE7 when it was the current version's vector). Still read, as "analyse at boot".
+fn small_blob_v5() -> Vec<u8> {
+    let payload = &SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN - 1];
+    let mut b = seal(payload);
+    b[4] = 5;
+    let crc = crc32c(&b[..b.len() - SETUP_CRC_LEN]);
+    let n = b.len();
+    b[n - SETUP_CRC_LEN..].copy_from_slice(&crc.to_le_bytes());
+    assert_eq!(crc, 0x4621_FCE7);
+    b
+}
+
+/// [`SMALL_BLOB`] with field 10 `Some` (the analysis of [`small_analysis`]): `01`, then the
+/// camera check (monotonic radius 1.5, errors 0.0 and 0.0005 as f64), above `01`, below `02`,
+/// bisections `0A`, the longest segment 300.5 as f32 `00 40 96 43`, the reach `03 00 00 01`
+/// (payload 386 bytes; CRC-32C 0x8D02F2FA, computed with the independent Python CRC of
+/// tools/wire_vectors).
+fn small_blob_with_analysis() -> Vec<u8> {
+    let mut payload = SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN - 1].to_vec();
+    payload.push(0x01);
+    payload.extend_from_slice(&[0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xF8, 0x3F]);
+    payload.extend_from_slice(&[0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]);
+    payload.extend_from_slice(&[0xFC, 0xA9, 0xF1, 0xD2, 0x4D, 0x62, 0x40, 0x3F]);
+    payload.extend_from_slice(&[0x01, 0x02, 0x0A, 0x00, 0x40, 0x96, 0x43]);
+    payload.extend_from_slice(&[0x03, 0x00, 0x00, 0x01]);
     let b = seal(&payload);
-    assert_eq!(crc32c(&b[..b.len() - SETUP_CRC_LEN]), 0x303A_C545);
+    assert_eq!(crc32c(&b[..b.len() - SETUP_CRC_LEN]), 0x8D02_F2FA);
+    b
+}
+
+/// The analysis [`small_blob_with_analysis`] carries.
+fn small_analysis() -> SetupAnalysis {
+    SetupAnalysis {
+        camera: CameraCheck {
+            monotonic_radius: 1.5,
+            max_error_f64: 0.0,
+            max_error_f32: 0.0005,
+        },
+        above: 1,
+        below: 2,
+        bisections: 10,
+        max_segment_px: 300.5,
+        reach: Margin::from_array([3, 0, 0, 1]),
+    }
+}
+
+/// [`SMALL_BLOB`]'s payload with the margin (field 9) `[130, 1, 0, 300]` in place of the zero
+/// one: varints `82 01`, `01`, `00`, `AC 02`, then no analysis (payload 353 bytes; CRC-32C
+/// 0x9E5A8F63, computed with the independent Python CRC of tools/wire_vectors; 0x303AC545 in
+/// version 5, without field 10).
+fn small_blob_with_margin() -> Vec<u8> {
+    let end = SMALL_BLOB.len() - SETUP_CRC_LEN - TAIL_9_10;
+    let mut payload = SMALL_BLOB[SETUP_HEADER_LEN..end].to_vec();
+    payload.extend_from_slice(&[0x82, 0x01, 0x01, 0x00, 0xAC, 0x02, 0x00]);
+    let b = seal(&payload);
+    assert_eq!(crc32c(&b[..b.len() - SETUP_CRC_LEN]), 0x9E5A_8F63);
     b
 }
 
 /// [`SMALL_BLOB`] as format version 4 wrote it: no field 9 (358 bytes; its CRC-32C was
 /// 0xD46AF71D when it was the current version's vector). Still read, as an image-sized map.
 fn small_blob_v4() -> Vec<u8> {
-    let payload = &SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN - 4];
+    let payload = &SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN - TAIL_9_10];
     let mut b = seal(payload);
     b[4] = 4;
     let crc = crc32c(&b[..b.len() - SETUP_CRC_LEN]);
@@ -279,7 +335,8 @@ const SMALL_BLOB_RELATION_AT: usize = 141;
 /// [`SMALL_BLOB`] as format version 3 wrote it: no relation byte in field 2 and no field 9 (357
 /// bytes; its CRC-32C was 0x2D93EB66 when it was the current version's vector). Still read.
 fn small_blob_v3() -> Vec<u8> {
-    let mut payload = SMALL_BLOB[SETUP_HEADER_LEN..SMALL_BLOB.len() - SETUP_CRC_LEN - 4].to_vec();
+    let end = SMALL_BLOB.len() - SETUP_CRC_LEN - TAIL_9_10;
+    let mut payload = SMALL_BLOB[SETUP_HEADER_LEN..end].to_vec();
     assert_eq!(payload.remove(SMALL_BLOB_RELATION_AT - SETUP_HEADER_LEN), 0);
     let mut b = seal(&payload);
     b[4] = 3;
@@ -506,6 +563,7 @@ fn small_setup() -> HeadSetup {
         },
         correction: None,
         margin: Margin::ZERO,
+        analysis: None,
     }
 }
 
@@ -515,10 +573,61 @@ fn the_small_blob_is_laid_out_as_documented() {
     assert_eq!(emit(&s), SMALL_BLOB);
     assert_eq!(HeadSetup::parse(SMALL_BLOB), Ok(s));
     assert_eq!(
+        HeadSetup::parse(&small_blob_v5()),
+        Ok(s),
+        "version 5 still reads, without an analysis"
+    );
+    assert_eq!(
         HeadSetup::parse(&small_blob_v4()),
         Ok(s),
         "version 4 still reads, as an image-sized map"
     );
+    // Field 10: a shipped analysis travels as laid out, and one no analysis gives is refused.
+    let shipped = HeadSetup {
+        analysis: Some(small_analysis()),
+        ..s
+    };
+    assert_eq!(emit(&shipped), small_blob_with_analysis());
+    assert_eq!(HeadSetup::parse(&small_blob_with_analysis()), Ok(shipped));
+    for bad in [
+        SetupAnalysis {
+            above: MAX_BAND_ROWS as u32,
+            ..small_analysis()
+        },
+        SetupAnalysis {
+            bisections: 31,
+            ..small_analysis()
+        },
+        SetupAnalysis {
+            max_segment_px: f32::NAN,
+            ..small_analysis()
+        },
+        SetupAnalysis {
+            reach: Margin::uniform(MAX_MARGIN + 1),
+            ..small_analysis()
+        },
+        SetupAnalysis {
+            camera: CameraCheck {
+                monotonic_radius: -1.0,
+                ..small_analysis().camera
+            },
+            ..small_analysis()
+        },
+        SetupAnalysis {
+            camera: CameraCheck {
+                max_error_f32: 0.01,
+                ..small_analysis().camera
+            },
+            ..small_analysis()
+        },
+    ] {
+        let s = HeadSetup {
+            analysis: Some(bad),
+            ..s
+        };
+        assert_eq!(s.validate(), Err(SetupError::Analysis), "{bad:?}");
+        assert_eq!(HeadSetup::parse(&raw_blob(&s)), Err(SetupError::Analysis));
+    }
     // Field 9: a reference map wider than the image (issue #17).
     let wide = s
         .with_margin(Margin::from_array([130, 1, 0, 300]))
@@ -600,15 +709,34 @@ fn round_trips_rebuild_the_desktop_objects_exactly() {
         let wide = HeadSetup::parse(&emit(&s.with_margin(m).expect("margin"))).expect("parse");
         assert_eq!(wide.reconstructor().ok(), recon.with_margin(m).ok());
         assert_eq!(wide.reconstructor().map(|r| r.map_width()), Ok(160 + 57));
+        // With the analysis shipped (field 10): the same reconstructors, built without it.
+        for (setup, want) in [
+            (s, Ok(recon)),
+            (s.with_margin(m).expect("margin"), recon.with_margin(m)),
+        ] {
+            let shipped = setup.with_analysis().expect("analysis");
+            let a = shipped.analysis.expect("field 10 filled");
+            assert_eq!(Ok(a), want.map(|r| r.analysis()));
+            let back = HeadSetup::parse(&emit(&shipped)).expect("parse");
+            assert_eq!(back.analysis, Some(a));
+            assert_eq!(back.reconstructor().ok(), want.ok());
+        }
+        // A margin changed after the analysis drops it (it was for the old margin).
+        let s2 = s
+            .with_analysis()
+            .expect("analysis")
+            .with_margin(m)
+            .expect("margin");
+        assert_eq!(s2.analysis, None);
     }
 }
 
 #[test]
 fn emit_needs_room() {
     let s = small_setup();
-    let mut out = [0u8; 362];
-    assert_eq!(s.emit(&mut out), Ok(362));
-    for n in [0, 11, 12, 100, 361] {
+    let mut out = [0u8; 363];
+    assert_eq!(s.emit(&mut out), Ok(363));
+    for n in [0, 11, 12, 100, 362] {
         let mut short = vec![0u8; n];
         assert_eq!(
             s.emit(&mut short),
@@ -629,14 +757,14 @@ fn header_errors_are_named() {
     assert_eq!(HeadSetup::parse(&good[..11]), Err(SetupError::Truncated));
     assert_eq!(HeadSetup::parse(&[]), Err(SetupError::Truncated));
     assert_eq!(with(&|b| b[0] = b'G'), Err(SetupError::Magic));
-    assert_eq!(with(&|b| b[4] = 6), Err(SetupError::Version(6)));
+    assert_eq!(with(&|b| b[4] = 7), Err(SetupError::Version(7)));
     assert_eq!(with(&|b| b[4] = 0), Err(SetupError::Version(0)));
     assert_eq!(with(&|b| b[5] = 1), Err(SetupError::Reserved));
     assert_eq!(with(&|b| b[6] += 1), Err(SetupError::Length));
     assert_eq!(with(&|b| b.push(0)), Err(SetupError::Length));
     assert_eq!(with(&|b| b[7] = 0x10), Err(SetupError::Length)); // 4185 > MAX_SETUP_PAYLOAD
     assert_eq!(with(&|b| b[40] ^= 1), Err(SetupError::Crc));
-    assert_eq!(with(&|b| b[361] ^= 0x80), Err(SetupError::Crc));
+    assert_eq!(with(&|b| b[362] ^= 0x80), Err(SetupError::Crc));
     // Past the CRC: a byte too many, and a payload that is not a set-up.
     let payload = &good[SETUP_HEADER_LEN..good.len() - SETUP_CRC_LEN];
     let mut longer = payload.to_vec();

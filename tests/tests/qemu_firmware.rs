@@ -205,6 +205,15 @@ fn check_scan(elf: &Path, opts: &VectorOptions, name: &str) {
         ram + stack_setup.max(stack_scan) <= 256 * 1024,
         "static RAM + stack exceed 256 KiB"
     );
+    // The blob ships the reconstructor's set-up analysis (field 10): the head builds its
+    // reconstructor without the soft-f64 grid walk, which took 154 M instructions at 320 × 240
+    // (docs/firmware.md). 40 instructions a tick.
+    let setup = report_value(&report, "setup_reconstructor").expect("set-up ticks") * 40;
+    println!("{name}: reconstructor set-up {setup} instructions");
+    assert!(
+        setup < 2_000_000,
+        "the reconstructor's set-up took {setup} instructions: is the analysis shipped?"
+    );
     // 2 000 000 instructions are 50 000 ticks of 40; where the loop starts within a tick (the
     // instructions before it, which every firmware change moves) adds at most one boundary.
     let ticks = report_value(&report, "calibration_ticks").expect("calibration ticks");

@@ -147,7 +147,7 @@ pub use error::{ReconstructError, ReconstructErrorKind};
 pub use gather::{CellGather, ScalarGather};
 pub use reconstructor::Reconstructor;
 pub use reference_rows::{ReferenceMap, ReferenceRing, ReferenceRows};
-pub use setup::{Band, Margin, Setup};
+pub use setup::{Band, Margin, Setup, SetupAnalysis};
 pub use triangulate::triangulate_eq16_18;
 
 use crate::camera::ROW_KNOT_STEP;

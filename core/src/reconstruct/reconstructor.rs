@@ -3,7 +3,7 @@
 //! API is in `row`.
 
 use super::error::ReconstructError;
-use super::setup::{Band, Consts, Margin, Setup, analyse};
+use super::setup::{Band, Consts, MAX_BISECTIONS, Margin, Setup, SetupAnalysis, analyse};
 use super::{MAX_BAND_ROWS, MAX_MARGIN};
 use crate::camera::CameraModel;
 use crate::geometry::Plane;
@@ -34,64 +34,9 @@ impl Reconstructor {
     /// (no projector ray parallel to the reference plane); the epipolar line is within 45° of the
     /// phase axis; and the band of reference rows the segments need fits [`MAX_BAND_ROWS`].
     pub fn new(camera: &CameraModel, setup: &Setup) -> Result<Self, ReconstructError> {
-        let s = setup;
-        if !(s.projector_centre.is_finite()
-            && s.reference_point.is_finite()
-            && s.reference_normal.is_finite()
-            && s.z_min.is_finite()
-            && s.z_max.is_finite())
-        {
-            return Err(ReconstructError::NotFinite);
-        }
-        if !(s.z_min > 0.0 && s.z_min < s.z_max) {
-            return Err(ReconstructError::DepthRange);
-        }
-        let plane = Plane::new(s.reference_point, s.reference_normal)
-            .ok_or(ReconstructError::ReferencePlane)?;
-        let mut n = plane
-            .normal
-            .normalized()
-            .ok_or(ReconstructError::ReferencePlane)?;
-        let mut h_r = n.dot(plane.point);
-        if h_r < 0.0 {
-            n = n.scale(-1.0);
-            h_r = -h_r;
-        }
-        if !(h_r > 1e-3 * s.z_min) {
-            return Err(ReconstructError::ReferencePlane);
-        }
-        let p = s.projector_centre;
-        let h = h_r - n.dot(p);
-        if !(p.norm() > 1e-6 * s.z_max) || !(libm::fabs(h) > 1e-6 * s.z_max) {
-            return Err(ReconstructError::ProjectorCentre);
-        }
-        let i = camera.params();
-        let c = Consts {
-            nx: n.x as f32,
-            ny: n.y as f32,
-            nz: n.z as f32,
-            h_r: h_r as f32,
-            h: h as f32,
-            px: p.x as f32,
-            py: p.y as f32,
-            pz: p.z as f32,
-            z_min: s.z_min as f32,
-            z_max: s.z_max as f32,
-            fx: i.fx as f32,
-            fy: i.fy as f32,
-            sfx: (i.skew * i.fx) as f32,
-            k: {
-                let d = camera.distortion();
-                [
-                    d.k1 as f32,
-                    d.k2 as f32,
-                    d.p1 as f32,
-                    d.p2 as f32,
-                    d.k3 as f32,
-                ]
-            },
-        };
-        let a = analyse(camera, s, n, h_r, h, Margin::ZERO)?;
+        let (c, plane) = checked(camera, setup)?;
+        let (n, h_r, h) = plane;
+        let a = analyse(camera, setup, n, h_r, h, Margin::ZERO)?;
         let (band, max_segment_px) = (a.band, a.max_len);
         if band.rows() > MAX_BAND_ROWS as u32 {
             return Err(ReconstructError::BandTooLarge { rows: band.rows() });
@@ -99,21 +44,80 @@ impl Reconstructor {
         // Bisection steps bringing the longest segment below a quarter pixel.
         let mut bisections = 0u32;
         let mut len = max_segment_px;
-        while len > 0.25 && bisections < 30 {
+        while len > 0.25 && bisections < MAX_BISECTIONS {
             len *= 0.5;
             bisections += 1;
         }
         Ok(Reconstructor {
             cam: *camera,
-            setup: *s,
+            setup: *setup,
             band,
             c,
             bisections,
             max_segment_px: max_segment_px as f32,
             margin: Margin::ZERO,
             reach: a.reach,
-            plane: (n, h_r, h),
+            plane,
         })
+    }
+
+    /// The reconstructor [`Reconstructor::new`] and [`Reconstructor::with_margin`]`(margin)`
+    /// make, from the analysis they found ([`Reconstructor::analysis`], computed on a desktop
+    /// and shipped in the head set-up blob) instead of finding it again: the geometry's checks
+    /// that cost little are made, the grid analysis (millions to billions of soft-f64
+    /// instructions on a Cortex-M4F) is not. An analysis that is not
+    /// [sane](SetupAnalysis::is_sane) is refused ([`ReconstructError::BandTooLarge`],
+    /// [`ReconstructError::Margin`] or [`ReconstructError::NotFinite`]); a sane one of another
+    /// geometry is not detected here (the blob's CRC and its maker vouch for it), and would
+    /// make the search read other reference rows.
+    pub fn from_analysis(
+        camera: &CameraModel,
+        setup: &Setup,
+        margin: Margin,
+        a: &SetupAnalysis,
+    ) -> Result<Self, ReconstructError> {
+        let (c, plane) = checked(camera, setup)?;
+        let band = Band {
+            above: a.above,
+            below: a.below,
+        };
+        if margin.to_array().iter().any(|&m| m > MAX_MARGIN)
+            || a.reach.to_array().iter().any(|&m| m > MAX_MARGIN)
+        {
+            return Err(ReconstructError::Margin);
+        }
+        if !a.is_sane() {
+            let rows = a.above.saturating_add(a.below).saturating_add(1);
+            if rows > MAX_BAND_ROWS as u32 {
+                return Err(ReconstructError::BandTooLarge { rows });
+            }
+            return Err(ReconstructError::NotFinite);
+        }
+        Ok(Reconstructor {
+            cam: *camera,
+            setup: *setup,
+            band,
+            c,
+            bisections: a.bisections,
+            max_segment_px: a.max_segment_px,
+            margin,
+            reach: a.reach,
+            plane,
+        })
+    }
+
+    /// What the set-up found (the camera model's checks; the band analysis for this
+    /// reconstructor's margin): what [`CameraModel::from_check`] and
+    /// [`Reconstructor::from_analysis`] take to make this reconstructor again, bit for bit.
+    pub fn analysis(&self) -> SetupAnalysis {
+        SetupAnalysis {
+            camera: self.cam.check(),
+            above: self.band.above,
+            below: self.band.below,
+            bisections: self.bisections,
+            max_segment_px: self.max_segment_px,
+            reach: self.reach,
+        }
     }
 
     /// This reconstructor for a reference map with margin `margin` past the image ([`Margin`]):
@@ -222,4 +226,72 @@ impl Reconstructor {
     pub(super) fn bisection_count(&self) -> u32 {
         self.bisections
     }
+}
+
+/// The geometry's checks that cost little (finite values, the depth range, the reference plane
+/// and the projector centre), and the kernel's constants and the plane's unit normal, `h_R` and
+/// `H` from them.
+#[allow(clippy::type_complexity)]
+fn checked(
+    camera: &CameraModel,
+    setup: &Setup,
+) -> Result<(Consts, (Vec3, f64, f64)), ReconstructError> {
+    let s = setup;
+    if !(s.projector_centre.is_finite()
+        && s.reference_point.is_finite()
+        && s.reference_normal.is_finite()
+        && s.z_min.is_finite()
+        && s.z_max.is_finite())
+    {
+        return Err(ReconstructError::NotFinite);
+    }
+    if !(s.z_min > 0.0 && s.z_min < s.z_max) {
+        return Err(ReconstructError::DepthRange);
+    }
+    let plane = Plane::new(s.reference_point, s.reference_normal)
+        .ok_or(ReconstructError::ReferencePlane)?;
+    let mut n = plane
+        .normal
+        .normalized()
+        .ok_or(ReconstructError::ReferencePlane)?;
+    let mut h_r = n.dot(plane.point);
+    if h_r < 0.0 {
+        n = n.scale(-1.0);
+        h_r = -h_r;
+    }
+    if !(h_r > 1e-3 * s.z_min) {
+        return Err(ReconstructError::ReferencePlane);
+    }
+    let p = s.projector_centre;
+    let h = h_r - n.dot(p);
+    if !(p.norm() > 1e-6 * s.z_max) || !(libm::fabs(h) > 1e-6 * s.z_max) {
+        return Err(ReconstructError::ProjectorCentre);
+    }
+    let i = camera.params();
+    let c = Consts {
+        nx: n.x as f32,
+        ny: n.y as f32,
+        nz: n.z as f32,
+        h_r: h_r as f32,
+        h: h as f32,
+        px: p.x as f32,
+        py: p.y as f32,
+        pz: p.z as f32,
+        z_min: s.z_min as f32,
+        z_max: s.z_max as f32,
+        fx: i.fx as f32,
+        fy: i.fy as f32,
+        sfx: (i.skew * i.fx) as f32,
+        k: {
+            let d = camera.distortion();
+            [
+                d.k1 as f32,
+                d.k2 as f32,
+                d.p1 as f32,
+                d.p2 as f32,
+                d.k3 as f32,
+            ]
+        },
+    };
+    Ok((c, (n, h_r, h)))
 }

@@ -4,7 +4,7 @@
 
 use super::MAX_MARGIN;
 use super::error::ReconstructError;
-use crate::camera::CameraModel;
+use crate::camera::{CameraCheck, CameraModel};
 use crate::geometry::Vec3;
 use crate::params::ScanGeometry;
 use crate::phase_function::Axis;
@@ -98,7 +98,58 @@ impl Margin {
     }
 }
 
-/// What the set-up analysis measures: the band of reference rows, the longest search segment
+/// What a reconstructor's set-up found: the costly part of building one from a calibration
+/// ([`CameraModel::new`]'s checks of its inverse and [`Reconstructor::new`](super::Reconstructor::new)'s
+/// band analysis, both in f64 over grids of the image, which a Cortex-M4F does in software:
+/// 154 M instructions at 320 × 240, 1.66 G at 1280 × 1024). A desktop reads it off its
+/// reconstructor ([`Reconstructor::analysis`](super::Reconstructor::analysis)) and ships it in
+/// the head set-up blob (field 10), and the head builds the same camera model and reconstructor
+/// from it ([`CameraModel::from_check`], [`Reconstructor::from_analysis`](super::Reconstructor::from_analysis))
+/// without either. On the wire: the camera check (three f64), three varints and an f32, then the
+/// reach (four varints).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SetupAnalysis {
+    /// What the camera model's checks found ([`CameraModel::check`]): the other costly part
+    /// of a reconstructor's set-up (its inverse over the image).
+    pub camera: CameraCheck,
+    /// Reference rows above a row the reconstruction reads ([`Band::above`]), for the map's
+    /// margin.
+    pub above: u32,
+    /// Reference rows below ([`Band::below`]).
+    pub below: u32,
+    /// Bisection steps of the fallback search (from the longest segment).
+    pub bisections: u32,
+    /// The longest search segment over the image, distorted pixels.
+    pub max_segment_px: f32,
+    /// How far the search segments reach past the image
+    /// ([`Reconstructor::margin_needed`](super::Reconstructor::margin_needed)).
+    pub reach: Margin,
+}
+
+/// Most bisection steps of the fallback search.
+pub(super) const MAX_BISECTIONS: u32 = 30;
+
+impl SetupAnalysis {
+    /// Whether every number is one an analysis can give: the band within
+    /// [`MAX_BAND_ROWS`](super::MAX_BAND_ROWS), at most 30 bisections, a finite, non-negative
+    /// segment length, a reach within [`MAX_MARGIN`] on every side.
+    pub fn is_sane(&self) -> bool {
+        if !self.camera.is_sane() {
+            return false;
+        }
+        let rows = self
+            .above
+            .checked_add(self.below)
+            .and_then(|r| r.checked_add(1));
+        rows.is_some_and(|r| r <= super::MAX_BAND_ROWS as u32)
+            && self.bisections <= MAX_BISECTIONS
+            && self.max_segment_px.is_finite()
+            && self.max_segment_px >= 0.0
+            && self.reach.to_array().iter().all(|&m| m <= MAX_MARGIN)
+    }
+}
+
+/// What the band analysis measures: the band of reference rows, the longest search segment
 /// (distorted pixels), and how far the segments reach past the image.
 pub(super) struct Analysis {
     pub(super) band: Band,

@@ -30,7 +30,7 @@ use crate::filter::EdgeFilter;
 use crate::params::ScanGeometry;
 use crate::pattern::{self, Binarization, Convention, ImageId, Output, PatternError, PatternSet};
 use crate::phase_function::{Axis, KnotProfile, PhaseFunction, Profile};
-use crate::reconstruct::{Margin, ReconstructError, Reconstructor, Setup};
+use crate::reconstruct::{Margin, ReconstructError, Reconstructor, Setup, SetupAnalysis};
 
 /// Why a desktop value has no wire description.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -408,17 +408,26 @@ impl Calibration {
         margin: Margin,
     ) -> Result<Reconstructor, Invalid> {
         let cam = self.camera_model()?;
-        let why = |e| match e {
-            ReconstructError::DepthRange => Invalid::DepthRange,
-            ReconstructError::ReferencePlane => Invalid::PlaneNormal,
-            ReconstructError::Margin => Invalid::Margin,
-            _ => Invalid::Intrinsics,
-        };
-        let r = Reconstructor::new(&cam, &self.setup(axis)).map_err(why)?;
+        let r = Reconstructor::new(&cam, &self.setup(axis)).map_err(reconstruct_invalid)?;
         if margin == Margin::ZERO {
             return Ok(r);
         }
-        r.with_margin(margin).map_err(why)
+        r.with_margin(margin).map_err(reconstruct_invalid)
+    }
+
+    /// [`Self::reconstructor_with_margin`] from its set-up analysis `a`, found before
+    /// ([`camera::CameraModel::from_check`], [`Reconstructor::from_analysis`]: no analysis
+    /// here).
+    pub fn reconstructor_from_analysis(
+        &self,
+        axis: PatternAxis,
+        margin: Margin,
+        a: &SetupAnalysis,
+    ) -> Result<Reconstructor, Invalid> {
+        let cam = camera::CameraModel::from_check(self.camera, &a.camera)
+            .map_err(|_| Invalid::Intrinsics)?;
+        Reconstructor::from_analysis(&cam, &self.setup(axis), margin, a)
+            .map_err(reconstruct_invalid)
     }
 
     /// The edge filter the desktop uses for this camera: focal length `min(fx, fy)`,
@@ -427,5 +436,15 @@ impl Calibration {
     pub fn edge_filter(&self, max_angle_deg: f64) -> Option<EdgeFilter> {
         let (fx, fy) = (self.camera.fx, self.camera.fy);
         EdgeFilter::new(if fy < fx { fy } else { fx }, max_angle_deg)
+    }
+}
+
+/// The wire's code for a reconstructor the core refused.
+fn reconstruct_invalid(e: ReconstructError) -> Invalid {
+    match e {
+        ReconstructError::DepthRange => Invalid::DepthRange,
+        ReconstructError::ReferencePlane => Invalid::PlaneNormal,
+        ReconstructError::Margin => Invalid::Margin,
+        _ => Invalid::Intrinsics,
     }
 }

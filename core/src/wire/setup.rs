@@ -14,7 +14,7 @@
 //! | offset  | size | field                                                             |
 //! |--------:|-----:|-------------------------------------------------------------------|
 //! | 0       | 4    | magic `F3DS` ([`SETUP_MAGIC`])                                    |
-//! | 4       | 1    | format version = 5 ([`SETUP_VERSION`]; 1 to 4 are still read)     |
+//! | 4       | 1    | format version = 6 ([`SETUP_VERSION`]; 1 to 5 are still read)     |
 //! | 5       | 1    | reserved, 0                                                       |
 //! | 6       | 2    | payload length `L`, u16 LE, `L <= 4096` ([`MAX_SETUP_PAYLOAD`])   |
 //! | 8       | `L`  | payload: the postcard encoding of a [`HeadSetup`]                 |
@@ -43,6 +43,14 @@
 //!    the search of a point near the camera on the map). The head's map is
 //!    `(left + width + right) × (top + height + bottom)` samples. Versions 1 to 4 have no
 //!    field 9 and mean an image-sized map.
+//! 10. (version 6) the reconstructor's set-up analysis, an `Option` of [`SetupAnalysis`]: the
+//!     camera model's check (three f64), band above and below (u32 varints), fallback
+//!     bisections (u32 varint), the longest search segment (f32), the segments' reach past the
+//!     image (four u32 varints). With it the head builds the camera model and the
+//!     reconstructor without the analysis ([`Reconstructor::from_analysis`]: none of its
+//!     soft-f64 grid walks, 154 M Cortex-M4F instructions at 320 × 240); the desktop fills it
+//!     with [`HeadSetup::with_analysis`]. Versions 1 to 5 have no field 10 and mean "analyse
+//!     at boot".
 //!
 //! Everything is checked on [`HeadSetup::emit`] and [`HeadSetup::parse`] ([`HeadSetup::validate`]);
 //! what only the whole set can tell (monotonic phase, coarse range, …) is checked when the head
@@ -60,7 +68,7 @@ use crate::decode::{DecodeConfig, Decoder, PhaseCorrection};
 use crate::filter::EdgeFilter;
 use crate::params::CameraParams;
 use crate::pattern::PatternSet;
-use crate::reconstruct::{MAX_MARGIN, Margin, Reconstructor, Setup};
+use crate::reconstruct::{MAX_MARGIN, Margin, Reconstructor, Setup, SetupAnalysis};
 
 mod capture_order;
 mod legacy;
@@ -69,10 +77,10 @@ use legacy::payload_fields;
 
 /// First four bytes of a set-up blob.
 pub const SETUP_MAGIC: [u8; 4] = *b"F3DS";
-/// The blob format version this core writes (it also reads versions 1 to 4: no margin; 1 to 3
-/// no relation in the pattern set; 1 and 2 a capture order of 32 fixed entries; 1 no
-/// correction field).
-pub const SETUP_VERSION: u8 = 5;
+/// The blob format version this core writes (it also reads version 5: no analysis; 1 to 4 no
+/// margin; 1 to 3 no relation in the pattern set; 1 and 2 a capture order of 32 fixed entries; 1
+/// no correction field).
+pub const SETUP_VERSION: u8 = 6;
 /// Bytes before the payload: magic, version, reserved, length.
 pub const SETUP_HEADER_LEN: usize = 8;
 /// Bytes of the trailing CRC-32C.
@@ -127,6 +135,9 @@ pub enum SetupError {
     /// large ([`PhaseCorrection::is_sane`]); or a binary set (waveform 2-5) has none, without
     /// which its decoding would carry the binarization's error ([`crate::binary`]).
     Correction,
+    /// The shipped set-up analysis (field 10) holds numbers no analysis gives
+    /// ([`SetupAnalysis::is_sane`]).
+    Analysis,
 }
 
 impl SetupError {
@@ -152,6 +163,7 @@ impl SetupError {
             SetupError::Decoder => "set-up: the decoder refused the pattern set",
             SetupError::Reconstruction(_) => "set-up: the core refused the calibration",
             SetupError::Correction => "set-up: bad phase-correction table",
+            SetupError::Analysis => "set-up: the shipped reconstructor analysis is out of range",
         }
     }
 }
@@ -254,6 +266,9 @@ pub struct HeadSetup {
     pub correction: Option<SetupCorrection>,
     /// The reference map's margin past the image (version 5; [`Margin::ZERO`] before).
     pub margin: Margin,
+    /// The reconstructor's set-up analysis for this calibration and margin (version 6; `None`
+    /// before, or when the maker did not compute it: the head then analyses at boot).
+    pub analysis: Option<SetupAnalysis>,
 }
 
 impl HeadSetup {
@@ -283,15 +298,30 @@ impl HeadSetup {
             edge_filter,
             correction: None,
             margin: Margin::ZERO,
+            analysis: None,
         };
         s.validate()?;
         Ok(s)
     }
 
     /// This set-up for a reference map with margin `m` past the image (field 9,
-    /// [`Reconstructor::with_margin`]), checked like [`HeadSetup::parse`].
+    /// [`Reconstructor::with_margin`]), checked like [`HeadSetup::parse`]. An analysis (field 10)
+    /// is for one margin: it is dropped (call [`Self::with_analysis`] after this).
     pub fn with_margin(mut self, m: Margin) -> Result<Self, SetupError> {
         self.margin = m;
+        self.analysis = None;
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// This set-up with the reconstructor's set-up analysis (field 10), computed here
+    /// ([`Reconstructor::new`], [`Reconstructor::with_margin`]): a head that reads it builds the
+    /// same reconstructor without the analysis. Call it last, on the desktop (it is the
+    /// expensive part of a head's boot).
+    pub fn with_analysis(mut self) -> Result<Self, SetupError> {
+        self.analysis = None;
+        let a = self.reconstructor()?.analysis();
+        self.analysis = Some(a);
         self.validate()?;
         Ok(self)
     }
@@ -323,6 +353,9 @@ impl HeadSetup {
         self.edge_filter.validate()?;
         if self.margin.to_array().iter().any(|&m| m > MAX_MARGIN) {
             return Err(SetupError::Invalid(Invalid::Margin));
+        }
+        if self.analysis.is_some_and(|a| !a.is_sane()) {
+            return Err(SetupError::Analysis);
         }
         match &self.correction {
             Some(c) if !c.is_sane() || c.levels != self.patterns.level_count => {
@@ -471,10 +504,18 @@ impl HeadSetup {
     }
 
     /// The reconstructor ([`Reconstructor::new`] over the camera model and set-up) for the
-    /// reference map of field 9's margin ([`Reconstructor::with_margin`]).
+    /// reference map of field 9's margin ([`Reconstructor::with_margin`]); from field 10's
+    /// analysis when the blob has one ([`Reconstructor::from_analysis`]: the same reconstructor,
+    /// without the analysis's cost).
     pub fn reconstructor(&self) -> Result<Reconstructor, SetupError> {
+        let Some(a) = &self.analysis else {
+            return self
+                .calibration
+                .reconstructor_with_margin(self.axis, self.margin)
+                .map_err(SetupError::Reconstruction);
+        };
         self.calibration
-            .reconstructor_with_margin(self.axis, self.margin)
+            .reconstructor_from_analysis(self.axis, self.margin, a)
             .map_err(SetupError::Reconstruction)
     }
 

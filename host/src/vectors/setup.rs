@@ -44,6 +44,10 @@ pub(super) fn setup_bytes(
         Some(c) => setup.with_correction(c).map_err(|e| kernel(stage, e))?,
         None => setup,
     };
+    // Field 10: the reconstructor's set-up analysis, so that the head does not walk the image
+    // in soft f64 at boot; the check below holds the head's reconstructor built from it to the
+    // desktop's.
+    let setup = setup.with_analysis().map_err(|e| kernel(stage, e))?;
     let same = setup.pattern_set().as_ref() == Ok(set)
         && setup.decoder().as_ref() == Ok(dec)
         && setup.reconstructor().as_ref() == Ok(recon)

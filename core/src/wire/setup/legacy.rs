@@ -6,8 +6,10 @@
 //! - Version 3: field 3 as postcard bytes, up to 64 indices ([`CaptureOrder`]'s own serde).
 //! - Version 4: field 2, the pattern set, ends with the levels' relation (hierarchical,
 //!   heterodyne or coprime); versions 1-3 have no such byte and mean hierarchical.
-//! - Version 5 (written today): field 9, the reference map's margin past the image; versions
-//!   1-4 have none and mean an image-sized map.
+//! - Version 5: field 9, the reference map's margin past the image; versions 1-4 have none and
+//!   mean an image-sized map.
+//! - Version 6 (written today): field 10, the reconstructor's set-up analysis; versions 1-5 have
+//!   none and mean "analyse at boot".
 
 use serde::Deserialize;
 
@@ -22,7 +24,7 @@ use crate::wire::message::{
 };
 
 /// Decode a payload of `version` (1: fields 1-7; 2: and field 8; 3: field 3 as bytes; 4: a
-/// relation in field 2; 5: and field 9). The current version decodes straight into the result (no copy of the
+/// relation in field 2; 5: and field 9; 6: and field 10). The current version decodes straight into the result (no copy of the
 /// fields on the way: a head's set-up stack is tight); the old ones each in a frame of their
 /// own, which only they pay for.
 #[inline(never)]
@@ -32,6 +34,7 @@ pub(super) fn payload_fields(version: u8, payload: &[u8]) -> Result<HeadSetup, S
         2 => version_2(payload),
         3 => version_3(payload),
         4 => version_4(payload),
+        5 => version_5(payload),
         _ => whole(postcard::take_from_bytes::<HeadSetup>(payload)),
     }
 }
@@ -76,6 +79,18 @@ fn version_4(payload: &[u8]) -> Result<HeadSetup, SetupError> {
     >(payload))?;
     let correction = v.tail;
     Ok(v.into_setup(correction))
+}
+
+#[inline(never)]
+fn version_5(payload: &[u8]) -> Result<HeadSetup, SetupError> {
+    let v = whole(postcard::take_from_bytes::<
+        HeadSetupOld<(Option<SetupCorrection>, Margin), CaptureOrder, PatternSetDesc>,
+    >(payload))?;
+    let (correction, margin) = v.tail;
+    Ok(HeadSetup {
+        margin,
+        ..v.into_setup(correction)
+    })
 }
 
 /// Field 2 of versions 1-3: today's [`PatternSetDesc`] without its last field, the relation.
@@ -133,7 +148,8 @@ impl From<CaptureOrder32> for CaptureOrder {
 
 /// The payload of a version-1 blob (fields 1-7; `T = ()`, which postcard writes as nothing), a
 /// version-2 one (and field 8, `T = Option<SetupCorrection>`), with `O = CaptureOrder` a
-/// version-3 one and with `P = PatternSetDesc` a version-4 one (no field 9: no margin).
+/// version-3 one and with `P = PatternSetDesc` a version-4 one (no field 9: no margin); with
+/// `T = (Option<SetupCorrection>, Margin)` a version-5 one (no field 10: no analysis).
 #[derive(Deserialize)]
 struct HeadSetupOld<T, O = CaptureOrder32, P = PatternSetDesc3> {
     frames: FrameFormat,
@@ -158,6 +174,7 @@ impl<T, O: Into<CaptureOrder>, P: Into<PatternSetDesc>> HeadSetupOld<T, O, P> {
             edge_filter: self.edge_filter,
             correction,
             margin: Margin::ZERO,
+            analysis: None,
         }
     }
 }
