@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Hold core/ffi/include/fringe3d.h (kept by hand) equal to core/ffi/src/lib.rs (the C ABI).
+"""Hold core/ffi/include/fringe3d.h (kept by hand) equal to core/ffi/src/ (the C ABI).
 
 Checks, in both directions:
 - every `extern "C" fn` of the library has a prototype in the header with the same name, the
@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-LIB = ROOT / "core/ffi/src/lib.rs"
+SRC = ROOT / "core/ffi/src"
 HEADER = ROOT / "core/ffi/include/fringe3d.h"
 # Declared in the header for the firmware to define (the library calls it on a panic).
 FIRMWARE_PROVIDES = {"fringe3d_panic"}
@@ -129,7 +129,8 @@ def header_structs(hdr: str) -> dict:
 
 
 def main() -> int:
-    src, hdr = LIB.read_text(), HEADER.read_text()
+    src = "\n".join(p.read_text() for p in sorted(SRC.glob("*.rs")))
+    hdr = HEADER.read_text()
     problems = []
     rf, hf = rust_functions(src), header_functions(hdr)
     for name, sig in rf.items():

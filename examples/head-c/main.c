@@ -5,8 +5,10 @@
  * loads the set-up blob, then decodes and reconstructs the scan row by row twice: once with the
  * reference map read in place (QEMU loads it into the board's PSRAM at 0x21000000, standing for
  * a memory-mapped QSPI flash), once with the map streamed row by row from its file through a
- * ring. It prints FNV-1a digests of each pass's outputs, which the test compares with the
- * desktop's files, and checks some refusals.
+ * ring; and, when the folder has a compiled reconstruction (`fringe3d vectors --compiled`), a
+ * third time through its models, read row by row from input/compiled.f3c, with the search over
+ * the mapped map for the pixels they leave. It prints FNV-1a digests of each pass's outputs,
+ * which the test compares with the desktop's files, and checks some refusals.
  */
 #include <stdint.h>
 
@@ -28,6 +30,13 @@ static float xyz[3 * MAX_W];
 static uint8_t point_validity[MAX_W];
 static float ring_storage[RING_FLOATS];
 static float reference_row[MAX_W];
+/* The compiled pass: one row of models, and the search's scratch for the pixels they leave. */
+#define FIELDS 10
+#define F3C_HEADER 72
+static float models[FIELDS * MAX_W];
+static float search_xyz[3 * MAX_W];
+static uint8_t search_codes[MAX_W];
+static uint8_t search_mask[MAX_W];
 
 /* ---- console ---- */
 
@@ -103,9 +112,10 @@ static int fail(const char *what, int32_t status) {
     return 1;
 }
 
-/* Decode and reconstruct every row against `reference`; a ring is topped up from `map_file`. */
+/* Decode and reconstruct every row against `reference`; a ring is topped up from `map_file`;
+ * with `compiled_file` (else -1) through the rows of its models. */
 static int scan(const char *name, const fringe3d_info *info, fringe3d_reference *reference,
-                int frames, int map_file) {
+                int frames, int map_file, int compiled_file) {
     digest d[4] = {{0xcbf29ce484222325ull}, {0xcbf29ce484222325ull},
                    {0xcbf29ce484222325ull}, {0xcbf29ce484222325ull}};
     const uint32_t w = info->width, h = info->height, n = info->images;
@@ -129,7 +139,17 @@ static int scan(const char *name, const fringe3d_info *info, fringe3d_reference 
             s = fringe3d_reference_push_row(reference, reference_row, mw);
             if (s != FRINGE3D_OK) return fail("reference row", s);
         }
-        s = fringe3d_reconstruct_row(&head, reference, v, phase, validity, xyz, point_validity);
+        if (compiled_file >= 0) {
+            size_t row = 4u * FIELDS * w;
+            if (semihost_read_at(compiled_file, F3C_HEADER + row * v, models, row) != 0)
+                return fail("reading the compiled models", FRINGE3D_ERR_ARGUMENT);
+            s = fringe3d_reconstruct_row_compiled(&head, reference, v, models, phase, validity,
+                                                  xyz, point_validity, search_xyz, search_codes,
+                                                  search_mask);
+        } else {
+            s = fringe3d_reconstruct_row(&head, reference, v, phase, validity, xyz,
+                                         point_validity);
+        }
         if (s != FRINGE3D_OK) return fail("reconstruct", s);
         digest_floats(&d[0], phase, w);
         digest_bytes(&d[1], validity, w);
@@ -215,13 +235,23 @@ int main(void) {
     s = fringe3d_reference_map(&reference, &head, MAP_BASE,
                                (size_t)info.map_width * info.map_height);
     if (s != FRINGE3D_OK) return fail("reference map", s);
-    if (scan("map", &info, &reference, frames, -1) != 0) return 1;
+    if (scan("map", &info, &reference, frames, -1, -1) != 0) return 1;
 
     /* 2b. The map streamed through a ring of the band's rows. */
     s = fringe3d_reference_ring(&reference, &head, ring_storage,
                                 (size_t)info.band_rows * info.map_width, 0);
     if (s != FRINGE3D_OK) return fail("reference ring", s);
-    if (scan("ring", &info, &reference, frames, map_file) != 0) return 1;
+    if (scan("ring", &info, &reference, frames, map_file, -1) != 0) return 1;
+
+    /* 2c. The compiled reconstruction, if the folder has one: its models row by row, the
+     * search over the map in place for the pixels they leave. */
+    int compiled_file = semihost_open("input/compiled.f3c");
+    if (compiled_file >= 0) {
+        s = fringe3d_reference_map(&reference, &head, MAP_BASE,
+                                   (size_t)info.map_width * info.map_height);
+        if (s != FRINGE3D_OK) return fail("reference map", s);
+        if (scan("compiled", &info, &reference, frames, -1, compiled_file) != 0) return 1;
+    }
 
     put("sram_bytes=");
     put_u32(sram_high_water());

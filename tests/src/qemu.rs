@@ -176,16 +176,17 @@ pub fn console_value<'a>(console: &'a str, key: &str) -> Option<&'a str> {
 
 /// Check the digests a head example printed in `console` (`phase=… validity=… points=…
 /// point_validity=…`, FNV-1a 64 as `fringe3d_core::decode::parity::Digest`) against the golden
-/// files of the vectors folder `dir`; `what` names the run in a failure.
-pub fn assert_golden_digests(console: &str, dir: &Path, what: &str) {
+/// files of the vectors folder `dir`, the points those of its folder `points` (`reconstruct`,
+/// or `compiled` for the compiled reconstruction); `what` names the run in a failure.
+pub fn assert_golden_digests(console: &str, dir: &Path, points: &str, what: &str) {
     for (key, path) in [
-        ("phase", "decode/phase.f32"),
-        ("validity", "decode/validity.u8"),
-        ("points", "reconstruct/points.f32"),
-        ("point_validity", "reconstruct/validity.u8"),
+        ("phase", "decode/phase.f32".to_string()),
+        ("validity", "decode/validity.u8".to_string()),
+        ("points", format!("{points}/points.f32")),
+        ("point_validity", format!("{points}/validity.u8")),
     ] {
         let mut d = fringe3d_core::decode::parity::Digest::default();
-        d.bytes(&std::fs::read(dir.join(path)).expect("golden file"));
+        d.bytes(&std::fs::read(dir.join(&path)).expect("golden file"));
         let want = format!("{:016x}", d.0);
         assert_eq!(
             console_value(console, key),

@@ -53,7 +53,7 @@ fn qemu_example_matches_the_golden_vectors() {
     let console = run_in_vectors(&elf, &dir);
     println!("{console}");
 
-    assert_golden_digests(&console, &dir, "the example");
+    assert_golden_digests(&console, &dir, "reconstruct", "the example");
 
     // The example leaves out the core's `short-rows` path: a 1-pixel row is refused.
     assert_eq!(

@@ -12,7 +12,8 @@
  *   2. the reference rows: fringe3d_reference_map (a map the head can address: memory-mapped
  *      flash, PSRAM) or fringe3d_reference_ring + fringe3d_reference_push_row (a map streamed
  *      from storage);
- *   3. per camera row v: fringe3d_decode_row_u8 / _u16, then fringe3d_reconstruct_row.
+ *   3. per camera row v: fringe3d_decode_row_u8 / _u16, then fringe3d_reconstruct_row (or
+ *      fringe3d_reconstruct_row_compiled with the row's compiled models).
  *
  * Every call checks its pointers and lengths and returns a status: FRINGE3D_OK (0) or one of
  * the FRINGE3D_ERR_* codes (fringe3d_status_name names them); a call that fails on a head
@@ -20,7 +21,7 @@
  * millimetres, pixel centres at integers; every invalid output value is the canonical NaN
  * 0x7fc00000; validity codes as in docs/golden-vectors.md (0 = valid).
  *
- * Kept by hand; tools/check_c_header.py (CI) holds it equal to core/ffi/src/lib.rs.
+ * Kept by hand; tools/check_c_header.py (CI) holds it equal to core/ffi/src/.
  */
 #ifndef FRINGE3D_H
 #define FRINGE3D_H
@@ -125,6 +126,19 @@ uint32_t fringe3d_reference_rows(fringe3d_reference *reference);
 int32_t fringe3d_reconstruct_row(fringe3d_head *head, fringe3d_reference *reference, uint32_t v,
                                  const float *phase, const uint8_t *validity, float *xyz,
                                  uint8_t *point_validity);
+
+/* fringe3d_reconstruct_row through row v's compiled models (docs/compiled.md): models is row v of
+ * a `fringe3d compile` file (after its 72-byte header, 10 * width little-endian floats per row),
+ * one rational function of the phase per pixel (about 200 Cortex-M4F instructions a pixel
+ * instead of the search's 1 100). The pixels it leaves go to the search over reference, with
+ * search_xyz (3 * width floats), search_codes and mask (width bytes each) as scratch; these may
+ * be NULL for a file that compiled every pixel (else FRINGE3D_ERR_ARGUMENT). The models are
+ * trusted as `fringe3d compile` wrote them for this calibration and reference map. */
+int32_t fringe3d_reconstruct_row_compiled(fringe3d_head *head, fringe3d_reference *reference,
+                                          uint32_t v, const float *models, const float *phase,
+                                          const uint8_t *validity, float *xyz,
+                                          uint8_t *point_validity, float *search_xyz,
+                                          uint8_t *search_codes, uint8_t *mask);
 
 /* Why the last failed call on head failed, in words, NUL-terminated into buf (len bytes, cut
  * short if need be); returns the message's length. Empty if nothing failed. */

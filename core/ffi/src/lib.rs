@@ -8,7 +8,8 @@
 //!    [`fringe3d_reference_ring`] + [`fringe3d_reference_push_row`] (a map streamed from
 //!    storage) for the reconstruction's reference rows;
 //! 3. per camera row `v`: [`fringe3d_decode_row_u8`] or [`fringe3d_decode_row_u16`], then
-//!    [`fringe3d_reconstruct_row`].
+//!    [`fringe3d_reconstruct_row`] (or [`fringe3d_reconstruct_row_compiled`] with the row's
+//!    compiled models, docs/compiled.md).
 //!
 //! Every call checks its pointers and lengths and returns a status ([`FRINGE3D_OK`] or one of
 //! the `FRINGE3D_ERR_*` codes, named by [`fringe3d_status_name`]); a call that fails on a head
@@ -17,7 +18,7 @@
 //! (`tests/tests/qemu_c_example.rs`).
 //!
 //! The header is kept by hand next to this file; `tools/check_c_header.py` (CI) holds its
-//! prototypes, constants and storage sizes equal to the ones here, and the compile-time
+//! prototypes, constants and storage sizes equal to the crate's, and the compile-time
 //! assertions below hold the storage sizes to the Rust objects they carry.
 #![no_std]
 #![deny(missing_docs)]
@@ -28,9 +29,8 @@ use core::fmt::Write as _;
 use core::slice;
 use fringe3d_core::decode::{DecodeError, DecodeScratch, Decoder, RowOut};
 use fringe3d_core::limits::MAX_IMAGES;
-use fringe3d_core::reconstruct::{
-    ReconstructError, Reconstructor, ReferenceMap, ReferenceRing, ReferenceRows,
-};
+use fringe3d_core::reconstruct::compiled::CompiledError;
+use fringe3d_core::reconstruct::{ReconstructError, Reconstructor, ReferenceMap, ReferenceRing};
 use fringe3d_core::sample::Sample;
 use fringe3d_core::wire::setup::FrameFormat;
 use fringe3d_core::wire::{HeadSetup, SetupError};
@@ -105,6 +105,7 @@ enum LastError {
     Setup(SetupError),
     Decode(DecodeError),
     Reconstruct(ReconstructError),
+    Compiled(CompiledError),
 }
 
 const HEAD_MAGIC: u32 = u32::from_le_bytes(*b"F3DH");
@@ -131,6 +132,9 @@ struct Reference {
     magic: u32,
     source: Source,
 }
+
+mod reconstruct;
+pub use reconstruct::*;
 
 const _: () = {
     assert!(size_of::<Head>() <= size_of::<fringe3d_head>());
@@ -421,249 +425,6 @@ unsafe fn decode_row<P: Sample>(
     }
 }
 
-/// The reference rows the reconstruction of camera row `v` reads: map rows `*first ..= *last`.
-/// A ring must hold them (pushed in order) before [`fringe3d_reconstruct_row`] of row `v`.
-///
-/// # Safety
-/// `head` is null or a head; `first` and `last` are null or valid for a write.
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fringe3d_rows_needed(
-    head: *mut fringe3d_head,
-    v: u32,
-    first: *mut u32,
-    last: *mut u32,
-) -> i32 {
-    // SAFETY: the caller's contract.
-    let h = match unsafe { head_ref(head) } {
-        Ok(h) => h,
-        Err(s) => return s,
-    };
-    let Some(r) = &h.recon else {
-        return FRINGE3D_ERR_STATE;
-    };
-    let (a, b) = r.rows_needed(v);
-    if first.is_null() || last.is_null() {
-        return h.fail(
-            LastError::Argument("no row numbers to fill"),
-            FRINGE3D_ERR_ARGUMENT,
-        );
-    }
-    // SAFETY: non-null, the caller's.
-    unsafe { (first.write(a), last.write(b)) };
-    FRINGE3D_OK
-}
-
-/// Make `reference` read the head's reference map in place: `count` = map width × map height
-/// f32 samples at `samples` (row after row), prepared on the desktop (the canonical NaN
-/// `0x7fc00000` where invalid; `fringe3d vectors`' `input/reference_phase.f32` is). Checks every
-/// sample once, here; the map is never copied or written, and must stay where it is while the
-/// reference is used.
-///
-/// # Safety
-/// `reference` is null or valid for writes of a `fringe3d_reference`; `head` null or a head;
-/// `samples` null or valid for `count` reads for as long as the reference is used.
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fringe3d_reference_map(
-    reference: *mut fringe3d_reference,
-    head: *mut fringe3d_head,
-    samples: *const f32,
-    count: usize,
-) -> i32 {
-    // SAFETY: the caller's contract.
-    let (r, h) = match unsafe { reference_storage(reference, head) } {
-        Ok(rh) => rh,
-        Err(s) => return s,
-    };
-    let Some(recon) = &h.recon else {
-        return FRINGE3D_ERR_STATE;
-    };
-    let (w, hh) = (recon.map_width(), recon.map_height());
-    // SAFETY: the caller's contract; the map outlives the reference.
-    let map: Option<&'static [f32]> = unsafe { items(samples, count) };
-    let Some(map) = map else {
-        return h.fail(LastError::Argument("no map samples"), FRINGE3D_ERR_ARGUMENT);
-    };
-    match ReferenceMap::from_prepared(map, w, hh) {
-        Ok(m) => make(r, Source::Map(m)),
-        Err(e) => h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_REFERENCE),
-    }
-}
-
-/// Make `reference` a ring of reference rows in `storage` (`count` floats: at least
-/// `band_rows × map_width`, [`fringe3d_info`]), for a map the head streams from storage it
-/// cannot address. The first row to push is `first_row` (0, or for a region of interest starting
-/// at camera row `v0`, the `first` of [`fringe3d_rows_needed`] for `v0`).
-///
-/// # Safety
-/// `reference` is null or valid for writes of a `fringe3d_reference`; `head` null or a head;
-/// `storage` null or valid for `count` reads and writes, used by nothing else, for as long as the
-/// reference is used.
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fringe3d_reference_ring(
-    reference: *mut fringe3d_reference,
-    head: *mut fringe3d_head,
-    storage: *mut f32,
-    count: usize,
-    first_row: u32,
-) -> i32 {
-    // SAFETY: the caller's contract.
-    let (r, h) = match unsafe { reference_storage(reference, head) } {
-        Ok(rh) => rh,
-        Err(s) => return s,
-    };
-    let Some(recon) = &h.recon else {
-        return FRINGE3D_ERR_STATE;
-    };
-    // SAFETY: the caller's contract; the storage outlives the reference.
-    let storage: Option<&'static mut [f32]> = unsafe { items_mut(storage, count) };
-    let Some(storage) = storage else {
-        return h.fail(
-            LastError::Argument("no ring storage"),
-            FRINGE3D_ERR_ARGUMENT,
-        );
-    };
-    let ring = ReferenceRing::new(recon, storage, &mut []).and_then(|mut ring| {
-        if first_row > 0 {
-            ring.start_at(first_row)?;
-        }
-        Ok(ring)
-    });
-    match ring {
-        Ok(ring) => make(r, Source::Ring(ring)),
-        Err(e) => h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_REFERENCE),
-    }
-}
-
-/// The storage of a reference being made (marked unusable until it is), and its head.
-///
-/// # Safety
-/// As [`fringe3d_reference_map`].
-unsafe fn reference_storage<'a>(
-    reference: *mut fringe3d_reference,
-    head: *mut fringe3d_head,
-) -> Result<(*mut Reference, &'a mut Head), i32> {
-    let r = reference.cast::<Reference>();
-    if r.is_null() {
-        return Err(FRINGE3D_ERR_ARGUMENT);
-    }
-    // SAFETY: the caller's storage, large and aligned enough; whatever it held is forgotten
-    // (a map or ring owns nothing).
-    unsafe { core::ptr::addr_of_mut!((*r).magic).write(0) };
-    // SAFETY: the caller's contract.
-    let h = unsafe { head_ref(head) }?;
-    Ok((r, h))
-}
-
-/// Write a made reference into its storage `r` (from [`reference_storage`]: non-null, large
-/// and aligned enough).
-fn make(r: *mut Reference, source: Source) -> i32 {
-    let magic = REFERENCE_MAGIC;
-    // SAFETY: `r` as above, the caller's storage.
-    unsafe { r.write(Reference { magic, source }) };
-    FRINGE3D_OK
-}
-
-/// Push the next reference row into a ring: map row number [`fringe3d_reference_rows`] ("rows
-/// available"), `len` = map width f32 samples, the canonical NaN (or any NaN) where invalid.
-/// [`FRINGE3D_ERR_REFERENCE`] for a map (it holds every row), a row of the wrong length, or a
-/// row past the map.
-///
-/// # Safety
-/// `reference` is null or a reference; `row` null or valid for `len` reads.
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fringe3d_reference_push_row(
-    reference: *mut fringe3d_reference,
-    row: *const f32,
-    len: usize,
-) -> i32 {
-    // SAFETY: the caller's contract.
-    let r = match unsafe { reference_ref(reference) } {
-        Ok(r) => r,
-        Err(s) => return s,
-    };
-    // SAFETY: the caller's contract.
-    let Some(row) = (unsafe { items(row, len) }) else {
-        return FRINGE3D_ERR_ARGUMENT;
-    };
-    match &mut r.source {
-        Source::Ring(ring) => match ring.push_row(row, &[]) {
-            Ok(()) => FRINGE3D_OK,
-            Err(_) => FRINGE3D_ERR_REFERENCE,
-        },
-        Source::Map(_) => FRINGE3D_ERR_REFERENCE,
-    }
-}
-
-/// Map rows available so far: a ring's next row to push (the rows pushed, from its first row
-/// on), a map's height (it holds them all); 0 for a reference not made.
-///
-/// # Safety
-/// `reference` is null or a reference.
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fringe3d_reference_rows(reference: *mut fringe3d_reference) -> u32 {
-    // SAFETY: the caller's contract.
-    match unsafe { reference_ref(reference) }.map(|r| &r.source) {
-        Ok(Source::Ring(ring)) => ring.rows_pushed(),
-        Ok(Source::Map(map)) => map.height() as u32,
-        Err(_) => 0,
-    }
-}
-
-/// Reconstruct camera row `v` (paper §6, eqs 16-18) from its decoded `phase` and `validity`
-/// (the head's width each): `xyz` gets x, y, z per pixel (mm, camera frame; the canonical NaN
-/// where invalid), `point_validity` the codes (0 = a point). A ring must hold the rows
-/// [`fringe3d_rows_needed`] names for `v`.
-///
-/// # Safety
-/// `head` and `reference` are null or initialised; `phase` and `validity` null or valid for
-/// width reads; `xyz` null or valid for 3 × width writes, `point_validity` for width writes, not
-/// overlapping the inputs.
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fringe3d_reconstruct_row(
-    head: *mut fringe3d_head,
-    reference: *mut fringe3d_reference,
-    v: u32,
-    phase: *const f32,
-    validity: *const u8,
-    xyz: *mut f32,
-    point_validity: *mut u8,
-) -> i32 {
-    // SAFETY: the caller's contract.
-    let h = match unsafe { head_ref(head) } {
-        Ok(h) => h,
-        Err(s) => return s,
-    };
-    // SAFETY: the caller's contract.
-    let source = match unsafe { reference_ref(reference) } {
-        Ok(r) => &r.source,
-        Err(s) => return s,
-    };
-    let Some(recon) = &h.recon else {
-        return FRINGE3D_ERR_STATE;
-    };
-    let w = recon.width();
-    // SAFETY: the caller's contract: width (3 × width) items each.
-    let bufs = unsafe {
-        (
-            items(phase, w),
-            items(validity, w),
-            items_mut(xyz, 3 * w),
-            items_mut(point_validity, w),
-        )
-    };
-    let (Some(phase), Some(validity), Some(xyz), Some(codes)) = bufs else {
-        return h.fail(LastError::Argument("a null row"), FRINGE3D_ERR_ARGUMENT);
-    };
-    let rows: &dyn ReferenceRows = match source {
-        Source::Map(m) => m,
-        Source::Ring(r) => r,
-    };
-    match recon.reconstruct_row(rows, v, phase, validity, xyz, codes) {
-        Ok(()) => FRINGE3D_OK,
-        Err(e) => h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_RECONSTRUCT),
-    }
-}
-
 /// Write why the last failed call on `head` failed, in words, into `buf` (at most `len` bytes,
 /// NUL-terminated, cut short if need be); returns the message's length without the NUL. An
 /// empty message if nothing failed. Works on a head whose [`fringe3d_head_init`] failed.
@@ -692,6 +453,7 @@ pub unsafe extern "C" fn fringe3d_last_error(
             LastError::Setup(e) => write!(w, "{e}"),
             LastError::Decode(e) => write!(w, "decode: {e}"),
             LastError::Reconstruct(e) => write!(w, "reconstruction: {e}"),
+            LastError::Compiled(e) => write!(w, "compiled reconstruction: {e}"),
         };
     }
     let end = w.at.min(w.out.len() - 1);

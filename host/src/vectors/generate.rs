@@ -1,7 +1,7 @@
 //! Run the reference pipeline and collect every file of the vectors (nothing is written here).
 
 use super::manifest::manifest_info;
-use super::pipeline::{Inputs, decode_rows, inputs, reconstruct_rows};
+use super::pipeline::{Inputs, decode_rows, inputs, reconstruct_rows, reconstruct_rows_compiled};
 use super::setup::setup_bytes;
 use super::{Dtype, GoldenVectors, VectorFile, VectorOptions, VectorsError, f32_bytes, file_err};
 use super::{kernel, u16_bytes};
@@ -162,10 +162,43 @@ pub fn generate_from(inp: &Inputs) -> Result<GoldenVectors, VectorsError> {
         "points after the edge filter: canonical NaN where the filtered validity != 0".into(),
         f32_bytes(&p.filtered_points),
     );
+    // The compiled reconstruction (docs/compiled.md): the models, then the scan through them.
+    let compiled = if let Some(tolerance) = inp.compiled {
+        let (file, _) = crate::compiled::compile(recon, &cal.reference_phase, tolerance);
+        let ph = &cal.reference_phase;
+        let (xyz, codes, _) =
+            reconstruct_rows_compiled(recon, ph, &file.models, &d.phase, &d.validity)?;
+        arr(
+            "compiled/points.f32".into(),
+            Dtype::F32,
+            vec![h, w, 3],
+            "points of the compiled reconstruction (compiled_row, the search for the pixels it leaves, merge_search); canonical NaN where validity != 0".into(),
+            f32_bytes(&xyz),
+        );
+        arr(
+            "compiled/validity.u8".into(),
+            Dtype::U8,
+            vec![h, w],
+            "validity codes of the compiled reconstruction".into(),
+            codes,
+        );
+        Some(file)
+    } else {
+        None
+    };
+    if let Some(file) = compiled {
+        files.push(VectorFile {
+            path: "input/compiled.f3c".into(),
+            array: None,
+            format: "fringe3d compiled reconstruction (docs/formats.md): a 72-byte header, then 40 x width bytes per row",
+            description: "one depth function of the phase per pixel (fringe3d compile to the manifest's scene.compiled_tolerance_mm; its source digest is zero: not tied to the folder's files), read row by row by a head".into(),
+            bytes: file.to_bytes(),
+        });
+    }
     files.push(VectorFile {
         path: "input/setup.bin".into(),
         array: None,
-        format: "fringe3d head set-up blob v5 (docs/setup-blob.md)",
+        format: "fringe3d head set-up blob v6 (docs/setup-blob.md)",
         description: "the core's head set-up blob (fringe3d_core::wire::setup): pattern set, capture order, decoder thresholds, camera model, reconstruction set-up, edge filter, phase-error table and the reference map's margin, versioned and CRC-checked, for firmware and ports".into(),
         bytes: setup_bytes(inp, &set, &dec)?,
     });

@@ -89,8 +89,10 @@ pub(super) fn manifest_info(
         "scene".into(),
         json!({"name": spec.name, "width": w, "height": h, "camera_bits": inp.bits, "noise_sigma": spec.camera.noise, "seed": spec.seed,
                "reference": inp.reference.name(),
-               "regenerate": format!("fringe3d vectors --out DIR --scene {} --size {w}x{h} --bits {} --noise {} --seed {} --max-angle {} --reference {}",
-                                     spec.name, inp.bits, spec.camera.noise, spec.seed, inp.edge_max_angle_deg, inp.reference.name())}),
+               "compiled_tolerance_mm": inp.compiled,
+               "regenerate": format!("fringe3d vectors --out DIR --scene {} --size {w}x{h} --bits {} --noise {} --seed {} --max-angle {} --reference {}{}",
+                                     spec.name, inp.bits, spec.camera.noise, spec.seed, inp.edge_max_angle_deg, inp.reference.name(),
+                                     inp.compiled.map_or(String::new(), |t| format!(" --compiled {}", t * 1e3)))}),
     );
     m.insert("sample_dtype".into(), json!(sample.name()));
     m.insert(

@@ -133,6 +133,11 @@ pub struct VectorOptions {
     /// model fitted to it, or the virtual map of the rig's projector (image-sized), or the
     /// virtual map on the default far plane with the margin past the image the geometry needs.
     pub reference: VectorReference,
+    /// Also compile the reconstruction (`fringe3d compile`) to this tolerance, mm, and write its
+    /// models (`input/compiled.f3c`) and the compiled scan's points (`compiled/`),
+    /// docs/compiled.md. A smaller camera needs a larger tolerance for its pixels to compile
+    /// (the map's bilinear bends grow with the pixel size).
+    pub compiled: Option<f64>,
 }
 
 /// Which reference phase map the golden vectors' scan uses (`fringe3d vectors --reference`).
@@ -178,6 +183,7 @@ impl Default for VectorOptions {
             patterns: None,
             defocus: None,
             reference: VectorReference::Captured,
+            compiled: None,
         }
     }
 }

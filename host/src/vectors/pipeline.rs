@@ -9,7 +9,8 @@ use crate::scan::ScanCalibration;
 use fringe3d_core::decode::{DecodeConfig, Decoder, PhaseCorrection, RowOut, Sample};
 use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::math::CANONICAL_NAN;
-use fringe3d_core::reconstruct::{Reconstructor, ReferenceRing};
+use fringe3d_core::reconstruct::compiled::{FIELDS, compiled_row, merge_search, search_mask};
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap, ReferenceRing};
 use fringe3d_core::validity::Validity;
 use std::path::{Path, PathBuf};
 
@@ -36,6 +37,8 @@ pub struct Inputs {
     pub correction: Option<PhaseCorrection>,
     /// Which reference map the calibration holds.
     pub reference: super::VectorReference,
+    /// Compile the reconstruction too, to this tolerance, mm ([`super::VectorOptions::compiled`]).
+    pub compiled: Option<f64>,
 }
 
 /// Render the scene of `opts` and set up its calibration (no decoding of the object yet).
@@ -150,6 +153,7 @@ pub fn inputs(opts: &VectorOptions) -> Result<Inputs, VectorsError> {
         edge_max_angle_deg: opts.max_angle_deg,
         correction,
         reference: opts.reference,
+        compiled: opts.compiled,
     })
 }
 
@@ -286,6 +290,47 @@ pub fn reconstruct_rows(
         }
     }
     Ok(out)
+}
+
+/// The compiled reconstruction of whole frames row by row (docs/compiled.md), as a head runs it:
+/// `compiled_row` over the row's models (`FIELDS × width` each, `models` row after row), then
+/// for the pixels it leaves, the §6 search over the prepared map with every other pixel masked
+/// (`search_mask`), merged in (`merge_search`). Returns the points, their codes and how many
+/// pixels went to the search.
+pub fn reconstruct_rows_compiled(
+    recon: &Reconstructor,
+    reference_phase: &[f32],
+    models: &[f32],
+    phase: &[f32],
+    validity: &[u8],
+) -> Result<(Vec<f32>, Vec<u8>, usize), VectorsError> {
+    let stage = "compiled reconstruction";
+    let (w, h) = (recon.width(), recon.height());
+    let map = ReferenceMap::from_prepared(reference_phase, recon.map_width(), recon.map_height())
+        .map_err(|e| kernel(stage, e))?;
+    if models.len() != FIELDS * w * h || phase.len() != w * h || validity.len() != w * h {
+        return Err(kernel(stage, "models or rows differ from the camera"));
+    }
+    let (z_min, z_max) = (recon.setup().z_min as f32, recon.setup().z_max as f32);
+    let (mut xyz, mut codes) = (vec![0f32; 3 * w * h], vec![0u8; w * h]);
+    let (mut mask, mut sx, mut sq) = (vec![0u8; w], vec![0f32; 3 * w], vec![0u8; w]);
+    let mut searched = 0;
+    for v in 0..h {
+        let (r, r3) = (v * w..(v + 1) * w, 3 * v * w..3 * (v + 1) * w);
+        let m = &models[FIELDS * v * w..FIELDS * (v + 1) * w];
+        let (p, q) = (&phase[r.clone()], &validity[r.clone()]);
+        let (o, oq) = (&mut xyz[r3], &mut codes[r]);
+        let left = compiled_row(m, z_min, z_max, p, q, o, oq).map_err(|e| kernel(stage, e))?;
+        if left > 0 {
+            searched += left;
+            search_mask(oq, q, &mut mask).map_err(|e| kernel(stage, e))?;
+            recon
+                .reconstruct_row(&map, v as u32, p, &mask, &mut sx, &mut sq)
+                .map_err(|e| kernel(stage, e))?;
+            merge_search(&sx, &sq, o, oq).map_err(|e| kernel(stage, e))?;
+        }
+    }
+    Ok((xyz, codes, searched))
 }
 
 /// The virtual reference map of the rig's projector model on `plane` (its point and normal),

@@ -456,7 +456,11 @@ pub fn compiled_row_inline(
         } else {
             None
         };
-        let (p, q) = (&phase_row[c0..c0 + n], &validity_row[c0..c0 + n]);
+        // Every range below is inside the lengths checked above: `get` only keeps panic code out
+        // of a head's build (docs/integration.md, "No panics").
+        let (Some(p), Some(q)) = (phase_row.get(c0..c0 + n), validity_row.get(c0..c0 + n)) else {
+            return Err(CompiledError::Length);
+        };
         match (
             fields,
             <&[f32; CHUNK]>::try_from(p),
@@ -468,23 +472,33 @@ pub fn compiled_row_inline(
                 let mut pp = [0f32; CHUNK];
                 let mut pq = [Validity::Dark as u8; CHUNK];
                 for (k, row) in pad.iter_mut().enumerate() {
-                    row[..n].copy_from_slice(&models[k * w + c0..k * w + c0 + n]);
+                    let src = models.get(k * w + c0..k * w + c0 + n).unwrap_or(&[]);
+                    row.iter_mut().zip(src).for_each(|(d, s)| *d = *s);
                 }
-                pp[..n].copy_from_slice(p);
-                pq[..n].copy_from_slice(q);
+                pp.iter_mut().zip(p).for_each(|(d, s)| *d = *s);
+                pq.iter_mut().zip(q).for_each(|(d, s)| *d = *s);
                 let f: [&[f32; CHUNK]; FIELDS] = core::array::from_fn(|k| &pad[k]);
                 pass(f, &pp, &pq, z_min, z_max, &mut s, &mut code);
             }
         }
-        let (rx, ry) = (&models[c0..c0 + n], &models[w + c0..w + c0 + n]);
-        let xyz = &mut out_xyz[3 * c0..3 * (c0 + n)];
-        for (i, o) in xyz.chunks_exact_mut(3).enumerate() {
-            let good = code[i] == Validity::Valid as u8;
-            o[0] = if good { s[i] * rx[i] } else { CANONICAL_NAN };
-            o[1] = if good { s[i] * ry[i] } else { CANONICAL_NAN };
-            o[2] = if good { s[i] } else { CANONICAL_NAN };
+        let (Some(rx), Some(ry), Some(xyz), Some(ov)) = (
+            models.get(c0..c0 + n),
+            models.get(w + c0..w + c0 + n),
+            out_xyz.get_mut(3 * c0..3 * (c0 + n)),
+            out_validity.get_mut(c0..c0 + n),
+        ) else {
+            return Err(CompiledError::Length);
+        };
+        let pixels = s.iter().zip(&code).zip(rx.iter().zip(ry));
+        for (o, ((&si, &ci), (&x, &y))) in xyz.chunks_exact_mut(3).zip(pixels) {
+            let good = ci == Validity::Valid as u8;
+            if let [ox, oy, oz] = o {
+                *ox = if good { si * x } else { CANONICAL_NAN };
+                *oy = if good { si * y } else { CANONICAL_NAN };
+                *oz = if good { si } else { CANONICAL_NAN };
+            }
         }
-        for (o, c) in out_validity[c0..c0 + n].iter_mut().zip(&code) {
+        for (o, c) in ov.iter_mut().zip(&code) {
             *o = *c;
             search += (*c == LEFT_TO_SEARCH) as usize;
         }
@@ -531,7 +545,7 @@ pub fn merge_search(
     let dst = out_xyz.chunks_exact_mut(3).zip(out_validity.iter_mut());
     for ((si, &sq), (o, oq)) in src.zip(dst) {
         if *oq == LEFT_TO_SEARCH {
-            o.copy_from_slice(si);
+            o.iter_mut().zip(si).for_each(|(d, s)| *d = *s);
             *oq = sq;
         }
     }
