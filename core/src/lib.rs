@@ -13,6 +13,7 @@ pub mod decode_config;
 pub mod decode_error;
 pub mod estimator;
 pub mod filter;
+pub mod frame_store;
 pub mod geometry;
 pub mod gray;
 pub mod hdr_parity;

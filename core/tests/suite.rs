@@ -24,6 +24,7 @@ mod decode_parity;
 mod decode_scratch_static;
 mod decode_single_period;
 mod filter_edges;
+mod frame_store;
 mod hdr_fusion;
 mod patterns;
 mod reconstruct_accuracy;

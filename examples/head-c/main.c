@@ -2,13 +2,14 @@
  * examples/head-c: a scan head in C around fringe3d-core's C ABI (core/ffi/include/fringe3d.h),
  * for QEMU mps2-an386 (Cortex-M4F), built with arm-none-eabi-gcc (tests/tests/qemu_c_example.rs
  * shows the commands). In a golden-vectors folder of a 16-bit camera (`fringe3d vectors`) it
- * loads the set-up blob, then decodes and reconstructs the scan row by row twice: once with the
- * reference map read in place (QEMU loads it into the board's PSRAM at 0x21000000, standing for
- * a memory-mapped QSPI flash), once with the map streamed row by row from its file through a
- * ring; and, when the folder has a compiled reconstruction (`fringe3d vectors --compiled`), a
- * third time through its models, read row by row from input/compiled.f3c, with the search over
- * the mapped map for the pixels they leave. It prints FNV-1a digests of each pass's outputs,
- * which the test compares with the desktop's files, and checks some refusals.
+ * loads the set-up blob, then decodes and reconstructs the scan row by row: once with the
+ * reference map read in place (its checked file, input/reference.f3m, which QEMU loads into the
+ * board's PSRAM at 0x21000000, standing for a memory-mapped QSPI flash), once with the map
+ * streamed row by row from input/reference_phase.f32 through a ring; and, when the folder has a
+ * compiled reconstruction (`fringe3d vectors --compiled`), a third time through its models, read
+ * row by row from input/compiled.f3c, with the search over the mapped map for the pixels they
+ * leave. It prints FNV-1a digests of each pass's outputs, which the test compares with the
+ * desktop's files, and checks some refusals.
  */
 #include <stdint.h>
 
@@ -18,7 +19,7 @@
 #define MAX_W 640
 #define MAX_IMAGES 8
 #define RING_FLOATS (16 * MAX_W)
-#define MAP_BASE ((const float *)0x21000000)
+#define MAP_FILE ((const uint8_t *)0x21000000)
 #define MAP_CAPACITY (16u << 20)
 
 static fringe3d_head head;
@@ -99,16 +100,21 @@ static uint32_t sram_high_water(void) {
 
 /* ---- the scan ---- */
 
-static int fail(const char *what, int32_t status) {
+/* Print `prefix`, `what`, the status's name and the head's reason for it, on one line. */
+static void put_status(const char *prefix, const char *what, int32_t status) {
     char why[160];
     fringe3d_last_error(&head, why, sizeof why);
-    put("fringe3d-head-c: ");
+    put(prefix);
     put(what);
-    put(": ");
     put(fringe3d_status_name(status));
     put(" (");
     put(why);
     put(")\n");
+}
+
+static int fail(const char *what, int32_t status) {
+    put("fringe3d-head-c: ");
+    put_status(what, ": ", status);
     return 1;
 }
 
@@ -185,13 +191,7 @@ int main(void) {
     semihost_close(f);
     blob[len - 1] ^= 0x01; /* the CRC's last byte */
     int32_t s = fringe3d_head_init(&head, blob, (size_t)len);
-    char why[160];
-    fringe3d_last_error(&head, why, sizeof why);
-    put("damaged_blob=");
-    put(fringe3d_status_name(s));
-    put(" (");
-    put(why);
-    put(")\n");
+    put_status("", "damaged_blob=", s);
     if (s != FRINGE3D_ERR_SETUP) return 1;
     blob[len - 1] ^= 0x01;
     s = fringe3d_head_init(&head, blob, (size_t)len);
@@ -202,7 +202,7 @@ int main(void) {
     if (s != FRINGE3D_OK) return fail("info", s);
     if (info.width > MAX_W || info.images > MAX_IMAGES || info.sample_bytes != 2 ||
         (size_t)info.map_width * info.band_rows > RING_FLOATS ||
-        (size_t)info.map_width * info.map_height * 4 > MAP_CAPACITY) {
+        (size_t)info.map_width * info.map_height * 4 + 36 > MAP_CAPACITY) {
         put("fringe3d-head-c: the scan does not fit this build's buffers\n");
         return 1;
     }
@@ -230,10 +230,18 @@ int main(void) {
         return 1;
     }
 
-    /* 2a. The map in place (memory-mapped). */
+    /* 2a. The map in place (memory-mapped): its file, checked whole (CRC) before use; a damaged
+     * or short one is refused (here: the file one byte short). */
     fringe3d_reference reference;
-    s = fringe3d_reference_map(&reference, &head, MAP_BASE,
-                               (size_t)info.map_width * info.map_height);
+    size_t map_file_len = 32 + 4 * (size_t)info.map_width * info.map_height + 4;
+    if (map_file_len > MAP_CAPACITY) {
+        put("fringe3d-head-c: the map file does not fit the mapped region\n");
+        return 1;
+    }
+    s = fringe3d_reference_map_file(&reference, &head, MAP_FILE, map_file_len - 1);
+    put_status("", "short_map_file=", s);
+    if (s != FRINGE3D_ERR_REFERENCE) return 1;
+    s = fringe3d_reference_map_file(&reference, &head, MAP_FILE, map_file_len);
     if (s != FRINGE3D_OK) return fail("reference map", s);
     if (scan("map", &info, &reference, frames, -1, -1) != 0) return 1;
 
@@ -247,8 +255,7 @@ int main(void) {
      * search over the map in place for the pixels they leave. */
     int compiled_file = semihost_open("input/compiled.f3c");
     if (compiled_file >= 0) {
-        s = fringe3d_reference_map(&reference, &head, MAP_BASE,
-                                   (size_t)info.map_width * info.map_height);
+        s = fringe3d_reference_map_file(&reference, &head, MAP_FILE, map_file_len);
         if (s != FRINGE3D_OK) return fail("reference map", s);
         if (scan("compiled", &info, &reference, frames, -1, compiled_file) != 0) return 1;
     }

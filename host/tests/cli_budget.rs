@@ -47,6 +47,9 @@ fn the_budget_of_a_rig_is_its_buffers() {
     assert_eq!(sum, per_column * w + fixed);
     // The frame-sequential state: 4 bytes for A and S, C of 3 levels, and a flag byte.
     assert_eq!(j["frame_sequential"]["bytes"], (4 * 7 + 1) * w * h);
+    // The frame store: the 8 frames of one byte a sample.
+    assert_eq!(j["frame_store"]["bytes_per_pixel"], 8);
+    assert_eq!(j["frame_store"]["bytes"], 8 * w * h);
     // The example itself reads the map in place (memory-mapped): no ring, no staging row, and
     // no band needed; the same fixed buffers.
     let in_place = json(&["-p", SET, "--width", &w.to_string()]);

@@ -136,7 +136,7 @@ pub fn run_in_vectors(elf: &Path, dir: &Path) -> String {
         .args(["-semihosting-config", "enable=on,target=native"])
         .args([
             "-device",
-            "loader,file=input/reference_phase.f32,addr=0x21000000,force-raw=on",
+            "loader,file=input/reference.f3m,addr=0x21000000,force-raw=on",
         ])
         .arg("-kernel")
         .arg(elf)

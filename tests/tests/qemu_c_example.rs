@@ -156,6 +156,11 @@ fn c_firmware_matches_the_golden_vectors() {
         "{console}"
     );
     assert_eq!(value(&console, "u8_rows"), Some("sample-size"), "{console}");
+    // A map file one byte short is refused, with its reason, before any sample is read.
+    assert!(
+        console.contains("short_map_file=reference (reference map: truncated file)"),
+        "{console}"
+    );
     let sram: usize = value(&console, "sram_bytes")
         .and_then(|s| s.parse().ok())
         .unwrap_or(0);

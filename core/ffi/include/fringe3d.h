@@ -107,6 +107,14 @@ int32_t fringe3d_rows_needed(fringe3d_head *head, uint32_t v, uint32_t *first, u
 int32_t fringe3d_reference_map(fringe3d_reference *reference, fringe3d_head *head,
                                const float *samples, size_t count);
 
+/* fringe3d_reference_map from the map's file as a head stores it (`fringe3d vectors`'
+ * input/reference.f3m; docs/setup-blob.md, "The reference map file"): len bytes at file, checked
+ * whole (header, size and margin against the head's calibration, CRC-32C), so that a damaged map
+ * is refused (FRINGE3D_ERR_REFERENCE, fringe3d_last_error says why); then its samples, 32 bytes
+ * in, are read in place. file must be 4-byte aligned. */
+int32_t fringe3d_reference_map_file(fringe3d_reference *reference, fringe3d_head *head,
+                                    const uint8_t *file, size_t len);
+
 /* A reference that is a ring of map rows in storage (count floats, at least band_rows *
  * map_width), for a map streamed from storage. The first row to push is first_row (0, or the
  * first row fringe3d_rows_needed names for a region of interest's first camera row). */

@@ -33,7 +33,7 @@ use fringe3d_core::reconstruct::compiled::CompiledError;
 use fringe3d_core::reconstruct::{ReconstructError, Reconstructor, ReferenceMap, ReferenceRing};
 use fringe3d_core::sample::Sample;
 use fringe3d_core::wire::setup::FrameFormat;
-use fringe3d_core::wire::{HeadSetup, SetupError};
+use fringe3d_core::wire::{HeadSetup, ReferenceFileError, SetupError};
 
 /// The version of this ABI (the header's `FRINGE3D_ABI_VERSION`): a change to a call's
 /// meaning or to a storage size gets a new one.
@@ -106,6 +106,7 @@ enum LastError {
     Decode(DecodeError),
     Reconstruct(ReconstructError),
     Compiled(CompiledError),
+    ReferenceFile(ReferenceFileError),
 }
 
 const HEAD_MAGIC: u32 = u32::from_le_bytes(*b"F3DH");
@@ -454,6 +455,7 @@ pub unsafe extern "C" fn fringe3d_last_error(
             LastError::Decode(e) => write!(w, "decode: {e}"),
             LastError::Reconstruct(e) => write!(w, "reconstruction: {e}"),
             LastError::Compiled(e) => write!(w, "compiled reconstruction: {e}"),
+            LastError::ReferenceFile(e) => write!(w, "{e}"),
         };
     }
     let end = w.at.min(w.out.len() - 1);

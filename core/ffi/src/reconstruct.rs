@@ -8,6 +8,7 @@ use crate::{
 };
 use fringe3d_core::reconstruct::compiled::{FIELDS, compiled_row, merge_search, search_mask};
 use fringe3d_core::reconstruct::{ReferenceMap, ReferenceRing, ReferenceRows};
+use fringe3d_core::wire::ReferenceFile;
 
 /// The reference rows the reconstruction of camera row `v` reads: map rows `*first ..= *last`.
 /// A ring must hold them (pushed in order) before [`fringe3d_reconstruct_row`] of row `v`.
@@ -72,6 +73,57 @@ pub unsafe extern "C" fn fringe3d_reference_map(
         return h.fail(LastError::Argument("no map samples"), FRINGE3D_ERR_ARGUMENT);
     };
     match ReferenceMap::from_prepared(map, w, hh) {
+        Ok(m) => make(r, Source::Map(m)),
+        Err(e) => h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_REFERENCE),
+    }
+}
+
+/// [`fringe3d_reference_map`] from the map's file as a head stores it (`fringe3d vectors`'
+/// `input/reference.f3m`; docs/setup-blob.md, "The reference map file"): `len` bytes at `file`,
+/// checked whole (header, size and margin against the head's calibration, CRC-32C) so that a
+/// damaged map is refused ([`FRINGE3D_ERR_REFERENCE`], [`fringe3d_last_error`] says why), then
+/// its samples read in place. `file` must be 4-byte aligned (the samples are 32 bytes in).
+///
+/// # Safety
+/// As [`fringe3d_reference_map`], with `file` valid for `len` reads for as long as the
+/// reference is used.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fringe3d_reference_map_file(
+    reference: *mut fringe3d_reference,
+    head: *mut fringe3d_head,
+    file: *const u8,
+    len: usize,
+) -> i32 {
+    // SAFETY: the caller's contract.
+    let (r, h) = match unsafe { reference_storage(reference, head) } {
+        Ok(rh) => rh,
+        Err(s) => return s,
+    };
+    let Some(recon) = &h.recon else {
+        return FRINGE3D_ERR_STATE;
+    };
+    // SAFETY: the caller's contract; the file outlives the reference.
+    let bytes: Option<&'static [u8]> = unsafe { items(file, len) };
+    let Some(bytes) = bytes else {
+        return h.fail(LastError::Argument("no map file"), FRINGE3D_ERR_ARGUMENT);
+    };
+    let f = match ReferenceFile::check_for(bytes, recon) {
+        Ok(f) => f,
+        Err(e) => return h.fail(LastError::ReferenceFile(e), FRINGE3D_ERR_REFERENCE),
+    };
+    let (w, hh) = (recon.map_width(), recon.map_height());
+    let Some(raw) = bytes.get(f.samples_range()) else {
+        return FRINGE3D_ERR_REFERENCE;
+    };
+    if cfg!(target_endian = "big") || raw.as_ptr().align_offset(4) != 0 {
+        let e = LastError::Argument("the map file's samples are not aligned little-endian f32");
+        return h.fail(e, FRINGE3D_ERR_ARGUMENT);
+    }
+    // SAFETY: `raw` is 4-byte aligned (checked), `4 × n` bytes long, valid as long as the file
+    // (the caller's contract), and any bit pattern is an f32 (the core checks them below).
+    let samples: &'static [f32] =
+        unsafe { core::slice::from_raw_parts(raw.as_ptr().cast::<f32>(), raw.len() / 4) };
+    match ReferenceMap::from_prepared(samples, w, hh) {
         Ok(m) => make(r, Source::Map(m)),
         Err(e) => h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_REFERENCE),
     }

@@ -156,22 +156,36 @@
 //!
 //! [postcard]: https://postcard.jamesmunns.com/wire-format
 
+// The transport layers (feature `wire`, on by default): a head that takes its set-up from a
+// file or flash, not a serial link, leaves them out; the message bodies, the parameter
+// descriptions and the set-up blob stay.
+#[cfg(feature = "wire")]
 pub mod cobs;
 pub mod crc;
 pub mod desc;
+#[cfg(feature = "wire")]
 pub mod frame;
+#[cfg(feature = "wire")]
 pub mod header;
+#[cfg(feature = "wire")]
 pub mod link;
 pub mod message;
+#[cfg(feature = "wire")]
 mod packet;
+pub mod reference_file;
 pub mod setup;
 
 pub use desc::{DescError, image_index};
+#[cfg(feature = "wire")]
 pub use frame::{FrameReceiver, MAX_ENCODED_FRAME, MAX_FRAME, MIN_FRAME, ReceiverStats};
+#[cfg(feature = "wire")]
 pub use header::{Flags, HEADER_LEN, Header, PROTOCOL_VERSION};
+#[cfg(feature = "wire")]
 pub use link::{FaultConfig, FaultInjector, FaultStats, Loopback, LoopbackError, XorShift64};
 pub use message::*;
+#[cfg(feature = "wire")]
 pub use packet::{Packet, check_header, emit_packet, parse_packet};
+pub use reference_file::{ReferenceFile, ReferenceFileError};
 pub use setup::{
     CaptureOrder, DecodeThresholds, EdgeFilterParams, FrameFormat, HeadSetup, SetupError,
 };

@@ -19,16 +19,16 @@ use fringe3d_core::budget::{RowBudget, RowLayout};
 use fringe3d_core::decode::parity::Digest;
 use fringe3d_core::decode::{DecodeScratch, Decoder, RowOut};
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
-use fringe3d_core::wire::{HeadSetup, SetupError};
+use fringe3d_core::wire::{HeadSetup, ReferenceFile, SetupError};
 use host::{Console, File};
 
 /// Widest image and most images per set this build holds.
 const MAX_W: usize = 640;
 const MAX_IMAGES: usize = 8;
 
-/// Where the reference map lies, memory-mapped: the board's 16 MiB PSRAM (`qemu-system-arm
-/// -device loader,file=input/reference_phase.f32,addr=0x21000000,force-raw=on`), standing for
-/// a QSPI/OSPI flash in memory-mapped (XIP) mode, where a head keeps its calibration tables.
+/// Where the reference map file lies, memory-mapped: the board's 16 MiB PSRAM (`qemu-system-arm
+/// -device loader,file=input/reference.f3m,addr=0x21000000,force-raw=on`), standing for a
+/// QSPI/OSPI flash in memory-mapped (XIP) mode, where a head keeps its calibration tables.
 const MAP_BASE: usize = 0x2100_0000;
 /// Bytes of that region.
 const MAP_CAPACITY: usize = 16 << 20;
@@ -85,14 +85,26 @@ fn run(b: &mut Buffers) -> Result<(), &'static str> {
     let refused = matches!(short, Err(fringe3d_core::decode::DecodeError::ShortRow));
     let _ = writeln!(Console, "short_row_refused={refused}");
 
-    // 2. The reference map where it lies: `(mw, mh)` f32 samples, prepared on the desktop (the
-    // canonical NaN where invalid; `from_prepared` checks that, and reads no copy).
+    // 2. The reference map where it lies: its file's header, size and CRC checked against this
+    // calibration (a damaged map is refused, not used), then its `(mw, mh)` f32 samples, 32
+    // bytes in, read in place (`from_prepared` checks each is finite or the canonical NaN).
     let (mw, mh) = (recon.map_width(), recon.map_height());
-    let samples = mw.checked_mul(mh).filter(|&s| 4 * s <= MAP_CAPACITY);
-    let samples = samples.ok_or("the reference map does not fit the mapped region")?;
+    let want = ReferenceFile::of(&recon);
+    if want.file_len() > MAP_CAPACITY {
+        return Err("the reference map does not fit the mapped region");
+    }
     // SAFETY: MAP_BASE..MAP_BASE + MAP_CAPACITY is the board's PSRAM, memory this program never
-    // writes; QEMU loaded the map there before reset. Any bit pattern is a valid f32.
-    let map = unsafe { core::slice::from_raw_parts(MAP_BASE as *const f32, samples) };
+    // writes; QEMU loaded the file there before reset. Any byte pattern is a valid u8.
+    let file = unsafe { core::slice::from_raw_parts(MAP_BASE as *const u8, want.file_len()) };
+    let f = ReferenceFile::check_for(file, &recon).map_err(|e| e.what())?;
+    // SAFETY: the samples, 32 bytes into a 4-byte-aligned region, are 4-byte aligned, lie in
+    // the file checked above, and any bit pattern is a valid f32.
+    let map = unsafe {
+        core::slice::from_raw_parts(
+            (MAP_BASE + f.samples_range().start) as *const f32,
+            f.samples_len() / 4,
+        )
+    };
     let reference =
         ReferenceMap::from_prepared(map, mw, mh).map_err(|_| "reference map refused")?;
     let mut frames = File::open("input/images.u16")?;

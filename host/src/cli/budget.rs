@@ -6,6 +6,7 @@ use crate::device::desc::wire_calibration;
 use crate::io::calibration::Calibration;
 use anyhow::{Context, Result, bail};
 use fringe3d_core::budget::{RowBudget, RowLayout};
+use fringe3d_core::frame_store::FrameStore;
 use fringe3d_core::sequential::FrameDecoder;
 use fringe3d_core::wire::PatternAxis;
 use serde_json::json;
@@ -122,6 +123,12 @@ pub fn run(a: BudgetArgs, g: Global) -> Result<()> {
     let levels = set.levels().len();
     let per_pixel = FrameDecoder::bytes_per_pixel(levels);
     let frame = height.map(|h| per_pixel * width * h);
+    // The frames themselves (`FrameStore`): N images of the sample size.
+    let store_pixel = match b.sample_bytes {
+        1 => FrameStore::<u8>::bytes_per_pixel(b.images),
+        _ => FrameStore::<u16>::bytes_per_pixel(b.images),
+    };
+    let store = height.map(|h| store_pixel * width * h);
     if g.json {
         let rows: Vec<_> = lines
             .iter()
@@ -134,7 +141,8 @@ pub fn run(a: BudgetArgs, g: Global) -> Result<()> {
                 "margin_columns": b.margin_columns,
                 "layout": a.layout, "buffers": rows, "bytes_per_column": b.per_column(),
                 "total_bytes": b.total(),
-                "frame_sequential": {"bytes_per_pixel": per_pixel, "bytes": frame}})
+                "frame_sequential": {"bytes_per_pixel": per_pixel, "bytes": frame},
+                "frame_store": {"bytes_per_pixel": store_pixel, "bytes": store}})
         );
     } else if !g.quiet {
         let reference = if !layout.points {
@@ -187,6 +195,15 @@ pub fn run(a: BudgetArgs, g: Global) -> Result<()> {
             ),
             None => outln!(
                 "frame-sequential decoder (whole frames, {levels} levels): {per_pixel} B per pixel (give --height or --calibration for the total)"
+            ),
+        }
+        match store {
+            Some(f) => outln!(
+                "frame store (whole frames, decoded after the last): {store_pixel} B per pixel, {f} bytes ({:.1} MiB)",
+                f as f64 / (1024.0 * 1024.0)
+            ),
+            None => outln!(
+                "frame store (whole frames, decoded after the last): {store_pixel} B per pixel"
             ),
         }
     }

@@ -8,6 +8,7 @@ use super::{kernel, u16_bytes};
 use crate::io::image::encode_tiff_f32;
 use fringe3d_core::decode::Decoder;
 use fringe3d_core::math::CANONICAL_NAN;
+use fringe3d_core::wire::ReferenceFile;
 use std::path::Path;
 
 /// Render, run the reference pipeline and collect every file (nothing is written).
@@ -195,6 +196,18 @@ pub fn generate_from(inp: &Inputs) -> Result<GoldenVectors, VectorsError> {
             bytes: file.to_bytes(),
         });
     }
+    // The same map as a head stores it: versioned, sized, CRC-checked, samples 32 bytes in.
+    let rf = ReferenceFile::of(recon);
+    let mut map_file = vec![0u8; rf.file_len()];
+    rf.emit(&cal.reference_phase, &mut map_file)
+        .map_err(|e| kernel("reference map file", e))?;
+    files.push(VectorFile {
+        path: "input/reference.f3m".into(),
+        array: None,
+        format: "fringe3d reference map file v1 (docs/setup-blob.md): a 32-byte header, the samples of reference_phase.f32, a CRC-32C",
+        description: "the reference map as a head stores it (flash, a file): checked at boot by wire::ReferenceFile::check_for; the samples, 32 bytes in, are read in place".into(),
+        bytes: map_file,
+    });
     files.push(VectorFile {
         path: "input/setup.bin".into(),
         array: None,
