@@ -48,7 +48,7 @@ fn vectors_are_deterministic_and_the_manifest_holds() {
     // Same options, same bytes: every file, the manifest included.
     assert_eq!(
         va.files.len(),
-        20,
+        21,
         "files: {:?}",
         va.files.iter().map(|f| &f.path).collect::<Vec<_>>()
     );
@@ -89,6 +89,13 @@ fn vectors_are_deterministic_and_the_manifest_holds() {
             "{p}: non-canonical NaN"
         );
     }
+    // The map as a head stores it: a checked file whose samples are reference_phase.f32's.
+    let map_file = &va.file("input/reference.f3m").unwrap().bytes;
+    let rf = fringe3d_core::wire::ReferenceFile::check(map_file).expect("a valid map file");
+    assert_eq!(
+        &map_file[rf.samples_range()],
+        &va.file("input/reference_phase.f32").unwrap().bytes[..]
+    );
     let phase = f32s(&va.file("decode/phase.f32").unwrap().bytes);
     let val = &va.file("decode/validity.u8").unwrap().bytes;
     assert!(
