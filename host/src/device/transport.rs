@@ -40,13 +40,25 @@ const POLL: Duration = Duration::from_millis(20);
 
 /// Open `path` at `baud` baud, 8N1, no flow control.
 pub fn open_serial(path: &str, baud: u32) -> Result<SerialTransport, DeviceError> {
-    let port = serialport::new(path, baud)
-        .timeout(POLL)
-        .open()
-        .map_err(|e| DeviceError::Open {
-            path: path.to_string(),
-            message: e.to_string(),
-        })?;
+    let mut waited = Duration::ZERO;
+    let port = loop {
+        match serialport::new(path, baud).timeout(POLL).open() {
+            Ok(port) => break port,
+            // Another descriptor still holds the port's lock: a connection that is closing
+            // (this process's last one, a program letting go). Wait up to LOCK_WAIT before
+            // calling the port busy.
+            Err(e) if is_locked(&e) && waited < LOCK_WAIT => {
+                std::thread::sleep(LOCK_POLL);
+                waited += LOCK_POLL;
+            }
+            Err(e) => {
+                return Err(DeviceError::Open {
+                    path: path.to_string(),
+                    message: e.to_string(),
+                });
+            }
+        }
+    };
     Ok(SerialTransport {
         port: FromStd::new(port),
         baud,
@@ -97,4 +109,14 @@ impl Transport for SerialTransport {
         // 8N1: ten bits on the line per byte.
         Some(self.baud as f64 / 10.0)
     }
+}
+
+/// How long [`open_serial`] waits for a port whose lock another descriptor holds.
+const LOCK_WAIT: Duration = Duration::from_millis(500);
+/// How often it tries again meanwhile.
+const LOCK_POLL: Duration = Duration::from_millis(20);
+
+/// The port is open elsewhere with its advisory lock (serialport's `flock`, EWOULDBLOCK).
+fn is_locked(e: &serialport::Error) -> bool {
+    e.kind == serialport::ErrorKind::NoDevice && e.description.contains("exclusive lock")
 }
