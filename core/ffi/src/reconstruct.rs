@@ -63,16 +63,21 @@ pub unsafe extern "C" fn fringe3d_reference_map(
         Ok(rh) => rh,
         Err(s) => return s,
     };
-    let Some(recon) = &h.recon else {
-        return FRINGE3D_ERR_STATE;
-    };
-    let (w, hh) = (recon.map_width(), recon.map_height());
     // SAFETY: the caller's contract; the map outlives the reference.
     let map: Option<&'static [f32]> = unsafe { items(samples, count) };
     let Some(map) = map else {
         return h.fail(LastError::Argument("no map samples"), FRINGE3D_ERR_ARGUMENT);
     };
-    match ReferenceMap::from_prepared(map, w, hh) {
+    place_map(r, h, map)
+}
+
+/// Make the reference at `r` (from [`reference_storage`]) read the prepared `samples` in place,
+/// checked for `h`'s map size and every sample finite or the canonical NaN.
+fn place_map(r: *mut Reference, h: &mut Head, samples: &'static [f32]) -> i32 {
+    let Some(recon) = &h.recon else {
+        return FRINGE3D_ERR_STATE;
+    };
+    match ReferenceMap::from_prepared(samples, recon.map_width(), recon.map_height()) {
         Ok(m) => make(r, Source::Map(m)),
         Err(e) => h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_REFERENCE),
     }
@@ -111,7 +116,6 @@ pub unsafe extern "C" fn fringe3d_reference_map_file(
         Ok(f) => f,
         Err(e) => return h.fail(LastError::ReferenceFile(e), FRINGE3D_ERR_REFERENCE),
     };
-    let (w, hh) = (recon.map_width(), recon.map_height());
     let Some(raw) = bytes.get(f.samples_range()) else {
         return FRINGE3D_ERR_REFERENCE;
     };
@@ -123,10 +127,7 @@ pub unsafe extern "C" fn fringe3d_reference_map_file(
     // (the caller's contract), and any bit pattern is an f32 (the core checks them below).
     let samples: &'static [f32] =
         unsafe { core::slice::from_raw_parts(raw.as_ptr().cast::<f32>(), raw.len() / 4) };
-    match ReferenceMap::from_prepared(samples, w, hh) {
-        Ok(m) => make(r, Source::Map(m)),
-        Err(e) => h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_REFERENCE),
-    }
+    place_map(r, h, samples)
 }
 
 /// Make `reference` a ring of reference rows in `storage` (`count` floats: at least
