@@ -18,7 +18,7 @@ use fringe3d_core::reconstruct::compiled::{
     FIELDS, compiled_row_inline, merge_search, search_mask,
 };
 use fringe3d_core::reconstruct::{
-    CellGather, ReconstructError, Reconstructor, ReferenceMap, ScalarGather,
+    CellGather, ReconstructError, Reconstructor, ReferenceMap, ReferenceRows, ScalarGather,
 };
 use rayon::prelude::*;
 
@@ -400,9 +400,9 @@ pub struct CompiledRows<'a> {
 }
 
 /// What every reconstruction task of one frame shares.
-struct ReconFrame<'a> {
+struct ReconFrame<'a, R: ?Sized> {
     recon: &'a Reconstructor,
-    map: &'a ReferenceMap<'a>,
+    map: &'a R,
     compiled: Option<CompiledRows<'a>>,
     /// The camera row of `phase[0]` and `validity[0]`.
     base: usize,
@@ -471,9 +471,9 @@ pub fn reconstruct_frame_compiled(
 /// Reconstruct the rows `v0..` whose outputs are `xyz` (3 × width per row) and `codes` (width
 /// per row); `g` fetches the reference samples (the same values, and bits, whichever it is).
 #[inline(always)]
-fn recon_rows<G: CellGather>(
+fn recon_rows<G: CellGather, R: ReferenceRows + ?Sized>(
     g: G,
-    f: &ReconFrame<'_>,
+    f: &ReconFrame<'_, R>,
     v0: usize,
     xyz: &mut [f32],
     codes: &mut [u8],
@@ -512,9 +512,9 @@ fn recon_rows<G: CellGather>(
 /// here with AVX2 enabled).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn recon_rows_avx2(
+fn recon_rows_avx2<R: ReferenceRows + ?Sized>(
     g: Avx2Pairs,
-    f: &ReconFrame<'_>,
+    f: &ReconFrame<'_, R>,
     v0: usize,
     xyz: &mut [f32],
     codes: &mut [u8],
@@ -525,9 +525,9 @@ fn recon_rows_avx2(
 /// [`recon_rows`] compiled with AVX-512.
 #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
 #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
-fn recon_rows_avx512(
+fn recon_rows_avx512<R: ReferenceRows + ?Sized>(
     g: Avx512Pairs,
-    f: &ReconFrame<'_>,
+    f: &ReconFrame<'_, R>,
     v0: usize,
     xyz: &mut [f32],
     codes: &mut [u8],
@@ -535,9 +535,9 @@ fn recon_rows_avx512(
     recon_rows(g, f, v0, xyz, codes)
 }
 
-fn recon_rows_dispatch(
+fn recon_rows_dispatch<R: ReferenceRows + ?Sized>(
     isa: Isa,
-    f: &ReconFrame<'_>,
+    f: &ReconFrame<'_, R>,
     v0: usize,
     xyz: &mut [f32],
     codes: &mut [u8],
@@ -601,9 +601,9 @@ pub fn decode_rows<P: Sample>(
 /// Reconstruct the camera rows `v0..` from band buffers (`phase`, `validity`: whole rows
 /// starting at row `v0`; `out` as many rows) on the calling thread, with the kernel variant
 /// `isa`: the rows of [`reconstruct_frame`], bit for bit.
-pub fn reconstruct_rows(
+pub fn reconstruct_rows<R: ReferenceRows + ?Sized>(
     recon: &Reconstructor,
-    map: &ReferenceMap<'_>,
+    map: &R,
     v0: usize,
     phase: &[f32],
     validity: &[u8],
@@ -638,9 +638,9 @@ fn check_rows(
 
 /// [`reconstruct_rows`] with compiled models (`Some`), as [`reconstruct_frame_compiled`].
 #[allow(clippy::too_many_arguments)]
-pub fn reconstruct_rows_compiled(
+pub fn reconstruct_rows_compiled<R: ReferenceRows + ?Sized>(
     recon: &Reconstructor,
-    map: &ReferenceMap<'_>,
+    map: &R,
     compiled: Option<CompiledRows<'_>>,
     v0: usize,
     phase: &[f32],

@@ -10,6 +10,7 @@ use crate::batch::{CompiledRows, Isa, PointsOut as BatchOut};
 use crate::compiled::{CompiledFile, FileError, source_digest};
 use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, ReadLimits, read_gray_limited, read_header};
+use crate::io::map_file::MapFile;
 use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::phase_function::Axis;
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
@@ -55,16 +56,70 @@ pub enum ScanError {
     },
 }
 
+/// What makes a reference phase map unusable for any scan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MapDefect {
+    /// A sample is infinite (NaN marks an invalid pixel; an infinite phase is no phase): the
+    /// first one in row order.
+    Infinite {
+        /// Column in the map.
+        x: usize,
+        /// Row in the map.
+        y: usize,
+        /// The sample.
+        value: f32,
+    },
+    /// No sample is finite: every point would be invalid.
+    NoFinite,
+}
+
+/// Finds a map's [`MapDefect`] from its rows, given in order.
+#[derive(Default)]
+struct DefectScan {
+    rows: usize,
+    infinite: Option<MapDefect>,
+    any_finite: bool,
+}
+
+impl DefectScan {
+    fn row(&mut self, row: &[f32]) {
+        if self.infinite.is_none()
+            && let Some(x) = row.iter().position(|p| p.is_infinite())
+        {
+            self.infinite = Some(MapDefect::Infinite {
+                x,
+                y: self.rows,
+                value: row[x],
+            });
+        }
+        self.any_finite |= row.iter().any(|p| p.is_finite());
+        self.rows += 1;
+    }
+
+    fn defect(&self) -> Option<MapDefect> {
+        self.infinite
+            .or((!self.any_finite).then_some(MapDefect::NoFinite))
+    }
+}
+
 /// Everything a reconstruction needs, loaded and checked.
 pub struct ScanCalibration {
     /// The calibration.
     pub calibration: Calibration,
     /// The reconstructor (band and tables computed).
     pub recon: Reconstructor,
-    /// The reference phase map, prepared (invalid samples as canonical NaN).
+    /// The reference phase map, prepared (invalid samples as canonical NaN); empty when the map
+    /// is read from [`ScanCalibration::reference_file`] instead.
     pub reference_phase: Vec<f32>,
-    /// Validity of the reference map (valid where its phase is finite).
+    /// Validity of the reference map (valid where its phase is finite); empty with
+    /// [`ScanCalibration::reference_file`].
     pub reference_validity: Vec<u8>,
+    /// The reference map's file, read row by row by the streaming scan
+    /// ([`ScanCalibration::load_streamed`]) instead of being held in memory.
+    pub reference_file: Option<MapFile>,
+    /// What makes the reference map unusable, found in its samples as the file holds them (the
+    /// command-line tools refuse such a map; the library reads non-finite samples as invalid).
+    pub reference_defect: Option<MapDefect>,
     /// Where the calibration came from (for messages).
     pub source: PathBuf,
     /// Compiled models standing in for the search ([`ScanCalibration::with_compiled`]).
@@ -84,16 +139,7 @@ impl ScanCalibration {
             path: source.to_path_buf(),
             message: m,
         };
-        calibration.validate().map_err(invalid)?;
-        let (cam, setup) = calibration.core_setup(axis).map_err(invalid)?;
-        let margin = calibration
-            .reference
-            .as_ref()
-            .map(|r| r.margin())
-            .unwrap_or_default();
-        let recon = Reconstructor::new(&cam, &setup)
-            .and_then(|r| r.with_margin(margin))
-            .map_err(|e| invalid(format!("reconstruction set-up: {e}")))?;
+        let recon = Self::reconstructor(&calibration, axis, source)?;
         // The map: the image plus its margin.
         let (w, h) = (recon.map_width(), recon.map_height());
         if reference_phase.len() != w * h {
@@ -104,6 +150,10 @@ impl ScanCalibration {
                 w,
                 h,
             });
+        }
+        let mut scan = DefectScan::default();
+        for r in reference_phase.chunks_exact(w) {
+            scan.row(r);
         }
         let reference_validity: Vec<u8> = reference_phase
             .iter()
@@ -123,13 +173,51 @@ impl ScanCalibration {
             recon,
             reference_phase,
             reference_validity,
+            reference_file: None,
+            reference_defect: scan.defect(),
             source: source.to_path_buf(),
             compiled: None,
         })
     }
 
+    /// The reconstructor of a calibration (read from `source`).
+    fn reconstructor(
+        calibration: &Calibration,
+        axis: Axis,
+        source: &Path,
+    ) -> Result<Reconstructor, ScanError> {
+        let invalid = |m: String| ScanError::Invalid {
+            path: source.to_path_buf(),
+            message: m,
+        };
+        calibration.validate().map_err(invalid)?;
+        let (cam, setup) = calibration.core_setup(axis).map_err(invalid)?;
+        let margin = calibration
+            .reference
+            .as_ref()
+            .map(|r| r.margin())
+            .unwrap_or_default();
+        Reconstructor::new(&cam, &setup)
+            .and_then(|r| r.with_margin(margin))
+            .map_err(|e| invalid(format!("reconstruction set-up: {e}")))
+    }
+
     /// Load a calibration file and the reference map it names.
     pub fn load(path: &Path, axis: Axis) -> Result<Self, ScanError> {
+        Self::load_with(path, axis, false)
+    }
+
+    /// [`ScanCalibration::load`] for the streaming scan: a map in a layout that can be read row
+    /// by row (an uncompressed float TIFF, [`MapFile`]) stays in its file and
+    /// [`ScanCalibration::reference_file`] holds it, so memory never holds the whole map; any
+    /// other map is loaded as [`ScanCalibration::load`] loads it. Only the streaming scan
+    /// ([`stream::stream_frames`]) reads a map from its file; [`ScanCalibration::reconstruct`]
+    /// needs it in memory.
+    pub fn load_streamed(path: &Path, axis: Axis) -> Result<Self, ScanError> {
+        Self::load_with(path, axis, true)
+    }
+
+    fn load_with(path: &Path, axis: Axis, streamed: bool) -> Result<Self, ScanError> {
         let cal = Calibration::load(path)?;
         let map_path = cal
             .reference_map_path(path)
@@ -162,6 +250,26 @@ impl ScanCalibration {
                 got_h: hdr.height as usize,
                 w: cw as usize,
                 h: ch as usize,
+            });
+        }
+        if streamed && let Some(file) = MapFile::probe(&map_path, cw as usize, ch as usize)? {
+            let recon = Self::reconstructor(&cal, axis, path)?;
+            // Every row read once now: a map the file cannot give is refused at set-up, and its
+            // defects are known before the scan.
+            let mut scan = DefectScan::default();
+            file.rows().for_rows(0, file.height(), |_, r| {
+                scan.row(r);
+                Ok::<_, ScanError>(())
+            })?;
+            return Ok(ScanCalibration {
+                calibration: cal,
+                recon,
+                reference_phase: Vec::new(),
+                reference_validity: Vec::new(),
+                reference_file: Some(file),
+                reference_defect: scan.defect(),
+                source: path.to_path_buf(),
+                compiled: None,
             });
         }
         let (img, _) = read_gray_limited(&map_path, &ReadLimits::sized(cw, ch))?;
@@ -288,6 +396,12 @@ impl ScanCalibration {
                 got_h: h,
                 w,
                 h,
+            });
+        }
+        if self.reference_file.is_some() {
+            return Err(ScanError::Invalid {
+                path: self.source.clone(),
+                message: "the reference map is read row by row (`load_streamed`): only the streaming scan reads it so; load the calibration with `ScanCalibration::load` to reconstruct whole frames".into(),
             });
         }
         // Prepared once at set-up: a shared view, no copy.

@@ -139,6 +139,12 @@ fn odd_bands_windows_and_thread_counts_give_the_same_bytes() {
     std::fs::create_dir_all(&t.0).unwrap();
     let ds = render(&t.0, "ds", "8");
     let (cal, imgs, decoder) = loaded(&ds);
+    // The map in memory, and read row by row from its file (what `fringe3d scan` does).
+    let set = common::load_set(&ds.join("patterns.toml")).unwrap();
+    let cal_file =
+        common::load_calibration_streamed(&ds.join("calibration.toml"), set.set.axis()).unwrap();
+    assert!(cal.reference_file.is_none() && !cal.reference_phase.is_empty());
+    assert!(cal_file.reference_file.is_some() && cal_file.reference_phase.is_empty());
     for (name, extra) in [FORMS[0], FORMS[1], FORMS[5]] {
         let reference = whole_frame(&ds, &t.0.join(format!("whole-{name}")), extra);
         let mut argv = vec!["fringe3d".to_string()];
@@ -147,15 +153,29 @@ fn odd_bands_windows_and_thread_counts_give_the_same_bytes() {
             panic!("not a scan")
         };
         let filter = (!a.cloud.no_edge_filter).then(|| cal.edge_filter(a.cloud.max_angle).unwrap());
-        for (threads, band_rows, window) in
-            [(1, 7, 1), (2, 7, 0), (3, 1, 2), (2, 37, 1), (1, 250, 0)]
-        {
+        for (threads, band_rows, window, cal) in [
+            (1, 7, 1, &cal),
+            (2, 7, 0, &cal),
+            (3, 1, 2, &cal),
+            (2, 37, 1, &cal),
+            (1, 250, 0, &cal),
+            (1, 7, 1, &cal_file),
+            (2, 7, 0, &cal_file),
+            (3, 1, 2, &cal_file),
+            (2, 37, 1, &cal_file),
+            (1, 250, 0, &cal_file),
+        ] {
+            let map = if cal.reference_file.is_some() {
+                "file"
+            } else {
+                "memory"
+            };
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap();
             let out =
-                t.0.join(format!("lib-{threads}-{band_rows}-{window}-{name}"));
+                t.0.join(format!("lib-{threads}-{band_rows}-{window}-{map}-{name}"));
             let stats = pool.install(|| {
                 let mut sink = CloudSink::create(
                     &a.cloud,
@@ -173,7 +193,7 @@ fn odd_bands_windows_and_thread_counts_give_the_same_bytes() {
                     ..StreamConfig::default()
                 };
                 let enc = sink.encoder();
-                let stats = stream_image_set(&cal, &decoder, &imgs, &enc, &cfg, |e| {
+                let stats = stream_image_set(cal, &decoder, &imgs, &enc, &cfg, |e| {
                     sink.write(e).map_err(ScanError::from)
                 })
                 .unwrap();
@@ -186,7 +206,7 @@ fn odd_bands_windows_and_thread_counts_give_the_same_bytes() {
             let got = std::fs::read(&out).unwrap();
             assert!(
                 got == reference,
-                "{name}: {threads} threads, bands of {band_rows} rows, window {window}: differs"
+                "{name}, map in {map}: {threads} threads, bands of {band_rows} rows, window {window}: differs"
             );
         }
     }
@@ -352,5 +372,77 @@ fn binary_rows_equal_points_written_one_by_one() {
         let (x, y) = (std::fs::read(&rows).unwrap(), std::fs::read(&one).unwrap());
         assert!(x.len() > 1000);
         assert!(x == y, "{intensity} {modulation} {pixel} {pixel_type:?}");
+    }
+}
+
+/// Rewrite the float TIFF at `path` with `f` applied to its samples, deflate-compressed or not.
+fn rewrite_map(path: &Path, deflate: bool, f: impl Fn(&mut [f32])) {
+    use tiff::encoder::{Compression, DeflateLevel, TiffEncoder, colortype::Gray32Float};
+    let (img, _) = fringe3d::io::image::read_gray(path).unwrap();
+    let fringe3d::io::image::Pixels::F32(mut v) = img.pixels else {
+        panic!("not a float map")
+    };
+    f(&mut v);
+    let file = std::fs::File::create(path).unwrap();
+    let mut enc = TiffEncoder::new(std::io::BufWriter::new(file)).unwrap();
+    if deflate {
+        enc = enc.with_compression(Compression::Deflate(DeflateLevel::Fast));
+    }
+    enc.write_image::<Gray32Float>(img.width, img.height, &v)
+        .unwrap();
+}
+
+/// `scan` reads a plain float TIFF map row by row from its file and decodes any other layout
+/// whole: a deflate-compressed copy of the same map gives the same bytes. A map with an infinite
+/// sample, or without a finite one, is refused by either way of reading it, naming the map.
+#[test]
+fn maps_read_in_place_or_whole_give_the_same_cloud_and_the_same_refusals() {
+    let t = Tmp(std::env::temp_dir().join(format!("fringe3d-maps-{}", std::process::id())));
+    let _ = std::fs::remove_dir_all(&t.0);
+    std::fs::create_dir_all(&t.0).unwrap();
+    let ds = render(&t.0, "ds", "8");
+    let set = common::load_set(&ds.join("patterns.toml")).unwrap();
+    let cal_path = ds.join("calibration.toml");
+    let map = ds.join("reference_phase.tif");
+    let plain = t.0.join("plain.ply");
+    run(&scan_args(&ds, &plain, &[])
+        .iter()
+        .map(|s| s.as_str())
+        .collect::<Vec<_>>());
+    let streamed = common::load_calibration_streamed(&cal_path, set.set.axis()).unwrap();
+    assert!(streamed.reference_file.is_some());
+
+    rewrite_map(&map, true, |_| {});
+    let streamed = common::load_calibration_streamed(&cal_path, set.set.axis()).unwrap();
+    assert!(
+        streamed.reference_file.is_none() && !streamed.reference_phase.is_empty(),
+        "a compressed map must be decoded whole"
+    );
+    let packed = t.0.join("packed.ply");
+    run(&scan_args(&ds, &packed, &[])
+        .iter()
+        .map(|s| s.as_str())
+        .collect::<Vec<_>>());
+    assert!(std::fs::read(&plain).unwrap() == std::fs::read(&packed).unwrap());
+
+    let refused = |what: &str| {
+        for load in [common::load_calibration, common::load_calibration_streamed] {
+            let e = format!("{:#}", load(&cal_path, set.set.axis()).err().unwrap());
+            assert!(e.contains(map.to_str().unwrap()) && e.contains(what), "{e}");
+        }
+        let out = t.0.join("refused.ply");
+        let o = Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+            .args(scan_args(&ds, &out, &[]))
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && e.contains(what), "{e}");
+        assert!(!out.exists());
+    };
+    for deflate in [false, true] {
+        rewrite_map(&map, deflate, |v| v[3 * 17 + 5] = f32::NEG_INFINITY);
+        refused("is -inf (invalid pixels are NaN");
+        rewrite_map(&map, deflate, |v| v.fill(f32::NAN));
+        refused("has no valid (finite) phase at all");
     }
 }

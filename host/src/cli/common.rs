@@ -7,7 +7,7 @@ use crate::io::calibration::{
 };
 use crate::io::image_set::{self, Frames, ImageSet};
 use crate::io::pattern_file::PatternSetFile;
-use crate::scan::ScanCalibration;
+use crate::scan::{MapDefect, ScanCalibration};
 use anyhow::{Context, Result, bail};
 use fringe3d_core::decode::{DecodeConfig, Decoder, PhaseCorrection};
 use fringe3d_core::pattern::PatternSet;
@@ -47,28 +47,31 @@ pub fn input_file(p: &Path) -> Result<()> {
 /// infinite phase anywhere (NaN marks an invalid pixel; ±inf is never a phase) or without a
 /// single finite phase (every point would be invalid: an empty cloud, not an answer).
 pub fn load_calibration(path: &Path, axis: Axis) -> Result<ScanCalibration> {
-    let cal = ScanCalibration::load(path, axis)?;
+    refuse_defects(ScanCalibration::load(path, axis)?, path)
+}
+
+/// [`load_calibration`] for the streaming scan: a map that can be read row by row stays in its
+/// file ([`ScanCalibration::load_streamed`]).
+pub fn load_calibration_streamed(path: &Path, axis: Axis) -> Result<ScanCalibration> {
+    refuse_defects(ScanCalibration::load_streamed(path, axis)?, path)
+}
+
+fn refuse_defects(cal: ScanCalibration, path: &Path) -> Result<ScanCalibration> {
     let map = cal
         .calibration
         .reference_map_path(path)
         .unwrap_or_else(|| path.to_path_buf());
-    let w = cal.width().max(1);
-    if let Some(i) = cal.reference_phase.iter().position(|p| p.is_infinite()) {
-        bail!(
-            "{}: reference phase map: pixel ({}, {}) is {} (invalid pixels are NaN; an infinite phase is no phase); re-run `fringe3d calibrate reference`",
+    match cal.reference_defect {
+        None => Ok(cal),
+        Some(MapDefect::Infinite { x, y, value }) => bail!(
+            "{}: reference phase map: pixel ({x}, {y}) is {value} (invalid pixels are NaN; an infinite phase is no phase); re-run `fringe3d calibrate reference`",
             map.display(),
-            i % w,
-            i / w,
-            cal.reference_phase[i]
-        );
-    }
-    if !cal.reference_phase.iter().any(|p| p.is_finite()) {
-        bail!(
+        ),
+        Some(MapDefect::NoFinite) => bail!(
             "{}: reference phase map has no valid (finite) phase at all: no point could be reconstructed; re-run `fringe3d calibrate reference`",
             map.display()
-        );
+        ),
     }
-    Ok(cal)
 }
 
 /// Warn (unless quiet) when a cloud holds no valid point at all.

@@ -72,7 +72,11 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
     // The calibration (with its reference map) and the images load side by side.
     let (cal, imgs) = rayon::join(
         || {
-            let cal = common::load_calibration(&a.calibration, ls.set.axis())?;
+            let cal = match pipeline {
+                // The streaming pass reads the map row by row from its file where it can.
+                Pipeline::Stream => common::load_calibration_streamed,
+                Pipeline::WholeFrame => common::load_calibration,
+            }(&a.calibration, ls.set.axis())?;
             match &a.compiled {
                 Some(p) => Ok(cal.with_compiled(p)?),
                 None => anyhow::Ok(cal),

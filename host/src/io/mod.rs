@@ -10,6 +10,7 @@ pub mod image;
 pub mod image_set;
 pub mod import;
 pub mod input;
+pub mod map_file;
 pub mod mesh;
 pub mod npy;
 pub mod pattern_file;

@@ -18,10 +18,11 @@
 use super::{ScanCalibration, ScanError};
 use crate::batch::{FrameOut, Isa, PointsOut, decode_rows, reconstruct_rows_compiled};
 use crate::io::image_set::{Frames, ImageSet};
+use crate::io::map_file::{MapFile, MapRows};
 use crate::io::ply::{Encoded, PointRow, RowEncoder};
 use fringe3d_core::decode::{Decoder, RowOut, Sample, hdr};
 use fringe3d_core::filter::EdgeFilter;
-use fringe3d_core::reconstruct::ReferenceMap;
+use fringe3d_core::reconstruct::{ReferenceMap, ReferenceRing};
 use fringe3d_core::validity::Validity;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -33,7 +34,7 @@ const CODES: usize = Validity::ALL.len();
 
 /// Pixels per band when [`StreamConfig::band_rows`] is 0: enough rows to make the two halo rows
 /// a few per cent of the work, few enough that a band's buffers stay around a megabyte or two.
-const BAND_PIXELS: usize = 1 << 16;
+const BAND_PIXELS: usize = 1 << 15;
 
 /// How a streaming scan runs.
 #[derive(Clone, Debug)]
@@ -163,12 +164,22 @@ struct Scratch {
     /// A shorter exposure's decode (HDR), folded into the above.
     shorter: [Vec<f32>; 3],
     shorter_codes: Vec<u8>,
+    /// The map rows of the band, when the map is read from its file.
+    map_rows: Vec<f32>,
+}
+
+/// Where the bands read the reference map from.
+enum MapSource<'a> {
+    /// The whole map, in memory.
+    Whole(ReferenceMap<'a>),
+    /// Its file: each band reads the rows it needs into a ring of its worker's.
+    File(&'a MapFile),
 }
 
 /// What every band of one scan reads.
 struct Job<'a, P> {
     cal: &'a ScanCalibration,
-    map: &'a ReferenceMap<'a>,
+    map: MapSource<'a>,
     decoder: &'a Decoder,
     frames: &'a [&'a [P]],
     encoder: &'a RowEncoder,
@@ -227,10 +238,11 @@ impl<P: Sample> Job<'_, P> {
     }
 
     /// Compute band `b` into `out` (cleared first).
-    fn band(
-        &self,
+    fn band<'m>(
+        &'m self,
         b: usize,
         s: &mut Scratch,
+        reader: &mut Option<MapRows<'m>>,
         out: &mut BandOut,
         t: &mut StepTimes,
     ) -> Result<(), ScanError> {
@@ -265,23 +277,46 @@ impl<P: Sample> Job<'_, P> {
         .map_err(ScanError::Decode)?;
         self.fuse_shorter_exposures(a, n, s)?;
         let t1 = Instant::now();
-        reconstruct_rows_compiled(
-            &self.cal.recon,
-            self.map,
-            self.cal.compiled_rows(),
-            a,
-            &s.phase[..n],
-            &s.decoded[..n],
-            PointsOut {
-                xyz: &mut s.xyz[..3 * n],
-                validity: &mut s.codes[..n],
-            },
-            self.isa,
-        )
-        .map_err(|e| ScanError::Invalid {
+        let recon = &self.cal.recon;
+        let failed = |e| ScanError::Invalid {
             path: self.cal.source.clone(),
             message: format!("reconstruction: {e}"),
-        })?;
+        };
+        let points = PointsOut {
+            xyz: &mut s.xyz[..3 * n],
+            validity: &mut s.codes[..n],
+        };
+        let (phase, decoded) = (&s.phase[..n], &s.decoded[..n]);
+        let compiled = self.cal.compiled_rows();
+        match &self.map {
+            MapSource::Whole(map) => {
+                reconstruct_rows_compiled(recon, map, compiled, a, phase, decoded, points, self.isa)
+                    .map_err(failed)?
+            }
+            MapSource::File(file) => {
+                let rows = reader.get_or_insert_with(|| file.rows());
+                // The map rows the band's camera rows read (paper §6's search band), and at
+                // least as many as a ring must hold.
+                let (r0, _) = recon.rows_needed(a as u32);
+                let (_, r1) = recon.rows_needed((z - 1) as u32);
+                let (r0, r1) = (r0 as usize, r1 as usize + 1);
+                let held = (r1 - r0).max(recon.band().rows() as usize);
+                s.map_rows.resize(held * recon.map_width(), 0.0);
+                let mut ring =
+                    ReferenceRing::new(recon, &mut s.map_rows, &mut []).map_err(failed)?;
+                ring.start_at(r0 as u32).map_err(failed)?;
+                rows.for_rows(r0, r1, |_, row| {
+                    ring.push_row(row, &[]).map_err(|e| ScanError::Invalid {
+                        path: file.path().to_path_buf(),
+                        message: format!("reference map: {e}"),
+                    })
+                })?;
+                reconstruct_rows_compiled(
+                    recon, &ring, compiled, a, phase, decoded, points, self.isa,
+                )
+                .map_err(failed)?
+            }
+        }
         let t2 = Instant::now();
         // Row `y` of the band's buffers starts at `(y - a) * w`.
         let row = |y: usize| (y - a) * w..(y - a + 1) * w;
@@ -308,6 +343,7 @@ impl<P: Sample> Job<'_, P> {
         for c in codes {
             out.histogram[(*c as usize).min(CODES - 1)] += 1;
         }
+        self.encoder.reserve(codes, &mut out.enc);
         let (xyz, _) = s.xyz.as_chunks::<3>();
         for (y, c) in (y0..y1).zip(codes.chunks_exact(w)) {
             let r = row(y);
@@ -386,15 +422,20 @@ pub fn stream_frames<P: Sample + Sync>(
             fringe3d_core::decode::DecodeError::Length,
         ));
     }
-    let map = ReferenceMap::from_prepared(
-        &cal.reference_phase,
-        cal.recon.map_width(),
-        cal.recon.map_height(),
-    )
-    .map_err(|e| ScanError::Invalid {
-        path: cal.source.clone(),
-        message: format!("reference map: {e}"),
-    })?;
+    let map = match &cal.reference_file {
+        Some(f) => MapSource::File(f),
+        None => MapSource::Whole(
+            ReferenceMap::from_prepared(
+                &cal.reference_phase,
+                cal.recon.map_width(),
+                cal.recon.map_height(),
+            )
+            .map_err(|e| ScanError::Invalid {
+                path: cal.source.clone(),
+                message: format!("reference map: {e}"),
+            })?,
+        ),
+    };
     let threads = rayon::current_num_threads().max(1);
     let band_rows = match cfg.band_rows {
         0 => auto_band_rows(w, h, threads),
@@ -402,12 +443,12 @@ pub fn stream_frames<P: Sample + Sync>(
     };
     let bands = h.div_ceil(band_rows);
     let window = match cfg.window {
-        0 => threads + 2,
+        0 => threads + 1,
         n => n,
     };
     let job = Job {
         cal,
-        map: &map,
+        map,
         decoder,
         frames,
         encoder,
@@ -430,6 +471,7 @@ pub fn stream_frames<P: Sample + Sync>(
     let worker = || {
         let _guard = StopOnPanic(&shared);
         let mut scratch = Scratch::default();
+        let mut reader = None;
         let mut steps = StepTimes::default();
         loop {
             let b = next.fetch_add(1, Ordering::Relaxed);
@@ -449,7 +491,7 @@ pub fn stream_frames<P: Sample + Sync>(
                     histogram: [0; CODES],
                 }
             };
-            match job.band(b, &mut scratch, &mut out, &mut steps) {
+            match job.band(b, &mut scratch, &mut reader, &mut out, &mut steps) {
                 Ok(()) => {
                     let mut s = shared.lock();
                     s.ready.insert(b, out);

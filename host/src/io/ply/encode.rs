@@ -51,6 +51,25 @@ pub enum RowEncoder {
 }
 
 impl RowEncoder {
+    /// Make room in `out` for exactly the bytes of rows whose validity codes are `codes`, when
+    /// that is known in advance (binary PLY), so that a block reused band after band is never
+    /// larger than its largest band (a growing vector may hold twice what it needs).
+    pub fn reserve(&self, codes: &[u8], out: &mut Encoded) {
+        if let RowEncoder::Ply {
+            opts, organized, ..
+        } = self
+            && opts.encoding == PlyEncoding::BinaryLittleEndian
+        {
+            let n = match organized {
+                Some(_) => codes.len(),
+                None => codes.iter().filter(|&&c| c == 0).count(),
+            };
+            let need = n * binary_vertex_bytes(opts, organized.is_some());
+            out.bytes
+                .reserve_exact(need.saturating_sub(out.bytes.len()));
+        }
+    }
+
     /// Append `row` to `out`: its checks and bytes are those of the writer's `write_row`. The
     /// rows of a block must be consecutive (organized clouds: `out.first_row + out.rows`).
     pub fn encode_row(&self, row: &PointRow<'_>, out: &mut Encoded) -> Result<(), FormatError> {
@@ -184,6 +203,19 @@ pub(super) fn encode_row_body(
 
 /// [`encode_row_body`] for binary PLY: the row's vertices laid out in one block of fixed-size
 /// records, each field written as [`encode_vertex`] writes it (the same bytes).
+/// The bytes of one binary vertex.
+fn binary_vertex_bytes(opts: &PlyOptions, organized: bool) -> usize {
+    let pixel = match (opts.pixel, opts.pixel_type) {
+        (false, _) => 0,
+        (true, PixelIndexType::UShort) => 4,
+        (true, PixelIndexType::UInt) => 8,
+    };
+    12 + 4 * usize::from(opts.intensity)
+        + 4 * usize::from(opts.modulation)
+        + pixel
+        + usize::from(organized)
+}
+
 fn encode_binary_row(
     opts: &PlyOptions,
     organized: bool,
@@ -196,16 +228,7 @@ fn encode_binary_row(
     } else {
         row.validity.iter().filter(|&&c| c == 0).count()
     };
-    let pixel = match (opts.pixel, opts.pixel_type) {
-        (false, _) => 0,
-        (true, PixelIndexType::UShort) => 4,
-        (true, PixelIndexType::UInt) => 8,
-    };
-    let size = 12
-        + 4 * usize::from(opts.intensity)
-        + 4 * usize::from(opts.modulation)
-        + pixel
-        + usize::from(organized);
+    let size = binary_vertex_bytes(opts, organized);
     let start = out.len();
     out.resize(start + count * size, 0);
     let mut recs = out[start..].chunks_exact_mut(size);
@@ -230,18 +253,19 @@ fn encode_binary_row(
             r[k..k + 4].copy_from_slice(&v.to_le_bytes());
             k += 4;
         }
-        match pixel {
-            4 => {
+        match (opts.pixel, opts.pixel_type) {
+            (false, _) => {}
+            (true, PixelIndexType::UShort) => {
                 r[k..k + 2].copy_from_slice(&(i as u16).to_le_bytes());
                 r[k + 2..k + 4].copy_from_slice(&(row.v as u16).to_le_bytes());
+                k += 4;
             }
-            8 => {
+            (true, PixelIndexType::UInt) => {
                 r[k..k + 4].copy_from_slice(&(i as u32).to_le_bytes());
                 r[k + 4..k + 8].copy_from_slice(&row.v.to_le_bytes());
+                k += 8;
             }
-            _ => {}
         }
-        k += pixel;
         if organized {
             r[k] = code;
         }
