@@ -253,14 +253,21 @@ impl ScanCalibration {
             });
         }
         if streamed && let Some(file) = MapFile::probe(&map_path, cw as usize, ch as usize)? {
-            let recon = Self::reconstructor(&cal, axis, path)?;
-            // Every row read once now: a map the file cannot give is refused at set-up, and its
-            // defects are known before the scan.
-            let mut scan = DefectScan::default();
-            file.rows().for_rows(0, file.height(), |_, r| {
-                scan.row(r);
-                Ok::<_, ScanError>(())
-            })?;
+            // Every row read once now, beside the reconstructor's set-up: a map the file cannot
+            // give is refused at set-up, and its defects are known before the scan.
+            let (recon, scan) = rayon::join(
+                || Self::reconstructor(&cal, axis, path),
+                || {
+                    let mut scan = DefectScan::default();
+                    file.rows()
+                        .for_rows(0, file.height(), |_, r| {
+                            scan.row(r);
+                            Ok::<_, ScanError>(())
+                        })
+                        .map(|()| scan)
+                },
+            );
+            let (recon, scan) = (recon?, scan?);
             return Ok(ScanCalibration {
                 calibration: cal,
                 recon,

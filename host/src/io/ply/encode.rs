@@ -231,6 +231,30 @@ fn encode_binary_row(
     let size = binary_vertex_bytes(opts, organized);
     let start = out.len();
     out.resize(start + count * size, 0);
+    if !organized
+        && opts.intensity
+        && opts.modulation
+        && opts.pixel
+        && opts.pixel_type == PixelIndexType::UShort
+        && row.intensity.len() == n
+        && row.modulation.len() == n
+        && row.validity.len() == n
+    {
+        // The default vertex (`scan`'s): fixed offsets, so the compiler drops the bounds checks.
+        let recs = out[start..].as_chunks_mut::<24>().0.iter_mut();
+        let valid = (0..n).filter(|&i| row.validity[i] == 0);
+        for (r, i) in recs.zip(valid) {
+            let [x, y, z] = row.xyz[i];
+            r[0..4].copy_from_slice(&x.to_le_bytes());
+            r[4..8].copy_from_slice(&y.to_le_bytes());
+            r[8..12].copy_from_slice(&z.to_le_bytes());
+            r[12..16].copy_from_slice(&row.intensity[i].to_le_bytes());
+            r[16..20].copy_from_slice(&row.modulation[i].to_le_bytes());
+            r[20..22].copy_from_slice(&(i as u16).to_le_bytes());
+            r[22..24].copy_from_slice(&(row.v as u16).to_le_bytes());
+        }
+        return count as u64;
+    }
     let mut recs = out[start..].chunks_exact_mut(size);
     for i in 0..n {
         let code = row.validity[i];
