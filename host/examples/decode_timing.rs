@@ -1,5 +1,5 @@
 //! Warm, in-memory decode timing of a dataset, for side-by-side comparisons with other decoders
-//! that are timed the same way (`bench/compare_fringes.sh`): the images are loaded once, then
+//! that are timed the same way (`bench/compare.sh`): the images are loaded once, then
 //! `cli::common::decode` (decoder set-up, output allocation, all cores, the best kernel variant)
 //! runs `--repeat` times; the best time is printed in seconds.
 //!
