@@ -3,6 +3,8 @@
 //! the edge filter), 8- and 16-bit images, 1 and 2 threads through the binary, and through the
 //! library band heights that do not divide the image height (1, 7, 37 rows), several windows and
 //! thread counts. The reference is `cli::scan::run_whole_frame`, the former whole-frame `scan`.
+//! The reference map gives the same bytes read row by row from its file or held whole, and the
+//! scan's peak memory stays within issue #24's bound (the images plus 16 MiB).
 
 use clap::Parser;
 use fringe3d::cli::cloud_out::{CloudFormat, CloudSink};
@@ -444,5 +446,67 @@ fn maps_read_in_place_or_whole_give_the_same_cloud_and_the_same_refusals() {
         refused("is -inf (invalid pixels are NaN");
         rewrite_map(&map, deflate, |v| v.fill(f32::NAN));
         refused("has no valid (finite) phase at all");
+    }
+}
+
+/// The peak memory (RSS) of the child `pid`, bytes, from `wait4` (which reaps it: the child's own
+/// figure, not the largest of every child this test process ever had).
+#[cfg(target_os = "linux")]
+fn reap_with_peak_rss(child: std::process::Child) -> (bool, u64) {
+    let mut status = 0;
+    // SAFETY: an all-zero `rusage` is a valid value of the plain C struct `wait4` fills in.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: `child` was spawned by this process and not yet waited for; `status` and `ru` are
+    // valid for writes.
+    let r = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut ru) };
+    assert_eq!(r, child.id() as libc::pid_t, "wait4");
+    let ok = libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0;
+    (ok, ru.ru_maxrss as u64 * 1024)
+}
+
+/// Issue #24's memory target, held on a 1280 × 1024 scan of the paper's 8 images: the streaming
+/// scan's peak RSS (the whole process) stays within the images plus 16 MiB, on one thread and
+/// on two. It would not if any full-frame buffer or the reference map were held (the map alone
+/// is 5 MiB, each full-frame plane 1.25-15 MiB).
+#[cfg(target_os = "linux")]
+#[test]
+fn peak_memory_stays_within_the_images_plus_16_mib() {
+    let t = Tmp(std::env::temp_dir().join(format!("fringe3d-peak-{}", std::process::id())));
+    let _ = std::fs::remove_dir_all(&t.0);
+    std::fs::create_dir_all(&t.0).unwrap();
+    let ds = t.0.join("ds");
+    run(&[
+        "render",
+        "-q",
+        "--scene",
+        "sphere",
+        "--supersample",
+        "1",
+        "--bits",
+        "8",
+        "--noise",
+        "1",
+        "--out",
+        ds.to_str().unwrap(),
+    ]);
+    let images = 8 * 1280 * 1024u64;
+    for threads in ["1", "2"] {
+        let out = t.0.join(format!("cloud-{threads}.ply"));
+        let mut args = scan_args(&ds, &out, &[]);
+        args.extend(["-j".to_string(), threads.to_string()]);
+        let child = Command::new(env!("CARGO_BIN_EXE_fringe3d"))
+            .args(&args)
+            .spawn()
+            .unwrap();
+        let (ok, peak) = reap_with_peak_rss(child);
+        assert!(ok && out.exists(), "-j {threads}: the scan failed");
+        let limit = images + (16 << 20);
+        assert!(
+            peak <= limit,
+            "-j {threads}: peak RSS {:.1} MiB, more than the images plus 16 MiB ({:.1} MiB)",
+            peak as f64 / 1048576.0,
+            limit as f64 / 1048576.0
+        );
+        eprintln!("-j {threads}: peak RSS {:.1} MiB", peak as f64 / 1048576.0);
     }
 }
