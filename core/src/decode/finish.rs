@@ -11,6 +11,19 @@ use crate::math::CANONICAL_NAN;
 use crate::validity::Validity;
 
 /// `finish_lanes`'s mode: eqs 12-13 from the coarsest level.
+/// `core::array::from_fn` for the lanes of pass 2, always inlined, so that every build computes
+/// the lanes in line: the x86-64 baseline (SSE2) build of the host's row loop left some of
+/// `from_fn`'s closures out of line, one call per lane (docs/performance.md, "Decode"). The same
+/// operations in the same order, so the same bits.
+#[inline(always)]
+fn lanes<T: Copy + Default, const N: usize>(mut f: impl FnMut(usize) -> T) -> [T; N] {
+    let mut out = [T::default(); N];
+    for (k, o) in out.iter_mut().enumerate() {
+        *o = f(k);
+    }
+    out
+}
+
 const HIERARCHICAL: u8 = 0;
 /// `finish_lanes`'s mode: level 0 is a Gray-code level ([`crate::gray`]).
 const GRAY: u8 = 1;
@@ -263,14 +276,14 @@ impl<A: Arith> Decoder<A> {
         } = out;
         const { assert!(N > 0 && BLOCK.is_multiple_of(N)) };
         for j in 0..BLOCK / N {
-            let ix: [usize; N] = core::array::from_fn(|k| j + k * (BLOCK / N));
+            let ix: [usize; N] = lanes(|k| j + k * (BLOCK / N));
             let av: [A::Acc; N] = core::array::from_fn(|k| a[ix[k]]);
             let w: [[A::Phase; L]; N] =
                 core::array::from_fn(|k| core::array::from_fn(|l| wrapped[l][ix[k]]));
             let m: [[A::Mag; L]; N] =
                 core::array::from_fn(|k| core::array::from_fn(|l| mag[l][ix[k]]));
-            let st: [bool; N] = core::array::from_fn(|k| saturated(sat[ix[k]]));
-            let amb: [u8; N] = core::array::from_fn(|k| blk.ambiguous[ix[k]]);
+            let st: [bool; N] = lanes(|k| saturated(sat[ix[k]]));
+            let amb: [u8; N] = lanes(|k| blk.ambiguous[ix[k]]);
             let r = self.finish_lanes::<L, N, MODE>(&w, &m, &av, &st, &amb);
             for k in 0..N {
                 (po[ix[k]], vo[ix[k]]) = r[k];
@@ -301,7 +314,6 @@ impl<A: Arith> Decoder<A> {
         saturated: &[bool; N],
         ambiguous: &[u8; N],
     ) -> [(f32, u8); N] {
-        use core::array::from_fn as lanes;
         let lim = &self.limits;
         const { assert!(MODE != GRAY || L <= crate::limits::MAX_GRAY_LEVELS) };
         const { assert!(MODE != HETERODYNE || L == 2 || L == 3) };
@@ -393,7 +405,6 @@ impl<A: Arith> Decoder<A> {
         &self,
         w: &[[A::Phase; L]; N],
     ) -> ([A::Phase; N], [bool; N], [bool; N]) {
-        use core::array::from_fn as lanes;
         let lim = &self.limits;
         let one = A::ratio(1.0, &self.format);
         let beat = |a: A::Phase, b: A::Phase| A::unwrap(b, one, a).1;
@@ -442,7 +453,6 @@ impl<A: Arith> Decoder<A> {
         &self,
         w: &[[A::Phase; L]; N],
     ) -> ([A::Phase; N], [bool; N], [bool; N]) {
-        use core::array::from_fn as lanes;
         let lim = &self.limits;
         let reach = (self.coprime / 2) as i32 + 1;
         let mut phi = [A::PHASE_ZERO; N];
