@@ -449,21 +449,6 @@ fn maps_read_in_place_or_whole_give_the_same_cloud_and_the_same_refusals() {
     }
 }
 
-/// The peak memory (RSS) of the child `pid`, bytes, from `wait4` (which reaps it: the child's own
-/// figure, not the largest of every child this test process ever had).
-#[cfg(target_os = "linux")]
-fn reap_with_peak_rss(child: std::process::Child) -> (bool, u64) {
-    let mut status = 0;
-    // SAFETY: an all-zero `rusage` is a valid value of the plain C struct `wait4` fills in.
-    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
-    // SAFETY: `child` was spawned by this process and not yet waited for; `status` and `ru` are
-    // valid for writes.
-    let r = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut ru) };
-    assert_eq!(r, child.id() as libc::pid_t, "wait4");
-    let ok = libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0;
-    (ok, ru.ru_maxrss as u64 * 1024)
-}
-
 /// Issue #24's memory target, held on a 1280 × 1024 scan of the paper's 8 images: the streaming
 /// scan's peak RSS (the whole process) stays within the images plus 16 MiB, on one thread and
 /// on two. It would not if any full-frame buffer or the reference map were held (the map alone
@@ -492,14 +477,17 @@ fn peak_memory_stays_within_the_images_plus_16_mib() {
     let images = 8 * 1280 * 1024u64;
     for threads in ["1", "2"] {
         let out = t.0.join(format!("cloud-{threads}.ply"));
-        let mut args = scan_args(&ds, &out, &[]);
+        let mut args = vec!["--json".to_string()];
+        args.extend(scan_args(&ds, &out, &[]));
         args.extend(["-j".to_string(), threads.to_string()]);
-        let child = Command::new(env!("CARGO_BIN_EXE_fringe3d"))
-            .args(&args)
-            .spawn()
-            .unwrap();
-        let (ok, peak) = reap_with_peak_rss(child);
-        assert!(ok && out.exists(), "-j {threads}: the scan failed");
+        let o = run(&args.iter().map(|s| s.as_str()).collect::<Vec<_>>());
+        let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        // The scan's own high-water mark (VmHWM): a child's `ru_maxrss` would include this
+        // test process's memory, which Linux carries over through fork and exec.
+        let peak = json["peak_rss_bytes"]
+            .as_u64()
+            .expect("peak_rss_bytes on Linux");
+        assert!(out.exists());
         let limit = images + (16 << 20);
         assert!(
             peak <= limit,

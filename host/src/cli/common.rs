@@ -74,6 +74,17 @@ fn refuse_defects(cal: ScanCalibration, path: &Path) -> Result<ScanCalibration> 
     }
 }
 
+/// The peak resident memory of this process so far, bytes: `VmHWM` of `/proc/self/status`
+/// (Linux; `None` elsewhere). It is the high-water mark of this program's own address space:
+/// unlike `getrusage`'s `ru_maxrss`, it does not include the memory of the process that started
+/// it, which Linux carries over through `fork` and `exec`.
+pub fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
 /// Warn (unless quiet) when a cloud holds no valid point at all.
 pub fn warn_if_empty(h: &Histogram, out: &str, quiet: bool) {
     if h[0] == 0 && !quiet {

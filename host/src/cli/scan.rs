@@ -165,7 +165,7 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
             &out,
             &serde_json::json!({"command": "scan", "out": a.cloud.out, "points": n, "width": imgs.width, "height": imgs.height,
                 "validity": common::validity_json(&hist),
-                "seconds": seconds})
+                "seconds": seconds, "peak_rss_bytes": common::peak_rss_bytes()})
             .to_string(),
         );
     } else if !g.quiet {
