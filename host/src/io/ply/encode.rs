@@ -222,75 +222,100 @@ fn encode_binary_row(
     row: &PointRow<'_>,
     out: &mut Vec<u8>,
 ) -> u64 {
+    // One instance of the vertex loop per layout, so that every field's offset is a constant
+    // and the record size one too (the loop runs once per point of the cloud).
+    const NONE: u8 = 0;
+    const USHORT: u8 = 1;
+    const UINT: u8 = 2;
+    let pixel = match (opts.pixel, opts.pixel_type) {
+        (false, _) => NONE,
+        (true, PixelIndexType::UShort) => USHORT,
+        (true, PixelIndexType::UInt) => UINT,
+    };
+    macro_rules! layouts {
+        ($(($i:literal, $m:literal, $p:ident, $o:literal)),*) => {
+            match (opts.intensity, opts.modulation, pixel, organized) {
+                $(($i, $m, $p, $o) => encode_vertices::<$i, $m, $p, $o>(row, out),)*
+                // `pixel` is one of the three above: every layout is listed.
+                _ => 0,
+            }
+        };
+    }
+    layouts!(
+        (false, false, NONE, false),
+        (false, false, NONE, true),
+        (false, false, USHORT, false),
+        (false, false, USHORT, true),
+        (false, false, UINT, false),
+        (false, false, UINT, true),
+        (false, true, NONE, false),
+        (false, true, NONE, true),
+        (false, true, USHORT, false),
+        (false, true, USHORT, true),
+        (false, true, UINT, false),
+        (false, true, UINT, true),
+        (true, false, NONE, false),
+        (true, false, NONE, true),
+        (true, false, USHORT, false),
+        (true, false, USHORT, true),
+        (true, false, UINT, false),
+        (true, false, UINT, true),
+        (true, true, NONE, false),
+        (true, true, NONE, true),
+        (true, true, USHORT, false),
+        (true, true, USHORT, true),
+        (true, true, UINT, false),
+        (true, true, UINT, true)
+    )
+}
+
+/// The vertices of one row in the layout the parameters name ([`binary_vertex_bytes`]): x y z,
+/// then intensity (`INT`), modulation (`MOD`), the pixel's u v (`PIX`: none, ushort or uint)
+/// and the code (`ORG`, organized clouds, whose every pixel is a vertex).
+fn encode_vertices<const INT: bool, const MOD: bool, const PIX: u8, const ORG: bool>(
+    row: &PointRow<'_>,
+    out: &mut Vec<u8>,
+) -> u64 {
     let n = row.xyz.len();
-    let count = if organized {
+    let count = if ORG {
         n
     } else {
         row.validity.iter().filter(|&&c| c == 0).count()
     };
-    let size = binary_vertex_bytes(opts, organized);
+    // [`binary_vertex_bytes`], with constants.
+    let size =
+        12 + 4 * usize::from(INT) + 4 * usize::from(MOD) + 4 * PIX as usize + usize::from(ORG);
     let start = out.len();
     out.resize(start + count * size, 0);
-    if !organized
-        && opts.intensity
-        && opts.modulation
-        && opts.pixel
-        && opts.pixel_type == PixelIndexType::UShort
-        && row.intensity.len() == n
-        && row.modulation.len() == n
-        && row.validity.len() == n
-    {
-        // The default vertex (`scan`'s): fixed offsets, so the compiler drops the bounds checks.
-        let recs = out[start..].as_chunks_mut::<24>().0.iter_mut();
-        let valid = (0..n).filter(|&i| row.validity[i] == 0);
-        for (r, i) in recs.zip(valid) {
-            let [x, y, z] = row.xyz[i];
-            r[0..4].copy_from_slice(&x.to_le_bytes());
-            r[4..8].copy_from_slice(&y.to_le_bytes());
-            r[8..12].copy_from_slice(&z.to_le_bytes());
-            r[12..16].copy_from_slice(&row.intensity[i].to_le_bytes());
-            r[16..20].copy_from_slice(&row.modulation[i].to_le_bytes());
-            r[20..22].copy_from_slice(&(i as u16).to_le_bytes());
-            r[22..24].copy_from_slice(&(row.v as u16).to_le_bytes());
-        }
-        return count as u64;
-    }
-    let mut recs = out[start..].chunks_exact_mut(size);
-    for i in 0..n {
-        let code = row.validity[i];
-        if code != 0 && !organized {
-            continue;
-        }
-        let Some(r) = recs.next() else { break };
+    let recs = out[start..].chunks_exact_mut(size);
+    let pixels = (0..n).filter(|&i| ORG || row.validity.get(i) == Some(&0));
+    for (r, i) in recs.zip(pixels) {
+        let code = row.validity.get(i).copied().unwrap_or(0);
         let xyz = if code == 0 { row.xyz[i] } else { [f32::NAN; 3] };
         r[0..4].copy_from_slice(&xyz[0].to_le_bytes());
         r[4..8].copy_from_slice(&xyz[1].to_le_bytes());
         r[8..12].copy_from_slice(&xyz[2].to_le_bytes());
         let mut k = 12;
-        if opts.intensity {
+        if INT {
             let v = row.intensity.get(i).copied().unwrap_or(0.0);
             r[k..k + 4].copy_from_slice(&v.to_le_bytes());
             k += 4;
         }
-        if opts.modulation {
+        if MOD {
             let v = row.modulation.get(i).copied().unwrap_or(0.0);
             r[k..k + 4].copy_from_slice(&v.to_le_bytes());
             k += 4;
         }
-        match (opts.pixel, opts.pixel_type) {
-            (false, _) => {}
-            (true, PixelIndexType::UShort) => {
-                r[k..k + 2].copy_from_slice(&(i as u16).to_le_bytes());
-                r[k + 2..k + 4].copy_from_slice(&(row.v as u16).to_le_bytes());
-                k += 4;
-            }
-            (true, PixelIndexType::UInt) => {
-                r[k..k + 4].copy_from_slice(&(i as u32).to_le_bytes());
-                r[k + 4..k + 8].copy_from_slice(&row.v.to_le_bytes());
-                k += 8;
-            }
+        if PIX == 1 {
+            r[k..k + 2].copy_from_slice(&(i as u16).to_le_bytes());
+            r[k + 2..k + 4].copy_from_slice(&(row.v as u16).to_le_bytes());
+            k += 4;
+        } else if PIX == 2 {
+            r[k..k + 4].copy_from_slice(&(i as u32).to_le_bytes());
+            r[k + 4..k + 8].copy_from_slice(&row.v.to_le_bytes());
+            k += 8;
         }
-        if organized {
+        if ORG {
             r[k] = code;
         }
     }
