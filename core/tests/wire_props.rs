@@ -23,10 +23,10 @@ fn positive(r: &mut XorShift64) -> f64 {
 }
 
 fn target(r: &mut XorShift64) -> UploadTarget {
-    if r.below(2) == 0 {
-        UploadTarget::PatternSet(r.next_u32() as u8)
-    } else {
-        UploadTarget::PhaseMap
+    match r.below(3) {
+        0 => UploadTarget::PatternSet(r.next_u32() as u8),
+        1 => UploadTarget::PhaseMap,
+        _ => UploadTarget::Compiled,
     }
 }
 
@@ -240,6 +240,18 @@ fn random_message<'a>(
                 height: h as u16,
                 margin,
                 total_bytes: mw * mh * PHASE_MAP_BYTES_PER_PIXEL as u32,
+                digest: r.next_u32(),
+            })
+        }
+        Command::BeginCompiledUpload => {
+            let (w, h) = (1 + r.below(300), 1 + r.below(300));
+            let z_min = positive(r) as f32;
+            Message::BeginCompiledUpload(BeginCompiled {
+                width: w as u16,
+                height: h as u16,
+                z_min,
+                z_max: z_min + positive(r) as f32,
+                total_bytes: w * h * COMPILED_BYTES_PER_PIXEL as u32,
                 digest: r.next_u32(),
             })
         }

@@ -388,6 +388,48 @@ fn upload_rules() {
         invalid(Invalid::Dimension)
     );
 
+    // The compiled models: 40 bytes a pixel, a finite, increasing depth range.
+    let m = BeginCompiled {
+        width: 10,
+        height: 2,
+        z_min: 450.0,
+        z_max: 750.0,
+        total_bytes: 10 * 2 * 40,
+        digest: 0,
+    };
+    assert_eq!(m.validate(), Ok(()));
+    assert_eq!(m.row_bytes(), 400);
+    let bad = |b: BeginCompiled| b.validate();
+    assert_eq!(
+        bad(BeginCompiled {
+            total_bytes: 10 * 2 * 5,
+            ..m
+        }),
+        invalid(Invalid::TotalBytes)
+    );
+    assert_eq!(
+        bad(BeginCompiled { height: 0, ..m }),
+        invalid(Invalid::Dimension)
+    );
+    assert_eq!(
+        bad(BeginCompiled { z_max: 450.0, ..m }),
+        invalid(Invalid::DepthRange)
+    );
+    assert_eq!(
+        bad(BeginCompiled {
+            z_min: f32::NAN,
+            ..m
+        }),
+        invalid(Invalid::NotFinite)
+    );
+    assert_eq!(
+        bad(BeginCompiled {
+            z_max: f32::INFINITY,
+            ..m
+        }),
+        invalid(Invalid::NotFinite)
+    );
+
     let data = [1u8, 2, 3];
     let c = UploadChunk::new(UploadTarget::PhaseMap, 0, &data);
     assert_eq!(c.validate(), Ok(()));

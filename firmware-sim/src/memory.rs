@@ -19,13 +19,19 @@
 //! | `xyz_rows` | `9·W` | 4 | three point rows (the edge filter's window) |
 //! | `point_codes` | `4·W` | 1 | their codes, and the filter's output codes |
 //! | `reference_phase`, `reference_validity` | `MW` | 4 + 1 | one reference row from storage |
+//! | `compiled_line` | `13·W` | 4 | one row of compiled models (`10·W`), the search's points for the pixels they leave (`3·W`) |
+//! | `compiled_codes` | `2·W` | 1 | the search's codes and its input mask for those pixels |
 //!
 //! `W × H` is the camera, `PW` the projector width, `L` the pattern set's levels and `band` the
 //! reference rows a point row needs (`Reconstructor::band`). `MW` is the reference map's width:
 //! `W` for an image-sized map, `left + W + right` for a map with a margin past the image
 //! (issue #17; `Reconstructor::map_width`), which a head takes up to the width these buffers
 //! hold (a wider map's upload is refused with Nak OutOfMemory). The map itself,
-//! `MW × (top + H + bottom) × 5` bytes, lives in the board's map store (external memory).
+//! `MW × (top + H + bottom) × 5` bytes, lives in the board's map store (external memory), and
+//! so do the compiled reconstruction's models (docs/compiled.md, protocol version 9),
+//! `W × H × 40` bytes at the store's end. A head without the two `compiled_*` buffers (empty
+//! slices, or shorter than a camera row needs) refuses the models' upload with Nak OutOfMemory
+//! and reconstructs with the search.
 
 /// The head's working buffers (see the module documentation for their sizes).
 pub struct HeadMemory<'a> {
@@ -57,7 +63,16 @@ pub struct HeadMemory<'a> {
     pub reference_phase: &'a mut [f32],
     /// One reference row's validity, `MW`.
     pub reference_validity: &'a mut [u8],
+    /// One row of compiled models, then the search's points for the pixels they leave:
+    /// `13·W` (empty: no compiled reconstruction on this head).
+    pub compiled_line: &'a mut [f32],
+    /// The search's codes and its input mask for those pixels: `2·W`.
+    pub compiled_codes: &'a mut [u8],
 }
+
+/// `f32` per camera column of [`HeadMemory::compiled_line`]: a model's ten numbers and a point's
+/// three.
+pub const COMPILED_LINE_PER_COLUMN: usize = fringe3d_core::reconstruct::compiled::FIELDS + 3;
 
 /// Buffer lengths (elements) for a head.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -74,6 +89,10 @@ pub struct MemoryPlan {
     pub projector_line: usize,
     /// Reference row length (`MW`: the widest map row, the camera line and the margins).
     pub map_line: usize,
+    /// `compiled_line` length (`13·W`; 0 without the compiled reconstruction).
+    pub compiled_line: usize,
+    /// `compiled_codes` length (`2·W`; 0 without it).
+    pub compiled_codes: usize,
 }
 
 impl MemoryPlan {
@@ -93,6 +112,18 @@ impl MemoryPlan {
             line: width,
             projector_line: projector_width,
             map_line: width,
+            compiled_line: COMPILED_LINE_PER_COLUMN * width,
+            compiled_codes: 2 * width,
+        }
+    }
+
+    /// The same lengths without the compiled reconstruction's row buffers (a head that
+    /// reconstructs with the search only).
+    pub const fn without_compiled(self) -> Self {
+        MemoryPlan {
+            compiled_line: 0,
+            compiled_codes: 0,
+            ..self
         }
     }
 
@@ -118,13 +149,17 @@ impl MemoryPlan {
             + self.line * (2 + 3 * 4 + 1 + 9 * 4 + 4)
             + self.map_line * (4 + 1)
             + self.projector_line
+            + self.compiled_line * 4
+            + self.compiled_codes
     }
 }
 
 /// A complete set of buffers in one value, for a `static` on a board. The const parameters are
 /// the lengths of [`MemoryPlan`] (`LINE9 = 9·LINE`, `LINE4 = 4·LINE`, `MAP_LINE` the widest
-/// reference map row, `LINE` for image-sized maps); compute them where the type is named, e.g.
-/// `HeadBuffers<{ 7 * 64 * 48 }, { 64 * 48 }, 64, { 9 * 64 }, { 4 * 64 }, 64, { 20 * 64 }, 64>`.
+/// reference map row, `LINE` for image-sized maps, `CLINE = 13·LINE` and `LINE2 = 2·LINE` for
+/// the compiled reconstruction, or 0 without it); compute them where the type is named, e.g.
+/// `HeadBuffers<{ 7 * 64 * 48 }, { 64 * 48 }, 64, { 9 * 64 }, { 4 * 64 }, 64, { 20 * 64 }, 64,
+/// { 13 * 64 }, { 2 * 64 }>`.
 pub struct HeadBuffers<
     const STATE: usize,
     const PIXELS: usize,
@@ -134,6 +169,8 @@ pub struct HeadBuffers<
     const PLINE: usize,
     const RING: usize,
     const MAP_LINE: usize,
+    const CLINE: usize,
+    const LINE2: usize,
 > {
     decode_state: [f32; STATE],
     decode_flags: [u8; PIXELS],
@@ -149,6 +186,8 @@ pub struct HeadBuffers<
     point_codes: [u8; LINE4],
     reference_phase: [f32; MAP_LINE],
     reference_validity: [u8; MAP_LINE],
+    compiled_line: [f32; CLINE],
+    compiled_codes: [u8; LINE2],
 }
 
 impl<
@@ -160,7 +199,9 @@ impl<
     const PLINE: usize,
     const RING: usize,
     const MAP_LINE: usize,
-> Default for HeadBuffers<STATE, PIXELS, LINE, LINE9, LINE4, PLINE, RING, MAP_LINE>
+    const CLINE: usize,
+    const LINE2: usize,
+> Default for HeadBuffers<STATE, PIXELS, LINE, LINE9, LINE4, PLINE, RING, MAP_LINE, CLINE, LINE2>
 {
     fn default() -> Self {
         Self::new()
@@ -176,7 +217,9 @@ impl<
     const PLINE: usize,
     const RING: usize,
     const MAP_LINE: usize,
-> HeadBuffers<STATE, PIXELS, LINE, LINE9, LINE4, PLINE, RING, MAP_LINE>
+    const CLINE: usize,
+    const LINE2: usize,
+> HeadBuffers<STATE, PIXELS, LINE, LINE9, LINE4, PLINE, RING, MAP_LINE, CLINE, LINE2>
 {
     /// Zeroed buffers (a `const fn`: usable in a `static` initialiser, placed in `.bss`).
     pub const fn new() -> Self {
@@ -195,6 +238,8 @@ impl<
             point_codes: [0; LINE4],
             reference_phase: [0.0; MAP_LINE],
             reference_validity: [0; MAP_LINE],
+            compiled_line: [0.0; CLINE],
+            compiled_codes: [0; LINE2],
         }
     }
 
@@ -215,6 +260,8 @@ impl<
             point_codes: &mut self.point_codes,
             reference_phase: &mut self.reference_phase,
             reference_validity: &mut self.reference_validity,
+            compiled_line: &mut self.compiled_line,
+            compiled_codes: &mut self.compiled_codes,
         }
     }
 }
@@ -228,7 +275,9 @@ pub struct MemoryReport {
     pub decode_flags: usize,
     /// Reference ring used (phase and validity).
     pub ring: usize,
-    /// Line buffers used (camera, projector, decoded row, point row, reference row).
+    /// Line buffers used (camera, projector, decoded row, point row, reference row, and the
+    /// compiled reconstruction's row of models and the search's points for the pixels it
+    /// leaves).
     pub lines: usize,
     /// The head struct itself: link frame buffers, pattern-set slots, trigger table, decoder
     /// and reconstructor (`size_of` the `Head`).

@@ -352,6 +352,8 @@ static BUFFERS: std::sync::Mutex<
         128,
         { 16 * 64 },
         64,
+        { 13 * 64 },
+        { 2 * 64 },
     >,
 > = std::sync::Mutex::new(fringe3d_head::HeadBuffers::new());
 

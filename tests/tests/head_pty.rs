@@ -41,7 +41,7 @@ pub(crate) const CAM: (u32, u32) = (320, 256);
 
 /// A small rendered sphere scene under the curved fringes of examples/patterns/curved.toml
 /// (parameters and derived slope not f32-exact).
-fn dataset(root: &Path) -> PathBuf {
+pub(crate) fn dataset(root: &Path) -> PathBuf {
     dataset_with(
         root,
         "version = 1\npreset = \"paper8\"\nratio = 8.0\n[projector]\nwidth = 1024\nheight = 768\nbit_depth = 8\n\
@@ -157,7 +157,7 @@ pub(crate) fn spawn_head_series(
             NoSink,
             (o.width as u16, o.height as u16),
             8 << 20,
-            (w + 2 * m) * (h + 2 * m) * 5,
+            (w + 2 * m) * (h + 2 * m) * 5 + w * h * fringe3d_core::wire::COMPILED_BYTES_PER_PIXEL,
         );
         let mut head = Head::new(board, mem.memory(), HeadConfig::DEFAULT).unwrap();
         head.set_queue_sizes(QUEUE_LEN, QUEUE_LEN);
@@ -176,7 +176,7 @@ pub(crate) fn spawn_head_series(
     (path_rx, cmd_tx, h)
 }
 
-fn opts() -> ClientOptions {
+pub(crate) fn opts() -> ClientOptions {
     ClientOptions {
         timeout: Duration::from_millis(1500),
         retries: 6,
@@ -757,14 +757,14 @@ pub(crate) struct HeadCase {
     pub(crate) dec: Decoded,
     pub(crate) cloud: PointCloud,
     pub(crate) table: Option<fringe3d_core::decode::PhaseCorrection>,
-    desc: fringe3d_core::wire::PatternSetDesc,
+    pub(crate) desc: fringe3d_core::wire::PatternSetDesc,
     pub(crate) seq: Vec<fringe3d_core::wire::LutEntry>,
-    wcal: fringe3d_core::wire::Calibration,
-    map: Vec<u8>,
-    margin: Margin,
+    pub(crate) wcal: fringe3d_core::wire::Calibration,
+    pub(crate) map: Vec<u8>,
+    pub(crate) margin: Margin,
 }
 
-fn head_case(dir: &Path) -> HeadCase {
+pub(crate) fn head_case(dir: &Path) -> HeadCase {
     head_case_with(dir, &dir.join("calibration.toml"))
 }
 
@@ -858,7 +858,7 @@ pub(crate) fn on_head_series(
     head.join().unwrap();
 }
 
-fn scan_both(c: &mut Client<fringe3d::device::SerialTransport>) -> ScanOutcome {
+pub(crate) fn scan_both(c: &mut Client<fringe3d::device::SerialTransport>) -> ScanOutcome {
     c.scan(
         ScanOutput::Both,
         0,
@@ -898,6 +898,29 @@ fn a_shifted_gray_code_scans_on_the_head_bit_identical_to_the_desktop() {
     let _ = std::fs::remove_dir_all(&root);
 }
 
+/// `fringe3d calibrate reference --virtual` for the dataset `dir` with `--margin margin`, into
+/// the calibration file `out`.
+pub(crate) fn virtual_reference(dir: &Path, margin: &str, out: &Path) {
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let (patterns, cal) = (dir.join("patterns.toml"), dir.join("calibration.toml"));
+    let args = [
+        "fringe3d",
+        "--quiet",
+        "calibrate",
+        "reference",
+        "--virtual",
+        "-p",
+        &s(&patterns),
+        "-c",
+        &s(&cal),
+        "--margin",
+        margin,
+        "-o",
+        &s(out),
+    ];
+    fringe3d::cli::run(args).unwrap();
+}
+
 /// A reference map wider than the image on the head (issue #17 item 3, protocol version 6):
 /// the virtual map of the rig's projector on the default plane at the far end of the depth
 /// range, with the margin the geometry needs (`calibrate reference --virtual`'s defaults). The
@@ -907,29 +930,10 @@ fn a_shifted_gray_code_scans_on_the_head_bit_identical_to_the_desktop() {
 fn a_reference_map_wider_than_the_image_scans_on_the_head_bit_identical_to_the_desktop() {
     let root = fresh_root("margin");
     let dir = dataset(&root);
-    let s = |p: &Path| p.to_str().unwrap().to_string();
-    let (patterns, cal) = (dir.join("patterns.toml"), dir.join("calibration.toml"));
-    let virtual_reference = |margin: &str, out: &Path| {
-        let args = [
-            "fringe3d",
-            "--quiet",
-            "calibrate",
-            "reference",
-            "--virtual",
-            "-p",
-            &s(&patterns),
-            "-c",
-            &s(&cal),
-            "--margin",
-            margin,
-            "-o",
-            &s(out),
-        ];
-        fringe3d::cli::run(args).unwrap();
-    };
+    let cal = dir.join("calibration.toml");
     let image_sized = root.join("image-sized/calibration.toml");
-    virtual_reference("0", &image_sized);
-    virtual_reference("auto", &cal);
+    virtual_reference(&dir, "0", &image_sized);
+    virtual_reference(&dir, "auto", &cal);
     let case = head_case(&dir);
     assert_ne!(case.margin, Margin::ZERO);
     let narrow = head_case_with(&dir, &image_sized);

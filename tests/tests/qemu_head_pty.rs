@@ -8,7 +8,8 @@
 //! into the head's PSRAM store, calibration, reference phase map: the virtual map of the rig's
 //! projector on the default far plane, wider than the image by the margin the geometry needs,
 //! issue #17) and `fringe3d device scan`
-//! (points to a PLY, phase to a float TIFF) against it, and an HDR scan (`--exposures-us`: the
+//! (points to a PLY, phase to a float TIFF) against it, a scan with the compiled reconstruction
+//! (`fringe3d compile`, `device upload --compiled`), and an HDR scan (`--exposures-us`: the
 //! camera reads a frames file per exposure, the scene rendered 4× brighter and as metered). The
 //! scans must be bit-identical (canonical
 //! NaN) to what the desktop computes from the same images — the decode and reconstruction of
@@ -414,6 +415,48 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         ]
         .concat(),
     );
+    // The compiled reconstruction (protocol version 9): the calibration's models, uploaded after
+    // the calibration and map they were compiled from; the head reads them row by row from its
+    // map store and leaves the pixels without one to the search. At 10 µm: the bilinear cells of
+    // a 160 x 120 map bend too much for a smooth function at 1 µm (9 pixels compile; 95 % at
+    // 10 µm; docs/compiled.md, "How close to the search"). What is checked here is the head's
+    // bits, not the models' accuracy.
+    let f3c = root.join("reconstruction.f3c");
+    fringe3d(&[
+        "compile",
+        "-p",
+        p,
+        "-c",
+        c,
+        "--tolerance",
+        "10",
+        "-o",
+        f3c.to_str().unwrap(),
+    ]);
+    let t_up_compiled = fringe3d(
+        &[
+            &["device", "upload"][..],
+            &port_args[..],
+            &[
+                "--patterns",
+                p,
+                "--calibration",
+                c,
+                "--compiled",
+                f3c.to_str().unwrap(),
+            ][..],
+        ]
+        .concat(),
+    );
+    let ply_compiled = root.join("head_compiled.ply");
+    let t_scan_compiled = fringe3d(
+        &[
+            &["device", "scan"][..],
+            &port_args[..],
+            &["--max-angle", "80", "--out", ply_compiled.to_str().unwrap()][..],
+        ]
+        .concat(),
+    );
     fringe3d(&[&["device", "info"][..], &port_args[..]].concat());
     let console = qemu.console();
     drop(qemu);
@@ -471,6 +514,28 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
     // holds exactly the desktop's points and codes, bit for bit.
     let mut filtered = cloud.clone();
     fringe3d::scan::filter_edges(&mut filtered, &sc.edge_filter(80.0).unwrap());
+    // The compiled scan: the desktop's `scan --compiled`, which differs from the search's.
+    let scc = ScanCalibration::load(&calib, ls.set.axis())
+        .unwrap()
+        .with_compiled(&f3c)
+        .unwrap();
+    let mut compiled = scc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
+    fringe3d::scan::filter_edges(&mut compiled, &scc.edge_filter(80.0).unwrap());
+    let models = scc.compiled.as_ref().map_or(0, |f| f.compiled_count());
+    let differ = bits(&compiled.xyz)
+        .chunks(3)
+        .zip(bits(&filtered.xyz).chunks(3))
+        .filter(|(a, b)| a != b)
+        .count();
+    eprintln!(
+        "compiled: {models} of {} pixels have a model, {differ} points differ from the search's; \
+         upload {t_up_compiled:.1} s, scan {t_scan_compiled:.1} s",
+        w * h
+    );
+    assert!(
+        models > w * h / 2 && differ > compiled.valid_count() / 10,
+        "too few compiled points to tell whether the head used them"
+    );
     assert!(
         filtered.valid_count() < cloud.valid_count(),
         "the edge filter flags some points of the sphere's rim"
@@ -478,6 +543,7 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
     for (path, desk, what) in [
         (&ply, &filtered, "edge-filtered"),
         (&ply_raw, &cloud, "unfiltered"),
+        (&ply_compiled, &compiled, "compiled"),
     ] {
         let pts = read_ply(path);
         assert_eq!(pts.len(), w * h, "{what}: organized, one vertex per pixel");
@@ -505,9 +571,9 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         }
     }
 
-    // The firmware's own report: it ran the three scans in its SRAM budget.
+    // The firmware's own report: it ran the four scans in its SRAM budget.
     assert!(
-        console.matches(&format!("scan: {h} rows sent")).count() == 3,
+        console.matches(&format!("scan: {h} rows sent")).count() == 4,
         "{console}"
     );
     let _ = std::fs::remove_dir_all(&root);

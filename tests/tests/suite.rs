@@ -7,6 +7,7 @@
 mod common;
 mod rendered;
 
+mod head_compiled;
 mod head_hdr;
 mod head_pty;
 mod qemu_c_example;

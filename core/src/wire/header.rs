@@ -12,6 +12,9 @@ use super::{MAX_PAYLOAD, WireError};
 
 /// The protocol version this module speaks; frames of any other version are rejected.
 ///
+/// Version 9 adds BeginCompiledUpload and the upload target `[2]` (issue #24 item 1): a head of
+/// version 9 takes the compiled reconstruction's models and reconstructs the pixels that have
+/// one without the search.
 /// Version 8 adds the exposure list to Scan ([`Exposures`](super::Exposures), issue #19 item 4):
 /// a head of version 8 captures the sequence once per exposure and fuses them per pixel (HDR).
 /// Version 7 adds DefineThresholds: a head of version 7 decodes a set with the host's thresholds
@@ -31,7 +34,7 @@ use super::{MAX_PAYLOAD, WireError};
 /// core's set-up consumes, so the head computes exactly what the desktop computes), describes
 /// knot profiles and curved fringes, and adds the edge-filter mode to Scan. Version 1 carried
 /// f32 and linear phase functions only.
-pub const PROTOCOL_VERSION: u8 = 8;
+pub const PROTOCOL_VERSION: u8 = 9;
 
 /// Length of the header in bytes.
 pub const HEADER_LEN: usize = 6;

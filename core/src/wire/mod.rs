@@ -34,7 +34,7 @@
 //!
 //! | offset   | size | field                                                    |
 //! |---------:|-----:|----------------------------------------------------------|
-//! | 0        | 1    | protocol version = 7 ([`PROTOCOL_VERSION`])              |
+//! | 0        | 1    | protocol version = 9 ([`PROTOCOL_VERSION`])              |
 //! | 1        | 1    | flags (below)                                            |
 //! | 2        | 1    | sequence number                                          |
 //! | 3        | 1    | command id (table below)                                 |
@@ -64,7 +64,7 @@
 //! of an earlier scan still in flight (adapter or driver buffers, a host killed mid-scan) are
 //! dropped, never assembled into the new result. A `seq` (8 bits) alone cannot tell them apart.
 //!
-//! Uploads: BeginUpload / BeginPhaseMapUpload → UploadAck{next_offset: 0}; UploadChunks, each at
+//! Uploads: BeginUpload / BeginPhaseMapUpload / BeginCompiledUpload → UploadAck{next_offset: 0}; UploadChunks, each at
 //! the head's current offset → UploadAck{next_offset}; after an interruption, QueryUpload →
 //! UploadAck tells where to resume; ConfirmUpload → Ack if the CRC-32C of all bytes equals the
 //! announced digest, else Nak DigestMismatch. The head never uses unconfirmed data.
@@ -91,6 +91,7 @@
 //! | `0x16` | DefineThresholds    | 1 | set_id u8, thresholds: `[0]` none (the camera bit depth's defaults) or `[1]` dark_level, saturation_level, min_modulation, unwrap_tolerance, range_tolerance f32 ([`DecodeThresholds`]) | Ack |
 //! | `0x18` | UploadCalibration   | 1 | width u16, height u16, fx, fy, cx, cy, skew f64, k1, k2, p1, p2, k3 f64, projector_centre 3×f64, plane_point 3×f64, plane_normal 3×f64, depth_min f64, depth_max f64 | Ack |
 //! | `0x19` | BeginPhaseMapUpload | 1 | width u16, height u16, margin left, top, right, bottom u32 (≤ 1024 each), total_bytes u32, digest u32 | UploadAck |
+//! | `0x1A` | BeginCompiledUpload | 1 | width u16, height u16, z_min f32, z_max f32, total_bytes u32, digest u32 ([`BeginCompiled`]; protocol version 9) | UploadAck |
 //! | `0x20` | ConfigureSequence   | 1 | set_id u8, repeat bool, entries bytes (n × 12-byte [`LutEntry`], 1..=256)   | Ack |
 //! | `0x21` | ValidateSequence    | 0 | (empty)                                                                     | Validation |
 //! | `0x22` | Start               | 1 | (empty)                                                                     | Ack |
@@ -107,7 +108,8 @@
 //! | `0x86` | ResultRow           | 0 | scan_id u32, row u16, first_col u16, kind `[0]` Phase `[1]` Points, data bytes | |
 //! | `0x87` | ScanDone            | 0 | scan_id u32, rows u16, valid u32                                            | |
 //!
-//! `T` ([`UploadTarget`]) is `[0] set_id u8` (a pattern set) or `[1]` (the reference phase map).
+//! `T` ([`UploadTarget`]) is `[0] set_id u8` (a pattern set), `[1]` (the reference phase map) or
+//! `[2]` (the compiled reconstruction's models).
 //!
 //! [`PatternSetDesc`]: width u16, height u16, bit_depth u8, i_min f64, i_max f64, waveform `[0]`
 //! sine `[1]` cosine (`[2]`/`[3]` their square waves, `[4]`/`[5]` Bayer-dithered: 1-bit patterns,
@@ -134,7 +136,13 @@
 //! its columns, LE (points x, y, z interleaved), then one [`Validity`](crate::Validity) byte per
 //! column. The reference map is `left + width + right` columns by `top + height + bottom` rows
 //! (its [`Margin`](crate::reconstruct::Margin) past the image, [`BeginPhaseMap`]), rows from
-//! the map's top. Pattern image uploads: one byte per pixel, row-major, images in order.
+//! the map's top. Pattern image uploads: one byte per pixel, row-major, images in order. The
+//! compiled reconstruction's upload: the camera's rows from the top, each `40 × width` bytes, its
+//! models field by field (ten arrays of `width` f32 LE: ray x, ray y, Φ_c, ±k, s_c, γ, d₁…d₄;
+//! [`PixelModel::store`](crate::reconstruct::compiled::PixelModel::store)), the rows of a
+//! `fringe3d compile` file after its 72-byte header. A head takes it after the calibration and a
+//! confirmed reference map (Nak NotReady before), with their size and depth range (Nak Invalid
+//! Dimension / DepthRange), and forgets it when either is replaced.
 //!
 //! Worked example: GetStatus (`0x32`), seq 7, REPLY_WANTED, empty payload. Header
 //! `07 02 07 32 00 00`; CRC-32C of those six bytes `0x66C83326`, sent LE: decoded frame
@@ -149,7 +157,8 @@
 //! (`light-edge`). 5 had no margin in BeginPhaseMapUpload (a head took image-sized reference
 //! maps only). 6 had no DefineThresholds (a head decoded with its camera bit depth's default
 //! thresholds, whatever the host's: at 16 bit a floor of 2 % of full scale, not 12σ). 7 had no
-//! exposure list in Scan (a head captured each pattern once: no HDR). A head and a host of different versions refuse each other's
+//! exposure list in Scan (a head captured each pattern once: no HDR). 8 had no
+//! BeginCompiledUpload (a head reconstructed every pixel with the §6 search). A head and a host of different versions refuse each other's
 //! frames: the head answers a frame of another version with Nak Version (detail: its version),
 //! which the host reports as such.
 //! `core/tests/wire_vectors.rs` spells out more, one per kind of body.

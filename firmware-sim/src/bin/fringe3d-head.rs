@@ -137,7 +137,9 @@ fn main() -> ExitCode {
     let plan = MemoryPlan::new(w, h, pw as usize, MAX_LEVELS, MAX_BAND_ROWS.min(h))
         .with_margin_columns(2 * max_margin);
     let mut mem = OwnedMemory::new(plan);
-    let map_store = (w + 2 * max_margin) * (h + 2 * max_margin) * 5;
+    // The reference map with its margin, then the compiled models (40 bytes a pixel).
+    let map_store = (w + 2 * max_margin) * (h + 2 * max_margin) * 5
+        + w * h * fringe3d_core::wire::COMPILED_BYTES_PER_PIXEL;
     let board = sim_board(&world, replay, NoSink, (pw, ph), store_mib << 20, map_store);
     let cfg = HeadConfig {
         readout_us,

@@ -100,6 +100,8 @@ pub struct OwnedMemory {
     rows_u8: [std::vec::Vec<u8>; 2],
     point_codes: std::vec::Vec<u8>,
     xyz: std::vec::Vec<f32>,
+    compiled_line: std::vec::Vec<f32>,
+    compiled_codes: std::vec::Vec<u8>,
 }
 
 impl OwnedMemory {
@@ -122,6 +124,8 @@ impl OwnedMemory {
             rows_u8: [std::vec![0; w], std::vec![0; plan.map_line]],
             point_codes: std::vec![0; 4 * w],
             xyz: std::vec![0.0; 9 * w],
+            compiled_line: std::vec![0.0; plan.compiled_line],
+            compiled_codes: std::vec![0; plan.compiled_codes],
         }
     }
 
@@ -144,6 +148,8 @@ impl OwnedMemory {
             point_codes: &mut self.point_codes,
             reference_phase,
             reference_validity,
+            compiled_line: &mut self.compiled_line,
+            compiled_codes: &mut self.compiled_codes,
         }
     }
 }

@@ -5,13 +5,13 @@ use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::pattern::PatternSet;
 use fringe3d_core::reconstruct::Reconstructor;
 use fringe3d_core::wire::{
-    BeginPhaseMap, BeginUpload, Calibration, Capabilities, DecodeThresholds, Exposures, HeadState,
-    LUT_ENTRY_LEN, LutEntry, MAX_LUT_ENTRIES, PatternSetDesc, ScanOutput, SetupCorrection,
-    UploadTarget, ValidationStatus,
+    BeginCompiled, BeginPhaseMap, BeginUpload, Calibration, Capabilities, DecodeThresholds,
+    Exposures, HeadState, LUT_ENTRY_LEN, LutEntry, MAX_LUT_ENTRIES, PatternSetDesc, ScanOutput,
+    SetupCorrection, UploadTarget, ValidationStatus,
 };
 
 use super::config::{HeadConfig, MAX_SETS};
-use crate::memory::{HeadMemory, MemoryReport};
+use crate::memory::{COMPILED_LINE_PER_COLUMN, HeadMemory, MemoryReport};
 
 /// Validation bits that only matter to scans streaming points.
 pub(super) const POINTS_ONLY: u32 =
@@ -36,10 +36,11 @@ pub(super) struct Slot {
 }
 
 /// What an upload is for, as announced (a repeated Begin with the same key resumes it).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum UploadKey {
     Patterns(BeginUpload),
     Map(BeginPhaseMap),
+    Compiled(BeginCompiled),
 }
 
 impl UploadKey {
@@ -47,6 +48,7 @@ impl UploadKey {
         match self {
             UploadKey::Patterns(b) => b.total_bytes,
             UploadKey::Map(m) => m.total_bytes,
+            UploadKey::Compiled(c) => c.total_bytes,
         }
     }
 
@@ -54,12 +56,19 @@ impl UploadKey {
         match self {
             UploadKey::Patterns(b) => b.digest,
             UploadKey::Map(m) => m.digest,
+            UploadKey::Compiled(c) => c.digest,
         }
     }
 }
 
+/// Where the compiled models of `c` lie in a map store of `capacity` bytes: at its end, after
+/// the reference map (which starts at 0), or `None` if the store is too small for them.
+pub(super) fn compiled_base(capacity: u32, c: &BeginCompiled) -> Option<u32> {
+    capacity.checked_sub(c.total_bytes)
+}
+
 /// An upload in progress: its key and the next offset expected.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Upload {
     pub(super) key: UploadKey,
     pub(super) next: u32,
@@ -95,6 +104,9 @@ pub(super) struct PendingScan {
     pub(super) set: PatternSet,
     pub(super) slot: u8,
     pub(super) recon: Option<Reconstructor>,
+    /// The compiled models' announcement (they lie at [`compiled_base`] of the map store), with
+    /// `recon`.
+    pub(super) compiled: Option<BeginCompiled>,
     pub(super) filter: Option<EdgeFilter>,
     /// The exposure list (HDR): the sequence runs once per exposure.
     pub(super) exposures: Exposures,
@@ -109,6 +121,10 @@ pub(super) struct Control {
     pub(super) map_upload: Option<Upload>,
     /// The confirmed reference map's announcement (its size and margin), if any.
     pub(super) map_confirmed: Option<BeginPhaseMap>,
+    pub(super) compiled_upload: Option<Upload>,
+    /// The confirmed compiled models' announcement, if any (forgotten with the calibration or
+    /// the map they were compiled from).
+    pub(super) compiled_confirmed: Option<BeginCompiled>,
     pub(super) calibration: Option<Calibration>,
     pub(super) lut: Option<Lut>,
     pub(super) validated: bool,
@@ -126,6 +142,8 @@ pub(super) struct Control {
     pub(super) ring_capacity: usize,
     /// Samples of one reference row the head can stage (the widest map row it takes).
     pub(super) reference_capacity: usize,
+    /// The widest camera row of compiled models the head can stage (0: none).
+    pub(super) compiled_capacity: usize,
     pub(super) report: MemoryReport,
 }
 
@@ -140,6 +158,8 @@ impl Control {
             pattern_upload: None,
             map_upload: None,
             map_confirmed: None,
+            compiled_upload: None,
+            compiled_confirmed: None,
             calibration: None,
             lut: None,
             validated: false,
@@ -156,6 +176,8 @@ impl Control {
             flags_capacity: mem.decode_flags.len(),
             ring_capacity: mem.ring_phase.len().min(mem.ring_validity.len()),
             reference_capacity: mem.reference_phase.len().min(mem.reference_validity.len()),
+            compiled_capacity: (mem.compiled_line.len() / COMPILED_LINE_PER_COLUMN)
+                .min(mem.compiled_codes.len() / 2),
             report: MemoryReport::default(),
         }
     }
@@ -171,7 +193,10 @@ impl Control {
             HeadState::Running
         } else if self.fault {
             HeadState::Fault
-        } else if self.pattern_upload.is_some() || self.map_upload.is_some() {
+        } else if self.pattern_upload.is_some()
+            || self.map_upload.is_some()
+            || self.compiled_upload.is_some()
+        {
             HeadState::Uploading
         } else if self.validated {
             HeadState::Ready
@@ -255,7 +280,14 @@ impl Control {
                 })
             }
             UploadTarget::PhaseMap => self.map_confirmed.map(|m| m.total_bytes),
+            UploadTarget::Compiled => self.compiled_confirmed.map(|c| c.total_bytes),
         }
+    }
+
+    /// Forget the compiled models, confirmed or arriving (their calibration or map changes).
+    pub(super) fn drop_compiled(&mut self) {
+        self.compiled_upload = None;
+        self.compiled_confirmed = None;
     }
 
     pub(super) fn upload_mut(&mut self, t: UploadTarget) -> Option<&mut Upload> {
@@ -265,6 +297,7 @@ impl Control {
                 .as_mut()
                 .filter(|u| matches!(u.key, UploadKey::Patterns(b) if b.set_id == id)),
             UploadTarget::PhaseMap => self.map_upload.as_mut(),
+            UploadTarget::Compiled => self.compiled_upload.as_mut(),
         }
     }
 }

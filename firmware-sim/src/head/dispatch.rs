@@ -11,7 +11,7 @@ use fringe3d_core::wire::{
 };
 
 use super::config::HeadConfig;
-use super::control::{Control, Lut, POINTS_ONLY, Slot, Source, Upload, UploadKey};
+use super::control::{Control, Lut, POINTS_ONLY, Slot, Source, Upload, UploadKey, compiled_base};
 use super::error::{LinkError, io_err};
 use super::plan::plan_scan;
 use super::transmit::Tx;
@@ -327,6 +327,8 @@ fn dispatch<T: Write, B: BoardIo>(
             {
                 nak!(NakCode::OutOfMemory, 0);
             }
+            // The compiled models were made from the map this one replaces.
+            ctl.drop_compiled();
             let key = UploadKey::Map(m);
             let next = match ctl.map_upload {
                 Some(u) if u.key == key => u.next,
@@ -341,14 +343,50 @@ fn dispatch<T: Write, B: BoardIo>(
                 next_offset: next
             }));
         }
+        Message::BeginCompiledUpload(m) => {
+            // The models belong to one calibration and map: both first.
+            let (Some(cal), Some(map)) = (ctl.calibration, ctl.map_confirmed) else {
+                let mut missing = 0;
+                if ctl.calibration.is_none() {
+                    missing |= ValidationStatus::NO_CALIBRATION;
+                }
+                if ctl.map_confirmed.is_none() {
+                    missing |= ValidationStatus::NO_REFERENCE;
+                }
+                nak!(NakCode::NotReady, missing);
+            };
+            if m.width != ctl.caps.sensor_width || m.height != ctl.caps.sensor_height {
+                nak!(NakCode::Invalid, Invalid::Dimension);
+            }
+            let g = &cal.geometry;
+            if (m.z_min, m.z_max) != (g.depth_min as f32, g.depth_max as f32) {
+                nak!(NakCode::Invalid, Invalid::DepthRange);
+            }
+            // A row of models must fit the line buffers, and the models the store beside the map.
+            let room = compiled_base(board.map_store().capacity(), &m);
+            if m.width as usize > ctl.compiled_capacity || room.is_none_or(|b| b < map.total_bytes)
+            {
+                nak!(NakCode::OutOfMemory, 0);
+            }
+            let key = UploadKey::Compiled(m);
+            let next = match ctl.compiled_upload {
+                Some(u) if u.key == key => u.next,
+                _ => {
+                    ctl.compiled_upload = Some(Upload { key, next: 0 });
+                    ctl.compiled_confirmed = None;
+                    0
+                }
+            };
+            reply!(Message::UploadAck(UploadAck {
+                target: UploadTarget::Compiled,
+                next_offset: next
+            }));
+        }
         Message::UploadChunk(c) => {
             if c.data.len() > ctl.caps.max_chunk as usize {
                 nak!(NakCode::Invalid, Invalid::ChunkSize);
             }
-            let store = match c.target {
-                UploadTarget::PatternSet(_) => board.pattern_store(),
-                UploadTarget::PhaseMap => board.map_store(),
-            };
+            let (store, base) = target_store(board, ctl, c.target);
             let Some((next, total)) = ctl.upload_mut(c.target).map(|u| (u.next, u.key.total()))
             else {
                 nak!(NakCode::NoUpload, 0);
@@ -359,7 +397,7 @@ fn dispatch<T: Write, B: BoardIo>(
                 if end > total as u64 {
                     nak!(NakCode::Invalid, Invalid::Offset);
                 }
-                if store.write(c.offset, c.data).is_err() {
+                if store.write(base + c.offset, c.data).is_err() {
                     ctl.errors |= HeadErrors::MEMORY;
                     nak!(NakCode::Internal, HeadErrors::MEMORY);
                 }
@@ -377,10 +415,7 @@ fn dispatch<T: Write, B: BoardIo>(
             }));
         }
         Message::ConfirmUpload(t) => {
-            let store = match t {
-                UploadTarget::PatternSet(_) => board.pattern_store(),
-                UploadTarget::PhaseMap => board.map_store(),
-            };
+            let (store, base) = target_store(board, ctl, t);
             let Some(u) = ctl.upload_mut(t).copied() else {
                 if ctl.confirmed(t).is_some() {
                     reply!(ack);
@@ -390,7 +425,7 @@ fn dispatch<T: Write, B: BoardIo>(
             if u.next != u.key.total() {
                 nak!(NakCode::NotReady, 0);
             }
-            let crc = match store_crc(store, u.key.total()) {
+            let crc = match store_crc(store, base, u.key.total()) {
                 Ok(c) => c,
                 Err(_) => {
                     ctl.errors |= HeadErrors::MEMORY;
@@ -415,7 +450,14 @@ fn dispatch<T: Write, B: BoardIo>(
                     ctl.map_upload = None;
                     ctl.map_confirmed = match u.key {
                         UploadKey::Map(m) => Some(m),
-                        UploadKey::Patterns(_) => None,
+                        _ => None,
+                    };
+                }
+                UploadTarget::Compiled => {
+                    ctl.compiled_upload = None;
+                    ctl.compiled_confirmed = match u.key {
+                        UploadKey::Compiled(c) => Some(c),
+                        _ => None,
                     };
                 }
             }
@@ -429,6 +471,10 @@ fn dispatch<T: Write, B: BoardIo>(
             }
             if let Err(why) = cal.camera_model() {
                 nak!(NakCode::Invalid, why);
+            }
+            if ctl.calibration != Some(cal) {
+                // The compiled models were made from the calibration this one replaces.
+                ctl.drop_compiled();
             }
             ctl.calibration = Some(cal);
             reply!(ack);
@@ -481,14 +527,36 @@ fn dispatch<T: Write, B: BoardIo>(
     }
 }
 
-/// CRC-32C of the first `len` bytes of `store`.
-fn store_crc<S: Storage>(store: &mut S, len: u32) -> Result<u32, HwError> {
+/// The store an upload of `t` fills and where in it the upload's byte 0 lies: pattern images
+/// at the start of the pattern store, the reference map at the start of the map store, the
+/// compiled models at its end ([`compiled_base`]; 0 while no such upload is open).
+fn target_store<'b, B: BoardIo>(
+    board: &'b mut B,
+    ctl: &Control,
+    t: UploadTarget,
+) -> (&'b mut B::Store, u32) {
+    match t {
+        UploadTarget::PatternSet(_) => (board.pattern_store(), 0),
+        UploadTarget::PhaseMap => (board.map_store(), 0),
+        UploadTarget::Compiled => {
+            let store = board.map_store();
+            let base = match ctl.compiled_upload.map(|u| u.key) {
+                Some(UploadKey::Compiled(c)) => compiled_base(store.capacity(), &c).unwrap_or(0),
+                _ => 0,
+            };
+            (store, base)
+        }
+    }
+}
+
+/// CRC-32C of the `len` bytes of `store` from `base`.
+fn store_crc<S: Storage>(store: &mut S, base: u32, len: u32) -> Result<u32, HwError> {
     let mut crc = Crc32c::new();
     let mut buf = [0u8; 256];
     let mut at = 0u32;
     while at < len {
         let n = ((len - at) as usize).min(buf.len());
-        store.read(at, &mut buf[..n])?;
+        store.read(base + at, &mut buf[..n])?;
         crc.update(&buf[..n]);
         at += n as u32;
     }

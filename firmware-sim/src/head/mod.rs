@@ -18,7 +18,8 @@
 //! ```text
 //!            DefinePatternSet / ConfigureSequence / UploadCalibration
 //!   Idle ───────────────────────────────────────────────► Idle (not validated)
-//!   Idle ──BeginUpload / BeginPhaseMapUpload──► Uploading ──ConfirmUpload (digest ok)──► Idle
+//!   Idle ──BeginUpload / BeginPhaseMapUpload / BeginCompiledUpload──► Uploading
+//!        ──ConfirmUpload (digest ok)──► Idle
 //!   Idle ──ValidateSequence (projection bits clear)──► Ready
 //!   Ready ──Start──► Running ──Stop / last entry (once)──► Ready
 //!   Ready ──Scan──► Scanning ──ScanDone / Abort──► Ready
@@ -32,8 +33,11 @@
 //! # What the head trusts
 //! A pattern-set slot is usable when it was defined parametrically, or, after a BeginUpload into
 //! it, only once ConfirmUpload found the CRC-32C of the stored bytes equal to the announced
-//! digest. The reference phase map likewise. Validation and Scan refuse anything else, so no
-//! partially or wrongly uploaded data is ever projected or used.
+//! digest. The reference phase map likewise, and the compiled reconstruction's models
+//! (protocol version 9, docs/compiled.md), which it takes only after the calibration and a
+//! confirmed map of their size and depth range and forgets when either is replaced: they were
+//! compiled from them. Validation and Scan refuse anything else, so no partially or wrongly
+//! uploaded data is ever projected or used.
 //!
 //! # Files
 //! `config` (the head's parameters), `error`, `control` (the state machine's data and

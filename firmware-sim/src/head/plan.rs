@@ -111,6 +111,9 @@ pub(super) fn plan_scan(
         set,
         slot: lut.set_id,
         recon,
+        // The compiled models stand in for the search where they have a function; a scan of
+        // phases only has no use for them.
+        compiled: ctl.compiled_confirmed.filter(|_| points),
         filter,
         exposures: req.exposures,
     })

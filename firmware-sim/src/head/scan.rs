@@ -4,18 +4,21 @@
 use embedded_io::{Read, ReadReady, Write};
 use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut};
 use fringe3d_core::filter::EdgeFilter;
-use fringe3d_core::reconstruct::ReferenceRing;
+use fringe3d_core::reconstruct::compiled::{
+    FIELDS, PixelModel, compiled_row, merge_search, search_mask,
+};
+use fringe3d_core::reconstruct::{Reconstructor, ReferenceRing, ReferenceRows};
 use fringe3d_core::sequential::FrameDecoder as CaptureDecoder;
 use fringe3d_core::validity::Validity;
 use fringe3d_core::wire::{Command, HeadErrors, Message, NakCode, RowKind, ScanDone, ScanOutput};
 
-use super::control::PendingScan;
+use super::control::{PendingScan, compiled_base};
 use super::dispatch::Link;
 use super::error::{LinkError, ScanFail, hw_bit};
 use super::sequence::{Lines, entry};
 use super::transmit::{Stream, Tx};
 use crate::hal::{BoardIo, Camera, HwError, Projector, Storage};
-use crate::memory::HeadMemory;
+use crate::memory::{COMPILED_LINE_PER_COLUMN, HeadMemory};
 
 /// How a scan ended.
 enum ScanEnd {
@@ -118,6 +121,8 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
         point_codes,
         reference_phase,
         reference_validity,
+        compiled_line,
+        compiled_codes,
     } = mem;
     let state = decode_state
         .get_mut(..state_len)
@@ -139,7 +144,12 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
     let lines = w * (2 + 12 + 1)
         + board.projector().width() as usize
         + if points { w * 3 * 13 + mw * 5 } else { 0 }
-        + if points && sc.filter.is_some() { w } else { 0 };
+        + if points && sc.filter.is_some() { w } else { 0 }
+        + if sc.compiled.is_some() {
+            w * (4 * COMPILED_LINE_PER_COLUMN + 2)
+        } else {
+            0
+        };
     r.lines = r.lines.max(lines);
 
     // Capture: the sequence once per exposure (once with the entries' own without a list),
@@ -201,6 +211,34 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
     ) else {
         return Err(ScanFail::Internal);
     };
+    // The compiled models (at the map store's end), a row of them staged in `models`, and the
+    // search's outputs and input mask for the pixels they leave.
+    let compiled = match sc.compiled.filter(|_| recon.is_some()) {
+        Some(c) => {
+            let base = compiled_base(board.map_store().capacity(), &c).ok_or(ScanFail::Internal)?;
+            let (models, search_xyz) = compiled_line
+                .get_mut(..COMPILED_LINE_PER_COLUMN * w)
+                .ok_or(ScanFail::Internal)?
+                .split_at_mut(FIELDS * w);
+            let (search_codes, mask) = compiled_codes
+                .get_mut(..2 * w)
+                .ok_or(ScanFail::Internal)?
+                .split_at_mut(w);
+            Some(CompiledPass {
+                models: Models {
+                    base,
+                    row_bytes: c.row_bytes(),
+                    z: (c.z_min, c.z_max),
+                },
+                row: models,
+                search_xyz,
+                search_codes,
+                mask,
+            })
+        }
+        None => None,
+    };
+    let mut compiled = compiled;
     let filter = sc.filter.filter(|_| recon.is_some());
     let end = sc.first.saturating_add(sc.count);
     let wanted = |r: u16| r >= sc.first && r < end;
@@ -260,15 +298,19 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
                 .map_err(|_| ScanFail::Internal)?;
         }
         let k = y as usize % 3;
-        rc.reconstruct_row(
-            ring,
-            y as u32,
-            phase_row,
-            validity_row,
+        let (xyz, codes) = (
             &mut xyz_rows[3 * w * k..3 * w * (k + 1)],
             &mut point_codes[w * k..w * (k + 1)],
-        )
-        .map_err(|_| ScanFail::Internal)?;
+        );
+        match compiled.as_mut() {
+            Some(cp) => {
+                cp.row_into(board.map_store(), y)?;
+                cp.reconstruct(rc, ring, y, phase_row, validity_row, xyz, codes)?;
+            }
+            None => rc
+                .reconstruct_row(ring, y as u32, phase_row, validity_row, xyz, codes)
+                .map_err(|_| ScanFail::Internal)?,
+        }
         // The point row now complete: y itself without the filter, else y − 1.
         let (done, below) = match filter {
             None => (Some(y), false),
@@ -314,6 +356,89 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
         }
     }
     Ok(ScanEnd::Done { rows: sent, valid })
+}
+
+/// Where the compiled models lie in the map store and what they were compiled for.
+#[derive(Clone, Copy)]
+struct Models {
+    /// Byte offset of row 0 in the map store.
+    base: u32,
+    /// Bytes of one row (`40 × W`).
+    row_bytes: u32,
+    /// The depth range, mm.
+    z: (f32, f32),
+}
+
+/// The compiled reconstruction of a scan (docs/compiled.md): a row of models read from the map
+/// store, and the search's buffers for the pixels they leave to it.
+struct CompiledPass<'a> {
+    models: Models,
+    row: &'a mut [f32],
+    search_xyz: &'a mut [f32],
+    search_codes: &'a mut [u8],
+    mask: &'a mut [u8],
+}
+
+impl CompiledPass<'_> {
+    /// Read camera row `y`'s models from `store` into the staged row (the models that are not
+    /// usable become the search's, [`PixelModel::settle_row`]).
+    fn row_into<S: Storage>(&mut self, store: &mut S, y: u16) -> Result<(), ScanFail> {
+        let m = self.models;
+        let at = u32::from(y)
+            .checked_mul(m.row_bytes)
+            .and_then(|o| o.checked_add(m.base))
+            .ok_or(HwError::Storage)?;
+        read_f32s(store, at, self.row)?;
+        PixelModel::settle_row(self.row).ok_or(ScanFail::Internal)
+    }
+
+    /// Point row `y` from its phases: the compiled models' points, and the §6 search's for the
+    /// pixels they leave (`search_mask`, the search, `merge_search`: the order of the C ABI's
+    /// `fringe3d_reconstruct_row_compiled` and of the desktop's batch path).
+    #[allow(clippy::too_many_arguments)]
+    fn reconstruct<R: ReferenceRows + ?Sized>(
+        &mut self,
+        rc: &Reconstructor,
+        ring: &R,
+        y: u16,
+        phase: &[f32],
+        validity: &[u8],
+        xyz: &mut [f32],
+        codes: &mut [u8],
+    ) -> Result<(), ScanFail> {
+        let (z_min, z_max) = self.models.z;
+        let left = compiled_row(self.row, z_min, z_max, phase, validity, xyz, codes)
+            .map_err(|_| ScanFail::Internal)?;
+        if left == 0 {
+            return Ok(());
+        }
+        search_mask(codes, validity, self.mask).map_err(|_| ScanFail::Internal)?;
+        rc.reconstruct_row(
+            ring,
+            u32::from(y),
+            phase,
+            self.mask,
+            self.search_xyz,
+            self.search_codes,
+        )
+        .map_err(|_| ScanFail::Internal)?;
+        merge_search(self.search_xyz, self.search_codes, xyz, codes).map_err(|_| ScanFail::Internal)
+    }
+}
+
+/// Read `out.len()` little-endian f32 from `store` at byte `at`.
+fn read_f32s<S: Storage>(store: &mut S, at: u32, out: &mut [f32]) -> Result<(), HwError> {
+    let mut buf = [0u8; 256];
+    let mut off = at;
+    for part in out.chunks_mut(buf.len() / 4) {
+        let b = &mut buf[..4 * part.len()];
+        store.read(off, b)?;
+        for (dst, c) in part.iter_mut().zip(b.chunks_exact(4)) {
+            *dst = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+        }
+        off = off.checked_add(b.len() as u32).ok_or(HwError::Storage)?;
+    }
+    Ok(())
 }
 
 /// The number of valid points of a row (its validity codes).

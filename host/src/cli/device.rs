@@ -99,6 +99,11 @@ pub struct UploadArgs {
     /// have been made with this pattern set (refused otherwise, before the port is opened).
     #[arg(long, short = 'c')]
     pub calibration: Option<PathBuf>,
+    /// The compiled reconstruction of that calibration and map (`fringe3d compile`; checked
+    /// against them as `scan --compiled` does): the head reconstructs the pixels that have a
+    /// model without the search (docs/compiled.md).
+    #[arg(long, requires = "calibration", value_name = "FILE.f3c")]
+    pub compiled: Option<PathBuf>,
     /// Exposure per pattern, µs (1 to 60000000).
     #[arg(long, default_value_t = 10_000, value_parser = parse::exposure_us)]
     pub exposure_us: u32,
@@ -464,14 +469,22 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
                 wire_calibration(cal).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
             // The map's rows are its own width: the image's and its margin past the image.
             let map = phase_map_bytes(&sc.reference_phase, sc.recon.map_width());
-            Some((
-                path.clone(),
-                w,
-                map,
-                sc.width(),
-                sc.height(),
-                sc.recon.margin(),
-            ))
+            let (width, height, margin) = (sc.width(), sc.height(), sc.recon.margin());
+            let compiled = match &a.compiled {
+                Some(p) => {
+                    let s = sc.recon.setup();
+                    let z = (s.z_min as f32, s.z_max as f32);
+                    let file = sc.with_compiled(p)?.compiled;
+                    let models = file.map(|f| f.models).unwrap_or_default();
+                    let bytes: Vec<u8> = models
+                        .iter()
+                        .flat_map(|v| fringe3d_core::math::canonical(*v).to_le_bytes())
+                        .collect();
+                    Some((p.clone(), z, bytes))
+                }
+                None => None,
+            };
+            Some((path.clone(), w, map, width, height, margin, compiled))
         }
         _ => None,
     };
@@ -545,7 +558,7 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
             desc.pattern_count()
         );
     }
-    if let Some((_, w, map, mw, mh, margin)) = &calib {
+    if let Some((_, w, map, mw, mh, margin, compiled)) = &calib {
         if (caps.sensor_width as usize, caps.sensor_height as usize) != (*mw, *mh) {
             bail!(
                 "the head's camera is {}x{}, the calibration's {}x{}",
@@ -588,6 +601,32 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
                 r.total,
                 r.seconds
             );
+        }
+        if let Some((path, z, bytes)) = compiled {
+            let (pb, mut cb) = bar(bytes.len() as u64, "compiled", g.quiet);
+            let r = c.upload_compiled(*mw as u16, *mh as u16, *z, bytes, &mut cb);
+            pb.finish_and_clear();
+            let r = match r {
+                Err(crate::device::DeviceError::Refused {
+                    code: NakCode::OutOfMemory,
+                    ..
+                }) => bail!(
+                    "the head has no room for the compiled reconstruction {} ({} bytes, a row of \
+                     {} bytes): upload without --compiled, and it reconstructs with the search",
+                    path.display(),
+                    bytes.len(),
+                    bytes.len() / (*mh).max(1)
+                ),
+                r => r?,
+            };
+            summary["compiled_upload"] = serde_json::json!({"bytes": r.total, "resumed_from": r.resumed_from, "wire_bytes": r.wire_bytes, "seconds": r.seconds});
+            if !g.quiet && !g.json {
+                outln!(
+                    "uploaded the compiled reconstruction ({} bytes) in {:.2} s; digest confirmed",
+                    r.total,
+                    r.seconds
+                );
+            }
         }
     }
     if !fid.decoder && !g.quiet {

@@ -24,9 +24,9 @@ use fringe3d_core::decode::{DecodeConfig, PhaseCorrection};
 use fringe3d_core::reconstruct::Margin;
 use fringe3d_core::wire::crc::crc32c;
 use fringe3d_core::wire::{
-    BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command, DecodeThresholds,
-    DefineCorrection, DefinePatternSet, DefineThresholds, FirmwareVersion, Hello, LutEntry,
-    LutTable, Message, Nak, NakCode, PHASE_MAP_BYTES_PER_PIXEL, PROTOCOL_VERSION, Packet,
+    BeginCompiled, BeginPhaseMap, BeginUpload, Calibration, Capabilities, Command,
+    DecodeThresholds, DefineCorrection, DefinePatternSet, DefineThresholds, FirmwareVersion, Hello,
+    LutEntry, LutTable, Message, Nak, NakCode, PHASE_MAP_BYTES_PER_PIXEL, PROTOCOL_VERSION, Packet,
     PatternSetDesc, Sequence, SetupCorrection, Status, UploadAck, UploadChunk, UploadTarget,
     ValidationStatus, WireError, check_header, frame,
 };
@@ -148,6 +148,7 @@ fn answers(req: Command, m: &Message<'_>) -> bool {
             req,
             Command::BeginUpload
                 | Command::BeginPhaseMapUpload
+                | Command::BeginCompiledUpload
                 | Command::UploadChunk
                 | Command::QueryUpload
         ),
@@ -520,6 +521,47 @@ impl<T: Transport> Client<T> {
             "the reference phase map",
             UploadTarget::PhaseMap,
             Message::BeginPhaseMapUpload(begin),
+            data,
+            progress,
+        )
+    }
+
+    /// Upload the compiled reconstruction's models (docs/compiled.md; protocol version 9) of a
+    /// `width × height` camera compiled for depths `[z_min, z_max]` mm, `data` the rows of a
+    /// `fringe3d compile` file after its header, and confirm them. The head takes them after
+    /// the calibration and the reference map they were compiled from, and forgets them when
+    /// either is replaced.
+    pub fn upload_compiled(
+        &mut self,
+        width: u16,
+        height: u16,
+        z: (f32, f32),
+        data: &[u8],
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<UploadReport, DeviceError> {
+        let begin = BeginCompiled {
+            width,
+            height,
+            z_min: z.0,
+            z_max: z.1,
+            total_bytes: u32::try_from(data.len()).map_err(|_| {
+                DeviceError::Input(format!(
+                    "compiled models: {} bytes exceed the wire's 4 GiB",
+                    data.len()
+                ))
+            })?,
+            digest: crc32c(data),
+        };
+        if let Err(e) = begin.validate() {
+            return Err(DeviceError::Input(format!(
+                "compiled models: {e} ({} bytes for a {width}x{height} camera)",
+                data.len()
+            )));
+        }
+        self.upload(
+            "the compiled reconstruction",
+            UploadTarget::Compiled,
+            Message::BeginCompiledUpload(begin),
             data,
             progress,
         )

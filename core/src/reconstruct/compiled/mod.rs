@@ -254,6 +254,17 @@ impl PixelModel {
         for (v, c) in row.iter_mut().zip(bytes.chunks_exact(4)) {
             *v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
         }
+        PixelModel::settle_row(row)
+    }
+
+    /// Make every model of a row stored field by field ([`PixelModel::store`]) that is not
+    /// usable [`PixelModel::SEARCH`] (and every [`PixelModel::NO_REFERENCE`] canonical), as
+    /// [`PixelModel::from_array`]: the second step of [`PixelModel::parse_row`], for a head that
+    /// reads a row's values in pieces. `None` when the row is not a whole number of models.
+    pub fn settle_row(row: &mut [f32]) -> Option<()> {
+        if !row.len().is_multiple_of(FIELDS) {
+            return None;
+        }
         let w = row.len() / FIELDS;
         for u in 0..w {
             let m = PixelModel::load(row, u)?;

@@ -41,7 +41,10 @@ pub use scan::{
 pub use status::{Ack, HeadErrors, HeadState, Nak, NakCode, Status};
 pub use thresholds::{DecodeThresholds, DefineThresholds};
 pub use trigger::{LutEntry, LutTable, Sequence, ValidationStatus};
-pub use upload::{BeginPhaseMap, BeginUpload, UploadAck, UploadChunk, UploadTarget};
+pub use upload::{
+    BeginCompiled, BeginPhaseMap, BeginUpload, COMPILED_BYTES_PER_PIXEL, UploadAck, UploadChunk,
+    UploadTarget,
+};
 
 /// Most data bytes in one [`UploadChunk`]; a multiple of 4 so phase-map chunks can hold whole f32s.
 pub const MAX_CHUNK: usize = 4064;
@@ -83,6 +86,9 @@ commands! {
     UploadCalibration = 0x18 => write(Calibration), "Upload the calibration.";
     /// [`BeginPhaseMap`] → [`UploadAck`].
     BeginPhaseMapUpload = 0x19 => write(BeginPhaseMap), "Start the reference phase map upload.";
+    /// [`BeginCompiled`] → [`UploadAck`].
+    BeginCompiledUpload = 0x1A => write(BeginCompiled),
+        "Start the compiled reconstruction's upload (protocol version 9).";
     /// [`Sequence`] → Ack.
     ConfigureSequence = 0x20 => write(Sequence<'a>), "Configure the trigger sequence.";
     /// (empty) → [`ValidationStatus`].

@@ -1,8 +1,10 @@
-//! Uploads: pattern images and the reference phase map, chunk by chunk, digest-checked.
+//! Uploads: pattern images, the reference phase map and the compiled reconstruction, chunk by
+//! chunk, digest-checked.
 
 use serde::{Deserialize, Serialize};
 
 use super::{Body, Invalid, MAX_CHUNK, PHASE_MAP_BYTES_PER_PIXEL, WireError, bit_depth_ok, check};
+use crate::reconstruct::compiled::PixelModel;
 use crate::reconstruct::{MAX_MARGIN, Margin};
 use crate::wire::crc::crc32c;
 #[cfg(doc)]
@@ -18,6 +20,8 @@ pub enum UploadTarget {
     PatternSet(u8),
     /// The reference phase map (wire value 1).
     PhaseMap,
+    /// The compiled reconstruction's models (wire value 2, protocol version 9).
+    Compiled,
 }
 
 /// Host → head: start uploading explicit pattern images into set `set_id`.
@@ -104,6 +108,55 @@ impl BeginPhaseMap {
     }
 }
 
+/// Host → head: start uploading the compiled reconstruction (docs/compiled.md; protocol
+/// version 9).
+///
+/// The data is the models of a `width × height` camera, row after row from the top, each row
+/// its [`PixelModel`]s field by field ([`PixelModel::store`]: ten arrays of `width` little-endian
+/// f32), exactly the rows of a `fringe3d compile` file after its header; `digest` is the
+/// CRC-32C of all of it. The models were compiled for the depth range `[z_min, z_max]` (the
+/// calibration's, rounded to f32) from one calibration and reference map: a head takes them only
+/// after that calibration and a confirmed map, checks the size and the depth range against its
+/// calibration, and forgets them when either is replaced. A head reconstructs the pixels with a
+/// model through it and the others with the §6 search, which the map serves.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BeginCompiled {
+    /// The camera width, `>= 1`.
+    pub width: u16,
+    /// The camera height, `>= 1`.
+    pub height: u16,
+    /// The near end of the depth range the models were compiled for, mm.
+    pub z_min: f32,
+    /// The far end, mm, `> z_min`.
+    pub z_max: f32,
+    /// `width · height ·` [`COMPILED_BYTES_PER_PIXEL`].
+    pub total_bytes: u32,
+    /// CRC-32C of all bytes.
+    pub digest: u32,
+}
+
+/// Bytes per pixel of the compiled reconstruction's models ([`PixelModel::BYTES`]).
+pub const COMPILED_BYTES_PER_PIXEL: usize = PixelModel::BYTES;
+
+impl BeginCompiled {
+    /// Bytes of one row of models.
+    pub fn row_bytes(&self) -> u32 {
+        u32::from(self.width) * COMPILED_BYTES_PER_PIXEL as u32
+    }
+
+    /// Check the fields' ranges and `total_bytes`.
+    pub fn validate(&self) -> Result<(), WireError> {
+        check(self.width >= 1 && self.height >= 1, Invalid::Dimension)?;
+        check(
+            self.z_min.is_finite() && self.z_max.is_finite(),
+            Invalid::NotFinite,
+        )?;
+        check(self.z_min < self.z_max, Invalid::DepthRange)?;
+        let want = u64::from(self.width) * u64::from(self.height) * COMPILED_BYTES_PER_PIXEL as u64;
+        check(want == self.total_bytes as u64, Invalid::TotalBytes)
+    }
+}
+
 /// Host → head: bytes `offset .. offset + data.len()` of the open upload of `target`.
 ///
 /// The head accepts a chunk only at its current offset (the one of its last [`UploadAck`]); an
@@ -164,6 +217,12 @@ impl Body for BeginUpload {
 }
 
 impl Body for BeginPhaseMap {
+    fn validate_body(&self) -> Result<(), WireError> {
+        self.validate()
+    }
+}
+
+impl Body for BeginCompiled {
     fn validate_body(&self) -> Result<(), WireError> {
         self.validate()
     }

@@ -53,7 +53,7 @@ use core::ptr::addr_of_mut;
 use cortex_m_rt::{ExceptionFrame, entry, exception};
 use fringe3d_head::hal::{HwError, SliceStore};
 use fringe3d_head::head::{Activity, Head, HeadConfig};
-use fringe3d_head::memory::HeadMemory;
+use fringe3d_head::memory::{COMPILED_LINE_PER_COLUMN, HeadMemory};
 use fringe3d_head::sim::{FrameSource, NoSink, Shot, SimBoard, SimWorld, split_exposure};
 
 use semihosting::{Console, File};
@@ -76,11 +76,13 @@ const MAX_LEVELS: usize = fringe3d_core::pattern::MAX_LEVELS;
 const STATE_LEN: usize = (1 + 2 * MAX_LEVELS) * MAX_PIXELS;
 /// Reference ring: up to every row of the largest image.
 const RING_LEN: usize = MAX_PIXELS;
-/// Pattern-image store: room for the paper's 8 × 1024 × 768 set (6 MiB) and more.
-const PATTERN_STORE: usize = 8 << 20;
+/// Pattern-image store: room for the paper's 8 × 1024 × 768 set (6 MiB).
+const PATTERN_STORE: usize = 6 << 20;
 /// Reference-map store: the map's samples (the 320 × 256 image and [`MAX_MARGIN_PX`] on each
-/// side) × (f32 phase + validity byte).
-const MAP_STORE: usize = 5 * (320 + 2 * MAX_MARGIN_PX) * (256 + 2 * MAX_MARGIN_PX);
+/// side) × (f32 phase + validity byte), then the compiled reconstruction's models of the
+/// 320 × 256 image (40 bytes a pixel, docs/compiled.md).
+const MAP_STORE: usize = 5 * (320 + 2 * MAX_MARGIN_PX) * (256 + 2 * MAX_MARGIN_PX)
+    + MAX_PIXELS * fringe3d_core::wire::COMPILED_BYTES_PER_PIXEL;
 /// The simulated camera's readout time (the head's default `readout_us` is 1 000).
 const READOUT_NS: u64 = 1_000_000;
 /// Baud rate programmed into UART0 (QEMU does not pace the PTY by it).
@@ -112,6 +114,10 @@ struct Lines {
     xyz: [f32; 9 * MAX_W],
     /// Their codes and the filter's output codes.
     codes: [u8; 4 * MAX_W],
+    /// A row of compiled models and the search's points for the pixels they leave.
+    compiled: [f32; COMPILED_LINE_PER_COLUMN * MAX_W],
+    /// The search's codes and its input mask for those pixels.
+    compiled_codes: [u8; 2 * MAX_W],
 }
 
 static mut LINES: Lines = Lines {
@@ -121,6 +127,8 @@ static mut LINES: Lines = Lines {
     u8_rows: [[0; MAX_W]; 2],
     xyz: [0.0; 9 * MAX_W],
     codes: [0; 4 * MAX_W],
+    compiled: [0.0; COMPILED_LINE_PER_COLUMN * MAX_W],
+    compiled_codes: [0; 2 * MAX_W],
 };
 
 unsafe extern "C" {
@@ -434,6 +442,8 @@ fn run(uart: &mut CmsdkUart) -> Result<(), Fail> {
         u8_rows,
         xyz,
         codes,
+        compiled,
+        compiled_codes,
     } = lines;
     let [phase_row, modulation_row, dc_row, reference_phase] = f32_rows;
     let [validity_row, reference_validity] = u8_rows;
@@ -452,6 +462,8 @@ fn run(uart: &mut CmsdkUart) -> Result<(), Fail> {
         point_codes: codes,
         reference_phase,
         reference_validity,
+        compiled_line: compiled,
+        compiled_codes,
     };
     let mut head = Head::new(board, mem, HeadConfig::DEFAULT)
         .map_err(|_| Fail("the head refused the board (sizes or buffers)"))?;

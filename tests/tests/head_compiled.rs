@@ -1,0 +1,132 @@
+//! The compiled reconstruction on the head (issue #24 item 1, protocol version 9): the models of
+//! `fringe3d compile` go over the link after the calibration and the reference map they were
+//! compiled from (`Client::upload_compiled`, what `fringe3d device upload --compiled` sends),
+//! the head reads them row by row from its map store and reconstructs the pixels that have one
+//! without the search. Its points equal, bit for bit, those of the desktop's `scan --compiled`
+//! path (`ScanCalibration::with_compiled`), which differ from the search's (so the head cannot
+//! pass by ignoring the models). The head refuses the models before their map, and forgets them
+//! when the map is replaced: it then scans with the search, bit for bit the desktop's.
+
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use fringe3d::compiled::CompiledFile;
+use fringe3d::device::{Client, DeviceError, open_serial};
+use fringe3d::scan::{ScanCalibration, filter_edges};
+use fringe3d_core::math::canonical;
+use fringe3d_core::wire::{NakCode, ValidationStatus};
+
+use crate::head_pty::{
+    CAM, Cmd, assert_desktop_bits, dataset, fresh_root, head_case, opts, scan_both,
+    spawn_head_series, virtual_reference,
+};
+
+#[test]
+fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
+    let root = fresh_root("compiled");
+    let dir = dataset(&root);
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let (patterns, cal) = (dir.join("patterns.toml"), dir.join("calibration.toml"));
+    let f3c = dir.join("reconstruction.f3c");
+    // A model of the reference (a captured map's noise compiles nothing), then its models at
+    // 1 µm: at 320 x 256 the map's bilinear cells are too coarse for most pixels at 0.1 µm
+    // (docs/compiled.md, "How close to the search").
+    let run = |args: &[&str]| fringe3d::cli::run(args.iter().copied()).unwrap();
+    virtual_reference(&dir, "auto", &cal);
+    run(&[
+        "fringe3d",
+        "--quiet",
+        "compile",
+        "-p",
+        &s(&patterns),
+        "-c",
+        &s(&cal),
+        "--tolerance",
+        "1",
+        "-o",
+        &s(&f3c),
+    ]);
+    let case = head_case(&dir);
+    let file = CompiledFile::read(&f3c, CAM.0, CAM.1).unwrap();
+    let pixels = (CAM.0 * CAM.1) as usize;
+    assert!(
+        file.compiled_count() > pixels / 2,
+        "{} of {pixels} pixels compiled",
+        file.compiled_count()
+    );
+    // The desktop's compiled scan, as `fringe3d scan --compiled` computes it.
+    let sc = ScanCalibration::load(&cal, case.set.axis())
+        .unwrap()
+        .with_compiled(&f3c)
+        .unwrap();
+    let mut compiled = sc
+        .reconstruct(&case.dec.phase, &case.dec.validity, true)
+        .unwrap();
+    filter_edges(&mut compiled, &sc.edge_filter(80.0).unwrap());
+    let bits = |v: &[f32]| {
+        v.iter()
+            .map(|x| canonical(*x).to_bits())
+            .collect::<Vec<_>>()
+    };
+    let (a, b) = (bits(&compiled.xyz), bits(&case.cloud.xyz));
+    let differ = a.chunks(3).zip(b.chunks(3)).filter(|(p, q)| p != q).count();
+    assert!(
+        differ > compiled.valid_count() / 10,
+        "the compiled points differ from the search's at {differ} pixels of {} valid: too few \
+         to tell whether the head used the models",
+        compiled.valid_count()
+    );
+    let data: Vec<u8> = file
+        .models
+        .iter()
+        .flat_map(|v| canonical(*v).to_le_bytes())
+        .collect();
+    let g = &case.wcal.geometry;
+    let z = (g.depth_min as f32, g.depth_max as f32);
+    let (w, h) = (CAM.0 as u16, CAM.1 as u16);
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let (paths, cmd, head) = spawn_head_series(vec![(10_000, dir.clone())], stop.clone());
+    let port = paths.recv().unwrap();
+    let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    c.define_pattern_set(0, &case.desc).unwrap();
+    c.define_correction(0, case.table.as_ref()).unwrap();
+    c.upload_calibration(&case.wcal).unwrap();
+    // Before their map: refused, naming what is missing.
+    match c.upload_compiled(w, h, z, &data, &mut |_, _| {}) {
+        Err(DeviceError::Refused { code, detail, .. }) => {
+            assert_eq!(code, NakCode::NotReady);
+            assert_eq!(u32::from(detail), ValidationStatus::NO_REFERENCE);
+        }
+        r => panic!("models before their map: {:?}", r.map(|_| ())),
+    }
+    c.upload_phase_map(w, h, case.margin, &case.map, &mut |_, _| {})
+        .unwrap();
+    // Another depth range than the calibration's: refused.
+    match c.upload_compiled(w, h, (z.0, z.1 + 1.0), &data, &mut |_, _| {}) {
+        Err(DeviceError::Refused { code, .. }) => assert_eq!(code, NakCode::Invalid),
+        r => panic!("models of another depth range: {:?}", r.map(|_| ())),
+    }
+    let r = c.upload_compiled(w, h, z, &data, &mut |_, _| {}).unwrap();
+    assert_eq!(r.total, data.len() as u64);
+    c.configure_sequence(0, false, &case.seq).unwrap();
+    assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
+    assert_desktop_bits(&scan_both(&mut c), &case.dec, &compiled);
+    // The map again: the models were compiled from the map it replaces, so the head forgets
+    // them and scans with the search.
+    c.upload_phase_map(w, h, case.margin, &case.map, &mut |_, _| {})
+        .unwrap();
+    assert_desktop_bits(&scan_both(&mut c), &case.dec, &case.cloud);
+    drop(c);
+    stop.store(true, Ordering::SeqCst);
+    cmd.send(Cmd::Exit).unwrap();
+    let report = head.join().unwrap();
+    // The scan with the models staged a row of them and the search's buffers.
+    assert!(
+        report.lines >= CAM.0 as usize * (4 * 13 + 2),
+        "line buffers used: {} bytes",
+        report.lines
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
