@@ -125,6 +125,27 @@ fn a_map_with_the_needed_margin_covers_every_pixel_near_the_camera() {
     assert!(need.left > 20, "needed margin {need:?}");
     let wide = recon.with_margin(need).unwrap();
     assert_eq!(wide.margin(), need);
+    // One analysis for the margin gives the reconstructor of the two steps, for every margin
+    // (the band grows with it; the segments' reach and length do not change).
+    let (cam, setup) = (rig.cam.model(), rig.setup());
+    for m in [
+        Margin::ZERO,
+        need,
+        Margin::uniform(8),
+        Margin::from_array([0, 40, 3, 0]),
+        Margin::uniform(MAX_MARGIN),
+    ] {
+        let chained = recon.with_margin(m).unwrap();
+        assert_eq!(
+            Reconstructor::new_with_margin(&cam, &setup, m).unwrap(),
+            chained,
+            "{m:?}"
+        );
+    }
+    assert_eq!(
+        Reconstructor::new_with_margin(&cam, &setup, Margin::uniform(MAX_MARGIN + 1)).err(),
+        recon.with_margin(Margin::uniform(MAX_MARGIN + 1)).err()
+    );
     let obj = near_scene(&rig, 0.0);
 
     // Without a margin (today's map).

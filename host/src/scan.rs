@@ -197,8 +197,7 @@ impl ScanCalibration {
             .as_ref()
             .map(|r| r.margin())
             .unwrap_or_default();
-        Reconstructor::new(&cam, &setup)
-            .and_then(|r| r.with_margin(margin))
+        Reconstructor::new_with_margin(&cam, &setup, margin)
             .map_err(|e| invalid(format!("reconstruction set-up: {e}")))
     }
 

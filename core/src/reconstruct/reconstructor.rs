@@ -34,9 +34,37 @@ impl Reconstructor {
     /// (no projector ray parallel to the reference plane); the epipolar line is within 45° of the
     /// phase axis; and the band of reference rows the segments need fits [`MAX_BAND_ROWS`].
     pub fn new(camera: &CameraModel, setup: &Setup) -> Result<Self, ReconstructError> {
+        Self::analysed(camera, setup, Margin::ZERO)
+    }
+
+    /// [`Reconstructor::new`] then [`Reconstructor::with_margin`]`(margin)`: the same
+    /// reconstructor, with the grid analysis run once, for the margin, instead of twice (on a
+    /// Cortex-M4F, in software f64, the analysis is most of a set-up). The same errors, but for
+    /// [`ReconstructError::BandTooLarge`]'s row count, which is the band of the map with its
+    /// margin (the larger).
+    pub fn new_with_margin(
+        camera: &CameraModel,
+        setup: &Setup,
+        margin: Margin,
+    ) -> Result<Self, ReconstructError> {
+        if margin.to_array().iter().any(|&m| m > MAX_MARGIN) {
+            // The order of the two calls' errors: the geometry's first.
+            return Self::new(camera, setup)?.with_margin(margin);
+        }
+        Self::analysed(camera, setup, margin)
+    }
+
+    /// The reconstructor for a map with `margin` past the image (a side at most
+    /// [`MAX_MARGIN`]), from one grid analysis. The segments' reach and length do not depend on
+    /// the margin, only the band does.
+    fn analysed(
+        camera: &CameraModel,
+        setup: &Setup,
+        margin: Margin,
+    ) -> Result<Self, ReconstructError> {
         let (c, plane) = checked(camera, setup)?;
         let (n, h_r, h) = plane;
-        let a = analyse(camera, setup, n, h_r, h, Margin::ZERO)?;
+        let a = analyse(camera, setup, n, h_r, h, margin)?;
         let (band, max_segment_px) = (a.band, a.max_len);
         if band.rows() > MAX_BAND_ROWS as u32 {
             return Err(ReconstructError::BandTooLarge { rows: band.rows() });
@@ -55,7 +83,7 @@ impl Reconstructor {
             c,
             bisections,
             max_segment_px: max_segment_px as f32,
-            margin: Margin::ZERO,
+            margin,
             reach: a.reach,
             plane,
         })

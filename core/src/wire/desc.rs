@@ -400,7 +400,7 @@ impl Calibration {
     }
 
     /// The core reconstructor for a reference map with margin `margin` past the image
-    /// ([`Reconstructor::with_margin`]; [`Invalid::Margin`] for a side above
+    /// ([`Reconstructor::new_with_margin`]; [`Invalid::Margin`] for a side above
     /// [`MAX_MARGIN`](crate::reconstruct::MAX_MARGIN)).
     pub fn reconstructor_with_margin(
         &self,
@@ -408,11 +408,7 @@ impl Calibration {
         margin: Margin,
     ) -> Result<Reconstructor, Invalid> {
         let cam = self.camera_model()?;
-        let r = Reconstructor::new(&cam, &self.setup(axis)).map_err(reconstruct_invalid)?;
-        if margin == Margin::ZERO {
-            return Ok(r);
-        }
-        r.with_margin(margin).map_err(reconstruct_invalid)
+        Reconstructor::new_with_margin(&cam, &self.setup(axis), margin).map_err(reconstruct_invalid)
     }
 
     /// [`Self::reconstructor_with_margin`] from its set-up analysis `a`, found before
