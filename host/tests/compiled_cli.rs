@@ -11,19 +11,22 @@ use std::path::{Path, PathBuf};
 use crate::cli_support::{Tmp, fringe3d, render_noisy, run, s, virtual_reference};
 
 /// The scan of `ds` with `calibration`, exact and compiled with `compiled` (the library path
-/// of `fringe3d scan`).
-fn both(ds: &Path, calibration: &Path, compiled: &Path) -> (PointCloud, PointCloud) {
+/// of `fringe3d scan`), and on every 31st column of every 29th row the f64 crossing each
+/// approximates: its depth and the pixel's index.
+fn both(
+    ds: &Path,
+    calibration: &Path,
+    compiled: &Path,
+) -> (PointCloud, PointCloud, Vec<(usize, f64)>) {
     let ls = common::load_set(&ds.join("patterns.toml")).expect("pattern set");
     let cal = ScanCalibration::load(calibration, ls.set.axis()).expect("calibration");
     let imgs = common::load_images(&ls, &[], true).expect("images");
     let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).expect("decode");
     let exact = cal.reconstruct(&d.phase, &d.validity, true).expect("exact");
-    // The f32 search against the f64 crossing it approximates, on every 97th column of every
-    // 61st row: how far apart two f32 answers may be (docs/compiled.md, "How close").
     let w = cal.recon.width();
-    let mut errs: Vec<f64> = (0..cal.recon.height())
-        .step_by(61)
-        .flat_map(|v| (0..w).step_by(97).map(move |u| (u, v)))
+    let crossings: Vec<(usize, f64)> = (0..cal.recon.height())
+        .step_by(29)
+        .flat_map(|v| (0..w).step_by(31).map(move |u| (u, v)))
         .filter(|&(u, v)| exact.validity[v * w + u] == Validity::Valid as u8)
         .filter_map(|(u, v)| {
             let z = crossing_depth_f64(
@@ -33,27 +36,29 @@ fn both(ds: &Path, calibration: &Path, compiled: &Path) -> (PointCloud, PointClo
                 v,
                 d.phase[v * w + u] as f64,
             )?;
-            Some((exact.xyz[3 * (v * w + u) + 2] as f64 - z).abs())
+            Some((v * w + u, z))
         })
         .collect();
-    errs.sort_by(f64::total_cmp);
-    assert!(errs.len() >= 5, "{} pixels", errs.len());
-    let (median, max) = (errs[errs.len() / 2], errs[errs.len() - 1]);
-    eprintln!(
-        "{}: the search's depth against the f64 crossing over {} pixels: median {:.3} µm, \
-         largest {:.3} µm",
-        ds.display(),
-        errs.len(),
-        median * 1e3,
-        max * 1e3
-    );
-    // The search's own added error is below 1 µm (core/tests, reconstruct_accuracy).
-    assert!(max < 1e-3, "{max} mm");
+    assert!(crossings.len() >= 5, "{} pixels", crossings.len());
     let cal = cal.with_compiled(compiled).expect("compiled file");
     let comp = cal
         .reconstruct(&d.phase, &d.validity, true)
         .expect("compiled");
-    (exact, comp)
+    (exact, comp, crossings)
+}
+
+/// The median and largest depth difference of `cloud`'s valid points from the f64 crossings.
+fn from_crossings(cloud: &PointCloud, crossings: &[(usize, f64)]) -> (f64, f64, usize) {
+    let mut errs: Vec<f64> = crossings
+        .iter()
+        .filter(|&&(i, _)| cloud.validity[i] == Validity::Valid as u8)
+        .map(|&(i, z)| (cloud.xyz[3 * i + 2] as f64 - z).abs())
+        .collect();
+    errs.sort_by(f64::total_cmp);
+    match errs.last() {
+        Some(&max) => (errs[errs.len() / 2], max, errs.len()),
+        None => (0.0, 0.0, 0),
+    }
 }
 
 /// Render `scene` at `size` into `label/` (σ = 1 gray level, 8 bits) and make its virtual
@@ -97,7 +102,29 @@ fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
     let no_reference = rep["no_reference"].as_u64().unwrap() as f64;
     let covered = pixels - off_map - no_reference;
 
-    let (exact, comp) = both(&ds, &virt, &file);
+    let (exact, comp, crossings) = both(&ds, &virt, &file);
+    // Both f32 answers against the f64 crossing they approximate (docs/compiled.md, "How
+    // close"): the search lands within a few ulp of it, the function within the tolerance and
+    // the same few ulp.
+    let ((sm, sx, n), (cm, cx, _)) = (
+        from_crossings(&exact, &crossings),
+        from_crossings(&comp, &crossings),
+    );
+    eprintln!(
+        "{label} {size}: against the f64 crossing over {n} pixels, the search's depth: median \
+         {:.3} µm, largest {:.3} µm; the compiled depth: median {:.3} µm, largest {:.3} µm",
+        sm * 1e3,
+        sx * 1e3,
+        cm * 1e3,
+        cx * 1e3
+    );
+    // The search's own added error is below 1 µm (core/tests, reconstruct_accuracy).
+    assert!(sx < 1e-3, "{label}: {sx} mm");
+    let z_far = crossings.iter().map(|c| c.1).fold(0.0, f64::max) as f32;
+    assert!(
+        cx <= tol + F32_ALLOWANCE_ULP * ulp(z_far),
+        "{label}: the compiled depth {cx} mm from the f64 crossing"
+    );
     let valid = Validity::Valid as u8;
     let (mut same, mut max_diff, mut within, mut compared) = (0usize, 0f64, 0usize, 0usize);
     let (mut only_compiled, mut only_exact) = (0usize, 0usize);
