@@ -95,9 +95,15 @@ fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
     c.upload_calibration(&case.wcal).unwrap();
     // Before their map: refused, naming what is missing.
     match c.upload_compiled(w, h, z, &data, &mut |_, _| {}) {
-        Err(DeviceError::Refused { code, detail, .. }) => {
+        Err(DeviceError::Refused {
+            code,
+            detail,
+            reason,
+            ..
+        }) => {
             assert_eq!(code, NakCode::NotReady);
             assert_eq!(u32::from(detail), ValidationStatus::NO_REFERENCE);
+            assert!(reason.ends_with("not got the reference map"), "{reason}");
         }
         r => panic!("models before their map: {:?}", r.map(|_| ())),
     }

@@ -141,8 +141,9 @@
 //! models field by field (ten arrays of `width` f32 LE: ray x, ray y, Φ_c, ±k, s_c, γ, d₁…d₄;
 //! [`PixelModel::store`](crate::reconstruct::compiled::PixelModel::store)), the rows of a
 //! `fringe3d compile` file after its 72-byte header. A head takes it after the calibration and a
-//! confirmed reference map (Nak NotReady before), with their size and depth range (Nak Invalid
-//! Dimension / DepthRange), and forgets it when either is replaced.
+//! confirmed reference map (before: Nak NotReady, its detail the [`ValidationStatus`] bits
+//! `NO_CALIBRATION` / `NO_REFERENCE` of what is missing), with their size and depth range (Nak
+//! Invalid Dimension / DepthRange), and forgets it when either is replaced.
 //!
 //! Worked example: GetStatus (`0x32`), seq 7, REPLY_WANTED, empty payload. Header
 //! `07 02 07 32 00 00`; CRC-32C of those six bytes `0x66C83326`, sent LE: decoded frame

@@ -15,7 +15,9 @@
 //! seconds while the head sends (a scan nobody reads), the head ends the scan (it leaves
 //! Scanning). `--max-margin PX` (default 256, at most 1024): the widest margin past the image, on
 //! any side, of a reference map the head takes (issue #17): its map store and reference buffers
-//! are sized for it, and a wider map's upload is refused with Nak OutOfMemory. Stop with Ctrl-C.
+//! are sized for it, and a wider map's upload is refused with Nak OutOfMemory. The map store
+//! also holds the camera's compiled models (40 bytes a pixel, `device upload --compiled`,
+//! docs/compiled.md). Stop with Ctrl-C.
 
 use std::io::Write as _;
 use std::path::PathBuf;

@@ -558,13 +558,43 @@ impl<T: Transport> Client<T> {
                 data.len()
             )));
         }
-        self.upload(
+        let r = self.upload(
             "the compiled reconstruction",
             UploadTarget::Compiled,
             Message::BeginCompiledUpload(begin),
             data,
             progress,
-        )
+        );
+        match r {
+            // The detail names what the head lacks (ValidationStatus bits).
+            Err(DeviceError::Refused {
+                what,
+                code: code @ NakCode::NotReady,
+                detail,
+                ..
+            }) => {
+                let v = ValidationStatus(u32::from(detail));
+                let missing: Vec<&str> = [
+                    (ValidationStatus::NO_CALIBRATION, "the calibration"),
+                    (ValidationStatus::NO_REFERENCE, "the reference map"),
+                ]
+                .into_iter()
+                .filter(|(bit, _)| v.has(*bit))
+                .map(|(_, name)| name)
+                .collect();
+                Err(DeviceError::Refused {
+                    what,
+                    code,
+                    detail,
+                    reason: format!(
+                        "the head takes compiled models only after the calibration and the \
+                         reference map they were compiled from; it has not got {}",
+                        missing.join(" nor ")
+                    ),
+                })
+            }
+            r => r,
+        }
     }
 
     fn upload(
