@@ -2,19 +2,13 @@
 
 use std::fs;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use fringe3d::io::atomic::{AtomicDir, AtomicError, AtomicFile, write_atomic};
 
 /// A fresh, empty scratch folder for one test.
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "fringe3d-formats-atomic-{}-{name}",
-        std::process::id()
-    ));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> crate::cli_support::Tmp {
+    crate::cli_support::Tmp::new(&format!("formats-atomic-{name}"))
 }
 
 /// Names in a folder, sorted.

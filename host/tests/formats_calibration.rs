@@ -10,14 +10,8 @@ use fringe3d::io::calibration::{
 };
 use fringe3d::io::import::{import_bouguet, import_bouguet_file, import_opencv};
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "fringe3d-formats-calib-{}-{name}",
-        std::process::id()
-    ));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> crate::cli_support::Tmp {
+    crate::cli_support::Tmp::new(&format!("formats-calib-{name}"))
 }
 
 fn examples() -> PathBuf {
@@ -439,12 +433,25 @@ fn opencv_yaml_and_xml_examples() {
     );
 }
 
-fn opencv_file(name: &str, text: &str) -> PathBuf {
+/// A file in a scratch folder of its own, removed with it.
+struct ScratchFile {
+    _dir: crate::cli_support::Tmp,
+    path: PathBuf,
+}
+
+impl std::ops::Deref for ScratchFile {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.path
+    }
+}
+
+fn opencv_file(name: &str, text: &str) -> ScratchFile {
     // One directory per file: tests run in parallel and `scratch` empties its directory.
     let d = scratch(&format!("opencv-{}", name.replace('.', "-")));
     let p = d.join(name);
     fs::write(&p, text).unwrap();
-    p
+    ScratchFile { _dir: d, path: p }
 }
 
 #[test]
@@ -661,7 +668,8 @@ fn bouguet_file_variants_and_errors() {
 /// back (a million values would make a megabyte message).
 /// Each call writes its own folder (`name`): tests run in parallel.
 fn length_error(name: &str, text: &str, key: &str, expected: &str) {
-    let p = scratch(name).join("calib.toml");
+    let d = scratch(name);
+    let p = d.join("calib.toml");
     fs::write(&p, text).unwrap();
     let e = Calibration::load(&p).unwrap_err();
     assert!(matches!(e, FormatError::Parse { .. }), "{e}");

@@ -18,14 +18,8 @@ fn examples() -> PathBuf {
         .join("patterns")
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "fringe3d-formats-pattern-{}-{name}",
-        std::process::id()
-    ));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> crate::cli_support::Tmp {
+    crate::cli_support::Tmp::new(&format!("formats-pattern-{name}"))
 }
 
 fn load_example(name: &str) -> (PatternSetFile, PatternSet) {
@@ -514,7 +508,8 @@ fn minimal_file_is_the_default_set() {
 fn order_entry_of_three_indices_is_refused() {
     // Cut to its first two indices, this order is the default one and would load. (Its own
     // folder: `bad` shares one between the tests of bad_files_get_clear_messages.)
-    let p = scratch("order-entry").join("pat.toml");
+    let d = scratch("order-entry");
+    let p = d.join("pat.toml");
     fs::write(
         &p,
         format!(

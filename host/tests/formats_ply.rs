@@ -9,14 +9,8 @@ use fringe3d::io::ply::{
     PixelIndexType, PlyEncoding, PlyOptions, PlyPoint, PlyWriter, PointRow, XyzWriter, write_ply,
 };
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "fringe3d-formats-ply-{}-{name}",
-        std::process::id()
-    ));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> crate::cli_support::Tmp {
+    crate::cli_support::Tmp::new(&format!("formats-ply-{name}"))
 }
 
 fn listing(d: &Path) -> Vec<String> {

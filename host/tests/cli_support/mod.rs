@@ -25,6 +25,19 @@ impl Drop for Tmp {
     }
 }
 
+impl std::ops::Deref for Tmp {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for Tmp {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
 /// Run the `fringe3d` binary with `args`.
 pub fn fringe3d(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_fringe3d"))
