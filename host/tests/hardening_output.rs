@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_fringe3d"))
@@ -31,39 +31,34 @@ impl Drop for Tmp {
     }
 }
 
-/// A small rendered dataset (64×48 sphere), made once per test process.
-fn dataset() -> &'static Path {
-    static DS: OnceLock<PathBuf> = OnceLock::new();
-    DS.get_or_init(|| {
-        let p = std::env::temp_dir().join(format!(
-            "fringe3d-hardening-out-{}-dataset",
-            std::process::id()
-        ));
-        let out = bin()
-            .args(["render", "-q", "--scene", "sphere", "--size", "64x48"])
-            .args(["--supersample", "1", "--overwrite", "--out"])
-            .arg(&p)
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", stderr(&out));
-        p
-    })
+/// A small rendered dataset (64×48 sphere, a few milliseconds), in its own scratch folder
+/// removed with it.
+fn dataset() -> Tmp {
+    static N: AtomicUsize = AtomicUsize::new(0);
+    let t = Tmp::new(&format!("dataset-{}", N.fetch_add(1, Ordering::Relaxed)));
+    let out = bin()
+        .args(["render", "-q", "--scene", "sphere", "--size", "64x48"])
+        .args(["--supersample", "1", "--overwrite", "--out"])
+        .arg(&t.0)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    t
 }
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-/// `fringe3d scan` of the dataset with extra arguments.
-fn scan(extra: &[&std::ffi::OsStr]) -> Output {
-    let ds = dataset();
+/// `fringe3d scan` of dataset `ds` with extra arguments.
+fn scan(ds: &Tmp, extra: &[&std::ffi::OsStr]) -> Output {
     bin()
         .arg("scan")
         .arg("--patterns")
         .arg(ds.join("patterns.toml"))
         .arg("--calibration")
         .arg(ds.join("calibration.toml"))
-        .arg(ds)
+        .arg(&ds.0)
         .args(extra)
         .output()
         .unwrap()
@@ -104,10 +99,14 @@ fn is_fifo(p: &Path) -> bool {
 #[cfg(unix)]
 #[test]
 fn a_fifo_or_device_given_as_output_is_refused_and_kept() {
+    let ds = dataset();
     let t = Tmp::new("fifo");
     let fifo = t.join("cloud.ply");
     mkfifo(&fifo);
-    let err = fails(&scan(&["-q".as_ref(), "-o".as_ref(), fifo.as_os_str()]));
+    let err = fails(&scan(
+        &ds,
+        &["-q".as_ref(), "-o".as_ref(), fifo.as_os_str()],
+    ));
     assert!(
         err.contains("cloud.ply") && err.contains("FIFO") && err.contains("not a regular file"),
         "{err}"
@@ -117,7 +116,10 @@ fn a_fifo_or_device_given_as_output_is_refused_and_kept() {
     // Behind a symbolic link too.
     let link = t.join("link.ply");
     std::os::unix::fs::symlink(&fifo, &link).unwrap();
-    let err = fails(&scan(&["-q".as_ref(), "-o".as_ref(), link.as_os_str()]));
+    let err = fails(&scan(
+        &ds,
+        &["-q".as_ref(), "-o".as_ref(), link.as_os_str()],
+    ));
     assert!(err.contains("link.ply") && err.contains("FIFO"), "{err}");
     assert!(
         std::fs::symlink_metadata(&link)
@@ -143,7 +145,7 @@ fn a_fifo_or_device_given_as_output_is_refused_and_kept() {
         .unwrap_or(false);
     if made {
         use std::os::unix::fs::FileTypeExt;
-        let err = fails(&scan(&["-q".as_ref(), "-o".as_ref(), dev.as_os_str()]));
+        let err = fails(&scan(&ds, &["-q".as_ref(), "-o".as_ref(), dev.as_os_str()]));
         assert!(err.contains("character device"), "{err}");
         let ft = std::fs::symlink_metadata(&dev).unwrap().file_type();
         assert!(ft.is_char_device(), "the device node was replaced");
@@ -152,29 +154,32 @@ fn a_fifo_or_device_given_as_output_is_refused_and_kept() {
 
 #[test]
 fn a_cloud_goes_to_stdout_only_when_asked_with_dash() {
+    let ds = dataset();
     let t = Tmp::new("stdout");
     let file = t.join("c.ply");
-    let o = scan(&["-q".as_ref(), "-o".as_ref(), file.as_os_str()]);
+    let o = scan(&ds, &["-q".as_ref(), "-o".as_ref(), file.as_os_str()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = scan(&["-o".as_ref(), "-".as_ref()]);
+    let o = scan(&ds, &["-o".as_ref(), "-".as_ref()]);
     assert!(o.status.success(), "{}", stderr(&o));
     // The whole file, byte for byte, and the summary on stderr, not mixed into the cloud.
     assert_eq!(o.stdout, std::fs::read(&file).unwrap());
     assert!(stderr(&o).contains("standard output"), "{}", stderr(&o));
     // XYZ on request.
-    let o = scan(&["-q", "-o", "-", "--format", "xyz"].map(std::ffi::OsStr::new));
+    let o = scan(
+        &ds,
+        &["-q", "-o", "-", "--format", "xyz"].map(std::ffi::OsStr::new),
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8(o.stdout).unwrap();
     let first = text.lines().next().unwrap();
     assert_eq!(first.split(' ').count(), 3, "{first}");
     // Commands whose output is no cloud refuse `-` rather than writing a file named `-`.
-    let ds = dataset();
     let o = bin()
         .current_dir(&t.0)
         .arg("decode")
         .arg("--patterns")
         .arg(ds.join("patterns.toml"))
-        .arg(ds)
+        .arg(&ds.0)
         .args(["--out", "-"])
         .output()
         .unwrap();
@@ -186,7 +191,7 @@ fn a_cloud_goes_to_stdout_only_when_asked_with_dash() {
 /// Copy the dataset's files (not `truth/`) into `to`.
 fn copy_dataset(to: &Path) {
     std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(dataset()).unwrap() {
+    for e in std::fs::read_dir(&dataset().0).unwrap() {
         let e = e.unwrap();
         if e.file_type().unwrap().is_file() {
             std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
@@ -196,11 +201,13 @@ fn copy_dataset(to: &Path) {
 
 #[test]
 fn a_cloud_extension_is_ply_or_xyz_or_an_error() {
+    let ds = dataset();
     let t = Tmp::new("ext");
     let obj = t.join("x.obj");
-    let e = fails(&scan(&["-o".as_ref(), obj.as_os_str()]));
+    let e = fails(&scan(&ds, &["-o".as_ref(), obj.as_os_str()]));
     assert!(e.contains("x.obj") && e.contains(".ply or .xyz"), "{e}");
     let e = fails(&scan(
+        &ds,
         &["-o", "x.xyz", "--format", "ply"].map(std::ffi::OsStr::new),
     ));
     assert!(e.contains("does not match"), "{e}");
@@ -213,13 +220,16 @@ fn a_cloud_extension_is_ply_or_xyz_or_an_error() {
     let e = fails(&o);
     assert!(e.contains("x.obj") && e.contains(".ply or .xyz"), "{e}");
     // An explicit format names the file whatever its extension.
-    let o = scan(&[
-        "-q".as_ref(),
-        "--format".as_ref(),
-        "xyz".as_ref(),
-        "-o".as_ref(),
-        obj.as_os_str(),
-    ]);
+    let o = scan(
+        &ds,
+        &[
+            "-q".as_ref(),
+            "--format".as_ref(),
+            "xyz".as_ref(),
+            "-o".as_ref(),
+            obj.as_os_str(),
+        ],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&obj).unwrap();
     assert_eq!(text.lines().next().unwrap().split(' ').count(), 3);
@@ -234,7 +244,7 @@ fn reconstruct_refuses_incomplete_or_inconsistent_decode_folders() {
     let o = bin()
         .args(["decode", "-q", "--patterns"])
         .arg(ds.join("patterns.toml"))
-        .arg(ds)
+        .arg(&ds.0)
         .arg("--out")
         .arg(&dec)
         .output()
@@ -358,6 +368,7 @@ fn an_interrupted_run_leaves_no_temporary_files() {
 #[cfg(unix)]
 #[test]
 fn stale_temporary_files_of_dead_processes_are_swept() {
+    let ds = dataset();
     let t = Tmp::new("sweep");
     // A PID that just ended.
     let mut c = Command::new("true").spawn().unwrap();
@@ -372,7 +383,7 @@ fn stale_temporary_files_of_dead_processes_are_swept() {
     std::fs::create_dir(t.join(&format!("gone.f3d-old-{dead}-1"))).unwrap();
     std::fs::write(t.join("notes.tmp-1-0"), b"user file").unwrap();
     let out = t.join("c.ply");
-    let o = scan(&["-q".as_ref(), "-o".as_ref(), out.as_os_str()]);
+    let o = scan(&ds, &["-q".as_ref(), "-o".as_ref(), out.as_os_str()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let mut want = vec![
         format!(".c.ply.f3d-tmp-{live}-0"),
@@ -386,24 +397,27 @@ fn stale_temporary_files_of_dead_processes_are_swept() {
 
 #[test]
 fn output_names_up_to_255_bytes_work() {
+    let ds = dataset();
     let t = Tmp::new("longname");
     // 251 + ".ply": the longest legal name; its temporary name must fit too.
     let name = format!("{}.ply", "a".repeat(251));
     let out = t.join(&name);
-    let o = scan(&["-q".as_ref(), "-o".as_ref(), out.as_os_str()]);
+    let o = scan(&ds, &["-q".as_ref(), "-o".as_ref(), out.as_os_str()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(listing(&t.0), [name]);
     // Multi-byte characters are cut at a character boundary.
     let name = format!("{}.ply", "é".repeat(125));
-    let o = scan(&["-q".as_ref(), "-o".as_ref(), t.join(&name).as_os_str()]);
+    let o = scan(
+        &ds,
+        &["-q".as_ref(), "-o".as_ref(), t.join(&name).as_os_str()],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     // A folder of 255 bytes.
     let dir = t.join(&"d".repeat(255));
-    let ds = dataset();
     let o = bin()
         .args(["decode", "-q", "--patterns"])
         .arg(ds.join("patterns.toml"))
-        .arg(ds)
+        .arg(&ds.0)
         .arg("--out")
         .arg(&dir)
         .output()
