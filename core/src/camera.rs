@@ -612,8 +612,18 @@ impl CameraModel {
     /// vectorizes). Returns the number of knots written (≤ [`MAX_ROW_KNOTS`] and ≤ the buffers).
     #[inline(always)]
     pub fn row_knots_f32(&self, v: u32, xs: &mut [f32], ys: &mut [f32]) -> usize {
+        self.row_knots_span_f32(v, 0, xs, ys)
+    }
+
+    /// The knots `j0, j0 + 1, …` of [`CameraModel::row_knots_f32`] (columns `j0·S, …`), the
+    /// same bits (each knot is computed alone), for a caller that needs a few chunks of a row.
+    /// Returns the number written: up to the buffers' length, [`MAX_ROW_KNOTS`] and the row's
+    /// last knot.
+    #[inline(always)]
+    pub fn row_knots_span_f32(&self, v: u32, j0: usize, xs: &mut [f32], ys: &mut [f32]) -> usize {
         let w = self.params.width as usize;
         let nk = (w.div_ceil(ROW_KNOT_STEP) + 1)
+            .saturating_sub(j0)
             .min(xs.len())
             .min(ys.len())
             .min(MAX_ROW_KNOTS);
@@ -623,7 +633,7 @@ impl CameraModel {
         let xoff = f.u0 + f.sfx * yd;
         let mut xd = [0f32; MAX_ROW_KNOTS];
         for (j, d) in xd.iter_mut().enumerate().take(nk) {
-            let col = (j * ROW_KNOT_STEP).min(w - 1);
+            let col = ((j0 + j) * ROW_KNOT_STEP).min(w - 1);
             *d = (col as f32 - xoff) / f.fx;
         }
         let (xs, ys, xd) = (&mut xs[..nk], &mut ys[..nk], &xd[..nk]);

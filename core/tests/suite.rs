@@ -30,6 +30,7 @@ mod patterns;
 mod reconstruct_accuracy;
 mod reconstruct_margin;
 mod reconstruct_ring_lean;
+mod reconstruct_span;
 mod reconstruct_timing;
 mod reconstruct_validity;
 mod wire_codec;

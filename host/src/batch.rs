@@ -14,9 +14,7 @@ use crate::gather::Avx2Pairs;
 use crate::gather::Avx512Pairs;
 use crate::io::image_set::{Frames, ImageSet};
 use fringe3d_core::decode::{DecodeError, DecodeScratch, Decoder, RowOut, Sample, hdr};
-use fringe3d_core::reconstruct::compiled::{
-    FIELDS, compiled_row_inline, merge_search, search_mask,
-};
+use fringe3d_core::reconstruct::compiled::{FIELDS, SearchScratch, compiled_row_inline};
 use fringe3d_core::reconstruct::{
     CellGather, ReconstructError, Reconstructor, ReferenceMap, ReferenceRows, ScalarGather,
 };
@@ -442,8 +440,8 @@ pub fn reconstruct_frame(
 }
 
 /// [`reconstruct_frame`] with compiled models (`Some`): each row runs [`compiled_row_inline`]
-/// (inlined into the AVX2 build), and the search only for the pixels it leaves
-/// ([`search_mask`], [`merge_search`]).
+/// (inlined into the AVX2 build), and the search only over the chunks that hold a pixel it
+/// leaves ([`Reconstructor::search_left_gather`]).
 #[allow(clippy::too_many_arguments)]
 pub fn reconstruct_frame_compiled(
     recon: &Reconstructor,
@@ -511,14 +509,17 @@ fn recon_rows<G: CellGather, R: ReferenceRows + ?Sized>(
             .ok_or(ReconstructError::Length)?;
         let n = compiled_row_inline(models, c.z_min, c.z_max, p, q, o, ov)
             .map_err(|_| ReconstructError::Length)?;
-        if n > 0 {
-            let (mask, sx, sq) =
-                left.get_or_insert_with(|| (vec![0; w], vec![0.0; 3 * w], vec![0; w]));
-            search_mask(ov, q, mask).map_err(|_| ReconstructError::Length)?;
-            f.recon
-                .reconstruct_row_gather(g, f.map, v as u32, p, mask, sx, sq)?;
-            merge_search(sx, sq, o, ov).map_err(|_| ReconstructError::Length)?;
+        if n == 0 {
+            continue;
         }
+        let (mask, sx, sq) = left.get_or_insert_with(|| (vec![0; w], vec![0.0; 3 * w], vec![0; w]));
+        let scratch = SearchScratch {
+            mask,
+            xyz: sx,
+            codes: sq,
+        };
+        f.recon
+            .search_left_gather(g, f.map, v as u32, p, q, o, ov, scratch)?;
     }
     Ok(())
 }

@@ -6,7 +6,7 @@ use crate::{
     FRINGE3D_OK, Head, LastError, REFERENCE_MAGIC, Reference, Source, fringe3d_head,
     fringe3d_reference, head_ref, items, items_mut, reference_ref,
 };
-use fringe3d_core::reconstruct::compiled::{FIELDS, compiled_row, merge_search, search_mask};
+use fringe3d_core::reconstruct::compiled::{FIELDS, SearchScratch, compiled_row};
 use fringe3d_core::reconstruct::{ReferenceMap, ReferenceRing, ReferenceRows};
 use fringe3d_core::wire::ReferenceFile;
 
@@ -366,15 +366,14 @@ pub unsafe extern "C" fn fringe3d_reconstruct_row_compiled(
         let e = LastError::Argument("a row has pixels for the search and no scratch was given");
         return h.fail(e, FRINGE3D_ERR_ARGUMENT);
     };
-    if let Err(e) = search_mask(codes, validity, mask) {
-        return h.fail(LastError::Compiled(e), FRINGE3D_ERR_RECONSTRUCT);
-    }
-    if let Err(e) = recon.reconstruct_row(rows, v, phase, mask, sx, sq) {
-        return h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_RECONSTRUCT);
-    }
-    match merge_search(sx, sq, xyz, codes) {
+    let scratch = SearchScratch {
+        mask,
+        xyz: sx,
+        codes: sq,
+    };
+    match recon.search_left(rows, v, phase, validity, xyz, codes, scratch) {
         Ok(()) => FRINGE3D_OK,
-        Err(e) => h.fail(LastError::Compiled(e), FRINGE3D_ERR_RECONSTRUCT),
+        Err(e) => h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_RECONSTRUCT),
     }
 }
 

@@ -26,7 +26,10 @@ fn depth(c: &Consts, a: f32, t: f32) -> f32 {
     c.h_r * (1.0 - c.pz * t) / (a - (a * c.pz + c.h) * t)
 }
 
-/// Reconstruct one row (see [`Reconstructor::reconstruct_row`]); lengths are checked by the caller.
+/// Reconstruct the columns `cols.0..cols.1` of one row (see [`Reconstructor::reconstruct_row`]
+/// and [`Reconstructor::reconstruct_span_gather`]); the slices hold those columns only, and the
+/// caller checked their lengths and that the span starts a chunk and ends one or the row (so
+/// every chunk is the whole row's).
 /// Always inlined, like everything it calls on the fast path, so that a caller compiled with more
 /// SIMD features (a host `#[target_feature(enable = "avx2")]` wrapper) vectorizes it wider; the
 /// operations, and so the bits, are the same.
@@ -37,32 +40,41 @@ pub(super) fn row<G: CellGather>(
     r: &Reconstructor,
     rr: &RefRows<'_>,
     v: u32,
+    cols: (usize, usize),
     phase: &[f32],
     validity: &[u8],
     out_xyz: &mut [f32],
     out_validity: &mut [u8],
     mut crossings: Option<&mut [f32]>,
 ) {
-    let w = r.width();
+    let (lo, hi) = cols;
     let mut kx = [0f32; MAX_KNOTS];
     let mut ky = [0f32; MAX_KNOTS];
-    let nk = r.camera().row_knots_f32(v, &mut kx, &mut ky);
-    let knots = (&kx[..nk], &ky[..nk]);
+    // The knots of the span's chunks only (the first at column `lo`, a chunk boundary).
+    if hi <= lo {
+        return;
+    }
+    let j0 = lo / LANES;
+    let count = ((hi - 1) / LANES + 2 - j0).min(MAX_KNOTS);
+    let (kxs, kys) = (&mut kx[..count], &mut ky[..count]);
+    let nk = r.camera().row_knots_span_f32(v, j0, kxs, kys);
+    let knots = (&kx[..nk], &ky[..nk], j0);
     // The chunks' per-pixel coefficients, set whole by every chunk's first pass (zeroed once per
     // row, not per chunk: 1.5 KiB).
     let mut lane = Lanes::zeroed();
-    let mut c0 = 0;
-    while c0 < w {
-        let n = (w - c0).min(LANES);
+    let mut c0 = lo;
+    while c0 < hi {
+        let n = (hi - c0).min(LANES);
+        let (i0, i1) = (c0 - lo, c0 - lo + n);
         let cr = crossings
             .as_deref_mut()
-            .and_then(|c| c.get_mut(2 * c0..2 * (c0 + n)));
+            .and_then(|c| c.get_mut(2 * i0..2 * i1));
         // The caller checked the lengths: these are never `None` (and compile no panic path).
         let (Some(p), Some(q), Some(xyz), Some(out_q)) = (
-            phase.get(c0..c0 + n),
-            validity.get(c0..c0 + n),
-            out_xyz.get_mut(3 * c0..3 * (c0 + n)),
-            out_validity.get_mut(c0..c0 + n),
+            phase.get(i0..i1),
+            validity.get(i0..i1),
+            out_xyz.get_mut(3 * i0..3 * i1),
+            out_validity.get_mut(i0..i1),
         ) else {
             return;
         };
@@ -307,7 +319,7 @@ fn chunk<G: CellGather>(
     lane: &mut Lanes,
     r: &Reconstructor,
     rr: &RefRows<'_>,
-    knots: (&[f32], &[f32]),
+    knots: (&[f32], &[f32], usize),
     v: u32,
     c0: usize,
     phase: &[f32],
@@ -368,7 +380,7 @@ fn chunk<G: CellGather>(
 
     let mut x = [0f32; LANES];
     let mut y = [0f32; LANES];
-    let kn = c0 / LANES;
+    let kn = c0 / LANES - knots.2;
     let knot = |j: usize| match (knots.0.get(j), knots.1.get(j)) {
         (Some(&a), Some(&b)) => Some([a, b]),
         _ => None,

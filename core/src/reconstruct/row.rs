@@ -1,6 +1,7 @@
 //! The row API of a [`Reconstructor`] (paper §6, row by row): argument checks, the band's row
 //! table, then the kernel ([`super::kernel`]) for one row; a whole frame row by row.
 
+use super::LANES;
 use super::error::ReconstructError;
 use super::gather::{CellGather, ScalarGather};
 use super::kernel;
@@ -25,11 +26,12 @@ impl Reconstructor {
     /// returns.
     ///
     /// Out of line (the flash policy, docs/integration.md): one copy of the kernel per
-    /// reference-row source type, however many places call it. A host that wants the kernel
+    /// reference-row source type, however many places call it (this is
+    /// [`Reconstructor::reconstruct_span`] over the whole row). A host that wants the kernel
     /// compiled inside its own `#[target_feature(enable = "avx2")]` function (8-wide vectors,
     /// the same bits: no FMA is enabled or contracted) calls
     /// [`Reconstructor::reconstruct_row_gather`], which is always inlined.
-    #[inline(never)]
+    #[inline]
     pub fn reconstruct_row<R: ReferenceRows + ?Sized>(
         &self,
         reference: &R,
@@ -39,8 +41,10 @@ impl Reconstructor {
         out_xyz: &mut [f32],
         out_validity: &mut [u8],
     ) -> Result<(), ReconstructError> {
+        // The whole row as one span: the out-of-line kernel that
+        // `Reconstructor::search_left` calls too (one copy in a firmware).
         let (p, q) = (phase_row, validity_row);
-        self.reconstruct_row_gather(ScalarGather, reference, v, p, q, out_xyz, out_validity)
+        self.reconstruct_span(reference, v, 0, p, q, out_xyz, out_validity)
     }
 
     /// [`Reconstructor::reconstruct_row`] with the reference samples fetched by `gather` (a
@@ -67,8 +71,62 @@ impl Reconstructor {
             validity_row,
             out_xyz,
             out_validity,
+            0,
             None,
         )
+    }
+
+    /// [`Reconstructor::reconstruct_row_gather`] for the columns `c0 .. c0 + phase.len()` of
+    /// row `v` only: the slices hold those columns (`out_xyz` three values a pixel), and the
+    /// points and codes are the bits the whole row gives there. For a caller that needs a few
+    /// pixels of a row (the ones a compiled row leaves to the search): the row's other chunks
+    /// cost nothing. A span that is not empty must start at a multiple of [`LANES`] and end at
+    /// one or at the row's end ([`ReconstructError::Length`] otherwise), so that its chunks are
+    /// the row's.
+    /// Always inlined, like `reconstruct_row_gather`; [`Reconstructor::reconstruct_span`] is
+    /// the out-of-line one.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn reconstruct_span_gather<R: ReferenceRows + ?Sized, G: CellGather>(
+        &self,
+        gather: G,
+        reference: &R,
+        v: u32,
+        c0: usize,
+        phase: &[f32],
+        validity: &[u8],
+        out_xyz: &mut [f32],
+        out_validity: &mut [u8],
+    ) -> Result<(), ReconstructError> {
+        self.row_impl(
+            gather,
+            reference,
+            v,
+            phase,
+            validity,
+            out_xyz,
+            out_validity,
+            c0,
+            None,
+        )
+    }
+
+    /// [`Reconstructor::reconstruct_span_gather`] with the scalar gather, out of line (the
+    /// flash policy of [`Reconstructor::reconstruct_row`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    pub fn reconstruct_span<R: ReferenceRows + ?Sized>(
+        &self,
+        reference: &R,
+        v: u32,
+        c0: usize,
+        phase: &[f32],
+        validity: &[u8],
+        out_xyz: &mut [f32],
+        out_validity: &mut [u8],
+    ) -> Result<(), ReconstructError> {
+        let (p, q, o, oq) = (phase, validity, out_xyz, out_validity);
+        self.reconstruct_span_gather(ScalarGather, reference, v, c0, p, q, o, oq)
     }
 
     /// [`Reconstructor::reconstruct_row`], also writing each pixel's crossing N_I as ideal
@@ -96,6 +154,7 @@ impl Reconstructor {
             validity_row,
             out_xyz,
             out_validity,
+            0,
             Some(crossings),
         )
     }
@@ -142,16 +201,20 @@ impl Reconstructor {
         validity_row: &[u8],
         out_xyz: &mut [f32],
         out_validity: &mut [u8],
+        c0: usize,
         crossings: Option<&mut [f32]>,
     ) -> Result<(), ReconstructError> {
         let w = self.width();
         if v >= self.cam.height() {
             return Err(ReconstructError::Row);
         }
-        if phase_row.len() != w
-            || validity_row.len() != w
-            || out_xyz.len() != 3 * w
-            || out_validity.len() != w
+        let n = phase_row.len();
+        let end = c0.checked_add(n).ok_or(ReconstructError::Length)?;
+        if end > w
+            || (n > 0 && (!c0.is_multiple_of(LANES) || (!end.is_multiple_of(LANES) && end != w)))
+            || validity_row.len() != n
+            || out_xyz.len() != 3 * n
+            || out_validity.len() != n
         {
             return Err(ReconstructError::Length);
         }
@@ -183,6 +246,7 @@ impl Reconstructor {
             self,
             &table,
             v,
+            (c0, end),
             phase_row,
             validity_row,
             out_xyz,

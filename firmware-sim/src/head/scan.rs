@@ -4,9 +4,7 @@
 use embedded_io::{Read, ReadReady, Write};
 use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut};
 use fringe3d_core::filter::EdgeFilter;
-use fringe3d_core::reconstruct::compiled::{
-    FIELDS, PixelModel, compiled_row, merge_search, search_mask,
-};
+use fringe3d_core::reconstruct::compiled::{FIELDS, PixelModel, SearchScratch, compiled_row};
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceRing, ReferenceRows};
 use fringe3d_core::sequential::FrameDecoder as CaptureDecoder;
 use fringe3d_core::validity::Validity;
@@ -393,8 +391,8 @@ impl CompiledPass<'_> {
     }
 
     /// Point row `y` from its phases: the compiled models' points, and the §6 search's for the
-    /// pixels they leave (`search_mask`, the search, `merge_search`: the order of the C ABI's
-    /// `fringe3d_reconstruct_row_compiled` and of the desktop's batch path).
+    /// pixels they leave (`Reconstructor::search_left`, as the C ABI's
+    /// `fringe3d_reconstruct_row_compiled` and the desktop's batch path do).
     #[allow(clippy::too_many_arguments)]
     fn reconstruct<R: ReferenceRows + ?Sized>(
         &mut self,
@@ -412,17 +410,13 @@ impl CompiledPass<'_> {
         if left == 0 {
             return Ok(());
         }
-        search_mask(codes, validity, self.mask).map_err(|_| ScanFail::Internal)?;
-        rc.reconstruct_row(
-            ring,
-            u32::from(y),
-            phase,
-            self.mask,
-            self.search_xyz,
-            self.search_codes,
-        )
-        .map_err(|_| ScanFail::Internal)?;
-        merge_search(self.search_xyz, self.search_codes, xyz, codes).map_err(|_| ScanFail::Internal)
+        let scratch = SearchScratch {
+            mask: self.mask,
+            xyz: self.search_xyz,
+            codes: self.search_codes,
+        };
+        rc.search_left(ring, u32::from(y), phase, validity, xyz, codes, scratch)
+            .map_err(|_| ScanFail::Internal)
     }
 }
 

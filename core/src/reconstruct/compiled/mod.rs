@@ -48,6 +48,9 @@
 //! the same bits everywhere.
 
 pub mod parity;
+mod search;
+
+pub use search::{SearchScratch, merge_search, next_search_span, search_mask};
 
 use crate::math::{CANONICAL_NAN, canonical, fabs};
 use crate::validity::Validity;
@@ -516,51 +519,6 @@ pub fn compiled_row_inline(
         c0 += n;
     }
     Ok(search)
-}
-
-/// The input codes for the search pass over the pixels [`compiled_row`] left
-/// (`compiled_codes[u] == LEFT_TO_SEARCH`): their input code `validity_row[u]`, and
-/// [`Validity::OutOfDepth`] (a code the search keeps, and skips) for every other pixel; into
-/// `out` (all three of length `w`).
-pub fn search_mask(
-    compiled_codes: &[u8],
-    validity_row: &[u8],
-    out: &mut [u8],
-) -> Result<(), CompiledError> {
-    if validity_row.len() != compiled_codes.len() || out.len() != compiled_codes.len() {
-        return Err(CompiledError::Length);
-    }
-    for ((o, &q), &c) in out.iter_mut().zip(validity_row).zip(compiled_codes) {
-        *o = if c == LEFT_TO_SEARCH {
-            q
-        } else {
-            Validity::OutOfDepth as u8
-        };
-    }
-    Ok(())
-}
-
-/// Take the search's results (a row run with [`search_mask`]'s codes) for the pixels
-/// [`compiled_row`] left to it into the compiled row's outputs.
-pub fn merge_search(
-    search_xyz: &[f32],
-    search_validity: &[u8],
-    out_xyz: &mut [f32],
-    out_validity: &mut [u8],
-) -> Result<(), CompiledError> {
-    let w = out_validity.len();
-    if search_xyz.len() != 3 * w || search_validity.len() != w || out_xyz.len() != 3 * w {
-        return Err(CompiledError::Length);
-    }
-    let src = search_xyz.chunks_exact(3).zip(search_validity);
-    let dst = out_xyz.chunks_exact_mut(3).zip(out_validity.iter_mut());
-    for ((si, &sq), (o, oq)) in src.zip(dst) {
-        if *oq == LEFT_TO_SEARCH {
-            o.iter_mut().zip(si).for_each(|(d, s)| *d = *s);
-            *oq = sq;
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]
