@@ -5,7 +5,9 @@
 //! without the search. Its points equal, bit for bit, those of the desktop's `scan --compiled`
 //! path (`ScanCalibration::with_compiled`), which differ from the search's (so the head cannot
 //! pass by ignoring the models). The head refuses the models before their map, and forgets them
-//! when the map is replaced: it then scans with the search, bit for bit the desktop's.
+//! when the map is replaced: it then scans with the search, bit for bit the desktop's. After a
+//! new calibration it scans with that one, not with the reconstructor it kept from the last
+//! scan.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -18,7 +20,7 @@ use fringe3d_core::math::canonical;
 use fringe3d_core::wire::{NakCode, ValidationStatus};
 
 use crate::head_pty::{
-    CAM, Cmd, assert_desktop_bits, dataset, fresh_root, head_case, opts, scan_both,
+    CAM, Cmd, assert_desktop_bits, dataset, fresh_root, head_case, head_case_with, opts, scan_both,
     spawn_head_series, virtual_reference,
 };
 
@@ -124,6 +126,28 @@ fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
     c.upload_phase_map(w, h, case.margin, &case.map, &mut |_, _| {})
         .unwrap();
     assert_desktop_bits(&scan_both(&mut c), &case.dec, &case.cloud);
+    // The head keeps the last scan's reconstructor: a scan after a new calibration must not
+    // use it. The projector 1 mm to the side moves every point.
+    let moved = dir.join("calibration_moved.toml");
+    let text = std::fs::read_to_string(&cal).unwrap();
+    assert_eq!(text.matches("[225.0, -12.0, 6.0]").count(), 2, "{text}");
+    std::fs::write(
+        &moved,
+        text.replace("[225.0, -12.0, 6.0]", "[226.0, -12.0, 6.0]"),
+    )
+    .unwrap();
+    let case2 = head_case_with(&dir, &moved);
+    let differ = bits(&case2.cloud.xyz)
+        .chunks(3)
+        .zip(bits(&case.cloud.xyz).chunks(3))
+        .filter(|(p, q)| p != q)
+        .count();
+    assert!(
+        differ > case.cloud.valid_count() / 2,
+        "{differ} points moved"
+    );
+    c.upload_calibration(&case2.wcal).unwrap();
+    assert_desktop_bits(&scan_both(&mut c), &case2.dec, &case2.cloud);
     drop(c);
     stop.store(true, Ordering::SeqCst);
     cmd.send(Cmd::Exit).unwrap();

@@ -126,6 +126,10 @@ pub(super) struct Control {
     /// the map they were compiled from).
     pub(super) compiled_confirmed: Option<BeginCompiled>,
     pub(super) calibration: Option<Calibration>,
+    /// The last point scan's reconstructor (for its pattern set's axis and the map's margin),
+    /// kept so that the next scan of the same kind skips its set-up (the grid analysis, in
+    /// software f64 on a Cortex-M4F); forgotten with the calibration.
+    pub(super) recon_cache: Option<Reconstructor>,
     pub(super) lut: Option<Lut>,
     pub(super) validated: bool,
     pub(super) running: Option<usize>,
@@ -161,6 +165,7 @@ impl Control {
             compiled_upload: None,
             compiled_confirmed: None,
             calibration: None,
+            recon_cache: None,
             lut: None,
             validated: false,
             running: None,

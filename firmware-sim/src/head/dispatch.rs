@@ -473,8 +473,10 @@ fn dispatch<T: Write, B: BoardIo>(
                 nak!(NakCode::Invalid, why);
             }
             if ctl.calibration != Some(cal) {
-                // The compiled models were made from the calibration this one replaces.
+                // The compiled models were made from the calibration this one replaces, and
+                // the last scan's reconstructor was built from it.
                 ctl.drop_compiled();
+                ctl.recon_cache = None;
             }
             ctl.calibration = Some(cal);
             reply!(ack);
@@ -516,6 +518,9 @@ fn dispatch<T: Write, B: BoardIo>(
             }
             match plan_scan(ctl, cfg, seq, req) {
                 Ok(p) => {
+                    if p.recon.is_some() {
+                        ctl.recon_cache = p.recon;
+                    }
                     ctl.pending = Some(p);
                     // The stream always starts with an Ack, whatever the flags.
                     tx.reply(io, seq, ack, true)

@@ -81,9 +81,15 @@ pub(super) fn plan_scan(
         let map = ctl
             .map_confirmed
             .ok_or((NakCode::SequenceInvalid, ValidationStatus::NO_REFERENCE))?;
-        let r = cal
-            .reconstructor_with_margin(slot.desc.phase.axis, map.margin)
-            .map_err(|why| (NakCode::Invalid, why as u32))?;
+        // The last scan's reconstructor where it fits (the calibration is the same: a new one
+        // forgets it), else a new one.
+        let axis = slot.desc.phase.axis;
+        let r = match ctl.recon_cache {
+            Some(r) if r.setup().axis == axis.into() && r.margin() == map.margin => r,
+            _ => cal
+                .reconstructor_with_margin(axis, map.margin)
+                .map_err(|why| (NakCode::Invalid, why as u32))?,
+        };
         // The ring and the staged row are the map's width (the image's and its margin).
         let mw = r.map_width();
         if (r.band().rows() as usize).min(r.map_height()) * mw > ctl.ring_capacity
