@@ -388,17 +388,17 @@ fn upload_rules() {
         invalid(Invalid::Dimension)
     );
 
-    // The compiled models: 40 bytes a pixel, a finite, increasing depth range.
+    // The compiled models: 44 bytes a pixel, a finite, increasing depth range.
     let m = BeginCompiled {
         width: 10,
         height: 2,
         z_min: 450.0,
         z_max: 750.0,
-        total_bytes: 10 * 2 * 40,
+        total_bytes: 10 * 2 * 44,
         digest: 0,
     };
     assert_eq!(m.validate(), Ok(()));
-    assert_eq!(m.row_bytes(), 400);
+    assert_eq!(m.row_bytes(), 440);
     let bad = |b: BeginCompiled| b.validate();
     assert_eq!(
         bad(BeginCompiled {

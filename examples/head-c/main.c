@@ -32,7 +32,7 @@ static uint8_t point_validity[MAX_W];
 static float ring_storage[RING_FLOATS];
 static float reference_row[MAX_W];
 /* The compiled pass: one row of models, and the search's scratch for the pixels they leave. */
-#define FIELDS 10
+#define FIELDS FRINGE3D_COMPILED_FIELDS
 #define F3C_HEADER 72
 static float models[FIELDS * MAX_W];
 static float search_xyz[3 * MAX_W];

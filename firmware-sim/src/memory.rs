@@ -19,7 +19,7 @@
 //! | `xyz_rows` | `9·W` | 4 | three point rows (the edge filter's window) |
 //! | `point_codes` | `4·W` | 1 | their codes, and the filter's output codes |
 //! | `reference_phase`, `reference_validity` | `MW` | 4 + 1 | one reference row from storage |
-//! | `compiled_line` | `13·W` | 4 | one row of compiled models (`10·W`), the search's points for the pixels they leave (`3·W`) |
+//! | `compiled_line` | `14·W` | 4 | one row of compiled models (`11·W`), the search's points for the pixels they leave (`3·W`) |
 //! | `compiled_codes` | `2·W` | 1 | the search's codes and its input mask for those pixels |
 //!
 //! `W × H` is the camera, `PW` the projector width, `L` the pattern set's levels and `band` the
@@ -28,8 +28,8 @@
 //! (issue #17; `Reconstructor::map_width`), which a head takes up to the width these buffers
 //! hold (a wider map's upload is refused with Nak OutOfMemory). The map itself,
 //! `MW × (top + H + bottom) × 5` bytes, lives in the board's map store (external memory), and
-//! so do the compiled reconstruction's models (docs/compiled.md, protocol version 9),
-//! `W × H × 40` bytes at the store's end. A head without the two `compiled_*` buffers (empty
+//! so do the compiled reconstruction's models (docs/compiled.md, protocol version 10),
+//! `W × H × 44` bytes at the store's end. A head without the two `compiled_*` buffers (empty
 //! slices, or shorter than a camera row needs) refuses the models' upload with Nak OutOfMemory
 //! and reconstructs with the search.
 
@@ -64,13 +64,13 @@ pub struct HeadMemory<'a> {
     /// One reference row's validity, `MW`.
     pub reference_validity: &'a mut [u8],
     /// One row of compiled models, then the search's points for the pixels they leave:
-    /// `13·W` (empty: no compiled reconstruction on this head).
+    /// `14·W` (empty: no compiled reconstruction on this head).
     pub compiled_line: &'a mut [f32],
     /// The search's codes and its input mask for those pixels: `2·W`.
     pub compiled_codes: &'a mut [u8],
 }
 
-/// `f32` per camera column of [`HeadMemory::compiled_line`]: a model's ten numbers and a point's
+/// `f32` per camera column of [`HeadMemory::compiled_line`]: a model's eleven numbers and a point's
 /// three.
 pub const COMPILED_LINE_PER_COLUMN: usize = fringe3d_core::reconstruct::compiled::FIELDS + 3;
 
@@ -89,7 +89,7 @@ pub struct MemoryPlan {
     pub projector_line: usize,
     /// Reference row length (`MW`: the widest map row, the camera line and the margins).
     pub map_line: usize,
-    /// `compiled_line` length (`13·W`; 0 without the compiled reconstruction).
+    /// `compiled_line` length (`14·W`; 0 without the compiled reconstruction).
     pub compiled_line: usize,
     /// `compiled_codes` length (`2·W`; 0 without it).
     pub compiled_codes: usize,

@@ -170,6 +170,10 @@ fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
         rep["clipped_far"],
     );
     assert!(compared > 10_000, "{label}: {compared} points");
+    // Every clipped pixel's far rule held at its check phases (1.01 and 3 times its own τ_far):
+    // a rule dropped there means the proof's assumptions do not hold.
+    assert_eq!(rep["far_rule_dropped"], 0, "{label}: {rep}");
+    assert!(rep["clipped_far"].as_u64().unwrap() > 0, "{label}: {rep}");
     // Most pixels the projector lights compile, and nearly every point is the search's to the
     // tolerance; every one within it plus the f32 allowance.
     assert!(compiled >= 0.85 * covered, "{label}: {rep}");
@@ -271,17 +275,22 @@ fn a_compiled_file_for_another_calibration_is_refused() {
         "{err}"
     );
     let (ok, err) = scan(&virt, &pat, "c.ply");
-    assert!(!ok && err.contains("F3DCRC02"), "{err}");
-    // A file of the first format (no far rule of clipped pixels): refused, with what to do.
-    let mut old = bytes.clone();
-    old[..8].copy_from_slice(b"F3DCRC01");
-    let old_file = t.0.join("old.f3c");
-    std::fs::write(&old_file, &old).unwrap();
-    let (ok, err) = scan(&virt, &old_file, "o.ply");
-    assert!(
-        !ok && err.contains("old.f3c") && err.contains("re-run `fringe3d compile`"),
-        "{err}"
-    );
+    assert!(!ok && err.contains("F3DCRC03"), "{err}");
+    // Files of the older formats (no far rule of clipped pixels; one far threshold for all):
+    // refused, with what to do.
+    for magic in [b"F3DCRC01", b"F3DCRC02"] {
+        let mut old = bytes.clone();
+        old[..8].copy_from_slice(magic);
+        let old_file = t.0.join("old.f3c");
+        std::fs::write(&old_file, &old).unwrap();
+        let (ok, err) = scan(&virt, &old_file, "o.ply");
+        assert!(
+            !ok && err.contains("old.f3c")
+                && err.contains(std::str::from_utf8(magic).unwrap())
+                && err.contains("re-run `fringe3d compile`"),
+            "{err}"
+        );
+    }
     // A bad tolerance is refused before anything is read.
     let r = fringe3d(&[
         "compile",

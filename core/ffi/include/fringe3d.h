@@ -33,8 +33,11 @@
 extern "C" {
 #endif
 
-/* The version of this ABI; fringe3d_abi_version() returns the library's. */
-#define FRINGE3D_ABI_VERSION 1u
+/* The version of this ABI; fringe3d_abi_version() returns the library's. Version 2: a row of
+ * compiled models is FRINGE3D_COMPILED_FIELDS (11) floats a pixel, not 10. */
+#define FRINGE3D_ABI_VERSION 2u
+/* Floats a pixel of a row of compiled models (fringe3d_reconstruct_row_compiled). */
+#define FRINGE3D_COMPILED_FIELDS 11
 
 /* Storage sizes, in 64-bit words (the library checks its objects fit at compile time). */
 #define FRINGE3D_HEAD_WORDS 1024
@@ -136,7 +139,8 @@ int32_t fringe3d_reconstruct_row(fringe3d_head *head, fringe3d_reference *refere
                                  uint8_t *point_validity);
 
 /* fringe3d_reconstruct_row through row v's compiled models (docs/compiled.md): models is row v of
- * a `fringe3d compile` file (after its 72-byte header, 10 * width little-endian floats per row),
+ * a `fringe3d compile` file (after its 72-byte header, FRINGE3D_COMPILED_FIELDS * width
+ * little-endian floats per row),
  * one rational function of the phase per pixel (about 200 Cortex-M4F instructions a pixel
  * instead of the search's 1 100). The pixels it leaves go to the search over reference, with
  * search_xyz (3 * width floats), search_codes and mask (width bytes each) as scratch; these may

@@ -36,8 +36,14 @@ use fringe3d_core::wire::setup::FrameFormat;
 use fringe3d_core::wire::{HeadSetup, ReferenceFileError, SetupError};
 
 /// The version of this ABI (the header's `FRINGE3D_ABI_VERSION`): a change to a call's
-/// meaning or to a storage size gets a new one.
-pub const FRINGE3D_ABI_VERSION: u32 = 1;
+/// meaning or to a storage size gets a new one. Version 2: a row of compiled models is
+/// [`FRINGE3D_COMPILED_FIELDS`] = 11 floats a pixel (each model's own far threshold), not 10.
+pub const FRINGE3D_ABI_VERSION: u32 = 2;
+/// Floats a pixel of a row of compiled models ([`fringe3d_reconstruct_row_compiled`]): the
+/// core's `FIELDS`.
+pub const FRINGE3D_COMPILED_FIELDS: u32 = 11;
+const _: () =
+    assert!(FRINGE3D_COMPILED_FIELDS as usize == fringe3d_core::reconstruct::compiled::FIELDS);
 /// 64-bit words of a [`fringe3d_head`] (8 KiB).
 pub const FRINGE3D_HEAD_WORDS: usize = 1024;
 /// 64-bit words of a [`fringe3d_reference`].

@@ -298,7 +298,8 @@ pub unsafe extern "C" fn fringe3d_reconstruct_row(
 
 /// [`fringe3d_reconstruct_row`] through the row's compiled models (docs/compiled.md): `models`
 /// is row `v` of a compiled reconstruction (`fringe3d compile`'s file: after its 72-byte header,
-/// `FIELDS × width` = 10 × width little-endian f32 per row, read as floats), one rational
+/// `FIELDS × width` = [`FRINGE3D_COMPILED_FIELDS`](crate::FRINGE3D_COMPILED_FIELDS) × width =
+/// 11 × width little-endian f32 per row, read as floats), one rational
 /// function of the phase per pixel, about 200 Cortex-M4F instructions a pixel instead of the
 /// search's 1 100. The pixels it leaves (no function; a phase just past a range clipped to the
 /// map) go to the search over `reference`, with `search_xyz` (3 × width floats), `search_codes`
@@ -307,7 +308,7 @@ pub unsafe extern "C" fn fringe3d_reconstruct_row(
 /// models are trusted as `fringe3d compile` wrote them for this calibration and reference map.
 ///
 /// # Safety
-/// As [`fringe3d_reconstruct_row`]; `models` null or valid for 10 × width reads; the scratch
+/// As [`fringe3d_reconstruct_row`]; `models` null or valid for 11 × width reads; the scratch
 /// null or valid for its writes, overlapping nothing else.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn fringe3d_reconstruct_row_compiled(

@@ -12,6 +12,9 @@ use super::{MAX_PAYLOAD, WireError};
 
 /// The protocol version this module speaks; frames of any other version are rejected.
 ///
+/// Version 10 gives each compiled model an eleventh number, its own far threshold τ_far (44
+/// bytes a pixel instead of 40): a version-9 head would take the models' rows for the wrong
+/// layout.
 /// Version 9 adds BeginCompiledUpload and the upload target `[2]` (issue #24 item 1): a head of
 /// version 9 takes the compiled reconstruction's models and reconstructs the pixels that have
 /// one without the search.
@@ -34,7 +37,7 @@ use super::{MAX_PAYLOAD, WireError};
 /// core's set-up consumes, so the head computes exactly what the desktop computes), describes
 /// knot profiles and curved fringes, and adds the edge-filter mode to Scan. Version 1 carried
 /// f32 and linear phase functions only.
-pub const PROTOCOL_VERSION: u8 = 9;
+pub const PROTOCOL_VERSION: u8 = 10;
 
 /// Length of the header in bytes.
 pub const HEADER_LEN: usize = 6;

@@ -34,7 +34,7 @@
 //!
 //! | offset   | size | field                                                    |
 //! |---------:|-----:|----------------------------------------------------------|
-//! | 0        | 1    | protocol version = 9 ([`PROTOCOL_VERSION`])              |
+//! | 0        | 1    | protocol version = 10 ([`PROTOCOL_VERSION`])             |
 //! | 1        | 1    | flags (below)                                            |
 //! | 2        | 1    | sequence number                                          |
 //! | 3        | 1    | command id (table below)                                 |
@@ -91,7 +91,7 @@
 //! | `0x16` | DefineThresholds    | 1 | set_id u8, thresholds: `[0]` none (the camera bit depth's defaults) or `[1]` dark_level, saturation_level, min_modulation, unwrap_tolerance, range_tolerance f32 ([`DecodeThresholds`]) | Ack |
 //! | `0x18` | UploadCalibration   | 1 | width u16, height u16, fx, fy, cx, cy, skew f64, k1, k2, p1, p2, k3 f64, projector_centre 3×f64, plane_point 3×f64, plane_normal 3×f64, depth_min f64, depth_max f64 | Ack |
 //! | `0x19` | BeginPhaseMapUpload | 1 | width u16, height u16, margin left, top, right, bottom u32 (≤ 1024 each), total_bytes u32, digest u32 | UploadAck |
-//! | `0x1A` | BeginCompiledUpload | 1 | width u16, height u16, z_min f32, z_max f32, total_bytes u32, digest u32 ([`BeginCompiled`]; protocol version 9) | UploadAck |
+//! | `0x1A` | BeginCompiledUpload | 1 | width u16, height u16, z_min f32, z_max f32, total_bytes u32, digest u32 ([`BeginCompiled`]; protocol version 9, 44 bytes a pixel since 10) | UploadAck |
 //! | `0x20` | ConfigureSequence   | 1 | set_id u8, repeat bool, entries bytes (n × 12-byte [`LutEntry`], 1..=256)   | Ack |
 //! | `0x21` | ValidateSequence    | 0 | (empty)                                                                     | Validation |
 //! | `0x22` | Start               | 1 | (empty)                                                                     | Ack |

@@ -16,7 +16,7 @@
 //! Scanning). `--max-margin PX` (default 256, at most 1024): the widest margin past the image, on
 //! any side, of a reference map the head takes (issue #17): its map store and reference buffers
 //! are sized for it, and a wider map's upload is refused with Nak OutOfMemory. The map store
-//! also holds the camera's compiled models (40 bytes a pixel, `device upload --compiled`,
+//! also holds the camera's compiled models (44 bytes a pixel, `device upload --compiled`,
 //! docs/compiled.md). Stop with Ctrl-C.
 
 use std::io::Write as _;
@@ -139,7 +139,7 @@ fn main() -> ExitCode {
     let plan = MemoryPlan::new(w, h, pw as usize, MAX_LEVELS, MAX_BAND_ROWS.min(h))
         .with_margin_columns(2 * max_margin);
     let mut mem = OwnedMemory::new(plan);
-    // The reference map with its margin, then the compiled models (40 bytes a pixel).
+    // The reference map with its margin, then the compiled models (44 bytes a pixel).
     let map_store = (w + 2 * max_margin) * (h + 2 * max_margin) * 5
         + w * h * fringe3d_core::wire::COMPILED_BYTES_PER_PIXEL;
     let board = sim_board(&world, replay, NoSink, (pw, ph), store_mib << 20, map_store);

@@ -2,28 +2,28 @@
 //!
 //! | offset | bytes | field |
 //! |---:|---:|---|
-//! | 0 | 8 | magic `F3DCRC02` |
+//! | 0 | 8 | magic `F3DCRC03` |
 //! | 8 | 4 | width, u32 LE |
 //! | 12 | 4 | height, u32 LE |
 //! | 16 | 4 | terms of the numerator polynomial, u32 LE (4) |
-//! | 20 | 4 | bytes per pixel, u32 LE (40) |
+//! | 20 | 4 | bytes per pixel, u32 LE (44) |
 //! | 24 | 4 | z_min, f32 LE, mm |
 //! | 28 | 4 | z_max, f32 LE, mm |
 //! | 32 | 4 | the build's tolerance, f32 LE, mm |
 //! | 36 | 4 | reserved, 0 |
 //! | 40 | 32 | SHA-256 of the calibration file's bytes followed by the reference map's |
-//! | 72 | width × height × 40 | the models, rows top to bottom |
+//! | 72 | width × height × 44 | the models, rows top to bottom |
 //!
-//! A row is its models field by field: ten arrays of `width` little-endian f32 (ray x, ray y, Φ_c,
-//! ±k, s_c, γ, d₁…d₄; [`PixelModel::store`]), the layout the kernel reads. A head reads the
-//! header once and then one row of `width × 40` bytes per camera row
+//! A row is its models field by field: eleven arrays of `width` little-endian f32 (ray x, ray y,
+//! Φ_c, ±k, s_c, γ, d₁…d₄, τ_far; [`PixelModel::store`]), the layout the kernel reads. A head
+//! reads the header once and then one row of `width × 44` bytes per camera row
 //! ([`PixelModel::parse_row`]).
 
 use fringe3d_core::reconstruct::compiled::{FIELDS, PixelModel, TERMS};
 use std::path::{Path, PathBuf};
 
 /// The file's first eight bytes.
-pub const MAGIC: [u8; 8] = *b"F3DCRC02";
+pub const MAGIC: [u8; 8] = *b"F3DCRC03";
 /// Header bytes.
 pub const HEADER: usize = 72;
 /// Largest file [`CompiledFile::read_any`] reads (a 16 384 × 16 384 camera is 10 GiB; 4 GiB is a
@@ -118,7 +118,7 @@ impl CompiledFile {
         let mut head = [0u8; HEADER];
         if len < HEADER as u64 {
             return Err(bad(format!(
-                "{len} bytes: not a compiled reconstruction (no F3DCRC02 header)"
+                "{len} bytes: not a compiled reconstruction (no F3DCRC03 header)"
             )));
         }
         f.read_exact(&mut head).map_err(io)?;
@@ -166,7 +166,7 @@ impl CompiledFile {
     pub fn parse(b: &[u8], width: u32, height: u32) -> Result<CompiledFile, String> {
         let head = b
             .get(..HEADER)
-            .ok_or("not a compiled reconstruction (no F3DCRC02 header)")?;
+            .ok_or("not a compiled reconstruction (no F3DCRC03 header)")?;
         let h = Header::parse(head, width, height)?;
         let want = HEADER + 4 * h.values();
         if b.len() != want {
@@ -239,8 +239,15 @@ impl Header {
                     .into(),
             );
         }
+        if b.len() >= 8 && b[..8] == *b"F3DCRC02" {
+            return Err(
+                "a compiled reconstruction of an older format (F3DCRC02, one far threshold for \
+                 every clipped pixel): re-run `fringe3d compile`"
+                    .into(),
+            );
+        }
         if b.len() < HEADER || b[..8] != MAGIC {
-            return Err("not a compiled reconstruction (no F3DCRC02 header)".into());
+            return Err("not a compiled reconstruction (no F3DCRC03 header)".into());
         }
         let u = |o: usize| u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]]);
         let f = |o: usize| f32::from_bits(u(o));
@@ -292,8 +299,9 @@ impl Header {
     }
 }
 
-/// Check every model (rows in parallel): one with a finite non-zero scale must have every number
-/// finite (and, unclipped, a positive s_c); the others become [`PixelModel::SEARCH`] or
+/// Check every model (rows in parallel): one with a finite non-zero scale must be usable as
+/// [`PixelModel::from_array`] says (every number but τ_far finite, s_c not negative, τ_far +∞
+/// or, clipped, finite and at least 1); the others become [`PixelModel::SEARCH`] or
 /// [`PixelModel::NO_REFERENCE`] (a zero scale), canonical.
 fn check_models(models: &mut [f32], w: usize) -> Result<(), String> {
     use rayon::prelude::*;
@@ -301,24 +309,25 @@ fn check_models(models: &mut [f32], w: usize) -> Result<(), String> {
         .par_chunks_exact_mut(FIELDS * w.max(1))
         .enumerate()
         .try_for_each(|(v, row)| {
-            // Field by field (contiguous): whether each pixel's numbers are all finite.
+            // Field by field (contiguous): whether each pixel's numbers but τ_far are all finite.
             let mut finite = vec![true; w];
-            for field in row.chunks_exact(w.max(1)) {
+            for field in row.chunks_exact(w.max(1)).take(FIELDS - 1) {
                 for (f, x) in finite.iter_mut().zip(field) {
                     *f &= x.is_finite();
                 }
             }
             for (u, &all_finite) in finite.iter().enumerate() {
-                let (k, s_c) = (row[3 * w + u], row[4 * w + u]);
+                let (k, s_c, far) = (row[3 * w + u], row[4 * w + u], row[(FIELDS - 1) * w + u]);
                 // What `PixelModel::from_array` keeps as it is: nothing to do.
-                let usable = all_finite && k != 0.0 && (k < 0.0 || s_c >= 0.0);
+                let far_ok = far == f32::INFINITY || (k < 0.0 && far.is_finite() && far >= 1.0);
+                let usable = all_finite && k != 0.0 && s_c >= 0.0 && far_ok;
                 if usable {
                     continue;
                 }
                 let m = PixelModel::load(row, u).unwrap_or(PixelModel::SEARCH);
                 if k.is_finite() && k != 0.0 && !m.is_compiled() {
                     return Err(format!(
-                        "pixel ({u}, {v}): a model with a non-finite coefficient or a negative depth (a damaged file)"
+                        "pixel ({u}, {v}): a model with a non-finite coefficient, a negative depth or a bad far threshold (a damaged file)"
                     ));
                 }
                 // SEARCH or NO_REFERENCE, canonical.
@@ -351,6 +360,7 @@ mod tests {
             depth_centre: 700.0,
             pole: 0.05,
             slope: [100.0, 1.0, 0.1, 0.01],
+            far: f32::INFINITY,
         };
         let f = CompiledFile {
             width: 3,
@@ -370,7 +380,7 @@ mod tests {
             .unwrap();
         }
         let b = f.to_bytes();
-        assert_eq!(b.len(), HEADER + 6 * 40);
+        assert_eq!(b.len(), HEADER + 6 * 44);
         let g = CompiledFile::parse(&b, 3, 2).unwrap();
         assert_eq!(g.model(0, 0), Some(m));
         assert!(!g.model(1, 0).unwrap().is_compiled());

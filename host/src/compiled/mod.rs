@@ -25,8 +25,8 @@
 //!    through [`compiled_row`]; a pixel is kept only if at every phase both give the same code
 //!    and points within the tolerance (or the search's point lies within the tolerance of an end
 //!    of the depth range, where a code may flip). Otherwise it is [`PixelModel::SEARCH`].
-//!    A clipped model with the far rule is also run at the [`FAR_CHECKS`] phases beyond
-//!    [`CLIP_FAR`], where both must say `NoCrossing`.
+//!    A clipped model with the far rule is also run at the [`FAR_CHECKS`] phases beyond its
+//!    τ_far ([`PixelModel::far`]), where both must say `NoCrossing`.
 //!
 //! Two proofs walk a pixel's whole search segment (its ends as the search takes them, lengthened
 //! by 10⁻⁴ of it), at most [`PATH_STEP_PX`] apart, against tables of what the search can read
@@ -36,11 +36,12 @@
 //! - A pixel whose ray the map does not cover (step 1) is [`PixelModel::NO_REFERENCE`] instead
 //!   of the search when no valid sample is near any walked point: no sample the f32 search takes
 //!   can be valid, and it answers [`Validity::ReferenceInvalid`] whatever the phase.
-//! - A clipped model gets the far rule ([`PixelModel::far_is_no_crossing`]; otherwise its s_c is
-//!   negative and every phase beyond its range goes to the search) when one end of the segment
-//!   has only valid samples near it and the other none, and the phases at `|τ| = CLIP_FAR` lie
-//!   beyond every valid value near the walk by a tenth of the largest cell spread there
-//!   ([`CLIP_FAR`] says why that gives `NoCrossing`).
+//! - A clipped model gets the far rule ([`PixelModel::far_is_no_crossing`]; otherwise its τ_far
+//!   is +∞ and every phase beyond its range goes to the search) when one end of the segment has
+//!   only valid samples near it and the other none. Its τ_far is then the least `|τ|`, at
+//!   least 1, whose phases, on both sides, lie beyond every valid value near the walk by a
+//!   tenth of the largest cell spread there ([`PixelModel::far`] says why that gives
+//!   `NoCrossing`).
 //!
 //! Step 3 checks both at its phases.
 //!
@@ -57,7 +58,7 @@ mod ray;
 pub use file::{CompiledFile, FileError, MAGIC, MAX_FILE_BYTES, source_digest};
 
 use fringe3d_core::reconstruct::compiled::{
-    CLIP_FAR, FIELDS, LEFT_TO_SEARCH, PixelModel, TERMS, compiled_row,
+    FIELDS, LEFT_TO_SEARCH, PixelModel, TERMS, compiled_row,
 };
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use fringe3d_core::validity::Validity;
@@ -69,8 +70,8 @@ use rayon::prelude::*;
 pub const NODES: usize = 16;
 /// Phases a pixel is checked at against the search.
 pub const CHECKS: usize = 33;
-/// Phases beyond [`CLIP_FAR`] (as multiples of it, in τ) a clipped pixel is also checked at: the
-/// search must give `NoCrossing` there, as the kernel does.
+/// Phases beyond a clipped model's τ_far (as multiples of it, in τ; [`PixelModel::far`]) it is
+/// also checked at: the search must give `NoCrossing` there, as the kernel does.
 pub const FAR_CHECKS: [f64; 4] = [-3.0, -1.01, 1.01, 3.0];
 /// The fitted depth range is the calibration's widened by this fraction of it at each end, so
 /// that the function covers the search's whole range whatever its rounding.
@@ -120,8 +121,9 @@ pub struct Report {
     pub compiled: usize,
     /// Compiled pixels whose range is clipped to the part of the depth range the map covers.
     pub clipped: usize,
-    /// Clipped pixels for which the build showed that a phase far beyond the range
-    /// ([`CLIP_FAR`]) gets the search's `NoCrossing`, and which answer it without the search.
+    /// Clipped pixels for which the build showed that a phase far beyond the range (beyond their
+    /// τ_far, [`PixelModel::far`]) gets the search's `NoCrossing`, and which answer it without
+    /// the search.
     pub clipped_far: usize,
     /// Clipped pixels whose far rule the build proved but the search contradicted at a
     /// [`FAR_CHECKS`] phase: the rule is dropped (the model stays). Not zero means a proof's
@@ -326,9 +328,11 @@ fn fit_row(
             // The fit itself, checked densely, must be within the tolerance (NaN is not).
             Ok((_, fit)) if !(fit <= tol) => st.fit_failed += 1,
             Ok((mut model, fit)) => {
-                // A clipped model without the far rule: a negative s_c.
-                if model.is_clipped() && !Ray::new(cal, u, v).far_is_no_crossing(&model) {
-                    model.depth_centre = -model.depth_centre;
+                // A clipped model's τ_far where the far rule holds (+∞ otherwise).
+                if model.is_clipped() {
+                    model.far = Ray::new(cal, u, v)
+                        .far_threshold(&model)
+                        .unwrap_or(f32::INFINITY);
                 }
                 model.ray = [xs[u], ys[u]];
                 *m = model;
@@ -420,6 +424,7 @@ fn fit_range(
         depth_centre: (zc + sig * c[0]) as f32,
         pole: gamma as f32,
         slope,
+        far: f32::INFINITY,
     };
     // The fit's own error (f64 evaluation of the f32 model against the map's bilinear phase,
     // which the search reads), at points half a pixel apart along the search's segment: evenly
@@ -544,15 +549,16 @@ fn check_row(
     for (u, m) in row.iter().enumerate() {
         let _ = m.store(&mut soa, u);
     }
-    // CHECKS phases over the range, then FAR_CHECKS beyond CLIP_FAR (clipped models only).
-    let far = CLIP_FAR as f64;
+    // CHECKS phases over the range, then FAR_CHECKS beyond each τ_far (clipped models with the
+    // far rule only).
     let taus = (0..CHECKS)
         .map(|k| (-1.0 + 2.0 * k as f64 / (CHECKS - 1) as f64, false))
-        .chain(FAR_CHECKS.map(|f| (f * far, true)));
+        .chain(FAR_CHECKS.map(|f| (f, true)));
     for (tau, beyond) in taus {
         for ((p, qq), m) in phase.iter_mut().zip(q.iter_mut()).zip(row.iter()) {
             if m.is_compiled() && (!beyond || m.far_is_no_crossing()) {
-                *p = (m.phase_centre as f64 + tau / (m.phase_scale as f64).abs()) as f32;
+                let t = if beyond { tau * m.far as f64 } else { tau };
+                *p = (m.phase_centre as f64 + t / (m.phase_scale as f64).abs()) as f32;
                 *qq = valid;
             } else if m.is_no_reference() {
                 // Any phase: the search must find no reference (phases of a map's usual span).
@@ -657,7 +663,7 @@ fn check_row(
             st.check_failed += 1;
         } else {
             if far_fail[u] {
-                row[u].depth_centre = -row[u].depth_centre.abs();
+                row[u].far = f32::INFINITY;
                 st.far_rule_dropped += 1;
             }
             st.max_difference = st.max_difference.max(worst[u]);

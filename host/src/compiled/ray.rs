@@ -3,7 +3,7 @@
 //! there, the f64 crossing, the stretch the map covers, and the walk of the whole search segment
 //! behind the builder's two proofs (no reference along the ray; the far rule of a clipped range).
 
-use super::{CLIP_FAR, PATH_STEP_PX, Source};
+use super::{PATH_STEP_PX, Source};
 use fringe3d_core::reconstruct::compiled::PixelModel;
 
 /// The f64 phase of the reference map at image pixel position `p` (bilinear, map coordinates
@@ -163,15 +163,17 @@ impl<'a> Ray<'a> {
         self.walk(|k| !near.any_valid(k))
     }
 
-    /// Whether every phase beyond a clipped model's [`CLIP_FAR`] gets `NoCrossing` from the
-    /// search (the constant's documentation): one end of the segment where every sample near it
-    /// is valid, the other where none is (so the search's end samples are one valid, one not,
-    /// and it brackets among valid samples), and the phases at `|τ| = CLIP_FAR` beyond every
-    /// valid value near the segment by `δ`. With `δ` a tenth of the largest cell spread there
-    /// (the interpolant's gradient is below 1.5 spreads a pixel), every valid sample differs
-    /// from such a phase by more than a Newton step of 0.07 px can close (the search accepts
-    /// 0.003 px), with one sign: no crossing is found, and none is bracketed.
-    pub(super) fn far_is_no_crossing(&self, m: &PixelModel) -> bool {
+    /// A clipped model's τ_far ([`PixelModel::far`]): the least `|τ|` (at least 1) beyond which
+    /// every phase gets `NoCrossing` from the search, or `None` where that cannot be shown. It
+    /// needs one end of the segment where every sample near it is valid, the other where none
+    /// is (so the search's end samples are one valid, one not, and it brackets among valid
+    /// samples); the phases beyond τ_far then lie beyond every valid value near the segment by
+    /// `δ`, on both sides. With `δ` a tenth of the largest cell spread there (the interpolant's
+    /// gradient is below 1.5 spreads a pixel), every valid sample differs from such a phase by
+    /// more than a Newton step of 0.07 px can close (the search accepts 0.003 px), with one
+    /// sign: no crossing is found, and none is bracketed. τ_far is widened by 10⁻³ of itself
+    /// for the f32 kernel's rounding of τ, and rounded up to f32.
+    pub(super) fn far_threshold(&self, m: &PixelModel) -> Option<f32> {
         let near = self.cal.near;
         let (mut lo, mut hi, mut spread) = (f64::INFINITY, f64::NEG_INFINITY, 0f64);
         let walked = self.walk(|k| {
@@ -193,13 +195,18 @@ impl<'a> Ray<'a> {
         };
         let ends = (on(pa) && off(pb)) || (off(pa) && on(pb));
         if !(walked && ends && lo <= hi) {
-            return false;
+            return None;
         }
         // The f32 kernel's rounding of the phase difference, and of τ, on top.
         let delta = 0.1 * spread + 1e-3 + 1e-5 * lo.abs().max(hi.abs());
-        let reach = CLIP_FAR as f64 * (1.0 - 1e-3) / (m.phase_scale as f64).abs();
-        let pc = m.phase_centre as f64;
-        pc - reach <= lo - delta && pc + reach >= hi + delta
+        let (pc, k) = (m.phase_centre as f64, (m.phase_scale as f64).abs());
+        let need = ((pc - (lo - delta)) * k)
+            .max((hi + delta - pc) * k)
+            .max(1.0);
+        let far = need / (1.0 - 1e-3);
+        let f = far as f32;
+        let f = if (f as f64) < far { f.next_up() } else { f };
+        f.is_finite().then_some(f)
     }
 
     /// The longest stretch of `[z0, z1]` over which the map is valid along the ray, its ends

@@ -526,7 +526,7 @@ impl<T: Transport> Client<T> {
         )
     }
 
-    /// Upload the compiled reconstruction's models (docs/compiled.md; protocol version 9) of a
+    /// Upload the compiled reconstruction's models (docs/compiled.md; protocol version 10) of a
     /// `width × height` camera compiled for depths `[z_min, z_max]` mm, `data` the rows of a
     /// `fringe3d compile` file after its header, and confirm them. The head takes them after
     /// the calibration and the reference map they were compiled from, and forgets them when

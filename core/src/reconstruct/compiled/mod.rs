@@ -21,10 +21,11 @@
 //! invalid reference inside the range): those pixels keep the §6 search ([`compiled_row`] returns
 //! how many a row has; [`merge_search`] takes their results). Where the projector does not light
 //! the whole depth range along a ray, the model covers the part the map does and is marked
-//! [clipped](PixelModel::is_clipped): a phase just beyond it goes to the search too, and one far
-//! beyond it (`|τ| >` [`CLIP_FAR`]) is [`Validity::NoCrossing`], the search's answer there, where
-//! the builder could prove that ([`PixelModel::far_is_no_crossing`]; elsewhere every phase beyond
-//! the range goes to the search). Where the map
+//! [clipped](PixelModel::is_clipped): a phase just beyond it goes to the search too, and one
+//! beyond the model's own far threshold (`|τ| > τ_far`, [`PixelModel::far`]) is
+//! [`Validity::NoCrossing`], the search's answer there, where the builder could prove that
+//! ([`PixelModel::far_is_no_crossing`]; elsewhere `τ_far` is +∞ and every phase beyond the range
+//! goes to the search). Where the map
 //! has no valid sample anywhere near the ray's path, the search can only answer
 //! [`Validity::ReferenceInvalid`], whatever the phase: such a pixel is
 //! [`PixelModel::NO_REFERENCE`] and answers that at once, without the search's fallback (its
@@ -39,7 +40,8 @@
 //!
 //! # Cost
 //! Per pixel: one division and about twenty other operations (the point's depth and its two
-//! products, their finiteness, the range and depth tests); no table, no gather, no iteration. The model is [`PixelModel::BYTES`] = 40 bytes a pixel, read row by row
+//! products, their finiteness, the range and depth tests); no table, no gather, no iteration.
+//! The model is [`PixelModel::BYTES`] = 44 bytes a pixel, read row by row
 //! ([`PixelModel::parse_row`]); a head needs neither the camera's lens model nor the reference
 //! map for compiled pixels.
 //!
@@ -57,21 +59,8 @@ use crate::validity::Validity;
 
 /// Terms of the numerator's polynomial `d₁ + d₂τ + d₃τ² + d₄τ³`.
 pub const TERMS: usize = 4;
-/// Numbers in one model: ray x, ray y, Φ_c, ±k, s_c, γ, d₁…d₄.
-pub const FIELDS: usize = 6 + TERMS;
-
-/// How far beyond a [clipped](PixelModel::is_clipped) range a phase must lie (`|τ| >
-/// CLIP_FAR`) to be [`Validity::NoCrossing`] without the search, for a model marked so
-/// ([`PixelModel::far_is_no_crossing`]). A builder marks a clipped model so only where it has
-/// shown that every phase that far out lies beyond every valid value of the map the search can
-/// read along the pixel's segment, by more than a Newton step can close, with one end of the
-/// segment on the map and the other off it (or on an invalid patch): then the search's answer is
-/// `NoCrossing`. Between `|τ| = 1` and this the search answers (near the map's edge it may find a
-/// point). 1.25: the map the search can read reaches beyond the fitted range by its inset from
-/// the map's edge and a few pixels around the path, within `|τ| ≤ 1.25` for about nine clipped
-/// pixels in ten whose segment ends qualify (three in four of all clipped pixels on the
-/// benchmark's scene).
-pub const CLIP_FAR: f32 = 1.25;
+/// Numbers in one model: ray x, ray y, Φ_c, ±k, s_c, γ, d₁…d₄, τ_far.
+pub const FIELDS: usize = 7 + TERMS;
 
 /// The code [`compiled_row`] writes for a pixel it leaves to the search: not a [`Validity`];
 /// [`merge_search`] replaces every one of them.
@@ -90,23 +79,31 @@ pub struct PixelModel {
     /// the range means: positive, a point out of the depth range ([`Validity::OutOfDepth`]);
     /// negative, the range is the part of the depth range the reference map covers along this
     /// ray ([`PixelModel::is_clipped`]), and such a phase goes to the search, or, beyond
-    /// [`CLIP_FAR`], is [`Validity::NoCrossing`].
+    /// [`PixelModel::far`], is [`Validity::NoCrossing`].
     pub phase_scale: f32,
-    /// s_c: the depth at `τ = 0`, mm, as its magnitude. Its sign marks a
-    /// [clipped](PixelModel::is_clipped) model: positive, a phase beyond [`CLIP_FAR`] is
-    /// [`Validity::NoCrossing`] ([`PixelModel::far_is_no_crossing`]); negative, the builder could
-    /// not show that, and every phase beyond the range goes to the search. (Depths are positive:
-    /// the sign carries no depth.)
+    /// s_c: the depth at `τ = 0`, mm (not negative).
     pub depth_centre: f32,
     /// γ: the pole term of the denominator `1 + γτ`.
     pub pole: f32,
     /// d₁…d₄ of the numerator `τ·(d₁ + d₂τ + d₃τ² + d₄τ³)`, mm.
     pub slope: [f32; TERMS],
+    /// τ_far: how far beyond a [clipped](PixelModel::is_clipped) range a phase must lie (`|τ| >
+    /// τ_far`, at least 1) to be [`Validity::NoCrossing`] without the search; +∞ where the
+    /// builder could not show that (every phase beyond the range goes to the search) and on
+    /// every model that is not clipped. A builder gives a clipped model a finite τ_far only where
+    /// it has shown that every phase that far out lies beyond every valid value of the map the
+    /// search can read along the pixel's segment, by more than a Newton step can close, with one
+    /// end of the segment on the map and the other off it (or on an invalid patch): then the
+    /// search's answer is `NoCrossing`. Between `|τ| = 1` and τ_far the search answers (near the
+    /// map's edge it may find a point). Each pixel has its own: how far the map the search can
+    /// read reaches beyond the fitted range (its inset from the map's edge and a few pixels
+    /// around the path) differs from pixel to pixel (1.06–1.4 on the benchmark's scene).
+    pub far: f32,
 }
 
 impl PixelModel {
-    /// Bytes of one model in a row ([`PixelModel::emit`]): ten little-endian f32.
-    pub const BYTES: usize = 4 * (6 + TERMS);
+    /// Bytes of one model in a row ([`PixelModel::emit`]): eleven little-endian f32.
+    pub const BYTES: usize = 4 * FIELDS;
 
     /// "Not compiled": the pixel keeps the §6 search. Every field is the canonical NaN.
     pub const SEARCH: PixelModel = PixelModel {
@@ -116,6 +113,7 @@ impl PixelModel {
         depth_centre: CANONICAL_NAN,
         pole: CANONICAL_NAN,
         slope: [CANONICAL_NAN; TERMS],
+        far: CANONICAL_NAN,
     };
 
     /// "No reference along the ray": the builder proved that every sample the search can take
@@ -142,23 +140,23 @@ impl PixelModel {
     }
 
     /// Whether the range is clipped to the map (a negative scale): a phase beyond it goes to the
-    /// search, which knows where the map ends, but beyond [`CLIP_FAR`] where the model has the
-    /// far rule ([`PixelModel::far_is_no_crossing`]): there it is [`Validity::NoCrossing`].
+    /// search, which knows where the map ends, but beyond [`PixelModel::far`] where the model has
+    /// the far rule ([`PixelModel::far_is_no_crossing`]): there it is [`Validity::NoCrossing`].
     #[inline(always)]
     pub fn is_clipped(&self) -> bool {
         self.phase_scale < 0.0
     }
 
-    /// Whether a phase beyond [`CLIP_FAR`] is [`Validity::NoCrossing`] without the search: a
-    /// clipped model whose s_c is positive ([`PixelModel::depth_centre`]).
+    /// Whether a phase beyond [`PixelModel::far`] is [`Validity::NoCrossing`] without the
+    /// search: a clipped model with a finite τ_far.
     #[inline(always)]
     pub fn far_is_no_crossing(&self) -> bool {
-        self.is_clipped() && self.depth_centre > 0.0
+        self.is_clipped() && fabs(self.far) < f32::INFINITY
     }
 
-    /// The model's ten numbers in file order: ray x, ray y, Φ_c, k, s_c, γ, d₁…d₄.
+    /// The model's eleven numbers in file order: ray x, ray y, Φ_c, k, s_c, γ, d₁…d₄, τ_far.
     pub fn to_array(&self) -> [f32; FIELDS] {
-        let mut a = [0f32; 6 + TERMS];
+        let mut a = [0f32; FIELDS];
         a[..6].copy_from_slice(&[
             self.ray[0],
             self.ray[1],
@@ -167,17 +165,19 @@ impl PixelModel {
             self.depth_centre,
             self.pole,
         ]);
-        a[6..].copy_from_slice(&self.slope);
+        a[6..6 + TERMS].copy_from_slice(&self.slope);
+        a[6 + TERMS] = self.far;
         a
     }
 
-    /// The model from its ten numbers ([`PixelModel::to_array`]'s order). A zero scale is
+    /// The model from its eleven numbers ([`PixelModel::to_array`]'s order). A zero scale is
     /// [`PixelModel::NO_REFERENCE`] whatever the other numbers; any other model with a
-    /// non-finite number, or an unclipped one with a negative s_c, is [`PixelModel::SEARCH`] (one
-    /// representation of each, whatever the bits were).
+    /// non-finite number (but τ_far), a negative s_c, or a τ_far that is neither +∞ nor (clipped)
+    /// finite and at least 1 is [`PixelModel::SEARCH`] (one representation of each, whatever the
+    /// bits were).
     pub fn from_array(a: [f32; FIELDS]) -> PixelModel {
         let mut slope = [0f32; TERMS];
-        slope.copy_from_slice(&a[6..]);
+        slope.copy_from_slice(&a[6..6 + TERMS]);
         let m = PixelModel {
             ray: [a[0], a[1]],
             phase_centre: a[2],
@@ -185,11 +185,13 @@ impl PixelModel {
             depth_centre: a[4],
             pole: a[5],
             slope,
+            far: a[6 + TERMS],
         };
-        let finite = a.iter().all(|v| fabs(*v) < f32::INFINITY);
-        // A negative s_c is a flag of clipped models only (one encoding per model).
-        let flag_ok = m.is_clipped() || m.depth_centre >= 0.0;
-        if finite && flag_ok && m.is_compiled() {
+        let finite = a[..6 + TERMS].iter().all(|v| fabs(*v) < f32::INFINITY);
+        // τ_far: +∞ (no far rule), or finite and at least 1 on a clipped model (one encoding
+        // per model).
+        let far_ok = m.far == f32::INFINITY || (m.far_is_no_crossing() && m.far >= 1.0);
+        if finite && far_ok && m.depth_centre >= 0.0 && m.is_compiled() {
             m
         } else if m.is_no_reference() {
             PixelModel::NO_REFERENCE
@@ -212,7 +214,7 @@ impl PixelModel {
     /// [`PixelModel::BYTES`]. Any bits parse, as [`PixelModel::from_array`] reads them.
     pub fn parse(bytes: &[u8]) -> Option<PixelModel> {
         let b = bytes.get(..Self::BYTES)?;
-        let mut a = [0f32; 6 + TERMS];
+        let mut a = [0f32; FIELDS];
         for (v, c) in a.iter_mut().zip(b.chunks_exact(4)) {
             *v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
         }
@@ -300,7 +302,7 @@ impl PixelModel {
         for d in self.slope.iter().rev() {
             p = *d as f64 + tau * p;
         }
-        fabs(self.depth_centre) as f64 + tau * p / (1.0 + self.pole as f64 * tau)
+        self.depth_centre as f64 + tau * p / (1.0 + self.pole as f64 * tau)
     }
 }
 
@@ -339,21 +341,21 @@ fn pass(
     code: &mut [u8; CHUNK],
 ) {
     const _: () = assert!(TERMS == 4);
-    let [rx, ry, pc, ps, dc, pole, d1, d2, d3, d4] = f;
+    let [rx, ry, pc, ps, dc, pole, d1, d2, d3, d4, far_tau] = f;
     for i in 0..CHUNK {
         let (act, code_in) = super::input_code(q[i], p[i]);
         // The depth: PixelModel::depth_f64's expression, in its order, in f32.
         let k = fabs(ps[i]);
         let tau = ((if act { p[i] } else { 0.0 }) - pc[i]) * k;
         let poly = d1[i] + tau * (d2[i] + tau * (d3[i] + tau * d4[i]));
-        let si = fabs(dc[i]) + tau * poly / (1.0 + pole[i] * tau);
+        let si = dc[i] + tau * poly / (1.0 + pole[i] * tau);
         let in_range = fabs(tau) <= 1.0;
         let compiled = (k > 0.0) & (k < f32::INFINITY);
         // No reference along the ray: the search's own answer, at once.
         let none = k == 0.0;
-        // Beyond a range the map's end clipped: the search, or far beyond, no crossing.
+        // Beyond a range the map's end clipped: the search, or beyond τ_far, no crossing.
         let clipped_out = compiled & !in_range & (ps[i] < 0.0);
-        let far = (fabs(tau) > CLIP_FAR) & (dc[i] > 0.0);
+        let far = fabs(tau) > far_tau[i];
         let left = act & !none & (!compiled | (clipped_out & !far));
         // Inside the range only (beyond it the point is out of depth, as in the search), and
         // the whole point: a model whose ray is not finite gives no point.
@@ -393,8 +395,8 @@ fn pass(
 /// [`crate::reconstruct::Reconstructor::reconstruct_row`] would for the same phase (module
 /// documentation). `models` is the row's models field by field ([`PixelModel::store`]: [`FIELDS`]
 /// arrays of `w` values). A valid pixel whose model is [`PixelModel::SEARCH`], or whose phase lies
-/// beyond a [clipped](PixelModel::is_clipped) range (within [`CLIP_FAR`], or anywhere when the
-/// model lacks the far rule; farther with it, it is [`Validity::NoCrossing`]), is left to the
+/// beyond a [clipped](PixelModel::is_clipped) range (within its [`PixelModel::far`], +∞ when the
+/// model lacks the far rule; farther, it is [`Validity::NoCrossing`]), is left to the
 /// search: its point is NaN and
 /// its code [`LEFT_TO_SEARCH`]; the return value counts them (0: the row is done; otherwise run
 /// [`search_mask`], the search, and [`merge_search`]). A valid pixel whose model is
@@ -533,6 +535,7 @@ mod tests {
             depth_centre: 700.0,
             pole: 0.1,
             slope: [120.0, 2.0, -0.5, 0.01],
+            far: f32::INFINITY,
         }
     }
 
@@ -542,7 +545,7 @@ mod tests {
         let mut b = [0u8; PixelModel::BYTES];
         m.emit(&mut b).unwrap();
         assert_eq!(PixelModel::parse(&b), Some(m));
-        assert_eq!(PixelModel::parse(&b[..39]), None);
+        assert_eq!(PixelModel::parse(&b[..PixelModel::BYTES - 1]), None);
         // A zero scale: no reference, whatever the other numbers; a NaN anywhere else: the
         // search.
         let bits = |m: PixelModel| m.to_array().map(f32::to_bits);
@@ -555,14 +558,37 @@ mod tests {
             assert!(back.is_no_reference() && !back.is_compiled());
         }
         assert!(!PixelModel::SEARCH.is_no_reference());
-        // A negative s_c flags clipped models only: unclipped, the model is not usable.
+        // A negative s_c is not usable, clipped or not.
         let mut neg = m;
         neg.depth_centre = -neg.depth_centre;
         neg.emit(&mut b).unwrap();
         assert!(!PixelModel::parse(&b).unwrap().is_compiled());
         neg.phase_scale = -neg.phase_scale;
         neg.emit(&mut b).unwrap();
-        assert_eq!(PixelModel::parse(&b), Some(neg));
+        assert!(!PixelModel::parse(&b).unwrap().is_compiled());
+        // τ_far: +∞, or at least 1 on a clipped model; anything else is not usable.
+        let mut clip = m;
+        clip.phase_scale = -clip.phase_scale;
+        for (far, clipped, usable) in [
+            (f32::INFINITY, false, true),
+            (f32::INFINITY, true, true),
+            (1.0, true, true),
+            (1.3, true, true),
+            (1.3, false, false),
+            (0.99, true, false),
+            (f32::NEG_INFINITY, true, false),
+            (f32::NAN, true, false),
+        ] {
+            let mut x = if clipped { clip } else { m };
+            x.far = far;
+            x.emit(&mut b).unwrap();
+            let back = PixelModel::parse(&b).unwrap();
+            assert_eq!(back.is_compiled(), usable, "τ_far {far}, clipped {clipped}");
+            if usable {
+                assert_eq!(bits(back), bits(x));
+                assert_eq!(back.far_is_no_crossing(), far < f32::INFINITY);
+            }
+        }
         let mut n = m;
         n.phase_centre = f32::NAN;
         n.emit(&mut b).unwrap();
@@ -673,30 +699,48 @@ mod tests {
 
     #[test]
     fn far_beyond_a_clipped_range_is_no_crossing() {
-        // τ = ±2.5 and ±1.2 (not beyond CLIP_FAR) on a clipped model; ±2.5 on an unclipped one
-        // and on a clipped one without the rule (a negative s_c), which keeps its points.
+        // τ = ±2.5 and ±1.2 (not beyond its τ_far of 1.25) on a clipped model; ±2.5 on an
+        // unclipped one and on a clipped one without the rule (τ_far = +∞), which keeps its
+        // points; 2.5 and 3.2 on a clipped one whose τ_far is 3: each pixel its own threshold.
         let mut clip = model();
         clip.phase_scale = -clip.phase_scale;
-        let mut open = clip;
-        open.depth_centre = -open.depth_centre;
+        let open = clip;
+        let mut wide = clip;
+        clip.far = 1.25;
+        wide.far = 3.0;
         assert!(clip.far_is_no_crossing() && !open.far_is_no_crossing());
         assert!(!model().far_is_no_crossing());
-        let list = [clip, clip, clip, clip, model(), model(), open, open, open];
-        let mut models = [0f32; 9 * FIELDS];
+        let list = [
+            clip,
+            clip,
+            clip,
+            clip,
+            model(),
+            model(),
+            open,
+            open,
+            open,
+            wide,
+            wide,
+        ];
+        let mut models = [0f32; 11 * FIELDS];
         for (u, x) in list.iter().enumerate() {
             x.store(&mut models, u).unwrap();
         }
-        let phase = [225.0, -25.0, 160.0, 40.0, 225.0, -25.0, 225.0, -25.0, 140.0];
-        let (mut xyz, mut out) = ([0f32; 27], [0u8; 9]);
-        let n = compiled_row(&models, 500.0, 900.0, &phase, &[0; 9], &mut xyz, &mut out).unwrap();
+        let phase = [
+            225.0, -25.0, 160.0, 40.0, 225.0, -25.0, 225.0, -25.0, 140.0, 225.0, 260.0,
+        ];
+        let (mut xyz, mut out) = ([0f32; 33], [0u8; 11]);
+        let n = compiled_row(&models, 500.0, 900.0, &phase, &[0; 11], &mut xyz, &mut out).unwrap();
         let (nc, ood, left) = (
             Validity::NoCrossing as u8,
             Validity::OutOfDepth as u8,
             LEFT_TO_SEARCH,
         );
-        assert_eq!(out, [nc, nc, left, left, ood, ood, left, left, 0]);
-        assert_eq!(n, 4);
+        assert_eq!(out, [nc, nc, left, left, ood, ood, left, left, 0, left, nc]);
+        assert_eq!(n, 5);
         assert!(xyz[..24].iter().all(|v| v.is_nan()));
+        assert!(xyz[27..].iter().all(|v| v.is_nan()));
         let s = open.depth_f64(140.0).unwrap();
         assert_eq!(s, model().depth_f64(140.0).unwrap());
         assert!((xyz[26] as f64 - s).abs() < 1e-4, "{} {s}", xyz[26]);

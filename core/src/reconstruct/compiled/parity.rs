@@ -30,10 +30,16 @@ pub fn inputs(
             ray: [(x - 128.0) / 300.0, 0.1 - x / 2000.0],
             phase_centre: 50.0 + 0.1 * x,
             phase_scale: if u % 5 == 3 { -k } else { k },
-            // Every other clipped model without the far rule (a negative s_c).
-            depth_centre: if u % 10 == 8 { -1.0 } else { 1.0 } * (580.0 + 0.25 * x),
+            depth_centre: 580.0 + 0.25 * x,
             pole: 0.02 + x * 1e-4,
             slope: [120.0 - 0.05 * x, 3.0, -0.5, 0.05],
+            // Every other clipped model without the far rule (τ_far = +∞); the others' from
+            // 1.25 to 1.5.
+            far: if u % 5 == 3 && u % 10 != 8 {
+                1.25 + x / 1024.0
+            } else {
+                f32::INFINITY
+            },
         };
         let m = match u % 37 {
             5 => PixelModel::SEARCH,
@@ -43,7 +49,7 @@ pub fn inputs(
         // `store` cannot fail: u < WIDTH.
         let _ = m.store(models, u);
         // τ from −1.2 to 1.2 in a scrambled order; every fourth pixel from −2.4 to 2.4 (beyond
-        // CLIP_FAR = 1.25 there).
+        // τ_far there).
         let t = ((u * 97) % WIDTH) as f32 / WIDTH as f32;
         let tau = if u % 4 == 1 {
             -2.4 + 4.8 * t

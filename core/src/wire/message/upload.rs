@@ -20,7 +20,8 @@ pub enum UploadTarget {
     PatternSet(u8),
     /// The reference phase map (wire value 1).
     PhaseMap,
-    /// The compiled reconstruction's models (wire value 2, protocol version 9).
+    /// The compiled reconstruction's models (wire value 2, protocol version 9; 44
+    /// bytes a pixel since version 10).
     Compiled,
 }
 
@@ -109,11 +110,11 @@ impl BeginPhaseMap {
 }
 
 /// Host → head: start uploading the compiled reconstruction (docs/compiled.md; protocol
-/// version 9).
+/// version 9; each model eleven numbers, 44 bytes, since version 10).
 ///
 /// The data is the models of a `width × height` camera, row after row from the top, each row
-/// its [`PixelModel`]s field by field ([`PixelModel::store`]: ten arrays of `width` little-endian
-/// f32), exactly the rows of a `fringe3d compile` file after its header; `digest` is the
+/// its [`PixelModel`]s field by field ([`PixelModel::store`]: eleven arrays of `width`
+/// little-endian f32), exactly the rows of a `fringe3d compile` file after its header; `digest` is the
 /// CRC-32C of all of it. The models were compiled for the depth range `[z_min, z_max]` (the
 /// calibration's, rounded to f32) from one calibration and reference map: a head takes them only
 /// after that calibration and a confirmed map, checks the size and the depth range against its

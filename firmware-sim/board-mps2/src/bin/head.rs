@@ -80,7 +80,7 @@ const RING_LEN: usize = MAX_PIXELS;
 const PATTERN_STORE: usize = 6 << 20;
 /// Reference-map store: the map's samples (the 320 × 256 image and [`MAX_MARGIN_PX`] on each
 /// side) × (f32 phase + validity byte), then the compiled reconstruction's models of the
-/// 320 × 256 image (40 bytes a pixel, docs/compiled.md).
+/// 320 × 256 image (44 bytes a pixel, docs/compiled.md).
 const MAP_STORE: usize = 5 * (320 + 2 * MAX_MARGIN_PX) * (256 + 2 * MAX_MARGIN_PX)
     + MAX_PIXELS * fringe3d_core::wire::COMPILED_BYTES_PER_PIXEL;
 /// The simulated camera's readout time (the head's default `readout_us` is 1 000).
