@@ -347,6 +347,7 @@ fn enum_wire_values() {
             rx_errors: 0,
             tx_frames: 0,
             rows_sent: 0,
+            holds: Holds(0),
         });
         assert_eq!(enc(m, &mut b)[0], i as u8);
     }

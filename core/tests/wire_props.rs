@@ -365,6 +365,7 @@ fn random_message<'a>(
                 rx_errors: r.next_u32(),
                 tx_frames: r.next_u32(),
                 rows_sent: r.next_u32(),
+                holds: Holds(r.next_u32() & Holds::ALL),
             })
         }
         Command::ResultRow => {

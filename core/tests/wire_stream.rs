@@ -375,6 +375,7 @@ fn transfer_message<'a>(rng: &mut XorShift64, data: &'a [u8], row: &'a mut Vec<u
             rx_errors: rng.next_u32(),
             tx_frames: rng.next_u32(),
             rows_sent: rng.next_u32(),
+            holds: Holds(rng.below(8)),
         }),
         _ => Message::GetStatus,
     }

@@ -664,6 +664,26 @@ fn row_and_bitfield_rules() {
     assert!(ValidationStatus::OK.is_ok());
     assert!(ValidationStatus(ValidationStatus::BUSY | 1).has(ValidationStatus::BUSY));
     assert_eq!(HeadErrors(0x100).validate(), invalid(Invalid::ReservedBits));
+    // What the head holds: three bits; a Status with another is refused.
+    assert_eq!(Holds(1 << 3).validate(), invalid(Invalid::ReservedBits));
+    assert!(Holds(Holds::ALL).validate().is_ok());
+    assert!(Holds(Holds::CALIBRATION | Holds::COMPILED).has(Holds::COMPILED));
+    assert!(!Holds(Holds::CALIBRATION).has(Holds::CALIBRATION | Holds::REFERENCE));
+    let st = Status {
+        state: HeadState::Idle,
+        errors: HeadErrors(0),
+        rx_frames: 0,
+        rx_errors: 0,
+        tx_frames: 0,
+        rows_sent: 0,
+        holds: Holds(0x8),
+    };
+    let mut b = [0u8; 32];
+    let n = postcard::to_slice(&st, &mut b).map(|s| s.len()).unwrap();
+    assert_eq!(
+        Message::decode(Command::Status as u8, &b[..n]),
+        Err(WireError::Invalid(Invalid::ReservedBits))
+    );
     let caps = Capabilities {
         protocol_version: 1,
         firmware: FirmwareVersion::default(),

@@ -17,7 +17,8 @@
 //! the same way; Scan, whose body gained the exposure list, was recomputed with `wire_ref.py`.
 //! From 8 to 9 the same way; BeginCompiledUpload and the upload target `[2]` got their own
 //! vectors from `wire_ref.py`. From 9 to 10 the same way; BeginCompiledUpload's total (44 bytes
-//! a pixel) was recomputed with `wire_ref.py`.)
+//! a pixel) and Status, whose body gained what the head holds, were recomputed with
+//! `wire_ref.py`.)
 
 use fringe3d_core::Validity;
 use fringe3d_core::wire::crc::crc32c;
@@ -448,6 +449,7 @@ fn vector_status() {
         rx_errors: 2,
         tx_frames: 129,
         rows_sent: 480,
+        holds: Holds(Holds::CALIBRATION | Holds::REFERENCE),
     });
     check_vector(
         Header::for_message(&msg, 0xFF),
@@ -459,11 +461,12 @@ fn vector_status() {
             0x02, // 2
             0x81, 0x01, // 129
             0xE0, 0x03, // 480
+            0x03, // holds: calibration, reference map (protocol version 10)
         ],
-        0x7AE5_7CB5,
+        0x9521_5F5C,
         &[
-            0x02, 0x0A, 0x04, 0xFF, 0x85, 0x09, 0x0E, 0x04, 0x21, 0xE8, 0x07, 0x02, 0x81, 0x01,
-            0xE0, 0x03, 0xB5, 0x7C, 0xE5, 0x7A, 0x00,
+            0x02, 0x0A, 0x04, 0xFF, 0x85, 0x0A, 0x0F, 0x04, 0x21, 0xE8, 0x07, 0x02, 0x81, 0x01,
+            0xE0, 0x03, 0x03, 0x5C, 0x5F, 0x21, 0x95, 0x00,
         ],
     );
 }

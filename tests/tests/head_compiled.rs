@@ -1,4 +1,4 @@
-//! The compiled reconstruction on the head (issue #24 item 1, protocol version 9): the models of
+//! The compiled reconstruction on the head (issue #24 item 1, protocol version 10): the models of
 //! `fringe3d compile` go over the link after the calibration and the reference map they were
 //! compiled from (`Client::upload_compiled`, what `fringe3d device upload --compiled` sends),
 //! the head reads them row by row from its map store and reconstructs the pixels that have one
@@ -7,7 +7,7 @@
 //! pass by ignoring the models). The head refuses the models before their map, and forgets them
 //! when the map is replaced: it then scans with the search, bit for bit the desktop's. After a
 //! new calibration it scans with that one, not with the reconstructor it kept from the last
-//! scan.
+//! scan. Status says at each step what the head holds (calibration, map, models).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -17,7 +17,7 @@ use fringe3d::compiled::CompiledFile;
 use fringe3d::device::{Client, DeviceError, open_serial};
 use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d_core::math::canonical;
-use fringe3d_core::wire::{NakCode, ValidationStatus};
+use fringe3d_core::wire::{Holds, NakCode, ValidationStatus};
 
 use crate::head_pty::{
     CAM, Cmd, assert_desktop_bits, dataset, fresh_root, head_case, head_case_with, opts, scan_both,
@@ -92,9 +92,13 @@ fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
     let (paths, cmd, head) = spawn_head_series(vec![(10_000, dir.clone())], stop.clone());
     let port = paths.recv().unwrap();
     let mut c = Client::connect(open_serial(&port, 921_600).unwrap(), opts()).unwrap();
+    // What the head holds, as Status reports it (protocol version 10), step by step.
+    let holds = |c: &mut Client<_>| c.status().unwrap().holds;
+    assert_eq!(holds(&mut c), Holds(0));
     c.define_pattern_set(0, &case.desc).unwrap();
     c.define_correction(0, case.table.as_ref()).unwrap();
     c.upload_calibration(&case.wcal).unwrap();
+    assert_eq!(holds(&mut c), Holds(Holds::CALIBRATION));
     // Before their map: refused, naming what is missing.
     match c.upload_compiled(w, h, z, &data, &mut |_, _| {}) {
         Err(DeviceError::Refused {
@@ -111,13 +115,17 @@ fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
     }
     c.upload_phase_map(w, h, case.margin, &case.map, &mut |_, _| {})
         .unwrap();
+    let held = Holds(Holds::CALIBRATION | Holds::REFERENCE);
+    assert_eq!(holds(&mut c), held);
     // Another depth range than the calibration's: refused.
     match c.upload_compiled(w, h, (z.0, z.1 + 1.0), &data, &mut |_, _| {}) {
         Err(DeviceError::Refused { code, .. }) => assert_eq!(code, NakCode::Invalid),
         r => panic!("models of another depth range: {:?}", r.map(|_| ())),
     }
+    assert_eq!(holds(&mut c), held, "refused models are not held");
     let r = c.upload_compiled(w, h, z, &data, &mut |_, _| {}).unwrap();
     assert_eq!(r.total, data.len() as u64);
+    assert_eq!(holds(&mut c), Holds(Holds::ALL));
     c.configure_sequence(0, false, &case.seq).unwrap();
     assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
     assert_desktop_bits(&scan_both(&mut c), &case.dec, &compiled);
@@ -125,6 +133,7 @@ fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
     // them and scans with the search.
     c.upload_phase_map(w, h, case.margin, &case.map, &mut |_, _| {})
         .unwrap();
+    assert_eq!(holds(&mut c), held, "the models went with their map");
     assert_desktop_bits(&scan_both(&mut c), &case.dec, &case.cloud);
     // The head keeps the last scan's reconstructor: a scan after a new calibration must not
     // use it. The projector 1 mm to the side moves every point.
@@ -154,7 +163,7 @@ fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
     let report = head.join().unwrap();
     // The scan with the models staged a row of them and the search's buffers.
     assert!(
-        report.lines >= CAM.0 as usize * (4 * 13 + 2),
+        report.lines >= CAM.0 as usize * (4 * 14 + 2),
         "line buffers used: {} bytes",
         report.lines
     );

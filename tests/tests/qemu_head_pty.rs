@@ -415,7 +415,7 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         ]
         .concat(),
     );
-    // The compiled reconstruction (protocol version 9): the calibration's models, uploaded after
+    // The compiled reconstruction (protocol version 10): the calibration's models, uploaded after
     // the calibration and map they were compiled from; the head reads them row by row from its
     // map store and leaves the pixels without one to the search. At 10 µm: the bilinear cells of
     // a 160 x 120 map bend too much for a smooth function at 1 µm (9 pixels compile; 95 % at

@@ -14,7 +14,8 @@ use super::{MAX_PAYLOAD, WireError};
 ///
 /// Version 10 gives each compiled model an eleventh number, its own far threshold τ_far (44
 /// bytes a pixel instead of 40): a version-9 head would take the models' rows for the wrong
-/// layout.
+/// layout; and Status ends with what the head holds ([`Holds`](super::Holds): calibration,
+/// reference map, compiled models).
 /// Version 9 adds BeginCompiledUpload and the upload target `[2]` (issue #24 item 1): a head of
 /// version 9 takes the compiled reconstruction's models and reconstructs the pixels that have
 /// one without the search.

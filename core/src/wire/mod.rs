@@ -104,7 +104,7 @@
 //! | `0x82` | Nak                 | 0 | command u8, code [`NakCode`] `[0..=15]`, detail u16                         | |
 //! | `0x83` | UploadAck           | 0 | target T, next_offset u32                                                   | |
 //! | `0x84` | Validation          | 0 | status u32 ([`ValidationStatus`] bits)                                      | |
-//! | `0x85` | Status              | 0 | state `[0]` Idle `[1]` Uploading `[2]` Ready `[3]` Running `[4]` Scanning `[5]` Fault, errors u32 ([`HeadErrors`] bits), rx_frames u32, rx_errors u32, tx_frames u32, rows_sent u32 | |
+//! | `0x85` | Status              | 0 | state `[0]` Idle `[1]` Uploading `[2]` Ready `[3]` Running `[4]` Scanning `[5]` Fault, errors u32 ([`HeadErrors`] bits), rx_frames u32, rx_errors u32, tx_frames u32, rows_sent u32, holds u32 ([`Holds`] bits; protocol version 10) | |
 //! | `0x86` | ResultRow           | 0 | scan_id u32, row u16, first_col u16, kind `[0]` Phase `[1]` Points, data bytes | |
 //! | `0x87` | ScanDone            | 0 | scan_id u32, rows u16, valid u32                                            | |
 //!

@@ -6,8 +6,8 @@ use fringe3d_core::pattern::PatternSet;
 use fringe3d_core::reconstruct::Reconstructor;
 use fringe3d_core::wire::{
     BeginCompiled, BeginPhaseMap, BeginUpload, Calibration, Capabilities, DecodeThresholds,
-    Exposures, HeadState, LUT_ENTRY_LEN, LutEntry, MAX_LUT_ENTRIES, PatternSetDesc, ScanOutput,
-    SetupCorrection, UploadTarget, ValidationStatus,
+    Exposures, HeadErrors, HeadState, Holds, LUT_ENTRY_LEN, LutEntry, MAX_LUT_ENTRIES,
+    PatternSetDesc, ScanOutput, SetupCorrection, Status, UploadTarget, ValidationStatus,
 };
 
 use super::config::{HeadConfig, MAX_SETS};
@@ -207,6 +207,35 @@ impl Control {
             HeadState::Ready
         } else {
             HeadState::Idle
+        }
+    }
+
+    /// What the head holds (bits of [`Holds`]): what Status reports.
+    pub(super) fn holds(&self) -> Holds {
+        let mut h = 0;
+        if self.calibration.is_some() {
+            h |= Holds::CALIBRATION;
+        }
+        if self.map_confirmed.is_some() {
+            h |= Holds::REFERENCE;
+        }
+        if self.compiled_confirmed.is_some() {
+            h |= Holds::COMPILED;
+        }
+        Holds(h)
+    }
+
+    /// The status the head reports: its state, counters and what it holds (`tx_frames`, kept
+    /// by the sender).
+    pub(super) fn status(&self, tx_frames: u32) -> Status {
+        Status {
+            state: self.state(),
+            errors: HeadErrors(self.errors),
+            rx_frames: self.rx_frames,
+            rx_errors: self.rx_errors,
+            tx_frames,
+            rows_sent: self.rows_sent,
+            holds: self.holds(),
         }
     }
 

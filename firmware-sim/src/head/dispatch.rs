@@ -6,7 +6,7 @@ use fringe3d_core::wire::crc::Crc32c;
 use fringe3d_core::wire::frame;
 use fringe3d_core::wire::{
     Ack, Flags, FrameReceiver, HeadErrors, Header, Invalid, LUT_ENTRY_LEN, MAX_ENCODED_FRAME,
-    MAX_LUT_ENTRIES, Message, Nak, NakCode, PROTOCOL_VERSION, Status, UploadAck, UploadTarget,
+    MAX_LUT_ENTRIES, Message, Nak, NakCode, PROTOCOL_VERSION, UploadAck, UploadTarget,
     ValidationStatus, WireError, check_header,
 };
 
@@ -142,14 +142,7 @@ fn dispatch<T: Write, B: BoardIo>(
             reply!(Message::Capabilities(ctl.caps));
         }
         Message::GetStatus => {
-            let st = Status {
-                state: ctl.state(),
-                errors: HeadErrors(ctl.errors),
-                rx_frames: ctl.rx_frames,
-                rx_errors: ctl.rx_errors,
-                tx_frames: tx.frames,
-                rows_sent: ctl.rows_sent,
-            };
+            let st = ctl.status(tx.frames);
             ctl.errors = 0;
             reply!(Message::Status(st));
         }

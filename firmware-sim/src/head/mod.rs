@@ -57,8 +57,8 @@ mod transmit;
 
 use embedded_io::{Read, ReadReady, Write};
 use fringe3d_core::wire::{
-    Capabilities, FrameReceiver, HeadErrors, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_LUT_ENTRIES,
-    PROTOCOL_VERSION, Status,
+    Capabilities, FrameReceiver, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_LUT_ENTRIES, PROTOCOL_VERSION,
+    Status,
 };
 
 use crate::hal::{BoardIo, Camera, Projector, Storage};
@@ -170,14 +170,7 @@ impl<'m, B: BoardIo> Head<'m, B> {
 
     /// The status the head would report now (without clearing its error bits).
     pub fn status(&self) -> Status {
-        Status {
-            state: self.ctl.state(),
-            errors: HeadErrors(self.ctl.errors),
-            rx_frames: self.ctl.rx_frames,
-            rx_errors: self.ctl.rx_errors,
-            tx_frames: self.tx.frames,
-            rows_sent: self.ctl.rows_sent,
-        }
+        self.ctl.status(self.tx.frames)
     }
 
     /// Peak use of the head's memory so far.

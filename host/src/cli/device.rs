@@ -15,7 +15,7 @@ use crate::io::image::{Pixels, ReadLimits, read_gray_limited, write_tiff_f32};
 use crate::io::ply::{PlyOptions, PointRow};
 use anyhow::{Context, Result, bail};
 use fringe3d_core::wire::{
-    EdgeFilterMode, Exposures, HeadErrors, HeadState, NakCode, PROTOCOL_VERSION, ScanOutput,
+    EdgeFilterMode, Exposures, HeadErrors, HeadState, Holds, NakCode, PROTOCOL_VERSION, ScanOutput,
     ValidationStatus,
 };
 use std::path::PathBuf;
@@ -269,19 +269,38 @@ fn state_name(s: fringe3d_core::wire::HeadState) -> &'static str {
 }
 
 fn error_names(e: HeadErrors) -> Vec<&'static str> {
-    let names = [
-        (HeadErrors::LINK, "link"),
-        (HeadErrors::UPLOAD, "upload"),
-        (HeadErrors::TRIGGER_TIMEOUT, "trigger-timeout"),
-        (HeadErrors::CAMERA, "camera"),
-        (HeadErrors::PROJECTOR, "projector"),
-        (HeadErrors::OVERRUN, "overrun"),
-        (HeadErrors::MEMORY, "memory"),
-        (HeadErrors::INTERNAL, "internal"),
-    ];
+    bit_names(
+        e.0,
+        &[
+            (HeadErrors::LINK, "link"),
+            (HeadErrors::UPLOAD, "upload"),
+            (HeadErrors::TRIGGER_TIMEOUT, "trigger-timeout"),
+            (HeadErrors::CAMERA, "camera"),
+            (HeadErrors::PROJECTOR, "projector"),
+            (HeadErrors::OVERRUN, "overrun"),
+            (HeadErrors::MEMORY, "memory"),
+            (HeadErrors::INTERNAL, "internal"),
+        ],
+    )
+}
+
+/// What the head holds ([`Holds`]), by name: `calibration`, `reference-map`, `compiled-models`.
+fn holds_names(h: Holds) -> Vec<&'static str> {
+    bit_names(
+        h.0,
+        &[
+            (Holds::CALIBRATION, "calibration"),
+            (Holds::REFERENCE, "reference-map"),
+            (Holds::COMPILED, "compiled-models"),
+        ],
+    )
+}
+
+/// The names of the bits set in `bits`, in the table's order.
+fn bit_names(bits: u32, names: &[(u32, &'static str)]) -> Vec<&'static str> {
     names
         .iter()
-        .filter(|(b, _)| e.0 & b != 0)
+        .filter(|(b, _)| bits & b != 0)
         .map(|(_, n)| *n)
         .collect()
 }
@@ -299,7 +318,7 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
                 "sensor": [caps.sensor_width, caps.sensor_height], "projector": [caps.projector_width, caps.projector_height],
                 "free_memory": caps.free_memory, "max_chunk": caps.max_chunk, "max_sets": caps.max_sets, "max_lut_entries": caps.max_lut_entries,
                 "state": state_name(st.state), "errors": error_names(st.errors), "rx_frames": st.rx_frames, "rx_errors": st.rx_errors,
-                "tx_frames": st.tx_frames, "rows_sent": st.rows_sent, "validation": v.0})
+                "tx_frames": st.tx_frames, "rows_sent": st.rows_sent, "holds": holds_names(st.holds), "validation": v.0})
         );
     } else if !g.quiet {
         outln!(
@@ -329,6 +348,20 @@ fn info(p: PortArgs, g: Global) -> Result<()> {
             st.rx_errors,
             st.tx_frames,
             st.rows_sent
+        );
+        let holds = holds_names(st.holds);
+        outln!(
+            "  holds: {}{}",
+            if holds.is_empty() {
+                "nothing".to_string()
+            } else {
+                holds.join(", ")
+            },
+            if st.holds.has(Holds::COMPILED) {
+                " (points of pixels with a compiled model skip the search)"
+            } else {
+                ""
+            }
         );
         if v.is_ok() {
             outln!("  sequence valid: ready to scan points");

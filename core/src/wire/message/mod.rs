@@ -38,7 +38,7 @@ pub use scan::{
     EdgeFilterMode, Exposures, MAX_EXPOSURE_US, ResultRow, RowKind, ScanDone, ScanOutput,
     ScanRequest,
 };
-pub use status::{Ack, HeadErrors, HeadState, Nak, NakCode, Status};
+pub use status::{Ack, HeadErrors, HeadState, Holds, Nak, NakCode, Status};
 pub use thresholds::{DecodeThresholds, DefineThresholds};
 pub use trigger::{LutEntry, LutTable, Sequence, ValidationStatus};
 pub use upload::{

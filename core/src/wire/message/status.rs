@@ -51,6 +51,33 @@ impl HeadErrors {
     }
 }
 
+/// A bit-field: what the head holds, each confirmed (protocol version 10). A point scan needs
+/// the calibration and the reference map; with the compiled models too, it reconstructs the
+/// pixels that have one without the search (docs/compiled.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Holds(pub u32);
+
+impl Holds {
+    /// A calibration (UploadCalibration).
+    pub const CALIBRATION: u32 = 1 << 0;
+    /// A confirmed reference phase map.
+    pub const REFERENCE: u32 = 1 << 1;
+    /// Confirmed compiled models of that calibration and map.
+    pub const COMPILED: u32 = 1 << 2;
+    /// All defined bits.
+    pub const ALL: u32 = 0x7;
+
+    /// `true` if bit(s) `bit` are all set.
+    pub const fn has(self, bit: u32) -> bool {
+        self.0 & bit == bit
+    }
+
+    /// Check that no reserved bit is set.
+    pub fn validate(&self) -> Result<(), WireError> {
+        check(self.0 & !Self::ALL == 0, Invalid::ReservedBits)
+    }
+}
+
 /// Head → host: state and counters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Status {
@@ -66,6 +93,8 @@ pub struct Status {
     pub tx_frames: u32,
     /// Result rows sent.
     pub rows_sent: u32,
+    /// What the head holds ([`Holds`] bits; protocol version 10).
+    pub holds: Holds,
 }
 
 /// Head → host: the request with the header's `seq` succeeded.
@@ -153,7 +182,8 @@ impl Nak {
 
 impl Body for Status {
     fn validate_body(&self) -> Result<(), WireError> {
-        self.errors.validate()
+        self.errors.validate()?;
+        self.holds.validate()
     }
 }
 
