@@ -37,8 +37,9 @@
 //!   of the search when no valid sample is near any walked point: no sample the f32 search takes
 //!   can be valid, and it answers [`Validity::ReferenceInvalid`] whatever the phase.
 //! - A clipped model gets the far rule ([`PixelModel::far_is_no_crossing`]; otherwise its τ_far
-//!   is +∞ and every phase beyond its range goes to the search) when one end of the segment has
-//!   only valid samples near it and the other none. Its τ_far is then the least `|τ|`, at
+//!   is +∞ and every phase beyond its range goes to the search) when the search's sample at one
+//!   end of the segment is valid and at the other invalid, wherever within a quarter pixel of
+//!   the end it is taken. Its τ_far is then the least `|τ|`, at
 //!   least 1, whose phases, on both sides, lie beyond every valid value near the walk by a
 //!   tenth of the largest cell spread there ([`PixelModel::far`] says why that gives
 //!   `NoCrossing`).

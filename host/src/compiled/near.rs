@@ -1,14 +1,13 @@
 //! What the search can read near each sample of the reference map ([`Near`]): the tables
 //! behind the builder's two proofs about a pixel's whole search segment, that the search can read
 //! nothing along it ([`super::PixelModel::NO_REFERENCE`]) and that a phase far beyond a clipped
-//! range is no crossing ([`super::CLIP_FAR`]).
+//! range is no crossing ([`super::PixelModel::far`]).
 
 use super::NEAR_PX;
 
 /// What the search can read near each sample of a `w × h` map: over the samples within
 /// [`NEAR_PX`] of it in both directions (positions off the map count as invalid), the least and
-/// the largest valid value (+∞ and −∞ when none is valid), whether any is invalid, and the
-/// largest spread (largest corner minus least) of a bilinear cell whose four corners are valid.
+/// the largest valid value (+∞ and −∞ when none is valid), and the largest spread (largest corner minus least) of a bilinear cell whose four corners are valid.
 pub(super) struct Near {
     w: usize,
     h: usize,
@@ -16,7 +15,6 @@ pub(super) struct Near {
     pub(super) lo: Vec<f32>,
     /// Largest valid value near each sample (−∞: none).
     pub(super) hi: Vec<f32>,
-    holes: Vec<bool>,
     /// Largest spread of a valid cell near each sample.
     pub(super) spread: Vec<f32>,
 }
@@ -31,7 +29,6 @@ impl Near {
                 h: 0,
                 lo: Vec::new(),
                 hi: Vec::new(),
-                holes: Vec::new(),
                 spread: Vec::new(),
             };
         }
@@ -44,7 +41,6 @@ impl Near {
             .iter()
             .map(|&p| if valid(p) { p } else { f32::NEG_INFINITY })
             .collect();
-        let holes: Vec<bool> = phase.iter().map(|&p| !valid(p)).collect();
         let mut spread = vec![0f32; w * h];
         for j in 0..h - 1 {
             for i in 0..w - 1 {
@@ -69,7 +65,6 @@ impl Near {
             h,
             lo: dilate(&lo, w, h, r, f32::INFINITY, f32::min),
             hi: dilate(&hi, w, h, r, f32::NEG_INFINITY, f32::max),
-            holes: dilate(&holes, w, h, r, true, |a, b| a | b),
             spread: dilate(&spread, w, h, r, 0.0, f32::max),
         }
     }
@@ -95,16 +90,6 @@ impl Near {
     /// Whether a valid sample may lie within [`NEAR_PX`] of sample `k` (`None`: off the map).
     pub(super) fn any_valid(&self, k: Option<usize>) -> bool {
         k.is_some_and(|k| self.lo[k] <= self.hi[k])
-    }
-
-    /// Whether every sample within [`NEAR_PX`] of position `p` is valid and on the map.
-    pub(super) fn all_valid(&self, p: [f64; 2]) -> bool {
-        let r = NEAR_PX as f64;
-        let inside = p[0] >= r
-            && p[1] >= r
-            && p[0] <= (self.w as f64 - 1.0 - r)
-            && p[1] <= (self.h as f64 - 1.0 - r);
-        inside && matches!(self.index(p), Some(Some(k)) if !self.holes[k])
     }
 }
 
@@ -180,8 +165,7 @@ mod tests {
         };
         for j in 0..h as i64 {
             for i in 0..w as i64 {
-                let (mut lo, mut hi, mut holes, mut spread) =
-                    (f32::INFINITY, f32::NEG_INFINITY, false, 0f32);
+                let (mut lo, mut hi, mut spread) = (f32::INFINITY, f32::NEG_INFINITY, 0f32);
                 for b in j - r..=j + r {
                     for a in i - r..=i + r {
                         match at(a, b) {
@@ -189,7 +173,7 @@ mod tests {
                                 lo = lo.min(p);
                                 hi = hi.max(p);
                             }
-                            _ => holes = true,
+                            _ => {}
                         }
                         let c = [at(a, b), at(a + 1, b), at(a, b + 1), at(a + 1, b + 1)];
                         if c.iter().all(|p| p.is_some_and(f32::is_finite)) {
@@ -205,7 +189,6 @@ mod tests {
                 }
                 let k = j as usize * w + i as usize;
                 assert_eq!((n.lo[k], n.hi[k]), (lo, hi), "({i}, {j})");
-                assert_eq!(n.holes[k], holes, "({i}, {j})");
                 assert_eq!(n.spread[k], spread, "({i}, {j})");
             }
         }
@@ -214,6 +197,5 @@ mod tests {
         assert_eq!(n.index([-(NEAR_PX as f64) - 0.5, 3.0]), Some(None));
         assert_eq!(n.index([f64::NAN, 3.0]), None);
         assert!(!n.any_valid(None));
-        assert!(!n.all_valid([2.0, 2.0]), "a hole and the edge nearby");
     }
 }

@@ -4,6 +4,12 @@
 //! behind the builder's two proofs (no reference along the ray; the far rule of a clipped range).
 
 use super::{PATH_STEP_PX, Source};
+
+/// How far from an end of its segment, in map pixels, the builder allows the f32 search to take
+/// that end's sample ([`Ray::far_threshold`]): its absolute pixel positions carry about 10⁻⁴
+/// px of rounding and the distortion polynomial in `t` its own small error; a quarter pixel
+/// covers both many times over.
+const END_SLACK_PX: f64 = 0.25;
 use fringe3d_core::reconstruct::compiled::PixelModel;
 
 /// The f64 phase of the reference map at image pixel position `p` (bilinear, map coordinates
@@ -165,9 +171,10 @@ impl<'a> Ray<'a> {
 
     /// A clipped model's τ_far ([`PixelModel::far`]): the least `|τ|` (at least 1) beyond which
     /// every phase gets `NoCrossing` from the search, or `None` where that cannot be shown. It
-    /// needs one end of the segment where every sample near it is valid, the other where none
-    /// is (so the search's end samples are one valid, one not, and it brackets among valid
-    /// samples); the phases beyond τ_far then lie beyond every valid value near the segment by
+    /// needs the search's sample at one end of the segment valid and at the other invalid
+    /// (`end_sample`; so the fallback brackets among valid samples, and one exists:
+    /// `NoCrossing`, not `OutOfDepth` with both ends valid or `ReferenceInvalid` with none);
+    /// the phases beyond τ_far then lie beyond every valid value near the segment by
     /// `δ`, on both sides. With `δ` a tenth of the largest cell spread there (the interpolant's
     /// gradient is below 1.5 spreads a pixel), every valid sample differs from such a phase by
     /// more than a Newton step of 0.07 px can close (the search accepts 0.003 px), with one
@@ -186,12 +193,14 @@ impl<'a> Ray<'a> {
         });
         let (ta, tb) = self.segment();
         let (pa, pb) = (self.map_at_t(ta), self.map_at_t(tb));
-        let off = |p| near.index(p).is_some_and(|k| !near.any_valid(k));
+        let off = |p| self.end_sample(p) == Some(false);
         // The end on the map, the rows of its sample's cell (⌊y⌋ and the next, give or take the
         // f32 search's rounding: a pixel) inside the band of rows the search reads.
         let (first, last) = self.cal.recon.rows_needed(self.v);
         let on = |p: [f64; 2]| {
-            near.all_valid(p) && p[1] - 1.0 >= first as f64 && p[1] + 2.0 <= last as f64
+            self.end_sample(p) == Some(true)
+                && p[1] - 1.0 >= first as f64
+                && p[1] + 2.0 <= last as f64
         };
         let ends = (on(pa) && off(pb)) || (off(pa) && on(pb));
         if !(walked && ends && lo <= hi) {
@@ -207,6 +216,40 @@ impl<'a> Ray<'a> {
         let f = far as f32;
         let f = if (f as f64) < far { f.next_up() } else { f };
         f.is_finite().then_some(f)
+    }
+
+    /// Whether the search's sample at map position `p` (an end of its segment) is valid
+    /// (`Some(true)`) or not (`Some(false)`) wherever within [`END_SLACK_PX`] of `p` the f32
+    /// search takes it; `None` when that depends on where. A sample is the bilinear value of its
+    /// cell (`map_phase`): valid when the cell lies on the map and its four samples are, invalid
+    /// otherwise. The cells a square of side `2·END_SLACK_PX` (less than a pixel) touches are
+    /// those of its corners.
+    fn end_sample(&self, p: [f64; 2]) -> Option<bool> {
+        let r = &self.cal.recon;
+        let (mw, mh) = (r.map_width(), r.map_height());
+        let cell_valid = |x: f64, y: f64| -> bool {
+            if mw < 2 || mh < 2 || !(x >= 0.0 && y >= 0.0) {
+                return false;
+            }
+            if x > (mw - 1) as f64 || y > (mh - 1) as f64 {
+                return false;
+            }
+            let (i, j) = ((x as usize).min(mw - 2), (y as usize).min(mh - 2));
+            let ph = self.cal.phase;
+            [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)]
+                .iter()
+                .all(|&(a, b)| ph[b * mw + a].is_finite())
+        };
+        let e = END_SLACK_PX;
+        let mut seen = [false; 2];
+        for (dx, dy) in [(-e, -e), (e, -e), (-e, e), (e, e)] {
+            seen[usize::from(cell_valid(p[0] + dx, p[1] + dy))] = true;
+        }
+        match seen {
+            [false, true] => Some(true),
+            [true, false] => Some(false),
+            _ => None,
+        }
     }
 
     /// The longest stretch of `[z0, z1]` over which the map is valid along the ray, its ends
