@@ -299,10 +299,10 @@ impl Header {
     }
 }
 
-/// Check every model (rows in parallel): one with a finite non-zero scale must be usable as
-/// [`PixelModel::from_array`] says (every number but τ_far finite, s_c not negative, τ_far +∞
-/// or, clipped, finite and at least 1); the others become [`PixelModel::SEARCH`] or
-/// [`PixelModel::NO_REFERENCE`] (a zero scale), canonical.
+/// Check every model (rows in parallel): one with a finite non-zero scale must be usable
+/// ([`PixelModel::usable`], the rule of [`PixelModel::from_array`]), or the file is damaged; the
+/// others become [`PixelModel::SEARCH`] or [`PixelModel::NO_REFERENCE`] (a zero scale),
+/// canonical.
 fn check_models(models: &mut [f32], w: usize) -> Result<(), String> {
     use rayon::prelude::*;
     models
@@ -318,10 +318,7 @@ fn check_models(models: &mut [f32], w: usize) -> Result<(), String> {
             }
             for (u, &all_finite) in finite.iter().enumerate() {
                 let (k, s_c, far) = (row[3 * w + u], row[4 * w + u], row[(FIELDS - 1) * w + u]);
-                // What `PixelModel::from_array` keeps as it is: nothing to do.
-                let far_ok = far == f32::INFINITY || (k < 0.0 && far.is_finite() && far >= 1.0);
-                let usable = all_finite && k != 0.0 && s_c >= 0.0 && far_ok;
-                if usable {
+                if PixelModel::usable(all_finite, k, s_c, far) {
                     continue;
                 }
                 let m = PixelModel::load(row, u).unwrap_or(PixelModel::SEARCH);

@@ -39,10 +39,9 @@
 //! - A clipped model gets the far rule ([`PixelModel::far_is_no_crossing`]; otherwise its τ_far
 //!   is +∞ and every phase beyond its range goes to the search) when the search's sample at one
 //!   end of the segment is valid and at the other invalid, wherever within a quarter pixel of
-//!   the end it is taken. Its τ_far is then the least `|τ|`, at
-//!   least 1, whose phases, on both sides, lie beyond every valid value near the walk by a
-//!   tenth of the largest cell spread there ([`PixelModel::far`] says why that gives
-//!   `NoCrossing`).
+//!   the end it is taken. Its τ_far is then the least `|τ|`, at least 1, whose phases, on both
+//!   sides, lie beyond every valid value near the walk by a tenth of the largest cell spread
+//!   there ([`PixelModel::far`] says why that gives `NoCrossing`).
 //!
 //! Step 3 checks both at its phases.
 //!

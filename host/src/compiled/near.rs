@@ -7,7 +7,8 @@ use super::NEAR_PX;
 
 /// What the search can read near each sample of a `w × h` map: over the samples within
 /// [`NEAR_PX`] of it in both directions (positions off the map count as invalid), the least and
-/// the largest valid value (+∞ and −∞ when none is valid), and the largest spread (largest corner minus least) of a bilinear cell whose four corners are valid.
+/// the largest valid value (+∞ and −∞ when none is valid), and the largest spread (largest
+/// corner minus least) of a bilinear cell whose four corners are valid.
 pub(super) struct Near {
     w: usize,
     h: usize,

@@ -4,13 +4,13 @@
 //! behind the builder's two proofs (no reference along the ray; the far rule of a clipped range).
 
 use super::{PATH_STEP_PX, Source};
+use fringe3d_core::reconstruct::compiled::PixelModel;
 
 /// How far from an end of its segment, in map pixels, the builder allows the f32 search to take
 /// that end's sample ([`Ray::far_threshold`]): its absolute pixel positions carry about 10⁻⁴
 /// px of rounding and the distortion polynomial in `t` its own small error; a quarter pixel
 /// covers both many times over.
 const END_SLACK_PX: f64 = 0.25;
-use fringe3d_core::reconstruct::compiled::PixelModel;
 
 /// The f64 phase of the reference map at image pixel position `p` (bilinear, map coordinates
 /// offset by the margin), `None` off the map or on an invalid sample.
@@ -221,29 +221,16 @@ impl<'a> Ray<'a> {
     /// Whether the search's sample at map position `p` (an end of its segment) is valid
     /// (`Some(true)`) or not (`Some(false)`) wherever within [`END_SLACK_PX`] of `p` the f32
     /// search takes it; `None` when that depends on where. A sample is the bilinear value of its
-    /// cell (`map_phase`): valid when the cell lies on the map and its four samples are, invalid
-    /// otherwise. The cells a square of side `2·END_SLACK_PX` (less than a pixel) touches are
-    /// those of its corners.
+    /// cell ([`map_phase`]): valid when the cell lies on the map and its four samples are,
+    /// invalid otherwise. The cells a square of side `2·END_SLACK_PX` (less than a pixel)
+    /// touches are those of its corners.
     fn end_sample(&self, p: [f64; 2]) -> Option<bool> {
-        let r = &self.cal.recon;
-        let (mw, mh) = (r.map_width(), r.map_height());
-        let cell_valid = |x: f64, y: f64| -> bool {
-            if mw < 2 || mh < 2 || !(x >= 0.0 && y >= 0.0) {
-                return false;
-            }
-            if x > (mw - 1) as f64 || y > (mh - 1) as f64 {
-                return false;
-            }
-            let (i, j) = ((x as usize).min(mw - 2), (y as usize).min(mh - 2));
-            let ph = self.cal.phase;
-            [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)]
-                .iter()
-                .all(|&(a, b)| ph[b * mw + a].is_finite())
-        };
+        let m = self.cal.recon.margin();
+        let (x, y) = (p[0] - m.left as f64, p[1] - m.top as f64);
         let e = END_SLACK_PX;
         let mut seen = [false; 2];
         for (dx, dy) in [(-e, -e), (e, -e), (-e, e), (e, e)] {
-            seen[usize::from(cell_valid(p[0] + dx, p[1] + dy))] = true;
+            seen[usize::from(map_phase(self.cal, [x + dx, y + dy]).is_some())] = true;
         }
         match seen {
             [false, true] => Some(true),

@@ -188,16 +188,23 @@ impl PixelModel {
             far: a[6 + TERMS],
         };
         let finite = a[..6 + TERMS].iter().all(|v| fabs(*v) < f32::INFINITY);
-        // τ_far: +∞ (no far rule), or finite and at least 1 on a clipped model (one encoding
-        // per model).
-        let far_ok = m.far == f32::INFINITY || (m.far_is_no_crossing() && m.far >= 1.0);
-        if finite && far_ok && m.depth_centre >= 0.0 && m.is_compiled() {
+        if PixelModel::usable(finite, m.phase_scale, m.depth_centre, m.far) {
             m
         } else if m.is_no_reference() {
             PixelModel::NO_REFERENCE
         } else {
             PixelModel::SEARCH
         }
+    }
+
+    /// The rule by which [`PixelModel::from_array`] keeps a model as it is (a function): its
+    /// numbers but τ_far all finite (`finite`), a non-zero scale `k`, s_c not negative, and τ_far
+    /// +∞ (no far rule) or, on a clipped model (`k < 0`), finite and at least 1: one encoding
+    /// per model. For a reader that checks the fields of many models at once.
+    #[inline(always)]
+    pub fn usable(finite: bool, k: f32, s_c: f32, far: f32) -> bool {
+        let far_ok = far == f32::INFINITY || (k < 0.0 && fabs(far) < f32::INFINITY && far >= 1.0);
+        finite && k != 0.0 && s_c >= 0.0 && far_ok
     }
 
     /// Write the model as [`PixelModel::BYTES`] little-endian bytes into `out[..BYTES]`; `None`

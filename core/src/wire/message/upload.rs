@@ -114,8 +114,8 @@ impl BeginPhaseMap {
 ///
 /// The data is the models of a `width × height` camera, row after row from the top, each row
 /// its [`PixelModel`]s field by field ([`PixelModel::store`]: eleven arrays of `width`
-/// little-endian f32), exactly the rows of a `fringe3d compile` file after its header; `digest` is the
-/// CRC-32C of all of it. The models were compiled for the depth range `[z_min, z_max]` (the
+/// little-endian f32), exactly the rows of a `fringe3d compile` file after its header; `digest`
+/// is the CRC-32C of all of it. The models were compiled for the depth range `[z_min, z_max]` (the
 /// calibration's, rounded to f32) from one calibration and reference map: a head takes them only
 /// after that calibration and a confirmed map, checks the size and the depth range against its
 /// calibration, and forgets them when either is replaced. A head reconstructs the pixels with a
