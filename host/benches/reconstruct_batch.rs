@@ -21,6 +21,7 @@ use fringe3d::batch::{
 use fringe3d::compiled::{DEFAULT_TOLERANCE_MM, compile};
 use fringe3d_core::reconstruct::compiled::{FIELDS, LEFT_TO_SEARCH, PixelModel, compiled_row};
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
+use fringe3d_core::validity::Validity;
 use std::hint::black_box;
 use support::*;
 
@@ -106,7 +107,7 @@ fn bench(c: &mut Criterion) {
                 rep.max_difference_mm * 1e3
             );
             // What this scan leaves to the search: the compiled row alone, pixel by pixel.
-            let mut left = [0usize; 3];
+            let (mut left, mut beyond) = ([0usize; 3], Vec::new());
             let (mut rx, mut rq) = (vec![0f32; 3 * w], vec![0u8; w]);
             for v in 0..h {
                 let m = &file.models[v * FIELDS * w..(v + 1) * FIELDS * w];
@@ -116,6 +117,7 @@ fn bench(c: &mut Criterion) {
                 for u in (0..w).filter(|&u| rq[u] == LEFT_TO_SEARCH) {
                     let pm = PixelModel::load(m, u).expect("model");
                     left[if pm.far_is_no_crossing() {
+                        beyond.push(v * w + u);
                         0
                     } else if pm.is_compiled() {
                         1
@@ -157,6 +159,41 @@ fn bench(c: &mut Criterion) {
                 .expect("compiled")
             };
             run(Isa::Baseline, false, &mut cx, &mut cv);
+            // What the search answers those just beyond a clipped range, and the far
+            // thresholds' spread.
+            let mut answers = [0usize; 3];
+            for &i in &beyond {
+                answers[match Validity::from_u8(cv[i]) {
+                    Some(Validity::Valid) => 0,
+                    Some(Validity::NoCrossing) => 1,
+                    _ => 2,
+                }] += 1;
+            }
+            let mut fars: Vec<f32> = (0..h)
+                .flat_map(|v| {
+                    let m = &file.models[v * FIELDS * w..(v + 1) * FIELDS * w];
+                    (0..w).filter_map(move |u| PixelModel::load(m, u))
+                })
+                .filter(|pm| pm.far_is_no_crossing())
+                .map(|pm| pm.far)
+                .collect();
+            fars.sort_by(f32::total_cmp);
+            let q = |f: f64| {
+                let i = ((fars.len().max(1) - 1) as f64 * f) as usize;
+                fars.get(i).copied().unwrap_or(f32::NAN)
+            };
+            eprintln!(
+                "{name}, tolerance {} µm: of those just beyond their range the search gives {} a \
+                 point, {} no-crossing, {} another code; τ_far at the 10th / 50th / 90th \
+                 percentile {:.4} / {:.4} / {:.4}",
+                tol * 1e3,
+                answers[0],
+                answers[1],
+                answers[2],
+                q(0.1),
+                q(0.5),
+                q(0.9)
+            );
             for (label, isa, par) in [
                 ("compiled_baseline_1thread", Isa::Baseline, false),
                 ("compiled_avx2_1thread", Isa::Avx2, false),

@@ -29,19 +29,20 @@
 //!    τ_far ([`PixelModel::far`]), where both must say `NoCrossing`.
 //!
 //! Two proofs walk a pixel's whole search segment (its ends as the search takes them, lengthened
-//! by 10⁻⁴ of it), at most [`PATH_STEP_PX`] apart, against tables of what the search can read
-//! within [`NEAR_PX`] of each map sample (`compiled/near.rs`): a bilinear sample reads samples
-//! within 1 px, and a walked point stands for the path within half a step plus the rounding to a
-//! sample.
+//! by 10⁻⁴ of it) against tables of what the search can read (`compiled/near.rs`):
 //! - A pixel whose ray the map does not cover (step 1) is [`PixelModel::NO_REFERENCE`] instead
-//!   of the search when no valid sample is near any walked point: no sample the f32 search takes
-//!   can be valid, and it answers [`Validity::ReferenceInvalid`] whatever the phase.
+//!   of the search when no valid sample lies within [`NEAR_PX`] of any walked point (points at
+//!   most [`PATH_STEP_PX`] apart: a bilinear sample reads samples within 1 px, and a walked
+//!   point stands for the path within half a step plus the rounding to a sample): no sample the
+//!   f32 search takes can be valid, and it answers [`Validity::ReferenceInvalid`] whatever the
+//!   phase.
 //! - A clipped model gets the far rule ([`PixelModel::far_is_no_crossing`]; otherwise its τ_far
 //!   is +∞ and every phase beyond its range goes to the search) when the search's sample at one
 //!   end of the segment is valid and at the other invalid, wherever within a quarter pixel of
 //!   the end it is taken. Its τ_far is then the least `|τ|`, at least 1, whose phases, on both
-//!   sides, lie beyond every valid value near the walk by a tenth of the largest cell spread
-//!   there ([`PixelModel::far`] says why that gives `NoCrossing`).
+//!   sides, lie beyond every value the search can read along the segment (the corners of the
+//!   valid bilinear cells within a quarter pixel of a walk half a pixel apart) by a tenth of the
+//!   largest spread of those cells ([`PixelModel::far`] says why that gives `NoCrossing`).
 //!
 //! Step 3 checks both at its phases.
 //!
@@ -85,14 +86,14 @@ pub const CLIP_INSET: f64 = 0.002;
 pub const F32_ALLOWANCE_ULP: f64 = 4.0;
 /// Most depths a pixel's fit is checked at (half-pixel steps along its search segment).
 pub const MAX_FIT_SAMPLES: usize = 4096;
-/// The reach (Chebyshev distance, pixels) of the tables the builder's proofs read: what the
-/// search can read near a walked point of a search segment is taken from every map sample this
-/// near it (module documentation). A bilinear sample reads samples within 1 px, a walked point
+/// The reach (Chebyshev distance, pixels) of the no-reference proof: whether the search can
+/// read a valid value near a walked point of a search segment is taken from every map sample
+/// this near it (module documentation). A bilinear sample reads samples within 1 px, a walked point
 /// stands for the path within half a [`PATH_STEP_PX`], and rounding it to a sample moves it by
 /// half a pixel; one more for the f32 search's rounding and the path's bend between walked
 /// points.
 pub const NEAR_PX: usize = 4;
-/// Largest distance between walked points of a search segment in the builder's proofs, pixels.
+/// Largest distance between walked points of a search segment in the no-reference proof, pixels.
 pub const PATH_STEP_PX: f64 = 2.0;
 /// Default tolerance on each coordinate of a point, mm (0.1 µm).
 pub const DEFAULT_TOLERANCE_MM: f64 = 1e-4;

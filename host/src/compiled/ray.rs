@@ -12,6 +12,18 @@ use fringe3d_core::reconstruct::compiled::PixelModel;
 /// covers both many times over.
 const END_SLACK_PX: f64 = 0.25;
 
+/// The step of [`Ray::far_threshold`]'s walk, map pixels: its points lie at most half of it
+/// apart (the walk's factor of two for the path's bend, [`Ray::walk`]).
+const CELL_STEP_PX: f64 = 0.5;
+
+/// How far from a walked point of [`Ray::far_threshold`], in map pixels, the f32 search may take
+/// a sample: a point of the segment lies within half the points' spacing (0.125 px) of one, the
+/// rest (0.125 px) is room for the path's bend between points and the search's rounding of its
+/// position (about 10⁻⁴ px). Until 2026-12-03 the walk read every sample within
+/// [`super::NEAR_PX`] (4 px) of its points, 2 px apart; the values of those 3.75 px more along the
+/// segment widened τ_far by a few per cent of the range (docs/compiled.md).
+const CELL_REACH_PX: f64 = 0.25;
+
 /// The f64 phase of the reference map at image pixel position `p` (bilinear, map coordinates
 /// offset by the margin), `None` off the map or on an invalid sample.
 #[inline(always)]
@@ -135,8 +147,16 @@ impl<'a> Ray<'a> {
     /// ([`super::near::Near::index`]: `None` off the map); `false` when `f` does, or when the walk
     /// cannot be made (a segment that is not finite, or too long).
     pub(super) fn walk(&self, mut f: impl FnMut(Option<usize>) -> bool) -> bool {
+        let near = self.cal.near;
+        self.walk_by(PATH_STEP_PX, |p| near.index(p).is_some_and(&mut f))
+    }
+
+    /// The walk of [`Ray::walk`] with points at most `step` map pixels apart, calling `f` with
+    /// each point's map position.
+    fn walk_by(&self, step: f64, mut f: impl FnMut([f64; 2]) -> bool) -> bool {
         const PROBE: usize = 64;
-        const MAX_STEPS: usize = 1 << 16;
+        // At most 2¹⁶ points a walk at [`PATH_STEP_PX`], proportionally more for a finer step.
+        let max_steps = (1u32 << 16) as f64 * PATH_STEP_PX / step;
         let (ta, tb) = self.segment();
         let d = 1e-4 * (tb - ta);
         let (t0, t1) = (ta - d, tb + d);
@@ -149,16 +169,14 @@ impl<'a> Ray<'a> {
             prev = p;
         }
         // Twice the probes' largest chord over the step: room for the path's bend.
-        let steps = (2.0 * PROBE as f64 * chord / PATH_STEP_PX).ceil();
-        if !(steps.is_finite() && steps <= MAX_STEPS as f64) {
+        let steps = (2.0 * PROBE as f64 * chord / step).ceil();
+        if !(steps.is_finite() && steps <= max_steps) {
             return false;
         }
         let steps = (steps as usize).max(PROBE);
         (0..=steps).all(|k| {
-            self.cal
-                .near
-                .index(at(k as f64 / steps as f64))
-                .is_some_and(&mut f)
+            let p = at(k as f64 / steps as f64);
+            p[0].is_finite() && p[1].is_finite() && f(p)
         })
     }
 
@@ -174,23 +192,22 @@ impl<'a> Ray<'a> {
     /// needs the search's sample at one end of the segment valid and at the other invalid
     /// (`end_sample`; so the fallback brackets among valid samples, and one exists:
     /// `NoCrossing`, not `OutOfDepth` with both ends valid or `ReferenceInvalid` with none);
-    /// the phases beyond τ_far then lie beyond every valid value near the segment by
-    /// `δ`, on both sides. With `δ` a tenth of the largest cell spread there (the interpolant's
+    /// the phases beyond τ_far then lie beyond every value the search can read along the segment
+    /// by `δ`, on both sides: the corners of every valid bilinear cell a sample within
+    /// [`CELL_REACH_PX`] of the walk's points reads ([`super::near::Near::read_cells`], points
+    /// [`CELL_STEP_PX`] apart). With `δ` a tenth of the largest spread of those cells (the interpolant's
     /// gradient is below 1.5 spreads a pixel), every valid sample differs from such a phase by
     /// more than a Newton step of 0.07 px can close (the search accepts 0.003 px), with one
     /// sign: no crossing is found, and none is bracketed. τ_far is widened by 10⁻³ of itself
     /// for the f32 kernel's rounding of τ, and rounded up to f32.
     pub(super) fn far_threshold(&self, m: &PixelModel) -> Option<f32> {
         let near = self.cal.near;
-        let (mut lo, mut hi, mut spread) = (f64::INFINITY, f64::NEG_INFINITY, 0f64);
-        let walked = self.walk(|k| {
-            if let Some(k) = k {
-                lo = lo.min(near.lo[k] as f64);
-                hi = hi.max(near.hi[k] as f64);
-                spread = spread.max(near.spread[k] as f64);
-            }
+        let mut acc = (f64::INFINITY, f64::NEG_INFINITY, 0f64);
+        let walked = self.walk_by(CELL_STEP_PX, |p| {
+            near.read_cells(p, CELL_REACH_PX, &mut acc);
             true
         });
+        let (lo, hi, spread) = acc;
         let (ta, tb) = self.segment();
         let (pa, pb) = (self.map_at_t(ta), self.map_at_t(tb));
         let off = |p| self.end_sample(p) == Some(false);
