@@ -138,6 +138,7 @@ fn bench(c: &mut Criterion) {
             );
             let rows = CompiledRows {
                 models: &file.models,
+                first_row: 0,
                 z_min: file.z_min,
                 z_max: file.z_max,
             };

@@ -400,12 +400,15 @@ pub struct PointsOut<'a> {
 }
 
 /// Compiled models standing in for the search pixel by pixel ([`crate::compiled`]): the
-/// camera's `width × height` models and the depth range they were compiled for.
+/// models of consecutive camera rows (the camera's whole `width × height`, or a band's) and the
+/// depth range they were compiled for.
 #[derive(Clone, Copy, Debug)]
 pub struct CompiledRows<'a> {
     /// The models: a row of [`FIELDS`] × width values per camera row, each field by field
-    /// ([`crate::compiled::CompiledFile::models`]).
+    /// ([`crate::compiled::CompiledFile::models`]), from camera row `first_row` on.
     pub models: &'a [f32],
+    /// The camera row of the first row of `models` (0 for the whole camera's).
+    pub first_row: usize,
     /// Near end of the depth range, mm.
     pub z_min: f32,
     /// Far end, mm.
@@ -503,9 +506,10 @@ fn recon_rows<G: CellGather, R: ReferenceRows + ?Sized>(
                 .reconstruct_row_gather(g, f.map, v as u32, p, q, o, ov)?;
             continue;
         };
+        let r = v.checked_sub(c.first_row).ok_or(ReconstructError::Length)?;
         let models = c
             .models
-            .get(v * FIELDS * w..(v + 1) * FIELDS * w)
+            .get(r * FIELDS * w..(r + 1) * FIELDS * w)
             .ok_or(ReconstructError::Length)?;
         let n = compiled_row_inline(models, c.z_min, c.z_max, p, q, o, ov)
             .map_err(|_| ReconstructError::Length)?;
@@ -630,8 +634,8 @@ pub fn reconstruct_rows<R: ReferenceRows + ?Sized>(
 }
 
 /// The lengths of a band of whole rows from `v0` (the batch entry points' one check): `phase`,
-/// `validity` and the outputs whole rows of the image, inside it, and compiled models for the
-/// whole camera.
+/// `validity` and the outputs whole rows of the image, inside it, and compiled models of whole
+/// rows that cover the band.
 fn check_rows(
     recon: &Reconstructor,
     compiled: Option<CompiledRows<'_>>,
@@ -644,7 +648,13 @@ fn check_rows(
     let n = phase.len();
     let rows_fit = w > 0 && n.is_multiple_of(w) && v0 + n / w <= recon.height();
     let same = validity.len() == n && out.xyz.len() == 3 * n && out.validity.len() == n;
-    let models = compiled.is_none_or(|c| c.models.len() == FIELDS * w * recon.height());
+    let rows = n / w.max(1);
+    let models = compiled.is_none_or(|c| {
+        let held = c.models.len() / (FIELDS * w).max(1);
+        c.models.len().is_multiple_of((FIELDS * w).max(1))
+            && c.first_row <= v0
+            && v0 + rows <= c.first_row + held
+    });
     if rows_fit && same && models {
         Ok(())
     } else {

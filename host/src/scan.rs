@@ -7,7 +7,7 @@
 //! (decode to the file's bytes) in one pass over bands of rows, without whole-frame buffers.
 
 use crate::batch::{CompiledRows, Isa, PointsOut as BatchOut};
-use crate::compiled::{CompiledFile, FileError, source_digest};
+use crate::compiled::{CompiledFile, FileError, ModelFile, source_digest_of_files};
 use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, ReadLimits, read_gray_limited, read_header};
 use crate::io::map_file::MapFile;
@@ -102,6 +102,18 @@ impl DefectScan {
     }
 }
 
+/// A compiled file's error as a scan's, naming the file.
+pub(crate) fn compiled_error(path: &Path, e: FileError) -> ScanError {
+    let message = match e {
+        FileError::Io { source, .. } => format!("cannot read: {source}"),
+        FileError::Format { message, .. } => message,
+    };
+    ScanError::Invalid {
+        path: path.to_path_buf(),
+        message,
+    }
+}
+
 /// Everything a reconstruction needs, loaded and checked.
 pub struct ScanCalibration {
     /// The calibration.
@@ -122,8 +134,19 @@ pub struct ScanCalibration {
     pub reference_defect: Option<MapDefect>,
     /// Where the calibration came from (for messages).
     pub source: PathBuf,
-    /// Compiled models standing in for the search ([`ScanCalibration::with_compiled`]).
-    pub compiled: Option<CompiledFile>,
+    /// Compiled models standing in for the search ([`ScanCalibration::with_compiled`],
+    /// [`ScanCalibration::with_compiled_streamed`]).
+    pub compiled: Option<CompiledModels>,
+}
+
+/// Where a scan's compiled models are.
+#[derive(Debug)]
+pub enum CompiledModels {
+    /// In memory, every pixel's ([`ScanCalibration::with_compiled`]).
+    Whole(CompiledFile),
+    /// In their file, each band's rows read by the streaming scan
+    /// ([`ScanCalibration::with_compiled_streamed`]).
+    File(ModelFile),
 }
 
 impl ScanCalibration {
@@ -300,50 +323,72 @@ impl ScanCalibration {
 
     /// Reconstruct with the compiled models of `path` (`fringe3d compile`) where they exist, and
     /// the search elsewhere. The file must have been compiled from this calibration file and this
-    /// reference map (its digest of their bytes), for this camera and depth range.
-    pub fn with_compiled(mut self, path: &Path) -> Result<Self, ScanError> {
+    /// reference map (its digest of their bytes), for this camera and depth range. The models
+    /// are read whole and checked now.
+    pub fn with_compiled(self, path: &Path) -> Result<Self, ScanError> {
+        let (w, h) = (self.width() as u32, self.height() as u32);
+        let (file, digest) = rayon::join(
+            || CompiledFile::read(path, w, h).map_err(|e| compiled_error(path, e)),
+            || self.source_digest(),
+        );
+        let file = file?;
+        let (d, z) = (file.source_digest, (file.z_min, file.z_max));
+        self.use_compiled(path, CompiledModels::Whole(file), d, z, digest)
+    }
+
+    /// [`ScanCalibration::with_compiled`] for the streaming scan: the file's header (and its
+    /// length) is checked now, and each band reads and checks its rows of models when it runs
+    /// (memory: a band's rows, not the camera's 44 bytes a pixel). Only the streaming scan
+    /// reads such models; [`ScanCalibration::reconstruct`] refuses them.
+    pub fn with_compiled_streamed(self, path: &Path) -> Result<Self, ScanError> {
+        let (w, h) = (self.width() as u32, self.height() as u32);
+        let file = ModelFile::open(path, w, h).map_err(|e| compiled_error(path, e))?;
+        let digest = self.source_digest();
+        let (d, z) = (file.source_digest(), file.z_range());
+        self.use_compiled(path, CompiledModels::File(file), d, z, digest)
+    }
+
+    /// Take `models` (from `path`, carrying the digest `carried` and the depth range `z`) if
+    /// they were compiled from this calibration (`digest`, its own) and for its depth range.
+    fn use_compiled(
+        mut self,
+        path: &Path,
+        models: CompiledModels,
+        carried: [u8; 32],
+        z: (f32, f32),
+        digest: Result<[u8; 32], ScanError>,
+    ) -> Result<Self, ScanError> {
         let bad = |m: String| ScanError::Invalid {
             path: path.to_path_buf(),
             message: m,
         };
-        let (w, h) = (self.width() as u32, self.height() as u32);
-        let (file, digest) = rayon::join(
-            || {
-                CompiledFile::read(path, w, h).map_err(|e| match e {
-                    FileError::Io { source, .. } => bad(format!("cannot read: {source}")),
-                    FileError::Format { message, .. } => bad(message),
-                })
-            },
-            || self.source_digest(),
-        );
-        let (file, digest) = (file?, digest?);
-        if file.source_digest != digest {
+        if carried != digest? {
             return Err(bad(format!(
                 "compiled from another calibration or reference map than {} (the digests of their bytes differ): re-run `fringe3d compile`",
                 self.source.display()
             )));
         }
         let s = self.recon.setup();
-        if (file.z_min, file.z_max) != (s.z_min as f32, s.z_max as f32) {
+        if z != (s.z_min as f32, s.z_max as f32) {
             return Err(bad(format!(
                 "compiled for depths [{}, {}] mm, but the calibration's are [{}, {}]",
-                file.z_min, file.z_max, s.z_min, s.z_max
+                z.0, z.1, s.z_min, s.z_max
             )));
         }
-        self.compiled = Some(file);
+        self.compiled = Some(models);
         Ok(self)
     }
 
-    /// The digest a compiled file of this calibration carries ([`source_digest`]).
+    /// The compiled models when they are in memory ([`ScanCalibration::with_compiled`]).
+    pub fn compiled_file(&self) -> Option<&CompiledFile> {
+        match &self.compiled {
+            Some(CompiledModels::Whole(f)) => Some(f),
+            _ => None,
+        }
+    }
+
+    /// The digest a compiled file of this calibration carries ([`crate::compiled::source_digest`]).
     pub fn source_digest(&self) -> Result<[u8; 32], ScanError> {
-        use crate::io::input::{MAX_IMAGE_BYTES, MAX_TEXT_BYTES, read_limited};
-        let read = |p: &Path, max| {
-            read_limited(p, max).map_err(|e| ScanError::Invalid {
-                path: p.to_path_buf(),
-                message: format!("cannot read: {e}"),
-            })
-        };
-        let cal = read(&self.source, MAX_TEXT_BYTES)?;
         let map_path = self
             .calibration
             .reference_map_path(&self.source)
@@ -351,14 +396,17 @@ impl ScanCalibration {
                 path: self.source.clone(),
                 message: "no [reference] section with a phase_map".into(),
             })?;
-        let map = read(&map_path, MAX_IMAGE_BYTES)?;
-        Ok(source_digest(&cal, &map))
+        source_digest_of_files(&self.source, &map_path).map_err(|(path, e)| ScanError::Invalid {
+            path,
+            message: format!("cannot read: {e}"),
+        })
     }
 
-    /// The compiled models as the batch paths take them.
+    /// The compiled models as the batch paths take them, when they are in memory.
     pub fn compiled_rows(&self) -> Option<CompiledRows<'_>> {
-        self.compiled.as_ref().map(|c| CompiledRows {
+        self.compiled_file().map(|c| CompiledRows {
             models: &c.models,
+            first_row: 0,
             z_min: c.z_min,
             z_max: c.z_max,
         })
@@ -408,6 +456,12 @@ impl ScanCalibration {
             return Err(ScanError::Invalid {
                 path: self.source.clone(),
                 message: "the reference map is read row by row (`load_streamed`): only the streaming scan reads it so; load the calibration with `ScanCalibration::load` to reconstruct whole frames".into(),
+            });
+        }
+        if let Some(CompiledModels::File(f)) = &self.compiled {
+            return Err(ScanError::Invalid {
+                path: f.path().to_path_buf(),
+                message: "the compiled models are read row by row (`with_compiled_streamed`): only the streaming scan reads them so; use `ScanCalibration::with_compiled` to reconstruct whole frames".into(),
             });
         }
         // Prepared once at set-up: a shared view, no copy.

@@ -521,7 +521,7 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         .unwrap();
     let mut compiled = scc.reconstruct(&dec.phase, &dec.validity, true).unwrap();
     fringe3d::scan::filter_edges(&mut compiled, &scc.edge_filter(80.0).unwrap());
-    let models = scc.compiled.as_ref().map_or(0, |f| f.compiled_count());
+    let models = scc.compiled_file().map_or(0, |f| f.compiled_count());
     let differ = bits(&compiled.xyz)
         .chunks(3)
         .zip(bits(&filtered.xyz).chunks(3))

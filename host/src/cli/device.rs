@@ -13,6 +13,7 @@ use crate::device::{
 use crate::io::calibration::Calibration;
 use crate::io::image::{Pixels, ReadLimits, read_gray_limited, write_tiff_f32};
 use crate::io::ply::{PlyOptions, PointRow};
+use crate::scan::CompiledModels;
 use anyhow::{Context, Result, bail};
 use fringe3d_core::wire::{
     EdgeFilterMode, Exposures, NakCode, PROTOCOL_VERSION, ScanOutput, ValidationStatus,
@@ -345,8 +346,10 @@ fn upload(a: UploadArgs, g: Global) -> Result<()> {
                 Some(p) => {
                     let s = sc.recon.setup();
                     let z = (s.z_min as f32, s.z_max as f32);
-                    let file = sc.with_compiled(p)?.compiled;
-                    let models = file.map(|f| f.models).unwrap_or_default();
+                    let models = match sc.with_compiled(p)?.compiled {
+                        Some(CompiledModels::Whole(f)) => f.models,
+                        _ => Vec::new(),
+                    };
                     let bytes: Vec<u8> = models
                         .iter()
                         .flat_map(|v| fringe3d_core::math::canonical(*v).to_le_bytes())

@@ -77,9 +77,11 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
                 Pipeline::Stream => common::load_calibration_streamed,
                 Pipeline::WholeFrame => common::load_calibration,
             }(&a.calibration, ls.set.axis())?;
-            match &a.compiled {
-                Some(p) => Ok(cal.with_compiled(p)?),
-                None => anyhow::Ok(cal),
+            match (&a.compiled, pipeline) {
+                // The streaming pass reads each band's rows of models from their file.
+                (Some(p), Pipeline::Stream) => Ok(cal.with_compiled_streamed(p)?),
+                (Some(p), Pipeline::WholeFrame) => Ok(cal.with_compiled(p)?),
+                (None, _) => anyhow::Ok(cal),
             }
         },
         || match a.hdr {

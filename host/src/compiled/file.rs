@@ -19,6 +19,7 @@
 //! reads the header once and then one row of `width × 44` bytes per camera row
 //! ([`PixelModel::parse_row`]).
 
+use fringe3d_core::math::CANONICAL_NAN;
 use fringe3d_core::reconstruct::compiled::{FIELDS, PixelModel, TERMS};
 use std::path::{Path, PathBuf};
 
@@ -106,36 +107,20 @@ impl CompiledFile {
     /// read straight into their rows and checked rows in parallel.
     pub fn read(path: &Path, width: u32, height: u32) -> Result<CompiledFile, FileError> {
         use std::io::Read;
-        let io = |source| FileError::Io {
+        let (mut f, h) = open_checked(path, width, height)?;
+        let mut models = vec![0f32; h.values()];
+        let read = f.read_exact(bytemuck::cast_slice_mut(&mut models));
+        read.map_err(|source| FileError::Io {
             path: path.to_path_buf(),
             source,
-        };
-        let bad = |m: String| FileError::Format {
-            path: path.to_path_buf(),
-            message: m,
-        };
-        let (mut f, len) = crate::io::input::open_regular(path).map_err(io)?;
-        let mut head = [0u8; HEADER];
-        if len < HEADER as u64 {
-            return Err(bad(format!(
-                "{len} bytes: not a compiled reconstruction (no F3DCRC03 header)"
-            )));
-        }
-        f.read_exact(&mut head).map_err(io)?;
-        let h = Header::parse(&head, width, height).map_err(bad)?;
-        let want = HEADER as u64 + 4 * h.values() as u64;
-        if len != want {
-            return Err(bad(format!(
-                "{len} bytes, but a {width}x{height} compiled reconstruction is {want} (truncated or padded)"
-            )));
-        }
-        let mut models = vec![0f32; h.values()];
-        f.read_exact(bytemuck::cast_slice_mut(&mut models))
-            .map_err(io)?;
+        })?;
         for v in models.iter_mut() {
             *v = f32::from_bits(u32::from_le(v.to_bits()));
         }
-        check_models(&mut models, width as usize).map_err(bad)?;
+        check_models(&mut models, width as usize).map_err(|message| FileError::Format {
+            path: path.to_path_buf(),
+            message,
+        })?;
         Ok(h.with(models))
     }
 
@@ -219,19 +204,55 @@ impl CompiledFile {
     }
 }
 
-/// A checked header.
-struct Header {
+/// Open a compiled file for a camera of `width × height` and check its header against it, and
+/// the file's length against the header (nothing is allocated from the header); the file is
+/// left at its first model.
+pub(super) fn open_checked(
+    path: &Path,
     width: u32,
     height: u32,
-    z_min: f32,
-    z_max: f32,
-    tolerance_mm: f32,
-    source_digest: [u8; 32],
+) -> Result<(std::fs::File, Header), FileError> {
+    use std::io::Read;
+    let io = |source| FileError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let bad = |m: String| FileError::Format {
+        path: path.to_path_buf(),
+        message: m,
+    };
+    let (mut f, len) = crate::io::input::open_regular(path).map_err(io)?;
+    let mut head = [0u8; HEADER];
+    if len < HEADER as u64 {
+        return Err(bad(format!(
+            "{len} bytes: not a compiled reconstruction (no F3DCRC03 header)"
+        )));
+    }
+    f.read_exact(&mut head).map_err(io)?;
+    let h = Header::parse(&head, width, height).map_err(bad)?;
+    let want = HEADER as u64 + 4 * h.values() as u64;
+    if len != want {
+        return Err(bad(format!(
+            "{len} bytes, but a {width}x{height} compiled reconstruction is {want} (truncated or padded)"
+        )));
+    }
+    Ok((f, h))
+}
+
+/// A checked header.
+#[derive(Debug)]
+pub(super) struct Header {
+    pub(super) width: u32,
+    pub(super) height: u32,
+    pub(super) z_min: f32,
+    pub(super) z_max: f32,
+    pub(super) tolerance_mm: f32,
+    pub(super) source_digest: [u8; 32],
 }
 
 impl Header {
     /// Check the header (`b` holds at least [`HEADER`] bytes) against the camera.
-    fn parse(b: &[u8], width: u32, height: u32) -> Result<Header, String> {
+    pub(super) fn parse(b: &[u8], width: u32, height: u32) -> Result<Header, String> {
         if b.len() >= 8 && b[..8] == *b"F3DCRC01" {
             return Err(
                 "a compiled reconstruction of an older format (F3DCRC01, without the far rule \
@@ -282,7 +303,7 @@ impl Header {
     }
 
     /// Values of the models.
-    fn values(&self) -> usize {
+    pub(super) fn values(&self) -> usize {
         self.width as usize * self.height as usize * FIELDS
     }
 
@@ -299,39 +320,56 @@ impl Header {
     }
 }
 
-/// Check every model (rows in parallel): one with a finite non-zero scale must be usable
-/// ([`PixelModel::usable`], the rule of [`PixelModel::from_array`]), or the file is damaged; the
-/// others become [`PixelModel::SEARCH`] or [`PixelModel::NO_REFERENCE`] (a zero scale),
-/// canonical.
+/// Check every model (rows in parallel, [`check_row`]).
 fn check_models(models: &mut [f32], w: usize) -> Result<(), String> {
     use rayon::prelude::*;
     models
         .par_chunks_exact_mut(FIELDS * w.max(1))
         .enumerate()
-        .try_for_each(|(v, row)| {
-            // Field by field (contiguous): whether each pixel's numbers but τ_far are all finite.
-            let mut finite = vec![true; w];
-            for field in row.chunks_exact(w.max(1)).take(FIELDS - 1) {
-                for (f, x) in finite.iter_mut().zip(field) {
-                    *f &= x.is_finite();
-                }
-            }
-            for (u, &all_finite) in finite.iter().enumerate() {
-                let (k, s_c, far) = (row[3 * w + u], row[4 * w + u], row[(FIELDS - 1) * w + u]);
-                if PixelModel::usable(all_finite, k, s_c, far) {
-                    continue;
-                }
-                let m = PixelModel::load(row, u).unwrap_or(PixelModel::SEARCH);
-                if k.is_finite() && k != 0.0 && !m.is_compiled() {
-                    return Err(format!(
-                        "pixel ({u}, {v}): a model with a non-finite coefficient, a negative depth or a bad far threshold (a damaged file)"
-                    ));
-                }
-                // SEARCH or NO_REFERENCE, canonical.
-                let _ = m.store(row, u);
-            }
-            Ok(())
-        })
+        .try_for_each(|(v, row)| check_row(row, w, v))
+}
+
+/// Check the models of row `v` (`row`, as the file holds it, [`FIELDS`] × `w` values): one with
+/// a finite non-zero scale must be usable ([`PixelModel::usable`], the rule of
+/// [`PixelModel::from_array`]), or the file is damaged; the others become
+/// [`PixelModel::SEARCH`] or [`PixelModel::NO_REFERENCE`] (a zero scale), canonical.
+pub(super) fn check_row(row: &mut [f32], w: usize, v: usize) -> Result<(), String> {
+    if w == 0 || row.len() < FIELDS * w {
+        return Ok(());
+    }
+    // Field by field, each a contiguous array (vectorized): a flag for each pixel whose numbers
+    // but τ_far are not all finite, or that breaks the rest of the rule.
+    let mut bad = vec![0u32; w];
+    for field in row.chunks_exact(w).take(FIELDS - 1) {
+        for (b, x) in bad.iter_mut().zip(field) {
+            // Not finite: every exponent bit set.
+            *b |= u32::from(x.to_bits() & 0x7f80_0000 == 0x7f80_0000);
+        }
+    }
+    let field = |i: usize| &row[i * w..(i + 1) * w];
+    let (k, s_c, far) = (field(3), field(4), field(FIELDS - 1));
+    for (((b, &k), &s), &f) in bad.iter_mut().zip(k).zip(s_c).zip(far) {
+        *b |= u32::from(!PixelModel::usable(true, k, s, f));
+    }
+    // The flagged pixels (few: those without a function). One with a finite non-zero scale is
+    // damaged; the others are [`PixelModel::NO_REFERENCE`] (a zero scale) or
+    // [`PixelModel::SEARCH`], written canonical: every number the canonical NaN but a zero
+    // scale, +0.
+    for u in (0..w).filter(|&u| bad[u] != 0) {
+        let k = row[3 * w + u];
+        if k.is_finite() && k != 0.0 {
+            return Err(format!(
+                "pixel ({u}, {v}): a model with a non-finite coefficient, a negative depth or a bad far threshold (a damaged file)"
+            ));
+        }
+        for f in 0..FIELDS {
+            row[f * w + u] = CANONICAL_NAN;
+        }
+        if k == 0.0 {
+            row[3 * w + u] = 0.0;
+        }
+    }
+    Ok(())
 }
 
 /// The digest a compiled file carries: SHA-256 of the calibration file's bytes, then the
@@ -344,9 +382,149 @@ pub fn source_digest(calibration: &[u8], map: &[u8]) -> [u8; 32] {
     h.finalize().into()
 }
 
+/// [`source_digest`] of the files `calibration` and `map`, read a piece at a time (neither is
+/// held whole: a map is 4 bytes a pixel). An error names the file it comes from.
+pub fn source_digest_of_files(
+    calibration: &Path,
+    map: &Path,
+) -> Result<[u8; 32], (PathBuf, std::io::Error)> {
+    use sha2::{Digest, Sha256};
+    use std::io::Read;
+    let mut h = Sha256::new();
+    let mut buf = vec![0u8; 1 << 16];
+    for path in [calibration, map] {
+        let fail = |e| (path.to_path_buf(), e);
+        let (mut f, _) = crate::io::input::open_regular(path).map_err(fail)?;
+        loop {
+            match f.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => h.update(&buf[..n]),
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(fail(e)),
+            }
+        }
+    }
+    Ok(h.finalize().into())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`check_row`] against the simple form, pixel by pixel: [`PixelModel::load`] (which
+    /// applies [`PixelModel::from_array`]'s rule) and [`PixelModel::store`], on rows of models
+    /// with every kind of defect; the same bits, or the same damaged pixel.
+    #[test]
+    fn check_row_is_load_and_store_pixel_by_pixel() {
+        let w = 37;
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let odd = [
+            f32::NAN,
+            -f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            0.0,
+            -0.0,
+            -1.0,
+            0.5,
+            f32::from_bits(0x7fc0_1234),
+        ];
+        let good = PixelModel {
+            ray: [0.1, -0.2],
+            phase_centre: 50.0,
+            phase_scale: -0.01,
+            depth_centre: 700.0,
+            pole: 0.05,
+            slope: [100.0, 1.0, 0.1, 0.01],
+            far: 1.2,
+        };
+        let (mut damaged, mut rows) = (0, 0);
+        while rows < 400 {
+            let mut row = vec![0f32; FIELDS * w];
+            for u in 0..w {
+                let mut a = good.to_array();
+                if u % 2 == 1 {
+                    a[3] = 0.02;
+                    a[FIELDS - 1] = f32::INFINITY;
+                }
+                // Now and then a number replaced by an odd one, at any field.
+                for _ in 0..(next() % 3) {
+                    if next() % 8 == 0 {
+                        a[(next() % FIELDS as u64) as usize] = odd[(next() % 9) as usize];
+                    }
+                }
+                // Now and then a model without a function, written any way.
+                if next() % 9 == 0 {
+                    a[3] = [f32::NAN, 0.0, -0.0, f32::INFINITY][(next() % 4) as usize];
+                }
+                for (f, x) in a.iter().enumerate() {
+                    row[f * w + u] = *x;
+                }
+            }
+            let mut simple = row.clone();
+            let mut want = Ok(());
+            for u in 0..w {
+                let k = simple[3 * w + u];
+                let m = PixelModel::load(&simple, u).unwrap();
+                if k.is_finite() && k != 0.0 && !m.is_compiled() {
+                    want = Err(u);
+                    break;
+                }
+                m.store(&mut simple, u).unwrap();
+            }
+            let got = check_row(&mut row, w, 9);
+            match want {
+                Ok(()) => {
+                    assert_eq!(got, Ok(()));
+                    assert!(
+                        row.iter()
+                            .zip(&simple)
+                            .all(|(a, b)| a.to_bits() == b.to_bits())
+                    );
+                }
+                Err(u) => {
+                    let e = got.unwrap_err();
+                    assert!(e.starts_with(&format!("pixel ({u}, 9):")), "{e}");
+                    damaged += 1;
+                }
+            }
+            rows += 1;
+        }
+        assert!(
+            damaged > 20 && damaged < 380,
+            "{damaged} damaged rows of {rows}"
+        );
+    }
+
+    /// The digest of two files read a piece at a time is the digest of their bytes, also for
+    /// files longer than a piece; a missing file is named.
+    #[test]
+    fn digest_of_files_is_that_of_their_bytes() {
+        let dir = std::env::temp_dir().join(format!("f3d-digest-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (a, b) = (dir.join("a.toml"), dir.join("b.tif"));
+        let cal = b"[camera]\nwidth = 3\n".to_vec();
+        let map: Vec<u8> = (0..200_001u32).map(|i| (i * 7 + i / 251) as u8).collect();
+        std::fs::write(&a, &cal).unwrap();
+        std::fs::write(&b, &map).unwrap();
+        assert_eq!(
+            source_digest_of_files(&a, &b).unwrap(),
+            source_digest(&cal, &map)
+        );
+        // Where the calibration's bytes end and the map's begin matters to neither: one stream.
+        let mut joined = cal.clone();
+        joined.extend_from_slice(&map);
+        assert_eq!(source_digest(&joined, &[]), source_digest(&cal, &map));
+        let missing = dir.join("missing.tif");
+        assert_eq!(source_digest_of_files(&a, &missing).unwrap_err().0, missing);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn round_trip_and_refusals() {

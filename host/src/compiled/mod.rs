@@ -55,8 +55,12 @@
 mod file;
 mod near;
 mod ray;
+mod rows;
 
-pub use file::{CompiledFile, FileError, MAGIC, MAX_FILE_BYTES, source_digest};
+pub use file::{
+    CompiledFile, FileError, HEADER, MAGIC, MAX_FILE_BYTES, source_digest, source_digest_of_files,
+};
+pub use rows::ModelFile;
 
 use fringe3d_core::reconstruct::compiled::{
     FIELDS, LEFT_TO_SEARCH, PixelModel, TERMS, compiled_row,

@@ -61,6 +61,27 @@ pub fn open_regular(path: &Path) -> io::Result<(File, u64)> {
     Ok((f, m.len()))
 }
 
+/// Fill `buf` from `offset` in `file` without moving the file's offset (threads may share it).
+pub fn read_at(file: &File, buf: &mut [u8], offset: u64) -> std::io::Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileExt;
+        file.read_exact_at(buf, offset)
+    }
+    #[cfg(windows)]
+    {
+        use std::os::windows::fs::FileExt;
+        let mut done = 0;
+        while done < buf.len() {
+            match file.seek_read(&mut buf[done..], offset + done as u64)? {
+                0 => return Err(std::io::ErrorKind::UnexpectedEof.into()),
+                n => done += n,
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Check, without opening it, that `path` is a regular file (following symbolic links). For
 /// inputs read by code that opens them itself.
 pub fn check_regular(path: &Path) -> io::Result<()> {

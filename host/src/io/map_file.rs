@@ -12,7 +12,7 @@
 //! while a scan runs is still read from the old one. A map rewritten in place is not detected.
 
 use super::image::ImageError;
-use super::input::open_regular;
+use super::input::{open_regular, read_at};
 use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
@@ -154,27 +154,6 @@ impl MapFile {
             bytes: Vec::new(),
             row: vec![0.0; self.width],
         }
-    }
-}
-
-/// Fill `buf` from `offset` in `file` without moving the file's offset (threads may share it).
-fn read_at(file: &File, buf: &mut [u8], offset: u64) -> std::io::Result<()> {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileExt;
-        file.read_exact_at(buf, offset)
-    }
-    #[cfg(windows)]
-    {
-        use std::os::windows::fs::FileExt;
-        let mut done = 0;
-        while done < buf.len() {
-            match file.seek_read(&mut buf[done..], offset + done as u64)? {
-                0 => return Err(std::io::ErrorKind::UnexpectedEof.into()),
-                n => done += n,
-            }
-        }
-        Ok(())
     }
 }
 

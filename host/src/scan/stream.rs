@@ -4,9 +4,10 @@
 //!
 //! Each band of rows `y0..y1` is computed by one worker on its own scratch buffers: the rows
 //! `y0 − 1 .. y1 + 1` (one halo row each side, for the edge filter) are decoded
-//! ([`crate::batch::decode_rows`]) and reconstructed ([`crate::batch::reconstruct_rows_compiled`], with the compiled models where
-//! the calibration has them) with the
-//! same kernels and the same reference map as the whole-frame path, the rows `y0..y1` filtered
+//! ([`crate::batch::decode_rows`]) and reconstructed ([`crate::batch::reconstruct_rows_compiled`],
+//! with the compiled models where the calibration has them, the band's rows of them read from
+//! their file when they are [`CompiledModels::File`]) with the same kernels and the same
+//! reference map as the whole-frame path, the rows `y0..y1` filtered
 //! ([`EdgeFilter::filter_row`], which reads its neighbours' *input* codes, so a halo row gives the
 //! same codes as the whole frame) and encoded by the writer's [`RowEncoder`]. A writer thread
 //! hands the encoded bands to the sink in order. At most `window` bands are computed ahead of the
@@ -15,14 +16,16 @@
 //!
 //! The file is the whole-frame path's byte for byte (`host/tests/scan_stream.rs`).
 
-use super::{ScanCalibration, ScanError};
-use crate::batch::{FrameOut, Isa, PointsOut, decode_rows, reconstruct_rows_compiled};
+use super::{CompiledModels, ScanCalibration, ScanError, compiled_error};
+use crate::batch::{
+    CompiledRows, FrameOut, Isa, PointsOut, decode_rows, reconstruct_rows_compiled,
+};
 use crate::io::image_set::{Frames, ImageSet};
 use crate::io::map_file::{MapFile, MapRows};
 use crate::io::ply::{Encoded, PointRow, RowEncoder};
 use fringe3d_core::decode::{Decoder, RowOut, Sample, hdr};
 use fringe3d_core::filter::EdgeFilter;
-use fringe3d_core::reconstruct::{ReferenceMap, ReferenceRing};
+use fringe3d_core::reconstruct::{ReferenceMap, ReferenceRing, ReferenceRows};
 use fringe3d_core::validity::Validity;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -35,6 +38,11 @@ const CODES: usize = Validity::ALL.len();
 /// Pixels per band when [`StreamConfig::band_rows`] is 0: enough rows to make the two halo rows
 /// a few per cent of the work, few enough that a band's buffers stay around a megabyte or two.
 const BAND_PIXELS: usize = 1 << 15;
+
+/// Rows of compiled models a worker reads from their file at a time
+/// ([`super::CompiledModels::File`]): 44 bytes a pixel, so 8 rows of a 1280-pixel camera are
+/// 450 KB, which stay in a core's cache between the read and the reconstruction.
+pub const MODEL_ROWS: usize = 8;
 
 /// How a streaming scan runs.
 #[derive(Clone, Debug)]
@@ -99,6 +107,16 @@ pub struct StreamStats {
     pub bands: usize,
     /// Worker threads.
     pub threads: usize,
+}
+
+/// Rows of a band to reconstruct: from camera row `v0`, their phases and decoded codes, and
+/// where their points and codes go.
+struct Rows<'a> {
+    v0: usize,
+    phase: &'a [f32],
+    decoded: &'a [u8],
+    xyz: &'a mut [f32],
+    codes: &'a mut [u8],
 }
 
 /// One computed band, waiting to be written.
@@ -166,6 +184,8 @@ struct Scratch {
     shorter_codes: Vec<u8>,
     /// The map rows of the band, when the map is read from its file.
     map_rows: Vec<f32>,
+    /// The compiled models of the band's rows, when they are read from their file.
+    models: Vec<f32>,
 }
 
 /// Where the bands read the reference map from.
@@ -237,6 +257,71 @@ impl<P: Sample> Job<'_, P> {
         Ok(())
     }
 
+    /// Reconstruct `rows` with the calibration's compiled models where it has them: in memory,
+    /// or read from their file [`MODEL_ROWS`] rows at a time into `models` (so a worker holds
+    /// that many rows of models, not a band's).
+    fn reconstruct<R: ReferenceRows + ?Sized>(
+        &self,
+        map: &R,
+        rows: Rows<'_>,
+        models: &mut Vec<f32>,
+    ) -> Result<(), ScanError> {
+        let (recon, w) = (&self.cal.recon, self.cal.width());
+        let failed = |e| ScanError::Invalid {
+            path: self.cal.source.clone(),
+            message: format!("reconstruction: {e}"),
+        };
+        let Some(CompiledModels::File(f)) = &self.cal.compiled else {
+            let points = PointsOut {
+                xyz: rows.xyz,
+                validity: rows.codes,
+            };
+            let compiled = self.cal.compiled_rows();
+            return reconstruct_rows_compiled(
+                recon,
+                map,
+                compiled,
+                rows.v0,
+                rows.phase,
+                rows.decoded,
+                points,
+                self.isa,
+            )
+            .map_err(failed);
+        };
+        let k = MODEL_ROWS * w.max(1);
+        let parts = (rows.phase.chunks(k).zip(rows.decoded.chunks(k)))
+            .zip(rows.xyz.chunks_mut(3 * k).zip(rows.codes.chunks_mut(k)));
+        for (j, ((phase, decoded), (xyz, codes))) in parts.enumerate() {
+            let v0 = rows.v0 + j * MODEL_ROWS;
+            let v1 = v0 + phase.len() / w.max(1);
+            f.read_rows(v0, v1, models)
+                .map_err(|e| compiled_error(f.path(), e))?;
+            let compiled = CompiledRows {
+                models,
+                first_row: v0,
+                z_min: f.z_range().0,
+                z_max: f.z_range().1,
+            };
+            let points = PointsOut {
+                xyz,
+                validity: codes,
+            };
+            reconstruct_rows_compiled(
+                recon,
+                map,
+                Some(compiled),
+                v0,
+                phase,
+                decoded,
+                points,
+                self.isa,
+            )
+            .map_err(failed)?;
+        }
+        Ok(())
+    }
+
     /// Compute band `b` into `out` (cleared first).
     fn band<'m>(
         &'m self,
@@ -282,17 +367,15 @@ impl<P: Sample> Job<'_, P> {
             path: self.cal.source.clone(),
             message: format!("reconstruction: {e}"),
         };
-        let points = PointsOut {
+        let band = Rows {
+            v0: a,
+            phase: &s.phase[..n],
+            decoded: &s.decoded[..n],
             xyz: &mut s.xyz[..3 * n],
-            validity: &mut s.codes[..n],
+            codes: &mut s.codes[..n],
         };
-        let (phase, decoded) = (&s.phase[..n], &s.decoded[..n]);
-        let compiled = self.cal.compiled_rows();
         match &self.map {
-            MapSource::Whole(map) => {
-                reconstruct_rows_compiled(recon, map, compiled, a, phase, decoded, points, self.isa)
-                    .map_err(failed)?
-            }
+            MapSource::Whole(map) => self.reconstruct(map, band, &mut s.models)?,
             MapSource::File(file) => {
                 let rows = reader.get_or_insert_with(|| file.rows());
                 // The map rows the band's camera rows read (paper §6's search band), and at
@@ -311,10 +394,7 @@ impl<P: Sample> Job<'_, P> {
                         message: format!("reference map: {e}"),
                     })
                 })?;
-                reconstruct_rows_compiled(
-                    recon, &ring, compiled, a, phase, decoded, points, self.isa,
-                )
-                .map_err(failed)?
+                self.reconstruct(&ring, band, &mut s.models)?
             }
         }
         let t2 = Instant::now();
