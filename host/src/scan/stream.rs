@@ -25,7 +25,7 @@ use crate::io::map_file::{MapFile, MapRows};
 use crate::io::ply::{Encoded, PointRow, RowEncoder};
 use fringe3d_core::decode::{Decoder, RowOut, Sample, hdr};
 use fringe3d_core::filter::EdgeFilter;
-use fringe3d_core::reconstruct::{ReferenceMap, ReferenceRing, ReferenceRows};
+use fringe3d_core::reconstruct::{ReconstructError, ReferenceMap, ReferenceRing, ReferenceRows};
 use fringe3d_core::validity::Validity;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -257,6 +257,14 @@ impl<P: Sample> Job<'_, P> {
         Ok(())
     }
 
+    /// A reconstruction error as the scan's, naming the calibration.
+    fn failed(&self, e: ReconstructError) -> ScanError {
+        ScanError::Invalid {
+            path: self.cal.source.clone(),
+            message: format!("reconstruction: {e}"),
+        }
+    }
+
     /// Reconstruct `rows` with the calibration's compiled models where it has them: in memory,
     /// or read from their file [`MODEL_ROWS`] rows at a time into `models` (so a worker holds
     /// that many rows of models, not a band's).
@@ -267,10 +275,7 @@ impl<P: Sample> Job<'_, P> {
         models: &mut Vec<f32>,
     ) -> Result<(), ScanError> {
         let (recon, w) = (&self.cal.recon, self.cal.width());
-        let failed = |e| ScanError::Invalid {
-            path: self.cal.source.clone(),
-            message: format!("reconstruction: {e}"),
-        };
+        let failed = |e| self.failed(e);
         let Some(CompiledModels::File(f)) = &self.cal.compiled else {
             let points = PointsOut {
                 xyz: rows.xyz,
@@ -363,10 +368,7 @@ impl<P: Sample> Job<'_, P> {
         self.fuse_shorter_exposures(a, n, s)?;
         let t1 = Instant::now();
         let recon = &self.cal.recon;
-        let failed = |e| ScanError::Invalid {
-            path: self.cal.source.clone(),
-            message: format!("reconstruction: {e}"),
-        };
+        let failed = |e| self.failed(e);
         let band = Rows {
             v0: a,
             phase: &s.phase[..n],
