@@ -4,8 +4,9 @@
 
 use crate::arith::{Arith, Backend};
 use crate::decode::hdr::{RowRef, any_saturated, fuse_exposure};
-use crate::decode::parity::{Digest, WIDTH, config, samples, set};
+use crate::decode::parity::{WIDTH, config, samples, set};
 use crate::decode::{AnyDecoder, DecodeError, Decoder, RowOut};
+use crate::digest::Digest;
 use crate::pattern::{MAX_IMAGES, MAX_LEVELS};
 use crate::sequential::FrameDecoder;
 
@@ -14,6 +15,7 @@ use crate::sequential::FrameDecoder;
 /// fused by both drivers: the rows ([`fuse_exposure`]) and the frames as they arrive
 /// ([`FrameDecoder::next_exposure`], one row of state). Their outputs must be the same bits
 /// (else [`DecodeError::Sequence`]); the digest is over those outputs, as [`crate::decode::parity::digest`]'s.
+#[inline]
 pub fn digest(backend: Backend) -> Result<u64, DecodeError> {
     let set = set(0)?;
     match AnyDecoder::new(&set, config(0), backend)? {

@@ -11,6 +11,7 @@ pub mod camera;
 pub mod decode;
 pub mod decode_config;
 pub mod decode_error;
+pub mod digest;
 pub mod estimator;
 pub mod filter;
 pub mod frame_store;

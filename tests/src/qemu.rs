@@ -175,7 +175,7 @@ pub fn console_value<'a>(console: &'a str, key: &str) -> Option<&'a str> {
 }
 
 /// Check the digests a head example printed in `console` (`phase=… validity=… points=…
-/// point_validity=…`, FNV-1a 64 as `fringe3d_core::decode::parity::Digest`) against the golden
+/// point_validity=…`, FNV-1a 64 as `fringe3d_core::digest::Digest`) against the golden
 /// files of the vectors folder `dir`, the points those of its folder `points` (`reconstruct`,
 /// or `compiled` for the compiled reconstruction); `what` names the run in a failure.
 pub fn assert_golden_digests(console: &str, dir: &Path, points: &str, what: &str) {
@@ -185,7 +185,7 @@ pub fn assert_golden_digests(console: &str, dir: &Path, points: &str, what: &str
         ("points", format!("{points}/points.f32")),
         ("point_validity", format!("{points}/validity.u8")),
     ] {
-        let mut d = fringe3d_core::decode::parity::Digest::default();
+        let mut d = fringe3d_core::digest::Digest::default();
         d.bytes(&std::fs::read(dir.join(&path)).expect("golden file"));
         let want = format!("{:016x}", d.0);
         assert_eq!(

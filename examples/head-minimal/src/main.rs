@@ -16,7 +16,7 @@ mod stack;
 use core::fmt::Write as _;
 use cortex_m_rt::entry;
 use fringe3d_core::budget::{RowBudget, RowLayout};
-use fringe3d_core::decode::parity::Digest;
+use fringe3d_core::digest::Digest;
 use fringe3d_core::decode::{DecodeScratch, Decoder, RowOut};
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use fringe3d_core::wire::{HeadSetup, ReferenceFile, SetupError};

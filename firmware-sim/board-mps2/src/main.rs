@@ -19,12 +19,14 @@
 //! build proves the SRAM budget at link time; the painted stack gives the rest (docs/firmware.md).
 //!
 //! Arguments (semihosting, `-semihosting-config arg=...`): the program name, the vectors folder
-//! (default `vectors`), and optionally `quiet` to send only the report (measurement runs).
+//! (default `vectors`), and optionally `quiet` to send only the report (measurement runs) or
+//! `records` to write the records into the folder's `records.bin` through semihosting instead
+//! of UART0 (one host call per write where the emulated UART takes one per byte: the tests).
 //!
 //! The head engineer's full firmware logic (`fringe3d-head`'s `Head`) is not linked here:
 //! this board crate runs the kernels directly.
 //!
-//! # UART0 record format
+//! # Record format (UART0, or `records.bin`)
 //! `"F3DR"`, tag `u8`, level `u8`, row `u16` LE, length `u32` LE, then `length` bytes (rows of
 //! f32 or u8, little-endian). Tags: see [`Tag`]. The last records are the report (text) and End.
 #![no_std]
@@ -61,7 +63,7 @@ const RING_ROWS: usize = 25;
 /// Room for `setup.bin` (read into the ring's storage before the scan starts).
 const PARAMS_MAX: usize = fringe3d_core::wire::setup::MAX_SETUP_BLOB;
 
-/// Record tags on UART0.
+/// Record tags.
 #[repr(u8)]
 #[derive(Clone, Copy)]
 enum Tag {
@@ -143,25 +145,75 @@ impl From<params::ParamsError> for Fail {
     }
 }
 
-fn send(uart: &mut CmsdkUart, tag: Tag, level: u8, row: u16, payload: &[u8]) {
+/// Where the records go: UART0, the head's serial link (the default), or the host file
+/// `records.bin` in the vectors folder through semihosting (argument `records`). QEMU's UART
+/// costs the host a system call per byte (about 13 s for a 320 × 240 scan's 4.9 MB); the file
+/// takes one call per write.
+enum Records {
+    Uart(CmsdkUart),
+    File(File),
+}
+
+impl Records {
+    fn write_all(&mut self, b: &[u8]) -> Result<(), Fail> {
+        match self {
+            Records::Uart(u) => match u.write_all(b) {
+                Ok(()) => Ok(()),
+                Err(e) => match e {},
+            },
+            Records::File(f) => f.write_all(b).map_err(Fail::from),
+        }
+    }
+
+    /// Wait until the UART has sent its last byte (the file is written at each call).
+    fn flush(&mut self) {
+        if let Records::Uart(u) = self {
+            let _ = u.flush();
+        }
+    }
+}
+
+fn send(out: &mut Records, tag: Tag, level: u8, row: u16, payload: &[u8]) -> Result<(), Fail> {
+    out.write_all(&header(tag, level, row, payload.len()))?;
+    out.write_all(payload)
+}
+
+/// A record's header: `"F3DR"`, tag, level, row and payload length.
+fn header(tag: Tag, level: u8, row: u16, len: usize) -> [u8; 12] {
     let mut h = [0u8; 12];
     h[..4].copy_from_slice(b"F3DR");
     h[4] = tag as u8;
     h[5] = level;
     h[6..8].copy_from_slice(&row.to_le_bytes());
-    h[8..12].copy_from_slice(&(payload.len() as u32).to_le_bytes());
-    let _ = uart.write_all(&h);
-    let _ = uart.write_all(payload);
+    h[8..12].copy_from_slice(&(len as u32).to_le_bytes());
+    h
+}
+
+/// What the second argument asks for.
+#[derive(Clone, Copy, PartialEq)]
+enum Mode {
+    /// Every record on UART0.
+    Uart,
+    /// Every record into `records.bin` (semihosting).
+    File,
+    /// The report only, on UART0 (measurement runs on large scans).
+    Quiet,
 }
 
 /// The vectors folder (the first semihosting argument after the program name, else `vectors`)
-/// and whether a second argument `quiet` asks for the report only (no rows on the UART).
-fn vectors_dir(buf: &mut [u8; 256]) -> (&str, bool) {
+/// and the second argument: `quiet` for the report only, `records` for the records in a file.
+fn vectors_dir(buf: &mut [u8; 256]) -> Result<(&str, Mode), Fail> {
     let n = semihosting::cmdline(buf);
     let s = core::str::from_utf8(&buf[..n]).unwrap_or("");
     let mut args = s.split(' ').filter(|t| !t.is_empty()).skip(1);
     let dir = args.next().unwrap_or("vectors");
-    (dir, args.next() == Some("quiet"))
+    let mode = match args.next() {
+        None => Mode::Uart,
+        Some("quiet") => Mode::Quiet,
+        Some("records") => Mode::File,
+        Some(_) => return Err(Fail("the second argument is `quiet`, `records` or nothing")),
+    };
+    Ok((dir, mode))
 }
 
 /// A path `dir/rel` in `buf`.
@@ -190,27 +242,34 @@ struct Ticks {
     filter: u32,
 }
 
-fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fail> {
+fn run(b: &mut Buffers, uart: CmsdkUart, clock: &Counter) -> Result<(), Fail> {
     let mut c = Console;
     let mut cmd = [0u8; 256];
     let mut cmd_copy = [0u8; 256];
-    let (dir_len, quiet) = {
-        let (d, quiet) = vectors_dir(&mut cmd);
+    let (dir_len, mode) = {
+        let (d, mode) = vectors_dir(&mut cmd)?;
         let n = d.len();
         cmd_copy[..n].copy_from_slice(d.as_bytes());
-        (n, quiet)
+        (n, mode)
     };
-    // Rows go to the UART unless `quiet` (measurement runs on large scans).
-    let send = |uart: &mut CmsdkUart, tag: Tag, level: u8, row: u16, payload: &[u8]| {
-        if !quiet {
-            send(uart, tag, level, row, payload);
+    let quiet = mode == Mode::Quiet;
+    // Rows are sent unless `quiet`.
+    let send = |out: &mut Records, tag: Tag, level: u8, row: u16, payload: &[u8]| {
+        if quiet {
+            Ok(())
+        } else {
+            send(out, tag, level, row, payload)
         }
     };
     let dir = core::str::from_utf8(&cmd_copy[..dir_len]).map_err(|_| Fail("bad vectors path"))?;
     let _ = writeln!(c, "fringe3d-board-mps2: vectors in {dir:?}");
+    let mut path = [0u8; 256];
+    let out = &mut match mode {
+        Mode::File => Records::File(File::create(join(&mut path, dir, "records.bin")?)?),
+        Mode::Uart | Mode::Quiet => Records::Uart(uart),
+    };
 
     // Set-up: parameters, decoder, reconstructor.
-    let mut path = [0u8; 256];
     let mut pf = File::open(join(&mut path, dir, "input/setup.bin")?)?;
     let plen = pf.len()?;
     if plen > PARAMS_MAX {
@@ -333,21 +392,15 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
             ticks.decode = ticks.decode.wrapping_add(clock.since(t));
         }
         send(
-            uart,
+            out,
             Tag::Modulation,
             0,
             v as u16,
             bytes_of(&points[slot][..w]),
-        );
-        send(
-            uart,
-            Tag::Dc,
-            0,
-            v as u16,
-            bytes_of(&points[slot][w..2 * w]),
-        );
-        send(uart, Tag::Phase, 0, v as u16, bytes_of(phase));
-        send(uart, Tag::Validity, 0, v as u16, validity);
+        )?;
+        send(out, Tag::Dc, 0, v as u16, bytes_of(&points[slot][w..2 * w]))?;
+        send(out, Tag::Phase, 0, v as u16, bytes_of(phase))?;
+        send(out, Tag::Validity, 0, v as u16, validity)?;
         if !quiet {
             // (A Gray-code level has no wrapped phase to send.)
             for l in (0..dec.level_count()).filter(|&l| dec.level_has_phase(l)) {
@@ -375,14 +428,8 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
                     dec.decode_row_level(&rows[..n], l, wrapped, lmod)
                         .map_err(|_| Fail("decode_row_level failed"))?;
                 }
-                send(uart, Tag::Wrapped, l as u8, v as u16, bytes_of(wrapped));
-                send(
-                    uart,
-                    Tag::LevelModulation,
-                    l as u8,
-                    v as u16,
-                    bytes_of(lmod),
-                );
+                send(out, Tag::Wrapped, l as u8, v as u16, bytes_of(wrapped))?;
+                send(out, Tag::LevelModulation, l as u8, v as u16, bytes_of(lmod))?;
             }
         }
 
@@ -412,24 +459,24 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
         )?;
         ticks.reconstruct = ticks.reconstruct.wrapping_add(clock.since(t));
         send(
-            uart,
+            out,
             Tag::Points,
             0,
             v as u16,
             bytes_of(&points[slot][..3 * w]),
-        );
+        )?;
         send(
-            uart,
+            out,
             Tag::PointValidity,
             0,
             v as u16,
             &point_validity[slot][..w],
-        );
+        )?;
 
         // The edge filter of the previous row, now that its lower neighbour exists.
         if v >= 1 {
             filter_and_send(
-                uart,
+                out,
                 clock,
                 &mut ticks,
                 &p.filter,
@@ -444,7 +491,7 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
         }
     }
     filter_and_send(
-        uart,
+        out,
         clock,
         &mut ticks,
         &p.filter,
@@ -462,7 +509,7 @@ fn run(b: &mut Buffers, uart: &mut CmsdkUart, clock: &Counter) -> Result<(), Fai
         core::mem::size_of::<fringe3d_core::pattern::PatternSet>(),
         core::mem::size_of::<fringe3d_core::camera::CameraModel>(),
     ];
-    report(uart, clock, &ticks, w, h, stack_setup, sizes)
+    report(out, clock, &ticks, w, h, stack_setup, sizes)
 }
 
 /// `Decoder::decode_row` in a frame of its own (so that its stack is measured alone).
@@ -495,7 +542,7 @@ fn reconstruct_row(
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn filter_and_send(
-    uart: &mut CmsdkUart,
+    out: &mut Records,
     clock: &Counter,
     ticks: &mut Ticks,
     filter: &fringe3d_core::filter::EdgeFilter,
@@ -518,22 +565,21 @@ fn filter_and_send(
     if quiet {
         return Ok(());
     }
-    send(uart, Tag::FilteredValidity, 0, r as u16, &filtered[..w]);
-    // Filtered points: the points, canonical NaN where the filtered code is not Valid.
-    let mut h12 = [0u8; 12];
-    h12[..4].copy_from_slice(b"F3DR");
-    h12[4] = Tag::FilteredPoints as u8;
-    h12[6..8].copy_from_slice(&(r as u16).to_le_bytes());
-    h12[8..12].copy_from_slice(&((12 * w) as u32).to_le_bytes());
-    let _ = uart.write_all(&h12);
+    send(out, Tag::FilteredValidity, 0, r as u16, &filtered[..w])?;
+    // Filtered points: the points, canonical NaN where the filtered code is not Valid; sent in
+    // pieces of 32 pixels from the stack.
+    out.write_all(&header(Tag::FilteredPoints, 0, r as u16, 12 * w))?;
     let pts = &points[r % 3][..3 * w];
-    for (u, q) in filtered[..w].iter().enumerate() {
-        let xyz = if *q == Validity::Valid as u8 {
-            [pts[3 * u], pts[3 * u + 1], pts[3 * u + 2]]
-        } else {
-            [CANONICAL_NAN; 3]
-        };
-        let _ = uart.write_all(bytes_of(&xyz));
+    let mut piece = [0f32; 3 * 32];
+    for (codes, xyz) in filtered[..w].chunks(32).zip(pts.chunks(3 * 32)) {
+        for ((q, p), o) in codes.iter().zip(xyz.chunks(3)).zip(piece.chunks_mut(3)) {
+            if *q == Validity::Valid as u8 {
+                o.copy_from_slice(p);
+            } else {
+                o.fill(CANONICAL_NAN);
+            }
+        }
+        out.write_all(bytes_of(&piece[..3 * codes.len()]))?;
     }
     Ok(())
 }
@@ -556,7 +602,7 @@ impl core::fmt::Write for Text {
 
 #[inline(never)]
 fn report(
-    uart: &mut CmsdkUart,
+    out: &mut Records,
     clock: &Counter,
     ticks: &Ticks,
     w: usize,
@@ -628,9 +674,9 @@ fn report(
     );
     let text = &t.buf[..t.len];
     semihosting::print(core::str::from_utf8(text).unwrap_or("report\n"));
-    send(uart, Tag::Report, 0, 0, text);
-    send(uart, Tag::End, 0, 0, &[]);
-    let _ = uart.flush();
+    send(out, Tag::Report, 0, 0, text)?;
+    send(out, Tag::End, 0, 0, &[])?;
+    out.flush();
     Ok(())
 }
 
@@ -639,10 +685,10 @@ fn main() -> ! {
     measure::paint_stack();
     let clock = Counter::start();
     // SAFETY: UART0 of AN386; only this code drives it.
-    let mut uart = unsafe { CmsdkUart::new(uart::UART0, 115_200) };
+    let uart = unsafe { CmsdkUart::new(uart::UART0, 115_200) };
     // SAFETY: the only reference ever made to BUFFERS (main runs once and never returns).
     let buffers = unsafe { &mut *core::ptr::addr_of_mut!(BUFFERS) };
-    match run(buffers, &mut uart, &clock) {
+    match run(buffers, uart, &clock) {
         Ok(()) => semihosting::exit(true),
         Err(Fail(why)) => {
             let _ = writeln!(Console, "fringe3d-board-mps2: error: {why}");

@@ -1,5 +1,5 @@
-//! ARM semihosting (`bkpt 0xAB`): the files of the golden vectors on the host, the text console
-//! and the exit code. QEMU serves them with `-semihosting-config enable=on,target=native`.
+//! ARM semihosting (`bkpt 0xAB`): the files of the golden vectors on the host (read, and the
+//! records file written), the text console and the exit code. QEMU serves them with `-semihosting-config enable=on,target=native`.
 //!
 //! On a real head the same calls would be a debug probe's; here they stand for the external
 //! memory the frames live in (see `main.rs`).
@@ -9,6 +9,7 @@ use core::arch::asm;
 const SYS_OPEN: u32 = 0x01;
 const SYS_CLOSE: u32 = 0x02;
 const SYS_WRITE0: u32 = 0x04;
+const SYS_WRITE: u32 = 0x05;
 const SYS_SEEK: u32 = 0x0A;
 const SYS_FLEN: u32 = 0x0C;
 const SYS_READ: u32 = 0x06;
@@ -47,6 +48,15 @@ pub struct HostError {
 impl File {
     /// Open `path` (at most 255 bytes) for binary reading.
     pub fn open(path: &str) -> Result<File, HostError> {
+        Self::open_mode(path, 1 /* "rb" */, "cannot open a vectors file")
+    }
+
+    /// Create (or truncate) `path` (at most 255 bytes) for binary writing.
+    pub fn create(path: &str) -> Result<File, HostError> {
+        Self::open_mode(path, 5 /* "wb" */, "cannot create the records file")
+    }
+
+    fn open_mode(path: &str, mode: usize, fail: &'static str) -> Result<File, HostError> {
         let mut name = [0u8; 256];
         let b = path.as_bytes();
         if b.len() >= name.len() {
@@ -55,13 +65,11 @@ impl File {
             });
         }
         name[..b.len()].copy_from_slice(b);
-        let block = [name.as_ptr() as usize, 1 /* "rb" */, b.len()];
+        let block = [name.as_ptr() as usize, mode, b.len()];
         // SAFETY: the block holds a NUL-terminated name and its length, alive during the call.
         let h = unsafe { call(SYS_OPEN, block.as_ptr() as usize) };
         if h < 0 {
-            Err(HostError {
-                what: "cannot open a vectors file",
-            })
+            Err(HostError { what: fail })
         } else {
             Ok(File { handle: h })
         }
@@ -95,6 +103,20 @@ impl File {
         let left = unsafe { call(SYS_READ, block.as_ptr() as usize) };
         if left != 0 {
             Err(HostError { what: "short read" })
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Append `buf` (one `SYS_WRITE` call: the host writes it whole, or fails).
+    pub fn write_all(&mut self, buf: &[u8]) -> Result<(), HostError> {
+        let block = [self.handle as usize, buf.as_ptr() as usize, buf.len()];
+        // SAFETY: the buffer is valid for reads of its length during the call.
+        let left = unsafe { call(SYS_WRITE, block.as_ptr() as usize) };
+        if left != 0 {
+            Err(HostError {
+                what: "short write to the records file",
+            })
         } else {
             Ok(())
         }

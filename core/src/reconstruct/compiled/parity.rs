@@ -9,7 +9,7 @@
 //! non-finite phases.
 
 use super::{FIELDS, PixelModel, compiled_row};
-use crate::decode::parity::Digest;
+use crate::digest::Digest;
 
 /// Pixels of the row.
 pub const WIDTH: usize = 256;
