@@ -165,9 +165,11 @@ def update(doc, g, h):
 # flags into the symbol names, which order the functions LLVM optimises and the sections the
 # linker lays out: the padding moves, and so does the code (4 bytes seen between two checkouts of
 # one commit, then 168 and 160 bytes of `.text` between /work/main and /tmp/ci-cold at two
-# commits). 512 bytes is under 0.3 % of either binary's flash; a feature moves it by kilobytes.
-# Static RAM and the stacks must match exactly.
-FLASH_SLACK = 512
+# commits, then 536). The hash takes the absolute path of every crate outside the board's own
+# workspace (the core, the head), so no flag removes it. 1 KiB is 0.3 % of the golden binary's
+# flash and 0.5 % of the head's; a feature moves it by kilobytes. Static RAM and the stacks must
+# match exactly.
+FLASH_SLACK = 1024
 
 
 def documented_code_sizes(doc):
