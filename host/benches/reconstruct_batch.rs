@@ -19,7 +19,7 @@ use fringe3d::batch::{
     CompiledRows, Isa, PointsOut, reconstruct_frame, reconstruct_frame_compiled,
 };
 use fringe3d::compiled::{DEFAULT_TOLERANCE_MM, compile};
-use fringe3d_core::reconstruct::compiled::{FIELDS, LEFT_TO_SEARCH, PixelModel, compiled_row};
+use fringe3d_core::reconstruct::compiled::{FIELDS, PixelModel};
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use fringe3d_core::validity::Validity;
 use std::hint::black_box;
@@ -106,25 +106,19 @@ fn bench(c: &mut Criterion) {
                 rep.check_failed,
                 rep.max_difference_mm * 1e3
             );
-            // What this scan leaves to the search: the compiled row alone, pixel by pixel.
+            // What this scan leaves to the search, and why.
             let (mut left, mut beyond) = ([0usize; 3], Vec::new());
-            let (mut rx, mut rq) = (vec![0f32; 3 * w], vec![0u8; w]);
-            for v in 0..h {
-                let m = &file.models[v * FIELDS * w..(v + 1) * FIELDS * w];
-                let r = v * w..(v + 1) * w;
-                let (p, q) = (&object.phase[r.clone()], &object.validity[r]);
-                compiled_row(m, file.z_min, file.z_max, p, q, &mut rx, &mut rq).expect("row");
-                for u in (0..w).filter(|&u| rq[u] == LEFT_TO_SEARCH) {
-                    let pm = PixelModel::load(m, u).expect("model");
-                    left[if pm.far_is_no_crossing() {
-                        beyond.push(v * w + u);
-                        0
-                    } else if pm.is_compiled() {
-                        1
-                    } else {
-                        2
-                    }] += 1;
-                }
+            let pixels = file.left_to_search(&object.phase, &object.validity);
+            for i in pixels.expect("the scene's size") {
+                let pm = file.model(i % w, i / w).expect("model");
+                left[if pm.far_is_no_crossing() {
+                    beyond.push(i);
+                    0
+                } else if pm.is_compiled() {
+                    1
+                } else {
+                    2
+                }] += 1;
             }
             eprintln!(
                 "{name}, tolerance {} µm: left to the search in this scan: {} pixels ({} clipped \

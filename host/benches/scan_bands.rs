@@ -17,17 +17,13 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fringe3d::batch::{
-    CompiledRows, FrameOut, Isa, PointsOut, decode_frames, decode_rows, reconstruct_frame_compiled,
-    reconstruct_rows_compiled,
+    FrameOut, Isa, PointsOut, decode_frames, decode_rows, reconstruct_frame_compiled,
 };
 use fringe3d::cli::common;
-use fringe3d::compiled::ModelFile;
 use fringe3d::io::image_set::Frames;
 use fringe3d::scan::ScanCalibration;
-use fringe3d::scan::stream::MODEL_ROWS;
 use fringe3d_core::decode::Decoder;
 use fringe3d_core::reconstruct::ReferenceMap;
-use fringe3d_core::reconstruct::compiled::{FIELDS, LEFT_TO_SEARCH, compiled_row};
 use std::path::Path;
 use std::process::Command;
 
@@ -72,17 +68,6 @@ impl Buffers {
     }
 }
 
-/// Where a reconstruction's compiled models come from.
-#[derive(Clone, Copy)]
-enum Models<'a> {
-    /// None: the search everywhere.
-    Search,
-    /// The whole camera's, in memory (`ScanCalibration::with_compiled`).
-    Memory,
-    /// Read from the file `MODEL_ROWS` rows at a time (what `fringe3d scan --compiled` does).
-    File(&'a ModelFile),
-}
-
 /// Decode the band of rows from `y0` (at most `BAND_ROWS`) into the first rows of `s`; its
 /// pixels.
 fn decode_band(
@@ -113,12 +98,13 @@ fn decode_band(
 }
 
 /// Decode and reconstruct band after band, each band's intermediate rows in the first
-/// `BAND_ROWS` rows of `s`; the points and codes of the whole frame into `xyz` and `codes`.
+/// `BAND_ROWS` rows of `s` (the reconstruction as the streaming scan runs it,
+/// [`ScanCalibration::reconstruct_rows`]: with `cal`'s compiled models, in memory or read from
+/// their file); the points and codes of the whole frame into `xyz` and `codes`.
 #[allow(clippy::too_many_arguments)]
 fn by_bands(
     cal: &ScanCalibration,
     map: &ReferenceMap<'_>,
-    models: Models<'_>,
     d: &Decoder,
     frames: &[&[u8]],
     s: &mut Buffers,
@@ -129,43 +115,14 @@ fn by_bands(
     let (w, h) = (cal.width(), cal.height());
     for y0 in (0..h).step_by(BAND_ROWS) {
         let n = decode_band(d, frames, w, h, y0, s, isa);
-        // The models in memory, or read from the file `MODEL_ROWS` rows at a time, as the
-        // streaming scan reads them.
-        let step = match models {
-            Models::File(_) => MODEL_ROWS,
-            _ => BAND_ROWS,
+        let r = y0 * w..y0 * w + n;
+        let points = PointsOut {
+            xyz: &mut xyz[3 * r.start..3 * r.end],
+            validity: &mut codes[r],
         };
-        for v0 in (y0..y0 + n / w).step_by(step) {
-            let m = step.min(y0 + n / w - v0) * w;
-            let (b, r) = ((v0 - y0) * w..(v0 - y0) * w + m, v0 * w..v0 * w + m);
-            let rows = match models {
-                Models::Search => None,
-                Models::Memory => cal.compiled_rows(),
-                Models::File(f) => {
-                    f.read_rows(v0, v0 + m / w, &mut s.models).expect("models");
-                    Some(CompiledRows {
-                        models: &s.models,
-                        first_row: v0,
-                        z_min: f.z_range().0,
-                        z_max: f.z_range().1,
-                    })
-                }
-            };
-            reconstruct_rows_compiled(
-                &cal.recon,
-                map,
-                rows,
-                v0,
-                &s.phase[b.clone()],
-                &s.decoded[b],
-                PointsOut {
-                    xyz: &mut xyz[3 * r.start..3 * r.end],
-                    validity: &mut codes[r],
-                },
-                isa,
-            )
+        let (phase, decoded) = (&s.phase[..n], &s.decoded[..n]);
+        cal.reconstruct_rows(map, y0, phase, decoded, points, &mut s.models, isa)
             .expect("reconstruct");
-        }
     }
 }
 
@@ -254,10 +211,18 @@ fn bench(c: &mut Criterion) {
         &p("virtual/r.f3c"),
     ]);
     let ls = common::load_set(Path::new(&p("set/patterns.toml"))).expect("pattern set");
-    let cal = ScanCalibration::load(Path::new(&p("virtual/calibration.toml")), ls.set.axis())
-        .expect("calibration")
-        .with_compiled(Path::new(&p("virtual/r.f3c")))
+    let load = || {
+        ScanCalibration::load(Path::new(&p("virtual/calibration.toml")), ls.set.axis())
+            .expect("calibration")
+    };
+    let f3c = p("virtual/r.f3c");
+    let cal = load()
+        .with_compiled(Path::new(&f3c))
         .expect("compiled file");
+    let streamed = load()
+        .with_compiled_streamed(Path::new(&f3c))
+        .expect("compiled file");
+    let search = load();
     let imgs = common::load_images(&ls, &[dir.join("set")], true).expect("images");
     let Frames::U8(f) = &imgs.frames else {
         panic!("8-bit images expected")
@@ -286,54 +251,34 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
-    let file = ModelFile::open(Path::new(&p("virtual/r.f3c")), w as u32, h as u32).expect("open");
-    for (tag, models) in [
-        ("search", Models::Search),
-        ("compiled_1um", Models::Memory),
-        ("compiled_1um_file", Models::File(&file)),
+    for (tag, c) in [
+        ("search", &search),
+        ("compiled_1um", &cal),
+        ("compiled_1um_file", &streamed),
     ] {
-        let compiled = !matches!(models, Models::Search);
+        let compiled = tag != "search";
         // The truth: whole frames, portable kernels, the models in memory.
         let mut truth = Buffers::new(w * h);
         by_frames(&cal, &map, compiled, &d, &frames, &mut truth, Isa::Baseline);
-        if matches!(models, Models::Memory) {
-            // What the compiled rows alone leave to the search in this scan.
-            let mut left = Buffers::new(w * h);
-            left.phase.copy_from_slice(&truth.phase);
-            left.decoded.copy_from_slice(&truth.decoded);
-            let rows = cal.compiled_rows().expect("models");
-            for v in 0..h {
-                let r = v * w..(v + 1) * w;
-                let m = &rows.models[v * FIELDS * w..(v + 1) * FIELDS * w];
-                compiled_row(
-                    m,
-                    rows.z_min,
-                    rows.z_max,
-                    &left.phase[r.clone()],
-                    &left.decoded[r.clone()],
-                    &mut left.xyz[3 * r.start..3 * r.end],
-                    &mut left.codes[r],
-                )
-                .expect("row");
-            }
-            let n_left = left.codes.iter().filter(|&&c| c == LEFT_TO_SEARCH).count();
+        if tag == "compiled_1um" {
+            let file = cal.compiled_file().expect("models");
+            let left = file.left_to_search(&truth.phase, &truth.decoded);
             eprintln!(
-                "compiled at 1 µm: {n_left} of {} pixels left to the search in this scan",
+                "compiled at 1 µm: {} of {} pixels left to the search in this scan",
+                left.expect("the scan's size").len(),
                 w * h
             );
         }
         // The file's variant runs as `fringe3d scan` dispatches it; the others also with AVX2
         // (the same kernel on an AVX2 machine, not on an AVX-512 one).
-        let isas: &[(&str, Isa)] = match models {
-            Models::File(_) => &[("dispatched", Isa::detect())],
+        let isas: &[(&str, Isa)] = match tag {
+            "compiled_1um_file" => &[("dispatched", Isa::detect())],
             _ => &[("avx2", Isa::Avx2), ("dispatched", Isa::detect())],
         };
         for &(label, isa) in isas {
             let mut s = Buffers::new(w * h);
             let (mut xyz, mut codes) = (vec![0f32; 3 * w * h], vec![0u8; w * h]);
-            by_bands(
-                &cal, &map, models, &d, &frames, &mut s, &mut xyz, &mut codes, isa,
-            );
+            by_bands(c, &map, &d, &frames, &mut s, &mut xyz, &mut codes, isa);
             let same = codes == truth.codes
                 && xyz
                     .iter()
@@ -341,13 +286,9 @@ fn bench(c: &mut Criterion) {
                     .all(|(a, b)| a.to_bits() == b.to_bits());
             assert!(same, "{tag} {label}: the bands differ from the whole frame");
             g.bench_function(format!("{tag}_{label}_1thread_bands"), |b| {
-                b.iter(|| {
-                    by_bands(
-                        &cal, &map, models, &d, &frames, &mut s, &mut xyz, &mut codes, isa,
-                    )
-                })
+                b.iter(|| by_bands(c, &map, &d, &frames, &mut s, &mut xyz, &mut codes, isa))
             });
-            if !matches!(models, Models::File(_)) {
+            if tag != "compiled_1um_file" {
                 g.bench_function(format!("{tag}_{label}_1thread_frames"), |b| {
                     b.iter(|| by_frames(&cal, &map, compiled, &d, &frames, &mut s, isa))
                 });

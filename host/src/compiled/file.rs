@@ -20,7 +20,9 @@
 //! ([`PixelModel::parse_row`]).
 
 use fringe3d_core::math::CANONICAL_NAN;
-use fringe3d_core::reconstruct::compiled::{FIELDS, PixelModel, TERMS};
+use fringe3d_core::reconstruct::compiled::{
+    FIELDS, LEFT_TO_SEARCH, PixelModel, TERMS, compiled_row,
+};
 use std::path::{Path, PathBuf};
 
 /// The file's first eight bytes.
@@ -201,6 +203,32 @@ impl CompiledFile {
     pub fn model(&self, u: usize, v: usize) -> Option<PixelModel> {
         let w = self.width as usize;
         PixelModel::load(self.models.get(v * FIELDS * w..(v + 1) * FIELDS * w)?, u)
+    }
+
+    /// The pixels (`v × width + u`) of a scan's phase map (`phase` and its decoded codes,
+    /// `width × height`) that the compiled kernel leaves to the search: what a scan costs
+    /// beyond one division a pixel. `None` if the map is not this file's size.
+    pub fn left_to_search(&self, phase: &[f32], decoded: &[u8]) -> Option<Vec<usize>> {
+        let w = self.width as usize;
+        if phase.len() != w * self.height as usize || decoded.len() != phase.len() {
+            return None;
+        }
+        let (mut xyz, mut codes) = (vec![0f32; 3 * w], vec![0u8; w]);
+        let mut left = Vec::new();
+        let rows = (self.models.chunks_exact(FIELDS * w.max(1))).zip(
+            phase
+                .chunks_exact(w.max(1))
+                .zip(decoded.chunks_exact(w.max(1))),
+        );
+        for (v, (m, (p, q))) in rows.enumerate() {
+            compiled_row(m, self.z_min, self.z_max, p, q, &mut xyz, &mut codes).ok()?;
+            left.extend(
+                (0..w)
+                    .filter(|&u| codes[u] == LEFT_TO_SEARCH)
+                    .map(|u| v * w + u),
+            );
+        }
+        Some(left)
     }
 }
 
@@ -410,6 +438,55 @@ pub fn source_digest_of_files(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fringe3d_core::validity::Validity;
+
+    /// The pixels a scan leaves to the search: those without a function, and no others (one
+    /// with a function and its phase in range, one with no reference along its ray, one whose
+    /// decoded code is not valid, whatever its model).
+    #[test]
+    fn left_to_search_names_the_pixels_without_a_function() {
+        let (w, h) = (4usize, 3usize);
+        let good = PixelModel {
+            ray: [0.1, -0.2],
+            phase_centre: 50.0,
+            phase_scale: 0.01,
+            depth_centre: 600.0,
+            pole: 0.05,
+            slope: [100.0, 1.0, 0.1, 0.01],
+            far: f32::INFINITY,
+        };
+        let mut models = vec![0f32; FIELDS * w * h];
+        let (mut phase, mut decoded) = (vec![50.0f32; w * h], vec![0u8; w * h]);
+        let mut want = Vec::new();
+        for i in 0..w * h {
+            let m = match i % 4 {
+                0 => good,
+                1 => PixelModel::SEARCH,
+                2 => PixelModel::NO_REFERENCE,
+                _ => PixelModel::SEARCH,
+            };
+            if i % 4 == 3 {
+                decoded[i] = Validity::LowModulation as u8;
+                phase[i] = f32::NAN;
+            }
+            if i % 4 == 1 {
+                want.push(i);
+            }
+            let row = &mut models[(i / w) * FIELDS * w..(i / w + 1) * FIELDS * w];
+            m.store(row, i % w).unwrap();
+        }
+        let file = CompiledFile {
+            width: w as u32,
+            height: h as u32,
+            z_min: 400.0,
+            z_max: 800.0,
+            tolerance_mm: 1e-3,
+            source_digest: [0; 32],
+            models,
+        };
+        assert_eq!(file.left_to_search(&phase, &decoded), Some(want));
+        assert_eq!(file.left_to_search(&phase[1..], &decoded[1..]), None);
+    }
 
     /// [`check_row`] against the simple form, pixel by pixel: [`PixelModel::load`] (which
     /// applies [`PixelModel::from_array`]'s rule) and [`PixelModel::store`], on rows of models

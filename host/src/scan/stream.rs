@@ -109,16 +109,6 @@ pub struct StreamStats {
     pub threads: usize,
 }
 
-/// Rows of a band to reconstruct: from camera row `v0`, their phases and decoded codes, and
-/// where their points and codes go.
-struct Rows<'a> {
-    v0: usize,
-    phase: &'a [f32],
-    decoded: &'a [u8],
-    xyz: &'a mut [f32],
-    codes: &'a mut [u8],
-}
-
 /// One computed band, waiting to be written.
 struct BandOut {
     enc: Encoded,
@@ -257,76 +247,6 @@ impl<P: Sample> Job<'_, P> {
         Ok(())
     }
 
-    /// A reconstruction error as the scan's, naming the calibration.
-    fn failed(&self, e: ReconstructError) -> ScanError {
-        ScanError::Invalid {
-            path: self.cal.source.clone(),
-            message: format!("reconstruction: {e}"),
-        }
-    }
-
-    /// Reconstruct `rows` with the calibration's compiled models where it has them: in memory,
-    /// or read from their file [`MODEL_ROWS`] rows at a time into `models` (so a worker holds
-    /// that many rows of models, not a band's).
-    fn reconstruct<R: ReferenceRows + ?Sized>(
-        &self,
-        map: &R,
-        rows: Rows<'_>,
-        models: &mut Vec<f32>,
-    ) -> Result<(), ScanError> {
-        let (recon, w) = (&self.cal.recon, self.cal.width());
-        let failed = |e| self.failed(e);
-        let Some(CompiledModels::File(f)) = &self.cal.compiled else {
-            let points = PointsOut {
-                xyz: rows.xyz,
-                validity: rows.codes,
-            };
-            let compiled = self.cal.compiled_rows();
-            return reconstruct_rows_compiled(
-                recon,
-                map,
-                compiled,
-                rows.v0,
-                rows.phase,
-                rows.decoded,
-                points,
-                self.isa,
-            )
-            .map_err(failed);
-        };
-        let k = MODEL_ROWS * w.max(1);
-        let parts = (rows.phase.chunks(k).zip(rows.decoded.chunks(k)))
-            .zip(rows.xyz.chunks_mut(3 * k).zip(rows.codes.chunks_mut(k)));
-        for (j, ((phase, decoded), (xyz, codes))) in parts.enumerate() {
-            let v0 = rows.v0 + j * MODEL_ROWS;
-            let v1 = v0 + phase.len() / w.max(1);
-            f.read_rows(v0, v1, models)
-                .map_err(|e| compiled_error(f.path(), e))?;
-            let compiled = CompiledRows {
-                models,
-                first_row: v0,
-                z_min: f.z_range().0,
-                z_max: f.z_range().1,
-            };
-            let points = PointsOut {
-                xyz,
-                validity: codes,
-            };
-            reconstruct_rows_compiled(
-                recon,
-                map,
-                Some(compiled),
-                v0,
-                phase,
-                decoded,
-                points,
-                self.isa,
-            )
-            .map_err(failed)?;
-        }
-        Ok(())
-    }
-
     /// Compute band `b` into `out` (cleared first).
     fn band<'m>(
         &'m self,
@@ -368,16 +288,17 @@ impl<P: Sample> Job<'_, P> {
         self.fuse_shorter_exposures(a, n, s)?;
         let t1 = Instant::now();
         let recon = &self.cal.recon;
-        let failed = |e| self.failed(e);
-        let band = Rows {
-            v0: a,
-            phase: &s.phase[..n],
-            decoded: &s.decoded[..n],
+        let failed = |e| self.cal.reconstruction_error(e);
+        let (phase, decoded) = (&s.phase[..n], &s.decoded[..n]);
+        let band = PointsOut {
             xyz: &mut s.xyz[..3 * n],
-            codes: &mut s.codes[..n],
+            validity: &mut s.codes[..n],
         };
+        let isa = self.isa;
         match &self.map {
-            MapSource::Whole(map) => self.reconstruct(map, band, &mut s.models)?,
+            MapSource::Whole(map) => {
+                (self.cal).reconstruct_rows(map, a, phase, decoded, band, &mut s.models, isa)?
+            }
             MapSource::File(file) => {
                 let rows = reader.get_or_insert_with(|| file.rows());
                 // The map rows the band's camera rows read (paper §6's search band), and at
@@ -396,7 +317,7 @@ impl<P: Sample> Job<'_, P> {
                         message: format!("reference map: {e}"),
                     })
                 })?;
-                self.reconstruct(&ring, band, &mut s.models)?
+                (self.cal).reconstruct_rows(&ring, a, phase, decoded, band, &mut s.models, isa)?
             }
         }
         let t2 = Instant::now();
@@ -646,4 +567,69 @@ pub fn stream_frames<P: Sample + Sync>(
         bands,
         threads,
     })
+}
+
+impl ScanCalibration {
+    /// Reconstruct the whole rows from camera row `v0` (`phase` and `decoded`, with the map rows
+    /// they read in `map`) into `points`, with the compiled models where the calibration has
+    /// them: in memory ([`ScanCalibration::with_compiled`]), or read from their file
+    /// [`MODEL_ROWS`] rows at a time into `models`
+    /// ([`ScanCalibration::with_compiled_streamed`]: a caller holds that many rows of models,
+    /// not a band's). What each band of the streaming scan runs; the bits are the whole
+    /// frame's.
+    #[allow(clippy::too_many_arguments)]
+    pub fn reconstruct_rows<R: ReferenceRows + ?Sized>(
+        &self,
+        map: &R,
+        v0: usize,
+        phase: &[f32],
+        decoded: &[u8],
+        points: PointsOut<'_>,
+        models: &mut Vec<f32>,
+        isa: Isa,
+    ) -> Result<(), ScanError> {
+        let (recon, w) = (&self.recon, self.width());
+        let failed = |e| self.reconstruction_error(e);
+        let Some(CompiledModels::File(f)) = &self.compiled else {
+            let compiled = self.compiled_rows();
+            return reconstruct_rows_compiled(
+                recon, map, compiled, v0, phase, decoded, points, isa,
+            )
+            .map_err(failed);
+        };
+        let k = MODEL_ROWS * w.max(1);
+        let parts = (phase.chunks(k).zip(decoded.chunks(k))).zip(
+            points
+                .xyz
+                .chunks_mut(3 * k)
+                .zip(points.validity.chunks_mut(k)),
+        );
+        for (j, ((phase, decoded), (xyz, codes))) in parts.enumerate() {
+            let v0 = v0 + j * MODEL_ROWS;
+            let v1 = v0 + phase.len() / w.max(1);
+            f.read_rows(v0, v1, models)
+                .map_err(|e| compiled_error(f.path(), e))?;
+            let compiled = CompiledRows {
+                models,
+                first_row: v0,
+                z_min: f.z_range().0,
+                z_max: f.z_range().1,
+            };
+            let points = PointsOut {
+                xyz,
+                validity: codes,
+            };
+            reconstruct_rows_compiled(recon, map, Some(compiled), v0, phase, decoded, points, isa)
+                .map_err(failed)?;
+        }
+        Ok(())
+    }
+
+    /// A reconstruction error as the scan's, naming the calibration.
+    fn reconstruction_error(&self, e: ReconstructError) -> ScanError {
+        ScanError::Invalid {
+            path: self.source.clone(),
+            message: format!("reconstruction: {e}"),
+        }
+    }
 }
