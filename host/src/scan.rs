@@ -13,7 +13,7 @@ use crate::io::image::{Pixels, ReadLimits, read_gray_limited, read_header};
 use crate::io::map_file::MapFile;
 use fringe3d_core::filter::EdgeFilter;
 use fringe3d_core::phase_function::Axis;
-use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
+use fringe3d_core::reconstruct::{ReconstructError, Reconstructor, ReferenceMap, ReferenceRows};
 use fringe3d_core::validity::Validity;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -487,16 +487,85 @@ impl ScanCalibration {
             isa,
             parallel,
         )
-        .map_err(|e| ScanError::Invalid {
-            path: self.source.clone(),
-            message: format!("reconstruction: {e}"),
-        })?;
+        .map_err(|e| self.reconstruction_error(e))?;
         Ok(PointCloud {
             width: w,
             height: h,
             xyz,
             validity: out_v,
         })
+    }
+
+    /// Reconstruct the whole rows from camera row `v0` (`phase` and `decoded`, with the map rows
+    /// they read in `map`) into `points`, with the compiled models where the calibration has
+    /// them: in memory ([`ScanCalibration::with_compiled`]), or read from their file
+    /// [`stream::MODEL_ROWS`] rows at a time into `models`
+    /// ([`ScanCalibration::with_compiled_streamed`]: a caller holds that many rows of models,
+    /// not a band's). What each band of the streaming scan runs; the bits are the whole
+    /// frame's.
+    #[allow(clippy::too_many_arguments)]
+    pub fn reconstruct_rows<R: ReferenceRows + ?Sized>(
+        &self,
+        map: &R,
+        v0: usize,
+        phase: &[f32],
+        decoded: &[u8],
+        points: BatchOut<'_>,
+        models: &mut Vec<f32>,
+        isa: Isa,
+    ) -> Result<(), ScanError> {
+        let (recon, w) = (&self.recon, self.width());
+        let failed = |e| self.reconstruction_error(e);
+        let Some(CompiledModels::File(f)) = &self.compiled else {
+            let compiled = self.compiled_rows();
+            return crate::batch::reconstruct_rows_compiled(
+                recon, map, compiled, v0, phase, decoded, points, isa,
+            )
+            .map_err(failed);
+        };
+        let k = stream::MODEL_ROWS * w.max(1);
+        let parts = (phase.chunks(k).zip(decoded.chunks(k))).zip(
+            points
+                .xyz
+                .chunks_mut(3 * k)
+                .zip(points.validity.chunks_mut(k)),
+        );
+        for (j, ((phase, decoded), (xyz, codes))) in parts.enumerate() {
+            let v0 = v0 + j * stream::MODEL_ROWS;
+            let v1 = v0 + phase.len() / w.max(1);
+            f.read_rows(v0, v1, models)
+                .map_err(|e| compiled_error(f.path(), e))?;
+            let compiled = CompiledRows {
+                models,
+                first_row: v0,
+                z_min: f.z_range().0,
+                z_max: f.z_range().1,
+            };
+            let points = BatchOut {
+                xyz,
+                validity: codes,
+            };
+            crate::batch::reconstruct_rows_compiled(
+                recon,
+                map,
+                Some(compiled),
+                v0,
+                phase,
+                decoded,
+                points,
+                isa,
+            )
+            .map_err(failed)?;
+        }
+        Ok(())
+    }
+
+    /// A reconstruction error as the scan's, naming the calibration.
+    pub(crate) fn reconstruction_error(&self, e: ReconstructError) -> ScanError {
+        ScanError::Invalid {
+            path: self.source.clone(),
+            message: format!("reconstruction: {e}"),
+        }
     }
 
     /// The edge filter for this camera, accepting surfaces up to `max_angle_deg` from facing

@@ -4,9 +4,9 @@
 //!
 //! Each band of rows `y0..y1` is computed by one worker on its own scratch buffers: the rows
 //! `y0 − 1 .. y1 + 1` (one halo row each side, for the edge filter) are decoded
-//! ([`crate::batch::decode_rows`]) and reconstructed ([`crate::batch::reconstruct_rows_compiled`],
+//! ([`crate::batch::decode_rows`]) and reconstructed ([`ScanCalibration::reconstruct_rows`]:
 //! with the compiled models where the calibration has them, the band's rows of them read from
-//! their file when they are [`CompiledModels::File`]) with the same kernels and the same
+//! their file when they are [`super::CompiledModels::File`]) with the same kernels and the same
 //! reference map as the whole-frame path, the rows `y0..y1` filtered
 //! ([`EdgeFilter::filter_row`], which reads its neighbours' *input* codes, so a halo row gives the
 //! same codes as the whole frame) and encoded by the writer's [`RowEncoder`]. A writer thread
@@ -16,16 +16,14 @@
 //!
 //! The file is the whole-frame path's byte for byte (`host/tests/scan_stream.rs`).
 
-use super::{CompiledModels, ScanCalibration, ScanError, compiled_error};
-use crate::batch::{
-    CompiledRows, FrameOut, Isa, PointsOut, decode_rows, reconstruct_rows_compiled,
-};
+use super::{ScanCalibration, ScanError};
+use crate::batch::{FrameOut, Isa, PointsOut, decode_rows};
 use crate::io::image_set::{Frames, ImageSet};
 use crate::io::map_file::{MapFile, MapRows};
 use crate::io::ply::{Encoded, PointRow, RowEncoder};
 use fringe3d_core::decode::{Decoder, RowOut, Sample, hdr};
 use fringe3d_core::filter::EdgeFilter;
-use fringe3d_core::reconstruct::{ReconstructError, ReferenceMap, ReferenceRing, ReferenceRows};
+use fringe3d_core::reconstruct::{ReferenceMap, ReferenceRing};
 use fringe3d_core::validity::Validity;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -567,69 +565,4 @@ pub fn stream_frames<P: Sample + Sync>(
         bands,
         threads,
     })
-}
-
-impl ScanCalibration {
-    /// Reconstruct the whole rows from camera row `v0` (`phase` and `decoded`, with the map rows
-    /// they read in `map`) into `points`, with the compiled models where the calibration has
-    /// them: in memory ([`ScanCalibration::with_compiled`]), or read from their file
-    /// [`MODEL_ROWS`] rows at a time into `models`
-    /// ([`ScanCalibration::with_compiled_streamed`]: a caller holds that many rows of models,
-    /// not a band's). What each band of the streaming scan runs; the bits are the whole
-    /// frame's.
-    #[allow(clippy::too_many_arguments)]
-    pub fn reconstruct_rows<R: ReferenceRows + ?Sized>(
-        &self,
-        map: &R,
-        v0: usize,
-        phase: &[f32],
-        decoded: &[u8],
-        points: PointsOut<'_>,
-        models: &mut Vec<f32>,
-        isa: Isa,
-    ) -> Result<(), ScanError> {
-        let (recon, w) = (&self.recon, self.width());
-        let failed = |e| self.reconstruction_error(e);
-        let Some(CompiledModels::File(f)) = &self.compiled else {
-            let compiled = self.compiled_rows();
-            return reconstruct_rows_compiled(
-                recon, map, compiled, v0, phase, decoded, points, isa,
-            )
-            .map_err(failed);
-        };
-        let k = MODEL_ROWS * w.max(1);
-        let parts = (phase.chunks(k).zip(decoded.chunks(k))).zip(
-            points
-                .xyz
-                .chunks_mut(3 * k)
-                .zip(points.validity.chunks_mut(k)),
-        );
-        for (j, ((phase, decoded), (xyz, codes))) in parts.enumerate() {
-            let v0 = v0 + j * MODEL_ROWS;
-            let v1 = v0 + phase.len() / w.max(1);
-            f.read_rows(v0, v1, models)
-                .map_err(|e| compiled_error(f.path(), e))?;
-            let compiled = CompiledRows {
-                models,
-                first_row: v0,
-                z_min: f.z_range().0,
-                z_max: f.z_range().1,
-            };
-            let points = PointsOut {
-                xyz,
-                validity: codes,
-            };
-            reconstruct_rows_compiled(recon, map, Some(compiled), v0, phase, decoded, points, isa)
-                .map_err(failed)?;
-        }
-        Ok(())
-    }
-
-    /// A reconstruction error as the scan's, naming the calibration.
-    fn reconstruction_error(&self, e: ReconstructError) -> ScanError {
-        ScanError::Invalid {
-            path: self.source.clone(),
-            message: format!("reconstruction: {e}"),
-        }
-    }
 }
