@@ -499,12 +499,14 @@ impl CameraModel {
     // ----- f64 -----
 
     /// Eq 3: ideal normalized coordinates → distorted normalized coordinates.
+    #[inline]
     pub fn distort(&self, n: [f64; 2]) -> [f64; 2] {
         let (x, y) = distort64(self.k64(), n[0], n[1]);
         [x, y]
     }
 
     /// Eq 4: distorted normalized coordinates → pixel coordinates.
+    #[inline]
     pub fn distorted_to_pixel(&self, d: [f64; 2]) -> [f64; 2] {
         let i = &self.params;
         [
@@ -522,6 +524,7 @@ impl CameraModel {
     }
 
     /// Eqs 3-4: ideal normalized coordinates → pixel coordinates.
+    #[inline]
     pub fn normalized_to_pixel(&self, n: [f64; 2]) -> [f64; 2] {
         self.distorted_to_pixel(self.distort(n))
     }

@@ -90,6 +90,9 @@ pub const CLIP_INSET: f64 = 0.002;
 pub const F32_ALLOWANCE_ULP: f64 = 4.0;
 /// Most depths a pixel's fit is checked at (half-pixel steps along its search segment).
 pub const MAX_FIT_SAMPLES: usize = 4096;
+
+/// Samples of [`fit_range`]'s dense check computed together (see there).
+const FIT_CHUNK: usize = 32;
 /// The reach (Chebyshev distance, pixels) of the no-reference proof: whether the search can
 /// read a valid value near a walked point of a search segment is taken from every map sample
 /// this near it (module documentation). A bilinear sample reads samples within 1 px, a walked point
@@ -444,16 +447,37 @@ fn fit_range(
     } else {
         MAX_FIT_SAMPLES
     };
+    // In chunks: first the chunk's points along the segment (depth, map phase), then the model
+    // at each, so that the two chains of arithmetic overlap across samples. The outcome is the
+    // sample-by-sample one: a NaN error before the first sample off the map is a NaN fit.
     let mut fit = 0f64;
-    for j in 0..=m {
-        let t = t_lo + (t_hi - t_lo) * j as f64 / m as f64;
-        let z = ray.depth_at_t(t);
-        let phi = map_phase(ray.cal, ray.pixel_at_t(t)).ok_or(Reason::OffMap)?;
-        let err = (model.depth_f64_unbounded(phi) - z).abs();
-        if err.is_nan() {
-            return Ok((model, f64::NAN));
+    let (mut zs, mut phis) = ([0f64; FIT_CHUNK], [0f64; FIT_CHUNK]);
+    let mut j0 = 0;
+    while j0 <= m {
+        let n = (m + 1 - j0).min(FIT_CHUNK);
+        let mut read = n;
+        for k in 0..n {
+            let t = t_lo + (t_hi - t_lo) * (j0 + k) as f64 / m as f64;
+            zs[k] = ray.depth_at_t(t);
+            match map_phase(ray.cal, ray.pixel_at_t(t)) {
+                Some(phi) => phis[k] = phi,
+                None => {
+                    read = k;
+                    break;
+                }
+            }
         }
-        fit = fit.max(err);
+        for (z, phi) in zs[..read].iter().zip(&phis[..read]) {
+            let err = (model.depth_f64_unbounded(*phi) - z).abs();
+            if err.is_nan() {
+                return Ok((model, f64::NAN));
+            }
+            fit = fit.max(err);
+        }
+        if read < n {
+            return Err(Reason::OffMap);
+        }
+        j0 += n;
     }
     Ok((model, fit))
 }
