@@ -1,7 +1,7 @@
 //! Decode throughput per arithmetic backend (issue #9, docs/arithmetic.md): the paper's 3-level
 //! set, u8, 1280 pixels × 256 rows of seeded synthetic fringes, single thread, row API; each
 //! backend compiled for the baseline x86-64 (SSE2) and, when the CPU has it, for AVX2 (as the
-//! host's batch path does). Run: `cargo bench -p fringe3d-core --bench arith`.
+//! host's batch path does). Run: `cargo bench -p fringe3d-core-bench --bench arith`.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fringe3d_core::arith::{Arith, F32Accurate, F32Fast, F32Micromath, Fixed};

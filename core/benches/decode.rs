@@ -2,7 +2,7 @@
 //! paper's 8-image 3-level set; Gray code + phase shifting (a complementary 5-bit code and a
 //! 4-step level, 10 images) and 3-frequency heterodyne (21/26/32, 12 images) of issue #20, whose
 //! bar is a Gray set within 1.5× of the paper's per pixel. Run:
-//! `cargo bench -p fringe3d-core --bench decode`.
+//! `cargo bench -p fringe3d-core-bench --bench decode`.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fringe3d_core::decode::{DecodeConfig, Decoder, RowOut};

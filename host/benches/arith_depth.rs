@@ -7,7 +7,7 @@
 //! Not a timing benchmark (a libtest target among the benches, ignored by default because it
 //! renders two scans):
 //!
-//!     cargo test --release -p fringe3d --bench arith_depth -- --ignored --nocapture
+//!     cargo test --release -p fringe3d-bench --bench arith_depth -- --ignored --nocapture
 #![allow(clippy::disallowed_methods)] // std f64 maths for the statistics
 
 use fringe3d::accuracy;

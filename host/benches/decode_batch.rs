@@ -1,7 +1,7 @@
 //! Decode throughput of the desktop batch path: a 1280×1024 8-image u8 set, single thread and all
 //! cores, the baseline and AVX2 kernels and the runtime-dispatched one (AVX-512 where the CPU and
 //! the compiler have it). Seeded synthetic input.
-//! Run: `cargo bench -p fringe3d --bench decode_batch`.
+//! Run: `cargo bench -p fringe3d-bench --bench decode_batch`.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fringe3d::batch::{FrameOut, Isa, decode_frames};

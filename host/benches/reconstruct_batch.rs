@@ -7,7 +7,7 @@
 //! the core's portable `reconstruct_frame`. Then the compiled reconstruction (`compiled_*`,
 //! `fringe3d::compiled`, at 0.1 µm and `_1um`), each variant against its portable run; the
 //! build's report and how many pixels the scan leaves to the search are printed first.
-//! Run: `cargo bench -p fringe3d --bench reconstruct_batch`.
+//! Run: `cargo bench -p fringe3d-bench --bench reconstruct_batch`.
 
 #![allow(clippy::disallowed_methods)] // std maths for the synthetic scene
 

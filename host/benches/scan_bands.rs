@@ -4,7 +4,7 @@
 //! after the other over whole frames (`decode_frames`, then `reconstruct_frame_compiled`). The
 //! measure of issue #24's "decode + reconstruct ≤ 10 ms on one core (AVX2), ≤ 6 ms (AVX-512)".
 //!
-//! The scene is real data made by the binary, not a synthetic phase map: `fringe3d render
+//! The scene is real data made by the binary's commands (run in this process), not a synthetic phase map: `fringe3d render
 //! --scene sphere --size 1280x1024 --noise 1 --bits 8` (seeded), its virtual reference
 //! (`calibrate reference --virtual`) and its compiled reconstruction (`fringe3d compile
 //! --tolerance 1`), in a temporary folder (the set-up takes a minute or two). Every variant is
@@ -13,7 +13,7 @@
 //! (`ScanCalibration::with_compiled`, a process that scans again and again) and read band by
 //! band from their file (`compiled_1um_file`: what `fringe3d scan --compiled` does, so that its
 //! memory stays a band's).
-//! Run: `cargo bench -p fringe3d --bench scan_bands`.
+//! Run: `cargo bench -p fringe3d-bench --bench scan_bands`.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fringe3d::batch::{
@@ -25,22 +25,17 @@ use fringe3d::scan::ScanCalibration;
 use fringe3d_core::decode::Decoder;
 use fringe3d_core::reconstruct::ReferenceMap;
 use std::path::Path;
-use std::process::Command;
 
 /// Rows per band: `fringe3d scan`'s own for a 1280-pixel-wide camera (about 32 768 pixels).
 const BAND_ROWS: usize = 25;
 
-/// Run the binary with `args`; panics with its error output when it fails.
+/// Run the binary's command line with `args`, in this process (`fringe3d::cli::run`, all the
+/// `fringe3d` binary does); panics with its error when it fails.
 fn run(args: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_fringe3d"))
-        .args(args)
-        .output()
-        .expect("run fringe3d");
-    assert!(
-        out.status.success(),
-        "fringe3d {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let argv = std::iter::once("fringe3d").chain(args.iter().copied());
+    if let Err(e) = fringe3d::cli::run(argv) {
+        panic!("fringe3d {args:?}: {e:#}");
+    }
 }
 
 /// One scan's buffers (the whole frame's; the band path uses the first band's worth).
