@@ -4,12 +4,12 @@
 //! after the other over whole frames (`decode_frames`, then `reconstruct_frame_compiled`). The
 //! measure of issue #24's "decode + reconstruct ≤ 10 ms on one core (AVX2), ≤ 6 ms (AVX-512)".
 //!
-//! The scene is real data made by the binary's commands (run in this process), not a synthetic phase map: `fringe3d render
-//! --scene sphere --size 1280x1024 --noise 1 --bits 8` (seeded), its virtual reference
-//! (`calibrate reference --virtual`) and its compiled reconstruction (`fringe3d compile
-//! --tolerance 1`), in a temporary folder (the set-up takes a minute or two). Every variant is
-//! first checked bit for bit against the whole-frame path with the portable kernels; how many
-//! pixels the compiled scan leaves to the search is printed. The compiled models in memory
+//! The scene is real data made by the binary's commands (run in this process), not a synthetic
+//! phase map: `fringe3d render --scene sphere --size 1280x1024 --noise 1 --bits 8` (seeded), its
+//! virtual reference (`calibrate reference --virtual`) and its compiled reconstruction
+//! (`fringe3d compile --tolerance 1`), in a temporary folder (the set-up takes a minute or two).
+//! Every variant is first checked bit for bit against the whole-frame path with the portable
+//! kernels; how many pixels the compiled scan leaves to the search is printed. The compiled models in memory
 //! (`ScanCalibration::with_compiled`, a process that scans again and again) and read band by
 //! band from their file (`compiled_1um_file`: what `fringe3d scan --compiled` does, so that its
 //! memory stays a band's).

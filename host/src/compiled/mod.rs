@@ -90,7 +90,6 @@ pub const CLIP_INSET: f64 = 0.002;
 pub const F32_ALLOWANCE_ULP: f64 = 4.0;
 /// Most depths a pixel's fit is checked at (half-pixel steps along its search segment).
 pub const MAX_FIT_SAMPLES: usize = 4096;
-
 /// Samples of [`fit_range`]'s dense check computed together (see there).
 const FIT_CHUNK: usize = 32;
 /// The reach (Chebyshev distance, pixels) of the no-reference proof: whether the search can
