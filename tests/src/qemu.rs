@@ -74,12 +74,36 @@ pub fn board_target_dir() -> PathBuf {
         .unwrap_or_else(|| repo().join("target/board-mps2"))
 }
 
+/// Where the firmware is built from: a symbolic link to the checkout, at one path on every
+/// machine. cargo hashes the absolute path of every crate outside the board's own workspace (the
+/// core, the head) into the symbol names, which order what LLVM optimises and how the linker lays
+/// out the code, so a build from the checkout's own path moves the flash by up to a kilobyte with
+/// the path. Built from here, the flash image is the same byte for byte on any checkout path, and
+/// `tools/firmware_figures.py` (its `CANON`) shares this build.
+pub const CANON: &str = "/tmp/fringe3d-firmware-src";
+/// The lock that serialises [`CANON`]'s re-pointing and the build between checkouts on one machine
+/// (the same file as `tools/firmware_figures.py`'s `LOCK`).
+const CANON_LOCK: &str = "/tmp/fringe3d-firmware-src.lock";
+
+/// Point [`CANON`] at this checkout (atomically: a new link renamed over the old one).
+fn point_canon(repo: &Path) -> std::io::Result<()> {
+    let canon = Path::new(CANON);
+    if std::fs::read_link(canon).is_ok_and(|t| t == repo) {
+        return Ok(());
+    }
+    let tmp = PathBuf::from(format!("{CANON}.{}", std::process::id()));
+    let _ = std::fs::remove_file(&tmp);
+    std::os::unix::fs::symlink(repo, &tmp)?;
+    std::fs::rename(&tmp, canon)
+}
+
 /// The `--config` that makes the firmware's bytes independent of where the checkout and the cargo
-/// home are. The panic locations in `.rodata` name source files, and cargo hands rustc absolute
-/// paths for the crates outside the board's workspace (the core, registry crates); remapped to
-/// `/fringe3d` and `/cargo`, the flash the firmware reports is the same on every machine and
-/// docs/firmware.md's figures reproduce. `tools/firmware_figures.py` builds with the same flags
-/// (`path_independent_config`), so it and these tests share one build.
+/// home are. The panic locations in `.rodata` and the debug lines name source files: by
+/// [`CANON`]'s path for the crates the build reaches through it, by the real path for the working
+/// directory, under the cargo home for registry crates; remapped to `/fringe3d` and `/cargo`, the
+/// flash the firmware reports is the same on every machine and docs/firmware.md's figures
+/// reproduce. `tools/firmware_figures.py` builds with the same flags (`path_independent_config`),
+/// so it and these tests share one build.
 pub fn path_independent_config() -> String {
     let cargo_home = std::env::var_os("CARGO_HOME")
         .map(PathBuf::from)
@@ -87,9 +111,10 @@ pub fn path_independent_config() -> String {
         .unwrap_or_else(|| PathBuf::from("/root/.cargo"));
     let quote = |s: String| format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""));
     let flags = [
+        quote(format!("--remap-path-prefix={CANON}=/fringe3d")),
         quote(format!(
             "--remap-path-prefix={}=/fringe3d",
-            repo().display()
+            real_repo().display()
         )),
         quote(format!(
             "--remap-path-prefix={}=/cargo",
@@ -99,22 +124,37 @@ pub fn path_independent_config() -> String {
     format!("target.{TARGET}.rustflags=[{}]", flags.join(", "))
 }
 
+/// The checkout's physical path (symbolic links resolved), as the working directory rustc records.
+fn real_repo() -> PathBuf {
+    let repo = repo();
+    std::fs::canonicalize(&repo).unwrap_or(repo)
+}
+
 /// Build the board crate's binary `bin` (release, for [`TARGET`]) and return the ELF's path.
 /// Panics with cargo's output when the build fails (these are test helpers).
 pub fn build_firmware(bin: &str) -> PathBuf {
     let target_dir = board_target_dir();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let board = Path::new(CANON).join(BOARD);
+    let lock = std::fs::File::create(CANON_LOCK).expect("create the firmware build's lock file");
+    lock.lock().expect("take the firmware build's lock");
+    if let Err(e) = point_canon(&real_repo()) {
+        panic!("cannot point {CANON} at the checkout: {e}");
+    }
     let out = Command::new(cargo)
         .args(["build", "--release", "--target", TARGET, "--bin", bin])
+        .arg("--manifest-path")
+        .arg(board.join("Cargo.toml"))
         .arg("--config")
         .arg(path_independent_config())
-        .current_dir(repo().join(BOARD))
+        .current_dir(&board)
         .env("CARGO_TARGET_DIR", &target_dir)
         .env_remove("RUSTFLAGS")
         .env_remove("CARGO_ENCODED_RUSTFLAGS")
         .env_remove("CARGO_BUILD_TARGET")
         .output()
         .expect("run cargo for the firmware");
+    drop(lock);
     assert!(
         out.status.success(),
         "firmware build failed:\n{}",
