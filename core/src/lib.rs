@@ -24,6 +24,7 @@ pub mod params;
 pub mod pattern;
 pub mod pattern_error;
 pub mod phase_function;
+pub mod qnum;
 pub mod reconstruct;
 pub mod relation;
 pub mod sample;

@@ -10,7 +10,7 @@
 //! backend), where the period is exactly 1 and every operation is exact integer arithmetic.
 
 use crate::math::{INV_TAU, fabs, round_half_even};
-use fixed::types::{I8F24, I16F16, U8F24};
+use crate::qnum::{I8F24, I16F16, U8F24};
 
 /// 2π split for exact fringe-order products: `TAU_HI` has 16 significant bits, so `n·TAU_HI` is
 /// exact for every `|n| < 2⁸` (finest levels up to 256 periods), and `TAU_LO = 2π − TAU_HI` (rounded) carries the rest.
@@ -56,7 +56,7 @@ pub fn consistent(residual: f32, tolerance: f32) -> bool {
 /// turn limit of the format.
 #[inline(always)]
 pub fn unwrap_step_turns(coarse: I8F24, ratio: I16F16, wrapped: I8F24) -> (I8F24, I8F24) {
-    let predicted = I8F24::wrapping_from_num(ratio.wide_mul(coarse));
+    let predicted = ratio.mul_phase(coarse);
     let n = predicted.wrapping_sub(wrapped).wrapping_round_ties_even();
     let absolute = n.wrapping_add(wrapped);
     (absolute, predicted.wrapping_sub(absolute))

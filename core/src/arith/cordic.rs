@@ -4,7 +4,7 @@
 //! divider, no table lookup by data), so the same bits are easy to reproduce in an FPGA's
 //! fabric. The iteration count is fixed; every step is branch-free.
 
-use fixed::types::I0F32;
+use crate::qnum::I0F32;
 
 /// Number of CORDIC iterations. After `n` iterations the residual angle is at most
 /// `atan(2^−(n−1))`: 1.2e-7 rad for 24.

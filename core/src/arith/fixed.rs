@@ -30,9 +30,9 @@ use super::cordic::cordic_atan2;
 use super::{Arith, LevelCoefs, Limits, Plan, Sealed, max_unsaturated};
 use crate::decode_error::DecodeError;
 use crate::limits::{CORRECTION_KNOTS, MAX_SHIFTS};
+use crate::qnum::{I8F24, I16F16, U8F24};
 use crate::sample::Sample;
 use crate::unwrap::{consistent_turns, unwrap_step_turns};
-use fixed::types::{I8F24, I16F16, U8F24};
 
 /// Fixed-point arithmetic (see the module documentation of [`crate::arith`] and the format
 /// analysis in `docs/arithmetic.md`): i32 accumulators, CORDIC, turns.
@@ -231,7 +231,7 @@ impl Arith for Fixed {
     }
 
     fn ratio(r: f64, _format: &FixedFormat) -> I16F16 {
-        I16F16::wrapping_from_num(r)
+        I16F16::wrapping_from_f64(r)
     }
 
     fn limits(plan: &Plan<'_>, format: &FixedFormat) -> Limits<Self> {

@@ -39,6 +39,7 @@ mod cordic;
 mod fixed;
 mod float;
 
+pub use crate::qnum::{I0F32, I8F24, I16F16, U8F24};
 pub use backend::Backend;
 pub use cordic::{CORDIC_ANGLES, CORDIC_INV_GAIN_Q32, CORDIC_ITERATIONS, cordic_atan2};
 pub use fixed::{Fixed, FixedFormat, PHASE_TURNS_LIMIT};
