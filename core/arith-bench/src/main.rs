@@ -86,15 +86,21 @@ fn run(out: &mut hio::HostStream, args: &str) -> Result<(), &'static str> {
 fn main() -> ! {
     let mut buf = [0u8; 256];
     let args = cmdline(&mut buf);
-    let mut out = hio::hstdout().unwrap_or_else(|_| loop {});
+    let mut out = hio::hstdout().unwrap_or_else(|_| halt(debug::EXIT_FAILURE));
     match run(&mut out, args) {
-        Ok(()) => debug::exit(debug::EXIT_SUCCESS),
+        Ok(()) => halt(debug::EXIT_SUCCESS),
         Err(e) => {
             let _ = writeln!(out, "error: {e} (command line {args:?})");
-            debug::exit(debug::EXIT_FAILURE);
+            halt(debug::EXIT_FAILURE)
         }
     }
-    loop {}
+}
+
+/// Stop the emulator with `status` (semihosting SYS_EXIT; QEMU ends at the first call).
+fn halt(status: debug::ExitStatus) -> ! {
+    loop {
+        debug::exit(status);
+    }
 }
 
 #[panic_handler]
@@ -102,6 +108,5 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     if let Ok(mut out) = hio::hstdout() {
         let _ = writeln!(out, "panic: {info}");
     }
-    debug::exit(debug::EXIT_FAILURE);
-    loop {}
+    halt(debug::EXIT_FAILURE)
 }
