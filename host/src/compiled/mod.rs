@@ -446,19 +446,25 @@ fn fit_range(
     } else {
         MAX_FIT_SAMPLES
     };
-    // In chunks: first the chunk's points along the segment (depth, map phase), then the model
-    // at each, so that the two chains of arithmetic overlap across samples. The outcome is the
-    // sample-by-sample one: a NaN error before the first sample off the map is a NaN fit.
+    // In chunks of three passes, so that the arithmetic of many samples overlaps: the points
+    // along the segment (depth and image position: no branch, so the compiler vectorizes it),
+    // the map's phase at each up to the first off the map, the model's error at each. The
+    // outcome is the sample-by-sample one: a NaN error before the first sample off the map is a
+    // NaN fit.
     let mut fit = 0f64;
-    let (mut zs, mut phis) = ([0f64; FIT_CHUNK], [0f64; FIT_CHUNK]);
+    let (mut zs, mut px, mut py) = ([0f64; FIT_CHUNK], [0f64; FIT_CHUNK], [0f64; FIT_CHUNK]);
+    let (mut phis, mut errs) = ([0f64; FIT_CHUNK], [0f64; FIT_CHUNK]);
     let mut j0 = 0;
     while j0 <= m {
         let n = (m + 1 - j0).min(FIT_CHUNK);
-        let mut read = n;
         for k in 0..n {
             let t = t_lo + (t_hi - t_lo) * (j0 + k) as f64 / m as f64;
             zs[k] = ray.depth_at_t(t);
-            match map_phase(ray.cal, ray.pixel_at_t(t)) {
+            [px[k], py[k]] = ray.pixel_at_t(t);
+        }
+        let mut read = n;
+        for k in 0..n {
+            match map_phase(ray.cal, [px[k], py[k]]) {
                 Some(phi) => phis[k] = phi,
                 None => {
                     read = k;
@@ -466,13 +472,13 @@ fn fit_range(
                 }
             }
         }
-        for (z, phi) in zs[..read].iter().zip(&phis[..read]) {
-            let err = (model.depth_f64_unbounded(*phi) - z).abs();
-            if err.is_nan() {
-                return Ok((model, f64::NAN));
-            }
-            fit = fit.max(err);
+        for k in 0..read {
+            errs[k] = (model.depth_f64_unbounded(phis[k]) - zs[k]).abs();
         }
+        if errs[..read].iter().any(|e| e.is_nan()) {
+            return Ok((model, f64::NAN));
+        }
+        fit = errs[..read].iter().fold(fit, |a, &e| a.max(e));
         if read < n {
             return Err(Reason::OffMap);
         }
