@@ -364,7 +364,11 @@ fn fit_pixel(cal: &Source<'_>, u: usize, v: usize, tol: f64) -> Result<(PixelMod
     let mut last = Err(Reason::OffMap);
     for widen in [WIDEN, 0.0] {
         let d = widen * (s.z_max - s.z_min);
-        last = fit_range(&ray, s.z_min - d, s.z_max + d, false);
+        // The widened attempt is dropped unless it fits within `tol`: its check may stop at the
+        // first error above it. The range's own attempt is checked to the end (its fit error
+        // is reported).
+        let give_up = if widen > 0.0 { tol } else { f64::INFINITY };
+        last = fit_range(&ray, s.z_min - d, s.z_max + d, false, give_up);
         if matches!(last, Ok((_, fit)) if fit <= tol) {
             return last;
         }
@@ -377,15 +381,18 @@ fn fit_pixel(cal: &Source<'_>, u: usize, v: usize, tol: f64) -> Result<(PixelMod
     let (lo, hi) = ray
         .valid_run(s.z_min, s.z_max, CLIP_INSET)
         .ok_or(Reason::OffMap)?;
-    fit_range(&ray, lo, hi, true)
+    fit_range(&ray, lo, hi, true, f64::INFINITY)
 }
 
-/// Fit a pixel's model over depths `[z_lo, z_hi]` (steps 1 and 2).
+/// Fit a pixel's model over depths `[z_lo, z_hi]` (steps 1 and 2). The dense check stops once
+/// the fit error exceeds `give_up_above` (that error is returned; a caller that drops the model
+/// then passes its tolerance, one that reports the error +∞).
 fn fit_range(
     ray: &Ray<'_>,
     z_lo: f64,
     z_hi: f64,
     clipped: bool,
+    give_up_above: f64,
 ) -> Result<(PixelModel, f64), Reason> {
     let (zc, sig) = (0.5 * (z_lo + z_hi), 0.5 * (z_hi - z_lo));
     // Chebyshev nodes in depth (increasing), and the ends.
@@ -479,6 +486,9 @@ fn fit_range(
             return Ok((model, f64::NAN));
         }
         fit = errs[..read].iter().fold(fit, |a, &e| a.max(e));
+        if fit > give_up_above {
+            return Ok((model, fit));
+        }
         if read < n {
             return Err(Reason::OffMap);
         }
