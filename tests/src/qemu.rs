@@ -93,8 +93,16 @@ fn point_canon(repo: &Path) -> std::io::Result<()> {
     }
     let tmp = PathBuf::from(format!("{CANON}.{}", std::process::id()));
     let _ = std::fs::remove_file(&tmp);
-    std::os::unix::fs::symlink(repo, &tmp)?;
-    std::fs::rename(&tmp, canon)
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(repo, &tmp)?;
+        std::fs::rename(&tmp, canon)
+    }
+    #[cfg(not(unix))]
+    Err(std::io::Error::new(
+        std::io::ErrorKind::Unsupported,
+        format!("no symbolic link for {}", canon.display()),
+    ))
 }
 
 /// The `--config` that makes the firmware's bytes independent of where the checkout and the cargo
