@@ -53,6 +53,7 @@
 //! differently, so two f32 answers cannot agree to 0.1 µm everywhere.
 
 mod file;
+mod map_view;
 mod near;
 mod ray;
 mod rows;
@@ -67,8 +68,9 @@ use fringe3d_core::reconstruct::compiled::{
 };
 use fringe3d_core::reconstruct::{Reconstructor, ReferenceMap};
 use fringe3d_core::validity::Validity;
+use map_view::MapView;
 use near::Near;
-use ray::{Ray, map_phase};
+use ray::Ray;
 use rayon::prelude::*;
 
 /// Depths a pixel's function is fitted to.
@@ -190,9 +192,10 @@ pub fn compile(
     let (w, h) = (recon.width(), recon.height());
     let (mw, mh) = (recon.map_width(), recon.map_height());
     let near = Near::new(reference_phase, mw, mh);
+    let m = recon.margin();
     let cal = &Source {
         recon,
-        phase: reference_phase,
+        map: MapView::new(reference_phase, mw, mh, m.left, m.top),
         near: &near,
     };
     // A prepared map (the scan's own): never fails for a loaded calibration; a map too small
@@ -278,12 +281,13 @@ pub fn crossing_depth_f64(
     phase: f64,
 ) -> Option<f64> {
     let near = Near::new(&[], 0, 0);
+    let (mw, mh) = (recon.map_width(), recon.map_height());
+    let m = recon.margin();
     let cal = Source {
         recon,
-        phase: reference_phase,
+        map: MapView::new(reference_phase, mw, mh, m.left, m.top),
         near: &near,
     };
-    let (mw, mh) = (recon.map_width(), recon.map_height());
     if reference_phase.len() != mw * mh || u >= recon.width() || v >= recon.height() {
         return None;
     }
@@ -297,7 +301,7 @@ pub fn crossing_depth_f64(
 /// each map sample ([`Near`]).
 struct Source<'a> {
     recon: &'a Reconstructor,
-    phase: &'a [f32],
+    map: MapView<'a>,
     near: &'a Near,
 }
 
@@ -471,7 +475,7 @@ fn fit_range(
         }
         let mut read = n;
         for k in 0..n {
-            match map_phase(ray.cal, [px[k], py[k]]) {
+            match ray.cal.map.phase([px[k], py[k]]) {
                 Some(phi) => phis[k] = phi,
                 None => {
                     read = k;

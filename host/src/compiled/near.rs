@@ -90,7 +90,7 @@ impl Near {
     /// Fold into `acc` (least value, largest value, largest spread) every valid bilinear cell
     /// that a sample taken within `r` of map position `p` (Chebyshev distance) can read: every
     /// value such a sample can have. A sample at `x` reads the cell `⌊x⌋`, the last one at the
-    /// map's far edge ([`super::ray::map_phase`]); a sample off the map reads none.
+    /// map's far edge ([`super::map_view::MapView::phase`]); a sample off the map reads none.
     pub(super) fn read_cells(&self, p: [f64; 2], r: f64, acc: &mut (f64, f64, f64)) {
         if self.w < 2 || self.h < 2 {
             return;
@@ -215,7 +215,7 @@ mod tests {
 
     /// The cells read near a position against the bilinear samples themselves: over a fine grid
     /// of positions within the reach (its corners included), the least and largest corner of the
-    /// valid cells the samples read ([`super::super::ray::map_phase`]'s rule: the cell `⌊x⌋`,
+    /// valid cells the samples read ([`super::super::map_view::MapView::phase`]'s rule: the cell `⌊x⌋`,
     /// clamped at the far edge; invalid off the map or with a corner invalid) and their largest
     /// spread; every sample's value lies between the least and the largest.
     #[test]

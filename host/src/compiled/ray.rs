@@ -6,12 +6,6 @@
 use super::{PATH_STEP_PX, Source};
 use fringe3d_core::reconstruct::compiled::PixelModel;
 
-/// How far from an end of its segment, in map pixels, the builder allows the f32 search to take
-/// that end's sample ([`Ray::far_threshold`]): its absolute pixel positions carry about 10⁻⁴
-/// px of rounding and the distortion polynomial in `t` its own small error; a quarter pixel
-/// covers both many times over.
-const END_SLACK_PX: f64 = 0.25;
-
 /// The step of [`Ray::far_threshold`]'s walk, map pixels: its points lie at most half of it
 /// apart (the walk's factor of two for the path's bend, [`Ray::walk`]).
 const CELL_STEP_PX: f64 = 0.5;
@@ -23,27 +17,6 @@ const CELL_STEP_PX: f64 = 0.5;
 /// [`super::NEAR_PX`] (4 px) of its points, 2 px apart; the values of those 3.75 px more along the
 /// segment widened τ_far by a few per cent of the range (docs/compiled.md).
 const CELL_REACH_PX: f64 = 0.25;
-
-/// The f64 phase of the reference map at image pixel position `p` (bilinear, map coordinates
-/// offset by the margin), `None` off the map or on an invalid sample.
-#[inline(always)]
-pub(super) fn map_phase(cal: &Source<'_>, p: [f64; 2]) -> Option<f64> {
-    let r = &cal.recon;
-    let m = r.margin();
-    let (mw, mh) = (r.map_width(), r.map_height());
-    let (x, y) = (p[0] + m.left as f64, p[1] + m.top as f64);
-    if mw < 2 || mh < 2 || !(x >= 0.0 && y >= 0.0 && x <= (mw - 1) as f64 && y <= (mh - 1) as f64) {
-        return None;
-    }
-    let (i, j) = ((x as usize).min(mw - 2), (y as usize).min(mh - 2));
-    let (fx, fy) = (x - i as f64, y - j as f64);
-    let at = |a: usize, b: usize| cal.phase[b * mw + a] as f64;
-    let (q00, q10, q01, q11) = (at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1));
-    let top = q00 + (q10 - q00) * fx;
-    let bot = q01 + (q11 - q01) * fx;
-    let g = top + (bot - top) * fy;
-    g.is_finite().then_some(g)
-}
 
 /// One pixel's ray and the reference phase along it (step 1 of the module documentation).
 pub(super) struct Ray<'a> {
@@ -105,7 +78,7 @@ impl<'a> Ray<'a> {
 
     /// The reference phase where the search meets depth `z`.
     pub(super) fn phase_at(&self, z: f64) -> Option<f64> {
-        map_phase(self.cal, self.pixel_at(z))
+        self.cal.map.phase(self.pixel_at(z))
     }
 
     /// The depth in `[z0, z1]` where the reference phase along the ray is `phi` (60 bisections),
@@ -190,7 +163,7 @@ impl<'a> Ray<'a> {
     /// A clipped model's τ_far ([`PixelModel::far`]): the least `|τ|` (at least 1) beyond which
     /// every phase gets `NoCrossing` from the search, or `None` where that cannot be shown. It
     /// needs the search's sample at one end of the segment valid and at the other invalid
-    /// (`end_sample`; so the fallback brackets among valid samples, and one exists:
+    /// ([`super::map_view::MapView::end_sample`]; so the fallback brackets among valid samples, and one exists:
     /// `NoCrossing`, not `OutOfDepth` with both ends valid or `ReferenceInvalid` with none);
     /// the phases beyond τ_far then lie beyond every value the search can read along the segment
     /// by `δ`, on both sides: the corners of every valid bilinear cell a sample within
@@ -210,12 +183,13 @@ impl<'a> Ray<'a> {
         let (lo, hi, spread) = acc;
         let (ta, tb) = self.segment();
         let (pa, pb) = (self.map_at_t(ta), self.map_at_t(tb));
-        let off = |p| self.end_sample(p) == Some(false);
+        let map = &self.cal.map;
+        let off = |p| map.end_sample(p) == Some(false);
         // The end on the map, the rows of its sample's cell (⌊y⌋ and the next, give or take the
         // f32 search's rounding: a pixel) inside the band of rows the search reads.
         let (first, last) = self.cal.recon.rows_needed(self.v);
         let on = |p: [f64; 2]| {
-            self.end_sample(p) == Some(true)
+            map.end_sample(p) == Some(true)
                 && p[1] - 1.0 >= first as f64
                 && p[1] + 2.0 <= last as f64
         };
@@ -233,27 +207,6 @@ impl<'a> Ray<'a> {
         let f = far as f32;
         let f = if (f as f64) < far { f.next_up() } else { f };
         f.is_finite().then_some(f)
-    }
-
-    /// Whether the search's sample at map position `p` (an end of its segment) is valid
-    /// (`Some(true)`) or not (`Some(false)`) wherever within [`END_SLACK_PX`] of `p` the f32
-    /// search takes it; `None` when that depends on where. A sample is the bilinear value of its
-    /// cell ([`map_phase`]): valid when the cell lies on the map and its four samples are,
-    /// invalid otherwise. The cells a square of side `2·END_SLACK_PX` (less than a pixel)
-    /// touches are those of its corners.
-    fn end_sample(&self, p: [f64; 2]) -> Option<bool> {
-        let m = self.cal.recon.margin();
-        let (x, y) = (p[0] - m.left as f64, p[1] - m.top as f64);
-        let e = END_SLACK_PX;
-        let mut seen = [false; 2];
-        for (dx, dy) in [(-e, -e), (e, -e), (-e, e), (e, e)] {
-            seen[usize::from(map_phase(self.cal, [x + dx, y + dy]).is_some())] = true;
-        }
-        match seen {
-            [false, true] => Some(true),
-            [true, false] => Some(false),
-            _ => None,
-        }
     }
 
     /// The longest stretch of `[z0, z1]` over which the map is valid along the ray, its ends
