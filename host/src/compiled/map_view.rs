@@ -84,26 +84,8 @@ impl<'a> MapView<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A 23 × 17 map with holes (NaN) and a NaN corner, a smooth phase elsewhere.
-    fn map() -> (Vec<f32>, usize, usize) {
-        let (w, h) = (23, 17);
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let phase = (0..w * h)
-            .map(|k| {
-                seed ^= seed << 13;
-                seed ^= seed >> 7;
-                seed ^= seed << 17;
-                let (i, j) = (k % w, k / w);
-                if seed.is_multiple_of(10) || i + j < 5 {
-                    f32::NAN
-                } else {
-                    (0.3 * i as f64 - 0.07 * j as f64) as f32
-                }
-            })
-            .collect();
-        (phase, w, h)
-    }
+    use crate::compiled::near::tests::map;
+    use crate::render::rng::Rng;
 
     #[test]
     fn the_phase_is_bilinear_within_a_valid_cell_and_none_elsewhere() {
@@ -164,13 +146,8 @@ mod tests {
     fn an_end_sample_is_judged_by_its_whole_square() {
         let (phase, w, h) = map();
         let view = MapView::new(&phase, w, h, 3, 2);
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = Rng::new(7);
+        let mut next = || rng.uniform();
         let (mut mixed, mut decided) = (0, 0);
         for _ in 0..4000 {
             // Map positions over the map and a pixel beyond it.

@@ -155,11 +155,12 @@ fn dilate<T: Copy>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    /// A map with holes and an edge, and its values at the positions `(i, j)` (`None` off it).
-    fn map() -> (Vec<f32>, usize, usize) {
+    /// A 23 × 17 map with holes (NaN: a tenth of the samples at random and the corner
+    /// `i + j < 6`), a smooth phase elsewhere (the tests of [`super::super::map_view`] too).
+    pub(in crate::compiled) fn map() -> (Vec<f32>, usize, usize) {
         let (w, h) = (23, 17);
         let mut seed = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = || {
