@@ -35,13 +35,21 @@ for spec in thumbv7m-none-eabi:mps2-an385:cortex-m3 thumbv7em-none-eabihf:mps2-a
       echo "$target $machine $b case $c: $(((n1 - n0) / (REPS * WIDTH))) instructions/pixel"
     done
   done
-  # The compiled reconstruction (core/src/reconstruct/compiled/parity.rs, 256 pixels a row).
+  # The compiled reconstruction (core/src/reconstruct/compiled/parity.rs, 256 pixels a row):
+  # the kernel alone, then as a head runs it, from the row's bytes in its store (the conversion
+  # first), then as at a head's first scan of new models (the conversion and the settle).
   ccount() {
     qemu-system-arm -machine "$machine" -cpu "$cpu" -nographic \
-      -semihosting-config "enable=on,target=native,arg=bench,arg=count-compiled,arg=$1" \
+      -semihosting-config "enable=on,target=native,arg=bench,arg=$1,arg=$2" \
       -plugin "$PLUGIN" -d plugin -kernel "$elf" 2>&1 | sed -n 's/^insns: //p'
   }
-  n0=$(ccount 0)
-  n1=$(ccount "$REPS")
+  n0=$(ccount count-compiled 0)
+  n1=$(ccount count-compiled "$REPS")
   echo "$target $machine compiled reconstruction: $(((n1 - n0) / (REPS * WIDTH))) instructions/pixel"
+  n0=$(ccount count-compiled-bytes 0)
+  n1=$(ccount count-compiled-bytes "$REPS")
+  echo "$target $machine compiled reconstruction from the row's bytes: $(((n1 - n0) / (REPS * WIDTH))) instructions/pixel"
+  n0=$(ccount count-compiled-settle 0)
+  n1=$(ccount count-compiled-settle "$REPS")
+  echo "$target $machine compiled reconstruction from the row's bytes, settled: $(((n1 - n0) / (REPS * WIDTH))) instructions/pixel"
 done

@@ -17,6 +17,7 @@ use fringe3d::compiled::CompiledFile;
 use fringe3d::device::{Client, DeviceError, open_serial};
 use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d_core::math::canonical;
+use fringe3d_core::reconstruct::compiled::FIELDS;
 use fringe3d_core::wire::{Holds, NakCode, ValidationStatus};
 
 use crate::head_pty::{
@@ -129,6 +130,32 @@ fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
     c.configure_sequence(0, false, &case.seq).unwrap();
     assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
     assert_desktop_bits(&scan_both(&mut c), &case.dec, &compiled);
+    // The first scan found every row settled: the second reads them as they are, the same bits.
+    assert_desktop_bits(&scan_both(&mut c), &case.dec, &compiled);
+    // Models a foreign host might send: pixels left to the search given a neighbour's finite
+    // numbers with a NaN d₂ (usable in nothing but their scale: `PixelModel::from_array` makes
+    // them the search's again). The head must settle them at every scan, not only the first.
+    let (wu, mut data2, mut unsettled) = (w as usize, file.models.clone(), 0);
+    for v in 0..h as usize {
+        let row = &mut data2[v * FIELDS * wu..(v + 1) * FIELDS * wu];
+        for u in 0..wu - 1 {
+            let (k, k_next) = (row[3 * wu + u], row[3 * wu + u + 1]);
+            if k.is_nan() && k_next.is_finite() && k_next != 0.0 && unsettled < 200 {
+                for f in 0..FIELDS {
+                    row[f * wu + u] = row[f * wu + u + 1];
+                }
+                row[7 * wu + u] = f32::NAN;
+                unsettled += 1;
+            }
+        }
+    }
+    assert!(unsettled >= 20, "{unsettled} models to settle");
+    let data2: Vec<u8> = data2.iter().flat_map(|v| v.to_le_bytes()).collect();
+    c.upload_compiled(w, h, z, &data2, &mut |_, _| {}).unwrap();
+    for _ in 0..3 {
+        assert_desktop_bits(&scan_both(&mut c), &case.dec, &compiled);
+    }
+    c.upload_compiled(w, h, z, &data, &mut |_, _| {}).unwrap();
     // The map again: the models were compiled from the map it replaces, so the head forgets
     // them and scans with the search.
     c.upload_phase_map(w, h, case.margin, &case.map, &mut |_, _| {})

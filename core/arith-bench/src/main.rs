@@ -10,6 +10,10 @@
 //!   print its digest. Instructions per pixel are the difference of the instruction counts of
 //!   `reps = R` and `reps = 0` (QEMU plugin `qemu/insn_count.c`) over `R·WIDTH` pixels.
 //! * `count-compiled <reps>` — the same for the compiled reconstruction's row.
+//! * `count-compiled-bytes <reps>` — the same row as a scan head runs it from its store: its
+//!   models taken from their bytes first ([`compiled::run_from_bytes`]).
+//! * `count-compiled-settle <reps>` — the same, the row settled after the conversion (a head's
+//!   first scan of newly uploaded models).
 #![no_std]
 #![no_main]
 
@@ -78,7 +82,19 @@ fn run(out: &mut hio::HostStream, args: &str) -> Result<(), &'static str> {
             let _ = writeln!(out, "count-compiled {} {:016x}", reps, compiled::run(reps));
             Ok(())
         }
-        _ => Err("usage: parity | count <backend> <case> <reps> | count-compiled <reps>"),
+        Some(cmd @ ("count-compiled-bytes" | "count-compiled-settle")) => {
+            let reps: u32 = w
+                .next()
+                .and_then(|s| s.parse().ok())
+                .ok_or("count-compiled-bytes/settle: bad repetitions")?;
+            let d = compiled::run_from_bytes(reps, cmd == "count-compiled-settle");
+            let _ = writeln!(out, "{} {} {:016x}", cmd, reps, d);
+            Ok(())
+        }
+        _ => Err(
+            "usage: parity | count <backend> <case> <reps> | count-compiled <reps> \
+             | count-compiled-bytes <reps> | count-compiled-settle <reps>",
+        ),
     }
 }
 

@@ -107,6 +107,9 @@ pub(super) struct PendingScan {
     /// The compiled models' announcement (they lie at [`compiled_base`] of the map store), with
     /// `recon`.
     pub(super) compiled: Option<BeginCompiled>,
+    /// Whether a whole earlier scan found every row of those models settled: this one reads
+    /// them as they are, without `PixelModel::settle_row_counted`.
+    pub(super) compiled_settled: bool,
     pub(super) filter: Option<EdgeFilter>,
     /// The exposure list (HDR): the sequence runs once per exposure.
     pub(super) exposures: Exposures,
@@ -125,6 +128,10 @@ pub(super) struct Control {
     /// The confirmed compiled models' announcement, if any (forgotten with the calibration or
     /// the map they were compiled from).
     pub(super) compiled_confirmed: Option<BeginCompiled>,
+    /// The confirmed compiled models whose every row a whole scan found settled
+    /// (`PixelModel::settle_row_counted` changed nothing): later scans read their rows as they
+    /// are. Forgotten with them and at every new upload.
+    pub(super) compiled_settled: Option<BeginCompiled>,
     pub(super) calibration: Option<Calibration>,
     /// The last point scan's reconstructor (for its pattern set's axis and the map's margin),
     /// kept so that the next scan of the same kind skips its set-up (the grid analysis, in
@@ -164,6 +171,7 @@ impl Control {
             map_confirmed: None,
             compiled_upload: None,
             compiled_confirmed: None,
+            compiled_settled: None,
             calibration: None,
             recon_cache: None,
             lut: None,
@@ -322,6 +330,7 @@ impl Control {
     pub(super) fn drop_compiled(&mut self) {
         self.compiled_upload = None;
         self.compiled_confirmed = None;
+        self.compiled_settled = None;
     }
 
     pub(super) fn upload_mut(&mut self, t: UploadTarget) -> Option<&mut Upload> {

@@ -20,7 +20,13 @@ use crate::memory::{COMPILED_LINE_PER_COLUMN, HeadMemory};
 
 /// How a scan ended.
 enum ScanEnd {
-    Done { rows: u16, valid: u32 },
+    /// `models_settled`: the scan read every row of its compiled models and settled none
+    /// (`Control::compiled_settled`).
+    Done {
+        rows: u16,
+        valid: u32,
+        models_settled: bool,
+    },
     Aborted,
 }
 
@@ -40,8 +46,15 @@ pub(super) fn run<B: BoardIo, T: Read + ReadReady + Write>(
     ctl.abort = false;
     let cmd = Command::Scan as u8;
     match res {
-        Ok(ScanEnd::Done { rows, valid }) => {
+        Ok(ScanEnd::Done {
+            rows,
+            valid,
+            models_settled,
+        }) => {
             ctl.validated = true;
+            if models_settled && ctl.compiled_confirmed == sc.compiled {
+                ctl.compiled_settled = sc.compiled;
+            }
             tx.reply(
                 io,
                 sc.seq,
@@ -229,6 +242,8 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
                     z: (c.z_min, c.z_max),
                 },
                 row: models,
+                settle: !sc.compiled_settled,
+                settled_rows: 0,
                 search_xyz,
                 search_codes,
                 mask,
@@ -353,7 +368,15 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
             link.ctl.rows_sent = link.ctl.rows_sent.wrapping_add(1);
         }
     }
-    Ok(ScanEnd::Done { rows: sent, valid })
+    // Every row of the models read, none changed: later scans need not settle them.
+    let models_settled = compiled
+        .as_ref()
+        .is_some_and(|cp| cp.settle && lo == 0 && usize::from(cp.settled_rows) >= h);
+    Ok(ScanEnd::Done {
+        rows: sent,
+        valid,
+        models_settled,
+    })
 }
 
 /// Where the compiled models lie in the map store and what they were compiled for.
@@ -372,14 +395,22 @@ struct Models {
 struct CompiledPass<'a> {
     models: Models,
     row: &'a mut [f32],
+    /// Settle each row read ([`PixelModel::settle_row_counted`]): until a whole scan has found
+    /// every row of these models settled.
+    settle: bool,
+    /// Rows read and found settled, from the top, while none needed a change.
+    settled_rows: u16,
     search_xyz: &'a mut [f32],
     search_codes: &'a mut [u8],
     mask: &'a mut [u8],
 }
 
 impl CompiledPass<'_> {
-    /// Read camera row `y`'s models from `store` into the staged row (the models that are not
-    /// usable become the search's, [`PixelModel::settle_row`]).
+    /// Read camera row `y`'s models from `store` into the staged row; while `settle`, make the
+    /// models that are not usable the search's ([`PixelModel::settle_row_counted`]) and count
+    /// the rows found settled. Once a whole scan has found them all settled (as `fringe3d`
+    /// uploads them), the head reads its rows as they are: the settle cost a Cortex-M4F about
+    /// as much as the kernel (docs/compiled.md).
     fn row_into<S: Storage>(&mut self, store: &mut S, y: u16) -> Result<(), ScanFail> {
         let m = self.models;
         let at = u32::from(y)
@@ -387,7 +418,13 @@ impl CompiledPass<'_> {
             .and_then(|o| o.checked_add(m.base))
             .ok_or(HwError::Storage)?;
         read_f32s(store, at, self.row)?;
-        PixelModel::settle_row(self.row).ok_or(ScanFail::Internal)
+        if self.settle {
+            let changed = PixelModel::settle_row_counted(self.row).ok_or(ScanFail::Internal)?;
+            if changed == 0 && y == self.settled_rows {
+                self.settled_rows = self.settled_rows.saturating_add(1);
+            }
+        }
+        Ok(())
     }
 
     /// Point row `y` from its phases: the compiled models' points, and the §6 search's for the

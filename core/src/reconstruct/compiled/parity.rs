@@ -83,9 +83,49 @@ pub fn run(reps: u32) -> u64 {
         left = compiled_row(&models, z0, z1, &phase, &codes, &mut xyz, &mut out).unwrap_or(0);
         core::hint::black_box((&mut xyz, &mut out));
     }
+    digest(&xyz, &out, left)
+}
+
+/// [`run`] as a scan head runs a row it reads from its store: each repetition first takes the
+/// row's models from their little-endian bytes, settles them when `settle` is set
+/// ([`PixelModel::settle_row_counted`], which a head does at its first scan of newly uploaded
+/// models, then only where that scan found a model to change), then runs the kernel. The same
+/// digest as [`run`]; the differences of their instruction counts are what the conversion and
+/// the settle add to each pixel of a head's scan.
+pub fn run_from_bytes(reps: u32, settle: bool) -> u64 {
+    let mut models = [0f32; FIELDS * WIDTH];
+    let mut phase = [0f32; WIDTH];
+    let mut codes = [0u8; WIDTH];
+    inputs(&mut models, &mut phase, &mut codes);
+    let mut bytes = [0u8; 4 * FIELDS * WIDTH];
+    for (b, v) in bytes.chunks_exact_mut(4).zip(&models) {
+        b.copy_from_slice(&v.to_le_bytes());
+    }
+    let mut xyz = [0f32; 3 * WIDTH];
+    let mut out = [0u8; WIDTH];
+    let mut left = 0usize;
+    for _ in 0..reps {
+        let (z0, z1) = Z_RANGE;
+        for (m, b) in models
+            .iter_mut()
+            .zip(core::hint::black_box(&bytes).chunks_exact(4))
+        {
+            *m = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        }
+        if settle && PixelModel::settle_row_counted(&mut models).is_none() {
+            return 0;
+        }
+        left = compiled_row(&models, z0, z1, &phase, &codes, &mut xyz, &mut out).unwrap_or(0);
+        core::hint::black_box((&mut xyz, &mut out));
+    }
+    digest(&xyz, &out, left)
+}
+
+/// The digest of a row's points, codes and count of pixels left to the search.
+fn digest(xyz: &[f32], out: &[u8], left: usize) -> u64 {
     let mut d = Digest::default();
-    d.f32s(&xyz);
-    d.bytes(&out);
+    d.f32s(xyz);
+    d.bytes(out);
     d.bytes(&(left as u32).to_le_bytes());
     d.0
 }
@@ -94,6 +134,15 @@ pub fn run(reps: u32) -> u64 {
 mod tests {
     use super::*;
     use crate::validity::Validity;
+
+    #[test]
+    fn the_row_read_from_its_bytes_gives_the_same_digest() {
+        for settle in [false, true] {
+            assert_eq!(run_from_bytes(1, settle), run(1));
+            assert_eq!(run_from_bytes(3, settle), run(3));
+            assert_ne!(run_from_bytes(1, settle), run_from_bytes(0, settle));
+        }
+    }
 
     #[test]
     fn the_row_meets_every_case() {
