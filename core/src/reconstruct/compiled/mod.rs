@@ -51,8 +51,10 @@
 
 pub mod parity;
 mod search;
+mod settle;
 
 pub use search::{SearchScratch, merge_search, next_search_span, search_mask};
+pub use settle::SETTLE_CHUNK;
 
 use crate::math::{CANONICAL_NAN, canonical, fabs};
 use crate::validity::Validity;
@@ -252,50 +254,6 @@ impl PixelModel {
         Some(PixelModel::from_array(core::array::from_fn(|k| {
             row[k * w + u]
         })))
-    }
-
-    /// Read one row of models from its bytes (`FIELDS × w` little-endian f32, field by field:
-    /// how a head takes a row from its flash or its link) into `row` (`FIELDS × w` values),
-    /// then make every model that is not usable [`PixelModel::SEARCH`] (and every
-    /// [`PixelModel::NO_REFERENCE`] canonical), as [`PixelModel::from_array`]. `None` when the
-    /// lengths differ.
-    pub fn parse_row(bytes: &[u8], row: &mut [f32]) -> Option<()> {
-        if bytes.len() != 4 * row.len() || !row.len().is_multiple_of(FIELDS) {
-            return None;
-        }
-        for (v, c) in row.iter_mut().zip(bytes.chunks_exact(4)) {
-            *v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-        }
-        PixelModel::settle_row(row)
-    }
-
-    /// Make every model of a row stored field by field ([`PixelModel::store`]) that is not
-    /// usable [`PixelModel::SEARCH`] (and every [`PixelModel::NO_REFERENCE`] canonical), as
-    /// [`PixelModel::from_array`]: the second step of [`PixelModel::parse_row`], for a head that
-    /// reads a row's values in pieces. `None` when the row is not a whole number of models.
-    pub fn settle_row(row: &mut [f32]) -> Option<()> {
-        PixelModel::settle_row_counted(row).map(|_| ())
-    }
-
-    /// [`PixelModel::settle_row`], counting the models whose bits it changed: 0 for a row
-    /// already settled (as `fringe3d` writes and uploads them). A head that finds every row of
-    /// its models settled once may skip the settle at its later scans.
-    pub fn settle_row_counted(row: &mut [f32]) -> Option<usize> {
-        if !row.len().is_multiple_of(FIELDS) {
-            return None;
-        }
-        let w = row.len() / FIELDS;
-        let mut changed = 0;
-        for u in 0..w {
-            let m = PixelModel::load(row, u)?;
-            if !m.is_compiled() {
-                let before = (0..FIELDS).map(|k| row.get(k * w + u).map(|v| v.to_bits()));
-                let after = m.to_array().map(f32::to_bits);
-                changed += usize::from(!before.zip(after).all(|(b, a)| b == Some(a)));
-                m.store(row, u)?;
-            }
-        }
-        Some(changed)
     }
 
     /// The f64 reference of the function: the depth `s` for phase `phase`, `None` outside

@@ -282,3 +282,73 @@ fn settle_counts_the_models_it_changes() {
         None
     );
 }
+
+#[test]
+fn field_by_field_settles_as_pixel_by_pixel() {
+    // Models of every kind with up to three fields replaced by a special value (NaN of either
+    // sign and any payload, ±∞, ±0, a negative number, values below 1 for τ_far), in rows
+    // narrower and wider than a chunk: the same bits and the same count as the reference.
+    let specials = [
+        f32::NAN,
+        -f32::NAN,
+        f32::from_bits(0x7fa0_0001),
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        0.0,
+        -0.0,
+        -3.5,
+        0.5,
+        1.0,
+        f32::MAX,
+        f32::MIN_POSITIVE,
+    ];
+    // Knuth's MMIX LCG, its high bits folded in.
+    let mut state = 7u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        state ^ (state >> 29)
+    };
+    let mut changed = 0;
+    for w in [
+        1,
+        7,
+        SETTLE_CHUNK,
+        SETTLE_CHUNK + 1,
+        3 * SETTLE_CHUNK - 5,
+        200,
+    ] {
+        for _ in 0..40 {
+            let mut buf = [0f32; FIELDS * 200];
+            let row = &mut buf[..FIELDS * w];
+            for u in 0..w {
+                let r = next();
+                let mut m = model();
+                if r & 256 != 0 {
+                    m.phase_scale = -m.phase_scale;
+                    m.far = if r & 512 != 0 { 1.3 } else { f32::INFINITY };
+                }
+                m.store(row, u).unwrap();
+                for _ in 0..(r >> 10) % 4 {
+                    let s = next();
+                    let f = (s % FIELDS as u64) as usize;
+                    row[f * w + u] = specials[(s >> 16) as usize % specials.len()];
+                }
+            }
+            let (mut a, mut b) = (buf, buf);
+            let (a, b) = (&mut a[..FIELDS * w], &mut b[..FIELDS * w]);
+            let n = PixelModel::settle_row_counted(a);
+            assert_eq!(n, PixelModel::settle_row_by_pixel(b), "width {w}");
+            let same =
+                |x: &[f32], y: &[f32]| x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits());
+            assert!(same(a, b), "width {w}");
+            changed += n.unwrap();
+        }
+    }
+    // The rows did hold models to settle.
+    assert!(changed > 500, "{changed}");
+    let mut odd = [0f32; FIELDS + 1];
+    assert_eq!(PixelModel::settle_row_counted(&mut odd), None);
+    assert_eq!(PixelModel::settle_row_by_pixel(&mut odd), None);
+}
