@@ -135,6 +135,20 @@ impl Qemu {
     fn console(&self) -> String {
         self.console.lock().unwrap().clone()
     }
+
+    /// The console once it holds `n` copies of `line` (or after 10 s, whatever it holds): the
+    /// head prints its report of a scan after sending the scan's last answer, so the host can be
+    /// done before the line reaches the console's reader.
+    fn console_with(&self, line: &str, n: usize) -> String {
+        let until = Instant::now() + Duration::from_secs(10);
+        loop {
+            let c = self.console();
+            if c.matches(line).count() >= n || Instant::now() > until {
+                return c;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
 }
 
 impl Drop for Qemu {
@@ -456,7 +470,7 @@ fn emulated_head_through_qemu_serial_pty_scans_bit_identically_to_the_desktop() 
         .concat(),
     );
     fringe3d(&[&["device", "info"][..], &port_args[..]].concat());
-    let console = qemu.console();
+    let console = qemu.console_with(&format!("scan: {h} rows sent"), 3);
     drop(qemu);
     eprintln!(
         "upload of {} pattern bytes, calibration and {} map bytes (margin {:?}): {t_up:.1} s; scan of {w}x{h} (phase and filtered points): {t_scan:.1} s",
@@ -602,7 +616,7 @@ fn compiled_models_reconstruct_on_the_emulated_head_bit_identically() {
         ]
         .concat(),
     );
-    let console = qemu.console();
+    let console = qemu.console_with(&format!("scan: {h} rows sent"), 1);
     drop(qemu);
     eprintln!(
         "compiled: {models} of {} pixels have a model, {differ} points differ from the search's; \
