@@ -12,6 +12,7 @@ mod arith_default_bits;
 mod arith_parity;
 mod arith_qemu;
 mod camera_model;
+mod compiled_kernel;
 mod decode_accuracy;
 mod decode_coprime;
 mod decode_correction;

@@ -128,10 +128,10 @@ pub(super) struct Control {
     /// The confirmed compiled models' announcement, if any (forgotten with the calibration or
     /// the map they were compiled from).
     pub(super) compiled_confirmed: Option<BeginCompiled>,
-    /// The confirmed compiled models whose every row a whole scan found settled
+    /// Whether a whole scan found every row of the confirmed compiled models settled
     /// (`PixelModel::settle_row_counted` changed nothing): later scans read their rows as they
     /// are. Forgotten with them and at every new upload.
-    pub(super) compiled_settled: Option<BeginCompiled>,
+    pub(super) compiled_settled: bool,
     pub(super) calibration: Option<Calibration>,
     /// The last point scan's reconstructor (for its pattern set's axis and the map's margin),
     /// kept so that the next scan of the same kind skips its set-up (the grid analysis, in
@@ -171,7 +171,7 @@ impl Control {
             map_confirmed: None,
             compiled_upload: None,
             compiled_confirmed: None,
-            compiled_settled: None,
+            compiled_settled: false,
             calibration: None,
             recon_cache: None,
             lut: None,
@@ -330,7 +330,7 @@ impl Control {
     pub(super) fn drop_compiled(&mut self) {
         self.compiled_upload = None;
         self.compiled_confirmed = None;
-        self.compiled_settled = None;
+        self.compiled_settled = false;
     }
 
     pub(super) fn upload_mut(&mut self, t: UploadTarget) -> Option<&mut Upload> {

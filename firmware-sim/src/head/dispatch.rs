@@ -367,7 +367,7 @@ fn dispatch<T: Write, B: BoardIo>(
                 _ => {
                     ctl.compiled_upload = Some(Upload { key, next: 0 });
                     ctl.compiled_confirmed = None;
-                    ctl.compiled_settled = None;
+                    ctl.compiled_settled = false;
                     0
                 }
             };
@@ -449,7 +449,7 @@ fn dispatch<T: Write, B: BoardIo>(
                 }
                 UploadTarget::Compiled => {
                     ctl.compiled_upload = None;
-                    ctl.compiled_settled = None;
+                    ctl.compiled_settled = false;
                     ctl.compiled_confirmed = match u.key {
                         UploadKey::Compiled(c) => Some(c),
                         _ => None,

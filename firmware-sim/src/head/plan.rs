@@ -120,8 +120,7 @@ pub(super) fn plan_scan(
         // The compiled models stand in for the search where they have a function; a scan of
         // phases only has no use for them.
         compiled: ctl.compiled_confirmed.filter(|_| points),
-        compiled_settled: ctl.compiled_settled.is_some()
-            && ctl.compiled_settled == ctl.compiled_confirmed,
+        compiled_settled: ctl.compiled_settled,
         filter,
         exposures: req.exposures,
     })

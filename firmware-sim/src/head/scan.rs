@@ -52,8 +52,9 @@ pub(super) fn run<B: BoardIo, T: Read + ReadReady + Write>(
             models_settled,
         }) => {
             ctl.validated = true;
+            // Unless the models were replaced while it ran.
             if models_settled && ctl.compiled_confirmed == sc.compiled {
-                ctl.compiled_settled = sc.compiled;
+                ctl.compiled_settled = true;
             }
             tx.reply(
                 io,
@@ -371,7 +372,7 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
     // Every row of the models read, none changed: later scans need not settle them.
     let models_settled = compiled
         .as_ref()
-        .is_some_and(|cp| cp.settle && lo == 0 && usize::from(cp.settled_rows) >= h);
+        .is_some_and(|cp| usize::from(cp.settled_rows) >= h);
     Ok(ScanEnd::Done {
         rows: sent,
         valid,
@@ -398,7 +399,8 @@ struct CompiledPass<'a> {
     /// Settle each row read ([`PixelModel::settle_row_counted`]): until a whole scan has found
     /// every row of these models settled.
     settle: bool,
-    /// Rows read and found settled, from the top, while none needed a change.
+    /// Rows read and found settled, from the top, while none needed a change (with `settle`
+    /// only: 0 otherwise).
     settled_rows: u16,
     search_xyz: &'a mut [f32],
     search_codes: &'a mut [u8],

@@ -369,8 +369,8 @@ fn fit_pixel(cal: &Source<'_>, u: usize, v: usize, tol: f64) -> Result<(PixelMod
     for widen in [WIDEN, 0.0] {
         let d = widen * (s.z_max - s.z_min);
         // The widened attempt is dropped unless it fits within `tol`: its check may stop at the
-        // first error above it. The range's own attempt is checked to the end (its fit error
-        // is reported).
+        // first error above it. The range's own attempt is checked to the end: a sample off the
+        // map farther on sends the pixel to the clipped attempt below instead.
         let give_up = if widen > 0.0 { tol } else { f64::INFINITY };
         last = fit_range(&ray, s.z_min - d, s.z_max + d, false, give_up);
         if matches!(last, Ok((_, fit)) if fit <= tol) {
@@ -390,7 +390,7 @@ fn fit_pixel(cal: &Source<'_>, u: usize, v: usize, tol: f64) -> Result<(PixelMod
 
 /// Fit a pixel's model over depths `[z_lo, z_hi]` (steps 1 and 2). The dense check stops once
 /// the fit error exceeds `give_up_above` (that error is returned; a caller that drops the model
-/// then passes its tolerance, one that reports the error +∞).
+/// then passes its tolerance, one that must know whether the segment leaves the map +∞).
 fn fit_range(
     ray: &Ray<'_>,
     z_lo: f64,

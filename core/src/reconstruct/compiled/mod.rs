@@ -498,6 +498,3 @@ pub fn compiled_row_inline(
     }
     Ok(search)
 }
-
-#[cfg(test)]
-mod tests;

@@ -87,7 +87,7 @@ pub fn run(reps: u32) -> u64 {
 }
 
 /// [`run`] as a scan head runs a row it reads from its store: each repetition first takes the
-/// row's models from their little-endian bytes, settles them when `settle` is set
+/// row's models from their little-endian bytes ([`PixelModel::read_row`]), settles them when `settle` is set
 /// ([`PixelModel::settle_row_counted`], which a head does at its first scan of newly uploaded
 /// models, then only where that scan found a model to change), then runs the kernel. The same
 /// digest as [`run`]; the differences of their instruction counts are what the conversion and
@@ -106,13 +106,8 @@ pub fn run_from_bytes(reps: u32, settle: bool) -> u64 {
     let mut left = 0usize;
     for _ in 0..reps {
         let (z0, z1) = Z_RANGE;
-        for (m, b) in models
-            .iter_mut()
-            .zip(core::hint::black_box(&bytes).chunks_exact(4))
-        {
-            *m = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-        }
-        if settle && PixelModel::settle_row_counted(&mut models).is_none() {
+        let read = PixelModel::read_row(core::hint::black_box(&bytes), &mut models);
+        if read.is_none() || (settle && PixelModel::settle_row_counted(&mut models).is_none()) {
             return 0;
         }
         left = compiled_row(&models, z0, z1, &phase, &codes, &mut xyz, &mut out).unwrap_or(0);

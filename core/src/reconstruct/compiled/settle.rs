@@ -27,13 +27,21 @@ impl PixelModel {
     /// [`PixelModel::NO_REFERENCE`] canonical), as [`PixelModel::from_array`]. `None` when the
     /// lengths differ.
     pub fn parse_row(bytes: &[u8], row: &mut [f32]) -> Option<()> {
+        PixelModel::read_row(bytes, row)?;
+        PixelModel::settle_row(row)
+    }
+
+    /// The first step of [`PixelModel::parse_row`] alone: the row's values from their bytes, as
+    /// they are (for a reader that knows its rows settled, or settles them itself). `None` when
+    /// the lengths differ.
+    pub fn read_row(bytes: &[u8], row: &mut [f32]) -> Option<()> {
         if bytes.len() != 4 * row.len() || !row.len().is_multiple_of(FIELDS) {
             return None;
         }
         for (v, c) in row.iter_mut().zip(bytes.chunks_exact(4)) {
             *v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
         }
-        PixelModel::settle_row(row)
+        Some(())
     }
 
     /// Make every model of a row stored field by field ([`PixelModel::store`]) that is not

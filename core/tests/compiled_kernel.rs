@@ -1,6 +1,9 @@
-//! The kernel and the model's encoding against their f64 references.
+//! The compiled reconstruction's kernel (`reconstruct::compiled`), the model's encoding and the
+//! settle of a row, against their f64 and pixel-by-pixel references.
 
-use super::*;
+use fringe3d_core::Validity;
+use fringe3d_core::math::CANONICAL_NAN;
+use fringe3d_core::reconstruct::compiled::*;
 
 fn model() -> PixelModel {
     PixelModel {
