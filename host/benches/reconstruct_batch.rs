@@ -56,6 +56,7 @@ fn bench(c: &mut Criterion) {
                 PointsOut {
                     xyz: &mut xyz2,
                     validity: &mut val2,
+                    searched: None,
                 },
                 isa,
                 par,
@@ -77,6 +78,7 @@ fn bench(c: &mut Criterion) {
                         PointsOut {
                             xyz: &mut xyz2,
                             validity: &mut val2,
+                            searched: None,
                         },
                         isa,
                         par,
@@ -147,6 +149,7 @@ fn bench(c: &mut Criterion) {
                     PointsOut {
                         xyz: x,
                         validity: v,
+                        searched: None,
                     },
                     isa,
                     par,

@@ -114,6 +114,7 @@ fn by_bands(
         let points = PointsOut {
             xyz: &mut xyz[3 * r.start..3 * r.end],
             validity: &mut codes[r],
+            searched: None,
         };
         let (phase, decoded) = (&s.phase[..n], &s.decoded[..n]);
         cal.reconstruct_rows(map, y0, phase, decoded, points, &mut s.models, isa)
@@ -157,6 +158,7 @@ fn by_frames(
         PointsOut {
             xyz: &mut s.xyz,
             validity: &mut s.codes,
+            searched: None,
         },
         isa,
         false,

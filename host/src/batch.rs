@@ -18,6 +18,7 @@ use fringe3d_core::reconstruct::compiled::{FIELDS, SearchScratch, compiled_row_i
 use fringe3d_core::reconstruct::{
     CellGather, ReconstructError, Reconstructor, ReferenceMap, ReferenceRows, ScalarGather,
 };
+use fringe3d_core::validity::Validity;
 use rayon::prelude::*;
 
 /// Which compiled variant of the kernel runs.
@@ -397,6 +398,11 @@ pub struct PointsOut<'a> {
     pub xyz: &'a mut [f32],
     /// Validity codes.
     pub validity: &'a mut [u8],
+    /// One count per row, when wanted: the pixels whose point the §6 search computed. Without
+    /// compiled models every pixel with a valid input code; with them, those their models
+    /// left to the search ([`compiled_row_inline`]'s count). A compiled scan's fallback rate is
+    /// their sum over the valid input pixels.
+    pub searched: Option<&'a mut [u32]>,
 }
 
 /// Compiled models standing in for the search pixel by pixel ([`crate::compiled`]): the
@@ -469,13 +475,19 @@ pub fn reconstruct_frame_compiled(
         phase,
         validity,
     };
-    let job = |(k, (o, ov)): (usize, (&mut [f32], &mut [u8]))| {
-        recon_rows_dispatch(isa, &f, k * ROWS_PER_TASK, o, ov)
-    };
+    type Task<'t> = (
+        usize,
+        ((&'t mut [f32], &'t mut [u8]), Option<&'t mut [u32]>),
+    );
+    let job =
+        |(k, ((o, ov), n)): Task<'_>| recon_rows_dispatch(isa, &f, k * ROWS_PER_TASK, o, ov, n);
+    let mut counts = out.searched.map(|s| s.chunks_mut(ROWS_PER_TASK));
+    let counts = std::iter::from_fn(move || Some(counts.as_mut().and_then(|c| c.next())));
     let mut rows = out
         .xyz
         .chunks_mut(3 * w * ROWS_PER_TASK)
         .zip(out.validity.chunks_mut(w * ROWS_PER_TASK))
+        .zip(counts)
         .enumerate();
     if parallel {
         rows.par_bridge().try_for_each(job)
@@ -485,7 +497,9 @@ pub fn reconstruct_frame_compiled(
 }
 
 /// Reconstruct the rows `v0..` whose outputs are `xyz` (3 × width per row) and `codes` (width
-/// per row); `g` fetches the reference samples (the same values, and bits, whichever it is).
+/// per row), and when `searched` is given (one per row) the pixels of each that the search
+/// computed ([`PointsOut::searched`]); `g` fetches the reference samples (the same values, and
+/// bits, whichever it is).
 #[inline(always)]
 fn recon_rows<G: CellGather, R: ReferenceRows + ?Sized>(
     g: G,
@@ -493,6 +507,7 @@ fn recon_rows<G: CellGather, R: ReferenceRows + ?Sized>(
     v0: usize,
     xyz: &mut [f32],
     codes: &mut [u8],
+    mut searched: Option<&mut [u32]>,
 ) -> Result<(), ReconstructError> {
     let w = f.recon.width();
     // The search's pass over a compiled row's leftovers: allocated at the first one.
@@ -501,7 +516,12 @@ fn recon_rows<G: CellGather, R: ReferenceRows + ?Sized>(
         let v = v0 + j;
         let r = (v - f.base) * w..(v - f.base + 1) * w;
         let (p, q) = (&f.phase[r.clone()], &f.validity[r]);
+        let count = searched.as_deref_mut().and_then(|s| s.get_mut(j));
         let Some(c) = f.compiled else {
+            if let Some(n) = count {
+                let valid = q.iter().filter(|&&c| c == Validity::Valid as u8).count();
+                *n = valid as u32;
+            }
             f.recon
                 .reconstruct_row_gather(g, f.map, v as u32, p, q, o, ov)?;
             continue;
@@ -513,6 +533,9 @@ fn recon_rows<G: CellGather, R: ReferenceRows + ?Sized>(
             .ok_or(ReconstructError::Length)?;
         let n = compiled_row_inline(models, c.z_min, c.z_max, p, q, o, ov)
             .map_err(|_| ReconstructError::Length)?;
+        if let Some(k) = count {
+            *k = n as u32;
+        }
         if n == 0 {
             continue;
         }
@@ -538,8 +561,9 @@ fn recon_rows_avx2<R: ReferenceRows + ?Sized>(
     v0: usize,
     xyz: &mut [f32],
     codes: &mut [u8],
+    searched: Option<&mut [u32]>,
 ) -> Result<(), ReconstructError> {
-    recon_rows(g, f, v0, xyz, codes)
+    recon_rows(g, f, v0, xyz, codes, searched)
 }
 
 /// [`recon_rows`] compiled with AVX-512.
@@ -551,8 +575,9 @@ fn recon_rows_avx512<R: ReferenceRows + ?Sized>(
     v0: usize,
     xyz: &mut [f32],
     codes: &mut [u8],
+    searched: Option<&mut [u32]>,
 ) -> Result<(), ReconstructError> {
-    recon_rows(g, f, v0, xyz, codes)
+    recon_rows(g, f, v0, xyz, codes, searched)
 }
 
 fn recon_rows_dispatch<R: ReferenceRows + ?Sized>(
@@ -561,24 +586,25 @@ fn recon_rows_dispatch<R: ReferenceRows + ?Sized>(
     v0: usize,
     xyz: &mut [f32],
     codes: &mut [u8],
+    searched: Option<&mut [u32]>,
 ) -> Result<(), ReconstructError> {
     match isa.effective() {
         #[cfg(all(target_arch = "x86_64", fringe3d_avx512))]
         Isa::Avx512 => match Avx512Pairs::detect() {
             // SAFETY: `effective` returned Avx512, so the CPU has every feature the function
             // enables (checked by `Isa::available`), the only requirement of `target_feature`.
-            Some(g) => unsafe { recon_rows_avx512(g, f, v0, xyz, codes) },
-            None => recon_rows(ScalarGather, f, v0, xyz, codes),
+            Some(g) => unsafe { recon_rows_avx512(g, f, v0, xyz, codes, searched) },
+            None => recon_rows(ScalarGather, f, v0, xyz, codes, searched),
         },
         #[cfg(target_arch = "x86_64")]
         Isa::Avx2 => match Avx2Pairs::detect() {
             // SAFETY: `effective` returned Avx2, so the CPU supports AVX2 (checked by
             // `Isa::available`), the only requirement of a `#[target_feature(enable = "avx2")]`
             // function.
-            Some(g) => unsafe { recon_rows_avx2(g, f, v0, xyz, codes) },
-            None => recon_rows(ScalarGather, f, v0, xyz, codes),
+            Some(g) => unsafe { recon_rows_avx2(g, f, v0, xyz, codes, searched) },
+            None => recon_rows(ScalarGather, f, v0, xyz, codes, searched),
         },
-        _ => recon_rows(ScalarGather, f, v0, xyz, codes),
+        _ => recon_rows(ScalarGather, f, v0, xyz, codes, searched),
     }
 }
 
@@ -647,8 +673,11 @@ fn check_rows(
     let w = recon.width();
     let n = phase.len();
     let rows_fit = w > 0 && n.is_multiple_of(w) && v0 + n / w <= recon.height();
-    let same = validity.len() == n && out.xyz.len() == 3 * n && out.validity.len() == n;
     let rows = n / w.max(1);
+    let same = validity.len() == n
+        && out.xyz.len() == 3 * n
+        && out.validity.len() == n
+        && out.searched.as_ref().is_none_or(|s| s.len() == rows);
     let models = compiled.is_none_or(|c| {
         let held = c.models.len() / (FIELDS * w).max(1);
         c.models.len().is_multiple_of((FIELDS * w).max(1))
@@ -683,7 +712,7 @@ pub fn reconstruct_rows_compiled<R: ReferenceRows + ?Sized>(
         phase,
         validity,
     };
-    recon_rows_dispatch(isa, &f, v0, out.xyz, out.validity)
+    recon_rows_dispatch(isa, &f, v0, out.xyz, out.validity, out.searched)
 }
 
 #[cfg(test)]

@@ -483,6 +483,7 @@ impl ScanCalibration {
             BatchOut {
                 xyz: &mut xyz,
                 validity: &mut out_v,
+                searched: None,
             },
             isa,
             parallel,
@@ -497,7 +498,8 @@ impl ScanCalibration {
     }
 
     /// Reconstruct the whole rows from camera row `v0` (`phase` and `decoded`, with the map rows
-    /// they read in `map`) into `points`, with the compiled models where the calibration has
+    /// they read in `map`) into `points` (with [`BatchOut::searched`] when it is given), with
+    /// the compiled models where the calibration has
     /// them: in memory ([`ScanCalibration::with_compiled`]), or read from their file
     /// [`stream::MODEL_ROWS`] rows at a time into `models`
     /// ([`ScanCalibration::with_compiled_streamed`]: a caller holds that many rows of models,
@@ -524,13 +526,16 @@ impl ScanCalibration {
             .map_err(failed);
         };
         let k = stream::MODEL_ROWS * w.max(1);
+        let mut counts = points.searched.map(|s| s.chunks_mut(stream::MODEL_ROWS));
+        let counts = std::iter::from_fn(move || Some(counts.as_mut().and_then(|c| c.next())));
         let parts = (phase.chunks(k).zip(decoded.chunks(k))).zip(
             points
                 .xyz
                 .chunks_mut(3 * k)
-                .zip(points.validity.chunks_mut(k)),
+                .zip(points.validity.chunks_mut(k))
+                .zip(counts),
         );
-        for (j, ((phase, decoded), (xyz, codes))) in parts.enumerate() {
+        for (j, ((phase, decoded), ((xyz, codes), searched))) in parts.enumerate() {
             let v0 = v0 + j * stream::MODEL_ROWS;
             let v1 = v0 + phase.len() / w.max(1);
             f.read_rows(v0, v1, models)
@@ -544,6 +549,7 @@ impl ScanCalibration {
             let points = BatchOut {
                 xyz,
                 validity: codes,
+                searched,
             };
             crate::batch::reconstruct_rows_compiled(
                 recon,

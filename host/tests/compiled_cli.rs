@@ -11,17 +11,24 @@ use std::path::{Path, PathBuf};
 use crate::cli_support::{Tmp, fringe3d, render_noisy, run, s, virtual_reference};
 
 /// The scan of `ds` with `calibration`, exact and compiled with `compiled` (the library path
-/// of `fringe3d scan`), and on every 31st column of every 29th row the f64 crossing each
-/// approximates: its depth and the pixel's index.
+/// of `fringe3d scan`), on every 31st column of every 29th row the f64 crossing each
+/// approximates (its depth and the pixel's index), and the pixels decoded and those the models
+/// leave to the search (`CompiledFile::left_to_search`, the portable kernel row by row).
 fn both(
     ds: &Path,
     calibration: &Path,
     compiled: &Path,
-) -> (PointCloud, PointCloud, Vec<(usize, f64)>) {
+) -> (PointCloud, PointCloud, Vec<(usize, f64)>, [usize; 2]) {
     let ls = common::load_set(&ds.join("patterns.toml")).expect("pattern set");
     let cal = ScanCalibration::load(calibration, ls.set.axis()).expect("calibration");
     let imgs = common::load_images(&ls, &[], true).expect("images");
-    let d = common::decode(&ls.set, &imgs, common::decode_config(&imgs)).expect("decode");
+    // Decoded as `fringe3d scan` decodes: with the noise the calibration's `[sensor]` records
+    // and its projector response's correction.
+    let config = common::ThresholdArgs::default()
+        .config(&ls.set, &imgs, cal.calibration.sensor.as_ref())
+        .expect("decode config");
+    let corr = common::response_correction(&cal.calibration, calibration, &ls).expect("response");
+    let d = common::decode_corrected(&ls.set, &imgs, config, corr.as_ref()).expect("decode");
     let exact = cal.reconstruct(&d.phase, &d.validity, true).expect("exact");
     let w = cal.recon.width();
     let crossings: Vec<(usize, f64)> = (0..cal.recon.height())
@@ -44,7 +51,10 @@ fn both(
     let comp = cal
         .reconstruct(&d.phase, &d.validity, true)
         .expect("compiled");
-    (exact, comp, crossings)
+    let decoded = d.validity.iter().filter(|&&c| c == Validity::Valid as u8);
+    let file = cal.compiled_file().expect("the models");
+    let left = file.left_to_search(&d.phase, &d.validity).expect("size");
+    (exact, comp, crossings, [decoded.count(), left.len()])
 }
 
 /// The median and largest depth difference of `cloud`'s valid points from the f64 crossings.
@@ -102,7 +112,7 @@ fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
     let no_reference = rep["no_reference"].as_u64().unwrap() as f64;
     let covered = pixels - off_map - no_reference;
 
-    let (exact, comp, crossings) = both(&ds, &virt, &file);
+    let (exact, comp, crossings, [decoded, left]) = both(&ds, &virt, &file);
     // Both f32 answers against the f64 crossing they approximate (docs/compiled.md, "How
     // close"): the search lands within a few ulp of it, the function within the tolerance and
     // the same few ulp.
@@ -191,14 +201,28 @@ fn scene(t: &Tmp, scene: &str, label: &str, size: &str, tol_um: f64) {
             args.extend_from_slice(&["--compiled", s(f)]);
         }
         let j: serde_json::Value = serde_json::from_str(&run(&args)).expect("json");
+        let count = |k: &str| j[k].as_u64().expect(k) as usize;
         (
             j["points"].as_u64().unwrap() as i64,
             j["peak_rss_bytes"].as_u64(),
+            [count("decoded"), count("searched")],
         )
     };
-    let ((a, _), (b, peak)) = (
+    let ((a, _, exact_counts), (b, peak, compiled_counts)) = (
         cli(None, &format!("{label}-exact.ply")),
         cli(Some(&file), &format!("{label}-compiled.ply")),
+    );
+    // What the search did, as the scan reports it: every decoded pixel without the models, and
+    // with them the pixels the portable kernel leaves, row by row (the fallback rate).
+    assert_eq!(
+        exact_counts,
+        [decoded, decoded],
+        "{label}: scan without --compiled"
+    );
+    assert_eq!(compiled_counts, [decoded, left], "{label}: scan --compiled");
+    eprintln!(
+        "{label}: scan --compiled left {left} of {decoded} decoded pixels ({:.3} %) to the search",
+        100.0 * left as f64 / decoded.max(1) as f64
     );
     // Issue #24's memory target holds with the models too: read band by band, not held (they
     // are 44 bytes a pixel, 5.5 times the 8-bit images).

@@ -3,7 +3,7 @@
 use super::cloud_out::{self, CloudArgs, CloudOut, CloudSink, apply_edge_filter, write_cloud};
 use super::{Global, common};
 use crate::scan::ScanError;
-use crate::scan::stream::{StreamConfig, stream_image_set};
+use crate::scan::stream::{StreamConfig, Tally, stream_image_set};
 use anyhow::{Context, Result, anyhow};
 use fringe3d_core::decode::Decoder;
 use std::path::PathBuf;
@@ -107,7 +107,8 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
         .thresholds
         .config(&ls.set, &imgs, cal.calibration.sensor.as_ref())?;
     let corr = common::response_correction(&cal.calibration, &a.calibration, &ls)?;
-    let (n, hist, seconds) = if pipeline == Pipeline::WholeFrame {
+    // The whole-frame reference does not count what the search did: `tally` is `None` there.
+    let (n, hist, seconds, tally) = if pipeline == Pipeline::WholeFrame {
         let d = common::decode_corrected(&ls.set, &imgs, config, corr.as_ref())?;
         let t_decode = t0.elapsed();
         let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
@@ -118,7 +119,7 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
             "decode": (t_decode - t_load).as_secs_f64(),
             "reconstruct": (t_recon - t_decode).as_secs_f64(),
             "total": t0.elapsed().as_secs_f64()});
-        (n, common::histogram(&cloud.validity), seconds)
+        (n, common::histogram(&cloud.validity), seconds, None)
     } else {
         let mut decoder = Decoder::new(&ls.set, config).map_err(|e| anyhow!("decoder: {e}"))?;
         if let Some(c) = &corr {
@@ -159,7 +160,7 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
             "write": stats.write.as_secs_f64(),
             "finish": finish.as_secs_f64(),
             "total": t0.elapsed().as_secs_f64()});
-        (n, stats.histogram, seconds)
+        (n, stats.histogram, seconds, Some(stats.tally))
     };
     common::warn_if_empty(&hist, &out.describe(), g.quiet);
     if g.json {
@@ -167,11 +168,15 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
             &out,
             &serde_json::json!({"command": "scan", "out": a.cloud.out, "points": n, "width": imgs.width, "height": imgs.height,
                 "validity": common::validity_json(&hist),
+                "decoded": tally.map(|t| t.decoded), "searched": tally.map(|t| t.searched),
                 "seconds": seconds, "peak_rss_bytes": common::peak_rss_bytes()})
             .to_string(),
         );
     } else if !g.quiet {
         cloud_out::say(&out, &common::validity_summary(&hist));
+        if let (Some(t), Some(_)) = (tally, &a.compiled) {
+            cloud_out::say(&out, &compiled_summary(t));
+        }
         cloud_out::say(
             &out,
             &format!(
@@ -182,4 +187,15 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// What a compiled scan left to the search: its fallback rate.
+fn compiled_summary(t: Tally) -> String {
+    let share = 100.0 * t.searched as f64 / t.decoded.max(1) as f64;
+    format!(
+        "compiled models answered {} of the {} decoded pixels; {} ({share:.2} %) were left to the search",
+        t.decoded - t.searched.min(t.decoded),
+        t.decoded,
+        t.searched
+    )
 }

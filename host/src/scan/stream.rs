@@ -93,6 +93,8 @@ impl StepTimes {
 pub struct StreamStats {
     /// Pixels per validity code after the edge filter (index: `Validity as u8`).
     pub histogram: [usize; CODES],
+    /// The pixels decoded and searched.
+    pub tally: Tally,
     /// Worker time per step, summed over the threads.
     pub steps: StepTimes,
     /// Time the writer thread spent in the sink (handing bytes to the file).
@@ -111,6 +113,25 @@ pub struct StreamStats {
 struct BandOut {
     enc: Encoded,
     histogram: [usize; CODES],
+    /// Its rows' [`Tally`].
+    tally: Tally,
+}
+
+/// What the reconstruction was given and what the search did, over some rows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tally {
+    /// Pixels with a valid phase: the reconstruction's input.
+    pub decoded: usize,
+    /// Of them, the pixels whose point the §6 search computed: all of them without compiled
+    /// models, those the models left to the search with them ([`PointsOut::searched`]).
+    pub searched: usize,
+}
+
+impl Tally {
+    fn add(&mut self, o: Tally) {
+        self.decoded += o.decoded;
+        self.searched += o.searched;
+    }
 }
 
 /// What the workers and the writer share.
@@ -174,6 +195,8 @@ struct Scratch {
     map_rows: Vec<f32>,
     /// The compiled models of the band's rows, when they are read from their file.
     models: Vec<f32>,
+    /// Per reconstructed row, the pixels the search computed ([`PointsOut::searched`]).
+    searched: Vec<u32>,
 }
 
 /// Where the bands read the reference map from.
@@ -266,6 +289,7 @@ impl<P: Sample> Job<'_, P> {
         s.decoded.resize(n, 0);
         s.xyz.resize(3 * n, 0.0);
         s.codes.resize(n, 0);
+        s.searched.resize(z - a, 0);
         let t0 = Instant::now();
         // The longest exposure (the only one without HDR); shorter ones where it saturated.
         let images = self.decoder.image_count();
@@ -291,6 +315,7 @@ impl<P: Sample> Job<'_, P> {
         let band = PointsOut {
             xyz: &mut s.xyz[..3 * n],
             validity: &mut s.codes[..n],
+            searched: Some(&mut s.searched[..z - a]),
         };
         let isa = self.isa;
         match &self.map {
@@ -344,6 +369,13 @@ impl<P: Sample> Job<'_, P> {
         for c in codes {
             out.histogram[(*c as usize).min(CODES - 1)] += 1;
         }
+        // The band's own rows, not the halo's.
+        let valid = Validity::Valid as u8;
+        let decoded = &s.decoded[row(y0).start..row(y1 - 1).end];
+        out.tally = Tally {
+            decoded: decoded.iter().filter(|&&c| c == valid).count(),
+            searched: s.searched[y0 - a..y1 - a].iter().map(|&k| k as usize).sum(),
+        };
         self.encoder.reserve(codes, &mut out.enc);
         let (xyz, _) = s.xyz.as_chunks::<3>();
         for (y, c) in (y0..y1).zip(codes.chunks_exact(w)) {
@@ -490,6 +522,7 @@ pub fn stream_frames<P: Sample + Sync>(
                 BandOut {
                     enc: s.spare.pop().unwrap_or_default(),
                     histogram: [0; CODES],
+                    tally: Tally::default(),
                 }
             };
             match job.band(b, &mut scratch, &mut reader, &mut out, &mut steps) {
@@ -509,6 +542,7 @@ pub fn stream_frames<P: Sample + Sync>(
     let writer = || {
         let _guard = StopOnPanic(&shared);
         let mut histogram = [0usize; CODES];
+        let mut tally = Tally::default();
         let mut busy = Duration::ZERO;
         for b in 0..bands {
             let out = {
@@ -518,7 +552,7 @@ pub fn stream_frames<P: Sample + Sync>(
                         break o;
                     }
                     if s.stop {
-                        return (histogram, busy);
+                        return (histogram, tally, busy);
                     }
                     s = shared.cv.wait(s).unwrap_or_else(|e| e.into_inner());
                 }
@@ -528,21 +562,22 @@ pub fn stream_frames<P: Sample + Sync>(
             busy += t.elapsed();
             if let Err(e) = res {
                 shared.fail(e);
-                return (histogram, busy);
+                return (histogram, tally, busy);
             }
             for (a, c) in histogram.iter_mut().zip(out.histogram) {
                 *a += c;
             }
+            tally.add(out.tally);
             let mut s = shared.lock();
             s.written = b + 1;
             s.spare.push(out.enc);
             shared.cv.notify_all();
         }
-        (histogram, busy)
+        (histogram, tally, busy)
     };
     // The writer gets a thread of its own, outside rayon's pool: it waits for bands, and a pool
     // thread that waits would starve the workers of a one-thread pool.
-    let (histogram, write) = std::thread::scope(|ts| {
+    let (histogram, tally, write) = std::thread::scope(|ts| {
         let wr = ts.spawn(writer);
         rayon::scope(|s| {
             for _ in 0..threads.min(bands) {
@@ -558,6 +593,7 @@ pub fn stream_frames<P: Sample + Sync>(
     }
     Ok(StreamStats {
         histogram,
+        tally,
         steps: st.steps,
         write,
         wall: t0.elapsed(),
