@@ -163,7 +163,7 @@ fn header_layout() {
     let mut out = [0u8; HEADER_LEN];
     assert_eq!(h.emit(&mut out), Ok(6));
     // version, flags (bit 0 + bit 3), seq, command, length LE.
-    assert_eq!(out, [0x0A, 0x09, 0xA5, 0x12, 0x02, 0x01]);
+    assert_eq!(out, [0x0B, 0x09, 0xA5, 0x12, 0x02, 0x01]);
     assert_eq!(Header::parse(&out), Ok(h));
 
     assert_eq!(Flags::WRITE.bits(), 0x01);
@@ -219,17 +219,22 @@ fn header_rejects() {
         Header::parse(&[0x09, 0, 0, 0, 0, 0]),
         Err(WireError::Version(9))
     );
+    // Version 10 (a ScanDone without the decoded and searched counts) too.
     assert_eq!(
-        Header::parse(&[0x0A, 0x10, 0, 0, 0, 0]),
+        Header::parse(&[0x0A, 0, 0, 0, 0, 0]),
+        Err(WireError::Version(10))
+    );
+    assert_eq!(
+        Header::parse(&[0x0B, 0x10, 0, 0, 0, 0]),
         Err(WireError::ReservedFlags)
     );
     // 4097 = 0x1001 > MAX_PAYLOAD.
     assert_eq!(
-        Header::parse(&[0x0A, 0, 0, 0, 0x01, 0x10]),
+        Header::parse(&[0x0B, 0, 0, 0, 0x01, 0x10]),
         Err(WireError::Length)
     );
     assert_eq!(
-        Header::parse(&[0x0A, 0, 0, 0, 0]),
+        Header::parse(&[0x0B, 0, 0, 0, 0]),
         Err(WireError::Truncated)
     );
     let h = Header {

@@ -397,6 +397,8 @@ fn random_message<'a>(
             scan_id: r.next_u32(),
             rows: r.next_u32() as u16,
             valid: r.next_u32(),
+            decoded: r.next_u32(),
+            searched: r.next_u32(),
         }),
     }
 }

@@ -108,6 +108,8 @@ fn link_budget_at_921600_baud() {
         scan_id: u32::MAX,
         rows: h as u16,
         valid: (w * h) as u32,
+        decoded: (w * h) as u32,
+        searched: (w * h) as u32,
     });
     stream += line_bytes(&Header::for_message(&done, 9), &done);
     let payload = (w * h * stride) as u64;

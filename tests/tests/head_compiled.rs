@@ -7,14 +7,16 @@
 //! pass by ignoring the models). The head refuses the models before their map, and forgets them
 //! when the map is replaced: it then scans with the search, bit for bit the desktop's. After a
 //! new calibration it scans with that one, not with the reconstructor it kept from the last
-//! scan. Status says at each step what the head holds (calibration, map, models).
+//! scan. Status says at each step what the head holds (calibration, map, models), and ScanDone
+//! how many decoded pixels the search computed (protocol version 11): those the models left, as
+//! the desktop's kernel leaves them, and every one without the models.
 
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use fringe3d::compiled::CompiledFile;
-use fringe3d::device::{Client, DeviceError, open_serial};
+use fringe3d::device::{Client, DeviceError, ScanCounts, ScanOutcome, open_serial};
 use fringe3d::scan::{ScanCalibration, filter_edges};
 use fringe3d_core::math::canonical;
 use fringe3d_core::reconstruct::compiled::FIELDS;
@@ -24,6 +26,19 @@ use crate::head_pty::{
     CAM, Cmd, assert_desktop_bits, dataset, fresh_root, head_case, head_case_with, opts, scan_both,
     spawn_head_series, virtual_reference,
 };
+
+/// ScanDone's counts as the host reports them: `decoded` and `searched` pixels, or none when rows
+/// were requested again (from another capture).
+fn assert_counts(out: &ScanOutcome, decoded: usize, searched: usize) {
+    let want = ScanCounts {
+        decoded: decoded as u32,
+        searched: searched as u32,
+    };
+    match out.rescans {
+        0 => assert_eq!(out.counts, Some(want), "the head's ScanDone counts"),
+        _ => assert_eq!(out.counts, None, "counts after rows requested again"),
+    }
+}
 
 #[test]
 fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
@@ -129,9 +144,23 @@ fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
     assert_eq!(holds(&mut c), Holds(Holds::ALL));
     c.configure_sequence(0, false, &case.seq).unwrap();
     assert_eq!(c.validate().unwrap(), ValidationStatus::OK);
-    assert_desktop_bits(&scan_both(&mut c), &case.dec, &compiled);
+    // What the desktop's kernel leaves to the search in this scan (the fallback rate).
+    let decoded = case.dec.validity.iter().filter(|&&q| q == 0).count();
+    let left = file
+        .left_to_search(&case.dec.phase, &case.dec.validity)
+        .unwrap()
+        .len();
+    assert!(
+        left < decoded / 2,
+        "{left} of {decoded} pixels left to the search"
+    );
+    let out = scan_both(&mut c);
+    assert_desktop_bits(&out, &case.dec, &compiled);
+    assert_counts(&out, decoded, left);
     // The first scan found every row settled: the second reads them as they are, the same bits.
-    assert_desktop_bits(&scan_both(&mut c), &case.dec, &compiled);
+    let out = scan_both(&mut c);
+    assert_desktop_bits(&out, &case.dec, &compiled);
+    assert_counts(&out, decoded, left);
     // Models a foreign host might send: pixels left to the search given a neighbour's finite
     // numbers with a NaN d₂ (usable in nothing but their scale: `PixelModel::from_array` makes
     // them the search's again). The head must settle them at every scan, not only the first.
@@ -161,7 +190,9 @@ fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
     c.upload_phase_map(w, h, case.margin, &case.map, &mut |_, _| {})
         .unwrap();
     assert_eq!(holds(&mut c), held, "the models went with their map");
-    assert_desktop_bits(&scan_both(&mut c), &case.dec, &case.cloud);
+    let out = scan_both(&mut c);
+    assert_desktop_bits(&out, &case.dec, &case.cloud);
+    assert_counts(&out, decoded, decoded);
     // The head keeps the last scan's reconstructor: a scan after a new calibration must not
     // use it. The projector 1 mm to the side moves every point.
     let moved = dir.join("calibration_moved.toml");

@@ -616,16 +616,56 @@ fn compiled_models_reconstruct_on_the_emulated_head_bit_identically() {
         ]
         .concat(),
     );
-    let console = qemu.console_with(&format!("scan: {h} rows sent"), 1);
+    // ScanDone's counts (protocol version 11): the pixels decoded, and those the models left
+    // to the search, as the desktop's kernel leaves them.
+    let decoded = dec.validity.iter().filter(|&&q| q == 0).count() as u32;
+    let file = scc.compiled_file().expect("models");
+    let left = file
+        .left_to_search(&dec.phase, &dec.validity)
+        .unwrap()
+        .len() as u32;
+    let serial = fringe3d::device::open_serial(&port, 921_600).unwrap();
+    let opts = fringe3d::device::ClientOptions {
+        timeout: Duration::from_millis(5000),
+        ..Default::default()
+    };
+    let mut client = fringe3d::device::Client::connect(serial, opts).unwrap();
+    let out = client
+        .scan(
+            fringe3d_core::wire::ScanOutput::Points,
+            0,
+            0,
+            fringe3d_core::wire::EdgeFilterMode::MaxAngle(80.0),
+            &mut |_, _| {},
+        )
+        .unwrap();
+    drop(client);
+    if out.rescans == 0 {
+        let want = fringe3d::device::ScanCounts {
+            decoded,
+            searched: left,
+        };
+        assert_eq!(
+            out.counts,
+            Some(want),
+            "the emulated head's ScanDone counts"
+        );
+    }
+    assert!(
+        left < decoded,
+        "{left} of {decoded} pixels left to the search"
+    );
+    let console = qemu.console_with(&format!("scan: {h} rows sent"), 2);
     drop(qemu);
     eprintln!(
-        "compiled: {models} of {} pixels have a model, {differ} points differ from the search's; \
-         upload of patterns, calibration, map and models {t_up:.1} s, scan {t_scan:.1} s",
+        "compiled: {models} of {} pixels have a model, {differ} points differ from the search's, \
+         {left} of {decoded} decoded pixels left to the search; upload of patterns, calibration, \
+         map and models {t_up:.1} s, scan {t_scan:.1} s",
         w * h
     );
     assert_ply_is(&ply, &compiled, "compiled");
     assert!(
-        console.matches(&format!("scan: {h} rows sent")).count() == 1,
+        console.matches(&format!("scan: {h} rows sent")).count() == 2,
         "{console}"
     );
     let _ = std::fs::remove_dir_all(&root);

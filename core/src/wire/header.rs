@@ -12,6 +12,9 @@ use super::{MAX_PAYLOAD, WireError};
 
 /// The protocol version this module speaks; frames of any other version are rejected.
 ///
+/// Version 11 ends ScanDone with two counts over the scan's rows: the pixels decoded and those
+/// whose point the §6 search computed (of a compiled scan, those its models left to the
+/// search: the fallback rate); a version-10 host would refuse the longer body.
 /// Version 10 gives each compiled model an eleventh number, its own far threshold τ_far (44
 /// bytes a pixel instead of 40): a version-9 head would take the models' rows for the wrong
 /// layout; and Status ends with what the head holds ([`Holds`](super::Holds): calibration,
@@ -38,7 +41,7 @@ use super::{MAX_PAYLOAD, WireError};
 /// core's set-up consumes, so the head computes exactly what the desktop computes), describes
 /// knot profiles and curved fringes, and adds the edge-filter mode to Scan. Version 1 carried
 /// f32 and linear phase functions only.
-pub const PROTOCOL_VERSION: u8 = 10;
+pub const PROTOCOL_VERSION: u8 = 11;
 
 /// Length of the header in bytes.
 pub const HEADER_LEN: usize = 6;

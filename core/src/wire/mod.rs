@@ -106,7 +106,7 @@
 //! | `0x84` | Validation          | 0 | status u32 ([`ValidationStatus`] bits)                                      | |
 //! | `0x85` | Status              | 0 | state `[0]` Idle `[1]` Uploading `[2]` Ready `[3]` Running `[4]` Scanning `[5]` Fault, errors u32 ([`HeadErrors`] bits), rx_frames u32, rx_errors u32, tx_frames u32, rows_sent u32, holds u32 ([`Holds`] bits; protocol version 10) | |
 //! | `0x86` | ResultRow           | 0 | scan_id u32, row u16, first_col u16, kind `[0]` Phase `[1]` Points, data bytes | |
-//! | `0x87` | ScanDone            | 0 | scan_id u32, rows u16, valid u32                                            | |
+//! | `0x87` | ScanDone            | 0 | scan_id u32, rows u16, valid u32, decoded u32, searched u32 ([`ScanDone`]) | |
 //!
 //! `T` ([`UploadTarget`]) is `[0] set_id u8` (a pattern set), `[1]` (the reference phase map) or
 //! `[2]` (the compiled reconstruction's models).
@@ -159,7 +159,10 @@
 //! maps only). 6 had no DefineThresholds (a head decoded with its camera bit depth's default
 //! thresholds, whatever the host's: at 16 bit a floor of 2 % of full scale, not 12σ). 7 had no
 //! exposure list in Scan (a head captured each pattern once: no HDR). 8 had no
-//! BeginCompiledUpload (a head reconstructed every pixel with the §6 search). A head and a host of different versions refuse each other's
+//! BeginCompiledUpload (a head reconstructed every pixel with the §6 search). 9 had 40-byte
+//! compiled models (no far threshold) and no holdings in Status. 10 had no `decoded` and
+//! `searched` counts in ScanDone (a host could not tell how many pixels a compiled scan left
+//! to the search). A head and a host of different versions refuse each other's
 //! frames: the head answers a frame of another version with Nak Version (detail: its version),
 //! which the host reports as such.
 //! `core/tests/wire_vectors.rs` spells out more, one per kind of body.

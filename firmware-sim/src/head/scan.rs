@@ -20,11 +20,13 @@ use crate::memory::{COMPILED_LINE_PER_COLUMN, HeadMemory};
 
 /// How a scan ended.
 enum ScanEnd {
-    /// `models_settled`: the scan read every row of its compiled models and settled none
-    /// (`Control::compiled_settled`).
+    /// The counts of ScanDone over the rows streamed; `models_settled`: the scan read every row
+    /// of its compiled models and settled none (`Control::compiled_settled`).
     Done {
         rows: u16,
         valid: u32,
+        decoded: u32,
+        searched: u32,
         models_settled: bool,
     },
     Aborted,
@@ -49,6 +51,8 @@ pub(super) fn run<B: BoardIo, T: Read + ReadReady + Write>(
         Ok(ScanEnd::Done {
             rows,
             valid,
+            decoded,
+            searched,
             models_settled,
         }) => {
             ctl.validated = true;
@@ -63,6 +67,8 @@ pub(super) fn run<B: BoardIo, T: Read + ReadReady + Write>(
                     scan_id: sc.scan_id,
                     rows,
                     valid,
+                    decoded,
+                    searched,
                 }),
                 false,
             )
@@ -270,7 +276,8 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
         seq: sc.seq,
         scan_id: sc.scan_id,
     };
-    let mut valid = 0u32;
+    // ScanDone's counts, over the rows streamed (not the filter's extra rows).
+    let (mut valid, mut decoded, mut searched) = (0u32, 0u32, 0u32);
     let mut sent = 0u16;
     for y in lo..hi {
         link.pump(io, None::<&mut B>)?;
@@ -291,9 +298,13 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
             link.tx
                 .rows(io, stream, y, RowKind::Phase, phase_row, validity_row, None)?;
         }
+        let row_decoded = count_valid(validity_row);
+        if wanted(y) {
+            decoded = decoded.saturating_add(row_decoded);
+        }
         let (Some(rc), Some(ring)) = (recon, ring.as_mut()) else {
             if wanted(y) {
-                valid += count_valid(validity_row);
+                valid += row_decoded;
                 sent += 1;
                 link.ctl.rows_sent = link.ctl.rows_sent.wrapping_add(1);
             }
@@ -316,14 +327,19 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
             &mut xyz_rows[3 * w * k..3 * w * (k + 1)],
             &mut point_codes[w * k..w * (k + 1)],
         );
-        match compiled.as_mut() {
+        let row_searched = match compiled.as_mut() {
             Some(cp) => {
                 cp.row_into(board.map_store(), y)?;
-                cp.reconstruct(rc, ring, y, phase_row, validity_row, xyz, codes)?;
+                cp.reconstruct(rc, ring, y, phase_row, validity_row, xyz, codes)?
             }
-            None => rc
-                .reconstruct_row(ring, y as u32, phase_row, validity_row, xyz, codes)
-                .map_err(|_| ScanFail::Internal)?,
+            None => {
+                rc.reconstruct_row(ring, y as u32, phase_row, validity_row, xyz, codes)
+                    .map_err(|_| ScanFail::Internal)?;
+                row_decoded
+            }
+        };
+        if wanted(y) {
+            searched = searched.saturating_add(row_searched);
         }
         // The point row now complete: y itself without the filter, else y − 1.
         let (done, below) = match filter {
@@ -376,6 +392,8 @@ fn capture_and_stream<B: BoardIo, T: Read + ReadReady + Write>(
     Ok(ScanEnd::Done {
         rows: sent,
         valid,
+        decoded,
+        searched,
         models_settled,
     })
 }
@@ -431,7 +449,7 @@ impl CompiledPass<'_> {
 
     /// Point row `y` from its phases: the compiled models' points, and the §6 search's for the
     /// pixels they leave (`Reconstructor::search_left`, as the C ABI's
-    /// `fringe3d_reconstruct_row_compiled` and the desktop's batch path do).
+    /// `fringe3d_reconstruct_row_compiled` and the desktop's batch path do); how many they left.
     #[allow(clippy::too_many_arguments)]
     fn reconstruct<R: ReferenceRows + ?Sized>(
         &mut self,
@@ -442,12 +460,12 @@ impl CompiledPass<'_> {
         validity: &[u8],
         xyz: &mut [f32],
         codes: &mut [u8],
-    ) -> Result<(), ScanFail> {
+    ) -> Result<u32, ScanFail> {
         let (z_min, z_max) = self.models.z;
         let left = compiled_row(self.row, z_min, z_max, phase, validity, xyz, codes)
             .map_err(|_| ScanFail::Internal)?;
         if left == 0 {
-            return Ok(());
+            return Ok(0);
         }
         let scratch = SearchScratch {
             mask: self.mask,
@@ -455,7 +473,8 @@ impl CompiledPass<'_> {
             codes: self.search_codes,
         };
         rc.search_left(ring, u32::from(y), phase, validity, xyz, codes, scratch)
-            .map_err(|_| ScanFail::Internal)
+            .map_err(|_| ScanFail::Internal)?;
+        Ok(left as u32)
     }
 }
 

@@ -629,7 +629,8 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
     };
     if g.json {
         say(serde_json::json!({"command": "device scan", "port": a.port.port, "protocol_version": PROTOCOL_VERSION, "width": w, "first_row": r.first_row,
-                "rows": rows, "exposures_us": exposures.as_slice(), "points": valid, "rescans": r.rescans, "stale_rows_dropped": r.stale_rows, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
+                "rows": rows, "exposures_us": exposures.as_slice(), "points": valid,
+                "decoded": r.counts.map(|c| c.decoded), "searched": r.counts.map(|c| c.searched), "rescans": r.rescans, "stale_rows_dropped": r.stale_rows, "wire_bytes": r.wire_bytes, "seconds": r.seconds})
             .to_string());
     } else if !g.quiet {
         let list = exposures.as_slice();
@@ -653,6 +654,19 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
                 String::new()
             }
         ));
+        // In a point scan, fewer pixels searched than decoded: the head has compiled models.
+        if let Some(c) = r
+            .counts
+            .filter(|c| r.xyz.is_some() && c.searched < c.decoded)
+        {
+            say(format!(
+                "the head's compiled models answered {} of the {} decoded pixels; {} ({:.2} %) were left to the search",
+                c.decoded - c.searched,
+                c.decoded,
+                c.searched,
+                100.0 * c.searched as f64 / c.decoded.max(1) as f64
+            ));
+        }
         if r.stale_rows > 0 {
             say(format!(
                 "dropped {} rows of an earlier scan still in flight (not of this scan: not written)",

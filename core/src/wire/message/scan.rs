@@ -257,6 +257,12 @@ pub struct ScanDone {
     pub rows: u16,
     /// Valid pixels (phase) or points over all rows.
     pub valid: u32,
+    /// Pixels with a valid phase over all rows: the reconstruction's input (version 11).
+    pub decoded: u32,
+    /// Of them, the pixels whose point the §6 search computed (version 11): every one without
+    /// compiled models, those the models left to the search with them (docs/compiled.md); 0
+    /// in a phase scan. A compiled scan's fallback rate is `searched / decoded`.
+    pub searched: u32,
 }
 
 impl Body for ScanRequest {

@@ -8,7 +8,7 @@ use fringe3d_core::wire::{
     RowKind, ScanOutput, ScanRequest,
 };
 
-use super::{Client, Got, ScanOutcome, classify};
+use super::{Client, Got, ScanCounts, ScanOutcome, classify};
 use crate::device::{DeviceError, Transport};
 
 impl<T: Transport> Client<T> {
@@ -119,6 +119,7 @@ impl<T: Transport> Client<T> {
             need: [if phase { w } else { 0 }, if points { w } else { 0 }],
             done_rows: 0,
             stale: 0,
+            counts: None,
         };
         let mut ranges = vec![(first, rows)];
         let mut rescans = 0u32;
@@ -155,6 +156,7 @@ impl<T: Transport> Client<T> {
             xyz: acc.xyz,
             point_validity: acc.point_validity,
             rescans,
+            counts: acc.counts.filter(|_| rescans == 0),
             stale_rows: acc.stale,
             wire_bytes: self.link.stats().bytes_received - recv0,
             seconds: t0.elapsed().as_secs_f64(),
@@ -238,7 +240,13 @@ impl<T: Transport> Client<T> {
                         acc.store(&r);
                         progress(acc.done_rows as u64, acc.rows as u64);
                     }
-                    Message::ScanDone(_) => return Ok(()),
+                    Message::ScanDone(d) => {
+                        acc.counts = Some(ScanCounts {
+                            decoded: d.decoded,
+                            searched: d.searched,
+                        });
+                        return Ok(());
+                    }
                     // A Nak of another command under this seq: an earlier session's, not ours.
                     Message::Nak(n) if n.command != Command::Scan as u8 => {}
                     Message::Nak(n) if n.code == NakCode::Busy && seqs.len() > 1 => started = true,
@@ -297,6 +305,8 @@ struct Assembly {
     need: [usize; 2],
     done_rows: usize,
     stale: u64,
+    /// The counts of the last ScanDone.
+    counts: Option<ScanCounts>,
 }
 
 impl Assembly {
