@@ -393,13 +393,19 @@ fn random_message<'a>(
                 data: &buf[..len],
             })
         }
-        Command::ScanDone => Message::ScanDone(ScanDone {
-            scan_id: r.next_u32(),
-            rows: r.next_u32() as u16,
-            valid: r.next_u32(),
-            decoded: r.next_u32(),
-            searched: r.next_u32(),
-        }),
+        Command::ScanDone => {
+            // Counts that agree (ScanDone::validate): valid and searched at most decoded.
+            let decoded = r.next_u32();
+            let mut at_most = |n: u32| (r.next_u64() % (u64::from(n) + 1)) as u32;
+            let (valid, searched) = (at_most(decoded), at_most(decoded));
+            Message::ScanDone(ScanDone {
+                scan_id: r.next_u32(),
+                rows: r.next_u32() as u16,
+                valid,
+                decoded,
+                searched,
+            })
+        }
     }
 }
 

@@ -810,3 +810,43 @@ fn scan_exposure_rules() {
     ];
     assert!(Message::decode(Command::Scan as u8, &p).is_ok());
 }
+
+#[test]
+fn scan_done_counts_agree() {
+    let done = ScanDone {
+        scan_id: 7,
+        rows: 2,
+        valid: 5,
+        decoded: 6,
+        searched: 6,
+    };
+    assert_eq!(done.validate(), Ok(()));
+    assert_eq!(
+        ScanDone {
+            searched: 7,
+            ..done
+        }
+        .validate(),
+        invalid(Invalid::Counts)
+    );
+    assert_eq!(
+        ScanDone { valid: 7, ..done }.validate(),
+        invalid(Invalid::Counts)
+    );
+    // On the wire: scan_id 7, rows 2, valid 5, decoded 6, searched 7 (one more than decoded).
+    let body = [0x07, 0x02, 0x05, 0x06, 0x07];
+    assert_eq!(
+        parse_packet(&raw_frame(PROTOCOL_VERSION, 0x00, 0, 0x87, &body)),
+        Err(WireError::Invalid(Invalid::Counts))
+    );
+    let (mut scratch, mut out) = ([0u8; 64], [0u8; 96]);
+    let bad = Message::ScanDone(ScanDone {
+        searched: 7,
+        ..done
+    });
+    let header = Header::for_message(&bad, 0);
+    assert_eq!(
+        emit_packet(&header, &bad, &mut scratch, &mut out),
+        Err(WireError::Invalid(Invalid::Counts))
+    );
+}

@@ -28,7 +28,7 @@
 //! (issue #17; `Reconstructor::map_width`), which a head takes up to the width these buffers
 //! hold (a wider map's upload is refused with Nak OutOfMemory). The map itself,
 //! `MW × (top + H + bottom) × 5` bytes, lives in the board's map store (external memory), and
-//! so do the compiled reconstruction's models (docs/compiled.md, protocol version 10),
+//! so do the compiled reconstruction's models (docs/compiled.md, since protocol version 10),
 //! `W × H × 44` bytes at the store's end. A head without the two `compiled_*` buffers (empty
 //! slices, or shorter than a camera row needs) refuses the models' upload with Nak OutOfMemory
 //! and reconstructs with the search.

@@ -498,7 +498,8 @@ impl ScanCalibration {
     }
 
     /// Reconstruct the whole rows from camera row `v0` (`phase` and `decoded`, with the map rows
-    /// they read in `map`) into `points` (with [`BatchOut::searched`] when it is given), with
+    /// they read in `map`) into `points` (with [`crate::batch::PointsOut::searched`] when it is
+    /// given), with
     /// the compiled models where the calibration has
     /// them: in memory ([`ScanCalibration::with_compiled`]), or read from their file
     /// [`stream::MODEL_ROWS`] rows at a time into `models`
@@ -525,6 +526,17 @@ impl ScanCalibration {
             )
             .map_err(failed);
         };
+        // Whole rows, every output as long as the phases (the chunks below would shorten a
+        // short one silently).
+        let (n, rows) = (phase.len(), phase.len() / w.max(1));
+        if n != rows * w
+            || decoded.len() != n
+            || points.xyz.len() != 3 * n
+            || points.validity.len() != n
+            || points.searched.as_ref().is_some_and(|s| s.len() != rows)
+        {
+            return Err(failed(ReconstructError::Length));
+        }
         let k = stream::MODEL_ROWS * w.max(1);
         let mut counts = points.searched.map(|s| s.chunks_mut(stream::MODEL_ROWS));
         let counts = std::iter::from_fn(move || Some(counts.as_mut().and_then(|c| c.next())));
@@ -606,6 +618,27 @@ pub fn filter_edges(cloud: &mut PointCloud, f: &EdgeFilter) {
         }
     }
     cloud.validity = out;
+}
+
+/// What a scan's reconstruction was given and what the §6 search did, over its rows: the
+/// desktop's streaming scan ([`stream::StreamStats::counts`]) and a head's ScanDone
+/// (`device::ScanOutcome::counts`, protocol version 11) report the same two counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScanCounts {
+    /// Pixels with a valid phase: the reconstruction's input.
+    pub decoded: usize,
+    /// Of them, the pixels whose point the search computed: every one without compiled
+    /// models, those the models left to the search with them (the fallback rate is
+    /// `searched / decoded`; [`crate::batch::PointsOut::searched`]).
+    pub searched: usize,
+}
+
+impl ScanCounts {
+    /// Add `o`'s counts (of other rows).
+    pub fn add(&mut self, o: ScanCounts) {
+        self.decoded += o.decoded;
+        self.searched += o.searched;
+    }
 }
 
 /// An organized point cloud: one point per camera pixel.

@@ -2,9 +2,11 @@
 //! rendered scenes with virtual references: the points against the exact §6 search's, pixel by
 //! pixel, the share of pixels left to the search, and misuse refused with one clear error.
 
+use fringe3d::batch::{Isa, PointsOut, reconstruct_frame_compiled};
 use fringe3d::cli::common;
 use fringe3d::compiled::{F32_ALLOWANCE_ULP, crossing_depth_f64, ulp};
 use fringe3d::scan::{PointCloud, ScanCalibration};
+use fringe3d_core::reconstruct::ReferenceMap;
 use fringe3d_core::validity::Validity;
 use std::path::{Path, PathBuf};
 
@@ -54,7 +56,65 @@ fn both(
     let decoded = d.validity.iter().filter(|&&c| c == Validity::Valid as u8);
     let file = cal.compiled_file().expect("the models");
     let left = file.left_to_search(&d.phase, &d.validity).expect("size");
+    // The library's per-row counts (`PointsOut::searched`) against those pixels, row by row:
+    // the whole frame on rayon's pool and band by band with the models in memory.
+    let mut want = vec![0u32; cal.recon.height()];
+    for &i in &left {
+        want[i / w] += 1;
+    }
+    assert_eq!(row_counts(&cal, &d.phase, &d.validity, None), want);
+    assert_eq!(row_counts(&cal, &d.phase, &d.validity, Some(25)), want);
     (exact, comp, crossings, [decoded.count(), left.len()])
+}
+
+/// The pixels per row the search computed in `cal`'s reconstruction of a scan: over the whole
+/// frame in parallel (`band: None`), or band by band of `band` rows as the streaming scan runs
+/// them.
+fn row_counts(cal: &ScanCalibration, phase: &[f32], valid: &[u8], band: Option<usize>) -> Vec<u32> {
+    let (w, h) = (cal.width(), cal.height());
+    let (mw, mh) = (cal.recon.map_width(), cal.recon.map_height());
+    let map = ReferenceMap::from_prepared(&cal.reference_phase, mw, mh).expect("map");
+    let (mut xyz, mut codes, mut counts) = (vec![0f32; 3 * w * h], vec![0u8; w * h], vec![0; h]);
+    let isa = Isa::detect();
+    let Some(b) = band else {
+        let out = PointsOut {
+            xyz: &mut xyz,
+            validity: &mut codes,
+            searched: Some(&mut counts),
+        };
+        reconstruct_frame_compiled(
+            &cal.recon,
+            &map,
+            cal.compiled_rows(),
+            phase,
+            valid,
+            out,
+            isa,
+            true,
+        )
+        .expect("frame");
+        return counts;
+    };
+    let mut models = Vec::new();
+    for v0 in (0..h).step_by(b) {
+        let (r, n) = (v0 * w..(v0 + b).min(h) * w, (v0 + b).min(h) - v0);
+        let out = PointsOut {
+            xyz: &mut xyz[3 * r.start..3 * r.end],
+            validity: &mut codes[r.clone()],
+            searched: Some(&mut counts[v0..v0 + n]),
+        };
+        cal.reconstruct_rows(
+            &map,
+            v0,
+            &phase[r.clone()],
+            &valid[r],
+            out,
+            &mut models,
+            isa,
+        )
+        .expect("band");
+    }
+    counts
 }
 
 /// The median and largest depth difference of `cloud`'s valid points from the f64 crossings.

@@ -8,6 +8,7 @@ mod render_common;
 
 mod adapt_cli;
 mod adapt_quality;
+mod batch_variants;
 mod calib_bad_input;
 mod calib_end_to_end;
 mod calib_projector_model;

@@ -16,11 +16,11 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use fringe3d::compiled::CompiledFile;
-use fringe3d::device::{Client, DeviceError, ScanCounts, ScanOutcome, open_serial};
-use fringe3d::scan::{ScanCalibration, filter_edges};
+use fringe3d::device::{Client, DeviceError, ScanOutcome, open_serial};
+use fringe3d::scan::{ScanCalibration, ScanCounts, filter_edges};
 use fringe3d_core::math::canonical;
 use fringe3d_core::reconstruct::compiled::FIELDS;
-use fringe3d_core::wire::{Holds, NakCode, ValidationStatus};
+use fringe3d_core::wire::{EdgeFilterMode, Holds, NakCode, ScanOutput, ValidationStatus};
 
 use crate::head_pty::{
     CAM, Cmd, assert_desktop_bits, dataset, fresh_root, head_case, head_case_with, opts, scan_both,
@@ -30,10 +30,7 @@ use crate::head_pty::{
 /// ScanDone's counts as the host reports them: `decoded` and `searched` pixels, or none when rows
 /// were requested again (from another capture).
 fn assert_counts(out: &ScanOutcome, decoded: usize, searched: usize) {
-    let want = ScanCounts {
-        decoded: decoded as u32,
-        searched: searched as u32,
-    };
+    let want = ScanCounts { decoded, searched };
     match out.rescans {
         0 => assert_eq!(out.counts, Some(want), "the head's ScanDone counts"),
         _ => assert_eq!(out.counts, None, "counts after rows requested again"),
@@ -161,6 +158,31 @@ fn compiled_models_reconstruct_on_the_head_bit_identical_to_the_desktop() {
     let out = scan_both(&mut c);
     assert_desktop_bits(&out, &case.dec, &compiled);
     assert_counts(&out, decoded, left);
+    // Rows 100..137 with the edge filter: the head reconstructs rows 99 and 137 too, but counts
+    // the rows it streams only.
+    let (first, rows) = (100usize, 37usize);
+    let part = c
+        .scan(
+            ScanOutput::Points,
+            first as u16,
+            rows as u16,
+            EdgeFilterMode::MaxAngle(80.0),
+            &mut |_, _| {},
+        )
+        .unwrap();
+    let wu = CAM.0 as usize;
+    let span = first * wu..(first + rows) * wu;
+    let part_decoded = case.dec.validity[span.clone()].iter().filter(|&&q| q == 0);
+    let in_span = |i: &&usize| span.contains(*i);
+    let part_left = file
+        .left_to_search(&case.dec.phase, &case.dec.validity)
+        .unwrap();
+    let part_left = part_left.iter().filter(in_span).count();
+    assert!(
+        part_left > 0,
+        "no pixel of rows {first}.. left to the search"
+    );
+    assert_counts(&part, part_decoded.count(), part_left);
     // Models a foreign host might send: pixels left to the search given a neighbour's finite
     // numbers with a NaN d₂ (usable in nothing but their scale: `PixelModel::from_array` makes
     // them the search's again). The head must settle them at every scan, not only the first.

@@ -618,12 +618,12 @@ fn compiled_models_reconstruct_on_the_emulated_head_bit_identically() {
     );
     // ScanDone's counts (protocol version 11): the pixels decoded, and those the models left
     // to the search, as the desktop's kernel leaves them.
-    let decoded = dec.validity.iter().filter(|&&q| q == 0).count() as u32;
+    let decoded = dec.validity.iter().filter(|&&q| q == 0).count();
     let file = scc.compiled_file().expect("models");
     let left = file
         .left_to_search(&dec.phase, &dec.validity)
         .unwrap()
-        .len() as u32;
+        .len();
     let serial = fringe3d::device::open_serial(&port, 921_600).unwrap();
     let opts = fringe3d::device::ClientOptions {
         timeout: Duration::from_millis(5000),
@@ -640,16 +640,17 @@ fn compiled_models_reconstruct_on_the_emulated_head_bit_identically() {
         )
         .unwrap();
     drop(client);
-    if out.rescans == 0 {
-        let want = fringe3d::device::ScanCounts {
-            decoded,
-            searched: left,
-        };
-        assert_eq!(
+    let want = fringe3d::scan::ScanCounts {
+        decoded,
+        searched: left,
+    };
+    match out.rescans {
+        0 => assert_eq!(
             out.counts,
             Some(want),
             "the emulated head's ScanDone counts"
-        );
+        ),
+        n => assert_eq!(out.counts, None, "counts after {n} re-requests"),
     }
     assert!(
         left < decoded,

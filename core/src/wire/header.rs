@@ -14,7 +14,7 @@ use super::{MAX_PAYLOAD, WireError};
 ///
 /// Version 11 ends ScanDone with two counts over the scan's rows: the pixels decoded and those
 /// whose point the §6 search computed (of a compiled scan, those its models left to the
-/// search: the fallback rate); a version-10 host would refuse the longer body.
+/// search: the fallback rate), which a version-10 host would not read.
 /// Version 10 gives each compiled model an eleventh number, its own far threshold τ_far (44
 /// bytes a pixel instead of 40): a version-9 head would take the models' rows for the wrong
 /// layout; and Status ends with what the head holds ([`Holds`](super::Holds): calibration,

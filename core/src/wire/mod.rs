@@ -375,6 +375,9 @@ pub enum Invalid {
     /// A scan's exposure list holds more than `MAX_EXPOSURES` values, an exposure outside
     /// `1..=MAX_EXPOSURE_US`, or exposures not strictly decreasing (Scan, protocol version 8).
     Exposures = 26,
+    /// ScanDone's counts contradict each other: more valid phases or points, or more pixels
+    /// searched, than pixels decoded (protocol version 11).
+    Counts = 27,
 }
 
 impl Invalid {
@@ -407,12 +410,13 @@ impl Invalid {
             Invalid::Margin => "margin",
             Invalid::Thresholds => "thresholds",
             Invalid::Exposures => "exposures",
+            Invalid::Counts => "counts",
         }
     }
 
     /// The rule with code `code`, if any.
     pub const fn from_u8(code: u8) -> Option<Invalid> {
-        const ALL: [Invalid; 26] = [
+        const ALL: [Invalid; 27] = [
             Invalid::Dimension,
             Invalid::BitDepth,
             Invalid::Intensity,
@@ -439,6 +443,7 @@ impl Invalid {
             Invalid::Margin,
             Invalid::Thresholds,
             Invalid::Exposures,
+            Invalid::Counts,
         ];
         if code >= 1 && (code as usize) <= ALL.len() {
             Some(ALL[code as usize - 1])

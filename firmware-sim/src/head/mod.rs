@@ -34,7 +34,7 @@
 //! A pattern-set slot is usable when it was defined parametrically, or, after a BeginUpload into
 //! it, only once ConfirmUpload found the CRC-32C of the stored bytes equal to the announced
 //! digest. The reference phase map likewise, and the compiled reconstruction's models
-//! (protocol version 10, docs/compiled.md), which it takes only after the calibration and a
+//! (since protocol version 10, docs/compiled.md), which it takes only after the calibration and a
 //! confirmed map of their size and depth range and forgets when either is replaced: they were
 //! compiled from them. Validation and Scan refuse anything else, so no partially or wrongly
 //! uploaded data is ever projected or used.

@@ -654,14 +654,10 @@ fn scan(a: ScanArgs, g: Global) -> Result<()> {
                 String::new()
             }
         ));
-        // In a point scan, fewer pixels searched than decoded: the head has compiled models.
-        if let Some(c) = r
-            .counts
-            .filter(|c| r.xyz.is_some() && c.searched < c.decoded)
-        {
+        // The fallback rate: every decoded pixel without compiled models, fewer with them.
+        if let Some(c) = r.counts.filter(|_| r.xyz.is_some()) {
             say(format!(
-                "the head's compiled models answered {} of the {} decoded pixels; {} ({:.2} %) were left to the search",
-                c.decoded - c.searched,
+                "the head decoded {} pixels; the search computed the points of {} of them ({:.2} %), compiled models the rest",
                 c.decoded,
                 c.searched,
                 100.0 * c.searched as f64 / c.decoded.max(1) as f64

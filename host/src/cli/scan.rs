@@ -2,8 +2,9 @@
 
 use super::cloud_out::{self, CloudArgs, CloudOut, CloudSink, apply_edge_filter, write_cloud};
 use super::{Global, common};
+use crate::scan::ScanCounts;
 use crate::scan::ScanError;
-use crate::scan::stream::{StreamConfig, Tally, stream_image_set};
+use crate::scan::stream::{StreamConfig, stream_image_set};
 use anyhow::{Context, Result, anyhow};
 use fringe3d_core::decode::Decoder;
 use std::path::PathBuf;
@@ -107,8 +108,8 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
         .thresholds
         .config(&ls.set, &imgs, cal.calibration.sensor.as_ref())?;
     let corr = common::response_correction(&cal.calibration, &a.calibration, &ls)?;
-    // The whole-frame reference does not count what the search did: `tally` is `None` there.
-    let (n, hist, seconds, tally) = if pipeline == Pipeline::WholeFrame {
+    // The whole-frame reference does not count what the search did: `counts` is `None` there.
+    let (n, hist, seconds, counts) = if pipeline == Pipeline::WholeFrame {
         let d = common::decode_corrected(&ls.set, &imgs, config, corr.as_ref())?;
         let t_decode = t0.elapsed();
         let mut cloud = cal.reconstruct(&d.phase, &d.validity, true)?;
@@ -160,7 +161,7 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
             "write": stats.write.as_secs_f64(),
             "finish": finish.as_secs_f64(),
             "total": t0.elapsed().as_secs_f64()});
-        (n, stats.histogram, seconds, Some(stats.tally))
+        (n, stats.histogram, seconds, Some(stats.counts))
     };
     common::warn_if_empty(&hist, &out.describe(), g.quiet);
     if g.json {
@@ -168,13 +169,13 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
             &out,
             &serde_json::json!({"command": "scan", "out": a.cloud.out, "points": n, "width": imgs.width, "height": imgs.height,
                 "validity": common::validity_json(&hist),
-                "decoded": tally.map(|t| t.decoded), "searched": tally.map(|t| t.searched),
+                "decoded": counts.map(|t| t.decoded), "searched": counts.map(|t| t.searched),
                 "seconds": seconds, "peak_rss_bytes": common::peak_rss_bytes()})
             .to_string(),
         );
     } else if !g.quiet {
         cloud_out::say(&out, &common::validity_summary(&hist));
-        if let (Some(t), Some(_)) = (tally, &a.compiled) {
+        if let (Some(t), Some(_)) = (counts, &a.compiled) {
             cloud_out::say(&out, &compiled_summary(t));
         }
         cloud_out::say(
@@ -190,7 +191,7 @@ fn run_with(a: ScanArgs, g: Global, pipeline: Pipeline) -> Result<()> {
 }
 
 /// What a compiled scan left to the search: its fallback rate.
-fn compiled_summary(t: Tally) -> String {
+fn compiled_summary(t: ScanCounts) -> String {
     let share = 100.0 * t.searched as f64 / t.decoded.max(1) as f64;
     format!(
         "compiled models answered {} of the {} decoded pixels; {} ({share:.2} %) were left to the search",

@@ -32,6 +32,7 @@ use fringe3d_core::wire::{
 };
 
 use super::{DeviceError, Link, Transport, nak_reason};
+use crate::scan::ScanCounts;
 
 mod scan;
 
@@ -97,8 +98,8 @@ pub struct ScanOutcome {
     pub rescans: u32,
     /// The head's counts over the scan's rows (ScanDone, protocol version 11): the pixels with
     /// a valid phase and, of them, those whose point the §6 search computed (with compiled
-    /// models, those the models left to it). `None` when rows were requested again: those
-    /// came from another capture.
+    /// models, those the models left to it; none in a phase scan). `None` when rows were
+    /// requested again (those came from another capture) or the ScanDone was lost.
     pub counts: Option<ScanCounts>,
     /// Frames of other scans (rows or ScanDones with another scan identity: an earlier scan's,
     /// still in flight) received and dropped.
@@ -107,15 +108,6 @@ pub struct ScanOutcome {
     pub wire_bytes: u64,
     /// Wall time, seconds.
     pub seconds: f64,
-}
-
-/// What a head's scan decoded and searched ([`ScanOutcome::counts`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ScanCounts {
-    /// Pixels with a valid phase: the reconstruction's input.
-    pub decoded: u32,
-    /// Of them, the pixels whose point the §6 search computed.
-    pub searched: u32,
 }
 
 /// An answer, owned.

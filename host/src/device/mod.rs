@@ -18,7 +18,7 @@ pub mod interrupt;
 pub mod link;
 pub mod transport;
 
-pub use client::{Client, ClientOptions, ScanCounts, ScanOutcome, UploadReport};
+pub use client::{Client, ClientOptions, ScanOutcome, UploadReport};
 pub use link::{Link, LinkStats};
 pub use transport::{SerialTransport, Transport, open_serial};
 

@@ -16,7 +16,7 @@
 //!
 //! The file is the whole-frame path's byte for byte (`host/tests/scan_stream.rs`).
 
-use super::{ScanCalibration, ScanError};
+use super::{ScanCalibration, ScanCounts, ScanError};
 use crate::batch::{FrameOut, Isa, PointsOut, decode_rows};
 use crate::io::image_set::{Frames, ImageSet};
 use crate::io::map_file::{MapFile, MapRows};
@@ -94,7 +94,7 @@ pub struct StreamStats {
     /// Pixels per validity code after the edge filter (index: `Validity as u8`).
     pub histogram: [usize; CODES],
     /// The pixels decoded and searched.
-    pub tally: Tally,
+    pub counts: ScanCounts,
     /// Worker time per step, summed over the threads.
     pub steps: StepTimes,
     /// Time the writer thread spent in the sink (handing bytes to the file).
@@ -113,25 +113,8 @@ pub struct StreamStats {
 struct BandOut {
     enc: Encoded,
     histogram: [usize; CODES],
-    /// Its rows' [`Tally`].
-    tally: Tally,
-}
-
-/// What the reconstruction was given and what the search did, over some rows.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Tally {
-    /// Pixels with a valid phase: the reconstruction's input.
-    pub decoded: usize,
-    /// Of them, the pixels whose point the §6 search computed: all of them without compiled
-    /// models, those the models left to the search with them ([`PointsOut::searched`]).
-    pub searched: usize,
-}
-
-impl Tally {
-    fn add(&mut self, o: Tally) {
-        self.decoded += o.decoded;
-        self.searched += o.searched;
-    }
+    /// Its rows' counts.
+    counts: ScanCounts,
 }
 
 /// What the workers and the writer share.
@@ -372,7 +355,7 @@ impl<P: Sample> Job<'_, P> {
         // The band's own rows, not the halo's.
         let valid = Validity::Valid as u8;
         let decoded = &s.decoded[row(y0).start..row(y1 - 1).end];
-        out.tally = Tally {
+        out.counts = ScanCounts {
             decoded: decoded.iter().filter(|&&c| c == valid).count(),
             searched: s.searched[y0 - a..y1 - a].iter().map(|&k| k as usize).sum(),
         };
@@ -522,7 +505,7 @@ pub fn stream_frames<P: Sample + Sync>(
                 BandOut {
                     enc: s.spare.pop().unwrap_or_default(),
                     histogram: [0; CODES],
-                    tally: Tally::default(),
+                    counts: ScanCounts::default(),
                 }
             };
             match job.band(b, &mut scratch, &mut reader, &mut out, &mut steps) {
@@ -542,7 +525,7 @@ pub fn stream_frames<P: Sample + Sync>(
     let writer = || {
         let _guard = StopOnPanic(&shared);
         let mut histogram = [0usize; CODES];
-        let mut tally = Tally::default();
+        let mut counts = ScanCounts::default();
         let mut busy = Duration::ZERO;
         for b in 0..bands {
             let out = {
@@ -552,7 +535,7 @@ pub fn stream_frames<P: Sample + Sync>(
                         break o;
                     }
                     if s.stop {
-                        return (histogram, tally, busy);
+                        return (histogram, counts, busy);
                     }
                     s = shared.cv.wait(s).unwrap_or_else(|e| e.into_inner());
                 }
@@ -562,22 +545,22 @@ pub fn stream_frames<P: Sample + Sync>(
             busy += t.elapsed();
             if let Err(e) = res {
                 shared.fail(e);
-                return (histogram, tally, busy);
+                return (histogram, counts, busy);
             }
             for (a, c) in histogram.iter_mut().zip(out.histogram) {
                 *a += c;
             }
-            tally.add(out.tally);
+            counts.add(out.counts);
             let mut s = shared.lock();
             s.written = b + 1;
             s.spare.push(out.enc);
             shared.cv.notify_all();
         }
-        (histogram, tally, busy)
+        (histogram, counts, busy)
     };
     // The writer gets a thread of its own, outside rayon's pool: it waits for bands, and a pool
     // thread that waits would starve the workers of a one-thread pool.
-    let (histogram, tally, write) = std::thread::scope(|ts| {
+    let (histogram, counts, write) = std::thread::scope(|ts| {
         let wr = ts.spawn(writer);
         rayon::scope(|s| {
             for _ in 0..threads.min(bands) {
@@ -593,7 +576,7 @@ pub fn stream_frames<P: Sample + Sync>(
     }
     Ok(StreamStats {
         histogram,
-        tally,
+        counts,
         steps: st.steps,
         write,
         wall: t0.elapsed(),

@@ -255,9 +255,10 @@ pub struct ScanDone {
     pub scan_id: u32,
     /// Rows streamed.
     pub rows: u16,
-    /// Valid pixels (phase) or points over all rows.
+    /// Valid pixels (phase) or points over the rows streamed.
     pub valid: u32,
-    /// Pixels with a valid phase over all rows: the reconstruction's input (version 11).
+    /// Pixels with a valid phase over the rows streamed (not the edge filter's extra rows):
+    /// the reconstruction's input (version 11).
     pub decoded: u32,
     /// Of them, the pixels whose point the §6 search computed (version 11): every one without
     /// compiled models, those the models left to the search with them (docs/compiled.md); 0
@@ -277,4 +278,19 @@ impl Body for ResultRow<'_> {
     }
 }
 
-impl Body for ScanDone {}
+impl ScanDone {
+    /// Check the counts: neither the valid phases or points nor the pixels searched exceed
+    /// the pixels decoded.
+    pub fn validate(&self) -> Result<(), WireError> {
+        check(
+            self.valid <= self.decoded && self.searched <= self.decoded,
+            Invalid::Counts,
+        )
+    }
+}
+
+impl Body for ScanDone {
+    fn validate_body(&self) -> Result<(), WireError> {
+        self.validate()
+    }
+}

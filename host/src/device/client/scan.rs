@@ -8,8 +8,9 @@ use fringe3d_core::wire::{
     RowKind, ScanOutput, ScanRequest,
 };
 
-use super::{Client, Got, ScanCounts, ScanOutcome, classify};
+use super::{Client, Got, ScanOutcome, classify};
 use crate::device::{DeviceError, Transport};
+use crate::scan::ScanCounts;
 
 impl<T: Transport> Client<T> {
     /// Scan: run the sequence, stream rows `first_row .. first_row + row_count` (0: to the last
@@ -242,8 +243,8 @@ impl<T: Transport> Client<T> {
                     }
                     Message::ScanDone(d) => {
                         acc.counts = Some(ScanCounts {
-                            decoded: d.decoded,
-                            searched: d.searched,
+                            decoded: d.decoded as usize,
+                            searched: d.searched as usize,
                         });
                         return Ok(());
                     }
