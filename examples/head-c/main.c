@@ -125,6 +125,7 @@ static int scan(const char *name, const fringe3d_info *info, fringe3d_reference 
     digest d[4] = {{0xcbf29ce484222325ull}, {0xcbf29ce484222325ull},
                    {0xcbf29ce484222325ull}, {0xcbf29ce484222325ull}};
     const uint32_t w = info->width, h = info->height, n = info->images;
+    uint32_t searched = 0; /* pixels whose point the search computed: the fallback's share */
     const uint16_t *rows[MAX_IMAGES];
     for (uint32_t i = 0; i < n; i++) rows[i] = images[i];
     for (uint32_t v = 0; v < h; v++) {
@@ -157,6 +158,7 @@ static int scan(const char *name, const fringe3d_info *info, fringe3d_reference 
                                          point_validity);
         }
         if (s != FRINGE3D_OK) return fail("reconstruct", s);
+        searched += fringe3d_row_searched(&head);
         digest_floats(&d[0], phase, w);
         digest_bytes(&d[1], validity, w);
         digest_floats(&d[2], xyz, 3 * w);
@@ -171,6 +173,8 @@ static int scan(const char *name, const fringe3d_info *info, fringe3d_reference 
     put_hex64(d[2].h);
     put(" point_validity=");
     put_hex64(d[3].h);
+    put(" searched=");
+    put_u32(searched);
     put("\n");
     return 0;
 }

@@ -133,6 +133,15 @@ fn c_firmware_matches_the_golden_vectors() {
         "{} of {pixels} pixels compiled",
         file.compiled_count()
     );
+    // The golden decode, and the pixels of it the models leave to the search.
+    let phase: Vec<f32> = std::fs::read(dir.join("decode/phase.f32"))
+        .expect("golden phase")
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let validity = std::fs::read(dir.join("decode/validity.u8")).expect("golden validity");
+    let decoded = validity.iter().filter(|&&q| q == 0).count();
+    let left = file.left_to_search(&phase, &validity).expect("size").len();
     let elf = dir.join("head-c.elf");
     build_example(&build_library(), &elf);
     let console = run_in_vectors(&elf, &dir);
@@ -149,7 +158,22 @@ fn c_firmware_matches_the_golden_vectors() {
             .find(|l| l.starts_with(&format!("{pass} ")))
             .unwrap_or_else(|| panic!("no {pass} pass:\n{console}"));
         assert_golden_digests(line, &dir, points, pass);
+        // The pixels the search computed (`fringe3d_row_searched`, summed over the rows): every
+        // decoded one without the models, with them those the models leave.
+        let want = match pass {
+            "compiled" => left,
+            _ => decoded,
+        };
+        assert_eq!(
+            value(line, "searched"),
+            Some(want.to_string().as_str()),
+            "{pass}: {line}"
+        );
     }
+    assert!(
+        left > 0 && left < decoded / 2,
+        "{left} of {decoded} pixels left"
+    );
     // The refusals: a blob with a broken CRC says so; u8 rows for a 16-bit camera are refused.
     assert!(
         console.contains("damaged_blob=setup (set-up: CRC mismatch)"),

@@ -152,6 +152,13 @@ int32_t fringe3d_reconstruct_row_compiled(fringe3d_head *head, fringe3d_referenc
                                           uint8_t *point_validity, float *search_xyz,
                                           uint8_t *search_codes, uint8_t *mask);
 
+/* The pixels of the last row reconstructed on head whose point the search computed: for
+ * fringe3d_reconstruct_row_compiled those the row's models left to the search (summed over a
+ * scan and divided by the pixels with a valid phase: the compiled reconstruction's fallback
+ * rate, docs/compiled.md), for fringe3d_reconstruct_row every pixel with a valid phase. 0 before
+ * any row, after a reconstruction call that failed, and for a NULL head. */
+uint32_t fringe3d_row_searched(const fringe3d_head *head);
+
 /* Why the last failed call on head failed, in words, NUL-terminated into buf (len bytes, cut
  * short if need be); returns the message's length. Empty if nothing failed. */
 size_t fringe3d_last_error(const fringe3d_head *head, char *buf, size_t len);

@@ -126,6 +126,8 @@ struct Head {
     recon: Option<Reconstructor>,
     scratch: DecodeScratch,
     error: LastError,
+    /// The last reconstructed row's pixels that the search computed ([`fringe3d_row_searched`]).
+    searched: u32,
 }
 
 /// The reference rows a [`fringe3d_reference`] holds; its buffers are the caller's, which
@@ -264,6 +266,7 @@ impl Head {
         recon: None,
         scratch: DecodeScratch::new(),
         error: LastError::None,
+        searched: 0,
     };
 
     /// Out of line: the parsed set-up and the build's temporaries (about 20 KB on a Cortex-M4F)
@@ -430,6 +433,24 @@ unsafe fn decode_row<P: Sample>(
         Ok(()) => FRINGE3D_OK,
         Err(e) => h.fail(LastError::Decode(e), FRINGE3D_ERR_DECODE),
     }
+}
+
+/// The pixels of the last row reconstructed on `head` whose point the §6 search computed: for
+/// [`fringe3d_reconstruct_row_compiled`] those the row's models left to the search (summed over
+/// a scan and divided by the pixels with a valid phase, the compiled reconstruction's fallback
+/// rate: docs/compiled.md), for [`fringe3d_reconstruct_row`] every pixel with a valid phase. 0
+/// before any row, after a reconstruction call that failed, and for a null `head`.
+///
+/// # Safety
+/// `head` is null or storage a [`fringe3d_head_init`] call wrote.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fringe3d_row_searched(head: *const fringe3d_head) -> u32 {
+    let h = head.cast::<Head>();
+    if h.is_null() {
+        return 0;
+    }
+    // SAFETY: storage an init call wrote (the caller's contract): `searched` is set there.
+    unsafe { core::ptr::addr_of!((*h).searched).read() }
 }
 
 /// Write why the last failed call on `head` failed, in words, into `buf` (at most `len` bytes,

@@ -8,6 +8,7 @@ use crate::{
 };
 use fringe3d_core::reconstruct::compiled::{FIELDS, SearchScratch, compiled_row};
 use fringe3d_core::reconstruct::{ReferenceMap, ReferenceRing, ReferenceRows};
+use fringe3d_core::validity::Validity;
 use fringe3d_core::wire::ReferenceFile;
 
 /// The reference rows the reconstruction of camera row `v` reads: map rows `*first ..= *last`.
@@ -274,6 +275,7 @@ pub unsafe extern "C" fn fringe3d_reconstruct_row(
         Ok(c) => c,
         Err(s) => return s,
     };
+    h.searched = 0;
     let Some(recon) = &h.recon else {
         return FRINGE3D_ERR_STATE;
     };
@@ -291,7 +293,14 @@ pub unsafe extern "C" fn fringe3d_reconstruct_row(
         return h.fail(LastError::Argument("a null row"), FRINGE3D_ERR_ARGUMENT);
     };
     match recon.reconstruct_row(rows, v, phase, validity, xyz, codes) {
-        Ok(()) => FRINGE3D_OK,
+        Ok(()) => {
+            let valid = validity
+                .iter()
+                .filter(|&&q| q == Validity::Valid as u8)
+                .count();
+            h.searched = valid as u32;
+            FRINGE3D_OK
+        }
         Err(e) => h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_RECONSTRUCT),
     }
 }
@@ -329,11 +338,12 @@ pub unsafe extern "C" fn fringe3d_reconstruct_row_compiled(
         Ok(c) => c,
         Err(s) => return s,
     };
+    h.searched = 0;
     let Some(recon) = &h.recon else {
         return FRINGE3D_ERR_STATE;
     };
     let w = recon.width();
-    // SAFETY: the caller's contract: (10 ×, 3 ×) width items each.
+    // SAFETY: the caller's contract: (11 ×, 3 ×) width items each.
     let bufs = unsafe {
         (
             items(models, FIELDS * w),
@@ -373,7 +383,10 @@ pub unsafe extern "C" fn fringe3d_reconstruct_row_compiled(
         codes: sq,
     };
     match recon.search_left(rows, v, phase, validity, xyz, codes, scratch) {
-        Ok(()) => FRINGE3D_OK,
+        Ok(()) => {
+            h.searched = left as u32;
+            FRINGE3D_OK
+        }
         Err(e) => h.fail(LastError::Reconstruct(e), FRINGE3D_ERR_RECONSTRUCT),
     }
 }
