@@ -1,7 +1,8 @@
 //! The batch decode's kernel variants (portable, AVX2, AVX-512; one thread and rayon's pool)
 //! give the same bits (`fringe3d::batch`); a variant the CPU lacks falls back and says so.
 
-use fringe3d::batch::{FrameOut, Isa, decode_frames};
+use crate::cli_support::{VARIANTS, decode_variant};
+use fringe3d::batch::Isa;
 use fringe3d_core::decode::DecodeConfig;
 use fringe3d_core::decode::Decoder;
 use fringe3d_core::pattern::{Output, PatternSet};
@@ -42,35 +43,8 @@ fn every_variant_gives_the_same_bits() {
         .collect();
     let frames: Vec<&[u8]> = imgs.iter().map(|v| v.as_slice()).collect();
     let mut results = Vec::new();
-    for (isa, par) in [
-        (Isa::Baseline, false),
-        (Isa::Avx2, false),
-        (Isa::Avx2, true),
-        (Isa::Avx512, false),
-        (Isa::Avx512, true),
-        (Isa::Baseline, true),
-    ] {
-        let (mut p, mut m, mut a, mut v) = (
-            vec![0.0f32; w * h],
-            vec![0.0f32; w * h],
-            vec![0.0f32; w * h],
-            vec![0u8; w * h],
-        );
-        decode_frames(
-            &d,
-            &frames,
-            w,
-            h,
-            FrameOut {
-                phase: &mut p,
-                modulation: &mut m,
-                dc: &mut a,
-                validity: &mut v,
-            },
-            isa,
-            par,
-        )
-        .unwrap();
+    for variant in VARIANTS {
+        let (p, m, a, v) = decode_variant(&d, &frames, (w, h), variant);
         let bits: Vec<u32> = p
             .iter()
             .chain(&m)

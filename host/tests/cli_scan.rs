@@ -2,7 +2,7 @@
 //! one thread equals the one written with all threads byte for byte, and the library's kernel
 //! variants (baseline, AVX2; serial, parallel) give the same bits.
 
-use fringe3d::batch::{FrameOut, Isa, decode_frames};
+use crate::cli_support::{VARIANTS, decode_variant};
 use fringe3d::cli::common;
 use fringe3d::io::image_set::Frames;
 use fringe3d::scan::ScanCalibration;
@@ -89,35 +89,9 @@ fn single_and_multi_threaded_scans_are_identical() {
     let fr: Vec<&[u8]> = f.iter().map(|v| v.as_slice()).collect();
     let (w, h) = (imgs.width as usize, imgs.height as usize);
     let mut results = Vec::new();
-    for (isa, par) in [
-        (Isa::Baseline, false),
-        (Isa::Avx2, true),
-        (Isa::Avx2, false),
-        (Isa::Avx512, false),
-        (Isa::Avx512, true),
-        (Isa::Baseline, true),
-    ] {
-        let (mut p, mut m, mut a, mut v) = (
-            vec![0.0f32; w * h],
-            vec![0.0f32; w * h],
-            vec![0.0f32; w * h],
-            vec![0u8; w * h],
-        );
-        decode_frames(
-            &d,
-            &fr,
-            w,
-            h,
-            FrameOut {
-                phase: &mut p,
-                modulation: &mut m,
-                dc: &mut a,
-                validity: &mut v,
-            },
-            isa,
-            par,
-        )
-        .unwrap();
+    for variant in VARIANTS {
+        let (p, _, _, v) = decode_variant(&d, &fr, (w, h), variant);
+        let (isa, par) = variant;
         let cloud = sc.reconstruct_with(&p, &v, par, isa).unwrap();
         let bits: Vec<u32> = p
             .iter()

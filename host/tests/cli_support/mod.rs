@@ -2,6 +2,8 @@
 //! `fringe3d` binary run with arguments.
 #![allow(dead_code)] // each test file uses its own subset
 
+use fringe3d::batch::{FrameOut, Isa, decode_frames};
+use fringe3d_core::decode::Decoder;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -139,4 +141,35 @@ pub fn scan_whole_frame(args: &[String]) {
         },
     )
     .unwrap();
+}
+
+/// Every kernel variant of the batch decode paired with threading, for tests that hold them to
+/// the same bits (a variant the CPU lacks falls back to one it has).
+pub const VARIANTS: [(Isa, bool); 6] = [
+    (Isa::Baseline, false),
+    (Isa::Avx2, false),
+    (Isa::Avx2, true),
+    (Isa::Avx512, false),
+    (Isa::Avx512, true),
+    (Isa::Baseline, true),
+];
+
+/// The whole-frame decode of `frames` (`w × h` 8-bit images) with the kernel variant `isa`, on
+/// rayon's pool when `par`: phase, modulation, DC and validity.
+pub fn decode_variant(
+    d: &Decoder,
+    frames: &[&[u8]],
+    (w, h): (usize, usize),
+    (isa, par): (Isa, bool),
+) -> (Vec<f32>, Vec<f32>, Vec<f32>, Vec<u8>) {
+    let n = w * h;
+    let (mut p, mut m, mut a, mut v) = (vec![0f32; n], vec![0f32; n], vec![0f32; n], vec![0u8; n]);
+    let out = FrameOut {
+        phase: &mut p,
+        modulation: &mut m,
+        dc: &mut a,
+        validity: &mut v,
+    };
+    decode_frames(d, frames, w, h, out, isa, par).expect("decode");
+    (p, m, a, v)
 }
