@@ -41,7 +41,8 @@ pub struct ScanArgs {
     #[command(flatten)]
     pub thresholds: common::ThresholdArgs,
     /// A compiled reconstruction of this calibration (`fringe3d compile`): one rational
-    /// function per pixel instead of the search, the search where the file has none.
+    /// function per pixel instead of the search, the search where the file has none or the
+    /// phase lies beyond its range (the summary says how many pixels; `searched` in --json).
     #[arg(long, value_name = "FILE")]
     pub compiled: Option<PathBuf>,
 }
